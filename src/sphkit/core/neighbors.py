@@ -1,0 +1,259 @@
+"""Neighbourhood search: uniform grid, counting sort by hashed cell, CSR neighbour lists.
+
+The grid has cell size equal to the kernel support radius ``h``, so all neighbours of a particle
+lie in the 3^d cells around it (survey Sec. 3; Ihmsen et al. 2011, "A parallel SPH implementation
+on multi-core CPUs"). Cells are never stored densely: every particle's integer cell coordinates
+(relative to the lower corner of the point set) are packed into a 63-bit key and hashed into a
+table of ``2^k >= 2N`` buckets; a counting sort over buckets groups the particles (Hoetzlein 2014,
+as in cuNSearch). A query visits the buckets of the 3^d neighbour cells and accepts a particle
+only if its packed key equals the visited cell's key, so hash collisions cost a comparison and
+never a duplicate. Memory is O(N) whatever the extent of the domain (up to 2^21 cells per axis).
+
+Neighbour lists are compressed sparse rows: the neighbours of query point ``i`` are
+``indices[offsets[i]:offsets[i + 1]]`` (indices into the searched set, self excluded when a set is
+queried against itself). Both passes (count, fill) run in parallel over query points.
+
+:func:`zorder_permutation` gives the permutation that sorts particles along a Morton (z-order)
+curve of their cells, which the simulation applies to every particle field every few steps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+_BITS = 21
+_LIMIT = (1 << _BITS) - 2  # largest relative cell coordinate (one cell kept free on each side)
+
+
+@numba.njit(cache=True, inline="always")
+def _pack(ix, iy, iz):
+    return (ix << 42) | (iy << 21) | iz
+
+
+@numba.njit(cache=True, inline="always")
+def _bucket(ix, iy, iz, mask):
+    return ((ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)) & mask
+
+
+@numba.njit(cache=True, inline="always")
+def _cell(x, i, d, dim, inv_h, origin):
+    if d >= dim:
+        return 1
+    return np.int64(np.floor(x[d, i] * inv_h)) - origin[d] + 1
+
+
+@numba.njit(cache=True, parallel=True)
+def _cells(x, dim, inv_h, origin, mask, keys, buckets):
+    n = x.shape[1]
+    for i in numba.prange(n):
+        ix = _cell(x, i, 0, dim, inv_h, origin)
+        iy = _cell(x, i, 1, dim, inv_h, origin)
+        iz = _cell(x, i, 2, dim, inv_h, origin)
+        keys[i] = _pack(ix, iy, iz)
+        buckets[i] = _bucket(ix, iy, iz, mask)
+
+
+@numba.njit(cache=True)
+def _counting_sort(buckets, keys, x, table_size, bucket_start, sorted_index, sorted_key, sorted_x):
+    n = buckets.shape[0]
+    for b in range(table_size + 1):
+        bucket_start[b] = 0
+    for i in range(n):
+        bucket_start[buckets[i] + 1] += 1
+    for b in range(table_size):
+        bucket_start[b + 1] += bucket_start[b]
+    fill = bucket_start[:table_size].copy()
+    dim = x.shape[0]
+    for i in range(n):
+        b = buckets[i]
+        s = fill[b]
+        fill[b] = s + 1
+        sorted_index[s] = i
+        sorted_key[s] = keys[i]
+        for d in range(3):
+            sorted_x[d, s] = x[d, i] if d < dim else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index, sorted_key, sorted_x,
+          exclude_self, out, pos):
+    """Count (out is empty) or write the neighbours of query point i; returns the count."""
+    cx = _cell(xq, i, 0, dim, inv_h, origin)
+    cy = _cell(xq, i, 1, dim, inv_h, origin)
+    cz = _cell(xq, i, 2, dim, inv_h, origin)
+    ry = 1 if dim >= 2 else 0
+    rz = 1 if dim >= 3 else 0
+    write = out.shape[0] > 0
+    qx = xq[0, i]
+    qy = xq[1, i] if dim >= 2 else 0.0
+    qz = xq[2, i] if dim >= 3 else 0.0
+    count = 0
+    for dx in range(-1, 2):
+        ix = cx + dx
+        if ix < 0 or ix > _LIMIT + 1:
+            continue
+        for dy in range(-ry, ry + 1):
+            iy = cy + dy
+            if iy < 0 or iy > _LIMIT + 1:
+                continue
+            for dz in range(-rz, rz + 1):
+                iz = cz + dz
+                if iz < 0 or iz > _LIMIT + 1:
+                    continue
+                key = _pack(ix, iy, iz)
+                b = _bucket(ix, iy, iz, mask)
+                for s in range(bucket_start[b], bucket_start[b + 1]):
+                    if sorted_key[s] != key:
+                        continue
+                    j = sorted_index[s]
+                    if exclude_self and j == i:
+                        continue
+                    tx = qx - sorted_x[0, s]
+                    ty = qy - sorted_x[1, s]
+                    tz = qz - sorted_x[2, s]
+                    if tx * tx + ty * ty + tz * tz < h2:
+                        if write:
+                            out[pos + count] = j
+                        count += 1
+    return count
+
+
+@numba.njit(cache=True, parallel=True, fastmath=True)
+def _query(xq, dim, h, origin, mask, bucket_start, sorted_index, sorted_key, sorted_x,
+           exclude_self):
+    n = xq.shape[1]
+    inv_h = 1.0 / h
+    h2 = h * h
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    empty = np.empty(0, dtype=np.int32)
+    for i in numba.prange(n):
+        offsets[i + 1] = _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index,
+                               sorted_key, sorted_x, exclude_self, empty, 0)
+    for i in range(n):
+        offsets[i + 1] += offsets[i]
+    indices = np.empty(offsets[n], dtype=np.int32)
+    for i in numba.prange(n):
+        _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index, sorted_key,
+              sorted_x, exclude_self, indices, offsets[i])
+    return offsets, indices
+
+
+@dataclass
+class NeighborList:
+    """CSR neighbour lists: neighbours of point i are ``indices[offsets[i]:offsets[i+1]]``."""
+
+    offsets: np.ndarray
+    indices: np.ndarray
+
+    def __len__(self) -> int:
+        return self.offsets.shape[0] - 1
+
+    def neighbors(self, i: int) -> np.ndarray:
+        """Indices of the neighbours of point ``i`` (a view)."""
+        return self.indices[self.offsets[i]:self.offsets[i + 1]]
+
+    def counts(self) -> np.ndarray:
+        """Number of neighbours of every point."""
+        return np.diff(self.offsets)
+
+    @staticmethod
+    def empty(n: int) -> NeighborList:
+        """Lists with no neighbours for ``n`` points."""
+        return NeighborList(np.zeros(n + 1, np.int64), np.zeros(0, np.int32))
+
+
+class Grid:
+    """A hashed uniform grid over a point set (positions of shape (dim, N)), cell size ``h``."""
+
+    def __init__(self, x: np.ndarray, h: float) -> None:
+        if x.ndim != 2 or x.shape[0] not in (1, 2, 3):
+            raise ValueError(f"positions: shape {x.shape} is not (dim, N) with dim in 1, 2, 3")
+        if not h > 0:
+            raise ValueError(f"h: {h!r} is not a cell size; expected a positive number")
+        self.dim = x.shape[0]
+        self.h = float(h)
+        n = x.shape[1]
+        self.n = n
+        origin = np.zeros(3, dtype=np.int64)
+        if n:
+            if not np.all(np.isfinite(x)):
+                raise ValueError("positions: contain NaN or inf; cannot build a neighbour grid")
+            lo = np.floor(x.min(axis=1) / h).astype(np.int64)
+            hi = np.floor(x.max(axis=1) / h).astype(np.int64)
+            if np.any(hi - lo > _LIMIT - 2):
+                raise ValueError(
+                    f"positions: extent of {int((hi - lo).max())} cells of size {h} exceeds the "
+                    f"grid's limit of {_LIMIT - 2} cells per axis"
+                )
+            origin[: self.dim] = lo
+        self.origin = origin
+        size = 1
+        while size < 2 * max(n, 1):
+            size *= 2
+        self.table_size = size
+        self.mask = size - 1
+        keys = np.empty(n, dtype=np.int64)
+        buckets = np.empty(n, dtype=np.int64)
+        xc = np.ascontiguousarray(x)
+        _cells(xc, self.dim, 1.0 / self.h, origin, self.mask, keys, buckets)
+        self.bucket_start = np.empty(size + 1, dtype=np.int64)
+        self.sorted_index = np.empty(n, dtype=np.int32)
+        self.sorted_key = np.empty(n, dtype=np.int64)
+        self.sorted_x = np.empty((3, n), dtype=x.dtype)  # zero-padded to 3 rows
+        _counting_sort(buckets, keys, xc, size, self.bucket_start, self.sorted_index,
+                       self.sorted_key, self.sorted_x)
+
+    def query(self, xq: np.ndarray, exclude_self: bool = False) -> NeighborList:
+        """Neighbours (distance < h) in this grid's set of every column of ``xq`` (dim, M).
+
+        ``exclude_self`` drops ``j == i``; use it when ``xq`` is the set the grid was built on.
+        """
+        if xq.shape[0] != self.dim:
+            raise ValueError(f"query positions: dim {xq.shape[0]} != grid dim {self.dim}")
+        m = xq.shape[1]
+        if m == 0 or self.n == 0:
+            return NeighborList.empty(m)
+        xq = np.ascontiguousarray(xq, dtype=self.sorted_x.dtype)
+        offsets, indices = _query(xq, self.dim, self.h, self.origin, self.mask,
+                                  self.bucket_start, self.sorted_index, self.sorted_key,
+                                  self.sorted_x, exclude_self)
+        return NeighborList(offsets, indices)
+
+
+def neighbor_lists(x: np.ndarray, h: float) -> NeighborList:
+    """Neighbour lists of a point set (dim, N) with itself, self excluded."""
+    return Grid(x, h).query(x, exclude_self=True)
+
+
+@numba.njit(cache=True, inline="always")
+def _spread(v, dim):
+    # interleave the bits of v with (dim - 1) zero bits between them
+    out = np.int64(0)
+    for b in range(63 // dim):
+        out |= ((v >> b) & 1) << (b * dim)
+    return out
+
+
+@numba.njit(cache=True, parallel=True)
+def _morton(x, dim, inv_h, lo, codes):
+    for i in numba.prange(x.shape[1]):
+        code = np.int64(0)
+        for d in range(dim):
+            c = np.int64(np.floor(x[d, i] * inv_h)) - lo[d]
+            code |= _spread(c, dim) << d
+        codes[i] = code
+
+
+def zorder_permutation(x: np.ndarray, h: float) -> np.ndarray:
+    """Permutation that orders points (dim, N) along a z-order curve of their grid cells."""
+    n = x.shape[1]
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    dim = x.shape[0]
+    lo = np.floor(x.min(axis=1) / h).astype(np.int64)
+    codes = np.empty(n, dtype=np.int64)
+    _morton(np.ascontiguousarray(x), dim, 1.0 / h, lo, codes)
+    return np.argsort(codes, kind="stable")

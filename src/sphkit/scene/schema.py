@@ -1,0 +1,239 @@
+"""The validated scene model (pydantic), in SI units.
+
+A scene is what a simulation is built from; both front ends (sphkit's own JSON/YAML and
+SPlisHSPlasH's JSON scene format, see :mod:`sphkit.scene.loader`) produce a :class:`Scene`.
+Every parameter documents its unit. Validation errors name the field path, the bad value and
+what was expected (see :func:`format_validation_error`).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+Vec = list[float]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+class TimeConfig(_Model):
+    """Time stepping."""
+
+    until: float = Field(1.0, gt=0, description="simulated end time [s]")
+    dt: float = Field(0.001, gt=0, description="initial (or fixed, without CFL) time step [s]")
+    cfl: bool = Field(True, description="adapt the time step to the CFL condition")
+    cfl_factor: float = Field(
+        1.0, gt=0, le=2.0,
+        description="scale of the CFL step dt = cfl_factor * 0.4 * 2r / max|v| (dimensionless)",
+    )
+    dt_min: float = Field(1e-5, gt=0, description="lower bound of the CFL time step [s]")
+    dt_max: float = Field(0.005, gt=0, description="upper bound of the CFL time step [s]")
+
+    @model_validator(mode="after")
+    def _bounds(self) -> TimeConfig:
+        if self.dt_min > self.dt_max:
+            raise ValueError(f"dt_min ({self.dt_min}) must not exceed dt_max ({self.dt_max})")
+        return self
+
+
+class PressureConfig(_Model):
+    """Pressure solver. Only the state-equation solver (WCSPH) exists so far."""
+
+    method: Literal["wcsph"] = "wcsph"
+    equation: Literal["tait", "linear"] = Field(
+        "tait", description="tait: p = B((rho/rho0)^gamma - 1); linear: p = k (rho - rho0)"
+    )
+    stiffness: float = Field(
+        50000.0, gt=0,
+        description="B [Pa] of the Tait equation, or k [m^2/s^2] of the linear state equation",
+    )
+    exponent: float = Field(7.0, ge=1.0, description="gamma of the Tait equation (dimensionless)")
+    acoustic_cfl: bool = Field(
+        True,
+        description="also bound dt by 0.4 h / c with the speed of sound c of the state equation "
+        "(Becker & Teschner 2007); switch off only to reproduce a peer's fixed step",
+    )
+
+
+class ViscosityConfig(_Model):
+    """Non-pressure viscosity."""
+
+    method: Literal["none", "standard", "xsph"] = "none"
+    coefficient: float = Field(
+        0.0, ge=0,
+        description="standard: kinematic viscosity nu [m^2/s]; xsph: smoothing factor c in [0, 1]",
+    )
+    boundary_coefficient: float = Field(
+        0.0, ge=0, description="same meaning as coefficient, for fluid-boundary pairs"
+    )
+
+
+class Material(_Model):
+    """A fluid material."""
+
+    id: str = "fluid"
+    density0: float = Field(1000.0, gt=0, description="rest density [kg/m^3]")
+    viscosity: ViscosityConfig = ViscosityConfig()
+
+
+class FluidBlock(_Model):
+    """An axis-aligned block of fluid, sampled on a lattice of spacing 2r."""
+
+    start: Vec = Field(description="lower corner [m]")
+    end: Vec = Field(description="upper corner [m]")
+    material: str = "fluid"
+    velocity: Vec | None = Field(None, description="initial velocity [m/s]")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> FluidBlock:
+        if len(self.start) != len(self.end):
+            raise ValueError(f"start {self.start} and end {self.end} differ in length")
+        for a, b in zip(self.start, self.end, strict=True):
+            if not b > a:
+                raise ValueError(f"end {self.end} must exceed start {self.start} on every axis")
+        return self
+
+
+class Box(_Model):
+    """A box container of boundary particles: the fluid lives inside [min, max]."""
+
+    min: Vec = Field(description="inner lower corner [m]")
+    max: Vec = Field(description="inner upper corner [m]")
+    layers: int = Field(1, ge=1, le=4, description="number of particle layers of the walls")
+    open_top: bool = Field(False, description="leave out the wall at max along the gravity axis")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Box:
+        if len(self.min) != len(self.max):
+            raise ValueError(f"min {self.min} and max {self.max} differ in length")
+        for a, b in zip(self.min, self.max, strict=True):
+            if not b > a:
+                raise ValueError(f"max {self.max} must exceed min {self.min} on every axis")
+        return self
+
+
+class MeshBoundary(_Model):
+    """A static wall from a triangle mesh (OBJ/PLY/STL), its surface sampled into particles."""
+
+    geometry_file: str = Field(description="mesh file, relative to the scene file")
+    translation: Vec = [0.0, 0.0, 0.0]
+    rotation_axis: Vec = [1.0, 0.0, 0.0]
+    rotation_angle: float = Field(0.0, description="rotation about rotation_axis [rad]")
+    scale: Vec = [1.0, 1.0, 1.0]
+    invert: bool = Field(False, description="the fluid is inside the mesh (a container)")
+
+
+class BoundaryConfig(_Model):
+    """Boundary model."""
+
+    method: Literal["akinci2012"] = "akinci2012"
+
+
+class OutputConfig(_Model):
+    """Frame output."""
+
+    fps: float = Field(25.0, gt=0, description="frames per simulated second [1/s]")
+    formats: list[Literal["vtk", "ply"]] = ["vtk"]
+    directory: str | None = Field(None, description="output folder (default: out/<scene name>)")
+
+
+class Configuration(_Model):
+    """Global simulation settings."""
+
+    dim: Literal[2, 3] = 3
+    particle_radius: float = Field(0.025, gt=0, description="particle radius r [m]")
+    kernel: Literal["cubic", "wendland", "poly6", "spiky"] = "cubic"
+    gravity: Vec = Field([0.0, -9.81, 0.0], description="gravitational acceleration [m/s^2]")
+    precision: Literal["float64", "float32"] = "float64"
+    time: TimeConfig = TimeConfig()
+    pressure: PressureConfig = PressureConfig()
+    boundary: BoundaryConfig = BoundaryConfig()
+    zsort_every: int = Field(
+        50, ge=0, description="reorder particles along a z-curve every this many steps (0: never)"
+    )
+    max_velocity: float = Field(
+        100.0, gt=0,
+        description="a particle faster than this [m/s] stops the run as unstable",
+    )
+
+
+class Scene(_Model):
+    """A whole scene."""
+
+    name: str = "scene"
+    configuration: Configuration = Configuration()
+    materials: list[Material] = [Material()]
+    fluid_blocks: list[FluidBlock] = Field(default_factory=list)
+    boxes: list[Box] = Field(default_factory=list)
+    meshes: list[MeshBoundary] = Field(default_factory=list)
+    output: OutputConfig = OutputConfig()
+    source: str | None = Field(None, description="path of the file the scene was read from")
+
+    @field_validator("materials")
+    @classmethod
+    def _unique_ids(cls, v: list[Material]) -> list[Material]:
+        ids = [m.id for m in v]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"material ids {ids} are not unique")
+        if not v:
+            raise ValueError("at least one material is needed")
+        return v
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Scene:
+        dim = self.configuration.dim
+        ids = {m.id for m in self.materials}
+        if len(self.configuration.gravity) not in (dim, 3):
+            raise ValueError(
+                f"configuration.gravity {self.configuration.gravity} must have {dim} components"
+            )
+        for k, b in enumerate(self.fluid_blocks):
+            if len(b.start) != dim:
+                raise ValueError(f"fluid_blocks[{k}].start {b.start} must have {dim} components")
+            if b.material not in ids:
+                raise ValueError(
+                    f"fluid_blocks[{k}].material {b.material!r} is not one of {sorted(ids)}"
+                )
+            if b.velocity is not None and len(b.velocity) != dim:
+                raise ValueError(
+                    f"fluid_blocks[{k}].velocity {b.velocity} must have {dim} components"
+                )
+        for k, b in enumerate(self.boxes):
+            if len(b.min) != dim:
+                raise ValueError(f"boxes[{k}].min {b.min} must have {dim} components")
+        return self
+
+    def material(self, mid: str) -> Material:
+        """The material with id ``mid``."""
+        for m in self.materials:
+            if m.id == mid:
+                return m
+        raise KeyError(mid)
+
+
+class SceneError(ValueError):
+    """A scene that cannot be read or is invalid; the message names field, value and expectation."""
+
+
+def format_validation_error(err: ValidationError, prefix: str = "") -> str:
+    """Render a pydantic error as lines 'path: value -> problem'."""
+    lines = []
+    for e in err.errors():
+        parts = []
+        for p in e["loc"]:
+            if isinstance(p, int):
+                parts.append(f"[{p}]")
+            else:
+                parts.append(("." if parts else "") + str(p))
+        path = prefix + "".join(parts)
+        val = e.get("input")
+        msg = e["msg"]
+        if e["type"] == "extra_forbidden":
+            msg = "unknown field"
+        if isinstance(val, dict):
+            val = "{...}"
+        lines.append(f"{path or '<scene>'}: got {val!r}: {msg}")
+    return "\n".join(lines)
