@@ -1,0 +1,246 @@
+"""SPH discretizations of differential operators (survey Sec. 2; Koschier et al. 2019 tutorial).
+
+Notation: ``x_ij = x_i - x_j``, ``A_ij = A_i - A_j``, ``grad W_ij = grad_i W(x_ij)``,
+``V_j = m_j / rho_j``. Neighbour lists are CSR (see :mod:`sphkit.core.neighbors`) without self.
+
+* interpolation  ``A_i = sum_j V_j A_j W_ij`` (self term included)
+* density        ``rho_i = sum_j m_j W_ij`` (+ boundary ``sum_b rho0 V_b W_ib``, Akinci 2012)
+* gradient       direct ``sum_j V_j A_j grad W_ij``;
+                 difference ``sum_j V_j (A_j - A_i) grad W_ij`` (0th-order consistent), optionally
+                 renormalized by ``L_i^-1``, ``L_i = sum_j V_j grad W_ij (x) x_ji`` (Bonet & Lok 1999),
+                 which makes it exact for linear fields;
+                 symmetric ``rho_i sum_j m_j (A_i/rho_i^2 + A_j/rho_j^2) grad W_ij`` (conserves momentum)
+* divergence     ``-(1/rho_i) sum_j m_j A_ij . grad W_ij``
+* curl           ``-(1/rho_i) sum_j m_j A_ij x grad W_ij``
+* Laplacian      Brookshaw 1985 / Morris 1997:
+                 ``2 sum_j V_j A_ij (x_ij . grad W_ij) / (|x_ij|^2 + 0.01 h^2)``
+
+The per-particle *body* functions (``density_body``, ``pressure_accel_body``) hold the physics of
+one particle and are compiled for the CPU (called in ``prange`` drivers here) and for CUDA
+(wrapped as device functions in :mod:`sphkit.backend.cuda`), as DESIGN.md prescribes.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.neighbors import NeighborList
+
+_JIT = dict(cache=True, fastmath=True)
+
+
+@numba.njit(**_JIT, inline="always")
+def _dist(x, i, y, j, dim):
+    r2 = 0.0
+    for d in range(dim):
+        t = x[d, i] - y[d, j]
+        r2 += t * t
+    return np.sqrt(r2)
+
+
+# ---------------------------------------------------------------------------------------------
+# per-particle bodies (CPU + CUDA)
+
+
+@numba.njit(**_JIT)
+def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim):
+    """Density of fluid particle i: self + fluid neighbours + boundary (psi_b = rho0 V_b)."""
+    rho = m[i] * kernel_w(kid, 0.0, h, dim)
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        rho += m[j] * kernel_w(kid, _dist(x, i, x, j, dim), h, dim)
+    for k in range(boff[i], boff[i + 1]):
+        b = bidx[k]
+        rho += rho0 * bV[b] * kernel_w(kid, _dist(x, i, bx, b, dim), h, dim)
+    return rho
+
+
+@numba.njit(**_JIT)
+def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a):
+    """Add the symmetric pressure acceleration of fluid particle i to ``a[:, i]``.
+
+    ``a_i = -sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad W_ij
+            - sum_b rho0 V_b (p_i/rho_i^2 + p_i/rho0^2) grad W_ib``
+    (boundary pressure mirrored, p_b = p_i, rho_b = rho0; Akinci et al. 2012).
+    """
+    dpi = p[i] / (rho[i] * rho[i])
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        f = kernel_dw(kid, _dist(x, i, x, j, dim), h, dim)
+        s = -m[j] * (dpi + p[j] / (rho[j] * rho[j])) * f
+        for d in range(dim):
+            a[d, i] += s * (x[d, i] - x[d, j])
+    dpb = dpi + p[i] / (rho0 * rho0)
+    for k in range(boff[i], boff[i + 1]):
+        b = bidx[k]
+        f = kernel_dw(kid, _dist(x, i, bx, b, dim), h, dim)
+        s = -rho0 * bV[b] * dpb * f
+        for d in range(dim):
+            a[d, i] += s * (x[d, i] - bx[d, b])
+
+
+# ---------------------------------------------------------------------------------------------
+# CPU drivers
+
+
+@numba.njit(parallel=True, **_JIT)
+def density_cpu(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho):
+    """rho[i] = density_body(i) for all fluid particles."""
+    for i in numba.prange(x.shape[1]):
+        rho[i] = density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim)
+
+
+@numba.njit(parallel=True, **_JIT)
+def pressure_accel_cpu(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a):
+    """a[:, i] += pressure acceleration of particle i, for all fluid particles."""
+    for i in numba.prange(x.shape[1]):
+        pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a)
+
+
+# ---------------------------------------------------------------------------------------------
+# general operators on one particle set (analysis, tests and non-pressure methods)
+
+
+@numba.njit(parallel=True, **_JIT)
+def _interpolate(x, V, A, off, idx, h, kid, dim, out):
+    for i in numba.prange(x.shape[1]):
+        s = V[i] * A[i] * kernel_w(kid, 0.0, h, dim)
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            s += V[j] * A[j] * kernel_w(kid, _dist(x, i, x, j, dim), h, dim)
+        out[i] = s
+
+
+@numba.njit(parallel=True, **_JIT)
+def _gradient(x, V, m, rho, A, off, idx, h, kid, dim, mode, renorm, out):
+    for i in numba.prange(x.shape[1]):
+        g = np.zeros(3)
+        L = np.zeros((3, 3))
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            f = kernel_dw(kid, _dist(x, i, x, j, dim), h, dim)
+            if mode == 0:
+                s = V[j] * A[j] * f
+            elif mode == 1:
+                s = V[j] * (A[j] - A[i]) * f
+            else:
+                s = rho[i] * m[j] * (A[i] / (rho[i] * rho[i]) + A[j] / (rho[j] * rho[j])) * f
+            for d in range(dim):
+                g[d] += s * (x[d, i] - x[d, j])
+            if renorm:
+                for d in range(dim):
+                    for e in range(dim):
+                        L[d, e] += V[j] * f * (x[d, i] - x[d, j]) * (x[e, j] - x[e, i])
+        if renorm:
+            Li = np.linalg.inv(L[:dim, :dim])
+            for d in range(dim):
+                s = 0.0
+                for e in range(dim):
+                    s += Li[e, d] * g[e]
+                out[d, i] = s
+        else:
+            for d in range(dim):
+                out[d, i] = g[d]
+
+
+@numba.njit(parallel=True, **_JIT)
+def _divergence(x, m, rho, A, off, idx, h, kid, dim, out):
+    for i in numba.prange(x.shape[1]):
+        s = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            f = kernel_dw(kid, _dist(x, i, x, j, dim), h, dim)
+            for d in range(dim):
+                s += m[j] * (A[d, i] - A[d, j]) * f * (x[d, i] - x[d, j])
+        out[i] = -s / rho[i]
+
+
+@numba.njit(parallel=True, **_JIT)
+def _curl(x, m, rho, A, off, idx, h, kid, out):
+    for i in numba.prange(x.shape[1]):
+        c0 = 0.0
+        c1 = 0.0
+        c2 = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            f = kernel_dw(kid, _dist(x, i, x, j, 3), h, 3)
+            a0 = A[0, i] - A[0, j]
+            a1 = A[1, i] - A[1, j]
+            a2 = A[2, i] - A[2, j]
+            g0 = f * (x[0, i] - x[0, j])
+            g1 = f * (x[1, i] - x[1, j])
+            g2 = f * (x[2, i] - x[2, j])
+            c0 += m[j] * (a1 * g2 - a2 * g1)
+            c1 += m[j] * (a2 * g0 - a0 * g2)
+            c2 += m[j] * (a0 * g1 - a1 * g0)
+        out[0, i] = -c0 / rho[i]
+        out[1, i] = -c1 / rho[i]
+        out[2, i] = -c2 / rho[i]
+
+
+@numba.njit(parallel=True, **_JIT)
+def _laplacian(x, V, A, off, idx, h, kid, dim, out):
+    eps = 0.01 * h * h
+    for i in numba.prange(x.shape[1]):
+        s = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            r = _dist(x, i, x, j, dim)
+            f = kernel_dw(kid, r, h, dim)
+            # x_ij . grad W_ij = f r^2
+            s += V[j] * (A[i] - A[j]) * f * r * r / (r * r + eps)
+        out[i] = 2.0 * s
+
+
+def interpolate(x: np.ndarray, V: np.ndarray, A: np.ndarray, nl: NeighborList, h: float,
+                kid: int) -> np.ndarray:
+    """SPH interpolation ``sum_j V_j A_j W_ij`` (self included) of a scalar field."""
+    out = np.empty(x.shape[1])
+    _interpolate(x, V, A, nl.offsets, nl.indices, h, kid, x.shape[0], out)
+    return out
+
+
+def gradient(x: np.ndarray, m: np.ndarray, rho: np.ndarray, A: np.ndarray, nl: NeighborList,
+             h: float, kid: int, form: str = "difference", renormalize: bool = False) -> np.ndarray:
+    """Gradient (dim, N) of scalar field A: ``form`` is 'direct', 'difference' or 'symmetric'.
+
+    ``renormalize`` multiplies by ``L_i^-1`` (Bonet & Lok 1999; 'direct'/'difference' only).
+    """
+    modes = {"direct": 0, "difference": 1, "symmetric": 2}
+    if form not in modes:
+        raise ValueError(f"form: {form!r}; expected one of {sorted(modes)}")
+    if renormalize and form == "symmetric":
+        raise ValueError("renormalize: the symmetric gradient cannot be renormalized")
+    out = np.empty_like(x)
+    V = m / rho
+    _gradient(x, V, m, rho, A, nl.offsets, nl.indices, h, kid, x.shape[0], modes[form],
+              renormalize, out)
+    return out
+
+
+def divergence(x: np.ndarray, m: np.ndarray, rho: np.ndarray, A: np.ndarray, nl: NeighborList,
+               h: float, kid: int) -> np.ndarray:
+    """Divergence of the vector field A (dim, N): ``-(1/rho_i) sum_j m_j A_ij . grad W_ij``."""
+    out = np.empty(x.shape[1])
+    _divergence(x, m, rho, A, nl.offsets, nl.indices, h, kid, x.shape[0], out)
+    return out
+
+
+def curl(x: np.ndarray, m: np.ndarray, rho: np.ndarray, A: np.ndarray, nl: NeighborList,
+         h: float, kid: int) -> np.ndarray:
+    """Curl of a 3D vector field A (3, N): ``-(1/rho_i) sum_j m_j A_ij x grad W_ij``."""
+    if x.shape[0] != 3:
+        raise ValueError(f"curl: needs 3D positions, got dim {x.shape[0]}")
+    out = np.empty_like(x)
+    _curl(x, m, rho, A, nl.offsets, nl.indices, h, kid, out)
+    return out
+
+
+def laplacian(x: np.ndarray, V: np.ndarray, A: np.ndarray, nl: NeighborList, h: float,
+              kid: int) -> np.ndarray:
+    """Brookshaw/Morris Laplacian of a scalar field."""
+    out = np.empty(x.shape[1])
+    _laplacian(x, V, A, nl.offsets, nl.indices, h, kid, x.shape[0], out)
+    return out

@@ -1,0 +1,305 @@
+"""The time-step loop: builds the methods a scene names and advances them in the survey's order.
+
+One step (DESIGN.md, "Data flow of one time step"):
+
+1. every ``zsort_every`` steps, reorder the fluid along a z-order curve;
+2. neighbour search (fluid-fluid CSR lists; fluid-boundary lists from the boundary model);
+3. density ``rho_i = sum_j m_j W_ij + sum_b rho0 V_b W_ib`` (:func:`core.operators.density_cpu`);
+4. time step: CFL ``cfl_factor * 0.4 * 2r / max|v|`` clamped to [dt_min, dt_max], and the pressure
+   solver's own limit (acoustic limit of WCSPH);
+5. accelerations: gravity, then the non-pressure forces (viscosity), then the pressure solver;
+6. symplectic Euler;
+7. stability guard: NaN/inf velocities or a speed above ``configuration.max_velocity`` raise
+   :class:`InstabilityError` with a diagnosis (step, time, max velocity, CFL number, density error).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sphkit.boundary.akinci2012 import Akinci2012
+from sphkit.core.kernels import kernel_id, lattice_volume
+from sphkit.core.neighbors import neighbor_lists, zorder_permutation
+from sphkit.core.operators import density_cpu
+from sphkit.core.particles import ParticleSet
+from sphkit.core.solver import SolverStats
+from sphkit.core.state import SimState
+from sphkit.core.timestep import cfl_time_step, max_speed, speed_check, symplectic_euler
+from sphkit.pressure.wcsph import WCSPH
+from sphkit.scene.schema import Scene, SceneError
+from sphkit.viscosity.standard import StandardViscosity
+from sphkit.viscosity.xsph import XSPH
+
+#: pressure solvers by scene name and by SPlisHSPlasH ``simulationMethod`` number
+PRESSURE_SOLVERS: dict[str, type] = {"wcsph": WCSPH}
+PRESSURE_SOLVER_NUMBERS: dict[int, str] = {0: "wcsph"}
+#: boundary models by scene name and SPlisHSPlasH ``boundaryHandlingMethod`` number
+BOUNDARY_MODELS: dict[str, type] = {"akinci2012": Akinci2012}
+BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012"}
+#: viscosity models by scene name and SPlisHSPlasH ``viscosityMethod`` number
+VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH}
+VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 2: "xsph"}
+
+
+@dataclass
+class StepStats:
+    """Statistics of one time step (SI units; errors as fractions of rho0)."""
+
+    step: int
+    time: float
+    dt: float
+    n_fluid: int
+    max_velocity: float
+    cfl: float  #: max|v| dt / (2r)
+    density_error_avg: float
+    density_error_max: float
+    iterations: int = 1
+
+    def as_dict(self) -> dict:
+        """Plain-dict form (for manifests and logs)."""
+        return asdict(self)
+
+
+class InstabilityError(RuntimeError):
+    """The simulation became unstable; ``stats`` holds the step that showed it."""
+
+    def __init__(self, message: str, stats: StepStats) -> None:
+        super().__init__(message)
+        self.stats = stats
+
+
+class Simulation:
+    """An SPH simulation built from a :class:`~sphkit.scene.schema.Scene`.
+
+    Example::
+
+        sim = Simulation.from_scene("dambreak-2d")
+        sim.run(until=0.5)
+        x = sim.positions   # (N, dim) NumPy view
+    """
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        cfg = scene.configuration
+        self.dim = cfg.dim
+        self.dtype = np.dtype(cfg.precision)
+        r = cfg.particle_radius
+        h = 4.0 * r
+        kid = kernel_id(cfg.kernel)
+        used = {b.material for b in scene.fluid_blocks} or {scene.materials[0].id}
+        if len(used) > 1:
+            raise SceneError(
+                f"fluid_blocks: materials {sorted(used)}; multiphase fluids are not supported yet, "
+                "expected all blocks to use one material"
+            )
+        mat = scene.material(next(iter(used)))
+        self.material = mat
+        g = np.zeros(self.dim)
+        g[:] = cfg.gravity[: self.dim]
+
+        fluid = ParticleSet(self.dim, self.dtype)
+        for name in ("v", "a"):
+            fluid.register(name, "vector")
+        for name in ("m", "rho", "p"):
+            fluid.register(name)
+        boundary = ParticleSet(self.dim, self.dtype)
+        self.state = SimState(fluid=fluid, boundary=boundary, dim=self.dim, h=h, kid=kid, r=r,
+                              rho0=mat.density0, gravity=g.astype(self.dtype))
+        self._sample(scene)
+        if fluid.n == 0:
+            raise SceneError("fluid_blocks: the scene has no fluid particles; expected at least one")
+
+        p = cfg.pressure
+        self.pressure = PRESSURE_SOLVERS[p.method](
+            equation=p.equation, stiffness=p.stiffness, exponent=p.exponent,
+            acoustic_cfl=p.acoustic_cfl)
+        self.boundary_model = BOUNDARY_MODELS[cfg.boundary.method]()
+        self.forces: list = []
+        vis = mat.viscosity
+        if vis.method == "standard":
+            self.forces.append(StandardViscosity(vis.coefficient, vis.boundary_coefficient))
+        elif vis.method == "xsph":
+            self.forces.append(XSPH(vis.coefficient, vis.boundary_coefficient))
+
+        if boundary.n:
+            boundary.permute(zorder_permutation(boundary["x"], h))
+        self.boundary_model.init(self.state)
+        self.pressure.init(self.state)
+        self.time = 0.0
+        self.step_count = 0
+        self.dt = cfg.time.dt
+        self.last: StepStats | None = None
+        self.last_solver: SolverStats | None = None
+        self._frame = -1
+
+    # -- construction ---------------------------------------------------------------------------
+    @classmethod
+    def from_scene(cls, src: str | Path | Scene | dict) -> Simulation:
+        """Build from a built-in scene name, a scene file (sphkit or SPlisHSPlasH) or a Scene."""
+        if isinstance(src, Scene):
+            return cls(src)
+        from sphkit.scene.loader import load_scene
+
+        return cls(load_scene(src))
+
+    def _resolve(self, path: str) -> Path:
+        p = Path(path)
+        if not p.is_absolute() and self.scene.source:
+            p = Path(self.scene.source).parent / p
+        return p
+
+    def _sample(self, scene: Scene) -> None:
+        from sphkit.scene import sampling
+
+        st = self.state
+        r, dim = st.r, self.dim
+        vol = lattice_volume(2.0 * r, st.kid, st.h, dim)
+        for k, blk in enumerate(scene.fluid_blocks):
+            pts = sampling.lattice_block(blk.start, blk.end, r)
+            if len(pts) == 0:
+                raise SceneError(
+                    f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
+                    f"radius {r}; expected a block at least 2r = {2 * r} wide on every axis"
+                )
+            mat = scene.material(blk.material)
+            vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
+            st.fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * vol, v=vel,
+                         rho=mat.density0)
+        up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
+        for k, box in enumerate(scene.boxes):
+            pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
+                                     open_top_axis=up if box.open_top else None)
+            st.boundary.add(pts, name=f"boxes[{k}]")
+        for k, mb in enumerate(scene.meshes):
+            mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
+                                      mb.rotation_axis, mb.rotation_angle, mb.scale)
+            pts = sampling.sample_mesh_surface(mesh, r, dim)
+            st.boundary.add(pts, name=f"meshes[{k}]")
+
+    # -- user-facing state ----------------------------------------------------------------------
+    @property
+    def fluid(self) -> ParticleSet:
+        """The fluid particles (fields x, v, a, m, rho, p, id)."""
+        return self.state.fluid
+
+    @property
+    def boundary(self) -> ParticleSet:
+        """The boundary particles (fields x, V, v, id)."""
+        return self.state.boundary
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Fluid positions (N, dim), a view."""
+        return self.fluid.view("x")
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Fluid velocities (N, dim), a view."""
+        return self.fluid.view("v")
+
+    @property
+    def densities(self) -> np.ndarray:
+        """Fluid densities (N,)."""
+        return self.fluid["rho"]
+
+    @property
+    def pressures(self) -> np.ndarray:
+        """Fluid pressures (N,)."""
+        return self.fluid["p"]
+
+    @property
+    def ids(self) -> np.ndarray:
+        """Stable particle ids (N,)."""
+        return self.fluid["id"]
+
+    # -- stepping -------------------------------------------------------------------------------
+    def _neighbors(self) -> None:
+        st = self.state
+        k = self.scene.configuration.zsort_every
+        if k and self.step_count % k == 0:
+            st.fluid.permute(zorder_permutation(st.fluid["x"], st.h))
+        st.nl_ff = neighbor_lists(st.fluid["x"], st.h)
+        self.boundary_model.update(st)
+
+    def compute_density(self) -> None:
+        """Fluid densities from the current neighbour lists (fluid + boundary)."""
+        st = self.state
+        f, b = st.fluid, st.boundary
+        density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
+                    st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim, f["rho"])
+
+    def _time_step(self) -> float:
+        tc = self.scene.configuration.time
+        if not tc.cfl:
+            return tc.dt
+        st = self.state
+        vmax = max_speed(st.fluid["v"], None)
+        dt = cfl_time_step(vmax, st.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
+        return float(min(dt, self.pressure.max_time_step(st)))
+
+    def step(self) -> StepStats:
+        """Advance one time step; raises :class:`InstabilityError` when the state blows up."""
+        st = self.state
+        f = st.fluid
+        self._neighbors()
+        self.compute_density()
+        dt = self._time_step()
+        a = f["a"]
+        a[:] = st.gravity[:, None]
+        for force in self.forces:
+            force.apply(st, dt)
+        ps = self.pressure.solve(st, dt)
+        symplectic_euler(f["x"], f["v"], a, dt)
+        self.dt = dt
+        self.time += dt
+        self.step_count += 1
+        st.time, st.step = self.time, self.step_count
+        vmax, bad = speed_check(f["v"])
+        stats = StepStats(step=self.step_count, time=self.time, dt=dt, n_fluid=f.n,
+                          max_velocity=vmax, cfl=vmax * dt / (2.0 * st.r),
+                          density_error_avg=ps.density_error_avg,
+                          density_error_max=ps.density_error_max, iterations=ps.iterations)
+        self.last, self.last_solver = stats, ps
+        limit = self.scene.configuration.max_velocity
+        if bad or vmax > limit or not np.all(np.isfinite(f["x"])):
+            raise InstabilityError(self._diagnosis(stats, bad, limit), stats)
+        return stats
+
+    def _diagnosis(self, s: StepStats, bad: int, limit: float) -> str:
+        what = (f"{bad} particle(s) with NaN/inf velocity" if bad
+                else f"max velocity {s.max_velocity:.4g} m/s exceeds the limit {limit:.4g} m/s")
+        return (
+            f"simulation unstable at step {s.step}, time {s.time:.6g} s: {what}; "
+            f"max velocity {s.max_velocity:.4g} m/s, dt {s.dt:.4g} s, CFL number {s.cfl:.3g}, "
+            f"density error avg {100 * s.density_error_avg:.3g}% max "
+            f"{100 * s.density_error_max:.3g}%. Try a smaller time step (time.dt_max, "
+            f"time.cfl_factor) or a stiffer/iterative pressure solver."
+        )
+
+    def run(self, until: float | None = None, fps: float | None = None,
+            on_frame: Callable[[Simulation, int], None] | None = None,
+            on_step: Callable[[Simulation, StepStats], None] | None = None) -> None:
+        """Step until simulated time ``until`` (default: the scene's), calling ``on_frame(sim, k)``
+        at t = 0 and every ``1/fps`` (default: the scene's output fps) and ``on_step`` after each
+        step."""
+        until = self.scene.configuration.time.until if until is None else float(until)
+        fps = self.scene.output.fps if fps is None else float(fps)
+        if self._frame < 0:
+            if self.step_count == 0:
+                self._neighbors()
+                self.compute_density()
+            self._frame = 0
+            if on_frame:
+                on_frame(self, 0)
+        while self.time < until - 1e-12:
+            stats = self.step()
+            if on_step:
+                on_step(self, stats)
+            while self.time >= (self._frame + 1) / fps - 1e-9:
+                self._frame += 1
+                if on_frame:
+                    on_frame(self, self._frame)
