@@ -22,6 +22,8 @@ one particle and are compiled for the CPU (called in ``prange`` drivers here) an
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -47,13 +49,22 @@ def _dist(x, i, y, j, dim):
 @numba.njit(**_JIT)
 def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim):
     """Density of fluid particle i: self + fluid neighbours + boundary (psi_b = rho0 V_b)."""
+    # distances are computed inline: a helper taking arrays would not compile for CUDA
     rho = m[i] * kernel_w(kid, 0.0, h, dim)
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        rho += m[j] * kernel_w(kid, _dist(x, i, x, j, dim), h, dim)
+        r2 = 0.0
+        for d in range(dim):
+            t = x[d, i] - x[d, j]
+            r2 += t * t
+        rho += m[j] * kernel_w(kid, math.sqrt(r2), h, dim)
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        rho += rho0 * bV[b] * kernel_w(kid, _dist(x, i, bx, b, dim), h, dim)
+        r2 = 0.0
+        for d in range(dim):
+            t = x[d, i] - bx[d, b]
+            r2 += t * t
+        rho += rho0 * bV[b] * kernel_w(kid, math.sqrt(r2), h, dim)
     return rho
 
 
@@ -66,19 +77,39 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
     (boundary pressure mirrored, p_b = p_i, rho_b = rho0; Akinci et al. 2012).
     """
     dpi = p[i] / (rho[i] * rho[i])
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        f = kernel_dw(kid, _dist(x, i, x, j, dim), h, dim)
-        s = -m[j] * (dpi + p[j] / (rho[j] * rho[j])) * f
+        r2 = 0.0
         for d in range(dim):
-            a[d, i] += s * (x[d, i] - x[d, j])
+            t = x[d, i] - x[d, j]
+            r2 += t * t
+        s = -m[j] * (dpi + p[j] / (rho[j] * rho[j])) * kernel_dw(kid, math.sqrt(r2), h, dim)
+        a0 += s * (x[0, i] - x[0, j])
+        if dim > 1:
+            a1 += s * (x[1, i] - x[1, j])
+        if dim > 2:
+            a2 += s * (x[2, i] - x[2, j])
     dpb = dpi + p[i] / (rho0 * rho0)
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        f = kernel_dw(kid, _dist(x, i, bx, b, dim), h, dim)
-        s = -rho0 * bV[b] * dpb * f
+        r2 = 0.0
         for d in range(dim):
-            a[d, i] += s * (x[d, i] - bx[d, b])
+            t = x[d, i] - bx[d, b]
+            r2 += t * t
+        s = -rho0 * bV[b] * dpb * kernel_dw(kid, math.sqrt(r2), h, dim)
+        a0 += s * (x[0, i] - bx[0, b])
+        if dim > 1:
+            a1 += s * (x[1, i] - bx[1, b])
+        if dim > 2:
+            a2 += s * (x[2, i] - bx[2, b])
+    a[0, i] += a0
+    if dim > 1:
+        a[1, i] += a1
+    if dim > 2:
+        a[2, i] += a2
 
 
 # ---------------------------------------------------------------------------------------------
