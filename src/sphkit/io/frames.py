@@ -1,0 +1,325 @@
+"""Frame output: one file per frame and format, written atomically.
+
+Formats (the names are those of ``scene.output.formats``):
+
+* ``"vtk"`` -- VTK XML unstructured grid ``frame_00000.vtu`` (written with meshio, one ``vertex``
+  cell per particle, uncompressed binary), which ParaView opens. Beside the frames the writer keeps
+  ``frame.vtu.series`` (ParaView's file-series format), so ParaView shows the simulated time of
+  each frame instead of its number: open the ``.series`` file.
+* ``"ply"`` -- binary little-endian PLY ``frame_00000.ply`` with one ``vertex`` element and no
+  faces (Blender, Houdini, MeshLab and CloudCompare read it). Properties: ``x y z vx vy vz density
+  pressure id``, floats in the simulation's precision (``double`` or ``float``), ``id`` as ``int``.
+
+Every frame holds the fluid particles sorted by their id, so point ``i`` is the same particle in
+every frame, with the point data
+
+===========  =========  =========================================================
+name         shape      meaning
+===========  =========  =========================================================
+(points)     (N, 3)     position [m]; 2D scenes are padded with z = 0
+velocity     (N, 3)     velocity [m/s], padded like the positions
+density      (N,)       density [kg/m^3]
+pressure     (N,)       pressure [Pa]
+id           (N,)       particle id (int64 in VTK, int32 in PLY)
+===========  =========  =========================================================
+
+Extra fields a method registered with the ParticleSet can be added with ``extra_fields``.
+:func:`read_frame` reads a frame of either format back into the same arrays.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import meshio
+import numpy as np
+
+from sphkit.io.atomic import atomic_open, atomic_path, atomic_write_text
+
+#: format name -> file extension
+FORMATS: dict[str, str] = {"vtk": ".vtu", "ply": ".ply"}
+
+#: name in the frame file -> field of the ParticleSet
+STANDARD_FIELDS: dict[str, str] = {"velocity": "v", "density": "rho", "pressure": "p", "id": "id"}
+
+_PLY_TYPES = {
+    np.dtype("<f8"): "double", np.dtype("<f4"): "float",
+    np.dtype("<i4"): "int", np.dtype("<u4"): "uint",
+    np.dtype("<i2"): "short", np.dtype("<u2"): "ushort",
+    np.dtype("<i1"): "char", np.dtype("<u1"): "uchar",
+}
+
+
+def check_formats(formats: Sequence[str]) -> list[str]:
+    """Return ``formats`` without duplicates, or raise ValueError naming the unknown one."""
+    out: list[str] = []
+    for f in formats:
+        if f not in FORMATS:
+            raise ValueError(
+                f"output format {f!r} is not known; expected one of {', '.join(FORMATS)}"
+            )
+        if f not in out:
+            out.append(f)
+    return out
+
+
+def _pad3(a: np.ndarray) -> np.ndarray:
+    """(N, d) -> (N, 3) with zero columns appended (a copy, C-contiguous)."""
+    out = np.zeros((a.shape[0], 3), dtype=a.dtype)
+    out[:, : a.shape[1]] = a
+    return out
+
+
+def frame_arrays(fluid: Any, extra_fields: Sequence[str] = ()) -> dict[str, np.ndarray]:
+    """The arrays of one frame from a ParticleSet, sorted by particle id.
+
+    Returns ``{"position": (N, 3), "velocity": (N, 3), "density": (N,), "pressure": (N,),
+    "id": (N,) int64, <extra>: ...}``; vectors are padded to 3 components. ``fluid`` needs the
+    fields ``x``, ``v``, ``rho``, ``p`` and ``id`` (layout as in
+    :class:`sphkit.core.particles.ParticleSet`) and those named in ``extra_fields``.
+    """
+    wanted = {"position": "x", **STANDARD_FIELDS}
+    for name in extra_fields:
+        if name in wanted or name in wanted.values():
+            continue
+        wanted[name] = name
+    missing = [f for f in wanted.values() if f not in fluid]
+    if missing:
+        raise KeyError(
+            f"cannot write a frame: the particle set has no field(s) {missing}; "
+            f"it has {sorted(fluid.fields)}"
+        )
+    ids = np.asarray(fluid["id"])
+    order = None if ids.size < 2 or bool(np.all(ids[1:] > ids[:-1])) else np.argsort(
+        ids, kind="stable")
+    out: dict[str, np.ndarray] = {}
+    for name, field in wanted.items():
+        a = np.asarray(fluid.view(field))
+        if order is not None:
+            a = a[order]
+        if a.ndim == 2:
+            a = _pad3(a)
+        else:
+            a = np.ascontiguousarray(a)
+        out[name] = a.astype(np.int64) if name == "id" else a
+    return out
+
+
+def write_vtu(path: str | os.PathLike[str], arrays: dict[str, np.ndarray]) -> Path:
+    """Write frame arrays (see :func:`frame_arrays`) as a VTK XML unstructured grid, atomically."""
+    pos = arrays["position"]
+    n = pos.shape[0]
+    point_data = {k: v for k, v in arrays.items() if k != "position"}
+    with atomic_path(path) as tmp:
+        if n == 0:
+            _write_empty_vtu(tmp, point_data)
+        else:
+            mesh = meshio.Mesh(
+                pos, [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))],
+                point_data=point_data,
+            )
+            meshio.write(tmp, mesh, file_format="vtu", binary=True, compression=None)
+    return Path(path)
+
+
+_VTU_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
+
+
+def _write_empty_vtu(path: Path, point_data: dict[str, np.ndarray]) -> None:
+    """A VTU with no points (meshio cannot write one): the same arrays, empty."""
+    arrays = []
+    for name, a in point_data.items():
+        vtype = f"{_VTU_TYPES[a.dtype.kind]}{8 * a.dtype.itemsize}"
+        comps = f' NumberOfComponents="{a.shape[1]}"' if a.ndim == 2 else ""
+        arrays.append(f'<DataArray type="{vtype}" Name="{name}"{comps} format="ascii"/>')
+    text = (
+        '<?xml version="1.0"?>\n'
+        '<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">\n'
+        '<UnstructuredGrid>\n<Piece NumberOfPoints="0" NumberOfCells="0">\n'
+        '<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii"/></Points>\n'
+        '<Cells><DataArray type="Int64" Name="connectivity" format="ascii"/>'
+        '<DataArray type="Int64" Name="offsets" format="ascii"/>'
+        '<DataArray type="UInt8" Name="types" format="ascii"/></Cells>\n'
+        f'<PointData>{"".join(arrays)}</PointData>\n'
+        '</Piece>\n</UnstructuredGrid>\n</VTKFile>\n'
+    )
+    path.write_text(text, encoding="utf-8")
+
+
+def _ply_columns(arrays: dict[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+    cols: list[tuple[str, np.ndarray]] = []
+    for name, a in arrays.items():
+        if a.ndim == 2:
+            names = ("x", "y", "z") if name == "position" else (
+                ("vx", "vy", "vz") if name == "velocity" else
+                tuple(f"{name}_{c}" for c in "xyz")
+            )
+            cols.extend(zip(names, a.T, strict=True))
+        elif name == "id":
+            if a.size and (a.min() < np.iinfo(np.int32).min or a.max() > np.iinfo(np.int32).max):
+                raise ValueError(
+                    f"PLY output: particle ids up to {a.max()} do not fit the PLY 'int' type "
+                    "(32 bit); use the vtk format"
+                )
+            cols.append((name, a.astype("<i4")))
+        else:
+            cols.append((name, a))
+    return cols
+
+
+def write_ply(path: str | os.PathLike[str], arrays: dict[str, np.ndarray],
+              comment: str | None = None) -> Path:
+    """Write frame arrays (see :func:`frame_arrays`) as a binary little-endian PLY point cloud."""
+    cols = _ply_columns(arrays)
+    n = arrays["position"].shape[0]
+    dtype = np.dtype([(name, col.dtype.newbyteorder("<")) for name, col in cols])
+    unknown = [f"{n_} ({dtype[n_]})" for n_ in dtype.names or () if dtype[n_] not in _PLY_TYPES]
+    if unknown:
+        raise ValueError(f"PLY output: no PLY type for the field(s) {', '.join(unknown)}")
+    rec = np.empty(n, dtype=dtype)
+    for name, col in cols:
+        rec[name] = col
+    header = ["ply", "format binary_little_endian 1.0"]
+    if comment:
+        header += [f"comment {line}" for line in comment.splitlines()]
+    header.append(f"element vertex {n}")
+    header += [f"property {_PLY_TYPES[dtype[name]]} {name}" for name in dtype.names or ()]
+    header.append("end_header\n")
+    with atomic_open(path, "wb") as f:
+        f.write("\n".join(header).encode("ascii"))
+        f.write(rec.tobytes())
+    return Path(path)
+
+
+def read_frame(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """Read a frame written by :class:`FrameWriter` (``.vtu`` or ``.ply``).
+
+    Returns ``{"position": (N, 3), "velocity": (N, 3), "density", "pressure", "id", ...}`` --
+    the arrays of :func:`frame_arrays`; PLY vector properties ``vx vy vz`` (and ``<name>_x``,
+    ``_y``, ``_z``) are joined back into (N, 3) arrays.
+    """
+    p = Path(path)
+    fmt = {".vtu": "vtu", ".ply": "ply"}.get(p.suffix.lower())
+    if fmt is None:
+        raise ValueError(f"read_frame: {str(p)!r} is not a frame file; expected .vtu or .ply")
+    if fmt == "vtu" and _is_empty_vtu(p):
+        return _read_empty_vtu(p)
+    mesh = meshio.read(p, file_format=fmt)
+    out: dict[str, np.ndarray] = {"position": np.asarray(mesh.points)}
+    pd = dict(mesh.point_data)
+    if fmt == "ply":
+        groups = {"velocity": ("vx", "vy", "vz")}
+        for name in list(pd):
+            if name.endswith("_x") and f"{name[:-2]}_y" in pd and f"{name[:-2]}_z" in pd:
+                groups[name[:-2]] = (name, f"{name[:-2]}_y", f"{name[:-2]}_z")
+        for name, comps in groups.items():
+            if all(c in pd for c in comps):
+                out[name] = np.column_stack([pd.pop(c) for c in comps])
+    out.update({k: np.asarray(v) for k, v in pd.items()})
+    return out
+
+
+def _is_empty_vtu(path: Path) -> bool:
+    with open(path, "rb") as f:
+        head = f.read(512)
+    return b'NumberOfPoints="0"' in head
+
+
+def _read_empty_vtu(path: Path) -> dict[str, np.ndarray]:
+    import xml.etree.ElementTree as ET
+
+    out: dict[str, np.ndarray] = {"position": np.zeros((0, 3))}
+    inv = {v: k for k, v in _VTU_TYPES.items()}
+    for da in ET.parse(path).getroot().iter("DataArray"):
+        name = da.get("Name")
+        if name is None or name in ("connectivity", "offsets", "types"):
+            continue
+        vtype = da.get("type", "Float64")
+        kind = vtype.rstrip("0123456789")
+        dtype = np.dtype(f"{inv[kind]}{int(vtype[len(kind):]) // 8}")
+        comps = int(da.get("NumberOfComponents", "1"))
+        out[name] = np.zeros((0, comps) if comps > 1 else (0,), dtype=dtype)
+    return out
+
+
+class FrameWriter:
+    """Writes the fluid particles of a simulation, one file per frame and format.
+
+    ``out_dir`` is created if missing. ``formats`` are names of :data:`FORMATS`; ``dim`` the
+    simulation's dimension (2D positions and velocities are padded with z = 0).
+    ``extra_fields`` names further ParticleSet fields to write (vectors padded to 3 components).
+
+    After each :meth:`write`, :attr:`max_displacement` holds the largest distance [m] a particle
+    moved since the previous frame (None for the first frame): sudden jumps in an exported
+    sequence show up here.
+    """
+
+    def __init__(self, out_dir: str | os.PathLike[str], formats: Sequence[str], dim: int,
+                 extra_fields: Sequence[str] = (), prefix: str = "frame") -> None:
+        if dim not in (2, 3):
+            raise ValueError(f"FrameWriter dim: {dim!r}; expected 2 or 3")
+        self.out_dir = Path(out_dir)
+        self.formats = check_formats(formats)
+        self.dim = dim
+        self.extra_fields = tuple(extra_fields)
+        self.prefix = prefix
+        self.max_displacement: float | None = None
+        self._prev: tuple[np.ndarray, np.ndarray] | None = None
+        self._series: list[dict[str, Any]] = []
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+
+    def path(self, frame: int, fmt: str) -> Path:
+        """The file of ``frame`` in format ``fmt``: ``<out_dir>/frame_00042.vtu``."""
+        return self.out_dir / f"{self.prefix}_{frame:05d}{FORMATS[fmt]}"
+
+    @property
+    def series_path(self) -> Path:
+        """ParaView's file-series index of the VTK frames: ``<out_dir>/frame.vtu.series``."""
+        return self.out_dir / f"{self.prefix}.vtu.series"
+
+    def write(self, sim: Any, frame: int) -> list[Path]:
+        """Write frame number ``frame`` of ``sim`` (needs ``.fluid`` and ``.time``) in every format.
+
+        Returns the written paths, in the order of ``formats``.
+        """
+        if frame < 0:
+            raise ValueError(f"frame number {frame}; expected >= 0")
+        if sim.fluid.dim != self.dim:
+            raise ValueError(
+                f"FrameWriter was made for dim {self.dim}, the particles have dim {sim.fluid.dim}"
+            )
+        arrays = frame_arrays(sim.fluid, self.extra_fields)
+        self._track_displacement(arrays)
+        time = float(sim.time)
+        paths: list[Path] = []
+        for fmt in self.formats:
+            path = self.path(frame, fmt)
+            if fmt == "vtk":
+                write_vtu(path, arrays)
+                self._series = [e for e in self._series if e["name"] != path.name]
+                self._series.append({"name": path.name, "time": time})
+                atomic_write_text(self.series_path, json.dumps(
+                    {"file-series-version": "1.0", "files": self._series}, indent=1) + "\n")
+            else:
+                write_ply(path, arrays, comment=f"sphkit frame {frame} time {time!r} s")
+            paths.append(path)
+        return paths
+
+    def _track_displacement(self, arrays: dict[str, np.ndarray]) -> None:
+        ids, pos = arrays["id"], arrays["position"]
+        if self._prev is None:
+            self.max_displacement = None
+        else:
+            prev_ids, prev_pos = self._prev
+            if prev_ids.shape == ids.shape and np.array_equal(prev_ids, ids):
+                d = pos - prev_pos
+            else:  # particles were added or removed: compare those in both frames
+                _, i_new, i_old = np.intersect1d(ids, prev_ids, assume_unique=True,
+                                                 return_indices=True)
+                d = pos[i_new] - prev_pos[i_old]
+            self.max_displacement = float(np.sqrt((d * d).sum(axis=1).max())) if len(d) else 0.0
+        self._prev = (ids, pos)  # both are fresh copies (frame_arrays)
