@@ -4,9 +4,11 @@ Morris, Fox & Zhu 1997, "Modeling low Reynolds number incompressible flows using
 Phys. 136, with the vector Laplacian of Monaghan 2005 (Rep. Prog. Phys. 68, Eq. 6.xx) that
 SPlisHSPlasH's ``Viscosity_Standard`` uses:
 
-    a_i += 2 (d + 2) nu sum_j (m_j / rho_j) (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) grad W_ij
+    a_i += 2 (d + 2) nu sum_j (m_j / rho_ij) (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) grad W_ij
 
-with kinematic viscosity nu [m^2/s]. It is Galilean invariant, vanishes for rigid rotation and
+with kinematic viscosity nu [m^2/s] and ``rho_ij = (rho_i + rho_j) / 2``. SPlisHSPlasH uses
+``m_j / rho_j``; the pair-averaged density makes the pair forces exactly antisymmetric, so linear
+momentum is conserved to round-off (tested), and it equals ``m_j / rho_j`` at uniform density. It is Galilean invariant, vanishes for rigid rotation and
 conserves linear and angular momentum. Boundary particles (static or moving with velocity v_b)
 contribute the same term with ``m_j / rho_j -> rho0 V_b / rho_i`` and their own ``nu_b``.
 """
@@ -36,7 +38,7 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, 
                 r2 += t * t
                 vx += (v[d, i] - v[d, j]) * t
             f = kernel_dw(kid, r2 ** 0.5, h, dim)
-            s = c * nu * (m[j] / rho[j]) * vx / (r2 + eps) * f
+            s = c * nu * (2.0 * m[j] / (rho[i] + rho[j])) * vx / (r2 + eps) * f
             acc0 += s * (x[0, i] - x[0, j])
             acc1 += s * (x[1, i] - x[1, j]) if dim > 1 else 0.0
             acc2 += s * (x[2, i] - x[2, j]) if dim > 2 else 0.0
