@@ -1,0 +1,444 @@
+"""The ``sphkit`` command.
+
+::
+
+    sphkit run [SCENE] [--until T] [--out DIR] [--fps F] [--format vtk,ply] [--quiet]
+    sphkit scenes
+    sphkit --version
+
+``sphkit run`` simulates a scene (a built-in name, see ``sphkit scenes``, or a scene file: sphkit
+JSON/YAML or SPlisHSPlasH JSON) and writes the frames and ``manifest.json`` into the output folder
+(``--out``, else the scene's ``output.directory``, else ``out/<scene name>``; relative paths are
+relative to the current folder). Frames of an earlier run that its manifest lists are removed
+first, so that the folder holds one run. Progress goes to stderr: a live bar on a terminal, a log
+line every ~2 s and at every frame otherwise.
+
+Exit codes: 0 finished; 1 failed (e.g. an output file could not be written); 2 bad command line
+or scene; 3 the simulation became unstable (frames so far are kept, the diagnosis is printed and
+recorded in the manifest); 130 interrupted by Ctrl-C (143 by SIGTERM).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import signal
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, TextIO
+
+from sphkit.io.frames import FORMATS, FrameWriter
+from sphkit.io.manifest import MANIFEST_NAME, Manifest, read_manifest, sphkit_version
+
+DEFAULT_SCENE = "dambreak-3d"
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+EXIT_UNSTABLE = 3
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
+
+LOG_INTERVAL_S = 2.0
+
+
+# -- argument types: each names the value and what was expected ---------------------------------
+def _positive_float(what: str, example: str) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(
+                f"got {text!r}; expected a positive number: {what}, e.g. {example}"
+            )
+        return value
+
+    parse.__name__ = "positive number"
+    return parse
+
+
+def _formats(text: str) -> list[str]:
+    names = [s.strip().lower() for s in text.split(",") if s.strip()]
+    bad = [n for n in names if n not in FORMATS]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(
+            f"got {text!r}; expected a comma-separated list of the formats "
+            f"{', '.join(FORMATS)} (e.g. vtk,ply)"
+        )
+    return list(dict.fromkeys(names))
+
+
+_formats.__name__ = "format list"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``sphkit`` command."""
+    parser = argparse.ArgumentParser(
+        prog="sphkit",
+        description="Smoothed Particle Hydrodynamics for computer graphics.",
+    )
+    parser.add_argument("--version", action="version", version=f"sphkit {sphkit_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    run = sub.add_parser(
+        "run", help="simulate a scene and write frames",
+        description="Simulate a scene and write its frames and manifest.json.",
+        epilog="Exit codes: 0 finished, 1 failed, 2 bad arguments or scene, 3 unstable, "
+               "130 interrupted.",
+    )
+    run.add_argument("scene", nargs="?", default=DEFAULT_SCENE, metavar="SCENE",
+                     help=f"built-in scene name (see 'sphkit scenes') or scene file "
+                          f"(default: {DEFAULT_SCENE})")
+    run.add_argument("--until", type=_positive_float("simulated end time in seconds", "2.5"),
+                     metavar="T", help="simulated end time [s] (default: the scene's)")
+    run.add_argument("--out", type=Path, metavar="DIR",
+                     help="output folder (default: the scene's output.directory, "
+                          "else out/<scene name>)")
+    run.add_argument("--fps", type=_positive_float("frames per simulated second", "25"),
+                     metavar="F", help="frames per simulated second [1/s] (default: the scene's)")
+    run.add_argument("--format", type=_formats, dest="formats", metavar="LIST",
+                     help=f"comma-separated frame formats out of {', '.join(FORMATS)} "
+                          "(default: the scene's)")
+    run.add_argument("--quiet", "-q", action="store_true",
+                     help="print nothing but errors")
+
+    sub.add_parser("scenes", help="list the built-in scenes",
+                   description="List the built-in scenes with their descriptions.")
+    return parser
+
+
+# -- progress reporting ----------------------------------------------------------------------
+def _fmt(value: float | None, spec: str, scale: float = 1.0, unit: str = "") -> str:
+    if value is None or not math.isfinite(value):
+        return "-"
+    return f"{value * scale:{spec}}{unit}"
+
+
+class _Reporter:
+    """Progress of a run on stderr; the base class prints nothing (--quiet)."""
+
+    def __init__(self, until: float) -> None:
+        self.until = until
+        self.t0 = time.perf_counter()
+        self._mark = (self.t0, 0)  # (wall time, step count) of the last rate measurement
+        self.rate: float | None = None
+
+    def _update_rate(self, step_count: int, min_interval: float) -> None:
+        """Steps per wall second since the last measurement at least ``min_interval`` s ago."""
+        now = time.perf_counter()
+        t, n = self._mark
+        if now - t < max(min_interval, 1e-3) or step_count <= n:
+            return
+        self.rate = (step_count - n) / (now - t)
+        self._mark = (now, step_count)
+
+    def stats_text(self, sim: Any) -> str:
+        """Speed, size and health of the run: steps/s, particles, dt, density error, max|v|."""
+        last = sim.last
+        return "  ".join([
+            f"{_fmt(self.rate, '.3g')} steps/s",
+            f"{sim.fluid.n} particles",
+            f"dt {_fmt(sim.dt, '.2e')} s",
+            f"rho err avg {_fmt(last and last.density_error_avg, '.2f', 100, '%')}",
+            f"max|v| {_fmt(last and last.max_velocity, '.3g')} m/s",
+        ])
+
+    def __enter__(self) -> _Reporter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+    def message(self, text: str) -> None:
+        """An informational line."""
+
+    def step(self, sim: Any) -> None:
+        """Called after every time step."""
+
+    def frame(self, sim: Any, frame: int) -> None:
+        """Called after a frame was written."""
+
+    def done(self, sim: Any) -> None:
+        """Called when the run reached its end time."""
+
+
+class _PlainReporter(_Reporter):
+    """One log line every ~2 s of wall time and one per frame (stderr is not a terminal)."""
+
+    def __init__(self, until: float, stream: TextIO) -> None:
+        super().__init__(until)
+        self.stream = stream
+        self._last_line = self.t0
+
+    def message(self, text: str) -> None:
+        print(text, file=self.stream, flush=True)
+
+    def _line(self, sim: Any, suffix: str = "") -> None:
+        pct = 100.0 * sim.time / self.until
+        print(f"t={sim.time:.4f}/{self.until:.4f} s ({pct:3.0f}%)  step {sim.step_count}  "
+              f"{self.stats_text(sim)}{suffix}", file=self.stream, flush=True)
+        self._last_line = time.perf_counter()
+
+    def step(self, sim: Any) -> None:
+        if time.perf_counter() - self._last_line >= LOG_INTERVAL_S:
+            self._update_rate(sim.step_count, 0.0)
+            self._line(sim)
+
+    def frame(self, sim: Any, frame: int) -> None:
+        self._update_rate(sim.step_count, 0.0)
+        self._line(sim, f"  [frame {frame}]")
+
+
+class _RichReporter(_Reporter):
+    """A live progress bar (stderr is a terminal)."""
+
+    def __init__(self, until: float, stream: TextIO) -> None:
+        super().__init__(until)
+        from rich.console import Console
+        from rich.progress import (
+            BarColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+        from rich.text import Text
+
+        reporter = self
+
+        class _TwoLineProgress(Progress):
+            def get_renderables(self) -> Iterator[Any]:
+                yield self.make_tasks_table(self.tasks)
+                yield reporter.stats
+
+        self.console = Console(file=stream)
+        self.stats = Text("")
+        self.progress = _TwoLineProgress(
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            TextColumn("t {task.completed:.3f}/{task.total:.3f} s"),
+            TimeElapsedColumn(),
+            TextColumn("eta"),
+            TimeRemainingColumn(),
+            console=self.console,
+            redirect_stdout=False, redirect_stderr=False,
+        )
+        self.task = self.progress.add_task("frame 0", total=until)
+        self._last_update = 0.0
+
+    def __enter__(self) -> _RichReporter:
+        self.progress.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.progress.stop()
+
+    def message(self, text: str) -> None:
+        self.console.print(text, highlight=False, markup=False)
+
+    def _update(self, sim: Any, description: str | None = None) -> None:
+        self.stats.plain = self.stats_text(sim)
+        self.progress.update(self.task, completed=min(sim.time, self.until),
+                             description=description)
+        self._last_update = time.perf_counter()
+
+    def step(self, sim: Any) -> None:
+        self._update_rate(sim.step_count, 0.5)
+        if time.perf_counter() - self._last_update >= 0.1:
+            self._update(sim)
+
+    def frame(self, sim: Any, frame: int) -> None:
+        self._update(sim, f"frame {frame}")
+
+    def done(self, sim: Any) -> None:
+        self._update(sim)
+
+
+def _reporter(until: float, quiet: bool, stream: TextIO) -> _Reporter:
+    if quiet:
+        return _Reporter(until)
+    if stream.isatty():
+        return _RichReporter(until, stream)
+    return _PlainReporter(until, stream)
+
+
+# -- the run command -------------------------------------------------------------------------
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like Ctrl-C."""
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    def handler(signum: int, frame: object) -> None:
+        raise _Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _remove_previous_run(out_dir: Path) -> int:
+    """Delete the files an earlier run's manifest lists in ``out_dir``; return how many."""
+    path = out_dir / MANIFEST_NAME
+    if not path.is_file():
+        return 0
+    try:
+        old = read_manifest(path)
+        names = [f for rec in old.get("frames", []) for f in rec.get("files", [])]
+        series = old.get("output", {}).get("series")
+        if series:
+            names.append(series)
+    except (OSError, ValueError, AttributeError, TypeError):
+        return 0
+    removed = 0
+    for name in names:
+        p = Path(name)
+        if not isinstance(name, str) or p.is_absolute() or len(p.parts) != 1:
+            continue  # only plain file names inside the folder
+        try:
+            (out_dir / p).unlink()
+            removed += 1
+        except FileNotFoundError:
+            pass
+    return removed
+
+
+def _error(text: str) -> None:
+    print(f"sphkit: error: {text}", file=sys.stderr, flush=True)
+
+
+def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    """``sphkit run``: simulate, write frames and the manifest; return the exit code."""
+    from sphkit.scene.loader import load_scene
+    from sphkit.scene.schema import SceneError
+    from sphkit.simulation import InstabilityError, Simulation
+
+    try:
+        scene = load_scene(args.scene)
+        if args.until is not None:
+            scene.configuration.time.until = args.until
+        if args.fps is not None:
+            scene.output.fps = args.fps
+        if args.formats is not None:
+            scene.output.formats = args.formats
+        sim = Simulation.from_scene(scene)
+    except SceneError as e:
+        _error(f"scene {args.scene!r}:\n{e}")
+        return EXIT_USAGE
+    except OSError as e:
+        _error(f"scene {args.scene!r}: {e}")
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        _error("interrupted while building the simulation")
+        return EXIT_INTERRUPTED
+
+    until = scene.configuration.time.until
+    fps = scene.output.fps
+    formats = list(scene.output.formats)
+    out_dir = args.out or Path(scene.output.directory or Path("out") / scene.name)
+
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        removed = _remove_previous_run(out_dir)
+        writer = FrameWriter(out_dir, formats, sim.dim)
+        manifest = Manifest(
+            out_dir, scene, command=["sphkit", *argv],
+            output={"directory": str(out_dir), "formats": formats, "fps": fps,
+                    "dim": sim.dim,
+                    "series": writer.series_path.name if "vtk" in formats else None},
+        )
+    except OSError as e:
+        _error(f"cannot write to the output folder {str(out_dir)!r}: {e}")
+        return EXIT_FAILED
+
+    report = _reporter(until, args.quiet, sys.stderr)
+    if removed:
+        report.message(f"removed {removed} file(s) of the previous run in {out_dir}")
+    report.message(
+        f"scene {scene.name!r}: {sim.fluid.n} fluid and {sim.boundary.n} boundary particles, "
+        f"{sim.dim}D, until t = {until:g} s; {fps:g} frames/s as {', '.join(formats)} "
+        f"into {out_dir}"
+    )
+
+    def on_frame(s: Any, k: int) -> None:
+        files = writer.write(s, k)
+        manifest.add_frame(s, k, files, max_displacement=writer.max_displacement)
+        report.frame(s, k)
+
+    def on_step(s: Any, stats: Any) -> None:
+        report.step(s)
+
+    try:
+        with _sigterm_as_interrupt(), report:
+            sim.run(until=until, fps=fps, on_frame=on_frame, on_step=on_step)
+            report.done(sim)
+        manifest.finish("finished", stats=sim.last)
+    except InstabilityError as e:
+        _finish(manifest, "unstable", str(e), e.stats)
+        _error(f"{e}\nThe {len(manifest.frames)} frame(s) written so far are kept in {out_dir}.")
+        return EXIT_UNSTABLE
+    except KeyboardInterrupt as e:
+        terminated = isinstance(e, _Terminated)
+        why = "terminated (SIGTERM)" if terminated else "interrupted (Ctrl-C)"
+        _finish(manifest, "interrupted",
+                f"{why} at step {sim.step_count}, t = {sim.time:.6g} s", sim.last)
+        _error(f"{why} at t = {sim.time:.6g} s; the {len(manifest.frames)} frame(s) written so "
+               f"far are kept in {out_dir}")
+        return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+    except OSError as e:
+        _finish(manifest, "failed", f"{type(e).__name__}: {e}", sim.last)
+        _error(f"writing the output failed: {e}")
+        return EXIT_FAILED
+    except BaseException as e:
+        _finish(manifest, "failed", f"{type(e).__name__}: {e}", sim.last)
+        raise
+    wall = time.perf_counter() - report.t0
+    report.message(
+        f"finished: {len(manifest.frames)} frame(s), {sim.step_count} steps in {wall:.1f} s; "
+        f"output in {out_dir}"
+    )
+    return EXIT_OK
+
+
+def _finish(manifest: Manifest, status: str, message: str, stats: Any) -> None:
+    """Record how a run ended; a manifest that cannot be written must not mask why it ended."""
+    try:
+        manifest.finish(status, message, stats=stats)
+    except OSError as e:
+        _error(f"cannot write {str(manifest.path)!r}: {e}")
+
+
+def cmd_scenes(args: argparse.Namespace) -> int:
+    """``sphkit scenes``: list the built-in scenes on stdout."""
+    from sphkit.scene.loader import builtin_scenes
+
+    scenes = builtin_scenes()
+    width = max((len(n) for n in scenes), default=0)
+    for name, description in sorted(scenes.items()):
+        print(f"{name:<{width}}  {description}")
+    return EXIT_OK
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``sphkit`` command with ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # --help, --version, or a usage error (already printed)
+        return e.code if isinstance(e.code, int) else EXIT_USAGE
+    if args.command == "run":
+        return cmd_run(args, argv)
+    return cmd_scenes(args)

@@ -1,0 +1,222 @@
+"""The ``sphkit`` command: arguments, scene errors, a tiny run, an unstable run, an interrupt."""
+
+from __future__ import annotations
+
+import io
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sphkit.cli import main
+from sphkit.io.frames import FrameWriter, read_frame
+from sphkit.io.manifest import read_manifest
+
+#: 2D, 20 x 10 = 200 fluid particles falling freely in a box (0.1 m from its walls);
+#: 0.05 s at 40 frames/s = frames 0, 1, 2
+TINY = {
+    "name": "tiny",
+    "configuration": {"dim": 2, "particle_radius": 0.01, "time": {"until": 0.05}},
+    "fluid_blocks": [{"start": [0.1, 0.1], "end": [0.5, 0.3]}],
+    "boxes": [{"min": [0.0, 0.0], "max": [0.6, 0.5]}],
+    "output": {"fps": 40, "formats": ["vtk", "ply"]},
+}
+
+
+def _scene_file(folder: Path, scene: dict, name: str = "scene.json") -> Path:
+    path = folder / name
+    path.write_text(json.dumps(scene))
+    return path
+
+
+# -- command line without a simulation -----------------------------------------------------------
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("sphkit ")
+
+
+def test_scenes_lists_dambreak_3d(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["scenes"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    names = {line.split()[0] for line in lines}
+    assert "dambreak-3d" in names
+    assert all(len(line.split(maxsplit=1)) == 2 for line in lines)  # each has a description
+
+
+@pytest.mark.parametrize(
+    ("flags", "named"),
+    [
+        (["--format", "xyz"], ["--format", "'xyz'", "vtk, ply"]),
+        (["--format", "vtk,obj"], ["--format", "'vtk,obj'", "vtk, ply"]),
+        (["--fps", "-1"], ["--fps", "'-1'", "positive number"]),
+        (["--fps", "abc"], ["--fps", "'abc'", "positive number"]),
+        (["--until", "0"], ["--until", "'0'", "positive number"]),
+        (["--until", "inf"], ["--until", "'inf'", "positive number"]),
+        (["--frobnicate"], ["--frobnicate"]),
+    ],
+)
+def test_bad_flags_exit_2_naming_flag_value_expectation(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path, flags: list[str],
+        named: list[str]) -> None:
+    assert main(["run", "dambreak-3d", "--out", str(tmp_path), *flags]) == 2
+    err = capsys.readouterr().err
+    for text in named:
+        assert text in err
+    assert list(tmp_path.iterdir()) == []  # nothing was run or written
+
+
+def test_no_command_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([]) == 2
+    assert "COMMAND" in capsys.readouterr().err
+
+
+def test_bad_scene_file_exits_2_naming_the_field(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    bad = dict(TINY, configuration={"dim": 2, "particle_radius": -0.01})
+    path = _scene_file(tmp_path, bad)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "particle_radius" in err and "-0.01" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_unknown_scene_exits_2(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    assert main(["run", "no-such-scene", "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    assert "no-such-scene" in capsys.readouterr().err
+
+
+def test_module_entry_point() -> None:
+    proc = subprocess.run([sys.executable, "-m", "sphkit", "--version"], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0 and proc.stdout.startswith("sphkit ")
+
+
+# -- runs --------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """Run the tiny scene once (the first run compiles the kernels); keep what it printed."""
+    folder = tmp_path_factory.mktemp("tiny")
+    path = _scene_file(folder, TINY)
+    out = folder / "out"
+    old_err = sys.stderr
+    sys.stderr = io.StringIO()  # not a terminal: plain log lines
+    try:
+        code = main(["run", str(path), "--out", str(out)])
+        err = sys.stderr.getvalue()
+    finally:
+        sys.stderr = old_err
+    return {"code": code, "err": err, "out": out, "scene": path}
+
+
+def test_tiny_run_writes_frames_and_manifest(tiny_run: dict) -> None:
+    assert tiny_run["code"] == 0, tiny_run["err"]
+    out: Path = tiny_run["out"]
+    manifest = read_manifest(out)
+    assert manifest["status"] == "finished" and manifest["message"] is None
+    frames = manifest["frames"]
+    assert [f["frame"] for f in frames] == [0, 1, 2]
+    assert frames[-1]["time"] >= 0.05 - 1e-9
+    assert manifest["scene"]["name"] == "tiny"
+    assert manifest["last_step"]["step"] == frames[-1]["step"] > 0
+    for rec in frames:
+        assert rec["files"] == [f"frame_{rec['frame']:05d}.vtu", f"frame_{rec['frame']:05d}.ply"]
+        vtu, ply = (read_frame(out / name) for name in rec["files"])
+        assert vtu["position"].shape == (200, 3) == ply["position"].shape
+        assert np.all(vtu["position"][:, 2] == 0.0)  # 2D padded with z = 0
+        for key in ("position", "velocity", "density", "pressure", "id"):
+            np.testing.assert_array_equal(vtu[key], ply[key])
+        np.testing.assert_array_equal(vtu["id"], np.arange(200))
+    # free fall, recorded in the frames: y drops by g t^2 / 2, v_y = -g t (t = frame time)
+    first, last = (read_frame(out / frames[k]["files"][0]) for k in (0, 2))
+    t = frames[2]["time"]
+    drop = first["position"][:, 1] - last["position"][:, 1]
+    np.testing.assert_allclose(drop, 9.81 * t**2 / 2, rtol=0.05)
+    np.testing.assert_allclose(last["velocity"][:, 1], -9.81 * t, rtol=0.01)
+    # the manifest's max displacement is that between frames 1 and 2
+    middle = read_frame(out / frames[1]["files"][0])
+    moved = np.linalg.norm(last["position"] - middle["position"], axis=1).max()
+    assert frames[0]["max_displacement"] is None
+    assert frames[2]["max_displacement"] == pytest.approx(moved, rel=1e-12)
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [n for f in frames for n in f["files"]] + ["frame.vtu.series", "manifest.json"])
+
+
+def test_tiny_run_logs_plain_lines(tiny_run: dict) -> None:
+    err: str = tiny_run["err"]
+    assert "200 fluid" in err
+    for k in range(3):
+        assert f"[frame {k}]" in err
+    assert "finished: 3 frame(s)" in err
+
+
+def test_rerun_with_flags_replaces_previous_frames(tiny_run: dict, tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    scene = str(tiny_run["scene"])
+    assert main(["run", scene, "--out", str(out), "--quiet"]) == 0
+    assert len(list(out.glob("frame_*"))) == 6  # frames 0..2 as vtu and ply
+    code = main(["run", scene, "--out", str(out), "--until", "0.025", "--fps", "40",
+                 "--format", "ply", "--quiet"])
+    assert code == 0
+    assert capsys.readouterr().err == ""  # --quiet
+    manifest = read_manifest(out)
+    assert manifest["scene"]["configuration"]["time"]["until"] == 0.025
+    assert manifest["output"]["formats"] == ["ply"]
+    # the earlier run's frames 0..2 (vtu + ply) and its series file are gone
+    assert sorted(p.name for p in out.iterdir()) == [
+        "frame_00000.ply", "frame_00001.ply", "manifest.json"]
+
+
+def test_unstable_run_exits_3_and_keeps_frame_0(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    scene = json.loads(json.dumps(TINY))
+    scene["configuration"]["max_velocity"] = 1e-3  # gravity exceeds it in the first step
+    path = _scene_file(tmp_path, scene)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 3
+    err = capsys.readouterr().err
+    assert "step" in err and "max velocity" in err
+    manifest = read_manifest(out)
+    assert manifest["status"] == "unstable"
+    assert "max velocity" in manifest["message"]
+    assert manifest["last_step"]["max_velocity"] > 1e-3
+    assert [f["frame"] for f in manifest["frames"]] == [0]
+    assert read_frame(out / "frame_00000.vtu")["position"].shape == (200, 3)
+
+
+def test_interrupt_exits_130_and_records_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    original = FrameWriter.write
+
+    def write(self: FrameWriter, sim: object, frame: int) -> list[Path]:
+        if frame == 1:
+            raise KeyboardInterrupt
+        return original(self, sim, frame)
+
+    monkeypatch.setattr(FrameWriter, "write", write)
+    out = tmp_path / "out"
+    assert main(["run", str(_scene_file(tmp_path, TINY)), "--out", str(out), "--quiet"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    manifest = read_manifest(out)
+    assert manifest["status"] == "interrupted"
+    assert [f["frame"] for f in manifest["frames"]] == [0]
+    # no half-written frame 1 and no temporary files
+    assert sorted(p.name for p in out.iterdir()) == [
+        "frame.vtu.series", "frame_00000.ply", "frame_00000.vtu", "manifest.json"]
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_on_a_terminal(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    stream = _Terminal()
+    monkeypatch.setattr(sys, "stderr", stream)
+    path = _scene_file(tmp_path, TINY)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--until", "0.025"]) == 0
+    text = stream.getvalue()
+    assert "particles" in text and "steps/s" in text and "finished" in text
