@@ -1,0 +1,293 @@
+"""Neighbourhood search against brute force and SciPy, edge cases, z-order, ParticleSet.permute.
+
+sphkit's convention is strict: j is a neighbour of i when |x_i - x_j| < h. The oracles are the
+exact NumPy distance test ``r^2 < h^2`` and scipy.spatial.cKDTree (whose ball includes r = h, so it
+is asked with a radius a hair below h after checking that no pair lies in that hair).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists, zorder_permutation
+from sphkit.core.particles import ParticleSet
+
+
+def _brute(xq: np.ndarray, x: np.ndarray, h: float, exclude_self: bool = False) -> list[np.ndarray]:
+    """Sorted neighbour indices (r < h) in x (dim, N) of every column of xq (dim, M)."""
+    out = []
+    for i in range(xq.shape[1]):
+        r2 = ((x - xq[:, i : i + 1]) ** 2).sum(axis=0)
+        hits = np.flatnonzero(r2 < h * h)
+        if exclude_self:
+            hits = hits[hits != i]
+        out.append(hits)
+    return out
+
+
+def _assert_lists(nl: NeighborList, expected: list[np.ndarray], n_searched: int) -> None:
+    """CSR structure is valid and every list equals the expected set (order is free)."""
+    assert len(nl) == len(expected)
+    assert nl.offsets[0] == 0
+    assert np.all(np.diff(nl.offsets) >= 0)
+    assert nl.offsets[-1] == nl.indices.size
+    if nl.indices.size:
+        assert 0 <= nl.indices.min() and nl.indices.max() < n_searched
+    for i, exp in enumerate(expected):
+        got = np.sort(nl.neighbors(i))
+        np.testing.assert_array_equal(got, exp, err_msg=f"neighbours of point {i}")
+
+
+def _kdtree_lists(xq: np.ndarray, x: np.ndarray, h: float) -> list[np.ndarray]:
+    tree = cKDTree(x.T)
+    return [
+        np.sort(np.asarray(v, dtype=np.int64)) for v in tree.query_ball_point(xq.T, h * (1 - 1e-9))
+    ]
+
+
+def _no_pair_near_h(xq: np.ndarray, x: np.ndarray, h: float) -> bool:
+    """No distance within 1e-9 h of h: the r < h decision is then insensitive to rounding."""
+    d = cKDTree(x.T).sparse_distance_matrix(cKDTree(xq.T), h * (1 + 1e-8), output_type="ndarray")
+    return not np.any(np.abs(d["v"] - h) <= 1e-9 * h)
+
+
+# -- random sets ---------------------------------------------------------------------------------
+# about a dozen neighbours per particle, domains straddling 0 (negative cells are floored)
+CASES = {1: (1500, 0.005), 2: (1500, 0.05), 3: (1500, 0.12)}
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_random_set_matches_brute_force_and_kdtree(dim: int) -> None:
+    n, h = CASES[dim]
+    rng = np.random.default_rng(10 + dim)
+    x = rng.uniform(-0.4, 0.6, size=(dim, n))
+    assert _no_pair_near_h(x, x, h)
+    nl = neighbor_lists(x, h)
+    expected = _brute(x, x, h, exclude_self=True)
+    _assert_lists(nl, expected, n)
+    assert nl.counts().mean() > 5  # the test exercises real lists, not empty ones
+    # cKDTree as a second, independent oracle (it includes the point itself)
+    kd = _kdtree_lists(x, x, h)
+    for i in range(n):
+        np.testing.assert_array_equal(np.sort(nl.neighbors(i)), kd[i][kd[i] != i])
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_exclude_self(dim: int) -> None:
+    n, h = CASES[dim]
+    x = np.random.default_rng(20 + dim).uniform(0.0, 1.0, size=(dim, n))
+    grid = Grid(x, h)
+    with_self = grid.query(x)
+    without = grid.query(x, exclude_self=True)
+    # self (r = 0 < h) is in every list exactly once without exclusion, and nowhere with it
+    np.testing.assert_array_equal(with_self.counts(), without.counts() + 1)
+    for i in range(n):
+        assert np.count_nonzero(with_self.neighbors(i) == i) == 1
+        assert i not in without.neighbors(i)
+    # neighbor_lists is the self-query with exclusion
+    nl = neighbor_lists(x, h)
+    np.testing.assert_array_equal(nl.offsets, without.offsets)
+    for i in range(n):
+        np.testing.assert_array_equal(np.sort(nl.neighbors(i)), np.sort(without.neighbors(i)))
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_fluid_against_boundary(dim: int) -> None:
+    h = CASES[dim][1]
+    rng = np.random.default_rng(30 + dim)
+    fluid = rng.uniform(0.0, 0.5, size=(dim, 800))
+    # a boundary set with a different extent and origin; some fluid points lie outside its box
+    boundary = rng.uniform(-0.2, 0.3, size=(dim, 600))
+    assert _no_pair_near_h(fluid, boundary, h)
+    fb = Grid(boundary, h).query(fluid)  # indices into the boundary set
+    _assert_lists(fb, _brute(fluid, boundary, h), boundary.shape[1])
+    bf = Grid(fluid, h).query(boundary)  # and the other way round
+    _assert_lists(bf, _brute(boundary, fluid, h), fluid.shape[1])
+    assert fb.indices.size == bf.indices.size  # the relation is symmetric: same number of pairs
+    # query points far from the searched set (beyond its grid in both directions) have no neighbours
+    far = np.concatenate([np.full((dim, 1), -50.0), np.full((dim, 1), 75.0)], axis=1)
+    assert np.all(Grid(boundary, h).query(far).counts() == 0)
+
+
+# -- edge cases -----------------------------------------------------------------------------------
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_empty_sets(dim: int) -> None:
+    h = 0.1
+    x = np.random.default_rng(1).uniform(size=(dim, 10))
+    empty = np.zeros((dim, 0))
+    nl = Grid(empty, h).query(x)  # N = 0: every query point has an empty list
+    assert len(nl) == 10 and nl.indices.size == 0
+    np.testing.assert_array_equal(nl.offsets, np.zeros(11))
+    nl = Grid(x, h).query(empty)  # M = 0: no lists
+    assert len(nl) == 0 and nl.indices.size == 0
+    np.testing.assert_array_equal(nl.offsets, [0])
+    assert len(neighbor_lists(empty, h)) == 0
+    assert zorder_permutation(empty, h).size == 0
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_one_particle(dim: int) -> None:
+    h = 0.1
+    x = np.full((dim, 1), 0.33)
+    grid = Grid(x, h)
+    assert grid.query(x, exclude_self=True).indices.size == 0
+    np.testing.assert_array_equal(grid.query(x).indices, [0])
+    # query points at 0.99 h (inside) and 1.01 h, 3 h (outside) along the first axis
+    q = np.repeat(x, 3, axis=1)
+    q[0] += np.array([0.99, 1.01, 3.0]) * h
+    np.testing.assert_array_equal(grid.query(q).counts(), [1, 0, 0])
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_coincident_particles(dim: int) -> None:
+    n, h = 40, 0.1
+    x = np.full((dim, n), 0.7)
+    nl = neighbor_lists(x, h)
+    # all pairs are at r = 0 < h: each particle has the other n - 1
+    np.testing.assert_array_equal(nl.counts(), np.full(n, n - 1))
+    _assert_lists(nl, [np.delete(np.arange(n), i) for i in range(n)], n)
+    np.testing.assert_array_equal(Grid(x, h).query(x).counts(), np.full(n, n))
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_sparse_set_over_a_million_cells(dim: int) -> None:
+    h = 0.01
+    rng = np.random.default_rng(40 + dim)
+    base = np.zeros((dim, 500))
+    base[0] = rng.uniform(0.0, 1e6 * h, 500)
+    if dim > 1:
+        base[1:] = rng.uniform(0.0, 3 * h, size=(dim - 1, 500))
+    # each base point gets a partner closer than h/2, so there are neighbours to find
+    partners = base + rng.uniform(-0.25 * h, 0.25 * h, size=base.shape) / np.sqrt(dim)
+    x = np.concatenate([base, partners], axis=1)
+    n = x.shape[1]
+    assert _no_pair_near_h(x, x, h)
+    grid = Grid(x, h)
+    # memory is O(N) whatever the extent: a hash table of 2^k >= 2N buckets, never 1e6 cells
+    assert grid.bucket_start.size <= 4 * n + 2
+    assert grid.sorted_index.size == n and grid.sorted_key.size == n
+    assert grid.sorted_x.shape == (3, n)
+    nl = grid.query(x, exclude_self=True)
+    _assert_lists(nl, _brute(x, x, h, exclude_self=True), n)
+    assert np.all(nl.counts() >= 1)  # every point finds at least its partner
+
+
+def test_extent_beyond_grid_limit_raises() -> None:
+    x = np.array([[0.0, 3e6]])  # 3e6 cells of size 1 > 2^21 - 4
+    with pytest.raises(ValueError, match="^positions"):
+        Grid(x, 1.0)
+
+
+@pytest.mark.parametrize(
+    ("x", "h", "field"),
+    [
+        (np.zeros((4, 3)), 0.1, "positions"),  # dim 4
+        (np.zeros(3), 0.1, "positions"),  # not (dim, N)
+        (np.array([[0.0, np.nan]]), 0.1, "positions"),
+        (np.array([[0.0, np.inf]]), 0.1, "positions"),
+        (np.zeros((2, 3)), 0.0, "h"),
+        (np.zeros((2, 3)), -1.0, "h"),
+    ],
+)
+def test_bad_input_raises(x: np.ndarray, h: float, field: str) -> None:
+    with pytest.raises(ValueError, match=f"^{field}"):
+        Grid(x, h)
+
+
+def test_query_dimension_mismatch_raises() -> None:
+    grid = Grid(np.zeros((3, 4)), 0.1)
+    with pytest.raises(ValueError, match="dim"):
+        grid.query(np.zeros((2, 4)))
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_points_exactly_on_cell_boundaries_binary_exact(dim: int) -> None:
+    # h = 1/4 and positions k h/2 are exact binary fractions: x / h, distances and r^2 < h^2 are
+    # computed without rounding, so every other lattice plane is exactly on a cell boundary and the
+    # pairs at exactly r = h must be rejected (strict r < h). Tolerance: none, the lists are exact.
+    h = 0.25
+    k = np.arange(-6, 7)
+    x = np.stack(np.meshgrid(*[k * (h / 2)] * dim, indexing="ij")).reshape(dim, -1).copy()
+    n = x.shape[1]
+    nl = neighbor_lists(x, h)
+    _assert_lists(nl, _brute(x, x, h, exclude_self=True), n)
+    # an interior point's neighbours are the lattice offsets o with |o|^2 (h/2)^2 < h^2, |o|^2 < 4:
+    # 1D 2, 2D 8, 3D 26 (o = 2 e_d, at exactly h, is excluded)
+    idx = np.stack(np.meshgrid(*[k] * dim, indexing="ij")).reshape(dim, -1)
+    interior = np.all(np.abs(idx) <= 4, axis=0)
+    assert np.all(nl.counts()[interior] == {1: 2, 2: 8, 3: 26}[dim])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_points_on_cell_boundaries_up_to_rounding(dim: int) -> None:
+    # h = 0.15 with points on multiples of 0.1: every third plane falls on a cell boundary up to
+    # rounding (0.3 / 0.15 is 2 or 1.999...), while every distance (0.1, 0.141, 0.173, 0.2, ...)
+    # is at least 0.008 from h, so the expected lists do not depend on rounding
+    h = 0.15
+    k = np.arange(-9, 10)
+    x = np.stack(np.meshgrid(*[k * 0.1] * dim, indexing="ij")).reshape(dim, -1).copy()
+    assert _no_pair_near_h(x, x, h)
+    nl = neighbor_lists(x, h)
+    _assert_lists(nl, _brute(x, x, h, exclude_self=True), x.shape[1])
+
+
+# -- z-order --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_zorder_is_a_permutation_that_improves_locality(dim: int) -> None:
+    rng = np.random.default_rng(50 + dim)
+    n, h = 5000, 0.05
+    x = rng.uniform(-0.3, 0.7, size=(dim, n))
+    perm = zorder_permutation(x, h)
+    np.testing.assert_array_equal(np.sort(perm), np.arange(n))
+
+    def step(y: np.ndarray) -> float:
+        return float(np.linalg.norm(np.diff(y, axis=1), axis=0).mean())
+
+    # random order: mean step ~ 0.33 (1D), 0.52 (2D), 0.66 (3D) of the unit box; along a Morton
+    # curve of cells of size h = 0.05 consecutive points are mostly in the same or an adjacent cell:
+    # measured ratio 0.06 (2D), 0.12 (3D); 0.25 leaves room and still fails for any random order
+    assert step(x[:, perm]) < 0.25 * step(x)
+    # points of one cell are contiguous in z-order (the code is a function of the cell only)
+    cells = np.floor(x[:, perm] / h).astype(np.int64)
+    _, first = np.unique(cells, axis=1, return_index=True)
+    changes = np.count_nonzero(np.any(np.diff(cells, axis=1) != 0, axis=0))
+    assert changes == first.size - 1
+
+
+# -- ParticleSet.permute ------------------------------------------------------------------------
+def test_particleset_permute_keeps_fields_with_their_particles() -> None:
+    rng = np.random.default_rng(60)
+    ps = ParticleSet(3)
+    v = ps.register("v", "vector")
+    assert v.shape == (3, 0)
+    ps.register("p", "scalar")
+    a = ps.add(rng.uniform(0, 1, (300, 3)), "block-a")
+    b = ps.add(rng.uniform(2, 3, (200, 3)), "block-b", p=7.0)
+    ps["v"] = 2.0 * ps["x"] + 1.0  # a field that is a known function of the position
+    ps["p"][a.start : a.end] = ps["id"][a.start : a.end] * 0.5
+    x0 = ps["x"].copy()
+    ids0 = ps["id"].copy()
+    np.testing.assert_array_equal(ids0, np.arange(500))  # ids 0..N-1 in creation order
+
+    perm = zorder_permutation(ps["x"], 0.1)
+    assert not np.array_equal(perm, np.arange(500))  # the test really reorders
+    ps.permute(perm)
+    ids = ps["id"]
+    # every field travels with its particle: exact equality (only copies, no arithmetic)
+    np.testing.assert_array_equal(ids, ids0[perm])
+    np.testing.assert_array_equal(ps["x"], x0[:, ids])
+    np.testing.assert_array_equal(ps["v"], 2.0 * ps["x"] + 1.0)
+    in_a = (ids >= a.start) & (ids < a.end)
+    in_b = (ids >= b.start) & (ids < b.end)
+    np.testing.assert_array_equal(ps["p"][in_a], ids[in_a] * 0.5)
+    np.testing.assert_array_equal(ps["p"][in_b], 7.0)
+    assert np.all(ps["x"][:, in_b] >= 2.0)  # the object ranges still select their particles
+    for name in ("x", "v", "p", "id"):
+        assert ps[name].flags.c_contiguous
+    assert ps.view("x").shape == (500, 3)
+    # and the id order undoes the permutation
+    back = ps.order_by_id()
+    np.testing.assert_array_equal(ps["x"][:, back], x0)
+    np.testing.assert_array_equal(ps["id"][back], ids0)
