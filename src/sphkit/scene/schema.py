@@ -164,6 +164,7 @@ class Scene(_Model):
     """A whole scene."""
 
     name: str = "scene"
+    description: str = Field("", description="one line describing the scene (listings)")
     configuration: Configuration = Configuration()
     materials: list[Material] = [Material()]
     fluid_blocks: list[FluidBlock] = Field(default_factory=list)

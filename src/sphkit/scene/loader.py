@@ -1,0 +1,880 @@
+"""Scene front ends: sphkit's own JSON/YAML, built-in scenes, and SPlisHSPlasH JSON scenes.
+
+:func:`load_scene` is the one entry point; every front end produces a validated
+:class:`~sphkit.scene.schema.Scene`. Every error is a :class:`~sphkit.scene.schema.SceneError`
+whose message names the field path, the value and what was expected.
+
+SPlisHSPlasH translation
+------------------------
+:func:`from_splishsplash` reads SPlisHSPlasH's scene format (field names as SPlisHSPlasH spells
+them, methods chosen by its numbers; see ``reference/splishsplash_scene_format.md``). A field
+that is absent takes SPlisHSPlasH's default. Checked against SPlisHSPlasH's sources
+(``SPlisHSPlasH/Simulation.cpp``, ``TimeManager``/``SceneLoader.cpp``,
+``WCSPH/TimeStepWCSPH.cpp``, ``Viscosity/ViscosityBase.cpp``, ``Viscosity/Viscosity_Standard.cpp``,
+``XSPH.cpp``, ``Simulator/SimulatorBase.cpp``, ``Simulator/StaticBoundarySimulator.cpp``,
+``NonPressureForceRegistration.cpp``) and the scenes shipped with pysplishsplash 2.19:
+
+==========================  ===============================================================
+``simulationMethod``        4 (DFSPH); only 0 (WCSPH) is supported here
+``boundaryHandlingMethod``  2 (Bender et al. 2019 volume maps); only 0 (Akinci et al. 2012)
+                            is supported (checked only when the scene has rigid bodies)
+``particleRadius``          0.025 m
+``gravitation``             (0, -9.81, 0) m/s^2
+``timeStepSize``            0.001 s (initial step; the fixed step when ``cflMethod`` is 0)
+``cflMethod``               1 (0: fixed step, 1: CFL, 2: CFL with iteration control)
+``cflFactor``               0.5
+``cflMinTimeStepSize``      1e-4 s (hard-coded in older versions)
+``cflMaxTimeStepSize``      0.005 s
+``WCSPH.stiffness``         50 Pa (shipped scenes use 25,000 to 50,000); ``exponent`` 7
+``kernel``, ``gradKernel``  WCSPH selects the cubic spline; 0 cubic, 1 Wendland quintic C2,
+                            2 poly6, 3 spiky, 4 precomputed cubic (read as cubic). In 2D
+                            SPlisHSPlasH knows only 0 (cubic) and 1 (Wendland) and falls back
+                            to the cubic spline for any other number, as done here.
+``density0``                1000 kg/m^3
+``viscosityMethod``         0 (none); 1 Standard (``"Standard viscosity": {"viscosity": nu,
+                            "viscosityBoundary": nu_b}``, nu default 0.01 m^2/s, kinematic),
+                            2 Bender and Koschier 2017, 3 Peer et al. 2015, 4 Peer et al. 2016,
+                            5 Takahashi et al. 2015, 6 Weiler et al. 2018 (numbering of 2.16+;
+                            the XSPH filter is no longer a viscosity method but the per-material
+                            block ``"XSPH": {"xsph": c, "xsphBoundary": c_b}``, default 0)
+``stopAt``                  -1 (no end); mapped to ``time.until`` when > 0
+``dataExportFPS``           25; mapped to ``output.fps``
+==========================  ===============================================================
+
+Older scenes (before 2.16) write solver and method parameters flat (``"stiffness"`` in
+``Configuration``, ``"viscosity"`` in a material); those are read when the namespaced block is
+absent. Fields that only matter to SPlisHSPlasH's GUI, exporters or to methods the scene does not
+select are ignored quietly; any other field sphkit does not know is reported in one
+``UserWarning`` listing the field paths.
+
+Fluid blocks. SPlisHSPlasH (``SimulatorBase::createFluidBlocks``, ``denseMode`` 0) turns a block
+into the box ``lo = scale * start + translation``, ``hi = scale * end + translation`` and places
+``n = round((hi - lo) / 2r) - 1`` particles per axis at ``lo + 2r + 2r j`` (j = 0 .. n-1), i.e.
+one particle diameter inside the box on both sides (in 2D only x and y, at z = 0). sphkit's
+lattice (first particle at ``start + r``, last at or below ``end - r``) reproduces exactly these
+positions with the block ``start' = lo + r``, ``end' = lo + r + 2r n``. A block with n < 1 on an
+axis holds no particle in SPlisHSPlasH either; it is left out with a warning.
+
+Rigid bodies. Static walls become :class:`~sphkit.scene.schema.MeshBoundary` entries; the mesh
+is scaled, then rotated (``rotationAngle`` in radians about ``rotationAxis``), then translated,
+as in ``StaticBoundarySimulator``. ``geometryFile`` stays relative to the scene file
+(``scene.source``). In 2D SPlisHSPlasH samples the mesh's section with the plane z = 0 before the
+(in-plane) rotation and translation; sphkit intersects the placed mesh, which is the same for
+rotations about z and translations in the xy-plane.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import ValidationError
+
+from sphkit.scene.schema import Scene, SceneError, format_validation_error
+
+__all__ = [
+    "builtin_scenes",
+    "builtin_scene_path",
+    "from_splishsplash",
+    "is_splishsplash",
+    "load_scene",
+    "load_scene_file",
+    "resolve_scene_path",
+    "scene_from_dict",
+]
+
+SCENE_SUFFIXES = (".json", ".yaml", ".yml")
+_SCENES_DIR = Path(__file__).resolve().parent.parent / "scenes"
+
+
+# ----------------------------------------------------------------------------------------------
+# built-in scenes
+# ----------------------------------------------------------------------------------------------
+
+
+def _builtin_files() -> dict[str, Path]:
+    if not _SCENES_DIR.is_dir():
+        return {}
+    return {
+        p.stem: p
+        for p in sorted(_SCENES_DIR.iterdir())
+        if p.is_file() and p.suffix.lower() in SCENE_SUFFIXES
+    }
+
+
+def builtin_scenes() -> dict[str, str]:
+    """The built-in scenes: name -> one-line description (sorted by name)."""
+    out = {}
+    for name, path in _builtin_files().items():
+        try:
+            data = _read_mapping(path)
+            out[name] = str(data.get("description", "")).strip()
+        except SceneError as err:
+            out[name] = f"(unreadable: {err})"
+    return out
+
+
+def builtin_scene_path(name: str) -> Path:
+    """Path of the built-in scene ``name``; SceneError listing the known names otherwise."""
+    files = _builtin_files()
+    if name not in files:
+        raise SceneError(
+            f"unknown built-in scene {name!r}; built-in scenes: {', '.join(files) or '(none)'}"
+        )
+    return files[name]
+
+
+# ----------------------------------------------------------------------------------------------
+# files
+# ----------------------------------------------------------------------------------------------
+
+
+def _parse_json(text: str, path: Path) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as err:
+        raise SceneError(
+            f"scene file {str(path)!r}: invalid JSON at line {err.lineno}, column {err.colno}: "
+            f"{err.msg}"
+        ) from None
+
+
+def _parse_yaml(text: str, path: Path) -> Any:
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None) or getattr(err, "context_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(err, "problem", None) or str(err)
+        raise SceneError(f"scene file {str(path)!r}: invalid YAML{where}: {problem}") from None
+
+
+def _read_mapping(path: Path) -> dict[str, Any]:
+    """Read a JSON or YAML file whose top level is a mapping."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"scene file {str(path)!r}: not found") from None
+    except IsADirectoryError:
+        raise SceneError(f"scene file {str(path)!r}: is a directory, expected a file") from None
+    except UnicodeDecodeError:
+        raise SceneError(f"scene file {str(path)!r}: not a UTF-8 text file") from None
+    except OSError as err:
+        raise SceneError(f"scene file {str(path)!r}: cannot be read ({err.strerror})") from None
+    suffix = path.suffix.lower()
+    if suffix == ".json" or (suffix not in (".yaml", ".yml") and text.lstrip().startswith("{")):
+        data = _parse_json(text, path)
+    else:
+        data = _parse_yaml(text, path)
+    if not isinstance(data, dict):
+        raise SceneError(
+            f"scene file {str(path)!r}: got {type(data).__name__} at the top level; "
+            "expected a mapping of scene fields"
+        )
+    return data
+
+
+def resolve_scene_path(scene: Scene, path: str | Path) -> Path:
+    """Resolve a path written in a scene (e.g. a mesh file) against the scene file's folder."""
+    p = Path(path).expanduser()
+    if p.is_absolute() or not scene.source:
+        return p
+    return Path(scene.source).parent / p
+
+
+def load_scene_file(path: str | Path) -> Scene:
+    """Load a scene file: sphkit's JSON/YAML, or a SPlisHSPlasH JSON scene."""
+    p = Path(path).expanduser()
+    return scene_from_dict(_read_mapping(p), p)
+
+
+def load_scene(src: str | os.PathLike[str] | Mapping[str, Any] | Scene) -> Scene:
+    """Load a scene from a built-in name, a file, a dict, or return a Scene as it is.
+
+    Args:
+        src: a :class:`Scene`; a dict (sphkit's fields, or SPlisHSPlasH's when it has a
+            ``Configuration`` block); a path to a sphkit JSON/YAML or SPlisHSPlasH JSON file
+            (``scene.source`` becomes the file path, ``scene.name`` its stem unless the file
+            names the scene); or a built-in scene name (see :func:`builtin_scenes`).
+
+    Raises:
+        SceneError: the file is missing or malformed (with the line), the name is unknown (the
+            message lists the built-in scenes), or a field is invalid (path, value, expectation).
+    """
+    if isinstance(src, Scene):
+        return src
+    if isinstance(src, Mapping):
+        return scene_from_dict(src)
+    if isinstance(src, (str, os.PathLike)):
+        name = os.fspath(src)
+        path = Path(name).expanduser()
+        if path.is_file():
+            return load_scene_file(path)
+        files = _builtin_files()
+        if name in files:
+            return load_scene_file(files[name])
+        if path.is_dir():
+            raise SceneError(f"scene {name!r}: is a directory, expected a scene file")
+        if path.suffix.lower() in SCENE_SUFFIXES or "/" in name or os.sep in name:
+            raise SceneError(f"scene file {name!r}: not found")
+        raise SceneError(
+            f"unknown scene {name!r}: neither a scene file nor a built-in scene; "
+            f"built-in scenes: {', '.join(files) or '(none)'}"
+        )
+    raise SceneError(
+        f"cannot load a scene from a {type(src).__name__}; expected a built-in scene name, "
+        "a file path, a dict or a Scene"
+    )
+
+
+def is_splishsplash(data: Mapping[str, Any]) -> bool:
+    """Whether a scene dict is in SPlisHSPlasH's format (capitalized top-level blocks)."""
+    return any(k in data for k in ("Configuration", *_SPH_ARRAYS, *_SPH_UNSUPPORTED_ARRAYS))
+
+
+def scene_from_dict(data: Mapping[str, Any], path: str | Path | None = None) -> Scene:
+    """Validate a scene dict (sphkit's or SPlisHSPlasH's format) read from ``path`` (optional)."""
+    if not isinstance(data, Mapping):
+        raise SceneError(f"got {type(data).__name__}; expected a mapping of scene fields")
+    if is_splishsplash(data):
+        return from_splishsplash(data, path)
+    d = dict(data)
+    where = "scene"
+    if path is not None:
+        p = Path(path)
+        where = f"scene file {str(p)!r}"
+        d["source"] = str(p.resolve())
+        if not d.get("name"):
+            d["name"] = p.stem
+    try:
+        scene = Scene.model_validate(d)
+    except ValidationError as err:
+        raise SceneError(f"{where}: invalid scene:\n{format_validation_error(err)}") from None
+    for k, m in enumerate(scene.meshes):
+        f = resolve_scene_path(scene, m.geometry_file)
+        if not f.is_file():
+            raise SceneError(
+                f"{where}: meshes[{k}].geometry_file: got {m.geometry_file!r}: expected an "
+                f"existing mesh file (looked for {str(f)!r})"
+            )
+    return scene
+
+
+# ----------------------------------------------------------------------------------------------
+# SPlisHSPlasH
+# ----------------------------------------------------------------------------------------------
+
+_SPH_ARRAYS = ("Materials", "FluidBlocks", "RigidBodies")
+_SPH_UNSUPPORTED_ARRAYS = {
+    "FluidModels": "fluid models (particle files or meshes filled with fluid)",
+    "Emitters": "emitters",
+    "AnimationFields": "animation fields",
+    # joints of PositionBasedDynamics, which only connect dynamic rigid bodies
+    "BallJoints": "joints between dynamic rigid bodies",
+    "BallOnLineJoints": "joints between dynamic rigid bodies",
+    "HingeJoints": "joints between dynamic rigid bodies",
+    "UniversalJoints": "joints between dynamic rigid bodies",
+    "SliderJoints": "joints between dynamic rigid bodies",
+    "TargetAngleMotorHingeJoints": "motors on dynamic rigid bodies",
+    "TargetVelocityMotorHingeJoints": "motors on dynamic rigid bodies",
+    "TargetPositionMotorSliderJoints": "motors on dynamic rigid bodies",
+    "TargetVelocityMotorSliderJoints": "motors on dynamic rigid bodies",
+    "DamperJoints": "joints between dynamic rigid bodies",
+    "RigidBodyParticleBallJoints": "joints between dynamic rigid bodies",
+    "RigidBodySprings": "springs between dynamic rigid bodies",
+    "DistanceJoints": "joints between dynamic rigid bodies",
+}
+_SPH_TOP_QUIET = {"Simulation"}  # PositionBasedDynamics settings, only used by dynamic bodies
+
+_SIMULATION_METHODS = {
+    0: "WCSPH", 1: "PCISPH", 2: "PBF", 3: "IISPH", 4: "DFSPH", 5: "Projective Fluids", 6: "ICSPH",
+}
+_BOUNDARY_METHODS = {
+    0: "Akinci et al. 2012 boundary particles",
+    1: "Koschier and Bender 2017 density maps",
+    2: "Bender et al. 2019 volume maps",
+    3: "Nogina and Sellan 2026",
+}
+_VISCOSITY_METHODS = {
+    0: "none", 1: "Standard", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
+    4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)", 6: "Weiler et al. 2018",
+}
+_OTHER_METHODS = {
+    "vorticityMethod": {
+        1: "Bender et al. 2017 micropolar model", 2: "vorticity confinement",
+        3: "Liu et al. 2021 vorticity refinement",
+    },
+    "surfaceTensionMethod": {
+        1: "Becker & Teschner 2007", 2: "Akinci et al. 2013", 3: "He et al. 2014",
+        4: "Jeske et al. 2023", 5: "Zorilla, Ritter, et al. 2020",
+    },
+    "dragMethod": {1: "Macklin et al. 2014", 2: "Gissler et al. 2017"},
+    "elasticityMethod": {
+        1: "Becker et al. 2009", 2: "Peer et al. 2018", 3: "Kugelstadt et al. 2021",
+        4: "Kee et al. 2023",
+    },
+}
+_KERNELS_3D = {0: "cubic", 1: "wendland", 2: "poly6", 3: "spiky", 4: "cubic"}
+_KERNELS_2D = {0: "cubic", 1: "wendland", 2: "cubic", 3: "cubic", 4: "cubic"}
+_DENSE_MODES = {1: "more dense (hexagonal layers)", 2: "dense (hexagonal close packing)"}
+
+# Configuration fields that only matter to the GUI, the exporters, or to solvers the scene does
+# not select: ignored without a warning.
+_CONFIG_QUIET = {
+    "pause", "pauseAt", "cameraPosition", "cameraLookat", "numberOfStepsPerRenderUpdate",
+    "renderWalls", "colorMapType", "colorField", "renderMinValue", "renderMaxValue",
+    "renderMaxVelocity", "enablePartioExport", "enableVTKExport", "enableRigidBodyExport",
+    "enableRigidBodyOBJExport", "enableRigidBodyPLYExport", "enableRigidBodyVTKExport",
+    "particleAttributes", "enableStateExport", "stateExportFPS", "enableAsyncExport",
+    "enableObjectSplitting",
+    # other pressure solvers' namespaces and their flat (pre-2.16) parameters
+    "PCISPH", "PBF", "IISPH", "DFSPH", "Projective Fluids", "ICSPH", "minIterations",
+    "maxIterations", "maxError", "maxIterationsV", "maxErrorV", "enableDivergenceSolver",
+    "velocityUpdateMethod", "lambda", "pressureClamping",
+}
+_MATERIAL_QUIET = {
+    "colorField", "colorMapType", "renderMinValue", "renderMaxValue", "visible",
+    # emitter settings (emitters are rejected on their own)
+    "maxEmitterParticles", "emitterReuseParticles", "emitterBoxMin", "emitterBoxMax",
+}
+# namespaces of non-pressure methods; ignored when the material does not select the method
+_MATERIAL_NAMESPACES = {
+    "Bender and Koschier 2017", "Peer et al. 2015", "Peer et al. 2016",
+    "Takahashi et al. 2015 (improved)", "Weiler et al. 2018", "Bender et al. 2017",
+    "Vorticity confinement", "Liu et al. 2021", "Macklin et al. 2014", "Gissler et al. 2017",
+    "Becker & Teschner 2007", "Akinci et al. 2013", "He et al. 2014", "Jeske et al. 2023",
+    "Zorilla, Ritter, et al. 2020", "Becker et al. 2009", "Peer et al. 2018",
+    "Kugelstadt et al. 2021", "Kee et al. 2023",
+}
+_RIGID_QUIET = {
+    "color", "isWall", "mapFile", "mapThickness", "mapResolution", "samplingMode", "tubeMapOrder",
+    # PositionBasedDynamics settings, only used by dynamic bodies
+    "density", "friction", "restitution", "collisionObjectType", "collisionObjectScale",
+    "invertSDF", "id",
+}
+_BLOCK_QUIET = {"visMesh"}
+
+
+class _Translator:
+    """One SPlisHSPlasH scene -> sphkit scene dict, collecting unknown fields."""
+
+    def __init__(self, data: Mapping[str, Any], path: str | Path | None) -> None:
+        self.data = data
+        self.path = None if path is None else Path(path)
+        self.label = (
+            f"SPlisHSPlasH scene {str(self.path)!r}" if self.path else "SPlisHSPlasH scene"
+        )
+        self.unknown: list[str] = []
+        self.notes: list[str] = []
+        self.origin: dict[str, str] = {}  # sphkit field path -> SPlisHSPlasH field path
+
+    # -- errors and value readers --------------------------------------------------------------
+    def error(self, where: str, value: Any, expected: str) -> SceneError:
+        return SceneError(f"{self.label}: {where}: got {value!r}: expected {expected}")
+
+    def unsupported(self, where: str, message: str) -> SceneError:
+        return SceneError(f"{self.label}: {where}: {message}")
+
+    def obj(self, parent: Mapping[str, Any], key: str, where: str) -> dict[str, Any]:
+        v = parent.get(key)
+        if v is None:
+            return {}
+        if not isinstance(v, Mapping):
+            raise self.error(where, v, "an object {...}")
+        return dict(v)
+
+    def array(self, key: str) -> list[dict[str, Any]]:
+        v = self.data.get(key)
+        if v is None:
+            return []
+        if not isinstance(v, list):
+            raise self.error(key, v, "an array [...]")
+        for k, item in enumerate(v):
+            if not isinstance(item, Mapping):
+                raise self.error(f"{key}[{k}]", item, "an object {...}")
+        return [dict(item) for item in v]
+
+    def num(
+        self,
+        obj: Mapping[str, Any],
+        key: str,
+        where: str,
+        default: float,
+        *,
+        positive: bool = False,
+        nonneg: bool = False,
+    ) -> float:
+        v = obj.get(key)
+        if v is None:
+            return default
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise self.error(f"{where}.{key}", v, "a finite number")
+        if positive and not v > 0:
+            raise self.error(f"{where}.{key}", v, "a number > 0")
+        if nonneg and not v >= 0:
+            raise self.error(f"{where}.{key}", v, "a number >= 0")
+        return float(v)
+
+    def integer(self, obj: Mapping[str, Any], key: str, where: str, default: int) -> int:
+        v = obj.get(key)
+        if v is None:
+            return default
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
+            raise self.error(f"{where}.{key}", v, "an integer")
+        return int(v)
+
+    def flag(self, obj: Mapping[str, Any], key: str, where: str, default: bool) -> bool:
+        v = obj.get(key)
+        if v is None:
+            return default
+        if isinstance(v, bool):
+            return v
+        if isinstance(v, int):  # SPlisHSPlasH reads integers as booleans (non-zero is true)
+            return v != 0
+        raise self.error(f"{where}.{key}", v, "true or false")
+
+    def vec3(
+        self, obj: Mapping[str, Any], key: str, where: str, default: list[float]
+    ) -> list[float]:
+        v = obj.get(key)
+        if v is None:
+            return list(default)
+        if (
+            not isinstance(v, (list, tuple))
+            or len(v) != 3
+            or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in v)
+            or not all(math.isfinite(c) for c in v)
+        ):
+            raise self.error(f"{where}.{key}", v, "a list of 3 finite numbers")
+        return [float(c) for c in v]
+
+    def text(self, obj: Mapping[str, Any], key: str, where: str, default: str) -> str:
+        v = obj.get(key)
+        if v is None:
+            return default
+        if not isinstance(v, str):
+            raise self.error(f"{where}.{key}", v, "a string")
+        return v
+
+    def collect_unknown(
+        self, obj: Mapping[str, Any], where: str, known: set[str], quiet: set[str]
+    ) -> None:
+        for key in obj:
+            if key not in known and key not in quiet:
+                self.unknown.append(f"{where}.{key}" if where else key)
+
+    # -- translation ---------------------------------------------------------------------------
+    def translate(self) -> dict[str, Any]:
+        data = self.data
+        for key, what in _SPH_UNSUPPORTED_ARRAYS.items():
+            v = data.get(key)
+            if v:
+                n = len(v) if isinstance(v, list) else 1
+                raise self.unsupported(
+                    key, f"{n} {'entry' if n == 1 else 'entries'}; {what} are not supported yet"
+                )
+        self.collect_unknown(
+            data, "", {"Configuration", *_SPH_ARRAYS, *_SPH_UNSUPPORTED_ARRAYS}, _SPH_TOP_QUIET
+        )
+
+        cfg = self.obj(data, "Configuration", "Configuration")
+        rigid = self.array("RigidBodies")
+        configuration, output = self.configuration(cfg, bool(rigid))
+        dim = configuration["dim"]
+        r = configuration["particle_radius"]
+        materials = self.materials()
+        blocks = self.fluid_blocks(dim, r)
+        ids = [m["id"] for m in materials]
+        for b in blocks:  # SPlisHSPlasH gives a fluid without a material entry the defaults
+            if b["material"] not in ids:
+                ids.append(b["material"])
+                materials.append({"id": b["material"]})
+        if not materials:
+            materials.append({"id": "Fluid"})
+        meshes = self.rigid_bodies(rigid)
+
+        scene: dict[str, Any] = {
+            "name": self.path.stem if self.path else "splishsplash",
+            "description": "translated from the SPlisHSPlasH scene "
+            + (self.path.name if self.path else "(dict)"),
+            "configuration": configuration,
+            "materials": materials,
+            "fluid_blocks": blocks,
+            "meshes": meshes,
+        }
+        if output:
+            scene["output"] = output
+        if self.path is not None:
+            scene["source"] = str(self.path.resolve())
+        return scene
+
+    def configuration(
+        self, cfg: dict[str, Any], has_rigid: bool
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        w = "Configuration"
+        known = {
+            "particleRadius", "sim2D", "simulationMethod", "boundaryHandlingMethod",
+            "gravitation", "timeStepSize", "cflMethod", "cflFactor", "cflMinTimeStepSize",
+            "cflMaxTimeStepSize", "stopAt", "kernel", "gradKernel", "WCSPH", "stiffness",
+            "exponent", "enableZSort", "stepsPerZSort", "dataExportFPS",
+        }
+        self.collect_unknown(cfg, w, known, _CONFIG_QUIET)
+
+        method = self.integer(cfg, "simulationMethod", w, 4)
+        if method != 0:
+            name = _SIMULATION_METHODS.get(method, "unknown method")
+            default = "" if "simulationMethod" in cfg else ", SPlisHSPlasH's default"
+            raise self.unsupported(
+                f"{w}.simulationMethod",
+                f"{method} ({name}{default}) is not supported yet; supported: 0 (WCSPH)",
+            )
+        if has_rigid:
+            bhm = self.integer(cfg, "boundaryHandlingMethod", w, 2)
+            if bhm != 0:
+                name = _BOUNDARY_METHODS.get(bhm, "unknown method")
+                default = "" if "boundaryHandlingMethod" in cfg else ", SPlisHSPlasH's default"
+                raise self.unsupported(
+                    f"{w}.boundaryHandlingMethod",
+                    f"{bhm} ({name}{default}) is not supported yet; "
+                    f"supported: 0 ({_BOUNDARY_METHODS[0]})",
+                )
+
+        dim = 2 if self.flag(cfg, "sim2D", w, False) else 3
+        r = self.num(cfg, "particleRadius", w, 0.025, positive=True)
+        gravity = self.vec3(cfg, "gravitation", w, [0.0, -9.81, 0.0])[:dim]
+        dt = self.num(cfg, "timeStepSize", w, 0.001, positive=True)
+        cfl_method = self.integer(cfg, "cflMethod", w, 1)
+        if cfl_method not in (0, 1, 2):
+            raise self.error(f"{w}.cflMethod", cfl_method,
+                             "0 (fixed step), 1 (CFL) or 2 (CFL with iteration control)")
+        time = {
+            "dt": dt,
+            "cfl": cfl_method != 0,
+            "cfl_factor": self.num(cfg, "cflFactor", w, 0.5, positive=True),
+            "dt_min": self.num(cfg, "cflMinTimeStepSize", w, 1e-4, positive=True),
+            "dt_max": self.num(cfg, "cflMaxTimeStepSize", w, 0.005, positive=True),
+        }
+        self.origin.update({
+            "configuration.time.dt": f"{w}.timeStepSize",
+            "configuration.time.cfl_factor": f"{w}.cflFactor",
+            "configuration.time.dt_min": f"{w}.cflMinTimeStepSize",
+            "configuration.time.dt_max": f"{w}.cflMaxTimeStepSize",
+            "configuration.time.until": f"{w}.stopAt",
+            "configuration.time": f"{w}.cflMinTimeStepSize/cflMaxTimeStepSize",
+            "configuration.particle_radius": f"{w}.particleRadius",
+            "configuration.gravity": f"{w}.gravitation",
+        })
+        stop_at = self.num(cfg, "stopAt", w, -1.0)
+        if stop_at > 0:
+            time["until"] = stop_at
+
+        kernels = _KERNELS_2D if dim == 2 else _KERNELS_3D
+        kid = self.integer(cfg, "kernel", w, 0)
+        gid = self.integer(cfg, "gradKernel", w, kid if "kernel" in cfg else 0)
+        for key, value in (("kernel", kid), ("gradKernel", gid)):
+            if value not in kernels:
+                raise self.error(
+                    f"{w}.{key}", value,
+                    "0 (cubic), 1 (Wendland quintic C2), 2 (poly6), 3 (spiky) or 4 (precomputed "
+                    "cubic)",
+                )
+        if kernels[kid] != kernels[gid]:
+            raise self.unsupported(
+                f"{w}.gradKernel",
+                f"{gid} ({kernels[gid]}) differs from kernel {kid} ({kernels[kid]}); sphkit uses "
+                "one kernel for W and its gradient, expected the same kernel",
+            )
+
+        wc = self.obj(cfg, "WCSPH", f"{w}.WCSPH")
+        self.collect_unknown(wc, f"{w}.WCSPH", {"stiffness", "exponent"}, set())
+        stiffness = self.num(cfg, "stiffness", w, 50.0, positive=True)
+        exponent = self.num(cfg, "exponent", w, 7.0, positive=True)
+        stiffness = self.num(wc, "stiffness", f"{w}.WCSPH", stiffness, positive=True)
+        exponent = self.num(wc, "exponent", f"{w}.WCSPH", exponent, positive=True)
+        src = f"{w}.WCSPH" if wc else w
+        self.origin["configuration.pressure.stiffness"] = f"{src}.stiffness"
+        self.origin["configuration.pressure.exponent"] = f"{src}.exponent"
+
+        configuration: dict[str, Any] = {
+            "dim": dim,
+            "particle_radius": r,
+            "kernel": kernels[kid],
+            "gravity": gravity,
+            "time": time,
+            "pressure": {
+                "method": "wcsph",
+                "equation": "tait",
+                "stiffness": stiffness,
+                "exponent": exponent,
+                # SPlisHSPlasH bounds its step by the CFL condition only; with a fixed step
+                # (cflMethod 0) reproduce that step exactly
+                "acoustic_cfl": cfl_method != 0,
+            },
+            "boundary": {"method": "akinci2012"},
+        }
+        if not self.flag(cfg, "enableZSort", w, True):
+            configuration["zsort_every"] = 0
+        elif "stepsPerZSort" in cfg:
+            configuration["zsort_every"] = self.integer(cfg, "stepsPerZSort", w, 500)
+            self.origin["configuration.zsort_every"] = f"{w}.stepsPerZSort"
+
+        output: dict[str, Any] = {}
+        if cfg.get("dataExportFPS") is not None:
+            output["fps"] = self.num(cfg, "dataExportFPS", w, 25.0, positive=True)
+            self.origin["output.fps"] = f"{w}.dataExportFPS"
+        return configuration, output
+
+    def materials(self) -> list[dict[str, Any]]:
+        out = []
+        for k, m in enumerate(self.array("Materials")):
+            w = f"Materials[{k}]"
+            known = {
+                "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",
+                "dragMethod", "elasticityMethod", "Standard viscosity", "XSPH", "viscosity",
+                "viscosityBoundary", "xsph", "xsphBoundary",
+            }
+            self.collect_unknown(m, w, known, _MATERIAL_QUIET | _MATERIAL_NAMESPACES)
+            mid = self.text(m, "id", w, "Fluid")
+            density0 = self.num(m, "density0", w, 1000.0, positive=True)
+            for key, names in _OTHER_METHODS.items():
+                v = self.integer(m, key, w, 0)
+                if v != 0:
+                    raise self.unsupported(
+                        f"{w}.{key}",
+                        f"{v} ({names.get(v, 'unknown method')}) is not supported yet; "
+                        "supported: 0 (none)",
+                    )
+            vm = self.integer(m, "viscosityMethod", w, 0)
+            viscosity: dict[str, Any] = {"method": "none"}
+            if vm == 1:
+                ns = self.obj(m, "Standard viscosity", f"{w}.Standard viscosity")
+                nsw = f"{w}.Standard viscosity"
+                self.collect_unknown(ns, nsw, {"viscosity", "viscosityBoundary"}, set())
+                nu = self.num(m, "viscosity", w, 0.01, nonneg=True)
+                nub = self.num(m, "viscosityBoundary", w, 0.0, nonneg=True)
+                nu = self.num(ns, "viscosity", nsw, nu, nonneg=True)
+                nub = self.num(ns, "viscosityBoundary", nsw, nub, nonneg=True)
+                viscosity = {"method": "standard", "coefficient": nu, "boundary_coefficient": nub}
+                src = nsw if ns else w
+                self.origin[f"materials[{k}].viscosity.coefficient"] = f"{src}.viscosity"
+                self.origin[f"materials[{k}].viscosity.boundary_coefficient"] = (
+                    f"{src}.viscosityBoundary"
+                )
+            elif vm != 0:
+                raise self.unsupported(
+                    f"{w}.viscosityMethod",
+                    f"{vm} ({_VISCOSITY_METHODS.get(vm, 'unknown method')}) is not supported "
+                    "yet; supported: 0 (none), 1 (Standard) and the XSPH block",
+                )
+            xs = self.obj(m, "XSPH", f"{w}.XSPH")
+            self.collect_unknown(xs, f"{w}.XSPH", {"xsph", "xsphBoundary"}, set())
+            c = self.num(m, "xsph", w, 0.0, nonneg=True)
+            cb = self.num(m, "xsphBoundary", w, 0.0, nonneg=True)
+            c = self.num(xs, "xsph", f"{w}.XSPH", c, nonneg=True)
+            cb = self.num(xs, "xsphBoundary", f"{w}.XSPH", cb, nonneg=True)
+            if c > 0 or cb > 0:
+                if vm != 0:
+                    raise self.unsupported(
+                        f"{w}.XSPH",
+                        f"xsph {c} together with viscosityMethod {vm} "
+                        f"({_VISCOSITY_METHODS[vm]}) is not supported yet; sphkit applies one "
+                        "viscosity model per material, expected one of them",
+                    )
+                viscosity = {"method": "xsph", "coefficient": c, "boundary_coefficient": cb}
+                src = f"{w}.XSPH" if xs else w
+                self.origin[f"materials[{k}].viscosity.coefficient"] = f"{src}.xsph"
+                self.origin[f"materials[{k}].viscosity.boundary_coefficient"] = (
+                    f"{src}.xsphBoundary"
+                )
+            self.origin[f"materials[{k}]"] = w
+            self.origin[f"materials[{k}].density0"] = f"{w}.density0"
+            out.append({"id": mid, "density0": density0, "viscosity": viscosity})
+        self.origin["materials"] = "Materials"
+        return out
+
+    def fluid_blocks(self, dim: int, r: float) -> list[dict[str, Any]]:
+        out = []
+        for k, b in enumerate(self.array("FluidBlocks")):
+            w = f"FluidBlocks[{k}]"
+            known = {
+                "id", "start", "end", "translation", "scale", "denseMode", "initialVelocity",
+                "initialAngularVelocity",
+            }
+            self.collect_unknown(b, w, known, _BLOCK_QUIET)
+            for key in ("start", "end"):
+                if b.get(key) is None:
+                    raise self.error(f"{w}.{key}", None, "a list of 3 finite numbers")
+            start = self.vec3(b, "start", w, [0.0, 0.0, 0.0])
+            end = self.vec3(b, "end", w, [0.0, 0.0, 0.0])
+            translation = self.vec3(b, "translation", w, [0.0, 0.0, 0.0])
+            scale = self.vec3(b, "scale", w, [1.0, 1.0, 1.0])
+            mode = self.integer(b, "denseMode", w, 0)
+            if mode != 0:
+                raise self.unsupported(
+                    f"{w}.denseMode",
+                    f"{mode} ({_DENSE_MODES.get(mode, 'unknown mode')}) is not supported yet; "
+                    "supported: 0 (regular lattice)",
+                )
+            velocity = self.vec3(b, "initialVelocity", w, [0.0, 0.0, 0.0])
+            omega = self.vec3(b, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
+            if any(omega):
+                raise self.unsupported(
+                    f"{w}.initialAngularVelocity",
+                    f"{omega}: rotating initial velocity fields are not supported yet; "
+                    "expected [0, 0, 0]",
+                )
+            lo = [s * a + t for s, a, t in zip(scale, start, translation, strict=True)][:dim]
+            hi = [s * a + t for s, a, t in zip(scale, end, translation, strict=True)][:dim]
+            if not all(h > l for l, h in zip(lo, hi, strict=True)):
+                raise self.error(
+                    f"{w}.end", end,
+                    f"to exceed start {start} on every axis after scale and translation "
+                    f"(block {lo} .. {hi})",
+                )
+            # SPlisHSPlasH: round((hi - lo) / 2r) - 1 particles per axis, the first at lo + 2r
+            counts = [
+                math.floor((h - l) / (2.0 * r) + 0.5) - 1 for l, h in zip(lo, hi, strict=True)
+            ]
+            if min(counts) < 1:
+                self.notes.append(
+                    f"{w}: the block {lo} .. {hi} holds no particle of radius {r} in SPlisHSPlasH "
+                    "(less than 2 particle diameters on an axis); it is left out"
+                )
+                continue
+            n = len(out)
+            self.origin[f"fluid_blocks[{n}]"] = w
+            self.origin[f"fluid_blocks[{n}].material"] = f"{w}.id"
+            self.origin[f"fluid_blocks[{n}].velocity"] = f"{w}.initialVelocity"
+            block: dict[str, Any] = {
+                "start": [l + r for l in lo],
+                "end": [l + r + 2.0 * r * c for l, c in zip(lo, counts, strict=True)],
+                "material": self.text(b, "id", w, "Fluid"),
+            }
+            if any(velocity[:dim]):
+                block["velocity"] = velocity[:dim]
+            out.append(block)
+        self.origin["fluid_blocks"] = "FluidBlocks"
+        return out
+
+    def rigid_bodies(self, bodies: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        out = []
+        base = self.path.parent if self.path is not None else Path.cwd()
+        for k, rb in enumerate(bodies):
+            w = f"RigidBodies[{k}]"
+            known = {
+                "geometryFile", "particleFile", "translation", "rotationAxis", "rotationAngle",
+                "scale", "isDynamic", "isAnimated", "mapInvert",
+            }
+            self.collect_unknown(rb, w, known, _RIGID_QUIET)
+            if self.flag(rb, "isDynamic", w, False):
+                raise self.unsupported(
+                    f"{w}.isDynamic", "true: dynamic rigid bodies are not supported yet"
+                )
+            if self.flag(rb, "isAnimated", w, False):
+                raise self.unsupported(
+                    f"{w}.isAnimated", "true: animated rigid bodies are not supported yet"
+                )
+            geometry = self.text(rb, "geometryFile", w, "")
+            if not geometry:
+                if rb.get("particleFile"):
+                    raise self.unsupported(
+                        f"{w}.particleFile",
+                        "pre-sampled boundary particles are not supported yet; expected a "
+                        "geometryFile (OBJ/PLY mesh) to sample",
+                    )
+                raise self.error(f"{w}.geometryFile", rb.get("geometryFile"),
+                                 "a mesh file (OBJ/PLY/STL) relative to the scene file")
+            if rb.get("particleFile"):
+                self.unknown.append(f"{w}.particleFile (sphkit samples geometryFile instead)")
+            p = Path(geometry).expanduser()
+            f = p if p.is_absolute() else base / p
+            if not f.is_file():
+                raise self.error(f"{w}.geometryFile", geometry,
+                                 f"an existing mesh file (looked for {str(f)!r})")
+            scale = self.vec3(rb, "scale", w, [1.0, 1.0, 1.0])
+            if not all(scale):
+                raise self.error(f"{w}.scale", scale, "non-zero scale factors")
+            axis = self.vec3(rb, "rotationAxis", w, [1.0, 0.0, 0.0])
+            angle = self.num(rb, "rotationAngle", w, 0.0)
+            if angle != 0.0 and not any(axis):
+                raise self.error(f"{w}.rotationAxis", axis, "a non-zero axis")
+            n = len(out)
+            self.origin[f"meshes[{n}]"] = w
+            out.append({
+                "geometry_file": geometry,
+                "translation": self.vec3(rb, "translation", w, [0.0, 0.0, 0.0]),
+                "rotation_axis": axis,
+                "rotation_angle": angle,
+                "scale": scale,
+                "invert": self.flag(rb, "mapInvert", w, False),
+            })
+        self.origin["meshes"] = "RigidBodies"
+        return out
+
+    # -- validation ----------------------------------------------------------------------------
+    def validate(self, scene: dict[str, Any]) -> Scene:
+        try:
+            return Scene.model_validate(scene)
+        except ValidationError as err:
+            lines = []
+            for line in format_validation_error(err).splitlines():
+                path, sep, rest = line.partition(": ")
+                origin = self._origin_of(path)
+                if origin:
+                    lines.append(f"{origin} (sphkit {path}){sep}{rest}")
+                else:
+                    lines.append(line)
+            raise SceneError(
+                f"{self.label}: invalid after translation to sphkit:\n" + "\n".join(lines)
+            ) from None
+
+    def _origin_of(self, path: str) -> str | None:
+        p = path
+        while p:
+            if p in self.origin:
+                tail = path[len(p):]
+                return self.origin[p] + (tail if p != path and tail.startswith("[") else "")
+            cut = max(p.rfind("."), p.rfind("["))
+            if cut <= 0:
+                break
+            p = p[:cut]
+        return None
+
+
+def from_splishsplash(data: Mapping[str, Any], path: str | Path | None = None) -> Scene:
+    """Translate a SPlisHSPlasH JSON scene (already parsed) into a sphkit :class:`Scene`.
+
+    Args:
+        data: the scene's top-level object (``Configuration``, ``Materials``, ``FluidBlocks``,
+            ``RigidBodies``, ...).
+        path: the scene file, if any: relative mesh paths are checked against its folder, it
+            becomes ``scene.source`` and its stem ``scene.name``.
+
+    Returns:
+        The validated scene. Fields sphkit does not support yet but that do not change the
+        simulation's meaning for the supported subset are listed in one ``UserWarning``.
+
+    Raises:
+        SceneError: a method or feature sphkit does not have yet (named with SPlisHSPlasH's
+            number and name), or an invalid value (field path, value, expectation).
+    """
+    if not isinstance(data, Mapping):
+        raise SceneError(f"SPlisHSPlasH scene: got {type(data).__name__}; expected an object")
+    tr = _Translator(data, path)
+    scene = tr.validate(tr.translate())
+    if tr.unknown:
+        warnings.warn(
+            f"{tr.label}: ignored {len(tr.unknown)} field(s) that sphkit does not know or "
+            f"support yet: {', '.join(tr.unknown)}",
+            UserWarning,
+            stacklevel=2,
+        )
+    for note in tr.notes:
+        warnings.warn(f"{tr.label}: {note}", UserWarning, stacklevel=2)
+    return scene

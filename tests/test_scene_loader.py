@@ -1,0 +1,438 @@
+"""Scene front ends: built-in scenes, sphkit JSON/YAML, SPlisHSPlasH JSON translation."""
+
+from __future__ import annotations
+
+import copy
+import importlib.metadata
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import trimesh
+import yaml
+
+from sphkit.scene.loader import (
+    builtin_scenes,
+    from_splishsplash,
+    load_scene,
+    resolve_scene_path,
+)
+from sphkit.scene.sampling import lattice_block
+from sphkit.scene.schema import Scene, SceneError
+
+# -- built-in scenes ------------------------------------------------------------------------------
+
+
+def test_builtin_scenes_listed_and_loadable() -> None:
+    scenes = builtin_scenes()
+    assert {"dambreak-3d", "dambreak-2d", "hydrostatic-2d"} <= set(scenes)
+    for name, description in scenes.items():
+        assert description and "\n" not in description
+        scene = load_scene(name)
+        assert scene.name == name
+        assert scene.source and Path(scene.source).is_file()
+        assert scene.fluid_blocks and scene.boxes
+
+
+def _n_fluid(scene: Scene) -> int:
+    r = scene.configuration.particle_radius
+    return sum(len(lattice_block(b.start, b.end, r)) for b in scene.fluid_blocks)
+
+
+def test_builtin_scene_sizes() -> None:
+    big = load_scene("dambreak-3d")
+    assert big.configuration.dim == 3 and _n_fluid(big) >= 20_000
+    small = load_scene("dambreak-2d")
+    assert small.configuration.dim == 2 and _n_fluid(small) <= 5_000
+    assert small.configuration.time.until == 2.0
+    hydro = load_scene("hydrostatic-2d")
+    assert hydro.configuration.pressure.equation == "tait"
+    assert _n_fluid(hydro) <= 5_000
+
+
+def test_unknown_builtin_lists_known_names() -> None:
+    with pytest.raises(SceneError, match="dambreak-2d") as info:
+        load_scene("no-such-scene")
+    assert "no-such-scene" in str(info.value)
+
+
+# -- sphkit JSON / YAML ---------------------------------------------------------------------------
+
+
+def _own_scene() -> dict[str, Any]:
+    data = load_scene("dambreak-2d").model_dump(mode="json")
+    for key in ("name", "source"):
+        data.pop(key)
+    return data
+
+
+@pytest.mark.parametrize("suffix", [".json", ".yaml", ".yml"])
+def test_own_format_round_trip(tmp_path: Path, suffix: str) -> None:
+    data = _own_scene()
+    path = tmp_path / f"my-scene{suffix}"
+    text = json.dumps(data) if suffix == ".json" else yaml.safe_dump(data)
+    path.write_text(text)
+    scene = load_scene(path)
+    assert scene.name == "my-scene"  # the file stem, since the file does not name it
+    assert scene.source == str(path.resolve())
+    back = scene.model_dump(mode="json")
+    for key in ("name", "source"):
+        back.pop(key)
+    assert back == data
+    assert load_scene(str(path)) == scene
+
+
+def test_own_format_keeps_its_name_and_accepts_dicts(tmp_path: Path) -> None:
+    data = _own_scene() | {"name": "named"}
+    path = tmp_path / "file.json"
+    path.write_text(json.dumps(data))
+    assert load_scene(path).name == "named"
+    scene = load_scene(data)
+    assert scene.name == "named" and scene.source is None
+    assert load_scene(scene) is scene
+
+
+def test_bad_field_names_path_value_and_expectation(tmp_path: Path) -> None:
+    data = _own_scene()
+    data["configuration"]["particle_radius"] = -0.1
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    msg = str(info.value)
+    assert "configuration.particle_radius" in msg
+    assert "-0.1" in msg
+    assert "greater than 0" in msg
+    assert "bad.json" in msg
+
+
+def test_bad_nested_fields(tmp_path: Path) -> None:
+    data = _own_scene()
+    data["fluid_blocks"][0]["end"] = [0.5, -1.0]
+    data["configuration"]["time"]["cfl_factor"] = "fast"
+    data["materials"][0]["colour"] = "blue"
+    with pytest.raises(SceneError) as info:
+        load_scene(data)
+    msg = str(info.value)
+    assert "fluid_blocks[0]" in msg and "must exceed start" in msg
+    assert "configuration.time.cfl_factor" in msg and "'fast'" in msg
+    assert "materials[0].colour" in msg and "unknown field" in msg
+
+
+def test_syntax_errors_give_the_line(tmp_path: Path) -> None:
+    bad_json = tmp_path / "bad.json"
+    bad_json.write_text('{\n  "name": "x",\n  "configuration": {,\n}\n')
+    with pytest.raises(SceneError, match=r"bad\.json.*invalid JSON at line 3"):
+        load_scene(bad_json)
+    bad_yaml = tmp_path / "bad.yaml"
+    bad_yaml.write_text("name: x\nconfiguration:\n  dim: 2\n   particle_radius: [1\n")
+    with pytest.raises(SceneError, match=r"bad\.yaml.*invalid YAML at line \d"):
+        load_scene(bad_yaml)
+    top_list = tmp_path / "list.yaml"
+    top_list.write_text("- 1\n- 2\n")
+    with pytest.raises(SceneError, match="expected a mapping"):
+        load_scene(top_list)
+
+
+def test_missing_files(tmp_path: Path) -> None:
+    with pytest.raises(SceneError, match="not found"):
+        load_scene(tmp_path / "missing.json")
+    with pytest.raises(SceneError, match="directory"):
+        load_scene(tmp_path)
+    data = _own_scene() | {"meshes": [{"geometry_file": "nowhere.obj"}]}
+    path = tmp_path / "with-mesh.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(SceneError, match=r"meshes\[0\]\.geometry_file.*nowhere\.obj"):
+        load_scene(path)
+
+
+# -- SPlisHSPlasH ---------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def sph_dir(tmp_path: Path) -> Path:
+    models = tmp_path / "models"
+    models.mkdir()
+    trimesh.creation.box(extents=[1.0, 1.0, 1.0]).export(models / "UnitBox.obj")
+    (tmp_path / "scenes").mkdir()
+    return tmp_path / "scenes"
+
+
+def _sph_scene(**config: Any) -> dict[str, Any]:
+    return {
+        "Configuration": {
+            "particleRadius": 0.025,
+            "simulationMethod": 0,
+            "boundaryHandlingMethod": 0,
+            "gravitation": [0, -9.81, 0],
+            "timeStepSize": 0.002,
+            "cflMethod": 0,
+            "stopAt": 3.0,
+            "dataExportFPS": 30,
+            "numberOfStepsPerRenderUpdate": 4,
+            "cameraPosition": [0, 2, 5],
+            "pause": True,
+            "DFSPH": {"maxError": 0.05},
+            "WCSPH": {"stiffness": 50000, "exponent": 7},
+            **config,
+        },
+        "Materials": [
+            {"id": "Fluid", "density0": 998, "viscosityMethod": 1, "colorMapType": 1,
+             "Standard viscosity": {"viscosity": 0.02, "viscosityBoundary": 0.1}},
+        ],
+        "RigidBodies": [
+            {"geometryFile": "../models/UnitBox.obj", "translation": [0, 1.5, 0],
+             "rotationAxis": [1, 0, 0], "rotationAngle": 0, "scale": [4, 3, 1.5],
+             "color": [0.1, 0.4, 0.6, 1.0], "isDynamic": False, "isWall": True,
+             "mapInvert": True, "mapThickness": 0.0, "mapResolution": [40, 30, 15]},
+        ],
+        "FluidBlocks": [
+            {"denseMode": 0, "start": [-0.5, 0.0, -0.5], "end": [0.5, 1.0, 0.5],
+             "translation": [-1.45, 0.05, 0.0], "scale": [1, 1, 1],
+             "initialVelocity": [1.0, 0.0, 0.0]},
+        ],
+    }
+
+
+def _splishsplash_block_positions(block: dict[str, Any], r: float, dim: int) -> np.ndarray:
+    """SPlisHSPlasH's createFluidBlocks (denseMode 0), written out independently."""
+    scale = np.array(block.get("scale", [1, 1, 1]), float)
+    trans = np.array(block.get("translation", [0, 0, 0]), float)
+    lo = scale * np.array(block["start"], float) + trans
+    hi = scale * np.array(block["end"], float) + trans
+    diam = 2 * r
+    steps = [math.floor((hi[a] - lo[a]) / diam + 0.5) - 1 for a in range(3)]
+    if dim == 2:
+        steps[2] = 1
+    start = lo + diam
+    pts = [start + diam * np.array([j, k, l]) for j in range(steps[0]) for k in range(steps[1])
+           for l in range(steps[2])]
+    return np.array(pts)[:, :dim]
+
+
+def _sorted(points: np.ndarray) -> np.ndarray:
+    return points[np.lexsort(points.T[::-1])]
+
+
+def test_splishsplash_translation(sph_dir: Path) -> None:
+    data = _sph_scene()
+    path = sph_dir / "dam.json"
+    path.write_text(json.dumps(data))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # GUI fields and other solvers' blocks: no warning
+        scene = load_scene(path)
+    cfg = scene.configuration
+    assert scene.name == "dam" and scene.source == str(path.resolve())
+    assert cfg.dim == 3 and cfg.particle_radius == 0.025 and cfg.kernel == "cubic"
+    assert cfg.gravity == [0.0, -9.81, 0.0]
+    assert cfg.time.cfl is False and cfg.time.dt == 0.002 and cfg.time.until == 3.0
+    assert cfg.pressure.method == "wcsph" and cfg.pressure.equation == "tait"
+    assert cfg.pressure.stiffness == 50000.0 and cfg.pressure.exponent == 7.0
+    assert cfg.pressure.acoustic_cfl is False  # a fixed step is reproduced as it is
+    assert cfg.boundary.method == "akinci2012"
+    assert scene.output.fps == 30.0
+    (mat,) = scene.materials
+    assert mat.id == "Fluid" and mat.density0 == 998.0
+    assert mat.viscosity.method == "standard"
+    assert mat.viscosity.coefficient == 0.02 and mat.viscosity.boundary_coefficient == 0.1
+    (mesh,) = scene.meshes
+    assert mesh.geometry_file == "../models/UnitBox.obj"
+    assert resolve_scene_path(scene, mesh.geometry_file).is_file()
+    assert mesh.scale == [4.0, 3.0, 1.5] and mesh.translation == [0.0, 1.5, 0.0]
+    assert mesh.invert is True
+    (block,) = scene.fluid_blocks
+    assert block.material == "Fluid" and block.velocity == [1.0, 0.0, 0.0]
+    # the same particles as SPlisHSPlasH's regular sampling: 19^3, first at lo + 2r
+    ours = lattice_block(block.start, block.end, cfg.particle_radius)
+    theirs = _splishsplash_block_positions(data["FluidBlocks"][0], 0.025, 3)
+    assert len(ours) == len(theirs) == 19**3
+    np.testing.assert_allclose(_sorted(ours), _sorted(theirs), atol=1e-12)
+
+
+def test_splishsplash_2d_uses_first_two_components(sph_dir: Path) -> None:
+    data = _sph_scene(sim2D=True, kernel=4, gradKernel=4)
+    block = {"start": [-2.0, 0.0, -1.0], "end": [-0.5, 1.5, 1.0], "translation": [0.025, 0.025, 0]}
+    data["FluidBlocks"] = [block]
+    scene = from_splishsplash(data, sph_dir / "dam2d.json")
+    cfg = scene.configuration
+    assert cfg.dim == 2 and cfg.gravity == [0.0, -9.81] and cfg.kernel == "cubic"
+    (b,) = scene.fluid_blocks
+    assert len(b.start) == 2 and b.velocity is None
+    ours = lattice_block(b.start, b.end, 0.025)
+    theirs = _splishsplash_block_positions(block, 0.025, 2)
+    assert len(ours) == len(theirs) == 29 * 29
+    np.testing.assert_allclose(_sorted(ours), _sorted(theirs), atol=1e-12)
+
+
+def test_splishsplash_defaults_when_absent() -> None:
+    scene = from_splishsplash({
+        "Configuration": {"simulationMethod": 0},
+        "FluidBlocks": [{"start": [0, 0, 0], "end": [0.5, 0.5, 0.5], "id": "water"}],
+    })
+    cfg = scene.configuration
+    assert cfg.particle_radius == 0.025 and cfg.dim == 3
+    assert cfg.gravity == [0.0, -9.81, 0.0]
+    t = cfg.time
+    assert (t.cfl, t.cfl_factor, t.dt, t.dt_min, t.dt_max) == (True, 0.5, 0.001, 1e-4, 0.005)
+    assert cfg.pressure.stiffness == 50.0 and cfg.pressure.exponent == 7.0
+    assert cfg.pressure.acoustic_cfl is True
+    assert [(m.id, m.density0, m.viscosity.method) for m in scene.materials] == [
+        ("water", 1000.0, "none")
+    ]
+    assert scene.meshes == []
+
+
+def test_splishsplash_older_flat_parameters_and_xsph() -> None:
+    scene = from_splishsplash({
+        "Configuration": {"simulationMethod": 0, "stiffness": 20000, "exponent": 1,
+                          "cflMethod": 2, "cflFactor": 1},
+        "Materials": [
+            {"id": "A", "viscosityMethod": 1, "viscosity": 0.05},
+            {"id": "B", "XSPH": {"xsph": 0.1, "xsphBoundary": 0.05}},
+        ],
+        "FluidBlocks": [{"start": [0, 0, 0], "end": [0.5, 0.5, 0.5], "id": "A"}],
+    })
+    assert scene.configuration.pressure.stiffness == 20000.0
+    assert scene.configuration.pressure.exponent == 1.0
+    assert scene.configuration.time.cfl is True and scene.configuration.time.cfl_factor == 1.0
+    a, b = scene.materials
+    assert (a.viscosity.method, a.viscosity.coefficient) == ("standard", 0.05)
+    assert (b.viscosity.method, b.viscosity.coefficient) == ("xsph", 0.1)
+    assert b.viscosity.boundary_coefficient == 0.05
+
+
+@pytest.mark.parametrize(
+    ("edit", "expected"),
+    [
+        ({"Configuration": {"simulationMethod": 4}},
+         r"Configuration\.simulationMethod: 4 \(DFSPH\) is not supported yet; "
+         r"supported: 0 \(WCSPH\)"),
+        ({"Configuration": {"simulationMethod": None}},
+         r"Configuration\.simulationMethod: 4 \(DFSPH, SPlisHSPlasH's default\)"),
+        ({"Configuration": {"simulationMethod": 1}}, r"1 \(PCISPH\) is not supported yet"),
+        ({"Configuration": {"boundaryHandlingMethod": 2}},
+         r"Configuration\.boundaryHandlingMethod: 2 \(Bender et al\. 2019 volume maps\)"),
+        ({"Configuration": {"boundaryHandlingMethod": 1}}, r"Koschier and Bender 2017"),
+        ({"Configuration": {"kernel": 1, "gradKernel": 3}}, r"gradKernel: 3 \(spiky\) differs"),
+        ({"Configuration": {"particleRadius": -0.1}},
+         r"Configuration\.particleRadius: got -0\.1: expected a number > 0"),
+        ({"Configuration": {"gravitation": [0, -9.81]}},
+         r"Configuration\.gravitation: got \[0, -9\.81\]: expected a list of 3"),
+        ({"Configuration": {"cflFactor": 3}}, r"Configuration\.cflFactor.*less than or equal"),
+        ({"Materials": {"vorticityMethod": 1}},
+         r"Materials\[0\]\.vorticityMethod: 1 \(Bender et al\. 2017 micropolar model\) is not "
+         r"supported yet"),
+        ({"Materials": {"viscosityMethod": 2}},
+         r"Materials\[0\]\.viscosityMethod: 2 \(Bender and Koschier 2017\)"),
+        ({"Materials": {"surfaceTensionMethod": 2}}, r"2 \(Akinci et al\. 2013\)"),
+        ({"Materials": {"XSPH": {"xsph": 0.1}}}, r"Materials\[0\]\.XSPH: xsph 0\.1 together"),
+        ({"RigidBodies": {"isDynamic": True}}, r"RigidBodies\[0\]\.isDynamic.*dynamic rigid"),
+        ({"RigidBodies": {"geometryFile": "../models/Missing.obj"}},
+         r"RigidBodies\[0\]\.geometryFile: got '\.\./models/Missing\.obj'"),
+        ({"FluidBlocks": {"denseMode": 1}}, r"FluidBlocks\[0\]\.denseMode: 1"),
+        ({"FluidBlocks": {"end": [-0.6, 1.0, 0.5]}}, r"FluidBlocks\[0\]\.end.*exceed start"),
+        ({"FluidBlocks": {"initialAngularVelocity": [0, 1, 0]}}, r"initialAngularVelocity"),
+        ({"Emitters": [{"width": 5}]}, r"Emitters: 1 entry; emitters are not supported yet"),
+        ({"FluidModels": [{"particleFile": "a.bgeo"}]}, r"FluidModels: 1 entry"),
+    ],
+)
+def test_splishsplash_unsupported_and_invalid(sph_dir: Path, edit, expected) -> None:
+    data = _sph_scene()
+    for key, change in edit.items():
+        if isinstance(change, list):
+            data[key] = change
+        elif key == "Configuration":
+            data[key].update(change)
+            data[key] = {k: v for k, v in data[key].items() if v is not None}
+        else:
+            data[key][0].update(change)
+    with pytest.raises(SceneError, match=expected):
+        from_splishsplash(data, sph_dir / "dam.json")
+
+
+def test_splishsplash_unknown_fields_give_one_warning(sph_dir: Path) -> None:
+    data = _sph_scene(mysteryOption=3, scriptFile="hooks.py")
+    data["Materials"][0]["strangeness"] = 1
+    data["FluidBlocks"][0]["weird"] = True
+    data["Extras"] = []
+    with pytest.warns(UserWarning) as record:
+        scene = from_splishsplash(data, sph_dir / "dam.json")
+    assert len(record) == 1
+    msg = str(record[0].message)
+    for field in ("Configuration.mysteryOption", "Configuration.scriptFile",
+                  "Materials[0].strangeness", "FluidBlocks[0].weird", "Extras"):
+        assert field in msg
+    for quiet in ("cameraPosition", "pause", "DFSPH", "colorMapType", "mapResolution"):
+        assert quiet not in msg
+    assert scene.fluid_blocks
+
+
+def test_splishsplash_file_detection_and_json_errors(sph_dir: Path) -> None:
+    path = sph_dir / "scene.json"
+    path.write_text(json.dumps(_sph_scene()))
+    assert load_scene(path).meshes[0].invert
+    path.write_text('{"Configuration": {\n"simulationMethod": 0,,\n}}')
+    with pytest.raises(SceneError, match="line 2"):
+        load_scene(path)
+
+
+# -- the scenes shipped with the pysplishsplash wheel ---------------------------------------------
+
+
+def _wheel_scenes() -> Path:
+    try:
+        dist = importlib.metadata.distribution("pysplishsplash")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("pysplishsplash is not installed: its scene files are not available")
+    for f in dist.files or []:
+        if str(f).replace("\\", "/").endswith("data/Scenes/DamBreakModel.json"):
+            return Path(dist.locate_file(f)).resolve().parent
+    pytest.skip("the pysplishsplash wheel ships no data/Scenes/DamBreakModel.json")
+
+
+def _as_wcsph(data: dict[str, Any]) -> dict[str, Any]:
+    data = copy.deepcopy(data)
+    data["Configuration"].update(simulationMethod=0, boundaryHandlingMethod=0, cflMethod=0,
+                                 timeStepSize=0.001, WCSPH={"stiffness": 50000, "exponent": 7})
+    return data
+
+
+def test_wheel_dambreak_3d() -> None:
+    folder = _wheel_scenes()
+    path = folder / "DamBreakModel.json"
+    with pytest.raises(SceneError, match=r"simulationMethod: 4 \(DFSPH\)"):
+        load_scene(path)  # as shipped: DFSPH with volume maps
+    data = _as_wcsph(json.loads(path.read_text()))
+    scene = from_splishsplash(data, path)
+    assert scene.name == "DamBreakModel"
+    assert scene.configuration.time.dt == 0.001 and not scene.configuration.time.cfl
+    assert scene.materials[0].viscosity.method == "standard"
+    (mesh,) = scene.meshes
+    assert resolve_scene_path(scene, mesh.geometry_file).is_file()
+    (b,) = scene.fluid_blocks
+    ours = lattice_block(b.start, b.end, scene.configuration.particle_radius)
+    theirs = _splishsplash_block_positions(data["FluidBlocks"][0], 0.025, 3)
+    assert len(ours) == len(theirs) == 19**3
+    np.testing.assert_allclose(_sorted(ours), _sorted(theirs), atol=1e-12)
+
+
+def test_wheel_dambreak_2d() -> None:
+    folder = _wheel_scenes()
+    path = folder / "DamBreakModel_2D.json"
+    data = _as_wcsph(json.loads(path.read_text()))
+    # The shipped 2D dam break uses the micropolar vorticity model (vorticityMethod 1), which
+    # sphkit does not have yet: expected to fail until it does (then load it as below).
+    with pytest.raises(SceneError, match=r"Materials\[0\]\.vorticityMethod: 1 \(Bender et al"):
+        from_splishsplash(data, path)
+    data["Materials"][0]["vorticityMethod"] = 0
+    scene = from_splishsplash(data, path)
+    assert scene.configuration.dim == 2
+    (b,) = scene.fluid_blocks
+    ours = lattice_block(b.start, b.end, scene.configuration.particle_radius)
+    theirs = _splishsplash_block_positions(data["FluidBlocks"][0], 0.025, 2)
+    assert len(ours) == len(theirs) == 29 * 29
+    np.testing.assert_allclose(_sorted(ours), _sorted(theirs), atol=1e-12)
