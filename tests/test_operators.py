@@ -137,11 +137,6 @@ def test_curl_of_gradient_field_vanishes(lat3: Lattice) -> None:
     assert np.abs(c[:, lat3.interior]).max() <= 1e-10 * np.abs(S).max()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="sphkit bug: curl returns -curl (sign of -(1/rho_i) sum m_j A_ij x gradW_ij); "
-    "rigid rotation gives -2 omega",
-)
 def test_curl_of_rigid_rotation(lat3: Lattice) -> None:
     omega = np.array([0.3, -1.2, 0.7])
     vel = np.cross(omega[:, None], lat3.x, axis=0)  # rigid rotation, curl = 2 omega

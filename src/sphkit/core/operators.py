@@ -11,7 +11,8 @@ Notation: ``x_ij = x_i - x_j``, ``A_ij = A_i - A_j``, ``grad W_ij = grad_i W(x_i
                  which makes it exact for linear fields;
                  symmetric ``rho_i sum_j m_j (A_i/rho_i^2 + A_j/rho_j^2) grad W_ij`` (conserves momentum)
 * divergence     ``-(1/rho_i) sum_j m_j A_ij . grad W_ij``
-* curl           ``-(1/rho_i) sum_j m_j A_ij x grad W_ij``
+* curl           ``(1/rho_i) sum_j m_j A_ij x grad W_ij`` (with A_ij = A_i - A_j this sign
+                 pairs with the divergence above; survey notation uses A_ji)
 * Laplacian      Brookshaw 1985 / Morris 1997:
                  ``2 sum_j V_j A_ij (x_ij . grad W_ij) / (|x_ij|^2 + 0.01 h^2)``
 
@@ -206,9 +207,9 @@ def _curl(x, m, rho, A, off, idx, h, kid, out):
             c0 += m[j] * (a1 * g2 - a2 * g1)
             c1 += m[j] * (a2 * g0 - a0 * g2)
             c2 += m[j] * (a0 * g1 - a1 * g0)
-        out[0, i] = -c0 / rho[i]
-        out[1, i] = -c1 / rho[i]
-        out[2, i] = -c2 / rho[i]
+        out[0, i] = c0 / rho[i]
+        out[1, i] = c1 / rho[i]
+        out[2, i] = c2 / rho[i]
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -261,7 +262,7 @@ def divergence(x: np.ndarray, m: np.ndarray, rho: np.ndarray, A: np.ndarray, nl:
 
 def curl(x: np.ndarray, m: np.ndarray, rho: np.ndarray, A: np.ndarray, nl: NeighborList,
          h: float, kid: int) -> np.ndarray:
-    """Curl of a 3D vector field A (3, N): ``-(1/rho_i) sum_j m_j A_ij x grad W_ij``."""
+    """Curl of a 3D vector field A (3, N): ``(1/rho_i) sum_j m_j A_ij x grad W_ij``."""
     if x.shape[0] != 3:
         raise ValueError(f"curl: needs 3D positions, got dim {x.shape[0]}")
     out = np.empty_like(x)
