@@ -6,7 +6,8 @@ For each scene (default: benchmarks/scenes/dambreak_wcsph.json, a 3D dam break w
 Akinci boundaries and a fixed time step of 1 ms, to t = 0.5 s) the script runs
 
 * SPlisHSPlasH through its ``pysplishsplash`` wheel (``pip install pysplishsplash``), in a
-  subprocess with ``OMP_NUM_THREADS`` set and, on Linux, the ``LD_PRELOAD`` the wheel's import needs;
+  subprocess with ``OMP_NUM_THREADS`` set and, on Linux, the ``LD_PRELOAD`` the wheel's
+  import needs;
 * sphkit on the same file (after a short warm-up run so that Numba's compile time is not counted),
   with ``NUMBA_NUM_THREADS`` set to the same thread count,
 
@@ -77,7 +78,8 @@ def main() -> int:
     ap.add_argument("scenes", nargs="*", type=Path, default=DEFAULT_SCENES)
     ap.add_argument("--threads", type=int, default=2, help="threads for both codes (default 2)")
     args = ap.parse_args()
-    print(f"# {time.strftime('%Y-%m-%d')} {platform.node()} {platform.processor() or platform.machine()}"
+    cpu = platform.processor() or platform.machine()
+    print(f"# {time.strftime('%Y-%m-%d')} {platform.node()} {cpu}"
           f", {os.cpu_count()} cores, {args.threads} threads each")
     head = (f"{'scene':28s} {'code':13s} {'fluid':>7s} {'bound.':>7s} {'steps':>6s} "
             f"{'wall s':>8s} {'ms/step':>8s}")

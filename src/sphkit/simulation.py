@@ -111,7 +111,9 @@ class Simulation:
                               rho0=mat.density0, gravity=g.astype(self.dtype))
         self._sample(scene)
         if fluid.n == 0:
-            raise SceneError("fluid_blocks: the scene has no fluid particles; expected at least one")
+            raise SceneError(
+                "fluid_blocks: the scene has no fluid particles; expected at least one"
+            )
 
         p = cfg.pressure
         self.pressure = PRESSURE_SOLVERS[p.method](

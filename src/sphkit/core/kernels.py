@@ -5,7 +5,8 @@ as in the survey (Koschier et al. 2022, Sec. 2.1) and SPlisHSPlasH's ``SPHKernel
 With ``q = r / h``:
 
 * ``CUBIC`` -- cubic spline, Monaghan 1992, "Smoothed particle hydrodynamics", ARA&A 30:
-  ``W = s_d * (6 (q^3 - q^2) + 1)`` for ``q <= 1/2``, ``W = s_d * 2 (1 - q)^3`` for ``1/2 < q <= 1``,
+  ``W = s_d * (6 (q^3 - q^2) + 1)`` for ``q <= 1/2``,
+  ``W = s_d * 2 (1 - q)^3`` for ``1/2 < q <= 1``,
   ``s_1 = 4/(3h)``, ``s_2 = 40/(7 pi h^2)``, ``s_3 = 8/(pi h^3)``.
 * ``WENDLAND`` -- Wendland quintic C2 (Wendland 1995): ``W = s_d (1 - q)^4 (4q + 1)``,
   ``s_1 = 3/(2h)``, ``s_2 = 7/(pi h^2)``, ``s_3 = 21/(2 pi h^3)``.

@@ -7,9 +7,11 @@ Notation: ``x_ij = x_i - x_j``, ``A_ij = A_i - A_j``, ``grad W_ij = grad_i W(x_i
 * density        ``rho_i = sum_j m_j W_ij`` (+ boundary ``sum_b rho0 V_b W_ib``, Akinci 2012)
 * gradient       direct ``sum_j V_j A_j grad W_ij``;
                  difference ``sum_j V_j (A_j - A_i) grad W_ij`` (0th-order consistent), optionally
-                 renormalized by ``L_i^-1``, ``L_i = sum_j V_j grad W_ij (x) x_ji`` (Bonet & Lok 1999),
+                 renormalized by ``L_i^-1``, ``L_i = sum_j V_j grad W_ij (x) x_ji``
+                 (Bonet & Lok 1999),
                  which makes it exact for linear fields;
-                 symmetric ``rho_i sum_j m_j (A_i/rho_i^2 + A_j/rho_j^2) grad W_ij`` (conserves momentum)
+                 symmetric ``rho_i sum_j m_j (A_i/rho_i^2 + A_j/rho_j^2) grad W_ij``
+                 (conserves momentum)
 * divergence     ``-(1/rho_i) sum_j m_j A_ij . grad W_ij``
 * curl           ``(1/rho_i) sum_j m_j A_ij x grad W_ij`` (with A_ij = A_i - A_j this sign
                  pairs with the divergence above; survey notation uses A_ji)

@@ -123,7 +123,8 @@ class ParticleSet:
         """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles."""
         for fname, spec in self.specs.items():
             a = self.fields[fname]
-            self.fields[fname] = np.ascontiguousarray(a[:, perm] if spec.kind == "vector" else a[perm])
+            b = a[:, perm] if spec.kind == "vector" else a[perm]
+            self.fields[fname] = np.ascontiguousarray(b)
 
     def order_by_id(self) -> np.ndarray:
         """Permutation that sorts the particles by id (to compare states across reorderings)."""

@@ -11,7 +11,8 @@ Becker & Teschner 2007, "Weakly compressible SPH for free surface flows", SCA:
   mirroring at boundary neighbours: :func:`sphkit.core.operators.pressure_accel_body`.
 
 The speed of sound of the state equation, ``c = sqrt(dp/drho) = sqrt(B gamma / rho0)`` (Tait) or
-``sqrt(k)`` (linear), bounds the time step by ``0.4 h_s / c`` with the smoothing length h_s = h/2 = 2r (Monaghan 1992).
+``sqrt(k)`` (linear), bounds the time step by ``0.4 h_s / c`` with the smoothing length
+h_s = h/2 = 2r (Monaghan 1992).
 """
 
 from __future__ import annotations

@@ -8,7 +8,8 @@ SPlisHSPlasH's ``Viscosity_Standard`` uses:
 
 with kinematic viscosity nu [m^2/s] and ``rho_ij = (rho_i + rho_j) / 2``. SPlisHSPlasH uses
 ``m_j / rho_j``; the pair-averaged density makes the pair forces exactly antisymmetric, so linear
-momentum is conserved to round-off (tested), and it equals ``m_j / rho_j`` at uniform density. It is Galilean invariant, vanishes for rigid rotation and
+momentum is conserved to round-off (tested), and it equals ``m_j / rho_j`` at uniform density.
+It is Galilean invariant, vanishes for rigid rotation and
 conserves linear and angular momentum. Boundary particles (static or moving with velocity v_b)
 contribute the same term with ``m_j / rho_j -> rho0 V_b / rho_i`` and their own ``nu_b``.
 """
