@@ -16,7 +16,11 @@ import numpy as np
 
 @dataclass
 class FieldSpec:
-    """How a field is stored: ``kind`` is 'scalar' (N,) or 'vector' (dim, N)."""
+    """How a field is stored: ``kind`` is 'scalar' (N,), 'vector' (dim, N) or 'vector3' (3, N).
+
+    'vector3' is for quantities that have three components whatever the dimension (angular
+    velocity, vorticity: in 2D only the z row is used).
+    """
 
     name: str
     kind: str
@@ -54,8 +58,10 @@ class ParticleSet:
     def register(self, name: str, kind: str = "scalar", dtype: np.dtype | str | None = None,
                  fill: float = 0.0) -> np.ndarray:
         """Add a field (no-op if it exists with the same layout) and return its array."""
-        if kind not in ("scalar", "vector"):
-            raise ValueError(f"field {name}: kind {kind!r}; expected 'scalar' or 'vector'")
+        if kind not in ("scalar", "vector", "vector3"):
+            raise ValueError(
+                f"field {name}: kind {kind!r}; expected 'scalar', 'vector' or 'vector3'"
+            )
         dt = self.dtype if dtype is None else np.dtype(dtype)
         if name in self.specs:
             spec = self.specs[name]
@@ -63,9 +69,15 @@ class ParticleSet:
                 raise ValueError(f"field {name} is already registered as {spec.kind} {spec.dtype}")
             return self.fields[name]
         self.specs[name] = FieldSpec(name, kind, dt)
-        shape = (self.dim, self.n) if kind == "vector" else (self.n,)
-        self.fields[name] = np.full(shape, fill, dtype=dt)
+        self.fields[name] = np.full(self._shape(kind, self.n), fill, dtype=dt)
         return self.fields[name]
+
+    def _shape(self, kind: str, n: int) -> tuple[int, ...]:
+        if kind == "vector":
+            return (self.dim, n)
+        if kind == "vector3":
+            return (3, n)
+        return (n,)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.fields[name]
@@ -81,7 +93,7 @@ class ParticleSet:
     def view(self, name: str) -> np.ndarray:
         """The field in user layout: (N, dim) for vectors (a transposed view), (N,) for scalars."""
         a = self.fields[name]
-        return a.T if self.specs[name].kind == "vector" else a
+        return a if self.specs[name].kind == "scalar" else a.T
 
     def add(self, x: np.ndarray, name: str = "object", **values: np.ndarray | float) -> ObjectRange:
         """Append particles at positions ``x`` (M, dim) and return their object range.
@@ -96,13 +108,8 @@ class ParticleSet:
         start = self.n
         next_id = int(self.fields["id"].max()) + 1 if self.n else 0
         for fname, spec in self.specs.items():
-            old = self.fields[fname]
-            if spec.kind == "vector":
-                new = np.zeros((self.dim, self.n + m), dtype=spec.dtype)
-                new[:, : self.n] = old
-            else:
-                new = np.zeros(self.n + m, dtype=spec.dtype)
-                new[: self.n] = old
+            new = np.zeros(self._shape(spec.kind, self.n + m), dtype=spec.dtype)
+            new[..., : self.n] = self.fields[fname]
             self.fields[fname] = new
         self.n += m
         self.fields["x"][:, start:] = x.T
@@ -111,7 +118,7 @@ class ParticleSet:
             if fname not in self.specs:
                 raise KeyError(f"field {fname} is not registered")
             arr = np.asarray(val, dtype=self.specs[fname].dtype)
-            if self.specs[fname].kind == "vector":
+            if self.specs[fname].kind != "scalar":
                 self.fields[fname][:, start:] = arr.reshape(-1, 1) if arr.ndim == 1 else arr.T
             else:
                 self.fields[fname][start:] = arr
@@ -123,7 +130,7 @@ class ParticleSet:
         """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles."""
         for fname, spec in self.specs.items():
             a = self.fields[fname]
-            b = a[:, perm] if spec.kind == "vector" else a[perm]
+            b = a[perm] if spec.kind == "scalar" else a[:, perm]
             self.fields[fname] = np.ascontiguousarray(b)
 
     def order_by_id(self) -> np.ndarray:
