@@ -21,6 +21,7 @@ import argparse
 import json
 import os
 import platform
+import re
 import subprocess
 import sys
 import time
@@ -38,9 +39,14 @@ def run_splishsplash(scene: Path, threads: int) -> dict | None:
         env["LD_PRELOAD"] = GL_PRELOAD
     res = subprocess.run([sys.executable, str(HERE / "_splishsplash_runner.py"), str(scene)],
                          env=env, capture_output=True, text=True)
+    counts = {}
+    for key, pat in (("n_fluid", r"Number of fluid particles: (\d+)"),
+                     ("n_boundary", r"Number of boundary particles: (\d+)")):
+        m = re.search(pat, res.stdout)
+        counts[key] = int(m.group(1)) if m else 0
     for line in res.stdout.splitlines():
         if line.startswith("SPHKIT-BENCH "):
-            return json.loads(line[len("SPHKIT-BENCH "):])
+            return {**json.loads(line[len("SPHKIT-BENCH "):]), **counts}
     print(f"SPlisHSPlasH run failed (exit {res.returncode}):\n{res.stderr[-2000:]}",
           file=sys.stderr)
     return None

