@@ -323,9 +323,8 @@ def test_splishsplash_older_flat_parameters_and_xsph() -> None:
         ({"Configuration": {"gravitation": [0, -9.81]}},
          r"Configuration\.gravitation: got \[0, -9\.81\]: expected a list of 3"),
         ({"Configuration": {"cflFactor": 3}}, r"Configuration\.cflFactor.*less than or equal"),
-        ({"Materials": {"vorticityMethod": 1}},
-         r"Materials\[0\]\.vorticityMethod: 1 \(Bender et al\. 2017 micropolar model\) is not "
-         r"supported yet"),
+        ({"Materials": {"vorticityMethod": 2}},
+         r"Materials\[0\]\.vorticityMethod: 2 \(vorticity confinement\) is not supported yet"),
         ({"Materials": {"viscosityMethod": 2}},
          r"Materials\[0\]\.viscosityMethod: 2 \(Bender and Koschier 2017\)"),
         ({"Materials": {"surfaceTensionMethod": 2}}, r"2 \(Akinci et al\. 2013\)"),
@@ -424,12 +423,11 @@ def test_wheel_dambreak_2d() -> None:
     folder = _wheel_scenes()
     path = folder / "DamBreakModel_2D.json"
     data = _as_wcsph(json.loads(path.read_text()))
-    # The shipped 2D dam break uses the micropolar vorticity model (vorticityMethod 1), which
-    # sphkit does not have yet: expected to fail until it does (then load it as below).
-    with pytest.raises(SceneError, match=r"Materials\[0\]\.vorticityMethod: 1 \(Bender et al"):
-        from_splishsplash(data, path)
-    data["Materials"][0]["vorticityMethod"] = 0
+    # The shipped 2D dam break uses the micropolar vorticity model (vorticityMethod 1).
     scene = from_splishsplash(data, path)
+    vort = scene.materials[0].vorticity
+    assert (vort.method, vort.coefficient, vort.viscosity_omega, vort.inertia_inverse) == (
+        "micropolar", 0.1, 0.05, 0.5)
     assert scene.configuration.dim == 2
     (b,) = scene.fluid_blocks
     ours = lattice_block(b.start, b.end, scene.configuration.particle_radius)

@@ -33,6 +33,7 @@ from sphkit.pressure.wcsph import WCSPH
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.viscosity.standard import StandardViscosity
 from sphkit.viscosity.xsph import XSPH
+from sphkit.vorticity.micropolar_bender2017 import MicropolarBender2017
 
 #: pressure solvers by scene name and by SPlisHSPlasH ``simulationMethod`` number
 PRESSURE_SOLVERS: dict[str, type] = {"wcsph": WCSPH}
@@ -43,6 +44,9 @@ BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012"}
 #: viscosity models by scene name and SPlisHSPlasH ``viscosityMethod`` number
 VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH}
 VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 2: "xsph"}
+#: vorticity models by scene name and SPlisHSPlasH ``vorticityMethod`` number
+VORTICITY_MODELS: dict[str, type] = {"micropolar": MicropolarBender2017}
+VORTICITY_MODEL_NUMBERS: dict[int, str] = {1: "micropolar"}
 
 
 @dataclass
@@ -126,10 +130,17 @@ class Simulation:
             self.forces.append(StandardViscosity(vis.coefficient, vis.boundary_coefficient))
         elif vis.method == "xsph":
             self.forces.append(XSPH(vis.coefficient, vis.boundary_coefficient))
+        vort = mat.vorticity
+        if vort.method == "micropolar":
+            self.forces.append(MicropolarBender2017(vort.coefficient, vort.viscosity_omega,
+                                                    vort.inertia_inverse))
 
         if boundary.n:
             boundary.permute(zorder_permutation(boundary["x"], h))
         self.boundary_model.init(self.state)
+        for force in self.forces:
+            if hasattr(force, "init"):
+                force.init(self.state)
         self.pressure.init(self.state)
         self.time = 0.0
         self.step_count = 0

@@ -11,7 +11,8 @@ them, methods chosen by its numbers; see ``reference/splishsplash_scene_format.m
 that is absent takes SPlisHSPlasH's default. Checked against SPlisHSPlasH's sources
 (``SPlisHSPlasH/Simulation.cpp``, ``TimeManager``/``SceneLoader.cpp``,
 ``WCSPH/TimeStepWCSPH.cpp``, ``Viscosity/ViscosityBase.cpp``, ``Viscosity/Viscosity_Standard.cpp``,
-``XSPH.cpp``, ``Simulator/SimulatorBase.cpp``, ``Simulator/StaticBoundarySimulator.cpp``,
+``XSPH.cpp``, ``Vorticity/VorticityBase.cpp``, ``Vorticity/MicropolarModel_Bender2017.cpp``,
+``Simulator/SimulatorBase.cpp``, ``Simulator/StaticBoundarySimulator.cpp``,
 ``NonPressureForceRegistration.cpp``) and the scenes shipped with pysplishsplash 2.19:
 
 ==========================  ===============================================================
@@ -37,6 +38,11 @@ that is absent takes SPlisHSPlasH's default. Checked against SPlisHSPlasH's sour
                             5 Takahashi et al. 2015, 6 Weiler et al. 2018 (numbering of 2.16+;
                             the XSPH filter is no longer a viscosity method but the per-material
                             block ``"XSPH": {"xsph": c, "xsphBoundary": c_b}``, default 0)
+``vorticityMethod``         0 (none); 1 micropolar model of Bender et al. 2017 (``"Bender et al.
+                            2017": {"vorticity": nu_t, "viscosityOmega": zeta, "inertiaInverse":
+                            1/Theta}``, defaults 0.01 m^2/s, 0.1 m^2, 0.5 1/m^2); 2 vorticity
+                            confinement and 3 Liu et al. 2021 are not supported (numbering of
+                            ``NonPressureForceRegistration.cpp``)
 ``stopAt``                  -1 (no end); mapped to ``time.until`` when > 0
 ``dataExportFPS``           25; mapped to ``output.fps``
 ==========================  ===============================================================
@@ -305,11 +311,11 @@ _VISCOSITY_METHODS = {
     0: "none", 1: "Standard", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
     4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)", 6: "Weiler et al. 2018",
 }
+_VORTICITY_METHODS = {
+    0: "none", 1: "Bender et al. 2017 micropolar model", 2: "vorticity confinement",
+    3: "Liu et al. 2021 vorticity refinement",
+}
 _OTHER_METHODS = {
-    "vorticityMethod": {
-        1: "Bender et al. 2017 micropolar model", 2: "vorticity confinement",
-        3: "Liu et al. 2021 vorticity refinement",
-    },
     "surfaceTensionMethod": {
         1: "Becker & Teschner 2007", 2: "Akinci et al. 2013", 3: "He et al. 2014",
         4: "Jeske et al. 2023", 5: "Zorilla, Ritter, et al. 2020",
@@ -637,7 +643,8 @@ class _Translator:
             known = {
                 "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",
                 "dragMethod", "elasticityMethod", "Standard viscosity", "XSPH", "viscosity",
-                "viscosityBoundary", "xsph", "xsphBoundary",
+                "viscosityBoundary", "xsph", "xsphBoundary", "vorticity", "viscosityOmega",
+                "inertiaInverse",
             }
             self.collect_unknown(m, w, known, _MATERIAL_QUIET | _MATERIAL_NAMESPACES)
             mid = self.text(m, "id", w, "Fluid")
@@ -692,11 +699,42 @@ class _Translator:
                 self.origin[f"materials[{k}].viscosity.boundary_coefficient"] = (
                     f"{src}.xsphBoundary"
                 )
+            vorticity = self.vorticity(m, w, k)
             self.origin[f"materials[{k}]"] = w
             self.origin[f"materials[{k}].density0"] = f"{w}.density0"
-            out.append({"id": mid, "density0": density0, "viscosity": viscosity})
+            out.append({"id": mid, "density0": density0, "viscosity": viscosity,
+                        "vorticity": vorticity})
         self.origin["materials"] = "Materials"
         return out
+
+    def vorticity(self, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
+        """The material's vorticity model (``vorticityMethod``; 1: "Bender et al. 2017" block,
+        or the flat keys of scenes before 2.16)."""
+        vm = self.integer(m, "vorticityMethod", w, 0)
+        if vm == 0:
+            return {"method": "none"}
+        if vm != 1:
+            raise self.unsupported(
+                f"{w}.vorticityMethod",
+                f"{vm} ({_VORTICITY_METHODS.get(vm, 'unknown method')}) is not supported yet; "
+                "supported: 0 (none), 1 (Bender et al. 2017 micropolar model)",
+            )
+        ns_key = "Bender et al. 2017"
+        nsw = f"{w}.{ns_key}"
+        ns = self.obj(m, ns_key, nsw)
+        keys = {"vorticity": 0.01, "viscosityOmega": 0.1, "inertiaInverse": 0.5}
+        self.collect_unknown(ns, nsw, set(keys), set())
+        values = {}
+        for key, default in keys.items():
+            val = self.num(m, key, w, default, nonneg=True)
+            values[key] = self.num(ns, key, nsw, val, nonneg=True)
+        src = nsw if ns else w
+        for ours, theirs in (("coefficient", "vorticity"), ("viscosity_omega", "viscosityOmega"),
+                             ("inertia_inverse", "inertiaInverse")):
+            self.origin[f"materials[{k}].vorticity.{ours}"] = f"{src}.{theirs}"
+        return {"method": "micropolar", "coefficient": values["vorticity"],
+                "viscosity_omega": values["viscosityOmega"],
+                "inertia_inverse": values["inertiaInverse"]}
 
     def fluid_blocks(self, dim: int, r: float) -> list[dict[str, Any]]:
         out = []

@@ -71,12 +71,35 @@ class ViscosityConfig(_Model):
     )
 
 
+class VorticityConfig(_Model):
+    """Vorticity model: ``micropolar`` is Bender et al. 2017 (SPlisHSPlasH's vorticityMethod 1,
+    :mod:`sphkit.vorticity.micropolar_bender2017`); defaults are SPlisHSPlasH's."""
+
+    method: Literal["none", "micropolar"] = "none"
+    coefficient: float = Field(
+        0.01, ge=0, allow_inf_nan=False,
+        description="micropolar: vortex viscosity (transfer coefficient) nu_t [m^2/s], a kinematic "
+        "viscosity: a += nu_t curl(omega), domega/dt += nu_t/Theta (curl(v) - 2 omega)",
+    )
+    viscosity_omega: float = Field(
+        0.1, ge=0, allow_inf_nan=False,
+        description="micropolar: angular viscosity zeta [m^2]; zeta * inertia_inverse is the "
+        "dimensionless XSPH weight that smooths omega each time step (keep it below 1)",
+    )
+    inertia_inverse: float = Field(
+        0.5, ge=0, allow_inf_nan=False,
+        description="micropolar: inverse microinertia 1/Theta [1/m^2] (Theta: moment of inertia "
+        "per unit mass); omega relaxes towards curl(v)/2 at the rate 2 nu_t/Theta [1/s]",
+    )
+
+
 class Material(_Model):
     """A fluid material."""
 
     id: str = "fluid"
     density0: float = Field(1000.0, gt=0, description="rest density [kg/m^3]")
     viscosity: ViscosityConfig = ViscosityConfig()
+    vorticity: VorticityConfig = VorticityConfig()
 
 
 class FluidBlock(_Model):
