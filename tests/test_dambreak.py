@@ -83,3 +83,19 @@ def test_splishsplash_dambreak_3d_runs_in_cli_and_stays_in_tank(tmp_path: Path) 
         assert _inside(x, lo, hi, 0.025), f"particles outside the tank in {f.name}"
     # the column has collapsed: after 1 s the fluid has run along the floor to the far side
     assert read_frame(frames[-1])["position"][:, 0].max() > 0.5
+
+
+def test_splishsplash_dambreak_2d_runs_in_cli_and_stays_in_tank(tmp_path: Path) -> None:
+    """DamBreakModel_2D.json (edited to WCSPH/Akinci/fixed step; it keeps its micropolar
+    vorticity) through `sphkit run` for 2 s: tank = UnitBox scaled (4, 4) translated (0, 2)."""
+    scene = _edited_copy(_wheel_scene("DamBreakModel_2D.json"), tmp_path)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--until", "2.0", "--fps", "10", "--out", str(out),
+                 "--quiet"]) == 0
+    frames = sorted(out.glob("frame_*.vtu"))
+    assert len(frames) == 21
+    lo, hi = np.array([-2.0, 0.0]), np.array([2.0, 4.0])
+    for f in frames:
+        x = read_frame(f)["position"][:, :2]
+        assert x.shape == (29 * 29, 2)
+        assert _inside(x, lo, hi, 0.025), f"particles outside the tank in {f.name}"
