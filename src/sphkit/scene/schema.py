@@ -40,21 +40,60 @@ class TimeConfig(_Model):
 
 
 class PressureConfig(_Model):
-    """Pressure solver. Only the state-equation solver (WCSPH) exists so far."""
+    """Pressure solver and its parameters.
 
-    method: Literal["wcsph"] = "wcsph"
+    ``method``: ``wcsph`` (state equation), ``pcisph`` (Solenthaler & Pajarola 2009), ``pbf``
+    (Macklin & Mueller 2013), ``iisph`` (Ihmsen et al. 2014), ``dfsph`` (Bender & Koschier 2015,
+    2017). The iterative solvers share one iteration control: they stop when the average density
+    error is at most ``max_error`` percent of rho0 after at least ``min_iterations``; fields left
+    at None take the solver's SPlisHSPlasH default.
+    """
+
+    method: Literal["wcsph", "pcisph", "pbf", "iisph", "dfsph"] = "wcsph"
     equation: Literal["tait", "linear"] = Field(
-        "tait", description="tait: p = B((rho/rho0)^gamma - 1); linear: p = k (rho - rho0)"
+        "tait", description="wcsph: tait: p = B((rho/rho0)^gamma - 1); linear: p = k (rho - rho0)"
     )
     stiffness: float = Field(
         50000.0, gt=0,
-        description="B [Pa] of the Tait equation, or k [m^2/s^2] of the linear state equation",
+        description="wcsph: B [Pa] of the Tait equation, or k [m^2/s^2] of the linear equation",
     )
     exponent: float = Field(7.0, ge=1.0, description="gamma of the Tait equation (dimensionless)")
     acoustic_cfl: bool = Field(
         True,
-        description="also bound dt by 0.4 h / c with the speed of sound c of the state equation "
-        "(Becker & Teschner 2007); switch off only to reproduce a peer's fixed step",
+        description="wcsph: also bound dt by 0.4 h / c with the speed of sound c of the state "
+        "equation (Becker & Teschner 2007); switch off only to reproduce a peer's fixed step",
+    )
+    max_error: float = Field(
+        0.01, gt=0, le=100,
+        description="iterative solvers: target average density error [% of rho0] (SPlisHSPlasH "
+        "maxError, default 0.01 %)",
+    )
+    min_iterations: int | None = Field(
+        None, ge=0, description="iterative solvers: minimum iterations (default per solver)"
+    )
+    max_iterations: int = Field(100, ge=1, description="iterative solvers: maximum iterations")
+    max_error_v: float = Field(
+        0.1, gt=0, le=100,
+        description="dfsph: target average divergence error: |D rho/Dt| dt at most this "
+        "[% of rho0] (SPlisHSPlasH maxErrorV, default 0.1 %)",
+    )
+    max_iterations_v: int = Field(100, ge=1, description="dfsph: maximum divergence iterations")
+    divergence_solver: bool = Field(True, description="dfsph: run the divergence-free solver")
+    pbf_epsilon: float = Field(
+        1e-6, gt=0,
+        description="pbf: constraint-force-mixing relaxation epsilon of lambda [m^2] (Macklin & "
+        "Mueller 2013, Eq. 11; SPlisHSPlasH 1e-6)",
+    )
+    pbf_s_corr: bool = Field(
+        False, description="pbf: artificial pressure s_corr against tensile instability (Eq. 13)"
+    )
+    pbf_s_corr_k: float = Field(0.1, ge=0, description="pbf: s_corr strength k (dimensionless)")
+    pbf_s_corr_n: float = Field(4.0, gt=0, description="pbf: s_corr exponent n")
+    pbf_s_corr_dq: float = Field(
+        0.2, gt=0, lt=1, description="pbf: s_corr reference distance |dq| as a fraction of h"
+    )
+    pbf_velocity_update: Literal["first_order", "second_order"] = Field(
+        "first_order", description="pbf: v = (x - x_old)/dt, or the 2nd-order BDF form"
     )
 
 
