@@ -1,21 +1,105 @@
-"""What every pressure solver reports per step."""
+"""Shared iteration control of the pressure solvers, and the relaxed-Jacobi PPE engine.
+
+Every iterative pressure solver (PCISPH, PBF, IISPH, DFSPH) runs its iterations through
+:class:`IterationControl`: at least ``min_iterations``, at most ``max_iterations``, stopping as
+soon as the average density error is at most the tolerance (SPlisHSPlasH's ``maxError``, a
+percentage of rho0, stored here as a fraction). Hitting the limit without convergence logs a
+warning naming the solver, the step and the error. Each step reports :class:`SolverStats`.
+
+:func:`jacobi_ppe` is the relaxed Jacobi engine of the survey (Sec. 4.4): for a variable q with
+pressure acceleration ``a = kappa_accel(w q)`` it iterates ``q <- max(q - omega scale (s - A q), 0)``
+with ``A q = ap_factor * accel_divergence(a)``. IISPH and both DFSPH solvers are this engine with
+their own source s, diagonal (``scale``), weight w and time factor.
+"""
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Callable
 from dataclasses import dataclass
+
+import numpy as np
+
+from sphkit.core.ppe import accel_divergence, jacobi_update, kappa_accel
+from sphkit.core.state import SimState
+
+log = logging.getLogger("sphkit")
 
 
 @dataclass
 class SolverStats:
     """Statistics of one pressure solve.
 
-    ``density_error_avg``/``_max``: mean / max of ``max(rho - rho0, 0) / rho0`` (compression) over
-    fluid particles, as fractions (0.001 = 0.1 %). ``divergence_error``: for divergence-free
-    solvers, else 0. ``converged`` is False when the iteration limit stopped the solver.
+    ``density_error_avg``/``_max``: average / maximum compression error of the last iteration as
+    fractions of rho0 (0.001 = 0.1 %). ``divergence_error``: average divergence error (|D rho/Dt|
+    dt / rho0, a fraction) of DFSPH's divergence solver, else 0. ``converged`` is False when an
+    iteration limit stopped a solver.
     """
 
     iterations: int = 0
     density_error_avg: float = 0.0
     density_error_max: float = 0.0
+    divergence_iterations: int = 0
     divergence_error: float = 0.0
     converged: bool = True
+
+
+@dataclass
+class IterationControl:
+    """Minimum/maximum iterations and the tolerance (a fraction) of one solver loop."""
+
+    name: str
+    min_iterations: int
+    max_iterations: int
+    tolerance: float
+
+    def run(self, sweep: Callable[[int], tuple[float, float]],
+            step: int = -1) -> tuple[int, float, float, bool]:
+        """Call ``sweep(k)`` (one iteration returning (average, max) error) until converged.
+
+        Returns (iterations, average error, max error, converged).
+        """
+        avg = mx = 0.0
+        for k in range(self.max_iterations):
+            avg, mx = sweep(k)
+            if k + 1 >= self.min_iterations and avg <= self.tolerance:
+                return k + 1, avg, mx, True
+        log.warning(
+            "%s: no convergence in %d iterations at step %d: average error %.4g%% "
+            "(tolerance %.4g%%), max %.4g%%", self.name, self.max_iterations, step,
+            100 * avg, 100 * self.tolerance, 100 * mx)
+        return self.max_iterations, avg, mx, False
+
+
+def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray,
+               s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
+               active: np.ndarray, error_factor: float = 1.0, one_sided: bool = False
+               ) -> tuple[np.ndarray, int, float, float, bool]:
+    """Relaxed Jacobi on ``A q = s``; q is updated in place and clamped to q >= 0.
+
+    One iteration: ``a = kappa_accel(w q)``; ``Ap = ap_factor * accel_divergence(a)``;
+    ``q <- max(q - omega scale (s - Ap), 0)``, or with ``one_sided`` only the compressive part
+    of the residual acts (see :func:`sphkit.core.ppe.jacobi_update`). The error of an iteration
+    is the compressive residual ``max(Ap - s, 0)`` of ``active`` particles averaged over all
+    particles, times ``error_factor``.
+    Returns (pressure acceleration of the final q, iterations, average error, max error,
+    converged).
+    """
+    f, b = state.fluid, state.boundary
+    x, V = f["x"], f["V0"]
+    nl, nb = state.nl_ff, state.nl_fb
+    a = np.empty_like(x)
+    Ap = np.empty(f.n, dtype=x.dtype)
+
+    def sweep(_k: int) -> tuple[float, float]:
+        kappa_accel(x, V, q, w, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
+                    state.h, state.kid, state.dim, a)
+        accel_divergence(x, V, a, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
+                         nb.indices, state.h, state.kid, state.dim, Ap)
+        avg, mx = jacobi_update(q, s, Ap, ap_factor, scale, omega, active, one_sided)
+        return avg * error_factor, mx * error_factor
+
+    its, avg, mx, ok = control.run(sweep, state.step)
+    kappa_accel(x, V, q, w, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
+                state.h, state.kid, state.dim, a)
+    return a, its, avg, mx, ok

@@ -1,0 +1,161 @@
+"""Divergence-free SPH (DFSPH).
+
+Bender & Koschier 2015, "Divergence-free smoothed particle hydrodynamics", SCA, and 2017,
+"Divergence-free SPH for incompressible and viscous fluids", IEEE TVCG 23(3); as SPlisHSPlasH's
+``TimeStepDFSPH`` implements it (with warm starts, ``USE_WARMSTART`` / ``USE_WARMSTART_V``).
+
+Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
+
+1. the factor (Eq. 9, in SPlisHSPlasH's normalized units, V_j = m_j / rho0)
+   ``alpha_i = 1 / (|sum_j V_j grad W_ij + sum_b V_b grad W_ib|^2 + sum_j |V_j grad W_ij|^2)``;
+2. the **divergence-free solver** (Alg. 3) on the current velocities: source
+   ``s_i = -max(D rho_hat_i / Dt, 0)`` (0 for particles with fewer than 20 neighbours in 3D, 7 in
+   2D, whose residual is also left out of the error), warm start
+   ``kappa^v_i = 0.5 min(kappa^v_prev, 0.5) / dt`` where the density increases, iterations
+   ``kappa^v_i <- max(kappa^v_i - 0.5 (s_i - A kappa^v_i) alpha_i / dt, 0)`` until the average
+   ``|D rho_hat / Dt| dt`` is at most ``max_error_v``; then ``v += dt a(kappa^v)``;
+3. non-pressure forces (the simulation), ``v* = v + dt a``;
+4. the **constant-density solver** (Alg. 2): ``rho_hat*_i = max(rho_hat_i + dt D rho_hat_i/Dt(v*),
+   1)``, ``s_i = 1 - rho_hat*_i``, warm start ``kappa_i = 0.5 min(kappa_prev, 0.00025) / dt^2``
+   where ``rho_hat* > 1``, iterations ``kappa_i <- max(kappa_i - 0.5 (s_i - A kappa_i) alpha_i /
+   dt^2, 0)`` until the average compression is at most ``max_error``; the pressure acceleration
+   ``a = -sum_j V_j (kappa_i + kappa_j) grad W_ij - sum_b V_b kappa_i grad W_ib`` is added to the
+   particle accelerations and the simulation integrates.
+
+``kappa = p / (rho0 rho_hat^2)`` is stored time-step independent (times dt^2, resp. dt) for the
+warm start, as SPlisHSPlasH does; the reported pressure is ``p = (kappa + kappa^v) rho^2 / rho0``
+(both solves apply pressure impulses within the step).
+
+As in SPlisHSPlasH's current code (not the papers' ``max(..., 0)`` form), the iterations are
+one-sided: only compressive residuals ``min(s_i - A kappa_i, 0)`` act, with weight 1, so kappa
+grows monotonically from its warm start and needs no clamp (:func:`sphkit.core.ppe.jacobi_update`). Both
+solvers are :func:`sphkit.core.solver.jacobi_ppe` with A from :mod:`sphkit.core.ppe`.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from sphkit.core.ppe import diagonal, neighbor_counts, velocity_divergence
+from sphkit.core.solver import IterationControl, SolverStats, jacobi_ppe
+from sphkit.core.state import SimState
+
+
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def _alpha(D, tiny, alpha):
+    for i in numba.prange(D.shape[0]):
+        alpha[i] = 1.0 / D[i] if D[i] > tiny else 0.0
+
+
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def _density_source(rho, rho0, div, dt, kprev, s, kappa):
+    # s = 1 - max(rho_hat*, 1); warm start where the predicted density exceeds rho0
+    for i in numba.prange(rho.shape[0]):
+        pred = rho[i] / rho0 + dt * div[i]
+        s[i] = 1.0 - pred
+        kappa[i] = 0.5 * min(kprev[i], 0.00025) / (dt * dt) if pred > 1.0 else 0.0
+
+
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def _divergence_source(div, active, dt, kprev, s, kappa):
+    for i in numba.prange(div.shape[0]):
+        if active[i] and div[i] > 0.0:
+            s[i] = -div[i]
+            kappa[i] = 0.5 * min(kprev[i], 0.5) / dt
+        else:
+            s[i] = 0.0
+            kappa[i] = 0.0
+
+
+class DFSPH:
+    """Divergence-free SPH: constant-density and divergence-free solvers with warm starts."""
+
+    name = "dfsph"
+
+    def __init__(self, max_error: float = 0.01, max_error_v: float = 0.1,
+                 min_iterations: int | None = None, max_iterations: int = 100,
+                 max_iterations_v: int = 100, divergence_solver: bool = True) -> None:
+        """``max_error``/``max_error_v`` in percent of rho0 (SPlisHSPlasH maxError/maxErrorV)."""
+        self.density_control = IterationControl(
+            "DFSPH density solver", 2 if min_iterations is None else min_iterations,
+            max_iterations, max_error / 100.0)
+        self.divergence_control = IterationControl(
+            "DFSPH divergence solver", 1, max_iterations_v, max_error_v / 100.0)
+        self.divergence_solver = divergence_solver
+        self._div_stats = (0, 0.0)
+        self._kappa_v: np.ndarray | None = None  # this step's divergence kappa (for p)
+
+    def init(self, state: SimState) -> None:
+        """Register DFSPH's fields: alpha, the stored kappas, pressure."""
+        f = state.fluid
+        for name in ("p", "dfsph_alpha", "dfsph_kappa", "dfsph_kappa_v"):
+            f.register(name)
+
+    def max_time_step(self, state: SimState) -> float:
+        """No limit of its own beyond the CFL step."""
+        return float("inf")
+
+    def _common(self, state: SimState) -> tuple[np.ndarray, np.ndarray]:
+        f = state.fluid
+        nl, nb = state.nl_ff, state.nl_fb
+        b = state.boundary
+        D = np.empty(f.n, dtype=f.dtype)
+        diagonal(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
+                 nb.indices, state.h, state.kid, state.dim, D)
+        _alpha(D, 1e-5, f["dfsph_alpha"])  # SPlisHSPlasH's epsilon [1/m^2]
+        return D, f["dfsph_alpha"]
+
+    def _divergence(self, state: SimState, v: np.ndarray, out: np.ndarray) -> None:
+        f, b = state.fluid, state.boundary
+        nl, nb = state.nl_ff, state.nl_fb
+        velocity_divergence(f["x"], f["V0"], v, nl.offsets, nl.indices, b["x"], b["V"], b["v"],
+                            nb.offsets, nb.indices, state.h, state.kid, state.dim, out)
+
+    def pre_forces(self, state: SimState, dt: float) -> None:
+        """Factors alpha, then the divergence-free solve on the current velocities."""
+        f = state.fluid
+        _, alpha = self._common(state)
+        self._div_stats = (0, 0.0)
+        self._kappa_v = None
+        if not self.divergence_solver:
+            return
+        div = np.empty(f.n, dtype=f.dtype)
+        self._divergence(state, f["v"], div)
+        active = neighbor_counts(state.nl_ff.offsets, state.nl_fb.offsets) >= (
+            20 if state.dim == 3 else 7)
+        s = np.empty_like(div)
+        kappa = np.empty_like(div)
+        _divergence_source(div, active, dt, f["dfsph_kappa_v"], s, kappa)
+        ones = np.ones_like(div)
+        a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
+                                           alpha / dt, dt, 1.0, active, error_factor=dt,
+                                           one_sided=True)
+        f["v"] += dt * a
+        f["dfsph_kappa_v"] = kappa * dt
+        self._kappa_v = kappa
+        self._div_stats = (its, avg)
+
+    def solve(self, state: SimState, dt: float) -> SolverStats:
+        """Constant-density solve on v* = v + dt a; adds the pressure acceleration to a."""
+        f = state.fluid
+        alpha = f["dfsph_alpha"]
+        vstar = f["v"] + dt * f["a"]
+        div = np.empty(f.n, dtype=f.dtype)
+        self._divergence(state, vstar, div)
+        s = np.empty_like(div)
+        kappa = np.empty_like(div)
+        _density_source(f["rho"], state.rho0, div, dt, f["dfsph_kappa"], s, kappa)
+        ones = np.ones_like(div)
+        active = np.ones(f.n, dtype=np.bool_)
+        a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
+                                         alpha / (dt * dt), dt * dt, 1.0, active,
+                                         one_sided=True)
+        f["a"] += a
+        f["dfsph_kappa"] = kappa * (dt * dt)
+        # both solves apply pressure impulses in this step: the pressure is their sum
+        total = kappa if self._kappa_v is None else kappa + self._kappa_v
+        f["p"] = total * f["rho"] ** 2 / state.rho0
+        its_v, err_v = self._div_stats
+        return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
+                           divergence_iterations=its_v, divergence_error=err_v, converged=ok)
