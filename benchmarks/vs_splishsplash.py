@@ -1,107 +1,242 @@
 """sphkit vs SPlisHSPlasH on one and the same scene file, side by side, in one run.
 
-    python benchmarks/vs_splishsplash.py [SCENE.json ...] [--threads 2]
+    python benchmarks/vs_splishsplash.py [SCENE.json ...] [--threads 2] [--until T]
+                                         [--codes sphkit,splishsplash] [--json FILE]
 
-For each scene (default: benchmarks/scenes/dambreak_wcsph.json, a 3D dam break with WCSPH,
-Akinci boundaries and a fixed time step of 1 ms, to t = 0.5 s) the script runs
+Without scene arguments it runs the five 3D dam breaks of ``benchmarks/scenes`` (SPlisHSPlasH's
+DamBreakModel setup: 19^3 fluid particles of radius 0.025 m, Akinci boundary particles, standard
+viscosity 0.01): ``dambreak_wcsph.json`` (WCSPH, fixed 1 ms step, to t = 0.5 s) and
+``dambreak_{pcisph,pbf,iisph,dfsph}.json`` (simulationMethod 1..4 with equal settings: maxError
+0.05 %, DFSPH maxErrorV 0.1 %, SPlisHSPlasH's default minIterations per solver, maxIterations 100,
+the CFL step with cflFactor 1 and at most 5 ms, to t = 1 s). For each scene it runs
 
 * SPlisHSPlasH through its ``pysplishsplash`` wheel (``pip install pysplishsplash``), in a
-  subprocess with ``OMP_NUM_THREADS`` set and, on Linux, the ``LD_PRELOAD`` the wheel's
-  import needs;
+  subprocess with ``OMP_NUM_THREADS`` set and, on Linux, the ``LD_PRELOAD`` the wheel's import
+  needs (``_splishsplash_runner.py``, which reads the statistics in the time-step callback);
 * sphkit on the same file (after a short warm-up run so that Numba's compile time is not counted),
-  with ``NUMBA_NUM_THREADS`` set to the same thread count,
+  in a subprocess with ``NUMBA_NUM_THREADS`` set to the same thread count,
 
-and prints particles, steps, wall seconds, seconds per step for each and the ratio
-sphkit / SPlisHSPlasH of the time per step (below 1 means sphkit is faster).
+and prints for each code: fluid and boundary particles, simulated seconds, wall seconds, steps,
+mean pressure-solver iterations per step (``it/step``; ``-`` for WCSPH, which does not iterate),
+mean DFSPH divergence iterations per step (``div/step``), the mean density error (``rho err``:
+the average over steps of the fluid average of max(rho / rho0 - 1, 0), in % of rho0, measured the
+same way in both codes from the density field each holds after the step), sphkit's own solver
+error (``solver err``: the mean of ``StepStats.density_error_avg``; the wheel does not expose
+SPlisHSPlasH's), milliseconds per step, and the ratio sphkit / SPlisHSPlasH of the wall time per
+simulated second (below 1 means sphkit is faster). A scene sphkit cannot run yet (a solver that is
+not implemented) is reported as ``sphkit: not available: <reason>`` and the script goes on.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import json
 import os
 import platform
 import re
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-DEFAULT_SCENES = [HERE / "scenes" / "dambreak_wcsph.json"]
+SCENES = HERE / "scenes"
+DEFAULT_SCENES = [SCENES / f"dambreak_{m}.json" for m in ("wcsph", "pcisph", "pbf", "iisph",
+                                                          "dfsph")]
 GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
+TIMEOUT_S = 1800  # per code and scene
 
 
-def run_splishsplash(scene: Path, threads: int) -> dict | None:
-    """Time the scene in SPlisHSPlasH (None when the wheel is missing or fails)."""
+def _marked(stdout: str, mark: str) -> str | None:
+    for line in stdout.splitlines():
+        if line.startswith(mark + " "):
+            return line[len(mark) + 1:]
+    return None
+
+
+def _summary(raw: dict) -> dict:
+    """Per-step means from a runner's sums."""
+    steps = max(raw["steps"], 1)
+    out = dict(raw)
+    out["iterations"] = raw["iterations"] / steps
+    out["divergence_iterations"] = raw["divergence_iterations"] / steps
+    out["density_error"] = raw["density_error"] / steps
+    if raw.get("solver_error") is not None:
+        out["solver_error"] = raw["solver_error"] / steps
+    return out
+
+
+def run_splishsplash(scene: Path, threads: int) -> dict:
+    """Run the scene in SPlisHSPlasH; ``{"error": ...}`` when the wheel is missing or fails."""
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
     if sys.platform.startswith("linux") and Path(GL_PRELOAD).exists():
         env["LD_PRELOAD"] = GL_PRELOAD
-    res = subprocess.run([sys.executable, str(HERE / "_splishsplash_runner.py"), str(scene)],
-                         env=env, capture_output=True, text=True)
+    try:
+        res = subprocess.run([sys.executable, str(HERE / "_splishsplash_runner.py"), str(scene)],
+                             env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return {"error": f"no result within {TIMEOUT_S} s"}
+    line = _marked(res.stdout, "SPHKIT-BENCH")
+    if line is None:
+        why = (res.stderr.strip() or res.stdout.strip()).splitlines()[-3:]
+        return {"error": f"exit {res.returncode}: {' / '.join(why) or 'no output'}"}
     counts = {}
     for key, pat in (("n_fluid", r"Number of fluid particles: (\d+)"),
                      ("n_boundary", r"Number of boundary particles: (\d+)")):
         m = re.search(pat, res.stdout)
         counts[key] = int(m.group(1)) if m else 0
-    for line in res.stdout.splitlines():
-        if line.startswith("SPHKIT-BENCH "):
-            return {**json.loads(line[len("SPHKIT-BENCH "):]), **counts}
-    print(f"SPlisHSPlasH run failed (exit {res.returncode}):\n{res.stderr[-2000:]}",
-          file=sys.stderr)
-    return None
+    out = _summary({**json.loads(line), **counts})
+    if out.get("method") == "WCSPH":
+        out["iterations"] = None  # WCSPH does not iterate (SPlisHSPlasH reports 0)
+    return out
+
+
+SPHKIT_CODE = """
+import json, sys, time
+import numpy as np
+from sphkit.scene.loader import load_scene
+from sphkit.scene.schema import SceneError
+from sphkit.simulation import InstabilityError, Simulation
+
+def say(mark, obj):
+    print(mark + " " + json.dumps(obj), flush=True)
+
+try:
+    sc = load_scene(sys.argv[1])
+    warm = Simulation(sc)
+    for _ in range(3):
+        warm.step()
+    sim = Simulation(sc)
+except SceneError as e:
+    say("SPHKIT-UNAVAILABLE", " / ".join(str(e).splitlines()))
+    sys.exit(0)
+rho0 = sim.material.density0
+until = sc.configuration.time.until
+rec = {"steps": 0, "iterations": 0, "divergence_iterations": 0, "density_error": 0.0,
+       "solver_error": 0.0, "method": sc.configuration.pressure.method,
+       "n_fluid": sim.fluid.n, "n_boundary": sim.boundary.n}
+t0 = time.perf_counter()
+try:
+    while sim.time < until - 1e-12:
+        s = sim.step()
+        rec["steps"] += 1
+        rec["iterations"] += getattr(s, "iterations", 1)
+        rec["divergence_iterations"] += getattr(s, "divergence_iterations", 0)
+        rec["solver_error"] += s.density_error_avg
+        rec["density_error"] += float(np.mean(np.maximum(sim.densities / rho0 - 1.0, 0.0)))
+except InstabilityError as e:
+    say("SPHKIT-FAILED", f"unstable: {e}")
+    sys.exit(0)
+rec["wall"] = time.perf_counter() - t0
+rec["sim_time"] = sim.time
+say("SPHKIT-BENCH", rec)
+"""
 
 
 def run_sphkit(scene: Path, threads: int) -> dict:
-    """Time the scene in sphkit (in a subprocess so the thread count applies)."""
-    code = f"""
-import json, time
-from sphkit.scene.loader import load_scene
-from sphkit.simulation import Simulation
-sc = load_scene({str(scene)!r})
-warm = Simulation(sc)
-for _ in range(3):
-    warm.step()
-sim = Simulation(sc)
-until = sc.configuration.time.until
-t0 = time.perf_counter()
-while sim.time < until - 1e-12:
-    sim.step()
-wall = time.perf_counter() - t0
-print("SPHKIT-BENCH " + json.dumps({{"steps": sim.step_count, "wall": wall,
-      "n_fluid": sim.fluid.n, "n_boundary": sim.boundary.n}}))
-"""
+    """Run the scene in sphkit (in a subprocess so the thread count applies); ``{"unavailable":
+    ...}`` when sphkit rejects the scene, ``{"error": ...}`` when the run fails."""
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
-    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
-    for line in res.stdout.splitlines():
-        if line.startswith("SPHKIT-BENCH "):
-            return json.loads(line[len("SPHKIT-BENCH "):])
-    raise RuntimeError(f"sphkit run failed (exit {res.returncode}):\n{res.stderr[-3000:]}")
+    try:
+        res = subprocess.run([sys.executable, "-c", SPHKIT_CODE, str(scene)], env=env,
+                             capture_output=True, text=True, timeout=TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return {"error": f"no result within {TIMEOUT_S} s"}
+    line = _marked(res.stdout, "SPHKIT-BENCH")
+    if line is not None:
+        out = _summary(json.loads(line))
+        if out["method"] == "wcsph":
+            out["iterations"] = None
+        return out
+    for mark, key in (("SPHKIT-UNAVAILABLE", "unavailable"), ("SPHKIT-FAILED", "error")):
+        text = _marked(res.stdout, mark)
+        if text is not None:
+            return {key: json.loads(text)}
+    why = res.stderr.strip().splitlines()[-3:]
+    return {"error": f"exit {res.returncode}: {' / '.join(why) or 'no output'}"}
+
+
+def _with_end_time(scene: Path, until: float, folder: Path) -> Path:
+    """A copy of the SPlisHSPlasH scene with ``stopAt`` = until and absolute mesh paths."""
+    data = json.loads(scene.read_text())
+    data.setdefault("Configuration", {})["stopAt"] = until
+    for body in data.get("RigidBodies", []):
+        if body.get("geometryFile") and not Path(body["geometryFile"]).is_absolute():
+            body["geometryFile"] = str((scene.parent / body["geometryFile"]).resolve())
+    path = folder / scene.name
+    path.write_text(json.dumps(data, indent=1))
+    return path
+
+
+def _num(value: float | None, spec: str, scale: float = 1.0) -> str:
+    return "-" if value is None else f"{value * scale:{spec}}"
+
+
+COLUMNS = (f"{'scene':22s} {'code':13s} {'fluid':>6s} {'bound.':>6s} {'sim s':>6s} "
+           f"{'wall s':>7s} {'steps':>5s} {'it/step':>7s} {'div/step':>8s} {'rho err%':>8s} "
+           f"{'solver err%':>11s} {'ms/step':>7s}")
+
+
+def _row(scene: str, code: str, r: dict) -> str:
+    if "unavailable" in r:
+        return f"{scene:22s} {code}: not available: {r['unavailable']}"
+    if "error" in r:
+        return f"{scene:22s} {code}: failed: {r['error']}"
+    div = r["divergence_iterations"] if r.get("method") in ("dfsph", "DFSPH") else None
+    return (f"{scene:22s} {code:13s} {r['n_fluid']:6d} {r['n_boundary'] or 0:6d} "
+            f"{r['sim_time']:6.3f} {r['wall']:7.2f} {r['steps']:5d} "
+            f"{_num(r['iterations'], '7.2f')} {_num(div, '8.2f')} "
+            f"{_num(r['density_error'], '8.4f', 100)} {_num(r.get('solver_error'), '11.4f', 100)} "
+            f"{1000 * r['wall'] / max(r['steps'], 1):7.2f}")
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("scenes", nargs="*", type=Path, default=DEFAULT_SCENES)
+    ap.add_argument("scenes", nargs="*", type=Path, default=DEFAULT_SCENES,
+                    help="SPlisHSPlasH scene files (default: the five dam breaks)")
     ap.add_argument("--threads", type=int, default=2, help="threads for both codes (default 2)")
+    ap.add_argument("--until", type=float, metavar="T",
+                    help="simulated end time [s] for every scene (default: each scene's stopAt)")
+    ap.add_argument("--codes", default="sphkit,splishsplash", metavar="LIST",
+                    help="which codes to run: sphkit, splishsplash or both (default)")
+    ap.add_argument("--json", type=Path, metavar="FILE", help="also write the results as JSON")
     args = ap.parse_args()
+    codes = {c.strip().lower() for c in args.codes.split(",") if c.strip()}
+    if not codes or not codes <= {"sphkit", "splishsplash"}:
+        ap.error(f"--codes: got {args.codes!r}; expected sphkit, splishsplash or both, "
+                 "comma-separated")
     cpu = platform.processor() or platform.machine()
-    print(f"# {time.strftime('%Y-%m-%d')} {platform.node()} {cpu}"
-          f", {os.cpu_count()} cores, {args.threads} threads each")
-    head = (f"{'scene':28s} {'code':13s} {'fluid':>7s} {'bound.':>7s} {'steps':>6s} "
-            f"{'wall s':>8s} {'ms/step':>8s}")
-    print(head)
-    for scene in args.scenes:
-        sk = run_sphkit(scene, args.threads)
-        sp = run_splishsplash(scene, args.threads)
-        for name, r in (("sphkit", sk), ("SPlisHSPlasH", sp)):
-            if r is None:
-                print(f"{scene.name:28s} {name:13s} (not available)")
-                continue
-            print(f"{scene.name:28s} {name:13s} {r['n_fluid']:7d} {r['n_boundary'] or 0:7d} "
-                  f"{r['steps']:6d} {r['wall']:8.2f} {1000 * r['wall'] / r['steps']:8.2f}")
-        if sp:
-            ratio = (sk["wall"] / sk["steps"]) / (sp["wall"] / sp["steps"])
-            print(f"{scene.name:28s} ratio sphkit/SPlisHSPlasH time per step: {ratio:.2f}")
+    versions = []
+    for dist in ("pysplishsplash", "numba"):
+        try:
+            versions.append(f"{dist} {importlib.metadata.version(dist)}")
+        except importlib.metadata.PackageNotFoundError:
+            versions.append(f"{dist} (not installed)")
+    print(f"# {time.strftime('%Y-%m-%d')} {platform.node()} {cpu}, {os.cpu_count()} cores, "
+          f"{args.threads} threads each; {', '.join(versions)}")
+    print(COLUMNS, flush=True)
+    results = []
+    with tempfile.TemporaryDirectory(prefix="sphkit-bench-") as tmp:
+        for scene in args.scenes:
+            scene = scene.resolve()  # the wheel crashes on a relative scene path
+            path = scene if args.until is None else _with_end_time(scene, args.until, Path(tmp))
+            sk = sp = {"unavailable": "not run (--codes)"}
+            if "sphkit" in codes:
+                sk = run_sphkit(path, args.threads)
+                print(_row(scene.name, "sphkit", sk), flush=True)
+            if "splishsplash" in codes:
+                sp = run_splishsplash(path, args.threads)
+                print(_row(scene.name, "SPlisHSPlasH", sp), flush=True)
+            entry = {"scene": scene.name, "sphkit": sk, "splishsplash": sp, "ratio": None}
+            if "wall" in sk and "wall" in sp and sk["sim_time"] > 0 and sp["sim_time"] > 0:
+                entry["ratio"] = (sk["wall"] / sk["sim_time"]) / (sp["wall"] / sp["sim_time"])
+                print(f"{scene.name:22s} ratio sphkit/SPlisHSPlasH wall time per simulated "
+                      f"second: {entry['ratio']:.2f}", flush=True)
+            results.append(entry)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1) + "\n")
     return 0
 
 

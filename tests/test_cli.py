@@ -220,3 +220,91 @@ def test_progress_bar_on_a_terminal(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert main(["run", str(path), "--out", str(tmp_path / "out"), "--until", "0.025"]) == 0
     text = stream.getvalue()
     assert "particles" in text and "steps/s" in text and "finished" in text
+
+
+# -- pressure-solver statistics in the progress and the manifest ---------------------------------
+def test_tiny_run_records_solver_iterations(tiny_run: dict) -> None:
+    manifest = read_manifest(tiny_run["out"])
+    f0, *later = manifest["frames"]
+    assert f0["iterations"] is None and f0["divergence_iterations"] is None  # no step yet
+    for rec in later:  # WCSPH: one "iteration" per step, no divergence solve
+        assert rec["iterations"] == 1
+        assert rec["divergence_iterations"] == 0 and rec["divergence_error"] == 0.0
+    assert manifest["last_step"]["iterations"] == 1
+    rs = manifest["run_stats"]
+    assert rs["steps"] == manifest["last_step"]["step"]
+    assert rs["mean_iterations"] == 1.0 and rs["max_iterations"] == 1
+    assert rs["mean_divergence_iterations"] == 0.0 and rs["mean_divergence_error"] == 0.0
+    assert 0.0 <= rs["mean_density_error"] <= rs["max_density_error"]
+    assert "iters 1" in tiny_run["err"] and "  div " not in tiny_run["err"]
+    assert "mean 1 pressure iterations per step" in tiny_run["err"]
+
+
+def _with_solver_stats(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Make every step report DFSPH-like statistics: pressure iterations 2, 3, 4, 2, 3, 4, ...
+    and 1 divergence iteration with error 0.002; return the list of reported iterations."""
+    from types import SimpleNamespace
+
+    from sphkit.simulation import Simulation
+
+    original = Simulation.step
+    reported: list[int] = []
+
+    def step(self: Simulation):  # noqa: ANN202
+        stats = original(self)
+        fields = {k: v for k, v in vars(stats).items()
+                  if k not in ("iterations", "divergence_iterations", "divergence_error")}
+        reported.append(2 + len(reported) % 3)
+        fake = SimpleNamespace(**fields, iterations=reported[-1], divergence_iterations=1,
+                               divergence_error=0.002)
+        self.last = fake
+        return fake
+
+    monkeypatch.setattr(Simulation, "step", step)
+    return reported
+
+
+def test_run_records_iterative_solver_stats(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    reported = _with_solver_stats(monkeypatch)
+    out = tmp_path / "out"
+    assert main(["run", str(_scene_file(tmp_path, TINY)), "--out", str(out),
+                 "--until", "0.025"]) == 0
+    err = capsys.readouterr().err
+    manifest = read_manifest(out)
+    last_frame = manifest["frames"][-1]
+    assert last_frame["iterations"] == reported[-1]
+    assert last_frame["divergence_iterations"] == 1 and last_frame["divergence_error"] == 0.002
+    rs = manifest["run_stats"]
+    assert rs["steps"] == len(reported)
+    assert rs["mean_iterations"] == pytest.approx(np.mean(reported))
+    assert rs["max_iterations"] == max(reported)
+    assert rs["mean_divergence_iterations"] == 1.0
+    assert rs["mean_divergence_error"] == pytest.approx(0.002)
+    # the log lines show the mean iterations since the previous line, and "div" when > 0
+    assert "iters " in err and "div 1" in err
+    assert f"mean {np.mean(reported):.3g} pressure iterations per step" in err
+
+
+def test_progress_shows_iterations_since_the_last_update() -> None:
+    from types import SimpleNamespace
+
+    from sphkit.cli import _PlainReporter
+
+    stream = io.StringIO()
+    rep = _PlainReporter(1.0, stream)
+    last = SimpleNamespace(density_error_avg=0.0004, max_velocity=1.0, iterations=5,
+                           divergence_iterations=0)
+    sim = SimpleNamespace(fluid=SimpleNamespace(n=10), dt=1e-3, last=last, time=0.5,
+                          step_count=3)
+    assert "iters 5" in rep.stats_text(sim)  # nothing counted yet: the last step's
+    assert "div" not in rep.stats_text(sim)
+    for k in (2, 3, 7):
+        rep.count_step(SimpleNamespace(iterations=k, divergence_iterations=k - 1))
+    text = rep.stats_text(sim)
+    assert "iters 4" in text and "div 3" in text and "rho err avg 0.04%" in text
+    assert "iters 5" in rep.stats_text(sim)  # the window was consumed
+    rep.count_step(SimpleNamespace(iterations=3))  # no divergence field: counts as 0
+    assert "iters 3" in rep.stats_text(sim) and "div" not in rep.stats_text(sim)
+    sim.last = None
+    assert "iters" not in rep.stats_text(sim)  # before the first step

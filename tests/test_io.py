@@ -199,3 +199,43 @@ def test_manifest_is_valid_json_through_a_run(tmp_path: Path) -> None:
     assert _listing(tmp_path) == ["manifest.json"]
     with pytest.raises(ValueError, match="'done'.*running, finished"):
         m.finish("done")
+
+
+def test_manifest_solver_statistics(tmp_path: Path) -> None:
+    sim = _fake_sim(2, n=5)
+    m = Manifest(tmp_path, Scene(name="tiny"))
+    assert read_manifest(tmp_path)["run_stats"] is None  # no step yet
+    steps = [
+        SimpleNamespace(step=1, time=0.001, dt=1e-3, n_fluid=5, max_velocity=1.0, cfl=0.1,
+                        density_error_avg=0.0004, density_error_max=0.01, iterations=3,
+                        divergence_iterations=1, divergence_error=0.002),
+        SimpleNamespace(step=2, time=0.002, dt=1e-3, n_fluid=5, max_velocity=1.0, cfl=0.1,
+                        density_error_avg=0.0002, density_error_max=0.03, iterations=6,
+                        divergence_iterations=2, divergence_error=0.001),
+        # a step of a solver that reports no divergence solve, and a non-finite error
+        SimpleNamespace(step=3, time=0.003, dt=1e-3, n_fluid=5, max_velocity=1.0, cfl=0.1,
+                        density_error_avg=float("nan"), density_error_max=0.02, iterations=3),
+    ]
+    for stats in steps:
+        m.add_step(stats)
+    sim.last = steps[1]
+    m.add_frame(sim, 1, [tmp_path / "frame_00001.vtu"])
+    data = read_manifest(tmp_path)
+    (frame,) = data["frames"]
+    assert (frame["iterations"], frame["divergence_iterations"]) == (6, 2)
+    assert frame["divergence_error"] == 0.001
+    assert data["last_step"]["iterations"] == 6
+    assert data["last_step"]["divergence_iterations"] == 2
+    rs = data["run_stats"]
+    assert rs["steps"] == 3
+    assert rs["mean_iterations"] == pytest.approx(4.0) and rs["max_iterations"] == 6
+    assert rs["mean_divergence_iterations"] == pytest.approx(1.0)  # absent counts as 0
+    assert rs["mean_divergence_error"] == pytest.approx(0.001)
+    assert rs["mean_density_error"] == pytest.approx(0.0003)  # the NaN step is left out
+    assert rs["max_density_error"] == pytest.approx(0.03)
+    sim.last = steps[2]
+    m.finish("finished", stats=sim.last)
+    data = read_manifest(tmp_path)
+    assert data["last_step"]["iterations"] == 3
+    assert "divergence_iterations" not in data["last_step"]  # not reported by that step
+    assert data["run_stats"]["steps"] == 3

@@ -305,15 +305,136 @@ def test_splishsplash_older_flat_parameters_and_xsph() -> None:
     assert b.viscosity.boundary_coefficient == 0.05
 
 
+# SPlisHSPlasH's defaults of the iterative solvers: TimeStep.cpp (minIterations 2, maxIterations
+# 100, maxError 0.01 %), TimeStepPCISPH.cpp (minIterations 3), TimeStepDFSPH.cpp (maxIterationsV
+# 100, maxErrorV 0.1 %, divergence solver on), TimeStepPBF.cpp (velocityUpdateMethod 0); also read
+# back from pysplishsplash 2.19's time-step objects.
+_SOLVER_DEFAULTS = {
+    1: ("pcisph", 3), 2: ("pbf", 2), 3: ("iisph", 2), 4: ("dfsph", 2),
+}
+
+
+def _solver_scene(method: int, block: dict[str, Any] | None = None, **flat: Any) -> dict:
+    config = {"cflMethod": 1, "cflFactor": 1, "cflMaxTimeStepSize": 0.005, **flat}
+    data = _sph_scene(simulationMethod=method, **config)
+    names = {1: "PCISPH", 2: "PBF", 3: "IISPH", 4: "DFSPH"}
+    data["Configuration"].pop("DFSPH")
+    if block is not None:
+        data["Configuration"][names[method]] = block
+    return data
+
+
+@pytest.mark.parametrize("method", [1, 2, 3, 4])
+def test_splishsplash_iterative_solver_defaults(sph_dir: Path, method: int) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = from_splishsplash(_solver_scene(method), sph_dir / "dam.json")
+    p = scene.configuration.pressure
+    name, min_iterations = _SOLVER_DEFAULTS[method]
+    assert p.method == name
+    assert (p.min_iterations, p.max_iterations, p.max_error) == (min_iterations, 100, 0.01)
+    assert (p.max_iterations_v, p.max_error_v, p.divergence_solver) == (100, 0.1, True)
+    assert p.pbf_velocity_update == "first_order"
+    t = scene.configuration.time
+    assert (t.cfl, t.cfl_factor, t.dt_max) == (True, 1.0, 0.005)
+
+
+def test_splishsplash_pcisph_parameters(sph_dir: Path) -> None:
+    block = {"minIterations": 4, "maxIterations": 50, "maxError": 0.1}
+    p = from_splishsplash(_solver_scene(1, block), sph_dir / "dam.json").configuration.pressure
+    assert (p.method, p.min_iterations, p.max_iterations, p.max_error) == ("pcisph", 4, 50, 0.1)
+
+
+def test_splishsplash_pbf_parameters(sph_dir: Path) -> None:
+    block = {"minIterations": 1, "maxIterations": 20, "maxError": 0.05, "velocityUpdateMethod": 1}
+    p = from_splishsplash(_solver_scene(2, block), sph_dir / "dam.json").configuration.pressure
+    assert (p.method, p.min_iterations, p.max_iterations, p.max_error) == ("pbf", 1, 20, 0.05)
+    assert p.pbf_velocity_update == "second_order"
+    assert p.pbf_s_corr is False  # SPlisHSPlasH's PBF has no artificial pressure
+
+
+def test_splishsplash_iisph_parameters(sph_dir: Path) -> None:
+    block = {"minIterations": 0, "maxIterations": 30, "maxError": 0.02}
+    p = from_splishsplash(_solver_scene(3, block), sph_dir / "dam.json").configuration.pressure
+    assert (p.method, p.min_iterations, p.max_iterations, p.max_error) == ("iisph", 0, 30, 0.02)
+
+
+def test_splishsplash_dfsph_parameters(sph_dir: Path) -> None:
+    block = {"minIterations": 3, "maxIterations": 80, "maxError": 0.05, "maxIterationsV": 40,
+             "maxErrorV": 0.2, "enableDivergenceSolver": False}
+    p = from_splishsplash(_solver_scene(4, block), sph_dir / "dam.json").configuration.pressure
+    assert (p.method, p.min_iterations, p.max_iterations, p.max_error) == ("dfsph", 3, 80, 0.05)
+    assert (p.max_iterations_v, p.max_error_v, p.divergence_solver) == (40, 0.2, False)
+
+
+def test_splishsplash_default_method_is_dfsph(sph_dir: Path) -> None:
+    data = _sph_scene()
+    del data["Configuration"]["simulationMethod"]
+    p = from_splishsplash(data, sph_dir / "dam.json").configuration.pressure
+    assert (p.method, p.min_iterations, p.max_error) == ("dfsph", 2, 0.05)  # its DFSPH block
+
+
+def test_splishsplash_solver_flat_keys_and_unknown_block_keys(sph_dir: Path) -> None:
+    # scenes before 2.16: flat keys in Configuration; the block wins where it sets a key
+    data = _solver_scene(4, {"maxError": 0.02, "maxIterationsV": 10, "bogus": 1},
+                         maxError=0.3, minIterations=5, maxErrorV=0.5,
+                         enableDivergenceSolver=0)
+    with pytest.warns(UserWarning, match=r"Configuration\.DFSPH\.bogus") as record:
+        scene = from_splishsplash(data, sph_dir / "dam.json")
+    assert len(record) == 1
+    p = scene.configuration.pressure
+    assert (p.max_error, p.min_iterations, p.max_error_v) == (0.02, 5, 0.5)
+    assert (p.max_iterations_v, p.divergence_solver) == (10, False)
+
+
+def test_splishsplash_cfl_with_iteration_control_warns_for_iterative_solvers(
+        sph_dir: Path) -> None:
+    with pytest.warns(UserWarning, match=r"cflMethod: 2 .* read as 1"):
+        scene = from_splishsplash(_solver_scene(3, cflMethod=2), sph_dir / "dam.json")
+    assert scene.configuration.time.cfl is True
+
+
+def test_benchmark_scenes_share_their_settings() -> None:
+    folder = Path(__file__).resolve().parent.parent / "benchmarks" / "scenes"
+    scenes = {name: load_scene(folder / f"dambreak_{name}.json")
+              for name in ("wcsph", "pcisph", "pbf", "iisph", "dfsph")}
+    for name, scene in scenes.items():
+        cfg = scene.configuration
+        assert cfg.pressure.method == name
+        assert cfg.particle_radius == 0.025 and cfg.boundary.method == "akinci2012"
+        assert scene.fluid_blocks == scenes["wcsph"].fluid_blocks
+        assert scene.meshes == scenes["wcsph"].meshes
+        assert scene.materials == scenes["wcsph"].materials
+        if name != "wcsph":
+            p, t = cfg.pressure, cfg.time
+            assert (p.max_error, p.max_iterations) == (0.05, 100)
+            assert p.min_iterations == (3 if name == "pcisph" else 2)
+            assert (t.cfl, t.cfl_factor, t.dt_max, t.until) == (True, 1.0, 0.005, 1.0)
+    assert scenes["dfsph"].configuration.pressure.max_error_v == 0.1
+
+
 @pytest.mark.parametrize(
     ("edit", "expected"),
     [
-        ({"Configuration": {"simulationMethod": 4}},
-         r"Configuration\.simulationMethod: 4 \(DFSPH\) is not supported yet; "
-         r"supported: 0 \(WCSPH\)"),
-        ({"Configuration": {"simulationMethod": None}},
-         r"Configuration\.simulationMethod: 4 \(DFSPH, SPlisHSPlasH's default\)"),
-        ({"Configuration": {"simulationMethod": 1}}, r"1 \(PCISPH\) is not supported yet"),
+        ({"Configuration": {"simulationMethod": 5}},
+         r"Configuration\.simulationMethod: 5 \(Projective Fluids\) is not supported yet; "
+         r"supported: 0 \(WCSPH\), 1 \(PCISPH\), 2 \(PBF\), 3 \(IISPH\), 4 \(DFSPH\)"),
+        ({"Configuration": {"simulationMethod": 6}}, r"6 \(ICSPH\) is not supported yet"),
+        ({"Configuration": {"simulationMethod": 9}}, r"9 \(unknown method\) is not supported"),
+        ({"Configuration": {"simulationMethod": 2, "PBF": {"velocityUpdateMethod": 2}}},
+         r"Configuration\.PBF\.velocityUpdateMethod: got 2: expected 0 \(first order\) or 1"),
+        ({"Configuration": {"simulationMethod": 4, "DFSPH": {"maxError": -0.05}}},
+         r"Configuration\.DFSPH\.maxError: got -0\.05: expected a number > 0"),
+        ({"Configuration": {"simulationMethod": 4, "DFSPH": {"maxErrorV": "small"}}},
+         r"Configuration\.DFSPH\.maxErrorV: got 'small': expected a finite number"),
+        ({"Configuration": {"simulationMethod": 3, "IISPH": {"maxIterations": 0}}},
+         r"Configuration\.IISPH\.maxIterations \(sphkit configuration\.pressure\.max_iter"),
+        ({"Configuration": {"simulationMethod": 1, "PCISPH": {"minIterations": 2.5}}},
+         r"Configuration\.PCISPH\.minIterations: got 2\.5: expected an integer"),
+        ({"Configuration": {"simulationMethod": 1, "maxError": 500}},
+         r"Configuration\.maxError \(sphkit configuration\.pressure\.max_error\)"),
+        ({"Configuration": {"simulationMethod": 4, "PCISPH": []}},
+         None),  # another solver's block is not read: this loads
         ({"Configuration": {"boundaryHandlingMethod": 2}},
          r"Configuration\.boundaryHandlingMethod: 2 \(Bender et al\. 2019 volume maps\)"),
         ({"Configuration": {"boundaryHandlingMethod": 1}}, r"Koschier and Bender 2017"),
@@ -349,6 +470,9 @@ def test_splishsplash_unsupported_and_invalid(sph_dir: Path, edit, expected) -> 
             data[key] = {k: v for k, v in data[key].items() if v is not None}
         else:
             data[key][0].update(change)
+    if expected is None:
+        from_splishsplash(data, sph_dir / "dam.json")
+        return
     with pytest.raises(SceneError, match=expected):
         from_splishsplash(data, sph_dir / "dam.json")
 
@@ -403,8 +527,15 @@ def _as_wcsph(data: dict[str, Any]) -> dict[str, Any]:
 def test_wheel_dambreak_3d() -> None:
     folder = _wheel_scenes()
     path = folder / "DamBreakModel.json"
-    with pytest.raises(SceneError, match=r"simulationMethod: 4 \(DFSPH\)"):
-        load_scene(path)  # as shipped: DFSPH with volume maps
+    with pytest.raises(SceneError, match=r"boundaryHandlingMethod: 2 \(Bender et al\. 2019"):
+        load_scene(path)  # as shipped: DFSPH (now supported) with volume maps (not yet)
+    shipped = json.loads(path.read_text())
+    shipped["Configuration"]["boundaryHandlingMethod"] = 0
+    dfsph = from_splishsplash(shipped, path).configuration
+    p = dfsph.pressure
+    assert (p.method, p.min_iterations, p.max_iterations, p.max_error) == ("dfsph", 2, 100, 0.05)
+    assert (p.max_iterations_v, p.max_error_v, p.divergence_solver) == (100, 0.1, True)
+    assert (dfsph.time.cfl, dfsph.time.cfl_factor, dfsph.time.dt_max) == (True, 1.0, 0.005)
     data = _as_wcsph(json.loads(path.read_text()))
     scene = from_splishsplash(data, path)
     assert scene.name == "DamBreakModel"

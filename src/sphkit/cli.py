@@ -11,7 +11,10 @@ JSON/YAML or SPlisHSPlasH JSON) and writes the frames and ``manifest.json`` into
 (``--out``, else the scene's ``output.directory``, else ``out/<scene name>``; relative paths are
 relative to the current folder). Frames of an earlier run that its manifest lists are removed
 first, so that the folder holds one run. Progress goes to stderr: a live bar on a terminal, a log
-line every ~2 s and at every frame otherwise.
+line every ~2 s and at every frame otherwise. Each shows steps per second, particles, the time
+step, the density error, the pressure solver's iterations per step (``iters``, the mean over the
+steps since the previous update; ``div``: DFSPH's divergence-solver iterations, shown when there
+are any) and the largest speed. The manifest records them per frame and as run means.
 
 Exit codes: 0 finished; 1 failed (e.g. an output file could not be written); 2 bad command line
 or scene; 3 the simulation became unstable (frames so far are kept, the diagnosis is printed and
@@ -128,6 +131,8 @@ class _Reporter:
         self.t0 = time.perf_counter()
         self._mark = (self.t0, 0)  # (wall time, step count) of the last rate measurement
         self.rate: float | None = None
+        # solver iterations (pressure, divergence) summed over the steps since the last display
+        self._window = [0, 0.0, 0.0]
 
     def _update_rate(self, step_count: int, min_interval: float) -> None:
         """Steps per wall second since the last measurement at least ``min_interval`` s ago."""
@@ -138,16 +143,48 @@ class _Reporter:
         self.rate = (step_count - n) / (now - t)
         self._mark = (now, step_count)
 
+    def count_step(self, stats: Any) -> None:
+        """Add a step's solver iterations to the window shown by the next :meth:`stats_text`."""
+        iterations = getattr(stats, "iterations", None)
+        if iterations is None:
+            return
+        self._window[0] += 1
+        self._window[1] += iterations
+        self._window[2] += getattr(stats, "divergence_iterations", 0) or 0
+
+    def iterations_text(self, sim: Any) -> str:
+        """``iters N`` (and ``div N`` when DFSPH's divergence solver iterated): the mean per step
+        since the previous display, else the last step's; empty before the first step."""
+        n, iters, div = self._window
+        if n:
+            self._window = [0, 0.0, 0.0]
+            iters, div = iters / n, div / n
+        else:
+            last = sim.last
+            iters = getattr(last, "iterations", None)
+            div = getattr(last, "divergence_iterations", 0) or 0
+            if iters is None:
+                return ""
+        text = f"iters {iters:.3g}"
+        if div > 0:
+            text += f"  div {div:.3g}"
+        return text
+
     def stats_text(self, sim: Any) -> str:
-        """Speed, size and health of the run: steps/s, particles, dt, density error, max|v|."""
+        """Speed, size and health of the run: steps/s, particles, dt, density error, solver
+        iterations, max|v|."""
         last = sim.last
-        return "  ".join([
+        parts = [
             f"{_fmt(self.rate, '.3g')} steps/s",
             f"{sim.fluid.n} particles",
             f"dt {_fmt(sim.dt, '.2e')} s",
             f"rho err avg {_fmt(last and last.density_error_avg, '.2f', 100, '%')}",
-            f"max|v| {_fmt(last and last.max_velocity, '.3g')} m/s",
-        ])
+        ]
+        iterations = self.iterations_text(sim)
+        if iterations:
+            parts.append(iterations)
+        parts.append(f"max|v| {_fmt(last and last.max_velocity, '.3g')} m/s")
+        return "  ".join(parts)
 
     def __enter__(self) -> _Reporter:
         return self
@@ -378,6 +415,8 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         report.frame(s, k)
 
     def on_step(s: Any, stats: Any) -> None:
+        manifest.add_step(stats)
+        report.count_step(stats)
         report.step(s)
 
     try:
@@ -405,9 +444,14 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         _finish(manifest, "failed", f"{type(e).__name__}: {e}", sim.last)
         raise
     wall = time.perf_counter() - report.t0
+    rs = manifest.run_stats
+    solver = ""
+    if rs.steps:
+        solver = (f" (mean {_fmt(rs.mean('iterations'), '.3g')} pressure iterations per step, "
+                  f"density error {_fmt(rs.mean('density_error'), '.3g', 100, '%')})")
     report.message(
-        f"finished: {len(manifest.frames)} frame(s), {sim.step_count} steps in {wall:.1f} s; "
-        f"output in {out_dir}"
+        f"finished: {len(manifest.frames)} frame(s), {sim.step_count} steps{solver} in "
+        f"{wall:.1f} s; output in {out_dir}"
     )
     return EXIT_OK
 

@@ -21,15 +21,28 @@ a valid manifest describing the frames on disk. Layout (``format_version`` 1)::
       "frames": [{"frame": 0, "time": 0.0, "step": 0, "files": ["frame_00000.vtu"],
                   "n_fluid": 1000, "max_velocity": 0.0, "dt": 0.001, "cfl": null,
                   "density_error_avg": null, "density_error_max": null,
+                  "iterations": null, "divergence_iterations": null, "divergence_error": null,
                   "max_displacement": null}, ...],
       "last_step": null | {"step": ..., "time": ..., "dt": ..., "n_fluid": ..., "max_velocity": ...,
-                           "cfl": ..., "density_error_avg": ..., "density_error_max": ...}
+                           "cfl": ..., "density_error_avg": ..., "density_error_max": ...,
+                           "iterations": ..., "divergence_iterations": ...,
+                           "divergence_error": ...},
+      "run_stats": {"steps": 120, "mean_iterations": 3.4, "max_iterations": 7,
+                    "mean_divergence_iterations": 1.1, "mean_density_error": 0.0004,
+                    "max_density_error": 0.02, "mean_divergence_error": 0.0009}
     }
 
 Units: times and ``dt`` [s], ``max_velocity`` [m/s], ``max_displacement`` [m] (largest distance a
 particle moved since the previous frame), density errors are fractions of the rest density
-(mean and max of max(rho - rho0, 0) / rho0). Statistics that are not known yet (before the first
-step) or not finite (an exploded run) are ``null``; file names are relative to the manifest.
+(mean and max over the fluid particles of the pressure solver's compression error, as in
+``StepStats``). A frame records the statistics of the last step before it: ``iterations`` the
+pressure solver's iterations in that step (1 for WCSPH), ``divergence_iterations`` and
+``divergence_error`` DFSPH's divergence solve (0 for the other solvers). ``run_stats`` sums up
+all steps so far (see :meth:`Manifest.add_step`): ``mean_iterations`` and ``max_iterations`` per
+step, ``mean_divergence_iterations`` per step, ``mean_density_error`` (the mean over steps of
+``density_error_avg``), ``max_density_error`` (the largest ``density_error_max``) and
+``mean_divergence_error``. Statistics that are not known yet (before the first step) or not
+finite (an exploded run) are ``null``; file names are relative to the manifest.
 """
 
 from __future__ import annotations
@@ -114,7 +127,8 @@ def _now() -> str:
 
 
 _STAT_FIELDS = ("step", "time", "dt", "n_fluid", "max_velocity", "cfl",
-                "density_error_avg", "density_error_max")
+                "density_error_avg", "density_error_max", "iterations",
+                "divergence_iterations", "divergence_error")
 
 
 def stats_dict(stats: Any) -> dict[str, Any] | None:
@@ -126,6 +140,69 @@ def stats_dict(stats: Any) -> dict[str, Any] | None:
     else:
         d = {k: getattr(stats, k) for k in _STAT_FIELDS if hasattr(stats, k)}
     return _clean(d)
+
+
+def _number(value: Any) -> float | None:
+    """``value`` as a finite float, else None (absent, None or not finite)."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+class RunStats:
+    """Running totals of the per-step statistics (a StepStats, or any object with its fields).
+
+    A field a step does not report (None, absent, not finite) is left out of that field's mean;
+    ``divergence_iterations`` and ``divergence_error`` count as 0 when absent (solvers without a
+    divergence solve).
+    """
+
+    def __init__(self) -> None:
+        self.steps = 0
+        self._sums: dict[str, float] = {}
+        self._counts: dict[str, int] = {}
+        self.max_iterations: int | None = None
+        self.max_density_error: float | None = None
+
+    def _add(self, key: str, value: float | None) -> None:
+        if value is not None:
+            self._sums[key] = self._sums.get(key, 0.0) + value
+            self._counts[key] = self._counts.get(key, 0) + 1
+
+    def add(self, stats: Any) -> None:
+        """Count one step."""
+        self.steps += 1
+        iterations = _number(getattr(stats, "iterations", None))
+        self._add("iterations", iterations)
+        if iterations is not None:
+            self.max_iterations = max(self.max_iterations or 0, int(iterations))
+        self._add("divergence_iterations",
+                  _number(getattr(stats, "divergence_iterations", 0)))
+        self._add("density_error", _number(getattr(stats, "density_error_avg", None)))
+        self._add("divergence_error", _number(getattr(stats, "divergence_error", 0.0)))
+        emax = _number(getattr(stats, "density_error_max", None))
+        if emax is not None:
+            self.max_density_error = max(self.max_density_error or 0.0, emax)
+
+    def mean(self, key: str) -> float | None:
+        """Mean over the steps that reported ``key`` (iterations, divergence_iterations,
+        density_error, divergence_error); None before any."""
+        n = self._counts.get(key, 0)
+        return self._sums[key] / n if n else None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The manifest's ``run_stats``."""
+        return {
+            "steps": self.steps,
+            "mean_iterations": self.mean("iterations"),
+            "max_iterations": self.max_iterations,
+            "mean_divergence_iterations": self.mean("divergence_iterations"),
+            "mean_density_error": self.mean("density_error"),
+            "max_density_error": self.max_density_error,
+            "mean_divergence_error": self.mean("divergence_error"),
+        }
 
 
 class Manifest:
@@ -162,7 +239,9 @@ class Manifest:
             "scene": scene_data,
             "frames": [],
             "last_step": None,
+            "run_stats": None,
         }
+        self.run_stats = RunStats()
         self.write()
 
     @property
@@ -175,9 +254,16 @@ class Manifest:
         """The per-frame records so far."""
         return self.data["frames"]
 
+    def add_step(self, stats: Any) -> None:
+        """Count a time step's statistics (a StepStats) into ``run_stats``; the file is not
+        rewritten here but with the next frame or at the end."""
+        self.run_stats.add(stats)
+
     def write(self) -> Path:
         """Write the manifest now (atomically); return its path."""
         self.data["wall_time_s"] = round(time.perf_counter() - self._t0, 3)
+        if self.run_stats.steps:
+            self.data["run_stats"] = self.run_stats.as_dict()
         text = json.dumps(_clean(self.data), indent=1, allow_nan=False)
         return atomic_write_text(self.path, text + "\n")
 
@@ -207,6 +293,10 @@ class Manifest:
             "cfl": getattr(last, "cfl", None),
             "density_error_avg": getattr(last, "density_error_avg", None),
             "density_error_max": getattr(last, "density_error_max", None),
+            "iterations": getattr(last, "iterations", None),
+            "divergence_iterations": (None if last is None
+                                      else getattr(last, "divergence_iterations", 0)),
+            "divergence_error": None if last is None else getattr(last, "divergence_error", 0.0),
             "max_displacement": max_displacement,
         }
         self.data["frames"].append(_clean(record))

@@ -9,20 +9,34 @@ SPlisHSPlasH translation
 :func:`from_splishsplash` reads SPlisHSPlasH's scene format (field names as SPlisHSPlasH spells
 them, methods chosen by its numbers; see ``reference/splishsplash_scene_format.md``). A field
 that is absent takes SPlisHSPlasH's default. Checked against SPlisHSPlasH's sources
-(``SPlisHSPlasH/Simulation.cpp``, ``TimeManager``/``SceneLoader.cpp``,
-``WCSPH/TimeStepWCSPH.cpp``, ``Viscosity/ViscosityBase.cpp``, ``Viscosity/Viscosity_Standard.cpp``,
-``XSPH.cpp``, ``Vorticity/VorticityBase.cpp``, ``Vorticity/MicropolarModel_Bender2017.cpp``,
-``Simulator/SimulatorBase.cpp``, ``Simulator/StaticBoundarySimulator.cpp``,
-``NonPressureForceRegistration.cpp``) and the scenes shipped with pysplishsplash 2.19:
+(``SPlisHSPlasH/Simulation.cpp``, ``TimeManager``/``SceneLoader.cpp``, ``TimeStep.cpp``,
+``WCSPH/TimeStepWCSPH.cpp``, ``PCISPH/TimeStepPCISPH.cpp``, ``PBF/TimeStepPBF.cpp``,
+``IISPH/TimeStepIISPH.cpp``, ``DFSPH/TimeStepDFSPH.cpp``, ``Viscosity/ViscosityBase.cpp``,
+``Viscosity/Viscosity_Standard.cpp``, ``XSPH.cpp``, ``Vorticity/VorticityBase.cpp``,
+``Vorticity/MicropolarModel_Bender2017.cpp``, ``Simulator/SimulatorBase.cpp``,
+``Simulator/StaticBoundarySimulator.cpp``, ``NonPressureForceRegistration.cpp``) and the scenes
+shipped with pysplishsplash 2.19 (the solver defaults were also read back from its time-step
+objects):
 
 ==========================  ===============================================================
-``simulationMethod``        4 (DFSPH); only 0 (WCSPH) is supported here
+``simulationMethod``        4 (DFSPH); 0 WCSPH, 1 PCISPH, 2 PBF, 3 IISPH and 4 DFSPH map to
+                            ``pressure.method`` wcsph/pcisph/pbf/iisph/dfsph; 5 (Projective
+                            Fluids) and 6 (ICSPH) are not supported
+``PCISPH``, ``PBF``,        the selected solver's block: ``minIterations`` (PCISPH 3, the
+``IISPH``, ``DFSPH``        others 2), ``maxIterations`` 100, ``maxError`` 0.01 (% of rho0);
+                            DFSPH also ``maxIterationsV`` 100, ``maxErrorV`` 0.1 (%),
+                            ``enableDivergenceSolver`` true; PBF ``velocityUpdateMethod`` 0
+                            (0 first order, 1 second order). The blocks of solvers the scene
+                            does not select are ignored quietly.
 ``boundaryHandlingMethod``  2 (Bender et al. 2019 volume maps); only 0 (Akinci et al. 2012)
                             is supported (checked only when the scene has rigid bodies)
 ``particleRadius``          0.025 m
 ``gravitation``             (0, -9.81, 0) m/s^2
 ``timeStepSize``            0.001 s (initial step; the fixed step when ``cflMethod`` is 0)
-``cflMethod``               1 (0: fixed step, 1: CFL, 2: CFL with iteration control)
+``cflMethod``               1 (0: fixed step, 1: CFL, 2: CFL with iteration control, read
+                            as 1 with a warning for the iterative solvers: SPlisHSPlasH also
+                            shrinks the step by 10 % above 10 iterations and grows it by 10 %
+                            below 5, which sphkit does not do)
 ``cflFactor``               0.5
 ``cflMinTimeStepSize``      1e-4 s (hard-coded in older versions)
 ``cflMaxTimeStepSize``      0.005 s
@@ -47,11 +61,12 @@ that is absent takes SPlisHSPlasH's default. Checked against SPlisHSPlasH's sour
 ``dataExportFPS``           25; mapped to ``output.fps``
 ==========================  ===============================================================
 
-Older scenes (before 2.16) write solver and method parameters flat (``"stiffness"`` in
-``Configuration``, ``"viscosity"`` in a material); those are read when the namespaced block is
-absent. Fields that only matter to SPlisHSPlasH's GUI, exporters or to methods the scene does not
-select are ignored quietly; any other field sphkit does not know is reported in one
-``UserWarning`` listing the field paths.
+Older scenes (before 2.16) write solver and method parameters flat (``"stiffness"`` or
+``"maxError"`` in ``Configuration``, ``"viscosity"`` in a material); those are read when the
+namespaced block does not set them (pysplishsplash 2.19 itself reads the iterative solvers'
+parameters only from their block). Fields that only matter to SPlisHSPlasH's GUI, exporters or
+to methods the scene does not select are ignored quietly; any other field sphkit does not know
+is reported in one ``UserWarning`` listing the field paths.
 
 Fluid blocks. SPlisHSPlasH (``SimulatorBase::createFluidBlocks``, ``denseMode`` 0) turns a block
 into the box ``lo = scale * start + translation``, ``hi = scale * end + translation`` and places
@@ -301,6 +316,20 @@ _SPH_TOP_QUIET = {"Simulation"}  # PositionBasedDynamics settings, only used by 
 _SIMULATION_METHODS = {
     0: "WCSPH", 1: "PCISPH", 2: "PBF", 3: "IISPH", 4: "DFSPH", 5: "Projective Fluids", 6: "ICSPH",
 }
+#: SPlisHSPlasH ``simulationMethod`` numbers sphkit has -> ``pressure.method``
+_PRESSURE_METHODS = {0: "wcsph", 1: "pcisph", 2: "pbf", 3: "iisph", 4: "dfsph"}
+#: SPlisHSPlasH's default ``minIterations`` per iterative solver: 2 from ``TimeStep``'s
+#: constructor, raised to 3 by ``TimeStepPCISPH``'s
+_SOLVER_MIN_ITERATIONS = {1: 3, 2: 2, 3: 2, 4: 2}
+#: the parameters of each iterative solver's block (the block is named as the method)
+_SOLVER_KEYS = {
+    1: ("minIterations", "maxIterations", "maxError"),
+    2: ("minIterations", "maxIterations", "maxError", "velocityUpdateMethod"),
+    3: ("minIterations", "maxIterations", "maxError"),
+    4: ("minIterations", "maxIterations", "maxError", "maxIterationsV", "maxErrorV",
+        "enableDivergenceSolver"),
+}
+_PBF_VELOCITY_UPDATES = {0: "first_order", 1: "second_order"}
 _BOUNDARY_METHODS = {
     0: "Akinci et al. 2012 boundary particles",
     1: "Koschier and Bender 2017 density maps",
@@ -533,13 +562,15 @@ class _Translator:
         self.collect_unknown(cfg, w, known, _CONFIG_QUIET)
 
         method = self.integer(cfg, "simulationMethod", w, 4)
-        if method != 0:
+        if method not in _PRESSURE_METHODS:
             name = _SIMULATION_METHODS.get(method, "unknown method")
             default = "" if "simulationMethod" in cfg else ", SPlisHSPlasH's default"
+            supported = ", ".join(f"{k} ({_SIMULATION_METHODS[k]})" for k in _PRESSURE_METHODS)
             raise self.unsupported(
                 f"{w}.simulationMethod",
-                f"{method} ({name}{default}) is not supported yet; supported: 0 (WCSPH)",
+                f"{method} ({name}{default}) is not supported yet; supported: {supported}",
             )
+        self.origin["configuration.pressure.method"] = f"{w}.simulationMethod"
         if has_rigid:
             bhm = self.integer(cfg, "boundaryHandlingMethod", w, 2)
             if bhm != 0:
@@ -597,15 +628,15 @@ class _Translator:
                 "one kernel for W and its gradient, expected the same kernel",
             )
 
-        wc = self.obj(cfg, "WCSPH", f"{w}.WCSPH")
-        self.collect_unknown(wc, f"{w}.WCSPH", {"stiffness", "exponent"}, set())
-        stiffness = self.num(cfg, "stiffness", w, 50.0, positive=True)
-        exponent = self.num(cfg, "exponent", w, 7.0, positive=True)
-        stiffness = self.num(wc, "stiffness", f"{w}.WCSPH", stiffness, positive=True)
-        exponent = self.num(wc, "exponent", f"{w}.WCSPH", exponent, positive=True)
-        src = f"{w}.WCSPH" if wc else w
-        self.origin["configuration.pressure.stiffness"] = f"{src}.stiffness"
-        self.origin["configuration.pressure.exponent"] = f"{src}.exponent"
+        if method == 0:
+            pressure = self.wcsph(cfg, cfl_method)
+        else:
+            pressure = self.iterative_solver(cfg, method)
+            if cfl_method == 2:
+                self.notes.append(
+                    f"{w}.cflMethod: 2 (CFL with iteration control) is read as 1 (CFL): sphkit "
+                    "does not shrink or grow the step with the pressure solver's iteration count"
+                )
 
         configuration: dict[str, Any] = {
             "dim": dim,
@@ -613,15 +644,7 @@ class _Translator:
             "kernel": kernels[kid],
             "gravity": gravity,
             "time": time,
-            "pressure": {
-                "method": "wcsph",
-                "equation": "tait",
-                "stiffness": stiffness,
-                "exponent": exponent,
-                # SPlisHSPlasH bounds its step by the CFL condition only; with a fixed step
-                # (cflMethod 0) reproduce that step exactly
-                "acoustic_cfl": cfl_method != 0,
-            },
+            "pressure": pressure,
             "boundary": {"method": "akinci2012"},
         }
         if not self.flag(cfg, "enableZSort", w, True):
@@ -635,6 +658,75 @@ class _Translator:
             output["fps"] = self.num(cfg, "dataExportFPS", w, 25.0, positive=True)
             self.origin["output.fps"] = f"{w}.dataExportFPS"
         return configuration, output
+
+    def wcsph(self, cfg: dict[str, Any], cfl_method: int) -> dict[str, Any]:
+        """WCSPH's parameters (``"WCSPH"`` block, or the flat keys of scenes before 2.16)."""
+        w = "Configuration"
+        wc = self.obj(cfg, "WCSPH", f"{w}.WCSPH")
+        self.collect_unknown(wc, f"{w}.WCSPH", {"stiffness", "exponent"}, set())
+        stiffness = self.num(cfg, "stiffness", w, 50.0, positive=True)
+        exponent = self.num(cfg, "exponent", w, 7.0, positive=True)
+        stiffness = self.num(wc, "stiffness", f"{w}.WCSPH", stiffness, positive=True)
+        exponent = self.num(wc, "exponent", f"{w}.WCSPH", exponent, positive=True)
+        src = f"{w}.WCSPH" if wc else w
+        self.origin["configuration.pressure.stiffness"] = f"{src}.stiffness"
+        self.origin["configuration.pressure.exponent"] = f"{src}.exponent"
+        return {
+            "method": "wcsph",
+            "equation": "tait",
+            "stiffness": stiffness,
+            "exponent": exponent,
+            # SPlisHSPlasH bounds its step by the CFL condition only; with a fixed step
+            # (cflMethod 0) reproduce that step exactly
+            "acoustic_cfl": cfl_method != 0,
+        }
+
+    def iterative_solver(self, cfg: dict[str, Any], method: int) -> dict[str, Any]:
+        """PCISPH/PBF/IISPH/DFSPH: the iteration control from the block named as the method
+        (``"DFSPH": {"maxError": ...}``), or from the flat keys of scenes before 2.16; absent
+        keys take SPlisHSPlasH's defaults, ``minIterations`` per solver."""
+        w = "Configuration"
+        name = _SIMULATION_METHODS[method]
+        nsw = f"{w}.{name}"
+        ns = self.obj(cfg, name, nsw)
+        keys = _SOLVER_KEYS[method]
+        self.collect_unknown(ns, nsw, set(keys), set())
+
+        def where(key: str) -> str:
+            return nsw if key in ns or key not in cfg else w
+
+        def integer(key: str, default: int) -> int:
+            return self.integer(ns, key, nsw, self.integer(cfg, key, w, default))
+
+        def num(key: str, default: float) -> float:
+            return self.num(ns, key, nsw, self.num(cfg, key, w, default, positive=True),
+                            positive=True)
+
+        pressure: dict[str, Any] = {
+            "method": _PRESSURE_METHODS[method],
+            "min_iterations": integer("minIterations", _SOLVER_MIN_ITERATIONS[method]),
+            "max_iterations": integer("maxIterations", 100),
+            "max_error": num("maxError", 0.01),
+        }
+        ours = {"minIterations": "min_iterations", "maxIterations": "max_iterations",
+                "maxError": "max_error", "maxIterationsV": "max_iterations_v",
+                "maxErrorV": "max_error_v", "enableDivergenceSolver": "divergence_solver",
+                "velocityUpdateMethod": "pbf_velocity_update"}
+        for key in keys:
+            self.origin[f"configuration.pressure.{ours[key]}"] = f"{where(key)}.{key}"
+        if method == 4:
+            pressure["max_iterations_v"] = integer("maxIterationsV", 100)
+            pressure["max_error_v"] = num("maxErrorV", 0.1)
+            pressure["divergence_solver"] = self.flag(
+                ns, "enableDivergenceSolver", nsw,
+                self.flag(cfg, "enableDivergenceSolver", w, True))
+        elif method == 2:
+            vum = integer("velocityUpdateMethod", 0)
+            if vum not in _PBF_VELOCITY_UPDATES:
+                raise self.error(f"{where('velocityUpdateMethod')}.velocityUpdateMethod", vum,
+                                 "0 (first order) or 1 (second order)")
+            pressure["pbf_velocity_update"] = _PBF_VELOCITY_UPDATES[vum]
+        return pressure
 
     def materials(self) -> list[dict[str, Any]]:
         out = []
