@@ -8,7 +8,8 @@ quantity and boundary details. These compiled passes are the shared pieces; the 
 Notation (SPlisHSPlasH's normalized units): ``V_j = m_j / rho0`` is the rest volume of fluid
 particle j, ``V_b`` the volume of boundary particle b (Akinci 2012), ``rho_hat = rho / rho0``.
 
-* :func:`kappa_accel` -- the pressure acceleration of a "kappa" field (kappa = p / (rho0 rho_hat^2)):
+* :func:`kappa_accel` -- the pressure acceleration of a "kappa" field
+  (kappa = p / (rho0 rho_hat^2)):
   ``a_i = -sum_j V_j (k_i + k_j) grad W_ij - sum_b V_b k_i grad W_ib`` (boundary term as Akinci
   2012 / SPlisHSPlasH's DFSPH and IISPH; a solver whose variable is q passes ``k_i = w_i q_i``);
 * :func:`accel_divergence` -- the change of normalized density per dt^2 that accelerations a cause:
@@ -16,7 +17,8 @@ particle j, ``V_b`` the volume of boundary particle b (Akinci 2012), ``rho_hat =
 * :func:`velocity_divergence` -- ``D rho_hat_i / Dt = sum_j V_j v_ij . grad W_ij
   + sum_b V_b (v_i - v_b) . grad W_ib`` (positive when compressing);
 * :func:`diagonal` -- ``D_i = |sum_j V_j grad W_ij + sum_b V_b grad W_ib|^2
-  + sum_j V_j^2 |grad W_ij|^2``: minus the diagonal (for equal volumes V_i = V_j) of ``accel_divergence(kappa_accel(k))`` with
+  + sum_j V_j^2 |grad W_ij|^2``: minus the diagonal (for equal volumes V_i = V_j) of
+  ``accel_divergence(kappa_accel(k))`` with
   respect to k_i. DFSPH's factor is ``alpha_i = 1 / D_i`` (Bender & Koschier 2017, Eq. 9) and
   IISPH's ``a_ii = -D_i / rho_hat_i^2`` (Ihmsen et al. 2014, Eq. 12, in these units).
 * :func:`jacobi_update` -- ``q_i <- max(q_i - omega * scale_i * (s_i - f Ap_i), 0)`` (IISPH), or
@@ -222,3 +224,94 @@ def density_at(x, dx, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, out):
 def neighbor_counts(off: np.ndarray, boff: np.ndarray) -> np.ndarray:
     """Fluid plus boundary neighbours of every fluid particle."""
     return np.diff(off) + np.diff(boff)
+
+
+# ---------------------------------------------------------------------------------------------
+# cached pair gradients: the Jacobi iterations walk the same pairs many times per step, so the
+# kernel gradients V_j grad W_ij are computed once per step (as SPlisHSPlasH's
+# USE_PERFORMANCE_OPTIMIZATION does) and the iteration passes become multiply-adds.
+
+
+@numba.njit(parallel=True, **_JIT)
+def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
+    """gw[:, k] = V_j grad W_ij for the k-th fluid pair, gwb[:, k] = V_b grad W_ib."""
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            d1 = xi1 - x[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            f = V[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            gw[0, k] = f * d0
+            if dim > 1:
+                gw[1, k] = f * d1
+            if dim > 2:
+                gw[2, k] = f * d2
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            d0 = xi0 - bx[0, b]
+            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
+            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
+            f = bV[b] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            gwb[0, k] = f * d0
+            if dim > 1:
+                gwb[1, k] = f * d1
+            if dim > 2:
+                gwb[2, k] = f * d2
+
+
+@numba.njit(parallel=True, **_JIT)
+def kappa_accel_cached(q, w, off, idx, boff, gw, gwb, dim, a):
+    """:func:`kappa_accel` from cached pair gradients (overwrites a)."""
+    for i in numba.prange(q.shape[0]):
+        ki = w[i] * q[i]
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for k in range(off[i], off[i + 1]):
+            s = ki + w[idx[k]] * q[idx[k]]
+            a0 -= s * gw[0, k]
+            if dim > 1:
+                a1 -= s * gw[1, k]
+            if dim > 2:
+                a2 -= s * gw[2, k]
+        for k in range(boff[i], boff[i + 1]):
+            a0 -= ki * gwb[0, k]
+            if dim > 1:
+                a1 -= ki * gwb[1, k]
+            if dim > 2:
+                a2 -= ki * gwb[2, k]
+        a[0, i] = a0
+        if dim > 1:
+            a[1, i] = a1
+        if dim > 2:
+            a[2, i] = a2
+
+
+@numba.njit(parallel=True, **_JIT)
+def accel_divergence_cached(a, off, idx, boff, gw, gwb, dim, out):
+    """:func:`accel_divergence` from cached pair gradients."""
+    for i in numba.prange(a.shape[1]):
+        ai0 = a[0, i]
+        ai1 = a[1, i] if dim > 1 else 0.0
+        ai2 = a[2, i] if dim > 2 else 0.0
+        s = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            t = (ai0 - a[0, j]) * gw[0, k]
+            if dim > 1:
+                t += (ai1 - a[1, j]) * gw[1, k]
+            if dim > 2:
+                t += (ai2 - a[2, j]) * gw[2, k]
+            s += t
+        for k in range(boff[i], boff[i + 1]):
+            t = ai0 * gwb[0, k]
+            if dim > 1:
+                t += ai1 * gwb[1, k]
+            if dim > 2:
+                t += ai2 * gwb[2, k]
+            s += t
+        out[i] = s

@@ -7,7 +7,8 @@ percentage of rho0, stored here as a fraction). Hitting the limit without conver
 warning naming the solver, the step and the error. Each step reports :class:`SolverStats`.
 
 :func:`jacobi_ppe` is the relaxed Jacobi engine of the survey (Sec. 4.4): for a variable q with
-pressure acceleration ``a = kappa_accel(w q)`` it iterates ``q <- max(q - omega scale (s - A q), 0)``
+pressure acceleration ``a = kappa_accel(w q)`` it iterates
+``q <- max(q - omega scale (s - A q), 0)``
 with ``A q = ap_factor * accel_divergence(a)``. IISPH and both DFSPH solvers are this engine with
 their own source s, diagonal (``scale``), weight w and time factor.
 """
@@ -20,7 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sphkit.core.ppe import accel_divergence, jacobi_update, kappa_accel
+from sphkit.core.ppe import (
+    accel_divergence_cached,
+    jacobi_update,
+    kappa_accel_cached,
+    pair_gradients,
+)
 from sphkit.core.state import SimState
 
 log = logging.getLogger("sphkit")
@@ -71,9 +77,23 @@ class IterationControl:
         return self.max_iterations, avg, mx, False
 
 
+class PairGradients:
+    """``V_j grad W_ij`` for every fluid and boundary pair of the current neighbour lists,
+    computed once per step and shared by all Jacobi iterations of the step."""
+
+    def __init__(self, state: SimState) -> None:
+        f, b = state.fluid, state.boundary
+        nl, nb = state.nl_ff, state.nl_fb
+        self.gw = np.empty((state.dim, nl.indices.shape[0]), dtype=f.dtype)
+        self.gwb = np.empty((state.dim, nb.indices.shape[0]), dtype=f.dtype)
+        pair_gradients(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
+                       nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb)
+
+
 def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray,
                s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
-               active: np.ndarray, error_factor: float = 1.0, one_sided: bool = False
+               active: np.ndarray, error_factor: float = 1.0, one_sided: bool = False,
+               grads: PairGradients | None = None
                ) -> tuple[np.ndarray, int, float, float, bool]:
     """Relaxed Jacobi on ``A q = s``; q is updated in place and clamped to q >= 0.
 
@@ -82,24 +102,24 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     of the residual acts (see :func:`sphkit.core.ppe.jacobi_update`). The error of an iteration
     is the compressive residual ``max(Ap - s, 0)`` of ``active`` particles averaged over all
     particles, times ``error_factor``.
+    ``grads`` are the step's cached pair gradients (computed here when not given).
     Returns (pressure acceleration of the final q, iterations, average error, max error,
     converged).
     """
-    f, b = state.fluid, state.boundary
-    x, V = f["x"], f["V0"]
+    f = state.fluid
+    x = f["x"]
     nl, nb = state.nl_ff, state.nl_fb
+    g = PairGradients(state) if grads is None else grads
+    dim = state.dim
     a = np.empty_like(x)
     Ap = np.empty(f.n, dtype=x.dtype)
 
     def sweep(_k: int) -> tuple[float, float]:
-        kappa_accel(x, V, q, w, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
-                    state.h, state.kid, state.dim, a)
-        accel_divergence(x, V, a, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                         nb.indices, state.h, state.kid, state.dim, Ap)
+        kappa_accel_cached(q, w, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
+        accel_divergence_cached(a, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, Ap)
         avg, mx = jacobi_update(q, s, Ap, ap_factor, scale, omega, active, one_sided)
         return avg * error_factor, mx * error_factor
 
     its, avg, mx, ok = control.run(sweep, state.step)
-    kappa_accel(x, V, q, w, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
-                state.h, state.kid, state.dim, a)
+    kappa_accel_cached(q, w, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
     return a, its, avg, mx, ok

@@ -28,7 +28,8 @@ warm start, as SPlisHSPlasH does; the reported pressure is ``p = (kappa + kappa^
 
 As in SPlisHSPlasH's current code (not the papers' ``max(..., 0)`` form), the iterations are
 one-sided: only compressive residuals ``min(s_i - A kappa_i, 0)`` act, with weight 1, so kappa
-grows monotonically from its warm start and needs no clamp (:func:`sphkit.core.ppe.jacobi_update`). Both
+grows monotonically from its warm start and needs no clamp
+(:func:`sphkit.core.ppe.jacobi_update`). Both
 solvers are :func:`sphkit.core.solver.jacobi_ppe` with A from :mod:`sphkit.core.ppe`.
 """
 
@@ -38,7 +39,7 @@ import numba
 import numpy as np
 
 from sphkit.core.ppe import diagonal, neighbor_counts, velocity_divergence
-from sphkit.core.solver import IterationControl, SolverStats, jacobi_ppe
+from sphkit.core.solver import IterationControl, PairGradients, SolverStats, jacobi_ppe
 from sphkit.core.state import SimState
 
 
@@ -85,6 +86,7 @@ class DFSPH:
         self.divergence_solver = divergence_solver
         self._div_stats = (0, 0.0)
         self._kappa_v: np.ndarray | None = None  # this step's divergence kappa (for p)
+        self._grads: PairGradients | None = None  # this step's pair gradients
 
     def init(self, state: SimState) -> None:
         """Register DFSPH's fields: alpha, the stored kappas, pressure."""
@@ -116,6 +118,7 @@ class DFSPH:
         """Factors alpha, then the divergence-free solve on the current velocities."""
         f = state.fluid
         _, alpha = self._common(state)
+        self._grads = PairGradients(state)
         self._div_stats = (0, 0.0)
         self._kappa_v = None
         if not self.divergence_solver:
@@ -130,7 +133,7 @@ class DFSPH:
         ones = np.ones_like(div)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
                                            alpha / dt, dt, 1.0, active, error_factor=dt,
-                                           one_sided=True)
+                                           one_sided=True, grads=self._grads)
         f["v"] += dt * a
         f["dfsph_kappa_v"] = kappa * dt
         self._kappa_v = kappa
@@ -150,7 +153,8 @@ class DFSPH:
         active = np.ones(f.n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
                                          alpha / (dt * dt), dt * dt, 1.0, active,
-                                         one_sided=True)
+                                         one_sided=True, grads=self._grads)
+        self._grads = None
         f["a"] += a
         f["dfsph_kappa"] = kappa * (dt * dt)
         # both solves apply pressure impulses in this step: the pressure is their sum

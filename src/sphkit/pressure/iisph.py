@@ -13,7 +13,8 @@ Ihmsen, Cornelis, Solenthaler, Horvath, Teschner 2014, "Implicit incompressible 
   :func:`sphkit.core.ppe.diagonal`;
 * warm start ``p_hat_i = 0.5 p_hat_i(t - dt)`` (Sec. 4.3);
 * relaxed Jacobi (Eq. 13, omega = 0.5) with pressure clamping:
-  ``p_hat_i <- max(p_hat_i + omega / (a_ii dt^2) (s_i - A p_hat_i), 0)``, ``s_i = 1 - rho_hat_adv,i``,
+  ``p_hat_i <- max(p_hat_i + omega / (a_ii dt^2) (s_i - A p_hat_i), 0)``,
+  ``s_i = 1 - rho_hat_adv,i``,
   where ``A p_hat`` is the density change that the pressure acceleration
   ``a_i = -sum_j V_j (p_hat_i/rho_hat_i^2 + p_hat_j/rho_hat_j^2) grad W_ij
   - sum_b V_b p_hat_i/rho_hat_i^2 grad W_ib`` causes in dt (Eq. 10-11, written as the survey's
