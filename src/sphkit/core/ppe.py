@@ -315,3 +315,55 @@ def accel_divergence_cached(a, off, idx, boff, gw, gwb, dim, out):
                 t += ai2 * gwb[2, k]
             s += t
         out[i] = s
+
+
+@numba.njit(parallel=True, **_JIT)
+def diagonal_cached(off, boff, gw, gwb, dim, out):
+    """:func:`diagonal` from cached pair gradients."""
+    for i in numba.prange(off.shape[0] - 1):
+        g0 = 0.0
+        g1 = 0.0
+        g2 = 0.0
+        sq = 0.0
+        for k in range(off[i], off[i + 1]):
+            t0 = gw[0, k]
+            t1 = gw[1, k] if dim > 1 else 0.0
+            t2 = gw[2, k] if dim > 2 else 0.0
+            g0 += t0
+            g1 += t1
+            g2 += t2
+            sq += t0 * t0 + t1 * t1 + t2 * t2
+        for k in range(boff[i], boff[i + 1]):
+            g0 += gwb[0, k]
+            if dim > 1:
+                g1 += gwb[1, k]
+            if dim > 2:
+                g2 += gwb[2, k]
+        out[i] = g0 * g0 + g1 * g1 + g2 * g2 + sq
+
+
+@numba.njit(parallel=True, **_JIT)
+def velocity_divergence_cached(v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
+    """:func:`velocity_divergence` from cached pair gradients."""
+    for i in numba.prange(v.shape[1]):
+        vi0 = v[0, i]
+        vi1 = v[1, i] if dim > 1 else 0.0
+        vi2 = v[2, i] if dim > 2 else 0.0
+        s = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            t = (vi0 - v[0, j]) * gw[0, k]
+            if dim > 1:
+                t += (vi1 - v[1, j]) * gw[1, k]
+            if dim > 2:
+                t += (vi2 - v[2, j]) * gw[2, k]
+            s += t
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            t = (vi0 - bv[0, b]) * gwb[0, k]
+            if dim > 1:
+                t += (vi1 - bv[1, b]) * gwb[1, k]
+            if dim > 2:
+                t += (vi2 - bv[2, b]) * gwb[2, k]
+            s += t
+        out[i] = s

@@ -23,9 +23,11 @@ import numpy as np
 
 from sphkit.core.ppe import (
     accel_divergence_cached,
+    diagonal_cached,
     jacobi_update,
     kappa_accel_cached,
     pair_gradients,
+    velocity_divergence_cached,
 )
 from sphkit.core.state import SimState
 
@@ -88,6 +90,23 @@ class PairGradients:
         self.gwb = np.empty((state.dim, nb.indices.shape[0]), dtype=f.dtype)
         pair_gradients(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
                        nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb)
+        self.state = state
+
+    def diagonal(self) -> np.ndarray:
+        """``D_i`` of :func:`sphkit.core.ppe.diagonal` (DFSPH's 1/alpha, IISPH's -a_ii rho^2)."""
+        st = self.state
+        out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
+        diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, self.gw, self.gwb, st.dim, out)
+        return out
+
+    def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
+        """``D rho_hat / Dt`` of the velocities v (boundary velocities from the state)."""
+        st = self.state
+        out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
+        velocity_divergence_cached(v, st.boundary["v"], st.nl_ff.offsets, st.nl_ff.indices,
+                                   st.nl_fb.offsets, st.nl_fb.indices, self.gw, self.gwb,
+                                   st.dim, out)
+        return out
 
 
 def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray,

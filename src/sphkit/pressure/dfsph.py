@@ -38,7 +38,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from sphkit.core.ppe import diagonal, neighbor_counts, velocity_divergence
+from sphkit.core.ppe import neighbor_counts
 from sphkit.core.solver import IterationControl, PairGradients, SolverStats, jacobi_ppe
 from sphkit.core.state import SimState
 
@@ -98,33 +98,17 @@ class DFSPH:
         """No limit of its own beyond the CFL step."""
         return float("inf")
 
-    def _common(self, state: SimState) -> tuple[np.ndarray, np.ndarray]:
-        f = state.fluid
-        nl, nb = state.nl_ff, state.nl_fb
-        b = state.boundary
-        D = np.empty(f.n, dtype=f.dtype)
-        diagonal(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                 nb.indices, state.h, state.kid, state.dim, D)
-        _alpha(D, 1e-5, f["dfsph_alpha"])  # SPlisHSPlasH's epsilon [1/m^2]
-        return D, f["dfsph_alpha"]
-
-    def _divergence(self, state: SimState, v: np.ndarray, out: np.ndarray) -> None:
-        f, b = state.fluid, state.boundary
-        nl, nb = state.nl_ff, state.nl_fb
-        velocity_divergence(f["x"], f["V0"], v, nl.offsets, nl.indices, b["x"], b["V"], b["v"],
-                            nb.offsets, nb.indices, state.h, state.kid, state.dim, out)
-
     def pre_forces(self, state: SimState, dt: float) -> None:
         """Factors alpha, then the divergence-free solve on the current velocities."""
         f = state.fluid
-        _, alpha = self._common(state)
         self._grads = PairGradients(state)
+        alpha = f["dfsph_alpha"]
+        _alpha(self._grads.diagonal(), 1e-5, alpha)  # SPlisHSPlasH's epsilon [1/m^2]
         self._div_stats = (0, 0.0)
         self._kappa_v = None
         if not self.divergence_solver:
             return
-        div = np.empty(f.n, dtype=f.dtype)
-        self._divergence(state, f["v"], div)
+        div = self._grads.velocity_divergence(f["v"])
         active = neighbor_counts(state.nl_ff.offsets, state.nl_fb.offsets) >= (
             20 if state.dim == 3 else 7)
         s = np.empty_like(div)
@@ -143,9 +127,9 @@ class DFSPH:
         """Constant-density solve on v* = v + dt a; adds the pressure acceleration to a."""
         f = state.fluid
         alpha = f["dfsph_alpha"]
-        vstar = f["v"] + dt * f["a"]
-        div = np.empty(f.n, dtype=f.dtype)
-        self._divergence(state, vstar, div)
+        if self._grads is None:  # solve() without pre_forces(): build this step's cache
+            self.pre_forces(state, dt)
+        div = self._grads.velocity_divergence(f["v"] + dt * f["a"])
         s = np.empty_like(div)
         kappa = np.empty_like(div)
         _density_source(f["rho"], state.rho0, div, dt, f["dfsph_kappa"], s, kappa)

@@ -29,8 +29,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from sphkit.core.ppe import diagonal, velocity_divergence
-from sphkit.core.solver import IterationControl, SolverStats, jacobi_ppe
+from sphkit.core.solver import IterationControl, PairGradients, SolverStats, jacobi_ppe
 from sphkit.core.state import SimState
 
 
@@ -66,16 +65,11 @@ class IISPH:
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Pressure solve on v_adv = v + dt a; adds the pressure acceleration to a."""
-        f, b = state.fluid, state.boundary
-        nl, nb = state.nl_ff, state.nl_fb
+        f = state.fluid
         n = f.n
-        vadv = f["v"] + dt * f["a"]
-        div = np.empty(n, dtype=f.dtype)
-        velocity_divergence(f["x"], f["V0"], vadv, nl.offsets, nl.indices, b["x"], b["V"],
-                            b["v"], nb.offsets, nb.indices, state.h, state.kid, state.dim, div)
-        D = np.empty(n, dtype=f.dtype)
-        diagonal(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                 nb.indices, state.h, state.kid, state.dim, D)
+        grads = PairGradients(state)
+        div = grads.velocity_divergence(f["v"] + dt * f["a"])
+        D = grads.diagonal()
         s = np.empty(n, dtype=f.dtype)
         w = np.empty(n, dtype=f.dtype)
         scale = np.empty(n, dtype=f.dtype)
@@ -83,7 +77,7 @@ class IISPH:
         p = 0.5 * f["p"] / state.rho0  # warm start, normalized pressure
         active = np.ones(n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
-                                         self.omega, active)
+                                         self.omega, active, grads=grads)
         f["a"] += a
         f["p"] = p * state.rho0
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
