@@ -367,3 +367,23 @@ def velocity_divergence_cached(v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
                 t += (vi2 - bv[2, b]) * gwb[2, k]
             s += t
         out[i] = s
+
+
+def lattice_diagonal(spacing: float, h: float, kid: int, dim: int, V: float) -> float:
+    """:func:`diagonal` of a template particle with a filled neighbourhood (PCISPH, PBF).
+
+    The neighbours are the points of the cubic lattice of the given spacing (the sampling
+    lattice, 2r) closer than h to the template at the origin, each of rest volume V:
+    ``D0 = V^2 (|S1|^2 + S2)`` with ``S1 = sum_k grad W(x_0 - x_k)``, ``S2 = sum_k
+    |grad W(x_0 - x_k)|^2`` [1/m^2]. PCISPH's factor is ``delta = 1 / (2 D0)`` (Solenthaler &
+    Pajarola 2009, Eq. 8, in normalized units; SPlisHSPlasH ``SimulationDataPCISPH::init``).
+    """
+    from sphkit.core.kernels import Kernel
+
+    n = int(np.ceil(h / spacing)) + 1
+    axes = [np.arange(-n, n + 1) * spacing] * dim
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
+    d = np.linalg.norm(grid, axis=1)
+    g = Kernel(kid, h, dim).grad(-grid[(d > 0.0) & (d < h)])
+    s1 = g.sum(axis=0)
+    return float(V * V * (s1 @ s1 + (g * g).sum()))

@@ -1,0 +1,244 @@
+"""Position based fluids (PBF).
+
+Macklin & Mueller 2013, "Position based fluids", ACM TOG 32(4), as SPlisHSPlasH's ``TimeStepPBF``
+implements it, in normalized units (``V_j = m_j / rho0``, ``rho_hat = rho / rho0``).
+
+Per step, with ``a_ext`` = gravity + non-pressure accelerations already in ``state.fluid["a"]``:
+
+1. prediction (paper Alg. 1, lines 2-3): ``v_pred = v + dt a_ext``, ``x* = x + dt v_pred``; the
+   step-start positions ``x_old = x`` are kept;
+2. iterations through :class:`sphkit.core.solver.IterationControl` (default at least 2, as
+   SPlisHSPlasH), each a Jacobi sweep over all density constraints:
+
+   * ``rho_hat_i(x*) = V_i W(0) + sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x_b)`` -- the same
+     sum as :func:`sphkit.core.ppe.density_at`, fused here with the gradients;
+   * ``C_i = max(rho_hat_i - 1, 0)`` (clamped, as SPlisHSPlasH: no attraction at the free
+     surface, so no clumping there; the paper's Eq. 1 is unclamped);
+   * ``lambda_i = -C_i / (sum_k |grad_k C_i|^2 + epsilon)`` (Eq. 11) with
+     ``grad_j C_i = -V_j grad W_ij`` and ``grad_i C_i = sum_j V_j grad W_ij + sum_b V_b grad W_ib``
+     (Eq. 8; boundary particles are not moved, so they contribute only to ``grad_i C_i``);
+     ``epsilon`` [1/m^2] is the constraint-force-mixing relaxation (SPlisHSPlasH 1e-6);
+   * ``dx_i = sum_j (lambda_i + lambda_j + s_corr,ij) V_j grad W_ij + sum_b lambda_i V_b grad W_ib``
+     (Eq. 12/14, Akinci boundary as SPlisHSPlasH), then ``x* += dx`` for all particles;
+   * the error of a sweep is the average compression ``mean(C)`` before its correction
+     (SPlisHSPlasH's ``avg_density_err``); the reported error is that of the last sweep.
+
+   ``grad W_ij`` is evaluated at the predicted positions x*. **The neighbour lists are those of
+   the step start** (built at x by the simulation), unlike SPlisHSPlasH, which searches again at
+   x*: a pair that moves into the support radius within one step is missed for that step (its
+   kernel weight is nearly 0 at the edge of the support, and the CFL step keeps the motion per
+   step below about 0.4 (2r) = 0.2 h).
+
+   Optional artificial pressure (Eq. 13, ``s_corr=True``):
+   ``s_corr,ij = -k (W(|x*_ij|) / W(dq h))^n / D0``. The paper's s_corr is a dimensionless
+   addition to lambda in its units (particle mass and support of order 1); here lambda has units
+   m^2, so s_corr is divided by ``D0 = sum_k |grad_k C|^2`` of a filled lattice neighbourhood
+   (:func:`sphkit.core.ppe.lattice_diagonal`; PCISPH's template, ``D0 = 1 / (2 delta)``), i.e.
+   it acts like a compression of ``k (W / W(dq h))^n``. The paper's defaults: k = 0.1, n = 4,
+   dq = 0.2 h.
+3. velocity: first order ``v_new = (x* - x_old) / dt`` (SPlisHSPlasH's default), or second order
+   (BDF2) ``v_new = (1.5 x* - 2 x_old + 0.5 x_oldold) / dt`` with ``x_oldold`` the positions at the
+   start of the previous step (registered field ``pbf_x_last``; NaN until a particle has taken
+   one step, and such particles use the first-order update).
+
+**As an acceleration.** The simulation integrates ``v += dt a``, ``x += dt v`` after every
+solver, so ``solve`` writes the result as the effective acceleration
+``a = (v_new - v_old) / dt``, **replacing** ``state.fluid["a"]`` (the positional solve already
+contains a_ext). For the first-order update ``a = (x* - x_old - dt v_old) / dt^2`` gives exactly
+(up to round-off) ``v = (x* - x_old) / dt`` and ``x = x*`` after the integration. The BDF2
+velocity is not ``(x* - x_old) / dt``, so for it ``solve`` also sets ``x = x* - dt v_new``,
+which the integration carries to ``x*``.
+
+**Pressure.** PBF has no pressure variable; sphkit reports the equivalent pressure of the
+position corrections, ``p_i = -rho0 Lambda_i / dt^2`` [Pa] with ``Lambda_i`` the sum of the
+lambdas of all sweeps: a correction ``sum_j (Lambda_i + Lambda_j) V_j grad W_ij`` is the
+displacement ``dt^2 a`` of the pressure acceleration ``-sum_j V_j (p_i + p_j)/rho0 grad W_ij``
+(the PCISPH form). Unlike SPlisHSPlasH, non-pressure forces are evaluated before the solve at
+the step-start state (sphkit's step order), while SPlisHSPlasH applies viscosity after the
+velocity update; gravity enters the prediction in both.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.ppe import lattice_diagonal
+from sphkit.core.solver import IterationControl, SolverStats
+from sphkit.core.state import SimState
+
+_JIT = dict(cache=True, fastmath=True)
+
+
+@numba.njit(parallel=True, **_JIT)
+def pbf_lambda(x, dx, V, off, idx, bx, bV, boff, bidx, h, kid, dim, eps, lam, rho_hat):
+    """Density ``rho_hat`` at ``x + dx`` and ``lambda_i = -C_i / (sum_k |grad_k C_i|^2 + eps)``
+    with ``C_i = max(rho_hat_i - 1, 0)``; returns (mean, max) of C."""
+    n = x.shape[1]
+    tot = 0.0
+    mx = 0.0
+    w0 = kernel_w(kid, 0.0, h, dim)
+    for i in numba.prange(n):
+        xi0 = x[0, i] + dx[0, i]
+        xi1 = x[1, i] + dx[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] + dx[2, i] if dim > 2 else 0.0
+        rho = V[i] * w0
+        g0 = 0.0
+        g1 = 0.0
+        g2 = 0.0
+        sq = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j] - dx[0, j]
+            d1 = xi1 - x[1, j] - dx[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] - dx[2, j] if dim > 2 else 0.0
+            r2 = d0 * d0 + d1 * d1 + d2 * d2
+            rr = math.sqrt(r2)
+            rho += V[j] * kernel_w(kid, rr, h, dim)
+            f = V[j] * kernel_dw(kid, rr, h, dim)
+            g0 += f * d0
+            g1 += f * d1
+            g2 += f * d2
+            sq += f * f * r2
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            d0 = xi0 - bx[0, b]
+            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
+            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
+            rr = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            rho += bV[b] * kernel_w(kid, rr, h, dim)
+            f = bV[b] * kernel_dw(kid, rr, h, dim)
+            g0 += f * d0
+            g1 += f * d1
+            g2 += f * d2
+        rho_hat[i] = rho
+        c = max(rho - 1.0, 0.0)
+        lam[i] = -c / (sq + g0 * g0 + g1 * g1 + g2 * g2 + eps) if c > 0.0 else 0.0
+        tot += c
+        mx = max(mx, c)
+    return tot / max(n, 1), mx
+
+
+@numba.njit(parallel=True, **_JIT)
+def pbf_correction(x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, s_corr, k_corr,
+                   n_corr, w_dq, d0_inv, out):
+    """``out_i = sum_j (lambda_i + lambda_j + s_corr,ij) V_j grad W_ij + sum_b lambda_i V_b
+    grad W_ib`` at the positions ``x + dx``; ``s_corr,ij = -k_corr (W_ij / w_dq)^n_corr d0_inv``
+    when ``s_corr``."""
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i] + dx[0, i]
+        xi1 = x[1, i] + dx[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] + dx[2, i] if dim > 2 else 0.0
+        li = lam[i]
+        c0 = 0.0
+        c1 = 0.0
+        c2 = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j] - dx[0, j]
+            d1 = xi1 - x[1, j] - dx[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] - dx[2, j] if dim > 2 else 0.0
+            rr = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            s = li + lam[j]
+            if s_corr:
+                s -= k_corr * (kernel_w(kid, rr, h, dim) / w_dq) ** n_corr * d0_inv
+            f = s * V[j] * kernel_dw(kid, rr, h, dim)
+            c0 += f * d0
+            c1 += f * d1
+            c2 += f * d2
+        if li != 0.0:
+            for k in range(boff[i], boff[i + 1]):
+                b = bidx[k]
+                d0 = xi0 - bx[0, b]
+                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
+                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
+                f = li * bV[b] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+                c0 += f * d0
+                c1 += f * d1
+                c2 += f * d2
+        out[0, i] = c0
+        if dim > 1:
+            out[1, i] = c1
+        if dim > 2:
+            out[2, i] = c2
+
+
+class PBF:
+    """Position based fluids: Jacobi sweeps over clamped density constraints."""
+
+    name = "pbf"
+
+    def __init__(self, max_error: float = 0.01, min_iterations: int | None = None,
+                 max_iterations: int = 100, epsilon: float = 1e-6, s_corr: bool = False,
+                 s_corr_k: float = 0.1, s_corr_n: float = 4.0, s_corr_dq: float = 0.2,
+                 velocity_update: str = "first_order") -> None:
+        """``max_error`` in percent of rho0; ``epsilon`` [1/m^2]; ``s_corr_dq`` a fraction of h;
+        ``velocity_update`` 'first_order' or 'second_order'."""
+        if velocity_update not in ("first_order", "second_order"):
+            raise ValueError(f"pressure.pbf_velocity_update: {velocity_update!r}; expected "
+                             "'first_order' or 'second_order'")
+        if min_iterations is None:
+            min_iterations = min(2, max_iterations)
+        self.control = IterationControl("PBF", min_iterations, max_iterations, max_error / 100.0)
+        self.epsilon = float(epsilon)
+        self.s_corr = bool(s_corr)
+        self.s_corr_k = float(s_corr_k)
+        self.s_corr_n = float(s_corr_n)
+        self.s_corr_dq = float(s_corr_dq)
+        self.second_order = velocity_update == "second_order"
+        self._d0_inv = 0.0  # 1 / D0 of the template neighbourhood [m^2]
+
+    def init(self, state: SimState) -> None:
+        """Register p (equivalent pressure) and, for BDF2, the previous step-start positions."""
+        f = state.fluid
+        f.register("p")
+        if self.second_order:
+            f.register("pbf_x_last", "vector", fill=np.nan)
+        V = float(f["V0"].max()) if f.n else 0.0
+        if V > 0:
+            self._d0_inv = 1.0 / lattice_diagonal(2.0 * state.r, state.h, state.kid, state.dim, V)
+
+    def max_time_step(self, state: SimState) -> float:
+        """No limit of its own beyond the CFL step."""
+        return float("inf")
+
+    def solve(self, state: SimState, dt: float) -> SolverStats:
+        """Positional solve; writes the effective acceleration into ``a`` (see module doc)."""
+        f, b = state.fluid, state.boundary
+        nl, nb = state.nl_ff, state.nl_fb
+        x, v, a, V = f["x"], f["v"], f["a"], f["V0"]
+        n = f.n
+        dx = dt * (v + dt * a)  # x* - x_old
+        lam = np.empty(n, dtype=f.dtype)
+        lam_sum = np.zeros(n, dtype=f.dtype)
+        rho_hat = np.empty(n, dtype=f.dtype)
+        corr = np.empty_like(x)
+        w_dq = float(kernel_w(state.kid, self.s_corr_dq * state.h, state.h, state.dim))
+
+        def sweep(_k: int) -> tuple[float, float]:
+            avg, mx = pbf_lambda(x, dx, V, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
+                                 nb.indices, state.h, state.kid, state.dim, self.epsilon, lam,
+                                 rho_hat)
+            pbf_correction(x, dx, V, lam, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
+                           nb.indices, state.h, state.kid, state.dim, self.s_corr, self.s_corr_k,
+                           self.s_corr_n, w_dq, self._d0_inv, corr)
+            dx[...] += corr
+            lam_sum[...] += lam
+            return avg, mx
+
+        its, avg, mx, ok = self.control.run(sweep, state.step)
+        if self.second_order:
+            last = f["pbf_x_last"]
+            # v_new = (1.5 x* - 2 x_old + 0.5 x_oldold)/dt = (1.5 dx - 0.5 (x_old - x_oldold))/dt
+            v_new = np.where(np.isnan(last), dx, 1.5 * dx - 0.5 * (x - last)) / dt
+            last[...] = x
+            x[...] += dx - dt * v_new  # the integration x += dt v_new then lands on x*
+            a[...] = (v_new - v) / dt
+        else:
+            a[...] = (dx - dt * v) / (dt * dt)
+        f["p"] = -state.rho0 / (dt * dt) * lam_sum
+        return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
+                           converged=ok)
