@@ -29,15 +29,45 @@ from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import SolverStats
 from sphkit.core.state import SimState
 from sphkit.core.timestep import cfl_time_step, max_speed, speed_check, symplectic_euler
+from sphkit.pressure.dfsph import DFSPH
+from sphkit.pressure.iisph import IISPH
+from sphkit.pressure.pbf import PBF
+from sphkit.pressure.pcisph import PCISPH
 from sphkit.pressure.wcsph import WCSPH
-from sphkit.scene.schema import Scene, SceneError
+from sphkit.scene.schema import PressureConfig, Scene, SceneError
 from sphkit.viscosity.standard import StandardViscosity
 from sphkit.viscosity.xsph import XSPH
 from sphkit.vorticity.micropolar_bender2017 import MicropolarBender2017
 
 #: pressure solvers by scene name and by SPlisHSPlasH ``simulationMethod`` number
-PRESSURE_SOLVERS: dict[str, type] = {"wcsph": WCSPH}
-PRESSURE_SOLVER_NUMBERS: dict[int, str] = {0: "wcsph"}
+PRESSURE_SOLVERS: dict[str, type] = {"wcsph": WCSPH, "pcisph": PCISPH, "pbf": PBF,
+                                      "iisph": IISPH, "dfsph": DFSPH}
+PRESSURE_SOLVER_NUMBERS: dict[int, str] = {0: "wcsph", 1: "pcisph", 2: "pbf", 3: "iisph",
+                                           4: "dfsph"}
+
+
+def build_pressure_solver(p: PressureConfig):
+    """The pressure solver a scene's ``configuration.pressure`` names, with its parameters."""
+    if p.method == "wcsph":
+        return WCSPH(equation=p.equation, stiffness=p.stiffness, exponent=p.exponent,
+                     acoustic_cfl=p.acoustic_cfl)
+    common = dict(max_error=p.max_error, min_iterations=p.min_iterations,
+                  max_iterations=p.max_iterations)
+    if p.method == "dfsph":
+        return DFSPH(**common, max_error_v=p.max_error_v, max_iterations_v=p.max_iterations_v,
+                     divergence_solver=p.divergence_solver)
+    if p.method == "iisph":
+        return IISPH(**common)
+    if p.method == "pcisph":
+        return PCISPH(**common)
+    if p.method == "pbf":
+        return PBF(**common, epsilon=p.pbf_epsilon, s_corr=p.pbf_s_corr, s_corr_k=p.pbf_s_corr_k,
+                   s_corr_n=p.pbf_s_corr_n, s_corr_dq=p.pbf_s_corr_dq,
+                   velocity_update=p.pbf_velocity_update)
+    raise SceneError(
+        f"configuration.pressure.method: {p.method!r} is not implemented yet; expected one of "
+        f"{sorted(PRESSURE_SOLVERS)}"
+    )
 #: boundary models by scene name and SPlisHSPlasH ``boundaryHandlingMethod`` number
 BOUNDARY_MODELS: dict[str, type] = {"akinci2012": Akinci2012}
 BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012"}
@@ -61,7 +91,9 @@ class StepStats:
     cfl: float  #: max|v| dt / (2r)
     density_error_avg: float
     density_error_max: float
-    iterations: int = 1
+    iterations: int = 1  #: pressure-solver iterations (1 for WCSPH)
+    divergence_iterations: int = 0  #: DFSPH's divergence-solver iterations
+    divergence_error: float = 0.0  #: DFSPH's average divergence error (fraction of rho0)
 
     def as_dict(self) -> dict:
         """Plain-dict form (for manifests and logs)."""
@@ -108,7 +140,7 @@ class Simulation:
         fluid = ParticleSet(self.dim, self.dtype)
         for name in ("v", "a"):
             fluid.register(name, "vector")
-        for name in ("m", "rho", "p"):
+        for name in ("m", "V0", "rho", "p"):  # V0 = m / rho0, the rest volume
             fluid.register(name)
         boundary = ParticleSet(self.dim, self.dtype)
         self.state = SimState(fluid=fluid, boundary=boundary, dim=self.dim, h=h, kid=kid, r=r,
@@ -119,10 +151,7 @@ class Simulation:
                 "fluid_blocks: the scene has no fluid particles; expected at least one"
             )
 
-        p = cfg.pressure
-        self.pressure = PRESSURE_SOLVERS[p.method](
-            equation=p.equation, stiffness=p.stiffness, exponent=p.exponent,
-            acoustic_cfl=p.acoustic_cfl)
+        self.pressure = build_pressure_solver(cfg.pressure)
         self.boundary_model = BOUNDARY_MODELS[cfg.boundary.method]()
         self.forces: list = []
         vis = mat.viscosity
@@ -180,7 +209,7 @@ class Simulation:
                 )
             mat = scene.material(blk.material)
             vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
-            st.fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * vol, v=vel,
+            st.fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
                          rho=mat.density0)
         up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
         for k, box in enumerate(scene.boxes):
@@ -258,15 +287,19 @@ class Simulation:
         """Advance one time step; raises :class:`InstabilityError` when the state blows up."""
         st = self.state
         f = st.fluid
+        st.step = self.step_count + 1  # the step being computed (named in solver warnings)
         self._neighbors()
         self.compute_density()
         dt = self._time_step()
+        pre = getattr(self.pressure, "pre_forces", None)
+        if pre is not None:  # DFSPH: factors and the divergence-free solve
+            pre(st, dt)
         a = f["a"]
         a[:] = st.gravity[:, None]
         for force in self.forces:
             force.apply(st, dt)
         ps = self.pressure.solve(st, dt)
-        symplectic_euler(f["x"], f["v"], a, dt)
+        symplectic_euler(f["x"], f["v"], f["a"], dt)
         self.dt = dt
         self.time += dt
         self.step_count += 1
@@ -275,7 +308,9 @@ class Simulation:
         stats = StepStats(step=self.step_count, time=self.time, dt=dt, n_fluid=f.n,
                           max_velocity=vmax, cfl=vmax * dt / (2.0 * st.r),
                           density_error_avg=ps.density_error_avg,
-                          density_error_max=ps.density_error_max, iterations=ps.iterations)
+                          density_error_max=ps.density_error_max, iterations=ps.iterations,
+                          divergence_iterations=ps.divergence_iterations,
+                          divergence_error=ps.divergence_error)
         self.last, self.last_solver = stats, ps
         limit = self.scene.configuration.max_velocity
         if bad or vmax > limit or not np.all(np.isfinite(f["x"])):
