@@ -8,13 +8,12 @@ r under a splash's impact is still in front of the wall, while a leak puts centr
 
 from __future__ import annotations
 
-import importlib.metadata
 import json
 import shutil
 from pathlib import Path
 
 import numpy as np
-import pytest
+from _wheel import wheel_scene
 
 from sphkit.cli import main
 from sphkit.io.frames import read_frame
@@ -43,17 +42,6 @@ def test_builtin_dambreak_2d_stays_in_tank() -> None:
     assert sim.positions[:, 0].max() > 1.5
 
 
-def _wheel_scene(name: str) -> Path:
-    try:
-        dist = importlib.metadata.distribution("pysplishsplash")
-    except importlib.metadata.PackageNotFoundError:
-        pytest.skip("pysplishsplash is not installed: its scene files are not available")
-    for f in dist.files or []:
-        if str(f).replace("\\", "/").endswith(f"data/Scenes/{name}"):
-            return Path(dist.locate_file(f)).resolve()
-    pytest.skip(f"the pysplishsplash wheel ships no data/Scenes/{name}")
-
-
 def _edited_copy(src: Path, tmp: Path) -> Path:
     """The scene edited as the issue says (WCSPH, Akinci, fixed 1 ms step), saved with the same
     relative layout (Scenes/ beside models/) so that its mesh paths are unchanged."""
@@ -70,7 +58,7 @@ def _edited_copy(src: Path, tmp: Path) -> Path:
 def test_splishsplash_dambreak_3d_runs_in_cli_and_stays_in_tank(tmp_path: Path) -> None:
     """DamBreakModel.json (edited to WCSPH/Akinci/fixed step) through `sphkit run` for 1 s:
     tank = UnitBox scaled (4, 3, 1.5) translated (0, 1.5, 0)."""
-    scene = _edited_copy(_wheel_scene("DamBreakModel.json"), tmp_path)
+    scene = _edited_copy(wheel_scene("DamBreakModel.json"), tmp_path)
     out = tmp_path / "out"
     assert main(["run", str(scene), "--until", "1.0", "--fps", "10", "--out", str(out),
                  "--quiet"]) == 0
@@ -88,7 +76,7 @@ def test_splishsplash_dambreak_3d_runs_in_cli_and_stays_in_tank(tmp_path: Path) 
 def test_splishsplash_dambreak_2d_runs_in_cli_and_stays_in_tank(tmp_path: Path) -> None:
     """DamBreakModel_2D.json (edited to WCSPH/Akinci/fixed step; it keeps its micropolar
     vorticity) through `sphkit run` for 2 s: tank = UnitBox scaled (4, 4) translated (0, 2)."""
-    scene = _edited_copy(_wheel_scene("DamBreakModel_2D.json"), tmp_path)
+    scene = _edited_copy(wheel_scene("DamBreakModel_2D.json"), tmp_path)
     out = tmp_path / "out"
     assert main(["run", str(scene), "--until", "2.0", "--fps", "10", "--out", str(out),
                  "--quiet"]) == 0

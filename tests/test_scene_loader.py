@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-import importlib.metadata
 import json
 import math
 import warnings
@@ -14,6 +13,7 @@ import numpy as np
 import pytest
 import trimesh
 import yaml
+from _wheel import wheel_scene
 
 from sphkit.scene.loader import (
     builtin_scenes,
@@ -507,14 +507,7 @@ def test_splishsplash_file_detection_and_json_errors(sph_dir: Path) -> None:
 
 
 def _wheel_scenes() -> Path:
-    try:
-        dist = importlib.metadata.distribution("pysplishsplash")
-    except importlib.metadata.PackageNotFoundError:
-        pytest.skip("pysplishsplash is not installed: its scene files are not available")
-    for f in dist.files or []:
-        if str(f).replace("\\", "/").endswith("data/Scenes/DamBreakModel.json"):
-            return Path(dist.locate_file(f)).resolve().parent
-    pytest.skip("the pysplishsplash wheel ships no data/Scenes/DamBreakModel.json")
+    return wheel_scene("DamBreakModel.json").parent
 
 
 def _as_wcsph(data: dict[str, Any]) -> dict[str, Any]:

@@ -4,12 +4,11 @@ scene loading and a SPlisHSPlasH scene that uses it."""
 from __future__ import annotations
 
 import copy
-import importlib.metadata
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
+from _wheel import wheel_scene
 
 from sphkit.core.kernels import Kernel, kernel_id, lattice_volume
 from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists
@@ -322,23 +321,12 @@ def test_simulation_builds_the_model_and_inits_omega() -> None:
     assert np.all(np.isfinite(sim.fluid["omega"]))
 
 
-def _wheel_scene(name: str) -> Path:
-    try:
-        dist = importlib.metadata.distribution("pysplishsplash")
-    except importlib.metadata.PackageNotFoundError:
-        pytest.skip("pysplishsplash is not installed: its scene files are not available")
-    for f in dist.files or []:
-        if str(f).replace("\\", "/").endswith(f"data/Scenes/{name}"):
-            return Path(dist.locate_file(f)).resolve()
-    pytest.skip(f"the pysplishsplash wheel ships no data/Scenes/{name}")
-
-
 def test_splishsplash_dambreak_2d_with_micropolar_runs() -> None:
     """SPlisHSPlasH's DamBreakModel_2D.json (standard viscosity 0.01 + micropolar 0.1/0.05/0.5)
     with WCSPH (B = 50000 Pa, gamma 7), Akinci boundary, fixed dt = 1 ms: it loads with the
     micropolar model and runs 50 steps without instability; the collapse creates spin (omega
     non-zero, z row only) and every particle stays in the tank [-2, 2] x [0, 4]."""
-    path = _wheel_scene("DamBreakModel_2D.json")
+    path = wheel_scene("DamBreakModel_2D.json")
     data = copy.deepcopy(json.loads(path.read_text()))
     data["Configuration"].update(simulationMethod=0, boundaryHandlingMethod=0, cflMethod=0,
                                  timeStepSize=0.001, WCSPH={"stiffness": 50000, "exponent": 7})

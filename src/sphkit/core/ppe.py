@@ -292,32 +292,6 @@ def kappa_accel_cached(q, w, off, idx, boff, gw, gwb, dim, a):
 
 
 @numba.njit(parallel=True, **_JIT)
-def accel_divergence_cached(a, off, idx, boff, gw, gwb, dim, out):
-    """:func:`accel_divergence` from cached pair gradients."""
-    for i in numba.prange(a.shape[1]):
-        ai0 = a[0, i]
-        ai1 = a[1, i] if dim > 1 else 0.0
-        ai2 = a[2, i] if dim > 2 else 0.0
-        s = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            t = (ai0 - a[0, j]) * gw[0, k]
-            if dim > 1:
-                t += (ai1 - a[1, j]) * gw[1, k]
-            if dim > 2:
-                t += (ai2 - a[2, j]) * gw[2, k]
-            s += t
-        for k in range(boff[i], boff[i + 1]):
-            t = ai0 * gwb[0, k]
-            if dim > 1:
-                t += ai1 * gwb[1, k]
-            if dim > 2:
-                t += ai2 * gwb[2, k]
-            s += t
-        out[i] = s
-
-
-@numba.njit(parallel=True, **_JIT)
 def diagonal_cached(off, boff, gw, gwb, dim, out):
     """:func:`diagonal` from cached pair gradients."""
     for i in numba.prange(off.shape[0] - 1):
@@ -343,8 +317,11 @@ def diagonal_cached(off, boff, gw, gwb, dim, out):
 
 
 @numba.njit(parallel=True, **_JIT)
-def velocity_divergence_cached(v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
-    """:func:`velocity_divergence` from cached pair gradients."""
+def pair_divergence_cached(v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
+    """``sum_j (v_i - v_j) . V_j grad W_ij + sum_b (v_i - v_b) . V_b grad W_ib`` from cached
+    pair gradients: :func:`velocity_divergence` for velocities (bv: boundary velocities), and
+    :func:`accel_divergence` for accelerations (bv = 0: pressure does not accelerate the
+    boundary)."""
     for i in numba.prange(v.shape[1]):
         vi0 = v[0, i]
         vi1 = v[1, i] if dim > 1 else 0.0

@@ -22,12 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from sphkit.core.ppe import (
-    accel_divergence_cached,
     diagonal_cached,
     jacobi_update,
     kappa_accel_cached,
+    pair_divergence_cached,
     pair_gradients,
-    velocity_divergence_cached,
 )
 from sphkit.core.state import SimState
 
@@ -103,9 +102,9 @@ class PairGradients:
         """``D rho_hat / Dt`` of the velocities v (boundary velocities from the state)."""
         st = self.state
         out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
-        velocity_divergence_cached(v, st.boundary["v"], st.nl_ff.offsets, st.nl_ff.indices,
-                                   st.nl_fb.offsets, st.nl_fb.indices, self.gw, self.gwb,
-                                   st.dim, out)
+        pair_divergence_cached(v, st.boundary["v"], st.nl_ff.offsets, st.nl_ff.indices,
+                               st.nl_fb.offsets, st.nl_fb.indices, self.gw, self.gwb, st.dim,
+                               out)
         return out
 
 
@@ -132,10 +131,12 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     dim = state.dim
     a = np.empty_like(x)
     Ap = np.empty(f.n, dtype=x.dtype)
+    still = np.zeros_like(state.boundary["x"])  # boundary particles take no pressure accel.
 
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(q, w, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
-        accel_divergence_cached(a, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, Ap)
+        pair_divergence_cached(a, still, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw,
+                               g.gwb, dim, Ap)
         avg, mx = jacobi_update(q, s, Ap, ap_factor, scale, omega, active, one_sided)
         return avg * error_factor, mx * error_factor
 
