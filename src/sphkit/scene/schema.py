@@ -81,8 +81,8 @@ class PressureConfig(_Model):
     divergence_solver: bool = Field(True, description="dfsph: run the divergence-free solver")
     pbf_epsilon: float = Field(
         1e-6, gt=0,
-        description="pbf: constraint-force-mixing relaxation epsilon of lambda [m^2] (Macklin & "
-        "Mueller 2013, Eq. 11; SPlisHSPlasH 1e-6)",
+        description="pbf: constraint-force-mixing relaxation epsilon of lambda [1/m^2], added "
+        "to sum |grad C|^2 (Macklin & Mueller 2013, Eq. 11; SPlisHSPlasH 1e-6)",
     )
     pbf_s_corr: bool = Field(
         False, description="pbf: artificial pressure s_corr against tensile instability (Eq. 13)"
