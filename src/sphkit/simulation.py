@@ -7,9 +7,13 @@ One step (DESIGN.md, "Data flow of one time step"):
 3. density ``rho_i = sum_j m_j W_ij + sum_b rho0 V_b W_ib`` (:func:`core.operators.density_cpu`);
 4. time step: CFL ``cfl_factor * 0.4 * 2r / max|v|`` clamped to [dt_min, dt_max], and the pressure
    solver's own limit (acoustic limit of WCSPH);
-5. accelerations: gravity, then the non-pressure forces (viscosity), then the pressure solver;
-6. symplectic Euler;
-7. stability guard: NaN/inf velocities or a speed above ``configuration.max_velocity`` raise
+5. the pressure solver's pre-force hook where it has one (DFSPH: factors and the divergence-free
+   solve on the current velocities);
+6. accelerations: gravity, then the non-pressure forces (viscosity, vorticity), then the pressure
+   solver, which adds the pressure acceleration (PBF: the acceleration that lands on its
+   corrected positions);
+7. symplectic Euler;
+8. stability guard: NaN/inf velocities or a speed above ``configuration.max_velocity`` raise
    :class:`InstabilityError` with a diagnosis (step, time, max velocity, CFL number, density error).
 """
 
