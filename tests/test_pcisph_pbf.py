@@ -16,7 +16,8 @@ import logging
 import numpy as np
 import pytest
 
-from sphkit.core.ppe import density_at, diagonal
+from sphkit.core.ppe import density_at
+from sphkit.core.solver import PairGradients
 from sphkit.pressure.pbf import PBF, pbf_lambda
 from sphkit.pressure.pcisph import PCISPH
 from sphkit.scene.schema import PressureConfig, Scene
@@ -87,7 +88,7 @@ def _compression(sim: Simulation) -> float:
 def test_pcisph_delta_is_half_the_inverse_diagonal_of_a_filled_neighbourhood(dim: int) -> None:
     """delta = 1 / (2 V^2 (|S1|^2 + S2)) of the template equals 1 / (2 D_i) for an interior
     particle of a sampled block, D_i = |sum_j V_j grad W_ij|^2 + sum_j V_j^2 |grad W_ij|^2 (the
-    PPE diagonal of :func:`sphkit.core.ppe.diagonal`): PCISPH is Jacobi with omega = 0.5."""
+    PPE diagonal of :func:`sphkit.core.ppe.diagonal_cached`): PCISPH is Jacobi with omega = 0.5."""
     r = 0.02
     sc = Scene.model_validate({"configuration": {"dim": dim, "particle_radius": r,
                                                  "gravity": [0.0] * dim,
@@ -96,10 +97,7 @@ def test_pcisph_delta_is_half_the_inverse_diagonal_of_a_filled_neighbourhood(dim
     sim = Simulation(sc)
     sim.run(until=1e-9, fps=1.0)
     st = sim.state
-    f, b = st.fluid, st.boundary
-    D = np.empty(f.n)
-    diagonal(f["x"], f["V0"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
-             st.nl_fb.offsets, st.nl_fb.indices, st.h, st.kid, dim, D)
+    D = PairGradients(st).diagonal()
     centre = np.argmin(np.linalg.norm(sim.positions - 0.2, axis=1))
     assert sim.pressure.delta == pytest.approx(1.0 / (2.0 * D[centre]), rel=1e-6)
 

@@ -8,21 +8,25 @@ quantity and boundary details. These compiled passes are the shared pieces; the 
 Notation (SPlisHSPlasH's normalized units): ``V_j = m_j / rho0`` is the rest volume of fluid
 particle j, ``V_b`` the volume of boundary particle b (Akinci 2012), ``rho_hat = rho / rho0``.
 
-* :func:`kappa_accel` -- the pressure acceleration of a "kappa" field
+The iterations walk the same pairs many times per step, so :func:`pair_gradients` stores
+``V_j grad W_ij`` (and ``V_b grad W_ib``) once per step (as SPlisHSPlasH's
+USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over it:
+
+* :func:`kappa_accel_cached` -- the pressure acceleration of a "kappa" field
   (kappa = p / (rho0 rho_hat^2)):
   ``a_i = -sum_j V_j (k_i + k_j) grad W_ij - sum_b V_b k_i grad W_ib`` (boundary term as Akinci
   2012 / SPlisHSPlasH's DFSPH and IISPH; a solver whose variable is q passes ``k_i = w_i q_i``);
-* :func:`accel_divergence` -- the change of normalized density per dt^2 that accelerations a cause:
-  ``sum_j V_j (a_i - a_j) . grad W_ij + sum_b V_b a_i . grad W_ib``;
-* :func:`velocity_divergence` -- ``D rho_hat_i / Dt = sum_j V_j v_ij . grad W_ij
-  + sum_b V_b (v_i - v_b) . grad W_ib`` (positive when compressing);
-* :func:`diagonal` -- ``D_i = |sum_j V_j grad W_ij + sum_b V_b grad W_ib|^2
-  + sum_j V_j^2 |grad W_ij|^2``: minus the diagonal (for equal volumes V_i = V_j) of
-  ``accel_divergence(kappa_accel(k))`` with
-  respect to k_i. DFSPH's factor is ``alpha_i = 1 / D_i`` (Bender & Koschier 2017, Eq. 9) and
-  IISPH's ``a_ii = -D_i / rho_hat_i^2`` (Ihmsen et al. 2014, Eq. 12, in these units).
+* :func:`pair_divergence_cached` -- ``sum_j V_j (u_i - u_j) . grad W_ij
+  + sum_b V_b (u_i - u_b) . grad W_ib``: for velocities ``D rho_hat_i / Dt`` (positive when
+  compressing), for accelerations (u_b = 0) the change of normalized density per dt^2 they cause;
+* :func:`diagonal_cached` -- ``D_i = |sum_j V_j grad W_ij + sum_b V_b grad W_ib|^2
+  + sum_j V_j^2 |grad W_ij|^2``: minus the diagonal (for equal volumes V_i = V_j) of the
+  divergence of ``kappa_accel(k)`` with respect to k_i. DFSPH's factor is ``alpha_i = 1 / D_i``
+  (Bender & Koschier 2017, Eq. 9) and IISPH's ``a_ii = -D_i / rho_hat_i^2`` (Ihmsen et al. 2014,
+  Eq. 12, in these units);
 * :func:`jacobi_update` -- ``q_i <- max(q_i - omega * scale_i * (s_i - f Ap_i), 0)`` (IISPH), or
-  the one-sided form of SPlisHSPlasH's DFSPH, with the error of the residual before the update.
+  the one-sided form of SPlisHSPlasH's DFSPH, with the error of the residual before the update;
+* :func:`density_at` -- PCISPH's / PBF's density at predicted positions.
 """
 
 from __future__ import annotations
@@ -35,137 +39,6 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw, kernel_w
 
 _JIT = dict(cache=True, fastmath=True)
-
-
-@numba.njit(parallel=True, **_JIT)
-def kappa_accel(x, V, q, w, off, idx, bx, bV, boff, bidx, h, kid, dim, a):
-    """a[:, i] = pressure acceleration of the field k = w * q (overwrites a)."""
-    for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        ki = w[i] * q[i]
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            s = -V[j] * (ki + w[j] * q[j]) * kernel_dw(
-                kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            a0 += s * d0
-            a1 += s * d1
-            a2 += s * d2
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            s = -bV[b] * ki * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            a0 += s * d0
-            a1 += s * d1
-            a2 += s * d2
-        a[0, i] = a0
-        if dim > 1:
-            a[1, i] = a1
-        if dim > 2:
-            a[2, i] = a2
-
-
-@numba.njit(**_JIT, inline="always")
-def _pair_div(i, j, x, y, u, ui0, ui1, ui2, xi0, xi1, xi2, h, kid, dim):
-    # (u_i - u_j) . grad W_ij for particle j of set (y, u)
-    d0 = xi0 - y[0, j]
-    d1 = xi1 - y[1, j] if dim > 1 else 0.0
-    d2 = xi2 - y[2, j] if dim > 2 else 0.0
-    f = kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-    s = (ui0 - u[0, j]) * d0
-    if dim > 1:
-        s += (ui1 - u[1, j]) * d1
-    if dim > 2:
-        s += (ui2 - u[2, j]) * d2
-    return f * s
-
-
-@numba.njit(parallel=True, **_JIT)
-def velocity_divergence(x, V, v, off, idx, bx, bV, bv, boff, bidx, h, kid, dim, out):
-    """out[i] = D rho_hat_i / Dt from velocities v (boundary moving with bv)."""
-    for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        vi0 = v[0, i]
-        vi1 = v[1, i] if dim > 1 else 0.0
-        vi2 = v[2, i] if dim > 2 else 0.0
-        s = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            s += V[j] * _pair_div(i, j, x, x, v, vi0, vi1, vi2, xi0, xi1, xi2, h, kid, dim)
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            s += bV[b] * _pair_div(i, b, x, bx, bv, vi0, vi1, vi2, xi0, xi1, xi2, h, kid, dim)
-        out[i] = s
-
-
-@numba.njit(parallel=True, **_JIT)
-def accel_divergence(x, V, a, off, idx, bx, bV, boff, bidx, h, kid, dim, out):
-    """out[i] = sum_j V_j (a_i - a_j) . grad W_ij + sum_b V_b a_i . grad W_ib."""
-    for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        ai0 = a[0, i]
-        ai1 = a[1, i] if dim > 1 else 0.0
-        ai2 = a[2, i] if dim > 2 else 0.0
-        s = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            s += V[j] * _pair_div(i, j, x, x, a, ai0, ai1, ai2, xi0, xi1, xi2, h, kid, dim)
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            f = kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            s += bV[b] * f * (ai0 * d0 + ai1 * d1 + ai2 * d2)
-        out[i] = s
-
-
-@numba.njit(parallel=True, **_JIT)
-def diagonal(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, out):
-    """out[i] = |sum_j V_j grad W_ij + sum_b V_b grad W_ib|^2 + sum_j V_j^2 |grad W_ij|^2."""
-    for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        g0 = 0.0
-        g1 = 0.0
-        g2 = 0.0
-        sq = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
-            f = V[j] * kernel_dw(kid, math.sqrt(r2), h, dim)
-            g0 += f * d0
-            g1 += f * d1
-            g2 += f * d2
-            sq += f * f * r2
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            f = bV[b] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            g0 += f * d0
-            g1 += f * d1
-            g2 += f * d2
-        # sq holds sum_j V_j^2 |grad W_ij|^2; V_i V_j = V_j^2 for one phase (SPlisHSPlasH's alpha)
-        out[i] = g0 * g0 + g1 * g1 + g2 * g2 + sq
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -226,12 +99,6 @@ def neighbor_counts(off: np.ndarray, boff: np.ndarray) -> np.ndarray:
     return np.diff(off) + np.diff(boff)
 
 
-# ---------------------------------------------------------------------------------------------
-# cached pair gradients: the Jacobi iterations walk the same pairs many times per step, so the
-# kernel gradients V_j grad W_ij are computed once per step (as SPlisHSPlasH's
-# USE_PERFORMANCE_OPTIMIZATION does) and the iteration passes become multiply-adds.
-
-
 @numba.njit(parallel=True, **_JIT)
 def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
     """gw[:, k] = V_j grad W_ij for the k-th fluid pair, gwb[:, k] = V_b grad W_ib."""
@@ -265,7 +132,7 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
 
 @numba.njit(parallel=True, **_JIT)
 def kappa_accel_cached(q, w, off, idx, boff, gw, gwb, dim, a):
-    """:func:`kappa_accel` from cached pair gradients (overwrites a)."""
+    """a[:, i] = pressure acceleration of the field k = w * q (overwrites a)."""
     for i in numba.prange(q.shape[0]):
         ki = w[i] * q[i]
         a0 = 0.0
@@ -293,7 +160,7 @@ def kappa_accel_cached(q, w, off, idx, boff, gw, gwb, dim, a):
 
 @numba.njit(parallel=True, **_JIT)
 def diagonal_cached(off, boff, gw, gwb, dim, out):
-    """:func:`diagonal` from cached pair gradients."""
+    """out[i] = |sum_j V_j grad W_ij + sum_b V_b grad W_ib|^2 + sum_j V_j^2 |grad W_ij|^2."""
     for i in numba.prange(off.shape[0] - 1):
         g0 = 0.0
         g1 = 0.0
@@ -319,9 +186,8 @@ def diagonal_cached(off, boff, gw, gwb, dim, out):
 @numba.njit(parallel=True, **_JIT)
 def pair_divergence_cached(v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
     """``sum_j (v_i - v_j) . V_j grad W_ij + sum_b (v_i - v_b) . V_b grad W_ib`` from cached
-    pair gradients: :func:`velocity_divergence` for velocities (bv: boundary velocities), and
-    :func:`accel_divergence` for accelerations (bv = 0: pressure does not accelerate the
-    boundary)."""
+    pair gradients: ``D rho_hat / Dt`` for velocities (bv: boundary velocities), and the density
+    change per dt^2 for accelerations (bv = 0: pressure does not accelerate the boundary)."""
     for i in numba.prange(v.shape[1]):
         vi0 = v[0, i]
         vi1 = v[1, i] if dim > 1 else 0.0

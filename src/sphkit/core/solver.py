@@ -7,10 +7,10 @@ percentage of rho0, stored here as a fraction). Hitting the limit without conver
 warning naming the solver, the step and the error. Each step reports :class:`SolverStats`.
 
 :func:`jacobi_ppe` is the relaxed Jacobi engine of the survey (Sec. 4.4): for a variable q with
-pressure acceleration ``a = kappa_accel(w q)`` it iterates
+pressure acceleration ``a = kappa_accel_cached(w q)`` it iterates
 ``q <- max(q - omega scale (s - A q), 0)``
-with ``A q = ap_factor * accel_divergence(a)``. IISPH and both DFSPH solvers are this engine with
-their own source s, diagonal (``scale``), weight w and time factor.
+with ``A q = ap_factor * pair_divergence_cached(a)``. IISPH and both DFSPH solvers are this
+engine with their own source s, diagonal (``scale``), weight w and time factor.
 """
 
 from __future__ import annotations
@@ -92,7 +92,8 @@ class PairGradients:
         self.state = state
 
     def diagonal(self) -> np.ndarray:
-        """``D_i`` of :func:`sphkit.core.ppe.diagonal` (DFSPH's 1/alpha, IISPH's -a_ii rho^2)."""
+        """``D_i`` of :func:`sphkit.core.ppe.diagonal_cached` (DFSPH's 1/alpha, IISPH's
+        -a_ii rho^2)."""
         st = self.state
         out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
         diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, self.gw, self.gwb, st.dim, out)
@@ -115,7 +116,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
                ) -> tuple[np.ndarray, int, float, float, bool]:
     """Relaxed Jacobi on ``A q = s``; q is updated in place and clamped to q >= 0.
 
-    One iteration: ``a = kappa_accel(w q)``; ``Ap = ap_factor * accel_divergence(a)``;
+    One iteration: ``a = kappa_accel_cached(w q)``; ``Ap = ap_factor * pair_divergence_cached(a)``;
     ``q <- max(q - omega scale (s - Ap), 0)``, or with ``one_sided`` only the compressive part
     of the residual acts (see :func:`sphkit.core.ppe.jacobi_update`). The error of an iteration
     is the compressive residual ``max(Ap - s, 0)`` of ``active`` particles averaged over all

@@ -10,7 +10,7 @@ Ihmsen, Cornelis, Solenthaler, Horvath, Teschner 2014, "Implicit incompressible 
 * the diagonal (Eq. 12) ``a_ii = sum_j V_j (d_ii - d_ji) . grad W_ij + sum_b V_b d_ii . grad W_ib``
   with ``d_ii = -(1/rho_hat_i^2) (sum_j V_j grad W_ij + sum_b V_b grad W_ib)`` and
   ``d_ji = (V_i / rho_hat_i^2) grad W_ij``, i.e. ``a_ii = -D_i / rho_hat_i^2`` with
-  :func:`sphkit.core.ppe.diagonal`;
+  :func:`sphkit.core.ppe.diagonal_cached`;
 * warm start ``p_hat_i = 0.5 p_hat_i(t - dt)`` (Sec. 4.3);
 * relaxed Jacobi (Eq. 13, omega = 0.5) with pressure clamping:
   ``p_hat_i <- max(p_hat_i + omega / (a_ii dt^2) (s_i - A p_hat_i), 0)``,

@@ -31,8 +31,8 @@ same neighbourhood.)
 4. recomputes the pressure acceleration at the step-start positions (paper Eq. 5 with rho0 in
    the denominators, Akinci boundary as SPlisHSPlasH)
    ``a_p,i = -sum_j V_j (p~_i + p~_j) grad W_ij - sum_b V_b p~_i grad W_ib``
-   (:func:`sphkit.core.ppe.kappa_accel` with ``w = 1``, ``q = p~``, from the step's cached pair
-   gradients :class:`sphkit.core.solver.PairGradients`).
+   (:func:`sphkit.core.ppe.kappa_accel_cached` with ``w = 1``, ``q = p~``, from the step's cached
+   pair gradients :class:`sphkit.core.solver.PairGradients`).
 
 The error of an iteration is the average compression ``mean(max(rho_hat* - 1, 0))`` of the
 prediction it started from (SPlisHSPlasH's ``avg_density_err``); iterations stop through
