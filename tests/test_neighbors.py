@@ -74,6 +74,20 @@ def test_random_set_matches_brute_force_and_kdtree(dim: int) -> None:
         np.testing.assert_array_equal(np.sort(nl.neighbors(i)), kd[i][kd[i] != i])
 
 
+@pytest.mark.parametrize("capacity", [1, 2, 5, 12])
+def test_rows_that_overflow_the_capacity_are_redone(capacity: int) -> None:
+    # The one-pass search writes into rows of `capacity` slots; a particle with more neighbours
+    # (here about 10 on average, up to about 25) must trigger the retry with wider rows,
+    # and the result must still equal brute force, including at exactly `capacity` neighbours.
+    n, h = CASES[3]
+    x = np.random.default_rng(33).uniform(-0.4, 0.6, size=(3, n))
+    grid = Grid(x, h)
+    grid.capacity = capacity
+    nl = grid.query(x, exclude_self=True)
+    _assert_lists(nl, _brute(x, x, h, exclude_self=True), n)
+    assert nl.counts().max() >= capacity
+
+
 @pytest.mark.parametrize("dim", [1, 2, 3])
 def test_exclude_self(dim: int) -> None:
     n, h = CASES[dim]
