@@ -74,58 +74,57 @@ def kernel_sigma(kid: int, h: float, dim: int) -> float:
     return 2.0 / (h2 * h2)
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True, fastmath=True, inline="always")
 def kernel_w(kid: int, r: float, h: float, dim: int) -> float:
-    """Kernel value W(r) for support radius h (zero for r >= h)."""
-    if r >= h:
-        return 0.0
-    q = r / h
+    """Kernel value W(r) for support radius h (zero for r >= h).
+
+    Written without data-dependent branches (the cubic spline's two pieces are both evaluated
+    and one is selected; ``1 - q`` is clamped at 0 beyond the support) and inlined, so that in a
+    pair loop the constants are hoisted and no branch mispredicts: this made the pair loops
+    several times faster than the branching form.
+    """
     s = kernel_sigma(kid, h, dim)
+    inv_h = 1.0 / h
+    q = r * inv_h
+    t = 1.0 - q if r < h else 0.0  # exactly 0 from r = h on, whatever r * (1/h) rounds to
     if kid == CUBIC:
-        if q <= 0.5:
-            return s * (6.0 * (q * q * q - q * q) + 1.0)
-        t = 1.0 - q
-        return s * 2.0 * t * t * t
+        near = 6.0 * (q * q * q - q * q) + 1.0
+        far = 2.0 * t * t * t
+        return s * (near if q <= 0.5 else far)
     if kid == WENDLAND:
-        t = 1.0 - q
         t2 = t * t
         return s * t2 * t2 * (4.0 * q + 1.0)
     if kid == POLY6:
-        d = h * h - r * r
+        d = h * h - r * r if r < h else 0.0
         return s * d * d * d
-    t = h - r
-    return s * t * t * t
+    d = t * h
+    return s * d * d * d
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True, fastmath=True, inline="always")
 def kernel_dw(kid: int, r: float, h: float, dim: int) -> float:
     """``W'(r) / r``: multiply by ``x_i - x_j`` to get ``grad_i W_ij``. Zero for r >= h.
 
     At ``r -> 0`` the factor stays finite for cubic, Wendland and poly6 (the gradient itself is 0
     there because the distance vector is 0); spiky's factor is singular, so it is set to 0 for
-    ``r < 1e-9 h``.
+    ``r < 1e-9 h``. Branch-free and inlined like :func:`kernel_w`.
     """
-    if r >= h:
-        return 0.0
-    q = r / h
     s = kernel_sigma(kid, h, dim)
+    inv_h = 1.0 / h
+    q = r * inv_h
+    t = 1.0 - q if r < h else 0.0  # exactly 0 from r = h on, whatever r * (1/h) rounds to
     if kid == CUBIC:
-        if q <= 0.5:
-            return s * (18.0 * q - 12.0) / (h * h)
-        t = 1.0 - q
-        if r < 1e-9 * h:
-            return 0.0
-        return -6.0 * s * t * t / (h * h * q)
+        near = (18.0 * q - 12.0) * inv_h * inv_h
+        far = -6.0 * t * t * inv_h / max(r, 1e-9 * h)
+        return s * (near if q <= 0.5 else far)
     if kid == WENDLAND:
-        t = 1.0 - q
-        return -20.0 * s * t * t * t / (h * h)
+        return -20.0 * s * t * t * t * inv_h * inv_h
     if kid == POLY6:
-        d = h * h - r * r
+        d = h * h - r * r if r < h else 0.0
         return -6.0 * s * d * d
-    if r < 1e-9 * h:
-        return 0.0
-    t = h - r
-    return -3.0 * s * t * t / r
+    d = t * h
+    v = -3.0 * s * d * d / max(r, 1e-9 * h)
+    return v if r >= 1e-9 * h else 0.0
 
 
 @numba.njit(cache=True, parallel=True, fastmath=True)
