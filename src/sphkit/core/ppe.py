@@ -15,7 +15,7 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
 * :func:`kappa_accel_cached` -- the pressure acceleration of a "kappa" field
   (kappa = p / (rho0 rho_hat^2)):
   ``a_i = -sum_j V_j (k_i + k_j) grad W_ij - sum_b V_b k_i grad W_ib`` (boundary term as Akinci
-  2012 / SPlisHSPlasH's DFSPH and IISPH; a solver whose variable is q passes ``k_i = w_i q_i``);
+  2012 / SPlisHSPlasH's DFSPH and IISPH; a solver whose variable is q passes ``k = w q``);
 * :func:`pair_divergence_cached` -- ``sum_j V_j (u_i - u_j) . grad W_ij
   + sum_b V_b (u_i - u_b) . grad W_ib``: for velocities ``D rho_hat_i / Dt`` (positive when
   compressing), for accelerations (u_b = 0) the change of normalized density per dt^2 they cause;
@@ -131,26 +131,29 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
 
 
 @numba.njit(parallel=True, **_JIT)
-def kappa_accel_cached(q, w, off, idx, boff, gw, gwb, dim, a):
-    """a[:, i] = pressure acceleration of the field k = w * q (overwrites a)."""
-    for i in numba.prange(q.shape[0]):
-        ki = w[i] * q[i]
+def kappa_accel_cached(k, off, idx, boff, gw, gwb, dim, a):
+    """a[:, i] = pressure acceleration of the field k (overwrites a).
+
+    A solver whose variable is q with weights w passes ``k = w * q`` (one gather per pair
+    instead of two: a fifth faster)."""
+    for i in numba.prange(k.shape[0]):
+        ki = k[i]
         a0 = 0.0
         a1 = 0.0
         a2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            s = ki + w[idx[k]] * q[idx[k]]
-            a0 -= s * gw[0, k]
+        for kk in range(off[i], off[i + 1]):
+            s = ki + k[idx[kk]]
+            a0 -= s * gw[0, kk]
             if dim > 1:
-                a1 -= s * gw[1, k]
+                a1 -= s * gw[1, kk]
             if dim > 2:
-                a2 -= s * gw[2, k]
-        for k in range(boff[i], boff[i + 1]):
-            a0 -= ki * gwb[0, k]
+                a2 -= s * gw[2, kk]
+        for kk in range(boff[i], boff[i + 1]):
+            a0 -= ki * gwb[0, kk]
             if dim > 1:
-                a1 -= ki * gwb[1, k]
+                a1 -= ki * gwb[1, kk]
             if dim > 2:
-                a2 -= ki * gwb[2, k]
+                a2 -= ki * gwb[2, kk]
         a[0, i] = a0
         if dim > 1:
             a[1, i] = a1

@@ -134,13 +134,17 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     Ap = np.empty(f.n, dtype=x.dtype)
     still = np.zeros_like(state.boundary["x"])  # boundary particles take no pressure accel.
 
+    k = np.empty_like(q)
+
     def sweep(_k: int) -> tuple[float, float]:
-        kappa_accel_cached(q, w, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
+        np.multiply(w, q, out=k)
+        kappa_accel_cached(k, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
         pair_divergence_cached(a, still, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw,
                                g.gwb, dim, Ap)
         avg, mx = jacobi_update(q, s, Ap, ap_factor, scale, omega, active, one_sided)
         return avg * error_factor, mx * error_factor
 
     its, avg, mx, ok = control.run(sweep, state.step)
-    kappa_accel_cached(q, w, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
+    np.multiply(w, q, out=k)
+    kappa_accel_cached(k, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
     return a, its, avg, mx, ok

@@ -31,7 +31,7 @@ same neighbourhood.)
 4. recomputes the pressure acceleration at the step-start positions (paper Eq. 5 with rho0 in
    the denominators, Akinci boundary as SPlisHSPlasH)
    ``a_p,i = -sum_j V_j (p~_i + p~_j) grad W_ij - sum_b V_b p~_i grad W_ib``
-   (:func:`sphkit.core.ppe.kappa_accel_cached` with ``w = 1``, ``q = p~``, from the step's cached
+   (:func:`sphkit.core.ppe.kappa_accel_cached` of ``k = p~``, from the step's cached
    pair gradients :class:`sphkit.core.solver.PairGradients`).
 
 The error of an iteration is the average compression ``mean(max(rho_hat* - 1, 0))`` of the
@@ -127,7 +127,6 @@ class PCISPH:
         ap = np.zeros_like(x)
         dx = np.empty_like(x)
         rho_hat = np.empty(n, dtype=f.dtype)
-        ones = np.ones(n, dtype=f.dtype)
         factor = self.delta / (dt * dt)
         g = PairGradients(state)  # a_p is evaluated at the step-start positions every sweep
 
@@ -136,7 +135,7 @@ class PCISPH:
             density_at(x, dx, f["m"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
                        nb.indices, state.rho0, state.h, state.kid, state.dim, rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
-            kappa_accel_cached(p, ones, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb,
+            kappa_accel_cached(p, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb,
                                state.dim, ap)
             return avg, mx
 
