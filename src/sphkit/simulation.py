@@ -30,7 +30,7 @@ from sphkit.core.kernels import kernel_id, lattice_volume
 from sphkit.core.neighbors import neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
-from sphkit.core.solver import SolverStats
+from sphkit.core.solver import PairGradients, SolverStats
 from sphkit.core.state import SimState
 from sphkit.core.timestep import cfl_time_step, max_speed, speed_check, symplectic_euler
 from sphkit.pressure.dfsph import DFSPH
@@ -275,6 +275,11 @@ class Simulation:
         """Fluid densities from the current neighbour lists (fluid + boundary)."""
         st = self.state
         f, b = st.fluid, st.boundary
+        if getattr(self.pressure, "uses_pair_gradients", False):
+            # one pass for the densities and the solver's cached pair gradients
+            st.pair_grads = PairGradients(st, with_density=True)
+            return
+        st.pair_grads = None
         density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
                     st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim, f["rho"])
 
@@ -303,6 +308,7 @@ class Simulation:
         for force in self.forces:
             force.apply(st, dt)
         ps = self.pressure.solve(st, dt)
+        st.pair_grads = None  # positions change: the cache is stale
         symplectic_euler(f["x"], f["v"], f["a"], dt)
         self.dt = dt
         self.time += dt

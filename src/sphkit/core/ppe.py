@@ -131,6 +131,48 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
 
 
 @numba.njit(parallel=True, **_JIT)
+def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, gw, gwb):
+    """:func:`sphkit.core.operators.density_body` and :func:`pair_gradients` in one pass over
+    the pairs (one distance per pair for both): ``rho_i = m_i W_0 + sum_j m_j W_ij + sum_b rho0
+    V_b W_ib``, ``gw[:, k] = V_j grad W_ij`` with ``V_j = m_j / rho0``, ``gwb[:, k] = V_b grad
+    W_ib``."""
+    inv_rho0 = 1.0 / rho0
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        s = m[i] * kernel_w(kid, 0.0, h, dim)
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            d1 = xi1 - x[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            s += m[j] * kernel_w(kid, r, h, dim)
+            f = m[j] * inv_rho0 * kernel_dw(kid, r, h, dim)
+            gw[0, k] = f * d0
+            if dim > 1:
+                gw[1, k] = f * d1
+            if dim > 2:
+                gw[2, k] = f * d2
+        sb = 0.0
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            d0 = xi0 - bx[0, b]
+            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
+            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
+            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            sb += bV[b] * kernel_w(kid, r, h, dim)
+            f = bV[b] * kernel_dw(kid, r, h, dim)
+            gwb[0, k] = f * d0
+            if dim > 1:
+                gwb[1, k] = f * d1
+            if dim > 2:
+                gwb[2, k] = f * d2
+        rho[i] = s + rho0 * sb
+
+
+@numba.njit(parallel=True, **_JIT)
 def kappa_accel_cached(k, off, idx, boff, gw, gwb, dim, a):
     """a[:, i] = pressure acceleration of the field k (overwrites a).
 

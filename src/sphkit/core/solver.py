@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sphkit.core.ppe import (
+    density_pair_gradients,
     diagonal_cached,
     jacobi_update,
     kappa_accel_cached,
@@ -80,16 +81,32 @@ class IterationControl:
 
 class PairGradients:
     """``V_j grad W_ij`` for every fluid and boundary pair of the current neighbour lists,
-    computed once per step and shared by all Jacobi iterations of the step."""
+    computed once per step and shared by all Jacobi iterations of the step.
 
-    def __init__(self, state: SimState) -> None:
+    ``with_density`` also computes the fluid densities ``rho`` in the same pass over the pairs
+    (the simulation does that for solvers with ``uses_pair_gradients`` and puts the result in
+    ``state.pair_grads``; :meth:`of` returns it, or computes the gradients when it is absent).
+    """
+
+    def __init__(self, state: SimState, with_density: bool = False) -> None:
         f, b = state.fluid, state.boundary
         nl, nb = state.nl_ff, state.nl_fb
         self.gw = np.empty((state.dim, nl.indices.shape[0]), dtype=f.dtype)
         self.gwb = np.empty((state.dim, nb.indices.shape[0]), dtype=f.dtype)
-        pair_gradients(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                       nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb)
+        if with_density:
+            density_pair_gradients(f["x"], f["m"], nl.offsets, nl.indices, b["x"], b["V"],
+                                   nb.offsets, nb.indices, state.rho0, state.h, state.kid,
+                                   state.dim, f["rho"], self.gw, self.gwb)
+        else:
+            pair_gradients(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
+                           nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb)
         self.state = state
+
+    @staticmethod
+    def of(state: SimState) -> PairGradients:
+        """This step's cache from ``state.pair_grads`` when the simulation made it, else new."""
+        g = state.pair_grads
+        return g if g is not None else PairGradients(state)
 
     def diagonal(self) -> np.ndarray:
         """``D_i`` of :func:`sphkit.core.ppe.diagonal_cached` (DFSPH's 1/alpha, IISPH's

@@ -8,6 +8,7 @@ receive it, read and write fields of its particle sets, and never call each othe
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -37,3 +38,6 @@ class SimState:
     nl_fb: NeighborList = field(default_factory=lambda: NeighborList.empty(0))
     time: float = 0.0
     step: int = 0
+    #: this step's cached pair gradients (:class:`sphkit.core.solver.PairGradients`), made with
+    #: the densities for solvers that set ``uses_pair_gradients``; None outside that window
+    pair_grads: Any = None

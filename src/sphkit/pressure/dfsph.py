@@ -72,6 +72,7 @@ def _divergence_source(div, active, dt, kprev, s, kappa):
 class DFSPH:
     """Divergence-free SPH: constant-density and divergence-free solvers with warm starts."""
 
+    uses_pair_gradients = True  #: the simulation computes them with the densities
     name = "dfsph"
 
     def __init__(self, max_error: float = 0.01, max_error_v: float = 0.1,
@@ -101,7 +102,7 @@ class DFSPH:
     def pre_forces(self, state: SimState, dt: float) -> None:
         """Factors alpha, then the divergence-free solve on the current velocities."""
         f = state.fluid
-        self._grads = PairGradients(state)
+        self._grads = PairGradients.of(state)
         alpha = f["dfsph_alpha"]
         _alpha(self._grads.diagonal(), 1e-5, alpha)  # SPlisHSPlasH's epsilon [1/m^2]
         self._div_stats = (0, 0.0)

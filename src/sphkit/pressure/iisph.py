@@ -46,6 +46,7 @@ def _setup(rho, rho0, div, D, dt, tiny, s, w, scale):
 class IISPH:
     """Implicit incompressible SPH with relaxed Jacobi (omega = 0.5) and warm start."""
 
+    uses_pair_gradients = True  #: the simulation computes them with the densities
     name = "iisph"
 
     def __init__(self, max_error: float = 0.01, min_iterations: int | None = None,
@@ -67,7 +68,7 @@ class IISPH:
         """Pressure solve on v_adv = v + dt a; adds the pressure acceleration to a."""
         f = state.fluid
         n = f.n
-        grads = PairGradients(state)
+        grads = PairGradients.of(state)
         div = grads.velocity_divergence(f["v"] + dt * f["a"])
         D = grads.diagonal()
         s = np.empty(n, dtype=f.dtype)

@@ -93,6 +93,7 @@ def _pressure_update(rho_hat, factor, p):
 class PCISPH:
     """Predictive-corrective incompressible SPH with SPlisHSPlasH's template scaling factor."""
 
+    uses_pair_gradients = True  #: the simulation computes them with the densities
     name = "pcisph"
 
     def __init__(self, max_error: float = 0.01, min_iterations: int | None = None,
@@ -128,7 +129,7 @@ class PCISPH:
         dx = np.empty_like(x)
         rho_hat = np.empty(n, dtype=f.dtype)
         factor = self.delta / (dt * dt)
-        g = PairGradients(state)  # a_p is evaluated at the step-start positions every sweep
+        g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
 
         def sweep(_k: int) -> tuple[float, float]:
             _predict(v, a, ap, dt, dx)
