@@ -32,7 +32,13 @@ from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import SolverStats
 from sphkit.core.state import SimState
-from sphkit.core.timestep import cfl_time_step, max_speed, speed_check, symplectic_euler
+from sphkit.core.timestep import (
+    cfl_time_step,
+    max_speed,
+    speed_check,
+    symplectic_euler,
+    wrap_periodic,
+)
 from sphkit.pressure.dfsph import DFSPH
 from sphkit.pressure.iisph import IISPH
 from sphkit.pressure.pbf import PBF
@@ -104,6 +110,24 @@ class StepStats:
         return asdict(self)
 
 
+#: methods whose pair loops take minimum-image distances (configuration.periodic_x)
+PERIODIC_METHODS = {"pressure": {"wcsph", "dfsph"}, "viscosity": {"none", "standard"},
+                    "vorticity": {"none"}}
+
+
+def _check_periodic(scene: Scene, mat) -> None:
+    used = {"pressure": scene.configuration.pressure.method,
+            "viscosity": mat.viscosity.method, "vorticity": mat.vorticity.method}
+    for role, name in used.items():
+        if name not in PERIODIC_METHODS[role]:
+            where = ("configuration.pressure.method" if role == "pressure"
+                     else f"materials[{scene.materials.index(mat)}].{role}.method")
+            raise SceneError(
+                f"{where}: {name!r} does not support configuration.periodic_x yet; expected one "
+                f"of {sorted(PERIODIC_METHODS[role])}"
+            )
+
+
 class InstabilityError(RuntimeError):
     """The simulation became unstable; ``stats`` holds the step that showed it."""
 
@@ -149,6 +173,10 @@ class Simulation:
         boundary = ParticleSet(self.dim, self.dtype)
         self.state = SimState(fluid=fluid, boundary=boundary, dim=self.dim, h=h, kid=kid, r=r,
                               rho0=mat.density0, gravity=g.astype(self.dtype))
+        if cfg.periodic_x is not None:
+            self.state.period_lo = float(cfg.periodic_x[0])
+            self.state.period = float(cfg.periodic_x[1] - cfg.periodic_x[0])
+            _check_periodic(scene, mat)
         self._sample(scene)
         if fluid.n == 0:
             raise SceneError(
@@ -204,8 +232,15 @@ class Simulation:
         st = self.state
         r, dim = st.r, self.dim
         vol = lattice_volume(2.0 * r, st.kid, st.h, dim)
+
+        def clip(pts: np.ndarray) -> np.ndarray:  # periodic along x: keep [lo, lo + L)
+            if st.period <= 0.0:
+                return pts
+            lo = st.period_lo
+            return pts[(pts[:, 0] >= lo - 1e-9 * r) & (pts[:, 0] < lo + st.period - 1e-9 * r)]
+
         for k, blk in enumerate(scene.fluid_blocks):
-            pts = sampling.lattice_block(blk.start, blk.end, r)
+            pts = clip(sampling.lattice_block(blk.start, blk.end, r))
             if len(pts) == 0:
                 raise SceneError(
                     f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
@@ -219,12 +254,12 @@ class Simulation:
         for k, box in enumerate(scene.boxes):
             pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
                                      open_top_axis=up if box.open_top else None)
-            st.boundary.add(pts, name=f"boxes[{k}]")
+            st.boundary.add(clip(pts), name=f"boxes[{k}]")
         for k, mb in enumerate(scene.meshes):
             mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
                                       mb.rotation_axis, mb.rotation_angle, mb.scale)
             pts = sampling.sample_mesh_surface(mesh, r, dim)
-            st.boundary.add(pts, name=f"meshes[{k}]")
+            st.boundary.add(clip(pts), name=f"meshes[{k}]")
 
     # -- user-facing state ----------------------------------------------------------------------
     @property
@@ -268,7 +303,7 @@ class Simulation:
         k = self.scene.configuration.zsort_every
         if k and self.step_count % k == 0:
             st.fluid.permute(zorder_permutation(st.fluid["x"], st.h))
-        st.nl_ff = neighbor_lists(st.fluid["x"], st.h)
+        st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic)
         self.boundary_model.update(st)
 
     def compute_density(self) -> None:
@@ -276,7 +311,8 @@ class Simulation:
         st = self.state
         f, b = st.fluid, st.boundary
         density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
-                    st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim, f["rho"])
+                    st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim, f["rho"],
+                    st.period)
 
     def _time_step(self) -> float:
         tc = self.scene.configuration.time
@@ -304,6 +340,8 @@ class Simulation:
             force.apply(st, dt)
         ps = self.pressure.solve(st, dt)
         symplectic_euler(f["x"], f["v"], f["a"], dt)
+        if st.period > 0.0:
+            wrap_periodic(f["x"], st.period_lo, st.period)
         self.dt = dt
         self.time += dt
         self.step_count += 1

@@ -88,7 +88,8 @@ class PairGradients:
         self.gw = np.empty((state.dim, nl.indices.shape[0]), dtype=f.dtype)
         self.gwb = np.empty((state.dim, nb.indices.shape[0]), dtype=f.dtype)
         pair_gradients(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                       nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb)
+                       nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb,
+                       state.period)
         self.state = state
 
     def diagonal(self) -> np.ndarray:

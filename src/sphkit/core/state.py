@@ -37,3 +37,12 @@ class SimState:
     nl_fb: NeighborList = field(default_factory=lambda: NeighborList.empty(0))
     time: float = 0.0
     step: int = 0
+    #: periodic along x: particles live in ``[period_lo, period_lo + period)``; period = 0: not
+    #: periodic. Pair loops take minimum-image x differences ``d - L round(d / L)`` [m]
+    period_lo: float = 0.0
+    period: float = 0.0
+
+    @property
+    def periodic(self) -> tuple[float, float] | None:
+        """``(lo, L)`` of the periodic x axis for the neighbour search, or None."""
+        return (self.period_lo, self.period) if self.period > 0.0 else None
