@@ -46,6 +46,7 @@ from sphkit.pressure.pcisph import PCISPH
 from sphkit.pressure.wcsph import WCSPH
 from sphkit.scene.schema import PressureConfig, Scene, SceneError
 from sphkit.viscosity.standard import StandardViscosity
+from sphkit.viscosity.weiler2018 import Weiler2018
 from sphkit.viscosity.xsph import XSPH
 from sphkit.vorticity.micropolar_bender2017 import MicropolarBender2017
 
@@ -82,8 +83,10 @@ def build_pressure_solver(p: PressureConfig):
 BOUNDARY_MODELS: dict[str, type] = {"akinci2012": Akinci2012}
 BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012"}
 #: viscosity models by scene name and SPlisHSPlasH ``viscosityMethod`` number
-VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH}
-VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 2: "xsph"}
+VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH,
+                                     "weiler2018": Weiler2018}
+#: (SPlisHSPlasH 2.16+ numbering; XSPH is its separate per-material filter, not a number)
+VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 6: "weiler2018"}
 #: vorticity models by scene name and SPlisHSPlasH ``vorticityMethod`` number
 VORTICITY_MODELS: dict[str, type] = {"micropolar": MicropolarBender2017}
 VORTICITY_MODEL_NUMBERS: dict[int, str] = {1: "micropolar"}
@@ -104,6 +107,8 @@ class StepStats:
     iterations: int = 1  #: pressure-solver iterations (1 for WCSPH)
     divergence_iterations: int = 0  #: DFSPH's divergence-solver iterations
     divergence_error: float = 0.0  #: DFSPH's average divergence error (fraction of rho0)
+    viscosity_iterations: int = 0  #: implicit viscosity solver's CG iterations
+    viscosity_residual: float = 0.0  #: its final relative residual |b - A v| / |b|
 
     def as_dict(self) -> dict:
         """Plain-dict form (for manifests and logs)."""
@@ -111,8 +116,8 @@ class StepStats:
 
 
 #: methods whose pair loops take minimum-image distances (configuration.periodic_x)
-PERIODIC_METHODS = {"pressure": {"wcsph", "dfsph"}, "viscosity": {"none", "standard"},
-                    "vorticity": {"none"}}
+PERIODIC_METHODS = {"pressure": {"wcsph", "dfsph"},
+                    "viscosity": {"none", "standard", "weiler2018"}, "vorticity": {"none"}}
 
 
 def _check_periodic(scene: Scene, mat) -> None:
@@ -191,6 +196,9 @@ class Simulation:
             self.forces.append(StandardViscosity(vis.coefficient, vis.boundary_coefficient))
         elif vis.method == "xsph":
             self.forces.append(XSPH(vis.coefficient, vis.boundary_coefficient))
+        elif vis.method == "weiler2018":
+            self.forces.append(Weiler2018(vis.coefficient, vis.boundary_coefficient,
+                                          vis.max_iterations, vis.max_error))
         vort = mat.vorticity
         if vort.method == "micropolar":
             self.forces.append(MicropolarBender2017(vort.coefficient, vort.viscosity_omega,
@@ -353,6 +361,10 @@ class Simulation:
                           density_error_max=ps.density_error_max, iterations=ps.iterations,
                           divergence_iterations=ps.divergence_iterations,
                           divergence_error=ps.divergence_error)
+        for force in self.forces:  # implicit non-pressure solvers report their solve
+            ks = getattr(force, "stats", None)
+            if ks is not None:
+                stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
         self.last, self.last_solver = stats, ps
         limit = self.scene.configuration.max_velocity
         if bad or vmax > limit or not np.all(np.isfinite(f["x"])):

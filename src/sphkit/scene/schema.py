@@ -98,15 +98,25 @@ class PressureConfig(_Model):
 
 
 class ViscosityConfig(_Model):
-    """Non-pressure viscosity."""
+    """Non-pressure viscosity: ``standard`` (explicit Morris/Monaghan Laplacian), ``xsph``,
+    ``weiler2018`` (implicit, Weiler et al. 2018, SPlisHSPlasH's viscosityMethod 6)."""
 
-    method: Literal["none", "standard", "xsph"] = "none"
+    method: Literal["none", "standard", "xsph", "weiler2018"] = "none"
     coefficient: float = Field(
         0.0, ge=0,
-        description="standard: kinematic viscosity nu [m^2/s]; xsph: smoothing factor c in [0, 1]",
+        description="standard, weiler2018: kinematic viscosity nu [m^2/s] (dynamic viscosity "
+        "mu = nu * density0 [Pa s]); xsph: smoothing factor c in [0, 1]",
     )
     boundary_coefficient: float = Field(
         0.0, ge=0, description="same meaning as coefficient, for fluid-boundary pairs"
+    )
+    max_iterations: int = Field(
+        100, ge=1, description="implicit solvers: maximum CG iterations (SPlisHSPlasH viscoMaxIter)"
+    )
+    max_error: float = Field(
+        0.01, gt=0, lt=1,
+        description="implicit solvers: tolerance on the relative residual |b - A v| / |b| of the "
+        "linear solve, dimensionless (SPlisHSPlasH viscoMaxError)",
     )
 
 
