@@ -32,7 +32,13 @@ from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats
 from sphkit.core.state import SimState
-from sphkit.core.timestep import cfl_time_step, max_speed, speed_check, symplectic_euler
+from sphkit.core.timestep import (
+    cfl_time_step,
+    max_speed,
+    speed_check,
+    symplectic_euler,
+    wrap_periodic,
+)
 from sphkit.pressure.dfsph import DFSPH
 from sphkit.pressure.iisph import IISPH
 from sphkit.pressure.pbf import PBF
@@ -40,6 +46,7 @@ from sphkit.pressure.pcisph import PCISPH
 from sphkit.pressure.wcsph import WCSPH
 from sphkit.scene.schema import PressureConfig, Scene, SceneError
 from sphkit.viscosity.standard import StandardViscosity
+from sphkit.viscosity.weiler2018 import Weiler2018
 from sphkit.viscosity.xsph import XSPH
 from sphkit.vorticity.micropolar_bender2017 import MicropolarBender2017
 
@@ -76,8 +83,10 @@ def build_pressure_solver(p: PressureConfig):
 BOUNDARY_MODELS: dict[str, type] = {"akinci2012": Akinci2012}
 BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012"}
 #: viscosity models by scene name and SPlisHSPlasH ``viscosityMethod`` number
-VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH}
-VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 2: "xsph"}
+VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH,
+                                     "weiler2018": Weiler2018}
+#: (SPlisHSPlasH 2.16+ numbering; XSPH is its separate per-material filter, not a number)
+VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 6: "weiler2018"}
 #: vorticity models by scene name and SPlisHSPlasH ``vorticityMethod`` number
 VORTICITY_MODELS: dict[str, type] = {"micropolar": MicropolarBender2017}
 VORTICITY_MODEL_NUMBERS: dict[int, str] = {1: "micropolar"}
@@ -98,10 +107,30 @@ class StepStats:
     iterations: int = 1  #: pressure-solver iterations (1 for WCSPH)
     divergence_iterations: int = 0  #: DFSPH's divergence-solver iterations
     divergence_error: float = 0.0  #: DFSPH's average divergence error (fraction of rho0)
+    viscosity_iterations: int = 0  #: implicit viscosity solver's CG iterations
+    viscosity_residual: float = 0.0  #: its final relative residual |b - A v| / |b|
 
     def as_dict(self) -> dict:
         """Plain-dict form (for manifests and logs)."""
         return asdict(self)
+
+
+#: methods whose pair loops take minimum-image distances (configuration.periodic_x)
+PERIODIC_METHODS = {"pressure": {"wcsph", "dfsph"},
+                    "viscosity": {"none", "standard", "weiler2018"}, "vorticity": {"none"}}
+
+
+def _check_periodic(scene: Scene, mat) -> None:
+    used = {"pressure": scene.configuration.pressure.method,
+            "viscosity": mat.viscosity.method, "vorticity": mat.vorticity.method}
+    for role, name in used.items():
+        if name not in PERIODIC_METHODS[role]:
+            where = ("configuration.pressure.method" if role == "pressure"
+                     else f"materials[{scene.materials.index(mat)}].{role}.method")
+            raise SceneError(
+                f"{where}: {name!r} does not support configuration.periodic_x yet; expected one "
+                f"of {sorted(PERIODIC_METHODS[role])}"
+            )
 
 
 class InstabilityError(RuntimeError):
@@ -149,6 +178,10 @@ class Simulation:
         boundary = ParticleSet(self.dim, self.dtype)
         self.state = SimState(fluid=fluid, boundary=boundary, dim=self.dim, h=h, kid=kid, r=r,
                               rho0=mat.density0, gravity=g.astype(self.dtype))
+        if cfg.periodic_x is not None:
+            self.state.period_lo = float(cfg.periodic_x[0])
+            self.state.period = float(cfg.periodic_x[1] - cfg.periodic_x[0])
+            _check_periodic(scene, mat)
         self._sample(scene)
         if fluid.n == 0:
             raise SceneError(
@@ -163,6 +196,9 @@ class Simulation:
             self.forces.append(StandardViscosity(vis.coefficient, vis.boundary_coefficient))
         elif vis.method == "xsph":
             self.forces.append(XSPH(vis.coefficient, vis.boundary_coefficient))
+        elif vis.method == "weiler2018":
+            self.forces.append(Weiler2018(vis.coefficient, vis.boundary_coefficient,
+                                          vis.max_iterations, vis.max_error))
         vort = mat.vorticity
         if vort.method == "micropolar":
             self.forces.append(MicropolarBender2017(vort.coefficient, vort.viscosity_omega,
@@ -204,8 +240,15 @@ class Simulation:
         st = self.state
         r, dim = st.r, self.dim
         vol = lattice_volume(2.0 * r, st.kid, st.h, dim)
+
+        def clip(pts: np.ndarray) -> np.ndarray:  # periodic along x: keep [lo, lo + L)
+            if st.period <= 0.0:
+                return pts
+            lo = st.period_lo
+            return pts[(pts[:, 0] >= lo - 1e-9 * r) & (pts[:, 0] < lo + st.period - 1e-9 * r)]
+
         for k, blk in enumerate(scene.fluid_blocks):
-            pts = sampling.lattice_block(blk.start, blk.end, r)
+            pts = clip(sampling.lattice_block(blk.start, blk.end, r))
             if len(pts) == 0:
                 raise SceneError(
                     f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
@@ -219,12 +262,12 @@ class Simulation:
         for k, box in enumerate(scene.boxes):
             pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
                                      open_top_axis=up if box.open_top else None)
-            st.boundary.add(pts, name=f"boxes[{k}]")
+            st.boundary.add(clip(pts), name=f"boxes[{k}]")
         for k, mb in enumerate(scene.meshes):
             mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
                                       mb.rotation_axis, mb.rotation_angle, mb.scale)
             pts = sampling.sample_mesh_surface(mesh, r, dim)
-            st.boundary.add(pts, name=f"meshes[{k}]")
+            st.boundary.add(clip(pts), name=f"meshes[{k}]")
 
     # -- user-facing state ----------------------------------------------------------------------
     @property
@@ -268,7 +311,7 @@ class Simulation:
         k = self.scene.configuration.zsort_every
         if k and self.step_count % k == 0:
             st.fluid.permute(zorder_permutation(st.fluid["x"], st.h))
-        st.nl_ff = neighbor_lists(st.fluid["x"], st.h)
+        st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic)
         self.boundary_model.update(st)
 
     def compute_density(self) -> None:
@@ -281,7 +324,8 @@ class Simulation:
             return
         st.pair_grads = None
         density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
-                    st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim, f["rho"])
+                    st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim, f["rho"],
+                    st.period)
 
     def _time_step(self) -> float:
         tc = self.scene.configuration.time
@@ -310,6 +354,8 @@ class Simulation:
         ps = self.pressure.solve(st, dt)
         st.pair_grads = None  # positions change: the cache is stale
         symplectic_euler(f["x"], f["v"], f["a"], dt)
+        if st.period > 0.0:
+            wrap_periodic(f["x"], st.period_lo, st.period)
         self.dt = dt
         self.time += dt
         self.step_count += 1
@@ -321,6 +367,10 @@ class Simulation:
                           density_error_max=ps.density_error_max, iterations=ps.iterations,
                           divergence_iterations=ps.divergence_iterations,
                           divergence_error=ps.divergence_error)
+        for force in self.forces:  # implicit non-pressure solvers report their solve
+            ks = getattr(force, "stats", None)
+            if ks is not None:
+                stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
         self.last, self.last_solver = stats, ps
         limit = self.scene.configuration.max_velocity
         if bad or vmax > limit or not np.all(np.isfinite(f["x"])):

@@ -23,7 +23,7 @@ from sphkit.core.state import SimState
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _volumes(x, off, idx, h, kid, dim, V):
+def _volumes(x, off, idx, h, kid, dim, L, V):
     for b in numba.prange(x.shape[1]):
         s = kernel_w(kid, 0.0, h, dim)
         for k in range(off[b], off[b + 1]):
@@ -31,6 +31,8 @@ def _volumes(x, off, idx, h, kid, dim, V):
             r2 = 0.0
             for d in range(dim):
                 t = x[d, b] - x[d, j]
+                if d == 0 and L > 0.0:  # periodic along x: minimum image
+                    t -= L * np.floor(t / L + 0.5)
                 r2 += t * t
             s += kernel_w(kid, np.sqrt(r2), h, dim)
         V[b] = 1.0 / s
@@ -50,8 +52,9 @@ class Akinci2012:
         bd.register("V")
         bd.register("v", "vector")
         if bd.n:
-            nl = neighbor_lists(bd["x"], state.h)
-            _volumes(bd["x"], nl.offsets, nl.indices, state.h, state.kid, state.dim, bd["V"])
+            nl = neighbor_lists(bd["x"], state.h, state.periodic)
+            _volumes(bd["x"], nl.offsets, nl.indices, state.h, state.kid, state.dim,
+                     state.period, bd["V"])
             self.grid = Grid(bd["x"], state.h)
 
     def update(self, state: SimState) -> None:
@@ -59,4 +62,4 @@ class Akinci2012:
         if self.grid is None:
             state.nl_fb = NeighborList.empty(state.fluid.n)
         else:
-            state.nl_fb = self.grid.query(state.fluid["x"])
+            state.nl_fb = self.grid.query(state.fluid["x"], period=state.periodic)

@@ -231,10 +231,14 @@ class Grid:
         _counting_sort(buckets, keys, xc, size, self.bucket_start, self.sorted_index,
                        self.sorted_key, self.sorted_x)
 
-    def query(self, xq: np.ndarray, exclude_self: bool = False) -> NeighborList:
+    def query(self, xq: np.ndarray, exclude_self: bool = False,
+              period: tuple[float, float] | None = None) -> NeighborList:
         """Neighbours (distance < h) in this grid's set of every column of ``xq`` (dim, M).
 
         ``exclude_self`` drops ``j == i``; use it when ``xq`` is the set the grid was built on.
+        ``period = (lo, L)``: the domain is periodic along x with period L > 2h, all points
+        (grid and queries) lying in ``[lo, lo + L)``; neighbours are found by the minimum-image
+        distance (see :func:`_periodic_query`).
         """
         if xq.shape[0] != self.dim:
             raise ValueError(f"query positions: dim {xq.shape[0]} != grid dim {self.dim}")
@@ -242,6 +246,8 @@ class Grid:
         if m == 0 or self.n == 0:
             return NeighborList.empty(m)
         xq = np.ascontiguousarray(xq, dtype=self.sorted_x.dtype)
+        if period is not None and period[1] > 0.0:
+            return _periodic_query(self, xq, exclude_self, float(period[0]), float(period[1]))
         cap = self.capacity
         while True:
             offsets, indices, largest = _query(
@@ -255,9 +261,70 @@ class Grid:
     capacity: int = 64
 
 
-def neighbor_lists(x: np.ndarray, h: float) -> NeighborList:
-    """Neighbour lists of a point set (dim, N) with itself, self excluded."""
-    return Grid(x, h).query(x, exclude_self=True)
+def neighbor_lists(x: np.ndarray, h: float,
+                   period: tuple[float, float] | None = None) -> NeighborList:
+    """Neighbour lists of a point set (dim, N) with itself, self excluded (``period``: see
+    :meth:`Grid.query`)."""
+    return Grid(x, h).query(x, exclude_self=True, period=period)
+
+
+@numba.njit(cache=True, parallel=True)
+def _merge_rows(off_a, idx_a, off_b, idx_b, row_b):
+    """CSR lists whose row i is row i of (off_a, idx_a) followed by row row_b[i] of
+    (off_b, idx_b) when row_b[i] >= 0."""
+    n = off_a.shape[0] - 1
+    counts = np.empty(n, dtype=np.int64)
+    for i in numba.prange(n):
+        c = off_a[i + 1] - off_a[i]
+        k = row_b[i]
+        if k >= 0:
+            c += off_b[k + 1] - off_b[k]
+        counts[i] = c
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        offsets[i + 1] = offsets[i] + counts[i]
+    indices = np.empty(offsets[n], dtype=np.int32)
+    for i in numba.prange(n):
+        o = offsets[i]
+        for t in range(off_a[i], off_a[i + 1]):
+            indices[o] = idx_a[t]
+            o += 1
+        k = row_b[i]
+        if k >= 0:
+            for t in range(off_b[k], off_b[k + 1]):
+                indices[o] = idx_b[t]
+                o += 1
+    return offsets, indices
+
+
+def _periodic_query(grid: Grid, xq: np.ndarray, exclude_self: bool, lo: float,
+                    L: float) -> NeighborList:
+    """Neighbour lists of ``xq`` in ``grid`` with period L along x (all points in [lo, lo+L)).
+
+    The query cells wrap around in x: a query point closer than h to the lower end of the
+    period also scans the cells around its image ``x + L``, one closer than h to the upper end
+    those around ``x - L``; the hits of that second scan are appended to its row. With
+    ``L > 2h`` a point sees each neighbour through exactly one image (the minimum image, whose
+    distance the pair loops then use), so no pair is listed twice. Away from the seam the
+    search is the plain one.
+    """
+    h = grid.h
+    if not L > 2.0 * h:
+        raise ValueError(f"period: {L!r} m along x; expected more than 2h = {2.0 * h!r} m")
+    base = grid.query(xq, exclude_self)
+    x0 = xq[0]
+    shift = np.where(x0 < lo + h, L, np.where(x0 >= lo + L - h, -L, 0.0))
+    sel = np.flatnonzero(shift != 0.0)
+    if sel.size == 0:
+        return base
+    xs = np.ascontiguousarray(xq[:, sel])
+    xs[0] += shift[sel]
+    # the image of a point is never its own neighbour (L > 2h): no self exclusion needed
+    seam = grid.query(xs, False)
+    row_b = np.full(xq.shape[1], -1, dtype=np.int64)
+    row_b[sel] = np.arange(sel.size)
+    off, idx = _merge_rows(base.offsets, base.indices, seam.offsets, seam.indices, row_b)
+    return NeighborList(off, idx)
 
 
 @numba.njit(cache=True, inline="always")

@@ -50,8 +50,10 @@ def _dist(x, i, y, j, dim):
 
 
 @numba.njit(**_JIT)
-def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim):
-    """Density of fluid particle i: self + fluid neighbours + boundary (psi_b = rho0 V_b)."""
+def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, L=0.0):
+    """Density of fluid particle i: self + fluid neighbours + boundary (psi_b = rho0 V_b).
+
+    ``L`` > 0: periodic along x with period L [m] (minimum-image distances)."""
     # distances are computed inline (a helper taking arrays would not compile for CUDA), with
     # the coordinates of i hoisted and loop-invariant dim branches (twice as fast as d-loops)
     xi0 = x[0, i]
@@ -61,12 +63,16 @@ def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim):
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0 = xi0 - x[0, j]
+        if L > 0.0:
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - x[1, j] if dim > 1 else 0.0
         d2 = xi2 - x[2, j] if dim > 2 else 0.0
         rho += m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0 = xi0 - bx[0, b]
+        if L > 0.0:
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - bx[1, b] if dim > 1 else 0.0
         d2 = xi2 - bx[2, b] if dim > 2 else 0.0
         rho += rho0 * bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
@@ -74,12 +80,14 @@ def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim):
 
 
 @numba.njit(**_JIT)
-def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a):
+def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
+                        L=0.0):
     """Add the symmetric pressure acceleration of fluid particle i to ``a[:, i]``.
 
     ``a_i = -sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad W_ij
             - sum_b rho0 V_b (p_i/rho_i^2 + p_i/rho0^2) grad W_ib``
-    (boundary pressure mirrored, p_b = p_i, rho_b = rho0; Akinci et al. 2012).
+    (boundary pressure mirrored, p_b = p_i, rho_b = rho0; Akinci et al. 2012). ``L`` > 0:
+    periodic along x with period L [m].
     """
     xi0 = x[0, i]
     xi1 = x[1, i] if dim > 1 else 0.0
@@ -91,6 +99,8 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0 = xi0 - x[0, j]
+        if L > 0.0:
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - x[1, j] if dim > 1 else 0.0
         d2 = xi2 - x[2, j] if dim > 2 else 0.0
         r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
@@ -102,6 +112,8 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0 = xi0 - bx[0, b]
+        if L > 0.0:
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - bx[1, b] if dim > 1 else 0.0
         d2 = xi2 - bx[2, b] if dim > 2 else 0.0
         r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
@@ -121,17 +133,20 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
 
 
 @numba.njit(parallel=True, **_JIT)
-def density_cpu(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho):
-    """rho[i] = density_body(i) for all fluid particles."""
+def density_cpu(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, L=0.0):
+    """rho[i] = density_body(i) for all fluid particles (``L``: period along x, 0 = none)."""
     for i in numba.prange(x.shape[1]):
-        rho[i] = density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim)
+        rho[i] = density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, L)
 
 
 @numba.njit(parallel=True, **_JIT)
-def pressure_accel_cpu(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a):
-    """a[:, i] += pressure acceleration of particle i, for all fluid particles."""
+def pressure_accel_cpu(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
+                       L=0.0):
+    """a[:, i] += pressure acceleration of particle i, for all fluid particles (``L``: period
+    along x, 0 = none)."""
     for i in numba.prange(x.shape[1]):
-        pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a)
+        pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
+                            L)
 
 
 # ---------------------------------------------------------------------------------------------

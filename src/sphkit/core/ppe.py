@@ -100,8 +100,9 @@ def neighbor_counts(off: np.ndarray, boff: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(parallel=True, **_JIT)
-def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
-    """gw[:, k] = V_j grad W_ij for the k-th fluid pair, gwb[:, k] = V_b grad W_ib."""
+def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb, L=0.0):
+    """gw[:, k] = V_j grad W_ij for the k-th fluid pair, gwb[:, k] = V_b grad W_ib (``L`` > 0:
+    periodic along x with period L, minimum-image differences)."""
     for i in numba.prange(x.shape[1]):
         xi0 = x[0, i]
         xi1 = x[1, i] if dim > 1 else 0.0
@@ -109,6 +110,8 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0 = xi0 - x[0, j]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
             d1 = xi1 - x[1, j] if dim > 1 else 0.0
             d2 = xi2 - x[2, j] if dim > 2 else 0.0
             f = V[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
@@ -120,6 +123,8 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             d0 = xi0 - bx[0, b]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
             d1 = xi1 - bx[1, b] if dim > 1 else 0.0
             d2 = xi2 - bx[2, b] if dim > 2 else 0.0
             f = bV[b] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
@@ -131,11 +136,12 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb):
 
 
 @numba.njit(parallel=True, **_JIT)
-def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, gw, gwb):
+def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, gw, gwb,
+                           L=0.0):
     """:func:`sphkit.core.operators.density_body` and :func:`pair_gradients` in one pass over
     the pairs (one distance per pair for both): ``rho_i = m_i W_0 + sum_j m_j W_ij + sum_b rho0
     V_b W_ib``, ``gw[:, k] = V_j grad W_ij`` with ``V_j = m_j / rho0``, ``gwb[:, k] = V_b grad
-    W_ib``."""
+    W_ib``; ``L`` > 0: periodic along x with period L."""
     inv_rho0 = 1.0 / rho0
     for i in numba.prange(x.shape[1]):
         xi0 = x[0, i]
@@ -145,6 +151,8 @@ def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0 = xi0 - x[0, j]
+            if L > 0.0:  # periodic along x: minimum image
+                d0 -= L * math.floor(d0 / L + 0.5)
             d1 = xi1 - x[1, j] if dim > 1 else 0.0
             d2 = xi2 - x[2, j] if dim > 2 else 0.0
             r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
@@ -159,6 +167,8 @@ def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             d0 = xi0 - bx[0, b]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
             d1 = xi1 - bx[1, b] if dim > 1 else 0.0
             d2 = xi2 - bx[2, b] if dim > 2 else 0.0
             r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)

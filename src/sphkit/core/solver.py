@@ -96,10 +96,11 @@ class PairGradients:
         if with_density:
             density_pair_gradients(f["x"], f["m"], nl.offsets, nl.indices, b["x"], b["V"],
                                    nb.offsets, nb.indices, state.rho0, state.h, state.kid,
-                                   state.dim, f["rho"], self.gw, self.gwb)
+                                   state.dim, f["rho"], self.gw, self.gwb, state.period)
         else:
             pair_gradients(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                           nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb)
+                           nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb,
+                           state.period)
         self.state = state
 
     @staticmethod

@@ -41,3 +41,12 @@ class SimState:
     #: this step's cached pair gradients (:class:`sphkit.core.solver.PairGradients`), made with
     #: the densities for solvers that set ``uses_pair_gradients``; None outside that window
     pair_grads: Any = None
+    #: periodic along x: particles live in ``[period_lo, period_lo + period)``; period = 0: not
+    #: periodic. Pair loops take minimum-image x differences ``d - L round(d / L)`` [m]
+    period_lo: float = 0.0
+    period: float = 0.0
+
+    @property
+    def periodic(self) -> tuple[float, float] | None:
+        """``(lo, L)`` of the periodic x axis for the neighbour search, or None."""
+        return (self.period_lo, self.period) if self.period > 0.0 else None

@@ -28,6 +28,18 @@ def symplectic_euler(x, v, a, dt):
 
 
 @numba.njit(parallel=True, **_JIT)
+def wrap_periodic(x, lo, L):
+    """Map the x coordinates (row 0 of x, (dim, N)) into ``[lo, lo + L)`` (periodic along x)."""
+    for i in numba.prange(x.shape[1]):
+        t = (x[0, i] - lo) / L
+        x[0, i] -= L * np.floor(t)
+        if x[0, i] >= lo + L:  # round-off at the upper end
+            x[0, i] -= L
+        if x[0, i] < lo:
+            x[0, i] = lo
+
+
+@numba.njit(parallel=True, **_JIT)
 def _max_speed(v, a, dt):
     n = v.shape[1]
     dim = v.shape[0]

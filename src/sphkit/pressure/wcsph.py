@@ -89,5 +89,6 @@ class WCSPH:
                                  self.exponent, f["p"])
         pressure_accel_cpu(f["x"], f["m"], f["rho"], f["p"], state.nl_ff.offsets,
                            state.nl_ff.indices, b["x"], b["V"], state.nl_fb.offsets,
-                           state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim, f["a"])
+                           state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim, f["a"],
+                           state.period)
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))

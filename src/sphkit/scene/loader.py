@@ -49,7 +49,9 @@ objects):
 ``viscosityMethod``         0 (none); 1 Standard (``"Standard viscosity": {"viscosity": nu,
                             "viscosityBoundary": nu_b}``, nu default 0.01 m^2/s, kinematic),
                             2 Bender and Koschier 2017, 3 Peer et al. 2015, 4 Peer et al. 2016,
-                            5 Takahashi et al. 2015, 6 Weiler et al. 2018 (numbering of 2.16+;
+                            5 Takahashi et al. 2015, 6 Weiler et al. 2018 (``"Weiler et al.
+                            2018": {"viscosity", "viscosityBoundary", "viscoMaxIter" 100,
+                            "viscoMaxError" 0.01}``, supported) (numbering of 2.16+;
                             the XSPH filter is no longer a viscosity method but the per-material
                             block ``"XSPH": {"xsph": c, "xsphBoundary": c_b}``, default 0)
 ``vorticityMethod``         0 (none); 1 micropolar model of Bender et al. 2017 (``"Bender et al.
@@ -340,6 +342,8 @@ _VISCOSITY_METHODS = {
     0: "none", 1: "Standard", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
     4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)", 6: "Weiler et al. 2018",
 }
+# implicit viscosity models sphkit supports: number -> (scene method, SPlisHSPlasH namespace)
+_IMPLICIT_VISCOSITY = {6: ("weiler2018", "Weiler et al. 2018")}
 _VORTICITY_METHODS = {
     0: "none", 1: "Bender et al. 2017 micropolar model", 2: "vorticity confinement",
     3: "Liu et al. 2021 vorticity refinement",
@@ -736,7 +740,7 @@ class _Translator:
                 "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",
                 "dragMethod", "elasticityMethod", "Standard viscosity", "XSPH", "viscosity",
                 "viscosityBoundary", "xsph", "xsphBoundary", "vorticity", "viscosityOmega",
-                "inertiaInverse",
+                "inertiaInverse", "viscoMaxIter", "viscoMaxError",
             }
             self.collect_unknown(m, w, known, _MATERIAL_QUIET | _MATERIAL_NAMESPACES)
             mid = self.text(m, "id", w, "Fluid")
@@ -765,11 +769,15 @@ class _Translator:
                 self.origin[f"materials[{k}].viscosity.boundary_coefficient"] = (
                     f"{src}.viscosityBoundary"
                 )
+            elif vm in _IMPLICIT_VISCOSITY:
+                viscosity = self.implicit_viscosity(m, w, k, vm)
             elif vm != 0:
                 raise self.unsupported(
                     f"{w}.viscosityMethod",
                     f"{vm} ({_VISCOSITY_METHODS.get(vm, 'unknown method')}) is not supported "
-                    "yet; supported: 0 (none), 1 (Standard) and the XSPH block",
+                    "yet; supported: 0 (none), 1 (Standard), "
+                    + ", ".join(f"{n} ({_VISCOSITY_METHODS[n]})" for n in _IMPLICIT_VISCOSITY)
+                    + " and the XSPH block",
                 )
             xs = self.obj(m, "XSPH", f"{w}.XSPH")
             self.collect_unknown(xs, f"{w}.XSPH", {"xsph", "xsphBoundary"}, set())
@@ -798,6 +806,34 @@ class _Translator:
                         "vorticity": vorticity})
         self.origin["materials"] = "Materials"
         return out
+
+    def implicit_viscosity(self, m: Mapping[str, Any], w: str, k: int,
+                           vm: int) -> dict[str, Any]:
+        """An implicit viscosity model's block (``viscosity``, ``viscosityBoundary``,
+        ``viscoMaxIter``, ``viscoMaxError``; flat keys of scenes before 2.16 are read too)."""
+        method, ns_key = _IMPLICIT_VISCOSITY[vm]
+        nsw = f"{w}.{ns_key}"
+        ns = self.obj(m, ns_key, nsw)
+        self.collect_unknown(ns, nsw, {"viscosity", "viscosityBoundary", "viscoMaxIter",
+                                       "viscoMaxError"}, set())
+        nu = self.num(ns, "viscosity", nsw, self.num(m, "viscosity", w, 0.01, nonneg=True),
+                      nonneg=True)
+        nub = self.num(ns, "viscosityBoundary", nsw,
+                       self.num(m, "viscosityBoundary", w, 0.0, nonneg=True), nonneg=True)
+        its = self.integer(ns, "viscoMaxIter", nsw, self.integer(m, "viscoMaxIter", w, 100))
+        if its < 1:
+            raise self.error(f"{nsw}.viscoMaxIter", its, "an integer >= 1")
+        err = self.num(ns, "viscoMaxError", nsw,
+                       self.num(m, "viscoMaxError", w, 0.01, positive=True), positive=True)
+        if not err < 1:
+            raise self.error(f"{nsw}.viscoMaxError", err, "a relative residual in (0, 1)")
+        src = nsw if ns else w
+        for ours, theirs in (("coefficient", "viscosity"),
+                             ("boundary_coefficient", "viscosityBoundary"),
+                             ("max_iterations", "viscoMaxIter"), ("max_error", "viscoMaxError")):
+            self.origin[f"materials[{k}].viscosity.{ours}"] = f"{src}.{theirs}"
+        return {"method": method, "coefficient": nu, "boundary_coefficient": nub,
+                "max_iterations": its, "max_error": err}
 
     def vorticity(self, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
         """The material's vorticity model (``vorticityMethod``; 1: "Bender et al. 2017" block,

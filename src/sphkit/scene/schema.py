@@ -98,15 +98,25 @@ class PressureConfig(_Model):
 
 
 class ViscosityConfig(_Model):
-    """Non-pressure viscosity."""
+    """Non-pressure viscosity: ``standard`` (explicit Morris/Monaghan Laplacian), ``xsph``,
+    ``weiler2018`` (implicit, Weiler et al. 2018, SPlisHSPlasH's viscosityMethod 6)."""
 
-    method: Literal["none", "standard", "xsph"] = "none"
+    method: Literal["none", "standard", "xsph", "weiler2018"] = "none"
     coefficient: float = Field(
         0.0, ge=0,
-        description="standard: kinematic viscosity nu [m^2/s]; xsph: smoothing factor c in [0, 1]",
+        description="standard, weiler2018: kinematic viscosity nu [m^2/s] (dynamic viscosity "
+        "mu = nu * density0 [Pa s]); xsph: smoothing factor c in [0, 1]",
     )
     boundary_coefficient: float = Field(
         0.0, ge=0, description="same meaning as coefficient, for fluid-boundary pairs"
+    )
+    max_iterations: int = Field(
+        100, ge=1, description="implicit solvers: maximum CG iterations (SPlisHSPlasH viscoMaxIter)"
+    )
+    max_error: float = Field(
+        0.01, gt=0, lt=1,
+        description="implicit solvers: tolerance on the relative residual |b - A v| / |b| of the "
+        "linear solve, dimensionless (SPlisHSPlasH viscoMaxError)",
     )
 
 
@@ -220,6 +230,31 @@ class Configuration(_Model):
         100.0, gt=0,
         description="a particle faster than this [m/s] stops the run as unstable",
     )
+    periodic_x: list[float] | None = Field(
+        None,
+        description="[xmin, xmax] [m]: the domain is periodic along x with period xmax - xmin "
+        "(more than 2h = 8 particle radii); particles sampled outside [xmin, xmax) are left out, "
+        "so a box spanning [xmin, xmax] in x keeps only its walls across the other axes. "
+        "Supported with the wcsph and dfsph pressure solvers",
+    )
+
+    @model_validator(mode="after")
+    def _periodic(self) -> Configuration:
+        p = self.periodic_x
+        if p is None:
+            return self
+        if len(p) != 2:
+            raise ValueError(f"periodic_x {p}: expected two numbers [xmin, xmax]")
+        lo, hi = p
+        if not (abs(lo) < float("inf") and abs(hi) < float("inf")) or not hi > lo:
+            raise ValueError(f"periodic_x {p}: expected finite xmin < xmax")
+        h = 4.0 * self.particle_radius
+        if not hi - lo > 2.0 * h:
+            raise ValueError(
+                f"periodic_x {p}: the period {hi - lo:g} m must exceed twice the kernel support "
+                f"2h = 8 * particle_radius = {2.0 * h:g} m"
+            )
+        return self
 
 
 class Scene(_Model):

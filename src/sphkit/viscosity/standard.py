@@ -25,7 +25,8 @@ from sphkit.core.state import SimState
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, kid, dim, a):
+def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, kid, dim, L,
+              a):
     # coordinates are hoisted into scalars and the dim branches are loop invariant: this form
     # runs about twice as fast as loops over d (measured), and stays dimension-generic
     eps = 0.01 * h * h
@@ -44,6 +45,8 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, 
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0 = xi0 - x[0, j]
+            if L > 0.0:  # periodic along x: minimum image
+                d0 -= L * math.floor(d0 / L + 0.5)
             w0 = vi0 - v[0, j]
             d1 = 0.0
             d2 = 0.0
@@ -66,6 +69,8 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, 
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
                 d0 = xi0 - bx[0, b]
+                if L > 0.0:
+                    d0 -= L * math.floor(d0 / L + 0.5)
                 w0 = vi0 - bv[0, b]
                 d1 = 0.0
                 d2 = 0.0
@@ -107,4 +112,5 @@ class StandardViscosity:
         f, b = state.fluid, state.boundary
         _standard(f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets, state.nl_ff.indices,
                   b["x"], b["v"], b["V"], state.nl_fb.offsets, state.nl_fb.indices, self.nu,
-                  self.nu_boundary, state.rho0, state.h, state.kid, state.dim, f["a"])
+                  self.nu_boundary, state.rho0, state.h, state.kid, state.dim, state.period,
+                  f["a"])

@@ -1,0 +1,246 @@
+"""Implicit viscosity of Weiler, Koschier, Brand & Bender 2018 (survey Sec. 5.2).
+
+Weiler, Koschier, Brand, Bender 2018, "A physically consistent implicit viscosity solver for SPH
+fluids", Computer Graphics Forum 37(2), as SPlisHSPlasH's ``Viscosity_Weiler2018`` implements it
+(viscosityMethod 6). The equation numbers of the paper could not be checked here; the formulas
+below follow ``reference/methods.md`` (I8) and SPlisHSPlasH's source, and are written out in full.
+
+The viscous acceleration is the velocity Laplacian discretized directly (the survey's
+recommendation for implicit viscosity: no strain-rate artefacts at the free surface), in the
+Monaghan 2005 projected form of :mod:`sphkit.viscosity.standard` with ``mu = nu rho0``:
+
+    a_i = (1 / rho_i) (L v)_i,
+    (L v)_i = 2 (d + 2) mu sum_j (m_j / rho_j) (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) grad W_ij
+            + 2 (d + 2) mu_b sum_b (rho0 V_b / rho_i) ((v_i - v_b) . x_ib) / (|x_ib|^2 + 0.01 h^2)
+              grad W_ib
+
+(the second line is the fluid-boundary viscosity with Akinci 2012 boundary particles, wall
+velocity v_b, ``mu_b = nu_b rho0``). Backward Euler gives the linear system for the new velocity
+
+    (I - (dt / rho_i) L) v^{t+dt} = v^t - (dt / rho_i) B v_b,
+
+where ``B v_b`` is the boundary term's v_b part moved to the right-hand side. Its matrix is
+symmetric for equal particle masses (the (i, j) block is proportional to m_j / (rho_i rho_j)
+times the symmetric ``grad W_ij x_ij^T``) and positive definite (``grad W_ij = W'(r)/r x_ij``
+with ``W' <= 0``), so it is solved matrix-free by the shared preconditioned conjugate gradient
+(:func:`sphkit.core.krylov.cg`) with the 3x3 (2x2 in 2D) block-Jacobi preconditioner of the
+per-particle diagonal blocks ``I - (dt / rho_i) sum_j c_ij grad W_ij x_ij^T``. The tolerance is
+SPlisHSPlasH's ``viscoMaxError`` on the relative residual ``|b - A v| / |b|`` (default 0.01), at
+most ``viscoMaxIter`` iterations (100). As in SPlisHSPlasH the solve is warm-started with
+``v + dv_prev``, the velocity change of the previous step (kept in the field ``weiler_dv`` so
+that it follows particle reordering), and the result is applied as the acceleration
+``a_i += (v^{t+dt}_i - v_i) / dt``.
+
+The pair forces ``m_i a_i`` are antisymmetric (coefficient ``m_i m_j / (rho_i rho_j)``), so the
+converged solve conserves linear momentum up to the CG tolerance. With ``configuration.periodic_x``
+x differences take the minimum image. Units: ``nu`` and ``nu_boundary`` are kinematic viscosities
+[m^2/s] (dynamic viscosity = nu * rho0 [Pa s]).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from sphkit.core.kernels import kernel_dw
+from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
+from sphkit.core.state import SimState
+
+_JIT = dict(cache=True, fastmath=True)
+
+
+@numba.njit(parallel=True, **_JIT)
+def _matvec(x, m, rho, off, idx, bx, bV, boff, bidx, u, cf, cb, rho0, h, kid, dim, L, dt, out):
+    """out = (I - dt/rho_i L) u for flat (dim, N) vectors u, out (as 2D views)."""
+    eps = 0.01 * h * h
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        ui0 = u[0, i]
+        ui1 = u[1, i] if dim > 1 else 0.0
+        ui2 = u[2, i] if dim > 2 else 0.0
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - x[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            w0 = ui0 - u[0, j]
+            w1 = ui1 - u[1, j] if dim > 1 else 0.0
+            w2 = ui2 - u[2, j] if dim > 2 else 0.0
+            r2 = d0 * d0 + d1 * d1 + d2 * d2
+            s = (cf * m[j] / rho[j] * (w0 * d0 + w1 * d1 + w2 * d2) / (r2 + eps)
+                 * kernel_dw(kid, math.sqrt(r2), h, dim))
+            a0 += s * d0
+            a1 += s * d1
+            a2 += s * d2
+        if cb > 0.0:
+            for k in range(boff[i], boff[i + 1]):
+                b = bidx[k]
+                d0 = xi0 - bx[0, b]
+                if L > 0.0:
+                    d0 -= L * math.floor(d0 / L + 0.5)
+                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
+                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
+                r2 = d0 * d0 + d1 * d1 + d2 * d2
+                s = (cb * rho0 * bV[b] / rho[i] * (ui0 * d0 + ui1 * d1 + ui2 * d2) / (r2 + eps)
+                     * kernel_dw(kid, math.sqrt(r2), h, dim))
+                a0 += s * d0
+                a1 += s * d1
+                a2 += s * d2
+        f = dt / rho[i]
+        out[0, i] = ui0 - f * a0
+        if dim > 1:
+            out[1, i] = ui1 - f * a1
+        if dim > 2:
+            out[2, i] = ui2 - f * a2
+
+
+@numba.njit(parallel=True, **_JIT)
+def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, cf, cb, rho0, h, kid, dim, L,
+                dt, rhs, blocks):
+    """rhs_i = v_i - dt/rho_i B_i v_b and the diagonal blocks of the system matrix."""
+    eps = 0.01 * h * h
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        g00 = 0.0
+        g01 = 0.0
+        g02 = 0.0
+        g11 = 0.0
+        g12 = 0.0
+        g22 = 0.0
+        b0 = 0.0
+        b1 = 0.0
+        b2 = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - x[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            r2 = d0 * d0 + d1 * d1 + d2 * d2
+            s = cf * m[j] / rho[j] / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim)
+            g00 += s * d0 * d0
+            g01 += s * d0 * d1
+            g02 += s * d0 * d2
+            g11 += s * d1 * d1
+            g12 += s * d1 * d2
+            g22 += s * d2 * d2
+        if cb > 0.0:
+            for k in range(boff[i], boff[i + 1]):
+                b = bidx[k]
+                d0 = xi0 - bx[0, b]
+                if L > 0.0:
+                    d0 -= L * math.floor(d0 / L + 0.5)
+                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
+                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
+                r2 = d0 * d0 + d1 * d1 + d2 * d2
+                s = cb * rho0 * bV[b] / rho[i] / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h,
+                                                                        dim)
+                g00 += s * d0 * d0
+                g01 += s * d0 * d1
+                g02 += s * d0 * d2
+                g11 += s * d1 * d1
+                g12 += s * d1 * d2
+                g22 += s * d2 * d2
+                vb0 = bv[0, b]
+                vb1 = bv[1, b] if dim > 1 else 0.0
+                vb2 = bv[2, b] if dim > 2 else 0.0
+                t = s * (vb0 * d0 + vb1 * d1 + vb2 * d2)
+                b0 += t * d0
+                b1 += t * d1
+                b2 += t * d2
+        f = dt / rho[i]
+        rhs[0, i] = v[0, i] - f * b0
+        blocks[0, 0, i] = 1.0 - f * g00
+        if dim > 1:
+            rhs[1, i] = v[1, i] - f * b1
+            blocks[0, 1, i] = -f * g01
+            blocks[1, 0, i] = -f * g01
+            blocks[1, 1, i] = 1.0 - f * g11
+        if dim > 2:
+            rhs[2, i] = v[2, i] - f * b2
+            blocks[0, 2, i] = -f * g02
+            blocks[2, 0, i] = -f * g02
+            blocks[1, 2, i] = -f * g12
+            blocks[2, 1, i] = -f * g12
+            blocks[2, 2, i] = 1.0 - f * g22
+
+
+@numba.njit(parallel=True, **_JIT)
+def _apply(v, vnew, inv_dt, a, dv):
+    """a += (v_new - v) / dt; dv = v_new - v (the next warm start)."""
+    dim = v.shape[0]
+    for i in numba.prange(v.shape[1]):
+        for d in range(dim):
+            t = vnew[d, i] - v[d, i]
+            a[d, i] += t * inv_dt
+            dv[d, i] = t
+
+
+class Weiler2018:
+    """Implicit Laplacian viscosity; ``nu``, ``nu_boundary`` kinematic [m^2/s].
+
+    After :meth:`apply`, ``stats`` holds the CG iterations and relative residual of the step
+    (the simulation reports them).
+    """
+
+    name = "weiler2018"
+
+    def __init__(self, nu: float, nu_boundary: float = 0.0, max_iterations: int = 100,
+                 max_error: float = 0.01) -> None:
+        if not (nu >= 0 and nu_boundary >= 0):
+            raise ValueError(f"viscosity: {nu!r}/{nu_boundary!r}; expected non-negative values")
+        if max_iterations < 1 or not max_error > 0:
+            raise ValueError(f"viscosity: max_iterations {max_iterations!r}, max_error "
+                             f"{max_error!r}; expected >= 1 and > 0")
+        self.nu = float(nu)
+        self.nu_boundary = float(nu_boundary)
+        self.max_iterations = int(max_iterations)
+        self.max_error = float(max_error)
+        self.stats = KrylovStats()
+
+    def init(self, state: SimState) -> None:
+        """Register the warm-start field ``weiler_dv`` (last step's velocity change)."""
+        state.fluid.register("weiler_dv", "vector")
+
+    def apply(self, state: SimState, dt: float) -> None:
+        """Solve the implicit viscosity system and add its acceleration to ``a``."""
+        f, b = state.fluid, state.boundary
+        n, dim = f.n, state.dim
+        if n == 0 or self.nu == 0.0 and self.nu_boundary == 0.0:
+            self.stats = KrylovStats()
+            return
+        c = 2.0 * (dim + 2)
+        cf = c * self.nu * state.rho0
+        cb = c * self.nu_boundary * state.rho0
+        x, v, m, rho = f["x"], f["v"], f["m"], f["rho"]
+        nl, nb = state.nl_ff, state.nl_fb
+        rhs = np.empty((dim, n))
+        blocks = np.empty((dim, dim, n))
+        _rhs_blocks(x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"], nb.offsets,
+                    nb.indices, cf, cb, state.rho0, state.h, state.kid, dim, state.period, dt,
+                    rhs, blocks)
+
+        def matvec(u: np.ndarray, out: np.ndarray) -> None:
+            _matvec(x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
+                    u.reshape(dim, n), cf, cb, state.rho0, state.h, state.kid, dim,
+                    state.period, dt, out.reshape(dim, n))
+
+        dv = f["weiler_dv"]
+        x0 = (v + dv).ravel()
+        sol, self.stats = cg(matvec, rhs.ravel(), x0, precond=BlockJacobiPreconditioner(blocks),
+                             tol=self.max_error, max_iter=self.max_iterations,
+                             name="Weiler 2018 viscosity", step=state.step)
+        vnew = sol.reshape(dim, n).astype(v.dtype, copy=False)
+        _apply(v, vnew, 1.0 / dt, f["a"], dv)

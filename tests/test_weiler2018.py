@@ -1,0 +1,185 @@
+"""Implicit viscosity of Weiler et al. 2018: the backward-Euler system, conservation,
+unconditional stability, the high-viscosity regime where explicit viscosity fails, SPlisHSPlasH
+scene mapping, and a fast Poiseuille start-up (the long study is validation/poiseuille.py)."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sphkit.scene.loader import scene_from_dict
+from sphkit.scene.schema import Scene
+from sphkit.simulation import InstabilityError, Simulation
+from sphkit.viscosity.standard import StandardViscosity
+
+
+def _sim(method: str, nu: float, nub: float, periodic: bool, **vis) -> Simulation:
+    if periodic:
+        cfg = {"dim": 2, "particle_radius": 0.01, "gravity": [0.0, 0.0], "periodic_x": [0, 0.2]}
+        blocks = [{"start": [0.0, 0.0], "end": [0.2, 0.16]}]
+        boxes = [{"min": [0.0, 0.0], "max": [0.2, 0.16], "layers": 2}]
+    else:
+        cfg = {"dim": 3, "particle_radius": 0.02, "gravity": [0.0, 0.0, 0.0]}
+        blocks = [{"start": [0.0, 0.0, 0.0], "end": [0.24, 0.24, 0.24]}]
+        boxes = [{"min": [0.0, 0.0, 0.0], "max": [0.24, 0.32, 0.24], "layers": 2}]
+    sc = {"configuration": cfg, "fluid_blocks": blocks, "boxes": boxes,
+          "materials": [{"viscosity": {"method": method, "coefficient": nu,
+                                       "boundary_coefficient": nub, **vis}}]}
+    sim = Simulation(Scene.model_validate(sc))
+    sim._neighbors()
+    sim.compute_density()
+    return sim
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_solution_satisfies_backward_euler_with_the_explicit_operator(periodic: bool) -> None:
+    """With densities set to rho0 the Weiler operator and the standard (explicit) viscosity are
+    the same Laplacian (including the wall term), written independently. The implicit velocity
+    must then satisfy backward Euler, ``v_new - dt a_std(v_new) = v``, to the CG tolerance
+    (1e-10 relative, so 1e-8 of |v| leaves room for round-off). Stiff case: nu dt / (2r)^2 = 25
+    (the explicit limit is about 0.1). Runs in 3D with walls and in 2D periodic in x with walls
+    across y (the seam pairs take the minimum image in both operators)."""
+    nu, dt = (0.04, 0.4) if not periodic else (0.01, 1.0)
+    sim = _sim("weiler2018", nu, 0.5 * nu, periodic, max_error=1e-10, max_iterations=2000)
+    f = sim.fluid
+    f["rho"][:] = sim.state.rho0
+    v0 = np.random.default_rng(5).normal(0.0, 0.1, f["v"].shape)
+    f["v"][...] = v0
+    f["a"][...] = 0.0
+    force = sim.forces[0]
+    force.apply(sim.state, dt)
+    assert force.stats.converged and force.stats.iterations > 5
+    vnew = v0 + dt * f["a"]
+    f["v"][...] = vnew
+    f["a"][...] = 0.0
+    StandardViscosity(nu, 0.5 * nu).apply(sim.state, dt)
+    resid = vnew - dt * f["a"] - v0
+    assert np.linalg.norm(resid) < 1e-8 * np.linalg.norm(v0)
+
+
+def test_implicit_solve_conserves_momentum_and_is_unconditionally_stable() -> None:
+    """A periodic 2D block without walls, random velocities, nu dt / (2r)^2 = 250: the solve
+    damps the relative motion (kinetic energy in the centre-of-mass frame drops by more than
+    90 %) without any growth, and keeps the total momentum (antisymmetric pair forces) to the
+    CG tolerance (1e-8 relative to sum m |v|, with max_error 1e-10)."""
+    sc = {"configuration": {"dim": 2, "particle_radius": 0.01, "gravity": [0.0, 0.0],
+                            "periodic_x": [0.0, 0.2]},
+          "fluid_blocks": [{"start": [0.0, 0.0], "end": [0.2, 0.2]}],
+          "materials": [{"viscosity": {"method": "weiler2018", "coefficient": 0.1,
+                                       "max_error": 1e-10, "max_iterations": 3000}}]}
+    sim = Simulation(Scene.model_validate(sc))
+    sim._neighbors()
+    sim.compute_density()
+    f = sim.fluid
+    v0 = np.random.default_rng(1).normal(0.0, 0.5, f["v"].shape)
+    f["v"][...] = v0
+    f["a"][...] = 0.0
+    dt = 1.0
+    sim.forces[0].apply(sim.state, dt)
+    vnew = v0 + dt * f["a"]
+    m = f["m"]
+    p0, p1 = (m * v0).sum(axis=1), (m * vnew).sum(axis=1)
+    assert np.abs(p1 - p0).max() < 1e-8 * (m * np.abs(v0).sum(axis=0)).sum()
+
+    def rel_energy(v: np.ndarray) -> float:
+        w = v - (m * v).sum(axis=1, keepdims=True) / m.sum()
+        return float((m * (w * w).sum(axis=0)).sum())
+
+    assert rel_energy(vnew) < 0.1 * rel_energy(v0)
+    assert np.abs(vnew).max() <= np.abs(v0).max()
+
+
+def _viscous_block(method: str) -> Simulation:
+    """A 3D block of 100 Pa s fluid (nu = 0.1 m^2/s) dropped 2 cm onto the floor of a box,
+    DFSPH with the CFL step (5 ms at these speeds). The explicit stability limit of the standard
+    viscosity is about 0.125 (2r)^2 / nu = 0.5 ms, ten times smaller."""
+    sc = {"configuration": {"dim": 3, "particle_radius": 0.01,
+                            "pressure": {"method": "dfsph", "max_error": 0.05},
+                            "time": {"dt_max": 0.005}, "max_velocity": 10.0},
+          "fluid_blocks": [{"start": [0.04, 0.02, 0.04], "end": [0.16, 0.14, 0.16]}],
+          "boxes": [{"min": [0.0, 0.0, 0.0], "max": [0.2, 0.3, 0.2], "layers": 2}],
+          "materials": [{"viscosity": {"method": method, "coefficient": 0.1,
+                                       "boundary_coefficient": 0.1}}]}
+    return Simulation(Scene.model_validate(sc))
+
+
+def test_high_viscosity_block_explicit_blows_up_implicit_stays_bounded() -> None:
+    """Explicit standard viscosity at 10x its stability limit raises InstabilityError (speed
+    above 10 m/s or NaN) within 40 steps; Weiler 2018 at the same steps stays below 1 m/s (free
+    fall from 2 cm reaches 0.63 m/s) for 0.2 s with every solve converged."""
+    explicit = _viscous_block("standard")
+    with pytest.raises(InstabilityError):
+        for _ in range(40):
+            explicit.step()
+    implicit = _viscous_block("weiler2018")
+    vmax = 0.0
+    while implicit.time < 0.2:
+        s = implicit.step()
+        vmax = max(vmax, s.max_velocity)
+        assert implicit.forces[0].stats.converged
+    assert s.dt == pytest.approx(0.005)
+    assert vmax < 1.0
+    # the block has settled on the floor, its bottom near the wall (y = 0), not sunk through
+    assert implicit.fluid["x"][1].min() > 0.0
+
+
+def test_splishsplash_material_maps_to_weiler2018() -> None:
+    """viscosityMethod 6 with the "Weiler et al. 2018" block maps field by field; absent keys
+    take SPlisHSPlasH's defaults (viscosityBoundary 0, viscoMaxIter 100, viscoMaxError 0.01);
+    a bad value names its field."""
+    base = {"Configuration": {"particleRadius": 0.025, "simulationMethod": 4},
+            "FluidBlocks": [{"start": [0, 0, 0], "end": [0.5, 0.5, 0.5]}]}
+    data = dict(base, Materials=[{"id": "Fluid", "viscosityMethod": 6, "Weiler et al. 2018": {
+        "viscosity": 5.0, "viscosityBoundary": 4.0, "viscoMaxIter": 200,
+        "viscoMaxError": 0.05}}])
+    vis = scene_from_dict(data).materials[0].viscosity
+    assert (vis.method, vis.coefficient, vis.boundary_coefficient, vis.max_iterations,
+            vis.max_error) == ("weiler2018", 5.0, 4.0, 200, 0.05)
+    data = dict(base, Materials=[{"id": "Fluid", "viscosityMethod": 6,
+                                  "Weiler et al. 2018": {"viscosity": 0.5}}])
+    vis = scene_from_dict(data).materials[0].viscosity
+    assert (vis.boundary_coefficient, vis.max_iterations, vis.max_error) == (0.0, 100, 0.01)
+    data = dict(base, Materials=[{"id": "Fluid", "viscosityMethod": 6,
+                                  "Weiler et al. 2018": {"viscoMaxError": -1}}])
+    with pytest.raises(Exception, match="viscoMaxError"):
+        scene_from_dict(data)
+
+
+def _poiseuille():
+    path = Path(__file__).resolve().parent.parent / "validation" / "poiseuille.py"
+    spec = importlib.util.spec_from_file_location("poiseuille_validation", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_poiseuille_start_up_implicit_matches_explicit_and_interior_curvature() -> None:
+    """Fast Poiseuille start-up (validation/poiseuille.py, 10 rows across, hexagonal lattice,
+    walls of resting lattice fluid): (1) Weiler 2018 and the explicit standard viscosity
+    discretize the same Laplacian, so at the explicit step their profiles agree to 3 % of u_max
+    at 0.2, 0.5 and 1.0 t_s (backward vs forward Euler differ by O(dt)); (2) in steady state the
+    rows farther than h from the walls follow u'' = -F / nu to 6 % (the hexagonal lattice sum
+    of the Laplacian is 1.9 % weak, the fit and the slightly compressed rows add the rest;
+    measured 4.5 %). The walls' slip, which keeps the full profile about 28 % above Morris' peak
+    at this resolution, is reported by the validation script, not asserted here."""
+    P = _poiseuille()
+    res = {}
+    for method in ("standard", "weiler2018"):
+        sim = P.hex_channel(method, 10, walls="lattice")
+        res[method] = P.run(sim)
+        h = sim.state.h
+    for frac in P.FRACTIONS:
+        _e, ys, us = res["standard"][frac]
+        _e, yw, uw = res["weiler2018"][frac]
+        os_, ow = np.argsort(ys, kind="stable"), np.argsort(yw, kind="stable")
+        # compare row means (particles of a row are equivalent)
+        rs = us[os_].reshape(10, -1).mean(axis=1)
+        rw = uw[ow].reshape(10, -1).mean(axis=1)
+        assert np.abs(rs - rw).max() < 0.03 * P.U_MAX
+    for method in ("standard", "weiler2018"):
+        _e, y, u = res[method][P.STEADY]
+        k = P.curvature(y, u, h) / (-P.FORCE / P.NU)
+        assert abs(k - 1.0) < 0.06
