@@ -141,7 +141,8 @@ def test_tiny_run_writes_frames_and_manifest(tiny_run: dict) -> None:
     assert frames[0]["max_displacement"] is None
     assert frames[2]["max_displacement"] == pytest.approx(moved, rel=1e-12)
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        [n for f in frames for n in f["files"]] + ["frame.vtu.series", "manifest.json"])
+        [n for f in frames for n in f["files"]] + ["frame.vtu.series", "manifest.json",
+                                                   "sphkit.log"])
 
 
 def test_tiny_run_logs_plain_lines(tiny_run: dict) -> None:
