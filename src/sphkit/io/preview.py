@@ -160,6 +160,12 @@ class PreviewRenderer:
         ax.set_xlabel(f"{names[order[0]]} [m]")
         ax.set_ylabel(f"{names[order[1]]} [m]")
         ax.set_zlabel(f"{names[order[2]]} [m]")
+        from matplotlib.ticker import MaxNLocator
+
+        for axis, a in zip((ax.xaxis, ax.yaxis, ax.zaxis), order, strict=True):
+            # about one tick per 0.4 of the longest side, so that thin sides stay legible
+            n = max(2, int(round(5 * (hi[a] - lo[a]) / max(hi - lo))))
+            axis.set_major_locator(MaxNLocator(n))
         ax.view_init(elev=self.s.elev, azim=self.s.azim)
         return ax, order
 
@@ -178,7 +184,8 @@ class PreviewRenderer:
         size = max(0.5, (2.0 * self.r * pts_per_m) ** 2)
         sc = ax.scatter(p[:, order[0]], p[:, order[1]], p[:, order[2]], c=c, s=size,
                         cmap=self.s.cmap, norm=self._norm(), depthshade=True, linewidths=0)
-        self._cbar = self.fig.colorbar(sc, ax=ax, label=_UNITS[self.s.color], shrink=0.6)
+        self._cbar = self.fig.colorbar(sc, ax=ax, label=_UNITS[self.s.color], shrink=0.6,
+                                          pad=0.12)
 
     def _draw_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         from mpl_toolkits.mplot3d.art3d import Poly3DCollection
