@@ -428,7 +428,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         manifest = Manifest(
             out_dir, scene, command=["sphkit", *argv],
             output={"directory": str(out_dir), "formats": formats, "fps": fps,
-                    "dim": sim.dim,
+                    "dim": sim.dim, "attributes": attributes,
                     "series": writer.series_path.name if "vtk" in formats else None},
         )
     except OSError as e:

@@ -59,6 +59,16 @@ objects):
                             ``NonPressureForceRegistration.cpp``)
 ``stopAt``                  -1 (no end); mapped to ``time.until`` when > 0
 ``dataExportFPS``           25; mapped to ``output.fps``
+``enablePartioExport``,     false; mapped to ``output.formats`` bgeo and vtk (neither set:
+``enableVTKExport``         sphkit's default, vtk)
+``particleAttributes``      ``"velocity;density"`` -> ``output.attributes`` (absent: sphkit's
+                            default velocity, density, pressure)
+``FluidModels``             ``particleFile`` (BGEO, PLY, VTK/VTU; relative to the scene file)
+                            -> ``fluid_files``: ``translation``, ``scale`` (only the first
+                            component, as SPlisHSPlasH), ``rotationAxis``/``rotationAngle``,
+                            ``id``, ``initialVelocity``, ``initialAngularVelocity`` (these
+                            replace the file's velocities, as in SPlisHSPlasH); OBJ meshes to
+                            fill are not supported
 ==========================  ===============================================================
 
 Older scenes (before 2.16) write solver and method parameters flat (``"stiffness"`` or
