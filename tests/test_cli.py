@@ -141,7 +141,8 @@ def test_tiny_run_writes_frames_and_manifest(tiny_run: dict) -> None:
     assert frames[0]["max_displacement"] is None
     assert frames[2]["max_displacement"] == pytest.approx(moved, rel=1e-12)
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        [n for f in frames for n in f["files"]] + ["frame.vtu.series", "manifest.json"])
+        [n for f in frames for n in f["files"]] + ["frame.vtu.series", "manifest.json",
+                                                   "sphkit.log"])
 
 
 def test_tiny_run_logs_plain_lines(tiny_run: dict) -> None:
@@ -167,7 +168,7 @@ def test_rerun_with_flags_replaces_previous_frames(tiny_run: dict, tmp_path: Pat
     assert manifest["output"]["formats"] == ["ply"]
     # the earlier run's frames 0..2 (vtu + ply) and its series file are gone
     assert sorted(p.name for p in out.iterdir()) == [
-        "frame_00000.ply", "frame_00001.ply", "manifest.json"]
+        "frame_00000.ply", "frame_00001.ply", "manifest.json", "sphkit.log"]
 
 
 def test_unstable_run_exits_3_and_keeps_frame_0(tmp_path: Path,
@@ -205,7 +206,8 @@ def test_interrupt_exits_130_and_records_it(tmp_path: Path, monkeypatch: pytest.
     assert [f["frame"] for f in manifest["frames"]] == [0]
     # no half-written frame 1 and no temporary files
     assert sorted(p.name for p in out.iterdir()) == [
-        "frame.vtu.series", "frame_00000.ply", "frame_00000.vtu", "manifest.json"]
+        "frame.vtu.series", "frame_00000.ply", "frame_00000.vtu", "manifest.json",
+        "sphkit.log"]
 
 
 class _Terminal(io.StringIO):

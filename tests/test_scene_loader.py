@@ -457,7 +457,8 @@ def test_benchmark_scenes_share_their_settings() -> None:
         ({"FluidBlocks": {"end": [-0.6, 1.0, 0.5]}}, r"FluidBlocks\[0\]\.end.*exceed start"),
         ({"FluidBlocks": {"initialAngularVelocity": [0, 1, 0]}}, r"initialAngularVelocity"),
         ({"Emitters": [{"width": 5}]}, r"Emitters: 1 entry; emitters are not supported yet"),
-        ({"FluidModels": [{"particleFile": "a.bgeo"}]}, r"FluidModels: 1 entry"),
+        ({"FluidModels": [{"particleFile": "a.bgeo"}]},
+         r"FluidModels\[0\]\.particleFile: got 'a\.bgeo': expected an existing particle file"),
     ],
 )
 def test_splishsplash_unsupported_and_invalid(sph_dir: Path, edit, expected) -> None:

@@ -2,7 +2,9 @@
 
 ::
 
-    sphkit run [SCENE] [--until T] [--out DIR] [--fps F] [--format vtk,ply] [--quiet]
+    sphkit run [SCENE] [--until T] [--out DIR] [--fps F] [--format vtk,ply,bgeo] [--quiet|--verbose]
+    sphkit surface OUTDIR [--format obj,ply,vtk] [--radius R] [--smoothing-length 2] ...
+    sphkit render OUTDIR [--color velocity|pressure|density] [--video auto|mp4|gif|none] ...
     sphkit scenes
     sphkit --version
 
@@ -19,11 +21,18 @@ are any) and the largest speed. The manifest records them per frame and as run m
 Exit codes: 0 finished; 1 failed (e.g. an output file could not be written); 2 bad command line
 or scene; 3 the simulation became unstable (frames so far are kept, the diagnosis is printed and
 recorded in the manifest); 130 interrupted by Ctrl-C (143 by SIGTERM).
+
+Logging: the library logs to the logger ``"sphkit"``; a command writes it, with its progress
+lines, to ``sphkit.log`` in the output folder (``run`` starts the file, ``surface`` and
+``render`` append). ``--quiet`` prints only errors, ``--verbose`` also the library's info and
+debug records (per-step statistics) on the console and in the log file. ``sphkit surface`` and
+``sphkit render`` are in :mod:`sphkit.cli_post`.
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import signal
 import sys
@@ -33,7 +42,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TextIO
 
-from sphkit.io.frames import FORMATS, FrameWriter
+from sphkit.io.frames import FORMATS, FrameWriter, resolve_attributes
+from sphkit.io.log import command_logging, get_logger
 from sphkit.io.manifest import MANIFEST_NAME, Manifest, read_manifest, sphkit_version
 
 DEFAULT_SCENE = "dambreak-3d"
@@ -69,9 +79,10 @@ def _formats(text: str) -> list[str]:
     names = [s.strip().lower() for s in text.split(",") if s.strip()]
     bad = [n for n in names if n not in FORMATS]
     if bad or not names:
+        what = f"unknown format {bad[0]!r} in {text!r}" if bad else f"got {text!r}"
         raise argparse.ArgumentTypeError(
-            f"got {text!r}; expected a comma-separated list of the formats "
-            f"{', '.join(FORMATS)} (e.g. vtk,ply)"
+            f"{what}; expected a comma-separated list of the formats "
+            f"{', '.join(FORMATS)} (e.g. vtk,ply,bgeo)"
         )
     return list(dict.fromkeys(names))
 
@@ -110,9 +121,15 @@ def build_parser() -> argparse.ArgumentParser:
                           "(default: the scene's)")
     run.add_argument("--quiet", "-q", action="store_true",
                      help="print nothing but errors")
+    run.add_argument("--verbose", "-v", action="store_true",
+                     help="also print the library's log (info and per-step debug records); "
+                          "the log file sphkit.log in the output folder gets them too")
 
     sub.add_parser("scenes", help="list the built-in scenes",
                    description="List the built-in scenes with their descriptions.")
+    from sphkit.cli_post import add_post_commands
+
+    add_post_commands(sub)
     return parser
 
 
@@ -354,6 +371,13 @@ def _remove_previous_run(out_dir: Path) -> int:
 
 def _error(text: str) -> None:
     print(f"sphkit: error: {text}", file=sys.stderr, flush=True)
+    get_logger("cli").error(text, extra={"console": False})
+
+
+def _say(report: _Reporter, text: str) -> None:
+    """An informational line on the console (unless --quiet) and in the log file."""
+    report.message(text)
+    get_logger("cli").info(text, extra={"console": False})
 
 
 def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
@@ -385,15 +409,26 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     fps = scene.output.fps
     formats = list(scene.output.formats)
     out_dir = args.out or Path(scene.output.directory or Path("out") / scene.name)
+    attributes = scene.output.attributes
+    if attributes is not None:
+        try:
+            resolve_attributes(attributes, sim.fluid)
+        except ValueError as e:
+            _error(f"scene {args.scene!r}: {e}")
+            return EXIT_USAGE
+    session = getattr(args, "log_session", None)
+    log = get_logger("cli")
 
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         removed = _remove_previous_run(out_dir)
-        writer = FrameWriter(out_dir, formats, sim.dim)
+        if session is not None:
+            session.add_file(out_dir)
+        writer = FrameWriter(out_dir, formats, sim.dim, attributes=attributes)
         manifest = Manifest(
             out_dir, scene, command=["sphkit", *argv],
             output={"directory": str(out_dir), "formats": formats, "fps": fps,
-                    "dim": sim.dim,
+                    "dim": sim.dim, "attributes": attributes,
                     "series": writer.series_path.name if "vtk" in formats else None},
         )
     except OSError as e:
@@ -401,9 +436,13 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         return EXIT_FAILED
 
     report = _reporter(until, args.quiet, sys.stderr)
+    if session is not None and not args.quiet:
+        session.console = report.message
+    log.info("sphkit %s: %s", sphkit_version(), " ".join(["sphkit", *argv]),
+             extra={"console": False})
     if removed:
-        report.message(f"removed {removed} file(s) of the previous run in {out_dir}")
-    report.message(
+        _say(report, f"removed {removed} file(s) of the previous run in {out_dir}")
+    _say(report,
         f"scene {scene.name!r}: {sim.fluid.n} fluid and {sim.boundary.n} boundary particles, "
         f"{sim.dim}D, until t = {until:g} s; {fps:g} frames/s as {', '.join(formats)} "
         f"into {out_dir}"
@@ -413,8 +452,15 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         files = writer.write(s, k)
         manifest.add_frame(s, k, files, max_displacement=writer.max_displacement)
         report.frame(s, k)
+        rec = manifest.frames[-1]
+        log.info("frame %d t=%.6g s step %d: max|v| %s m/s, dt %s s, rho err avg %s, iters %s",
+                 k, s.time, s.step_count, _fmt(rec["max_velocity"], ".3g"),
+                 _fmt(rec["dt"], ".3g"), _fmt(rec["density_error_avg"], ".3g"),
+                 _fmt(rec["iterations"], "g"), extra={"console": False})
 
     def on_step(s: Any, stats: Any) -> None:
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("step %s", stats)
         manifest.add_step(stats)
         report.count_step(stats)
         report.step(s)
@@ -449,7 +495,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     if rs.steps:
         solver = (f" (mean {_fmt(rs.mean('iterations'), '.3g')} pressure iterations per step, "
                   f"density error {_fmt(rs.mean('density_error'), '.3g', 100, '%')})")
-    report.message(
+    _say(report,
         f"finished: {len(manifest.frames)} frame(s), {sim.step_count} steps{solver} in "
         f"{wall:.1f} s; output in {out_dir}"
     )
@@ -483,6 +529,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as e:  # --help, --version, or a usage error (already printed)
         return e.code if isinstance(e.code, int) else EXIT_USAGE
-    if args.command == "run":
-        return cmd_run(args, argv)
-    return cmd_scenes(args)
+    with command_logging(quiet=getattr(args, "quiet", False),
+                         verbose=getattr(args, "verbose", False)) as session:
+        args.log_session = session
+        if args.command == "run":
+            return cmd_run(args, argv)
+        if args.command == "scenes":
+            return cmd_scenes(args)
+        from sphkit.cli_post import run_post_command
+
+        return run_post_command(args)

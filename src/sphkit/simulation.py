@@ -159,7 +159,8 @@ class Simulation:
         r = cfg.particle_radius
         h = 4.0 * r
         kid = kernel_id(cfg.kernel)
-        used = {b.material for b in scene.fluid_blocks} or {scene.materials[0].id}
+        used = ({b.material for b in scene.fluid_blocks} | {f.material for f in scene.fluid_files}
+                or {scene.materials[0].id})
         if len(used) > 1:
             raise SceneError(
                 f"fluid_blocks: materials {sorted(used)}; multiphase fluids are not supported yet, "
@@ -185,7 +186,7 @@ class Simulation:
         self._sample(scene)
         if fluid.n == 0:
             raise SceneError(
-                "fluid_blocks: the scene has no fluid particles; expected at least one"
+                "fluid_blocks, fluid_files: the scene has no fluid particles; expected at least one"
             )
 
         self.pressure = build_pressure_solver(cfg.pressure)
@@ -258,6 +259,8 @@ class Simulation:
             vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
             st.fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
                          rho=mat.density0)
+        for k, ff in enumerate(scene.fluid_files):
+            self._add_fluid_file(k, ff, vol)
         up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
         for k, box in enumerate(scene.boxes):
             pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
@@ -268,6 +271,35 @@ class Simulation:
                                       mb.rotation_axis, mb.rotation_angle, mb.scale)
             pts = sampling.sample_mesh_surface(mesh, r, dim)
             st.boundary.add(clip(pts), name=f"meshes[{k}]")
+
+    def _add_fluid_file(self, k: int, ff, vol: float) -> None:
+        """Fluid from a particle file (``scene.fluid_files[k]``), with the lattice volume."""
+        import warnings
+
+        from sphkit.io.particle_files import (
+            ParticleFileError,
+            load_fluid_particles,
+            spacing_warning,
+        )
+
+        st = self.state
+        try:
+            x, v = load_fluid_particles(
+                self._resolve(ff.file), self.dim, translation=ff.translation, scale=ff.scale,
+                rotation_axis=ff.rotation_axis, rotation_angle=ff.rotation_angle,
+                velocity=ff.velocity, angular_velocity=ff.angular_velocity,
+                use_file_velocity=ff.use_file_velocity)
+        except ParticleFileError as e:
+            raise SceneError(f"fluid_files[{k}].file: {e}") from None
+        if len(x) == 0:
+            raise SceneError(f"fluid_files[{k}].file: {ff.file!r} holds no particles; "
+                             "expected at least one")
+        note = spacing_warning(x, st.r, f"fluid_files[{k}] ({ff.file})")
+        if note:
+            warnings.warn(note, UserWarning, stacklevel=3)
+        mat = self.scene.material(ff.material)
+        st.fluid.add(x, name=f"fluid_files[{k}]", m=mat.density0 * vol, V0=vol, v=v,
+                     rho=mat.density0)
 
     # -- user-facing state ----------------------------------------------------------------------
     @property

@@ -9,6 +9,10 @@ Formats (the names are those of ``scene.output.formats``):
 * ``"ply"`` -- binary little-endian PLY ``frame_00000.ply`` with one ``vertex`` element and no
   faces (Blender, Houdini, MeshLab and CloudCompare read it). Properties: ``x y z vx vy vz density
   pressure id``, floats in the simulation's precision (``double`` or ``float``), ``id`` as ``int``.
+* ``"bgeo"`` -- Houdini's classic BGEO ``frame_00000.bgeo`` (:mod:`sphkit.io.bgeo`), as partio
+  and SPlisHSPlasH's partio export write it: point attributes ``velocity`` (vector), ``density``,
+  ``pressure`` (float) and ``id`` (int), all 32 bit. ``"bgeo.gz"``: the same, gzip-compressed
+  (``frame_00000.bgeo.gz``; partio, Houdini and SPlisHSPlasH read it).
 
 Every frame holds the fluid particles sorted by their id, so point ``i`` is the same particle in
 every frame, with the point data
@@ -24,7 +28,10 @@ id           (N,)       particle id (int64 in VTK, int32 in PLY)
 ===========  =========  =========================================================
 
 Extra fields a method registered with the ParticleSet can be added with ``extra_fields``.
-:func:`read_frame` reads a frame of either format back into the same arrays.
+``attributes`` (the scene's ``output.attributes``, SPlisHSPlasH's ``particleAttributes``)
+replaces velocity, density and pressure by the named attributes: :data:`ATTRIBUTES` or any field
+of the ParticleSet (:func:`resolve_attributes`); position and id are always written.
+:func:`read_frame` reads a frame of any format back into the same arrays.
 """
 
 from __future__ import annotations
@@ -39,12 +46,43 @@ import meshio
 import numpy as np
 
 from sphkit.io.atomic import atomic_open, atomic_path, atomic_write_text
+from sphkit.io.bgeo import read_bgeo, write_bgeo
 
 #: format name -> file extension
-FORMATS: dict[str, str] = {"vtk": ".vtu", "ply": ".ply"}
+FORMATS: dict[str, str] = {"vtk": ".vtu", "ply": ".ply", "bgeo": ".bgeo", "bgeo.gz": ".bgeo.gz"}
 
 #: name in the frame file -> field of the ParticleSet
 STANDARD_FIELDS: dict[str, str] = {"velocity": "v", "density": "rho", "pressure": "p", "id": "id"}
+
+#: attribute names a scene may ask for (SPlisHSPlasH's spelling included) -> (name in the frame
+#: file, field of the ParticleSet); any other field of the ParticleSet is written as it is named
+ATTRIBUTES: dict[str, tuple[str, str]] = {
+    "velocity": ("velocity", "v"), "density": ("density", "rho"), "pressure": ("pressure", "p"),
+    "id": ("id", "id"), "acceleration": ("acceleration", "a"), "mass": ("mass", "m"),
+    "angular velocity": ("angular_velocity", "omega"),
+    "angular_velocity": ("angular_velocity", "omega"),
+}
+
+
+def resolve_attributes(names: Sequence[str], fluid: Any) -> dict[str, str]:
+    """Attribute names (:data:`ATTRIBUTES` or ParticleSet fields) -> {frame name: field}.
+
+    Raises:
+        ValueError: a name that is neither, naming ``output.attributes``, the value and the
+            names this simulation has.
+    """
+    out: dict[str, str] = {}
+    for name in names:
+        frame_name, field = ATTRIBUTES.get(name, (name, name))
+        if field not in fluid or field == "x":
+            known = sorted({k for k, (_, f) in ATTRIBUTES.items() if f in fluid and " " not in k}
+                           | {f for f in fluid.fields if f not in ("x",)})
+            raise ValueError(
+                f"output.attributes: got {name!r}: this simulation has no such particle field; "
+                f"expected one of {', '.join(known)}"
+            )
+        out[frame_name] = field
+    return out
 
 _PLY_TYPES = {
     np.dtype("<f8"): "double", np.dtype("<f4"): "float",
@@ -74,15 +112,20 @@ def _pad3(a: np.ndarray) -> np.ndarray:
     return out
 
 
-def frame_arrays(fluid: Any, extra_fields: Sequence[str] = ()) -> dict[str, np.ndarray]:
+def frame_arrays(fluid: Any, extra_fields: Sequence[str] = (),
+                 attributes: Sequence[str] | None = None) -> dict[str, np.ndarray]:
     """The arrays of one frame from a ParticleSet, sorted by particle id.
 
     Returns ``{"position": (N, 3), "velocity": (N, 3), "density": (N,), "pressure": (N,),
     "id": (N,) int64, <extra>: ...}``; vectors are padded to 3 components. ``fluid`` needs the
     fields ``x``, ``v``, ``rho``, ``p`` and ``id`` (layout as in
-    :class:`sphkit.core.particles.ParticleSet`) and those named in ``extra_fields``.
+    :class:`sphkit.core.particles.ParticleSet`) and those named in ``extra_fields``. With
+    ``attributes`` (see :func:`resolve_attributes`) the frame holds position, those and id.
     """
-    wanted = {"position": "x", **STANDARD_FIELDS}
+    if attributes is None:
+        wanted = {"position": "x", **STANDARD_FIELDS}
+    else:
+        wanted = {"position": "x", **resolve_attributes(attributes, fluid), "id": "id"}
     for name in extra_fields:
         if name in wanted or name in wanted.values():
             continue
@@ -196,16 +239,22 @@ def write_ply(path: str | os.PathLike[str], arrays: dict[str, np.ndarray],
 
 
 def read_frame(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
-    """Read a frame written by :class:`FrameWriter` (``.vtu`` or ``.ply``).
+    """Read a frame written by :class:`FrameWriter` (``.vtu``, ``.ply``, ``.bgeo``, ``.bgeo.gz``).
 
     Returns ``{"position": (N, 3), "velocity": (N, 3), "density", "pressure", "id", ...}`` --
     the arrays of :func:`frame_arrays`; PLY vector properties ``vx vy vz`` (and ``<name>_x``,
-    ``_y``, ``_z``) are joined back into (N, 3) arrays.
+    ``_y``, ``_z``) are joined back into (N, 3) arrays. BGEO frames hold 32-bit numbers.
     """
     p = Path(path)
+    if p.name.lower().endswith((".bgeo", ".bgeo.gz")):
+        data = read_bgeo(p)
+        assert isinstance(data, dict)
+        return data
     fmt = {".vtu": "vtu", ".ply": "ply"}.get(p.suffix.lower())
     if fmt is None:
-        raise ValueError(f"read_frame: {str(p)!r} is not a frame file; expected .vtu or .ply")
+        raise ValueError(
+            f"read_frame: {str(p)!r} is not a frame file; expected .vtu, .ply, .bgeo or .bgeo.gz"
+        )
     if fmt == "vtu" and _is_empty_vtu(p):
         return _read_empty_vtu(p)
     mesh = meshio.read(p, file_format=fmt)
@@ -251,7 +300,8 @@ class FrameWriter:
 
     ``out_dir`` is created if missing. ``formats`` are names of :data:`FORMATS`; ``dim`` the
     simulation's dimension (2D positions and velocities are padded with z = 0).
-    ``extra_fields`` names further ParticleSet fields to write (vectors padded to 3 components).
+    ``extra_fields`` names further ParticleSet fields to write (vectors padded to 3 components);
+    ``attributes`` replaces the default attributes (see :func:`frame_arrays`).
 
     After each :meth:`write`, :attr:`max_displacement` holds the largest distance [m] a particle
     moved since the previous frame (None for the first frame): sudden jumps in an exported
@@ -259,13 +309,15 @@ class FrameWriter:
     """
 
     def __init__(self, out_dir: str | os.PathLike[str], formats: Sequence[str], dim: int,
-                 extra_fields: Sequence[str] = (), prefix: str = "frame") -> None:
+                 extra_fields: Sequence[str] = (), prefix: str = "frame",
+                 attributes: Sequence[str] | None = None) -> None:
         if dim not in (2, 3):
             raise ValueError(f"FrameWriter dim: {dim!r}; expected 2 or 3")
         self.out_dir = Path(out_dir)
         self.formats = check_formats(formats)
         self.dim = dim
         self.extra_fields = tuple(extra_fields)
+        self.attributes = None if attributes is None else tuple(attributes)
         self.prefix = prefix
         self.max_displacement: float | None = None
         self._prev: tuple[np.ndarray, np.ndarray] | None = None
@@ -292,7 +344,7 @@ class FrameWriter:
             raise ValueError(
                 f"FrameWriter was made for dim {self.dim}, the particles have dim {sim.fluid.dim}"
             )
-        arrays = frame_arrays(sim.fluid, self.extra_fields)
+        arrays = frame_arrays(sim.fluid, self.extra_fields, self.attributes)
         self._track_displacement(arrays)
         time = float(sim.time)
         paths: list[Path] = []
@@ -304,6 +356,8 @@ class FrameWriter:
                 self._series.append({"name": path.name, "time": time})
                 atomic_write_text(self.series_path, json.dumps(
                     {"file-series-version": "1.0", "files": self._series}, indent=1) + "\n")
+            elif fmt in ("bgeo", "bgeo.gz"):
+                write_bgeo(path, arrays, compressed=fmt == "bgeo.gz")
             else:
                 write_ply(path, arrays, comment=f"sphkit frame {frame} time {time!r} s")
             paths.append(path)

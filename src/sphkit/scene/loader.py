@@ -61,6 +61,16 @@ objects):
                             ``NonPressureForceRegistration.cpp``)
 ``stopAt``                  -1 (no end); mapped to ``time.until`` when > 0
 ``dataExportFPS``           25; mapped to ``output.fps``
+``enablePartioExport``,     false; mapped to ``output.formats`` bgeo and vtk (neither set:
+``enableVTKExport``         sphkit's default, vtk)
+``particleAttributes``      ``"velocity;density"`` -> ``output.attributes`` (absent: sphkit's
+                            default velocity, density, pressure)
+``FluidModels``             ``particleFile`` (BGEO, PLY, VTK/VTU; relative to the scene file)
+                            -> ``fluid_files``: ``translation``, ``scale`` (only the first
+                            component, as SPlisHSPlasH), ``rotationAxis``/``rotationAngle``,
+                            ``id``, ``initialVelocity``, ``initialAngularVelocity`` (these
+                            replace the file's velocities, as in SPlisHSPlasH); OBJ meshes to
+                            fill are not supported
 ==========================  ===============================================================
 
 Older scenes (before 2.16) write solver and method parameters flat (``"stiffness"`` or
@@ -286,16 +296,33 @@ def scene_from_dict(data: Mapping[str, Any], path: str | Path | None = None) -> 
                 f"{where}: meshes[{k}].geometry_file: got {m.geometry_file!r}: expected an "
                 f"existing mesh file (looked for {str(f)!r})"
             )
+    for k, ff in enumerate(scene.fluid_files):
+        _check_particle_file(resolve_scene_path(scene, ff.file), ff.file,
+                             f"{where}: fluid_files[{k}].file")
     return scene
+
+
+def _check_particle_file(f: Path, given: str, where: str) -> None:
+    """SceneError naming ``where`` unless ``f`` is an existing particle file of a known format."""
+    from sphkit.io.particle_files import PARTICLE_FILE_SUFFIXES, particle_file_kind
+
+    if particle_file_kind(f) is None:
+        raise SceneError(
+            f"{where}: got {given!r}: expected a particle file ending in "
+            f"{', '.join(PARTICLE_FILE_SUFFIXES)}"
+        )
+    if not f.is_file():
+        raise SceneError(
+            f"{where}: got {given!r}: expected an existing particle file (looked for {str(f)!r})"
+        )
 
 
 # ----------------------------------------------------------------------------------------------
 # SPlisHSPlasH
 # ----------------------------------------------------------------------------------------------
 
-_SPH_ARRAYS = ("Materials", "FluidBlocks", "RigidBodies")
+_SPH_ARRAYS = ("Materials", "FluidBlocks", "RigidBodies", "FluidModels")
 _SPH_UNSUPPORTED_ARRAYS = {
-    "FluidModels": "fluid models (particle files or meshes filled with fluid)",
     "Emitters": "emitters",
     "AnimationFields": "animation fields",
     # joints of PositionBasedDynamics, which only connect dynamic rigid bodies
@@ -529,8 +556,9 @@ class _Translator:
         r = configuration["particle_radius"]
         materials = self.materials()
         blocks = self.fluid_blocks(dim, r)
+        fluid_files = self.fluid_models()
         ids = [m["id"] for m in materials]
-        for b in blocks:  # SPlisHSPlasH gives a fluid without a material entry the defaults
+        for b in [*blocks, *fluid_files]:  # a fluid without a material entry gets the defaults
             if b["material"] not in ids:
                 ids.append(b["material"])
                 materials.append({"id": b["material"]})
@@ -547,6 +575,8 @@ class _Translator:
             "fluid_blocks": blocks,
             "meshes": meshes,
         }
+        if fluid_files:
+            scene["fluid_files"] = fluid_files
         if output:
             scene["output"] = output
         if self.path is not None:
@@ -661,7 +691,27 @@ class _Translator:
         if cfg.get("dataExportFPS") is not None:
             output["fps"] = self.num(cfg, "dataExportFPS", w, 25.0, positive=True)
             self.origin["output.fps"] = f"{w}.dataExportFPS"
+        output.update(self.export(cfg))
         return configuration, output
+
+    def export(self, cfg: dict[str, Any]) -> dict[str, Any]:
+        """``enablePartioExport`` -> format bgeo, ``enableVTKExport`` -> vtk (neither: sphkit's
+        default, vtk); ``particleAttributes`` ("velocity;density") -> ``output.attributes``."""
+        w = "Configuration"
+        out: dict[str, Any] = {}
+        formats = [f for key, f in (("enableVTKExport", "vtk"), ("enablePartioExport", "bgeo"))
+                   if self.flag(cfg, key, w, False)]
+        if formats:
+            out["formats"] = formats
+        attrs = cfg.get("particleAttributes")
+        if attrs is not None:
+            if not isinstance(attrs, str):
+                raise self.error(f"{w}.particleAttributes", attrs,
+                                 'a ";"-separated list of field names, e.g. "velocity;density"')
+            names = [a.strip() for a in attrs.split(";") if a.strip()]
+            out["attributes"] = [a for a in names if a not in ("position", "id")]
+            self.origin["output.attributes"] = f"{w}.particleAttributes"
+        return out
 
     def wcsph(self, cfg: dict[str, Any], cfl_method: int) -> dict[str, Any]:
         """WCSPH's parameters (``"WCSPH"`` block, or the flat keys of scenes before 2.16)."""
@@ -926,6 +976,66 @@ class _Translator:
                 block["velocity"] = velocity[:dim]
             out.append(block)
         self.origin["fluid_blocks"] = "FluidBlocks"
+        return out
+
+    def fluid_models(self) -> list[dict[str, Any]]:
+        """``FluidModels`` with a particle file -> ``fluid_files`` (placement and velocity as in
+        ``SimulatorBase::initFluidData``: only ``scale[0]`` scales a particle file; the file's
+        velocities are replaced by ``initialVelocity`` and ``initialAngularVelocity``)."""
+        out = []
+        base = self.path.parent if self.path is not None else Path.cwd()
+        for k, fm in enumerate(self.array("FluidModels")):
+            w = f"FluidModels[{k}]"
+            known = {"particleFile", "translation", "scale", "rotationAxis", "rotationAngle", "id",
+                     "initialVelocity", "initialAngularVelocity"}
+            # settings of the volume sampling of OBJ meshes, which are rejected below
+            self.collect_unknown(fm, w, known, {"denseMode", "invert", "resolutionSDF",
+                                                "visMesh"})
+            name = self.text(fm, "particleFile", w, "")
+            if not name:
+                raise self.error(f"{w}.particleFile", fm.get("particleFile"),
+                                 "a particle file (BGEO, PLY, VTK) relative to the scene file")
+            p = Path(name).expanduser()
+            f = p if p.is_absolute() else base / p
+            if name.lower().endswith(".obj"):
+                raise self.unsupported(
+                    f"{w}.particleFile",
+                    f"{name!r}: filling a closed OBJ mesh with fluid is not supported yet; "
+                    "expected a particle file (BGEO, PLY, VTK/VTU)",
+                )
+            _check_particle_file(f, name, f"{self.label}: {w}.particleFile")
+            scale = self.vec3(fm, "scale", w, [1.0, 1.0, 1.0])
+            if not scale[0] > 0:
+                raise self.error(f"{w}.scale", scale, "a positive first component (SPlisHSPlasH "
+                                 "scales particle files by scale[0])")
+            if scale[1:] != [scale[0], scale[0]]:
+                self.notes.append(
+                    f"{w}.scale: {scale}: SPlisHSPlasH scales particle files uniformly by the "
+                    f"first component, as sphkit does ({scale[0]})"
+                )
+            axis = self.vec3(fm, "rotationAxis", w, [1.0, 0.0, 0.0])
+            angle = self.num(fm, "rotationAngle", w, 0.0)
+            if angle != 0.0 and not any(axis):
+                raise self.error(f"{w}.rotationAxis", axis, "a non-zero axis")
+            n = len(out)
+            self.origin[f"fluid_files[{n}]"] = w
+            self.origin[f"fluid_files[{n}].material"] = f"{w}.id"
+            entry: dict[str, Any] = {
+                "file": name,
+                "translation": self.vec3(fm, "translation", w, [0.0, 0.0, 0.0]),
+                "scale": scale[0],
+                "rotation_axis": axis,
+                "rotation_angle": angle,
+                "material": self.text(fm, "id", w, "Fluid"),
+            }
+            velocity = self.vec3(fm, "initialVelocity", w, [0.0, 0.0, 0.0])
+            omega = self.vec3(fm, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
+            if any(velocity):
+                entry["velocity"] = velocity
+            if any(omega):
+                entry["angular_velocity"] = omega
+            out.append(entry)
+        self.origin["fluid_files"] = "FluidModels"
         return out
 
     def rigid_bodies(self, bodies: list[dict[str, Any]]) -> list[dict[str, Any]]:
