@@ -549,8 +549,9 @@ def sample_mesh_volume(mesh: trimesh.Trimesh, r: float, dim: int = 3,
                        invert: bool = False) -> np.ndarray:
     """Fluid particles filling a closed mesh (SPlisHSPlasH's ``VolumeSampling``, mode 0).
 
-    The candidates are the lattice points ``lo + r + 2r k`` (``k = 0 .. floor((hi - lo) / 2r)``
-    per axis) of the mesh's bounding box ``[lo, hi]``; a point is kept when its signed distance
+    The candidates are the lattice points ``lo + r + 2r k`` at or below ``hi - r`` (as
+    :func:`lattice_block`) in the mesh's bounding box ``[lo, hi]``; a point is kept when its
+    signed distance
     to the mesh (:mod:`sphkit.core.sdf`, exact at the points) is negative (inside), or positive
     with ``invert`` (the box around the mesh is filled instead). A block-shaped mesh thus gives
     the same particles as the fluid block of the same extent.
@@ -578,7 +579,9 @@ def sample_mesh_volume(mesh: trimesh.Trimesh, r: float, dim: int = 3,
         lo, hi = p.min(axis=0), p.max(axis=0)
     else:
         raise ValueError(f"dim must be 2 or 3, got {dim}")
-    n = np.floor((hi - lo) / (2.0 * r) + _LATTICE_TOL).astype(np.int64) + 1
+    n = np.array([lattice_count(a, b, r) for a, b in zip(lo, hi, strict=True)], dtype=np.int64)
+    if np.any(n == 0):
+        return np.empty((0, dim))
     if np.prod(n.astype(float)) > 2e8:
         raise SceneError(f"mesh of extent {(hi - lo).tolist()} m holds more than 2e8 lattice "
                          f"points of radius {r} m")
