@@ -361,10 +361,12 @@ def test_splishsplash_fluid_models_translation(tmp_path: Path) -> None:
     assert [m.id for m in scene.materials] == ["Water"]
     assert scene.output.formats == ["vtk", "bgeo"]
     assert scene.output.attributes == ["density", "velocity"]
-    with pytest.raises(SceneError, match=r"FluidModels\[0\].particleFile: 'shape.obj': filling "
-                                         "a closed OBJ mesh"):
-        scene_from_dict({"Configuration": cfg, "FluidModels": [{"particleFile": "shape.obj"}]},
-                        tmp_path / "scene.json")
+    # an OBJ particleFile is a closed mesh to fill with fluid, not a particle file
+    mesh_scene = scene_from_dict({"Configuration": cfg,
+                                  "FluidModels": [{"particleFile": "shape.obj"}]},
+                                 tmp_path / "scene.json")
+    assert mesh_scene.fluid_files == []
+    assert [m.geometry_file for m in mesh_scene.fluid_meshes] == ["shape.obj"]
     with pytest.raises(SceneError, match=r"FluidModels\[0\].particleFile: got 'x.bgeo': "
                                          "expected an existing particle file"):
         scene_from_dict({"Configuration": cfg, "FluidModels": [{"particleFile": "x.bgeo"}]},

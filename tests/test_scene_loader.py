@@ -435,9 +435,10 @@ def test_benchmark_scenes_share_their_settings() -> None:
          r"Configuration\.maxError \(sphkit configuration\.pressure\.max_error\)"),
         ({"Configuration": {"simulationMethod": 4, "PCISPH": []}},
          None),  # another solver's block is not read: this loads
-        ({"Configuration": {"boundaryHandlingMethod": 2}},
-         r"Configuration\.boundaryHandlingMethod: 2 \(Bender et al\. 2019 volume maps\)"),
-        ({"Configuration": {"boundaryHandlingMethod": 1}}, r"Koschier and Bender 2017"),
+        ({"Configuration": {"boundaryHandlingMethod": 3}},
+         r"Configuration\.boundaryHandlingMethod: 3 \(Nogina and Sellan 2026\)"),
+        ({"RigidBodies": {"mapResolution": [20, 20]}},
+         r"RigidBodies\[0\]\.mapResolution: got \[20, 20\]: expected a list of 3 positive"),
         ({"Configuration": {"kernel": 1, "gradKernel": 3}}, r"gradKernel: 3 \(spiky\) differs"),
         ({"Configuration": {"particleRadius": -0.1}},
          r"Configuration\.particleRadius: got -0\.1: expected a number > 0"),
@@ -521,8 +522,12 @@ def _as_wcsph(data: dict[str, Any]) -> dict[str, Any]:
 def test_wheel_dambreak_3d() -> None:
     folder = _wheel_scenes()
     path = folder / "DamBreakModel.json"
-    with pytest.raises(SceneError, match=r"boundaryHandlingMethod: 2 \(Bender et al\. 2019"):
-        load_scene(path)  # as shipped: DFSPH (now supported) with volume maps (not yet)
+    # as shipped: DFSPH with volume maps (SPlisHSPlasH's default boundaryHandlingMethod 2)
+    as_shipped = load_scene(path)
+    assert as_shipped.configuration.boundary.method == "bender2019"
+    (m0,) = as_shipped.meshes
+    assert m0.invert and m0.map_resolution == json.loads(path.read_text())["RigidBodies"][0].get(
+        "mapResolution", [20, 20, 20])
     shipped = json.loads(path.read_text())
     shipped["Configuration"]["boundaryHandlingMethod"] = 0
     dfsph = from_splishsplash(shipped, path).configuration

@@ -26,6 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from sphkit.boundary.akinci2012 import Akinci2012
+from sphkit.boundary.bender2019 import Bender2019
+from sphkit.boundary.koschier2017 import Koschier2017
+from sphkit.core.boundary_map import MapGeometry
 from sphkit.core.kernels import kernel_id, lattice_volume
 from sphkit.core.neighbors import neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
@@ -80,8 +83,9 @@ def build_pressure_solver(p: PressureConfig):
         f"{sorted(PRESSURE_SOLVERS)}"
     )
 #: boundary models by scene name and SPlisHSPlasH ``boundaryHandlingMethod`` number
-BOUNDARY_MODELS: dict[str, type] = {"akinci2012": Akinci2012}
-BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012"}
+BOUNDARY_MODELS: dict[str, type] = {"akinci2012": Akinci2012, "koschier2017": Koschier2017,
+                                     "bender2019": Bender2019}
+BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012", 1: "koschier2017", 2: "bender2019"}
 #: viscosity models by scene name and SPlisHSPlasH ``viscosityMethod`` number
 VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH,
                                      "weiler2018": Weiler2018}
@@ -160,7 +164,7 @@ class Simulation:
         h = 4.0 * r
         kid = kernel_id(cfg.kernel)
         used = ({b.material for b in scene.fluid_blocks} | {f.material for f in scene.fluid_files}
-                or {scene.materials[0].id})
+                | {b.material for b in scene.fluid_meshes}) or {scene.materials[0].id}
         if len(used) > 1:
             raise SceneError(
                 f"fluid_blocks: materials {sorted(used)}; multiphase fluids are not supported yet, "
@@ -183,6 +187,8 @@ class Simulation:
             self.state.period_lo = float(cfg.periodic_x[0])
             self.state.period = float(cfg.periodic_x[1] - cfg.periodic_x[0])
             _check_periodic(scene, mat)
+        bm_cls = BOUNDARY_MODELS[cfg.boundary.method]
+        self._maps = getattr(bm_cls, "uses_maps", False)  # walls as maps, not particles
         self._sample(scene)
         if fluid.n == 0:
             raise SceneError(
@@ -190,7 +196,12 @@ class Simulation:
             )
 
         self.pressure = build_pressure_solver(cfg.pressure)
-        self.boundary_model = BOUNDARY_MODELS[cfg.boundary.method]()
+        if self._maps:
+            self.boundary_model = bm_cls(self._map_geometries(scene),
+                                         cache_dir=cfg.boundary.map_cache_dir,
+                                         cache=cfg.boundary.map_cache)
+        else:
+            self.boundary_model = bm_cls()
         self.forces: list = []
         vis = mat.viscosity
         if vis.method == "standard":
@@ -261,6 +272,22 @@ class Simulation:
                          rho=mat.density0)
         for k, ff in enumerate(scene.fluid_files):
             self._add_fluid_file(k, ff, vol)
+        for k, fm in enumerate(scene.fluid_meshes):
+            mesh = sampling.load_mesh(self._resolve(fm.geometry_file), fm.translation,
+                                      fm.rotation_axis, fm.rotation_angle, fm.scale)
+            pts = sampling.sample_mesh_volume(mesh, r, dim, invert=fm.invert)
+            if len(pts) == 0:
+                raise SceneError(
+                    f"fluid_meshes[{k}]: {fm.geometry_file!r} holds no particle of radius {r}; "
+                    "expected a closed mesh at least 2r wide" + (" that crosses z = 0" if dim == 2
+                                                                 else "")
+                )
+            mat = scene.material(fm.material)
+            vel = np.zeros(dim) if fm.velocity is None else np.asarray(fm.velocity, float)
+            st.fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
+                         rho=mat.density0)
+        if self._maps:
+            return  # boxes and meshes become maps (see _map_geometries)
         up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
         for k, box in enumerate(scene.boxes):
             pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
@@ -300,6 +327,44 @@ class Simulation:
         mat = self.scene.material(ff.material)
         st.fluid.add(x, name=f"fluid_files[{k}]", m=mat.density0 * vol, V0=vol, v=v,
                      rho=mat.density0)
+
+    def _map_geometries(self, scene: Scene) -> list[MapGeometry]:
+        """Boxes and meshes as signed distances for density and volume maps.
+
+        Boxes are containers (the fluid inside, ``invert``), analytic; an open box extends to
+        infinity along the gravity axis. Meshes: 3D triangle meshes, in 2D the section of the
+        mesh with the plane z = 0 (as for boundary particles).
+        """
+        from sphkit.core.sdf import BoxDistance, MeshDistance, PolygonDistance
+        from sphkit.scene import sampling
+
+        st, dim = self.state, self.dim
+        bc = scene.configuration.boundary
+        res = tuple(bc.map_resolution) if bc.map_resolution else None
+        up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
+        out = []
+        for k, box in enumerate(scene.boxes):
+            open_axis = up if box.open_top else None
+            out.append(MapGeometry(f"boxes[{k}]", BoxDistance(box.min, box.max, open_axis),
+                                   invert=True, resolution=res,
+                                   extend_axis=-1 if open_axis is None else open_axis))
+        for k, mb in enumerate(scene.meshes):
+            mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
+                                      mb.rotation_axis, mb.rotation_angle, mb.scale)
+            if dim == 3:
+                sdf = MeshDistance(mesh.vertices, mesh.faces)
+            else:
+                a, b = sampling.section_segments(mesh)
+                if len(a) == 0:
+                    raise SceneError(
+                        f"meshes[{k}]: {mb.geometry_file!r} does not cross the plane z = 0; "
+                        "expected a mesh whose section is the 2D boundary"
+                    )
+                sdf = PolygonDistance(a, b)
+            mres = tuple(mb.map_resolution) if mb.map_resolution else res
+            out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
+                                   thickness=mb.map_thickness, resolution=mres))
+        return out
 
     # -- user-facing state ----------------------------------------------------------------------
     @property

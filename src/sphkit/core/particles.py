@@ -126,6 +126,21 @@ class ParticleSet:
         self.objects.append(rng)
         return rng
 
+    def resize(self, n: int) -> None:
+        """Set the number of particles to ``n``, every field reallocated and zeroed (for sets
+        rebuilt each step, such as the virtual boundary particles of density and volume maps;
+        object ranges are cleared)."""
+        n = int(n)
+        if n < 0:
+            raise ValueError(f"resize: {n} particles; expected a count >= 0")
+        for fname, spec in self.specs.items():
+            if self.fields[fname].shape != self._shape(spec.kind, n):
+                self.fields[fname] = np.zeros(self._shape(spec.kind, n), dtype=spec.dtype)
+            else:
+                self.fields[fname][...] = 0
+        self.n = n
+        self.objects = []
+
     def permute(self, perm: np.ndarray) -> None:
         """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles."""
         for fname, spec in self.specs.items():

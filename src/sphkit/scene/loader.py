@@ -28,8 +28,11 @@ objects):
                             ``enableDivergenceSolver`` true; PBF ``velocityUpdateMethod`` 0
                             (0 first order, 1 second order). The blocks of solvers the scene
                             does not select are ignored quietly.
-``boundaryHandlingMethod``  2 (Bender et al. 2019 volume maps); only 0 (Akinci et al. 2012)
-                            is supported (checked only when the scene has rigid bodies)
+``boundaryHandlingMethod``  2 (Bender et al. 2019 volume maps); 0 Akinci et al. 2012
+                            particles, 1 Koschier & Bender 2017 density maps and 2 map to
+                            ``boundary.method`` akinci2012/koschier2017/bender2019; 3 (Nogina
+                            and Sellan 2026) is not supported (checked only when the scene has
+                            rigid bodies)
 ``particleRadius``          0.025 m
 ``gravitation``             (0, -9.81, 0) m/s^2
 ``timeStepSize``            0.001 s (initial step; the fixed step when ``cflMethod`` is 0)
@@ -365,6 +368,12 @@ _BOUNDARY_METHODS = {
     2: "Bender et al. 2019 volume maps",
     3: "Nogina and Sellan 2026",
 }
+#: SPlisHSPlasH ``boundaryHandlingMethod`` numbers sphkit has -> ``boundary.method``
+_BOUNDARY_MODELS = {0: "akinci2012", 1: "koschier2017", 2: "bender2019"}
+#: mesh formats a FluidModels particleFile may name (sampled through the mesh's signed distance)
+_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
+#: a FluidModels particleFile with these suffixes is a mesh to fill (``.ply`` is a particle file)
+_FILL_SUFFIXES = (".obj", ".stl", ".off")
 _VISCOSITY_METHODS = {
     0: "none", 1: "Standard", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
     4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)", 6: "Weiler et al. 2018",
@@ -419,7 +428,7 @@ _MATERIAL_NAMESPACES = {
     "Kugelstadt et al. 2021", "Kee et al. 2023",
 }
 _RIGID_QUIET = {
-    "color", "isWall", "mapFile", "mapThickness", "mapResolution", "samplingMode", "tubeMapOrder",
+    "color", "isWall", "samplingMode", "tubeMapOrder",
     # PositionBasedDynamics settings, only used by dynamic bodies
     "density", "friction", "restitution", "collisionObjectType", "collisionObjectScale",
     "invertSDF", "id",
@@ -562,6 +571,11 @@ class _Translator:
             if b["material"] not in ids:
                 ids.append(b["material"])
                 materials.append({"id": b["material"]})
+        fluid_meshes = self.fluid_mesh_models(dim)
+        for b in fluid_meshes:
+            if b["material"] not in ids:
+                ids.append(b["material"])
+                materials.append({"id": b["material"]})
         if not materials:
             materials.append({"id": "Fluid"})
         meshes = self.rigid_bodies(rigid)
@@ -577,6 +591,8 @@ class _Translator:
         }
         if fluid_files:
             scene["fluid_files"] = fluid_files
+        if fluid_meshes:
+            scene["fluid_meshes"] = fluid_meshes
         if output:
             scene["output"] = output
         if self.path is not None:
@@ -605,16 +621,16 @@ class _Translator:
                 f"{method} ({name}{default}) is not supported yet; supported: {supported}",
             )
         self.origin["configuration.pressure.method"] = f"{w}.simulationMethod"
-        if has_rigid:
-            bhm = self.integer(cfg, "boundaryHandlingMethod", w, 2)
-            if bhm != 0:
-                name = _BOUNDARY_METHODS.get(bhm, "unknown method")
-                default = "" if "boundaryHandlingMethod" in cfg else ", SPlisHSPlasH's default"
-                raise self.unsupported(
-                    f"{w}.boundaryHandlingMethod",
-                    f"{bhm} ({name}{default}) is not supported yet; "
-                    f"supported: 0 ({_BOUNDARY_METHODS[0]})",
-                )
+        bhm = self.integer(cfg, "boundaryHandlingMethod", w, 2)
+        if has_rigid and bhm not in _BOUNDARY_MODELS:
+            name = _BOUNDARY_METHODS.get(bhm, "unknown method")
+            default = "" if "boundaryHandlingMethod" in cfg else ", SPlisHSPlasH's default"
+            supported = ", ".join(f"{k} ({_BOUNDARY_METHODS[k]})" for k in _BOUNDARY_MODELS)
+            raise self.unsupported(
+                f"{w}.boundaryHandlingMethod",
+                f"{bhm} ({name}{default}) is not supported yet; supported: {supported}",
+            )
+        self.origin["configuration.boundary.method"] = f"{w}.boundaryHandlingMethod"
 
         dim = 2 if self.flag(cfg, "sim2D", w, False) else 3
         r = self.num(cfg, "particleRadius", w, 0.025, positive=True)
@@ -679,7 +695,7 @@ class _Translator:
             "gravity": gravity,
             "time": time,
             "pressure": pressure,
-            "boundary": {"method": "akinci2012"},
+            "boundary": {"method": _BOUNDARY_MODELS.get(bhm, "akinci2012")},
         }
         if not self.flag(cfg, "enableZSort", w, True):
             configuration["zsort_every"] = 0
@@ -988,21 +1004,16 @@ class _Translator:
             w = f"FluidModels[{k}]"
             known = {"particleFile", "translation", "scale", "rotationAxis", "rotationAngle", "id",
                      "initialVelocity", "initialAngularVelocity"}
-            # settings of the volume sampling of OBJ meshes, which are rejected below
-            self.collect_unknown(fm, w, known, {"denseMode", "invert", "resolutionSDF",
-                                                "visMesh"})
             name = self.text(fm, "particleFile", w, "")
             if not name:
                 raise self.error(f"{w}.particleFile", fm.get("particleFile"),
-                                 "a particle file (BGEO, PLY, VTK) relative to the scene file")
+                                 "a particle file (BGEO, PLY, VTK) or a closed mesh (OBJ, STL) "
+                                 "relative to the scene file")
+            if name.lower().endswith(_FILL_SUFFIXES):
+                continue  # a mesh to fill with fluid: fluid_mesh_models
+            self.collect_unknown(fm, w, known, {"visMesh"})
             p = Path(name).expanduser()
             f = p if p.is_absolute() else base / p
-            if name.lower().endswith(".obj"):
-                raise self.unsupported(
-                    f"{w}.particleFile",
-                    f"{name!r}: filling a closed OBJ mesh with fluid is not supported yet; "
-                    "expected a particle file (BGEO, PLY, VTK/VTU)",
-                )
             _check_particle_file(f, name, f"{self.label}: {w}.particleFile")
             scale = self.vec3(fm, "scale", w, [1.0, 1.0, 1.0])
             if not scale[0] > 0:
@@ -1045,7 +1056,8 @@ class _Translator:
             w = f"RigidBodies[{k}]"
             known = {
                 "geometryFile", "particleFile", "translation", "rotationAxis", "rotationAngle",
-                "scale", "isDynamic", "isAnimated", "mapInvert",
+                "scale", "isDynamic", "isAnimated", "mapInvert", "mapThickness", "mapResolution",
+                "mapFile",
             }
             self.collect_unknown(rb, w, known, _RIGID_QUIET)
             if self.flag(rb, "isDynamic", w, False):
@@ -1068,6 +1080,15 @@ class _Translator:
                                  "a mesh file (OBJ/PLY/STL) relative to the scene file")
             if rb.get("particleFile"):
                 self.unknown.append(f"{w}.particleFile (sphkit samples geometryFile instead)")
+            if rb.get("mapFile"):
+                self.unknown.append(f"{w}.mapFile (sphkit computes the map from geometryFile)")
+            res = rb.get("mapResolution", [20, 20, 20])
+            if (not isinstance(res, list) or len(res) != 3
+                    or not all(isinstance(c, int) and not isinstance(c, bool) and c >= 1
+                               for c in res)):
+                raise self.error(f"{w}.mapResolution", res, "a list of 3 positive integers")
+            self.origin[f"meshes[{len(out)}].map_resolution"] = f"{w}.mapResolution"
+            self.origin[f"meshes[{len(out)}].map_thickness"] = f"{w}.mapThickness"
             p = Path(geometry).expanduser()
             f = p if p.is_absolute() else base / p
             if not f.is_file():
@@ -1089,8 +1110,70 @@ class _Translator:
                 "rotation_angle": angle,
                 "scale": scale,
                 "invert": self.flag(rb, "mapInvert", w, False),
+                "map_thickness": self.num(rb, "mapThickness", w, 0.0),
+                "map_resolution": res,
             })
         self.origin["meshes"] = "RigidBodies"
+        return out
+
+    def fluid_mesh_models(self, dim: int) -> list[dict[str, Any]]:
+        """FluidModels whose particleFile is a closed mesh: fluid filling it (sphkit samples the
+        mesh through its exact signed distance at the lattice points, so ``resolutionSDF`` is
+        not needed); particle files are :meth:`fluid_models`."""
+        out = []
+        base = self.path.parent if self.path is not None else Path.cwd()
+        for k, fm in enumerate(self.array("FluidModels")):
+            w = f"FluidModels[{k}]"
+            known = {
+                "particleFile", "id", "translation", "scale", "rotationAxis", "rotationAngle",
+                "invert", "resolutionSDF", "denseMode", "initialVelocity",
+                "initialAngularVelocity",
+            }
+            f = self.text(fm, "particleFile", w, "")
+            if not f.lower().endswith(_FILL_SUFFIXES):
+                continue  # a particle file (or missing: reported by fluid_models)
+            self.collect_unknown(fm, w, known, _BLOCK_QUIET)
+            p = Path(f).expanduser()
+            if not (p if p.is_absolute() else base / p).is_file():
+                raise self.error(f"{w}.particleFile", f,
+                                 f"an existing mesh file (looked for {str(base / p)!r})")
+            mode = self.integer(fm, "denseMode", w, 0)
+            if mode != 0:
+                raise self.unsupported(
+                    f"{w}.denseMode",
+                    f"{mode} ({_DENSE_MODES.get(mode, 'unknown mode')}) is not supported yet; "
+                    "supported: 0 (regular lattice)",
+                )
+            omega = self.vec3(fm, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
+            if any(omega):
+                raise self.unsupported(
+                    f"{w}.initialAngularVelocity",
+                    f"{omega}: rotating initial velocity fields are not supported yet; "
+                    "expected [0, 0, 0]",
+                )
+            scale = self.vec3(fm, "scale", w, [1.0, 1.0, 1.0])
+            if not all(scale):
+                raise self.error(f"{w}.scale", scale, "non-zero scale factors")
+            axis = self.vec3(fm, "rotationAxis", w, [1.0, 0.0, 0.0])
+            angle = self.num(fm, "rotationAngle", w, 0.0)
+            if angle != 0.0 and not any(axis):
+                raise self.error(f"{w}.rotationAxis", axis, "a non-zero axis")
+            velocity = self.vec3(fm, "initialVelocity", w, [0.0, 0.0, 0.0])
+            n = len(out)
+            self.origin[f"fluid_meshes[{n}]"] = w
+            self.origin[f"fluid_meshes[{n}].material"] = f"{w}.id"
+            entry: dict[str, Any] = {
+                "geometry_file": f,
+                "translation": self.vec3(fm, "translation", w, [0.0, 0.0, 0.0]),
+                "rotation_axis": axis,
+                "rotation_angle": angle,
+                "scale": scale,
+                "invert": self.flag(fm, "invert", w, False),
+                "material": self.text(fm, "id", w, "Fluid"),
+            }
+            if any(velocity[:dim]):
+                entry["velocity"] = velocity[:dim]
+            out.append(entry)
         return out
 
     # -- validation ----------------------------------------------------------------------------

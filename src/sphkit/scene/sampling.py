@@ -535,12 +535,72 @@ def _sample_polyline(p: np.ndarray, spacing: float, closed: bool) -> np.ndarray:
     return np.concatenate(out, axis=0) if out else np.empty((0, 2))
 
 
-def _sample_section_2d(mesh: trimesh.Trimesh, spacing: float) -> np.ndarray:
+def section_segments(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
+    """The section of a mesh with the plane z = 0 as 2D segments a[e] -> b[e], each (E, 2)."""
     segs = trimesh.intersections.mesh_plane(mesh, plane_normal=[0.0, 0.0, 1.0],
                                             plane_origin=[0.0, 0.0, 0.0])
     if len(segs) == 0:
+        return np.empty((0, 2)), np.empty((0, 2))
+    s = np.asarray(segs, dtype=np.float64)[:, :, :2]
+    return s[:, 0].copy(), s[:, 1].copy()
+
+
+def sample_mesh_volume(mesh: trimesh.Trimesh, r: float, dim: int = 3,
+                       invert: bool = False) -> np.ndarray:
+    """Fluid particles filling a closed mesh (SPlisHSPlasH's ``VolumeSampling``, mode 0).
+
+    The candidates are the lattice points ``lo + r + 2r k`` at or below ``hi - r`` (as
+    :func:`lattice_block`) in the mesh's bounding box ``[lo, hi]``; a point is kept when its
+    signed distance
+    to the mesh (:mod:`sphkit.core.sdf`, exact at the points) is negative (inside), or positive
+    with ``invert`` (the box around the mesh is filled instead). A block-shaped mesh thus gives
+    the same particles as the fluid block of the same extent.
+
+    Args:
+        mesh: closed mesh, already placed in the scene.
+        r: particle radius [m].
+        dim: 3, or 2 for the section with z = 0 (sampled in the xy-plane).
+        invert: keep the points outside the mesh.
+
+    Returns:
+        ``(M, dim)`` float64 positions.
+    """
+    from sphkit.core.sdf import mesh_sdf_lattice, polygon_sdf_lattice
+
+    r = _check_radius(r)
+    if dim == 3:
+        v = np.asarray(mesh.vertices, dtype=np.float64)
+        lo, hi = v.min(axis=0), v.max(axis=0)
+    elif dim == 2:
+        a, b = section_segments(mesh)
+        if len(a) == 0:
+            return np.empty((0, 2))
+        p = np.concatenate([a, b])
+        lo, hi = p.min(axis=0), p.max(axis=0)
+    else:
+        raise ValueError(f"dim must be 2 or 3, got {dim}")
+    n = np.array([lattice_count(a, b, r) for a, b in zip(lo, hi, strict=True)], dtype=np.int64)
+    if np.any(n == 0):
+        return np.empty((0, dim))
+    if np.prod(n.astype(float)) > 2e8:
+        raise SceneError(f"mesh of extent {(hi - lo).tolist()} m holds more than 2e8 lattice "
+                         f"points of radius {r} m")
+    origin = lo + r
+    spacing = np.full(dim, 2.0 * r)
+    if dim == 3:
+        d = mesh_sdf_lattice(mesh.vertices, mesh.faces, origin, spacing, n)
+    else:
+        d = polygon_sdf_lattice(a, b, origin, spacing, n)
+    keep = d > 0.0 if invert else d < 0.0
+    idx = np.argwhere(keep)
+    return origin[None] + idx * spacing[None]
+
+
+def _sample_section_2d(mesh: trimesh.Trimesh, spacing: float) -> np.ndarray:
+    a, b = section_segments(mesh)
+    if len(a) == 0:
         return np.empty((0, 2))
-    pts = np.asarray(segs, dtype=np.float64)[:, :, :2].reshape(-1, 2)
+    pts = np.stack([a, b], axis=1).reshape(-1, 2)
     scale = max(float(np.ptp(pts, axis=0).max()), 1e-300)
     labels = _merge_points(pts, 1e-9 * scale)
     edges = labels.reshape(-1, 2)

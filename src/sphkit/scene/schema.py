@@ -220,7 +220,9 @@ class Box(_Model):
 
 
 class MeshBoundary(_Model):
-    """A static wall from a triangle mesh (OBJ/PLY/STL), its surface sampled into particles."""
+    """A static wall from a triangle mesh (OBJ/PLY/STL): its surface sampled into particles
+    (akinci2012), or its signed distance turned into a density or volume map (koschier2017,
+    bender2019). In 2D the mesh's section with the plane z = 0 is used."""
 
     geometry_file: str = Field(description="mesh file, relative to the scene file")
     translation: Vec = [0.0, 0.0, 0.0]
@@ -228,12 +230,61 @@ class MeshBoundary(_Model):
     rotation_angle: float = Field(0.0, description="rotation about rotation_axis [rad]")
     scale: Vec = [1.0, 1.0, 1.0]
     invert: bool = Field(False, description="the fluid is inside the mesh (a container)")
+    map_thickness: float = Field(
+        0.0, allow_inf_nan=False,
+        description="maps: the wall surface is moved this far into the fluid [m] "
+        "(SPlisHSPlasH mapThickness)",
+    )
+    map_resolution: list[int] | None = Field(
+        None, description="maps: grid cells per axis (SPlisHSPlasH mapResolution); default "
+        "configuration.boundary.map_resolution",
+    )
+
+    @field_validator("map_resolution")
+    @classmethod
+    def _cells(cls, v: list[int] | None) -> list[int] | None:
+        if v is not None and (len(v) not in (2, 3) or min(v) < 1):
+            raise ValueError(f"map_resolution {v}: expected 2 or 3 positive cell counts")
+        return v
+
+
+class FluidMesh(_Model):
+    """Fluid filling a closed triangle mesh (OBJ/PLY/STL; 2D: its section with z = 0), sampled on
+    the lattice ``bbox_min + r + 2r k`` keeping points with negative signed distance (inside), as
+    SPlisHSPlasH samples its FluidModels."""
+
+    geometry_file: str = Field(description="mesh file, relative to the scene file")
+    translation: Vec = [0.0, 0.0, 0.0]
+    rotation_axis: Vec = [1.0, 0.0, 0.0]
+    rotation_angle: float = Field(0.0, description="rotation about rotation_axis [rad]")
+    scale: Vec = [1.0, 1.0, 1.0]
+    invert: bool = Field(
+        False, description="fill the mesh's bounding box outside the mesh instead of inside"
+    )
+    material: str = "fluid"
+    velocity: Vec | None = Field(None, description="initial velocity [m/s]")
 
 
 class BoundaryConfig(_Model):
-    """Boundary model."""
+    """Boundary model: ``akinci2012`` boundary particles (Akinci et al. 2012), ``koschier2017``
+    density maps (Koschier & Bender 2017) or ``bender2019`` volume maps (Bender et al. 2019)."""
 
-    method: Literal["akinci2012"] = "akinci2012"
+    method: Literal["akinci2012", "koschier2017", "bender2019"] = "akinci2012"
+    map_resolution: list[int] | None = Field(
+        None, description="maps: default grid cells per axis; None: cells of about one support "
+        "radius (at most 8 million grid points)",
+    )
+    map_cache: bool = Field(True, description="maps: keep computed maps in the cache folder")
+    map_cache_dir: str | None = Field(
+        None, description="maps: cache folder (default $SPHKIT_CACHE_DIR or ~/.cache/sphkit)"
+    )
+
+    @field_validator("map_resolution")
+    @classmethod
+    def _cells(cls, v: list[int] | None) -> list[int] | None:
+        if v is not None and (len(v) not in (2, 3) or min(v) < 1):
+            raise ValueError(f"map_resolution {v}: expected 2 or 3 positive cell counts")
+        return v
 
 
 class OutputConfig(_Model):
@@ -305,6 +356,7 @@ class Scene(_Model):
     fluid_files: list[FluidFile] = Field(default_factory=list)
     boxes: list[Box] = Field(default_factory=list)
     meshes: list[MeshBoundary] = Field(default_factory=list)
+    fluid_meshes: list[FluidMesh] = Field(default_factory=list)
     output: OutputConfig = OutputConfig()
     source: str | None = Field(None, description="path of the file the scene was read from")
 
@@ -341,6 +393,15 @@ class Scene(_Model):
             if f.material not in ids:
                 raise ValueError(
                     f"fluid_files[{k}].material {f.material!r} is not one of {sorted(ids)}"
+                )
+        for k, b in enumerate(self.fluid_meshes):
+            if b.material not in ids:
+                raise ValueError(
+                    f"fluid_meshes[{k}].material {b.material!r} is not one of {sorted(ids)}"
+                )
+            if b.velocity is not None and len(b.velocity) != dim:
+                raise ValueError(
+                    f"fluid_meshes[{k}].velocity {b.velocity} must have {dim} components"
                 )
         for k, b in enumerate(self.boxes):
             if len(b.min) != dim:
