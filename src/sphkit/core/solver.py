@@ -79,6 +79,16 @@ class IterationControl:
         return self.max_iterations, avg, mx, False
 
 
+def boundary_mirror(state: SimState) -> np.ndarray:
+    """The boundary field ``pressure_mirror`` (0 where a boundary model does not set it): the
+    share of mirrored boundary pressure added to SPlisHSPlasH's boundary term (see
+    :func:`sphkit.core.ppe.kappa_accel_cached`)."""
+    b = state.boundary
+    if "pressure_mirror" in b.specs and b["pressure_mirror"].shape[0] == b.n:
+        return b["pressure_mirror"]
+    return np.zeros(b.n, dtype=b.dtype)
+
+
 class PairGradients:
     """``V_j grad W_ij`` for every fluid and boundary pair of the current neighbour lists,
     computed once per step and shared by all Jacobi iterations of the step.
@@ -114,7 +124,8 @@ class PairGradients:
         -a_ii rho^2)."""
         st = self.state
         out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
-        diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, self.gw, self.gwb, st.dim, out)
+        diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
+                        boundary_mirror(st), self.gw, self.gwb, st.dim, out)
         return out
 
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
@@ -153,10 +164,12 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     still = np.zeros_like(state.boundary["x"])  # boundary particles take no pressure accel.
 
     k = np.empty_like(q)
+    mirror = boundary_mirror(state)
 
     def sweep(_k: int) -> tuple[float, float]:
         np.multiply(w, q, out=k)
-        kappa_accel_cached(k, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
+        kappa_accel_cached(k, nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
+                           g.gwb, dim, a)
         pair_divergence_cached(a, still, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw,
                                g.gwb, dim, Ap)
         avg, mx = jacobi_update(q, s, Ap, ap_factor, scale, omega, active, one_sided)
@@ -164,5 +177,6 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
 
     its, avg, mx, ok = control.run(sweep, state.step)
     np.multiply(w, q, out=k)
-    kappa_accel_cached(k, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb, dim, a)
+    kappa_accel_cached(k, nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw, g.gwb,
+                       dim, a)
     return a, its, avg, mx, ok

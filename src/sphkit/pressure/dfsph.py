@@ -7,7 +7,9 @@ Bender & Koschier 2015, "Divergence-free smoothed particle hydrodynamics", SCA, 
 Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
 
 1. the factor (Eq. 9, in SPlisHSPlasH's normalized units, V_j = m_j / rho0)
-   ``alpha_i = 1 / (|sum_j V_j grad W_ij + sum_b V_b grad W_ib|^2 + sum_j |V_j grad W_ij|^2)``;
+   ``alpha_i = 1 / ((G_i + B_i) . (G_i + M_i) + sum_j |V_j grad W_ij|^2)`` with
+   ``G_i = sum_j V_j grad W_ij``, ``B_i = sum_b V_b grad W_ib``, ``M_i = sum_b (1 + m_b) V_b grad
+   W_ib`` (the paper's ``|G_i + B_i|^2`` when m_b = 0, see below);
 2. the **divergence-free solver** (Alg. 3) on the current velocities: source
    ``s_i = -max(D rho_hat_i / Dt, 0)`` (0 for particles with fewer than 20 neighbours in 3D, 7 in
    2D, whose residual is also left out of the error), warm start
@@ -19,7 +21,9 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
    1)``, ``s_i = 1 - rho_hat*_i``, warm start ``kappa_i = 0.5 min(kappa_prev, 0.00025) / dt^2``
    where ``rho_hat* > 1``, iterations ``kappa_i <- max(kappa_i - 0.5 (s_i - A kappa_i) alpha_i /
    dt^2, 0)`` until the average compression is at most ``max_error``; the pressure acceleration
-   ``a = -sum_j V_j (kappa_i + kappa_j) grad W_ij - sum_b V_b kappa_i grad W_ib`` is added to the
+   ``a = -sum_j V_j (kappa_i + kappa_j) grad W_ij - sum_b V_b (1 + m_b) kappa_i grad W_ib``
+   (m_b = the boundary's ``pressure_mirror``: 0 as SPlisHSPlasH for surface-sampled boundaries,
+   1, full mirroring, for lattice walls; see :mod:`sphkit.core.ppe`) is added to the
    particle accelerations and the simulation integrates.
 
 ``kappa = p / (rho0 rho_hat^2)`` is stored time-step independent (times dt^2, resp. dt) for the

@@ -8,7 +8,8 @@ Ihmsen, Cornelis, Solenthaler, Horvath, Teschner 2014, "Implicit incompressible 
   ``rho_hat_adv,i = rho_hat_i + dt sum_j V_j v_adv,ij . grad W_ij + dt sum_b V_b (v_adv,i - v_b)
   . grad W_ib`` (Eq. 4 with the Akinci boundary of Sec. 5);
 * the diagonal (Eq. 12) ``a_ii = sum_j V_j (d_ii - d_ji) . grad W_ij + sum_b V_b d_ii . grad W_ib``
-  with ``d_ii = -(1/rho_hat_i^2) (sum_j V_j grad W_ij + sum_b V_b grad W_ib)`` and
+  with ``d_ii = -(1/rho_hat_i^2) (sum_j V_j grad W_ij + sum_b (1 + m_b) V_b grad W_ib)`` (m_b:
+  the boundary's ``pressure_mirror``, see :mod:`sphkit.core.ppe`) and
   ``d_ji = (V_i / rho_hat_i^2) grad W_ij``, i.e. ``a_ii = -D_i / rho_hat_i^2`` with
   :func:`sphkit.core.ppe.diagonal_cached`;
 * warm start ``p_hat_i = 0.5 p_hat_i(t - dt)`` (Sec. 4.3);
@@ -17,8 +18,9 @@ Ihmsen, Cornelis, Solenthaler, Horvath, Teschner 2014, "Implicit incompressible 
   ``s_i = 1 - rho_hat_adv,i``,
   where ``A p_hat`` is the density change that the pressure acceleration
   ``a_i = -sum_j V_j (p_hat_i/rho_hat_i^2 + p_hat_j/rho_hat_j^2) grad W_ij
-  - sum_b V_b p_hat_i/rho_hat_i^2 grad W_ib`` causes in dt (Eq. 10-11, written as the survey's
-  ``(A p)_i = dt^2 sum_j V_j (a_i - a_j) . grad W_ij + dt^2 sum_b V_b a_i . grad W_ib``);
+  - sum_b (1 + m_b) V_b p_hat_i/rho_hat_i^2 grad W_ib`` causes in dt (Eq. 10-11, written as
+  the survey's ``(A p)_i = dt^2 sum_j V_j (a_i - a_j) . grad W_ij
+  + dt^2 sum_b V_b a_i . grad W_ib``);
   iterations stop when the average compression is at most ``max_error``.
 
 The loop is :func:`sphkit.core.solver.jacobi_ppe` with weight ``w = 1 / rho_hat^2``.

@@ -30,7 +30,8 @@ same neighbourhood.)
    iteration counts, errors and pressure slopes within the step-to-step noise;
 4. recomputes the pressure acceleration at the step-start positions (paper Eq. 5 with rho0 in
    the denominators, Akinci boundary as SPlisHSPlasH)
-   ``a_p,i = -sum_j V_j (p~_i + p~_j) grad W_ij - sum_b V_b p~_i grad W_ib``
+   ``a_p,i = -sum_j V_j (p~_i + p~_j) grad W_ij - sum_b V_b (1 + m_b) p~_i grad W_ib`` (m_b: the
+   boundary's ``pressure_mirror``, see :mod:`sphkit.core.ppe`)
    (:func:`sphkit.core.ppe.kappa_accel_cached` of ``k = p~``, from the step's cached
    pair gradients :class:`sphkit.core.solver.PairGradients`).
 
@@ -60,7 +61,7 @@ import numba
 import numpy as np
 
 from sphkit.core.ppe import density_at, kappa_accel_cached, lattice_diagonal
-from sphkit.core.solver import IterationControl, PairGradients, SolverStats
+from sphkit.core.solver import IterationControl, PairGradients, SolverStats, boundary_mirror
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -129,6 +130,7 @@ class PCISPH:
         dx = np.empty_like(x)
         rho_hat = np.empty(n, dtype=f.dtype)
         factor = self.delta / (dt * dt)
+        mirror = boundary_mirror(state)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
 
         def sweep(_k: int) -> tuple[float, float]:
@@ -136,8 +138,8 @@ class PCISPH:
             density_at(x, dx, f["m"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
                        nb.indices, state.rho0, state.h, state.kid, state.dim, rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
-            kappa_accel_cached(p, nl.offsets, nl.indices, nb.offsets, g.gw, g.gwb,
-                               state.dim, ap)
+            kappa_accel_cached(p, nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
+                               g.gwb, state.dim, ap)
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
