@@ -331,9 +331,11 @@ def _sph(mat: dict) -> dict:
 
 def test_loader_maps_methods_numbers_and_defaults() -> None:
     for num, name, block in [(1, "becker2007", "Becker & Teschner 2007"),
-                             (2, "akinci2013", "Akinci et al. 2013"), (3, "he2014", "He et al. 2014")]:
+                             (2, "akinci2013", "Akinci et al. 2013"),
+                             (3, "he2014", "He et al. 2014")]:
         st = from_splishsplash(_sph({"surfaceTensionMethod": num, block: {
-            "surfaceTension": 0.2, "surfaceTensionBoundary": 0.03}})).materials[0].surface_tension
+            "surfaceTension": 0.2, "surfaceTensionBoundary": 0.03}}))
+        st = st.materials[0].surface_tension
         assert (st.method, st.coefficient, st.boundary_coefficient) == (name, 0.2, 0.03)
         d = from_splishsplash(_sph({"surfaceTensionMethod": num})).materials[0].surface_tension
         assert (d.method, d.coefficient, d.boundary_coefficient) == (name, 0.05, 0.01)

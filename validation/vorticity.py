@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     print("| model | " + " | ".join(f"t = {ts[i]:.2f} s" for i in picks)
           + f" | mean over t >= {ts[-1] / 3:.2f} s |")
     print("|---|" + "---|" * (len(picks) + 1))
-    for name, (t, e) in results.items():
+    for name, (_t, e) in results.items():
         print(f"| {name} | " + " | ".join(f"{e[i]:.2f}" for i in picks)
               + f" | {e[late].mean():.2f} |")
     try:

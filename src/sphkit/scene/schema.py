@@ -310,7 +310,8 @@ class Scene(_Model):
         for k, m in enumerate(self.materials):
             va = m.drag.air_velocity
             if va is not None and len(va) != dim:
-                raise ValueError(f"materials[{k}].drag.air_velocity {va} must have {dim} components")
+                raise ValueError(
+                    f"materials[{k}].drag.air_velocity {va} must have {dim} components")
         for k, b in enumerate(self.boxes):
             if len(b.min) != dim:
                 raise ValueError(f"boxes[{k}].min {b.min} must have {dim} components")

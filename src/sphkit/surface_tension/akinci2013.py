@@ -165,7 +165,8 @@ class Akinci2013:
     def init(self, state: SimState) -> None:
         """Register ``normal`` on the fluid and the boundary volumes the adhesion term reads."""
         if state.dim not in (2, 3):
-            raise ValueError(f"surface tension (akinci2013): dimension {state.dim}; expected 2 or 3")
+            raise ValueError(
+                f"surface tension (akinci2013): dimension {state.dim}; expected 2 or 3")
         state.fluid.register("normal", "vector")
         if "V" not in state.boundary:
             state.boundary.register("V")

@@ -18,17 +18,19 @@ particles (psi_b = rho0 V_b), its reaction on the (static) boundary is not appli
 
 Units: ``kappa`` [m^d/s^2] in d dimensions (``kappa m_j W |x|`` is an acceleration), and the
 same for ``kappa_b``. ``kappa`` is not the physical surface tension sigma [N/m]; for a uniform
-fluid of rest density rho0 with a sharp planar surface, the pair force ``f(r) = kappa m^2 r
-W(max(r, 2r_p))`` (attractive) gives the Kirkwood-Buff tension (number density n = rho0/m)
+fluid of particles of mass m at rest density rho0 (number density n = rho0/m) with a sharp
+planar surface, the attractive pair force ``f(r) = kappa m r W(max(r, 2r_p))`` [N] gives the
+Kirkwood-Buff tension (the energy per area of the two surfaces made by cutting the fluid)
 
-    sigma = (pi n^2 / 8) int_0^h f(r) r^3 dr     (3D),     sigma = (n^2 / 3) int_0^h f(r) r^2 dr (2D)
+    sigma = (pi n^2 / 8) int_0^h f r^4 dr  (3D),      sigma = (n^2 / 3) int_0^h f r^3 dr  (2D)
 
 and, because the pairs attract across every plane inside the fluid too, an internal pressure
-``p_int = (2 pi n^2 / 3) int f r^2 dr`` (3D), ``(pi n^2 / 2) int f r dr`` (2D) that the pressure
-solver carries everywhere inside the fluid (flat surfaces included). A drop of radius R at rest
-therefore holds ``p = p_int + sigma/R`` (2D) or ``p_int + 2 sigma/R`` (3D);
-:meth:`BeckerTeschner2007.equivalent_sigma` evaluates both integrals (validation/
-surface_tension.py checks them against simulated drops).
+(minus the virial of the pair forces) ``p_int = (2 pi n^2 / 3) int f r^3 dr`` (3D),
+``(pi n^2 / 2) int f r^2 dr`` (2D), which the pressure solver carries everywhere inside the
+fluid (flat surfaces included). A drop of radius R at rest therefore holds ``p = p_int +
+sigma/R`` (2D) or ``p_int + 2 sigma/R`` (3D) in the continuum limit;
+:meth:`BeckerTeschner2007.equivalent_sigma` evaluates both integrals and validation/
+surface_tension.py compares them with simulated drops.
 
 Defaults (SPlisHSPlasH): kappa = 0.05, kappa_b = 0.01.
 """
@@ -118,7 +120,8 @@ class BeckerTeschner2007:
     def init(self, state: SimState) -> None:
         """Make sure the boundary set has the fields the adhesion term reads."""
         if state.dim not in (2, 3):
-            raise ValueError(f"surface tension (becker2007): dimension {state.dim}; expected 2 or 3")
+            raise ValueError(
+                f"surface tension (becker2007): dimension {state.dim}; expected 2 or 3")
         if "V" not in state.boundary:
             state.boundary.register("V")
 

@@ -137,7 +137,8 @@ class He2014:
     def init(self, state: SimState) -> None:
         """Register ``color`` and ``grad_c2`` on the fluid, ``V`` on the boundary."""
         if state.dim not in (2, 3):
-            raise ValueError(f"surface tension (he2014): dimension {state.dim}; expected 2 or 3")
+            raise ValueError(
+                f"surface tension (he2014): dimension {state.dim}; expected 2 or 3")
         state.fluid.register("color")
         state.fluid.register("grad_c2")
         if "V" not in state.boundary:
