@@ -297,9 +297,8 @@ def test_loader_maps_vorticity_method_1() -> None:
     assert from_splishsplash(_splishsplash_scene(None, 0)).materials[0].vorticity.method == "none"
     with pytest.raises(SceneError, match=r"Bender et al\. 2017\.vorticity: got -1"):
         from_splishsplash(_splishsplash_scene({"vorticity": -1}))
-    with pytest.raises(SceneError, match=r"vorticityMethod: 2 \(vorticity confinement\) is not "
-                                         r"supported yet; supported: 0 \(none\), 1 \(Bender"):
-        from_splishsplash(_splishsplash_scene(None, 2))
+    assert from_splishsplash(_splishsplash_scene(None, 2)).materials[0].vorticity.method == (
+        "confinement")
     with pytest.raises(SceneError, match=r"vorticityMethod: 3 \(Liu et al\. 2021"):
         from_splishsplash(_splishsplash_scene(None, 3))
     with pytest.warns(UserWarning, match=r"Bender et al\. 2017\.omega"):

@@ -9,7 +9,8 @@ One step (DESIGN.md, "Data flow of one time step"):
    solver's own limit (acoustic limit of WCSPH);
 5. the pressure solver's pre-force hook where it has one (DFSPH: factors and the divergence-free
    solve on the current velocities);
-6. accelerations: gravity, then the non-pressure forces (viscosity, vorticity), then the pressure
+6. accelerations: gravity, then the non-pressure forces (viscosity, vorticity, surface tension,
+   drag), then the pressure
    solver, which adds the pressure acceleration (PBF: the acceleration that lands on its
    corrected positions);
 7. symplectic Euler;
@@ -42,15 +43,21 @@ from sphkit.core.timestep import (
     symplectic_euler,
     wrap_periodic,
 )
+from sphkit.drag.gissler2017 import Gissler2017
+from sphkit.drag.macklin2014 import Macklin2014
 from sphkit.pressure.dfsph import DFSPH
 from sphkit.pressure.iisph import IISPH
 from sphkit.pressure.pbf import PBF
 from sphkit.pressure.pcisph import PCISPH
 from sphkit.pressure.wcsph import WCSPH
 from sphkit.scene.schema import PressureConfig, Scene, SceneError
+from sphkit.surface_tension.akinci2013 import Akinci2013
+from sphkit.surface_tension.becker2007 import BeckerTeschner2007
+from sphkit.surface_tension.he2014 import He2014
 from sphkit.viscosity.standard import StandardViscosity
 from sphkit.viscosity.weiler2018 import Weiler2018
 from sphkit.viscosity.xsph import XSPH
+from sphkit.vorticity.confinement import VorticityConfinement
 from sphkit.vorticity.micropolar_bender2017 import MicropolarBender2017
 
 #: pressure solvers by scene name and by SPlisHSPlasH ``simulationMethod`` number
@@ -92,8 +99,16 @@ VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH
 #: (SPlisHSPlasH 2.16+ numbering; XSPH is its separate per-material filter, not a number)
 VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 6: "weiler2018"}
 #: vorticity models by scene name and SPlisHSPlasH ``vorticityMethod`` number
-VORTICITY_MODELS: dict[str, type] = {"micropolar": MicropolarBender2017}
-VORTICITY_MODEL_NUMBERS: dict[int, str] = {1: "micropolar"}
+VORTICITY_MODELS: dict[str, type] = {"micropolar": MicropolarBender2017,
+                                      "confinement": VorticityConfinement}
+VORTICITY_MODEL_NUMBERS: dict[int, str] = {1: "micropolar", 2: "confinement"}
+#: surface tension models by scene name and SPlisHSPlasH ``surfaceTensionMethod`` number
+SURFACE_TENSION_MODELS: dict[str, type] = {"becker2007": BeckerTeschner2007,
+                                            "akinci2013": Akinci2013, "he2014": He2014}
+SURFACE_TENSION_MODEL_NUMBERS: dict[int, str] = {1: "becker2007", 2: "akinci2013", 3: "he2014"}
+#: drag models by scene name and SPlisHSPlasH ``dragMethod`` number
+DRAG_MODELS: dict[str, type] = {"macklin2014": Macklin2014, "gissler2017": Gissler2017}
+DRAG_MODEL_NUMBERS: dict[int, str] = {1: "macklin2014", 2: "gissler2017"}
 
 
 @dataclass
@@ -216,6 +231,15 @@ class Simulation:
         if vort.method == "micropolar":
             self.forces.append(MicropolarBender2017(vort.coefficient, vort.viscosity_omega,
                                                     vort.inertia_inverse))
+        elif vort.method == "confinement":
+            self.forces.append(VorticityConfinement(vort.coefficient))
+        st_cfg = mat.surface_tension
+        if st_cfg.method != "none":
+            self.forces.append(SURFACE_TENSION_MODELS[st_cfg.method](
+                st_cfg.coefficient, st_cfg.boundary_coefficient))
+        if mat.drag.method != "none":
+            self.forces.append(DRAG_MODELS[mat.drag.method](mat.drag.coefficient,
+                                                            mat.drag.air_velocity))
 
         if boundary.n:
             boundary.permute(zorder_permutation(boundary["x"], h))

@@ -60,8 +60,16 @@ objects):
 ``vorticityMethod``         0 (none); 1 micropolar model of Bender et al. 2017 (``"Bender et al.
                             2017": {"vorticity": nu_t, "viscosityOmega": zeta, "inertiaInverse":
                             1/Theta}``, defaults 0.01 m^2/s, 0.1 m^2, 0.5 1/m^2); 2 vorticity
-                            confinement and 3 Liu et al. 2021 are not supported (numbering of
+                            confinement (``"Vorticity confinement": {"vorticity": epsilon}``,
+                            default 0.01 m/s); 3 Liu et al. 2021 is not supported (numbering of
                             ``NonPressureForceRegistration.cpp``)
+``surfaceTensionMethod``    0 (none); 1 Becker & Teschner 2007, 2 Akinci et al. 2013, 3 He et
+                            al. 2014, each with its block ``{"surfaceTension": c,
+                            "surfaceTensionBoundary": c_b}`` (defaults 0.05, 0.01; units in
+                            :mod:`sphkit.surface_tension`); 4 Jeske et al. 2023 and 5 Zorilla,
+                            Ritter et al. 2020 are not supported
+``dragMethod``              0 (none); 1 Macklin et al. 2014, 2 Gissler et al. 2017, with the
+                            block ``{"drag": c}`` (default 0.01)
 ``stopAt``                  -1 (no end); mapped to ``time.until`` when > 0
 ``dataExportFPS``           25; mapped to ``output.fps``
 ``enablePartioExport``,     false; mapped to ``output.formats`` bgeo and vtk (neither set:
@@ -395,6 +403,14 @@ _OTHER_METHODS = {
         4: "Kee et al. 2023",
     },
 }
+# surface tension and drag methods sphkit implements: number -> (scene name, SPlisHSPlasH block)
+_SURFACE_TENSION_SUPPORTED = {
+    1: ("becker2007", "Becker & Teschner 2007"), 2: ("akinci2013", "Akinci et al. 2013"),
+    3: ("he2014", "He et al. 2014"),
+}
+_DRAG_SUPPORTED = {1: ("macklin2014", "Macklin et al. 2014"),
+                   2: ("gissler2017", "Gissler et al. 2017")}
+_SUPPORTED_OTHER_METHODS = {"surfaceTensionMethod", "dragMethod"}
 _KERNELS_3D = {0: "cubic", 1: "wendland", 2: "poly6", 3: "spiky", 4: "cubic"}
 _KERNELS_2D = {0: "cubic", 1: "wendland", 2: "cubic", 3: "cubic", 4: "cubic"}
 _DENSE_MODES = {1: "more dense (hexagonal layers)", 2: "dense (hexagonal close packing)"}
@@ -806,12 +822,15 @@ class _Translator:
                 "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",
                 "dragMethod", "elasticityMethod", "Standard viscosity", "XSPH", "viscosity",
                 "viscosityBoundary", "xsph", "xsphBoundary", "vorticity", "viscosityOmega",
-                "inertiaInverse", "viscoMaxIter", "viscoMaxError",
+                "inertiaInverse", "viscoMaxIter", "viscoMaxError", "surfaceTension",
+                "surfaceTensionBoundary", "drag",
             }
             self.collect_unknown(m, w, known, _MATERIAL_QUIET | _MATERIAL_NAMESPACES)
             mid = self.text(m, "id", w, "Fluid")
             density0 = self.num(m, "density0", w, 1000.0, positive=True)
             for key, names in _OTHER_METHODS.items():
+                if key in _SUPPORTED_OTHER_METHODS:  # read by surface_tension() and drag()
+                    continue
                 v = self.integer(m, key, w, 0)
                 if v != 0:
                     raise self.unsupported(
@@ -869,7 +888,8 @@ class _Translator:
             self.origin[f"materials[{k}]"] = w
             self.origin[f"materials[{k}].density0"] = f"{w}.density0"
             out.append({"id": mid, "density0": density0, "viscosity": viscosity,
-                        "vorticity": vorticity})
+                        "vorticity": vorticity, "surface_tension": self.surface_tension(m, w, k),
+                        "drag": self.drag(m, w, k)})
         self.origin["materials"] = "Materials"
         return out
 
@@ -907,11 +927,17 @@ class _Translator:
         vm = self.integer(m, "vorticityMethod", w, 0)
         if vm == 0:
             return {"method": "none"}
+        if vm == 2:
+            eps = self._namespaced(m, w, "Vorticity confinement", {"vorticity": 0.01})
+            self._origin_of_block(m, w, k, "vorticity", "Vorticity confinement",
+                                  {"coefficient": "vorticity"})
+            return {"method": "confinement", "coefficient": eps["vorticity"]}
         if vm != 1:
             raise self.unsupported(
                 f"{w}.vorticityMethod",
                 f"{vm} ({_VORTICITY_METHODS.get(vm, 'unknown method')}) is not supported yet; "
-                "supported: 0 (none), 1 (Bender et al. 2017 micropolar model)",
+                "supported: 0 (none), 1 (Bender et al. 2017 micropolar model), 2 (vorticity "
+                "confinement)",
             )
         ns_key = "Bender et al. 2017"
         nsw = f"{w}.{ns_key}"
@@ -929,6 +955,64 @@ class _Translator:
         return {"method": "micropolar", "coefficient": values["vorticity"],
                 "viscosity_omega": values["viscosityOmega"],
                 "inertia_inverse": values["inertiaInverse"]}
+
+    def _namespaced(self, m: Mapping[str, Any], w: str, ns_key: str,
+                    keys: dict[str, float]) -> dict[str, float]:
+        """Non-negative numbers ``keys`` (name -> SPlisHSPlasH default) of a method, read from its
+        namespace block ``ns_key`` or, for scenes before 2.16, flat from the material."""
+        nsw = f"{w}.{ns_key}"
+        ns = self.obj(m, ns_key, nsw)
+        self.collect_unknown(ns, nsw, set(keys), set())
+        values = {}
+        for key, default in keys.items():
+            val = self.num(m, key, w, default, nonneg=True)
+            values[key] = self.num(ns, key, nsw, val, nonneg=True)
+        return values
+
+    def _origin_of_block(self, m: Mapping[str, Any], w: str, k: int, model: str, ns_key: str,
+                         fields: dict[str, str]) -> None:
+        src = f"{w}.{ns_key}" if m.get(ns_key) else w
+        for ours, theirs in fields.items():
+            self.origin[f"materials[{k}].{model}.{ours}"] = f"{src}.{theirs}"
+
+    def surface_tension(self, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
+        """The material's surface tension model (``surfaceTensionMethod`` 1-3 with the
+        ``surfaceTension``/``surfaceTensionBoundary`` numbers of the method's block)."""
+        sm = self.integer(m, "surfaceTensionMethod", w, 0)
+        if sm == 0:
+            return {"method": "none"}
+        if sm not in _SURFACE_TENSION_SUPPORTED:
+            names = _OTHER_METHODS["surfaceTensionMethod"]
+            raise self.unsupported(
+                f"{w}.surfaceTensionMethod",
+                f"{sm} ({names.get(sm, 'unknown method')}) is not supported yet; supported: 0 "
+                "(none), 1 (Becker & Teschner 2007), 2 (Akinci et al. 2013), 3 (He et al. 2014)",
+            )
+        method, ns_key = _SURFACE_TENSION_SUPPORTED[sm]
+        v = self._namespaced(m, w, ns_key, {"surfaceTension": 0.05,
+                                            "surfaceTensionBoundary": 0.01})
+        self._origin_of_block(m, w, k, "surface_tension", ns_key,
+                              {"coefficient": "surfaceTension",
+                               "boundary_coefficient": "surfaceTensionBoundary"})
+        return {"method": method, "coefficient": v["surfaceTension"],
+                "boundary_coefficient": v["surfaceTensionBoundary"]}
+
+    def drag(self, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
+        """The material's drag model (``dragMethod`` 1-2 with the ``drag`` number of the
+        method's block)."""
+        dm = self.integer(m, "dragMethod", w, 0)
+        if dm == 0:
+            return {"method": "none"}
+        if dm not in _DRAG_SUPPORTED:
+            raise self.unsupported(
+                f"{w}.dragMethod",
+                f"{dm} (unknown method) is not supported; supported: 0 (none), 1 (Macklin et al. "
+                "2014), 2 (Gissler et al. 2017)",
+            )
+        method, ns_key = _DRAG_SUPPORTED[dm]
+        v = self._namespaced(m, w, ns_key, {"drag": 0.01})
+        self._origin_of_block(m, w, k, "drag", ns_key, {"coefficient": "drag"})
+        return {"method": method, "coefficient": v["drag"]}
 
     def fluid_blocks(self, dim: int, r: float) -> list[dict[str, Any]]:
         out = []

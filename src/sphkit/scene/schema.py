@@ -122,13 +122,16 @@ class ViscosityConfig(_Model):
 
 class VorticityConfig(_Model):
     """Vorticity model: ``micropolar`` is Bender et al. 2017 (SPlisHSPlasH's vorticityMethod 1,
-    :mod:`sphkit.vorticity.micropolar_bender2017`); defaults are SPlisHSPlasH's."""
+    :mod:`sphkit.vorticity.micropolar_bender2017`), ``confinement`` is vorticity confinement
+    (Macklin & Mueller 2013, vorticityMethod 2, :mod:`sphkit.vorticity.confinement`); defaults
+    are SPlisHSPlasH's."""
 
-    method: Literal["none", "micropolar"] = "none"
+    method: Literal["none", "micropolar", "confinement"] = "none"
     coefficient: float = Field(
         0.01, ge=0, allow_inf_nan=False,
         description="micropolar: vortex viscosity (transfer coefficient) nu_t [m^2/s], a kinematic "
-        "viscosity: a += nu_t curl(omega), domega/dt += nu_t/Theta (curl(v) - 2 omega)",
+        "viscosity: a += nu_t curl(omega), domega/dt += nu_t/Theta (curl(v) - 2 omega); "
+        "confinement: epsilon [m/s] of a += epsilon N x omega",
     )
     viscosity_omega: float = Field(
         0.1, ge=0, allow_inf_nan=False,
@@ -142,6 +145,44 @@ class VorticityConfig(_Model):
     )
 
 
+class SurfaceTensionConfig(_Model):
+    """Surface tension and adhesion: ``becker2007`` (Becker & Teschner 2007, SPlisHSPlasH
+    surfaceTensionMethod 1), ``akinci2013`` (Akinci et al. 2013, 2), ``he2014`` (He et al. 2014,
+    3); see :mod:`sphkit.surface_tension`. The coefficients are the models' own, not the physical
+    surface tension sigma [N/m] (validation/surface_tension.py measures what they give);
+    defaults are SPlisHSPlasH's."""
+
+    method: Literal["none", "becker2007", "akinci2013", "he2014"] = "none"
+    coefficient: float = Field(
+        0.05, ge=0, le=1e6, allow_inf_nan=False,
+        description="becker2007: cohesion kappa [m^d/s^2]; akinci2013: gamma (cohesion "
+        "m^4/(kg s^2), curvature m/s^2: one number for both, as in the paper); he2014: surface "
+        "energy kappa [N in 3D, J in 2D] (SPlisHSPlasH surfaceTension, default 0.05)",
+    )
+    boundary_coefficient: float = Field(
+        0.01, ge=0, le=1e6, allow_inf_nan=False,
+        description="fluid-boundary term, same units as coefficient: becker2007 and he2014 "
+        "adhesion kappa_b, akinci2013 adhesion beta (SPlisHSPlasH surfaceTensionBoundary, "
+        "default 0.01)",
+    )
+
+
+class DragConfig(_Model):
+    """Air drag on surface particles: ``macklin2014`` (Macklin et al. 2014, SPlisHSPlasH
+    dragMethod 1) or ``gissler2017`` (Gissler et al. 2017, dragMethod 2); see
+    :mod:`sphkit.drag`."""
+
+    method: Literal["none", "macklin2014", "gissler2017"] = "none"
+    coefficient: float = Field(
+        0.01, ge=0, le=1e6, allow_inf_nan=False,
+        description="macklin2014: k [kg/s] of a = -(k/m)(v - v_air) max(0, 1 - rho/rho0); "
+        "gissler2017: dimensionless scale of the droplet drag (SPlisHSPlasH drag, default 0.01)",
+    )
+    air_velocity: Vec | None = Field(
+        None, description="velocity of the surrounding air [m/s] (default: at rest)"
+    )
+
+
 class Material(_Model):
     """A fluid material."""
 
@@ -149,6 +190,8 @@ class Material(_Model):
     density0: float = Field(1000.0, gt=0, description="rest density [kg/m^3]")
     viscosity: ViscosityConfig = ViscosityConfig()
     vorticity: VorticityConfig = VorticityConfig()
+    surface_tension: SurfaceTensionConfig = SurfaceTensionConfig()
+    drag: DragConfig = DragConfig()
 
 
 class FluidBlock(_Model):
@@ -403,6 +446,11 @@ class Scene(_Model):
                 raise ValueError(
                     f"fluid_meshes[{k}].velocity {b.velocity} must have {dim} components"
                 )
+        for k, m in enumerate(self.materials):
+            va = m.drag.air_velocity
+            if va is not None and len(va) != dim:
+                raise ValueError(
+                    f"materials[{k}].drag.air_velocity {va} must have {dim} components")
         for k, b in enumerate(self.boxes):
             if len(b.min) != dim:
                 raise ValueError(f"boxes[{k}].min {b.min} must have {dim} components")
