@@ -12,6 +12,12 @@ Methods never import each other, so what two of them share lives here:
   ``(A x)_i = d_i x_i - sum_j m_j W_ij x_j`` with ``d_i = sum_j m_j W_ij + rho0 sum_b V_b W_ib``
   (the density without the self term; the boundary term optional), and the right-hand side
   ``b_i = sum_j m_j (T_i + T_j)/2 x_ij W_ij`` of target gradients T;
+* :func:`decompose_target` -- Peer et al.'s target gradient: ``grad v = R + V + S`` (spin,
+  expansion ``V = (div v / dim) I``, shear) and ``T = R + V + xi S``, with V left out where a
+  particle is below rest density and not expanding (SPlisHSPlasH's rule);
+* :func:`target_gradients`, :func:`kernel_sum_solve`, :func:`reconstruct_velocity` -- the
+  drivers of Peer et al.'s steps: gradients and targets, the Jacobi-preconditioned CG solves of the
+  kernel-sum system per component (:func:`sphkit.core.krylov.cg`), the velocity reconstruction;
 * :func:`wall_friction` -- SPlisHSPlasH's XSPH-type wall friction of the strain-rate models,
   ``a_i -= (c / dt) sum_b (rho0 V_b / rho_i) (v_i - v_b) W_ib``;
 * :func:`add_velocity_change` -- ``a += (v_new - v) / dt`` (an implicit model's result as an
@@ -25,8 +31,11 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.krylov import JacobiPreconditioner, KrylovStats, cg
+from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -132,6 +141,30 @@ def target_gradient_rhs(x, m, off, idx, T, h, kid, dim, L, out):
 
 
 @numba.njit(parallel=True, **_JIT)
+def decompose_target(G, rho, rho0, xi, dim, spin, T):
+    """``T_i = [R_i] + V_i + xi S_i`` from velocity gradients G (dim * dim, N) (row-major, see
+    :func:`velocity_gradient`); R_i is included if ``spin``; V_i is left out where
+    ``rho_i < rho0`` and ``div v_i <= 0``."""
+    for i in numba.prange(G.shape[1]):
+        div = 0.0
+        for a in range(dim):
+            div += G[a * dim + a, i]
+        keep_v = rho[i] >= rho0 or div > 0.0
+        ev = div / dim
+        for a in range(dim):
+            for b in range(dim):
+                gab = G[a * dim + b, i]
+                gba = G[b * dim + a, i]
+                vab = ev if a == b else 0.0
+                t = xi * (0.5 * (gab + gba) - vab)
+                if keep_v:
+                    t += vab
+                if spin:
+                    t += 0.5 * (gab - gba)
+                T[a * dim + b, i] = t
+
+
+@numba.njit(parallel=True, **_JIT)
 def wall_friction(x, v, rho, bx, bv, bV, boff, bidx, c, rho0, h, kid, dim, L, inv_dt, a):
     """``a_i -= (c / dt) sum_b (rho0 V_b / rho_i) (v_i - v_b) W_ib`` (Akinci 2012 particles)."""
     for i in numba.prange(x.shape[1]):
@@ -170,3 +203,62 @@ def add_velocity_change(v, vnew, inv_dt, a, dv, keep):
             a[d, i] += t * inv_dt
             if keep:
                 dv[d, i] = t
+
+
+# ---------------------------------------------------------------------------------------------
+# drivers of the Peer et al. velocity reconstruction
+
+
+def kernel_sum_solve(state: SimState, diag: np.ndarray, rhs: np.ndarray, guess: np.ndarray,
+                     tol: float, max_iter: int, name: str) -> tuple[np.ndarray, KrylovStats]:
+    """Solve ``d_i u_i - sum_j m_j W_ij u_j = rhs`` per row of rhs (k, N) by Jacobi-preconditioned
+    CG from ``guess`` (k, N); a row whose solve takes no iteration keeps its guess. Returns the
+    solution (k, N) and the stats (iterations summed, the largest residual)."""
+    f = state.fluid
+    x, m, nl = f["x"], f["m"], state.nl_ff
+
+    def matvec(u: np.ndarray, out: np.ndarray) -> None:
+        kernel_sum_matvec(x, m, nl.offsets, nl.indices, diag, state.h, state.kid, state.dim,
+                          state.period, u, out)
+
+    pre = JacobiPreconditioner(diag)
+    out = np.empty(rhs.shape)
+    its, res, ok = 0, 0.0, True
+    for c in range(rhs.shape[0]):
+        g = np.ascontiguousarray(guess[c], dtype=np.float64)
+        sol, st = cg(matvec, rhs[c], g, precond=pre, tol=tol, max_iter=max_iter,
+                     name=f"{name} (component {c})", step=state.step)
+        out[c] = g if st.iterations == 0 else sol
+        its += st.iterations
+        res = max(res, st.residual)
+        ok = ok and st.converged
+    return out, KrylovStats(its, res, ok)
+
+
+def target_gradients(state: SimState, xi: float, spin: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity gradients G and targets T (both (dim * dim, N), row-major)."""
+    f = state.fluid
+    n, dim = f.n, state.dim
+    G = np.empty((dim * dim, n))
+    velocity_gradient(f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets, state.nl_ff.indices,
+                      state.h, state.kid, dim, state.period, True, G)
+    T = np.empty_like(G)
+    decompose_target(G, f["rho"], state.rho0, xi, dim, spin, T)
+    return G, T
+
+
+def reconstruct_velocity(state: SimState, T: np.ndarray, tol: float, max_iter: int,
+                         name: str) -> tuple[np.ndarray, KrylovStats]:
+    """The velocities whose Taylor expansion matches the target gradients T, warm-started with
+    the current velocities."""
+    f, b = state.fluid, state.boundary
+    n, dim = f.n, state.dim
+    x, m = f["x"], f["m"]
+    nl, nb = state.nl_ff, state.nl_fb
+    diag = np.empty(n)
+    kernel_sum_diagonal(x, m, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
+                        state.rho0, True, state.h, state.kid, dim, state.period, diag)
+    rhs = np.empty((dim, n))
+    target_gradient_rhs(x, m, nl.offsets, nl.indices, T, state.h, state.kid, dim, state.period,
+                        rhs)
+    return kernel_sum_solve(state, diag, rhs, f["v"], tol, max_iter, name)
