@@ -53,7 +53,9 @@ Notes on the implementation as shipped by SPlisHSPlasH, kept here so that its sc
   converges for omega <= 0.25 and diverges from 0.3 on in 3D (in 2D from about 0.5 on). With
   SPlisHSPlasH's omega = m that is every particle heavier than about 0.25 kg (r above about
   0.034 m at rho0 = 1000 kg/m^3). sphkit therefore bounds the relaxation, ``omega = min(m_i, 0.2)``
-  (:attr:`Bender2017.MAX_RELAXATION`): identical to SPlisHSPlasH up to 0.2 kg, stable beyond.
+  (:attr:`Bender2017.MAX_RELAXATION`): the same as SPlisHSPlasH's for particles up to 0.2 kg,
+  stable beyond. (At equal particle radius sphkit's lattice masses are 1/0.8 of SPlisHSPlasH's,
+  see the README, so its relaxation is 25 % larger there.)
 * 2D: SPlisHSPlasH evaluates its 6x6 form with z = 0, where K_i is singular (its zz row is zero),
   K_i^-1 is set to zero and the viscosity does nothing; sphkit uses the three in-plane components
   (xx, yy, xy), the exact reduction of the 3D constraint to a plane flow, with the same
