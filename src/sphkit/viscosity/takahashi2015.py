@@ -28,8 +28,9 @@ Differences from SPlisHSPlasH, each documented:
   system, warm-started with the previous step's change (field ``takahashi_dv``, as the Weiler 2018
   solver does). The tolerance ``max_error`` (``viscoMaxError``, default 0.01) therefore bounds the
   residual relative to the viscous change ``dt |a(v*)|``. SPlisHSPlasH starts from zero with the
-  right-hand side ``v*``, so its tolerance is relative to ``|v*|`` and lets errors of up to 1 % of
-  the velocity itself through, which also breaks Galilean invariance by that much.
+  right-hand side ``v*``, so its tolerance is relative to ``|v*|``: it lets errors of up to 1 % of
+  the velocity itself through, and how accurate the viscous change is depends on the frame of
+  reference (adding a uniform velocity loosens the test).
 * Preconditioner: the dim x dim block-Jacobi preconditioner of the system's diagonal blocks
   (SPlisHSPlasH uses none). Differentiating ``a_i`` by ``v_i`` through ``sigma_i`` and through the
   neighbours' ``sigma_j`` gives (``g = grad W_ij``, ``V_i = m_i / rho_i``)
