@@ -448,8 +448,8 @@ def test_benchmark_scenes_share_their_settings() -> None:
         ({"Materials": {"vorticityMethod": 3}},
          r"Materials\[0\]\.vorticityMethod: 3 \(Liu et al\. 2021 vorticity refinement\) is not "
          r"supported yet"),
-        ({"Materials": {"viscosityMethod": 2}},
-         r"Materials\[0\]\.viscosityMethod: 2 \(Bender and Koschier 2017\)"),
+        ({"Materials": {"viscosityMethod": 7}},
+         r"Materials\[0\]\.viscosityMethod: 7 \(unknown method\) is not supported yet"),
         ({"Materials": {"surfaceTensionMethod": 4}}, r"4 \(Jeske et al\. 2023\)"),
         ({"Materials": {"XSPH": {"xsph": 0.1}}}, r"Materials\[0\]\.XSPH: xsph 0\.1 together"),
         ({"RigidBodies": {"isDynamic": True}}, r"RigidBodies\[0\]\.isDynamic.*dynamic rigid"),

@@ -72,6 +72,12 @@ def analytic(y: np.ndarray, t: float, terms: int = 200) -> np.ndarray:
     return u
 
 
+#: the methods compared, with their wall viscosity (takahashi2015 has none: SPlisHSPlasH's fixed
+#: XSPH-type wall friction 0.1 acts instead)
+METHODS = ("standard", "weiler2018", "takahashi2015")
+WALL_VISCOSITY = {"standard": NU, "weiler2018": NU, "takahashi2015": 0.0}
+
+
 def _scene(method: str, r: float, lx: float, dt: float, c: float) -> Scene:
     return Scene.model_validate({
         "name": f"poiseuille-{method}",
@@ -83,7 +89,8 @@ def _scene(method: str, r: float, lx: float, dt: float, c: float) -> Scene:
         },
         "materials": [{"density0": RHO0,
                        "viscosity": {"method": method, "coefficient": NU,
-                                     "boundary_coefficient": NU, "max_error": 1e-4}}],
+                                     "boundary_coefficient": WALL_VISCOSITY[method],
+                                     "max_error": 1e-4}}],
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [lx, WIDTH]}],
         "boxes": [{"min": [0.0, 0.0], "max": [lx, WIDTH], "layers": 3}],
     })
@@ -160,7 +167,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, default=20, help="particles across the channel")
     ap.add_argument("--quick", action="store_true", help="10 particles across")
+    ap.add_argument("--methods", default=",".join(METHODS),
+                    help=f"comma-separated viscosity methods (default {','.join(METHODS)})")
     args = ap.parse_args(argv)
+    methods = [m for m in args.methods.split(",") if m]
     n = 10 if args.quick else args.n
     print(f"Poiseuille flow, {n} rows across, u_max {U_MAX:.3g} m/s, "
           f"settling time t_s {SETTLING:.3f} s; error = max |u - u_exact| / u_max")
@@ -170,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     results = {}
     cases = [("hex", "akinci"), ("hex", "lattice"), ("square", "akinci")]
     for lattice, walls in cases:
-        for method in ("standard", "weiler2018"):
+        for method in methods:
             t0 = time.perf_counter()
             sim = (hex_channel(method, n, walls=walls) if lattice == "hex"
                    else square_channel(method, n))
@@ -196,7 +206,10 @@ def main(argv: list[str] | None = None) -> int:
         ax.plot(analytic(yy, frac * SETTLING) * 1e6, yy * 1e3, "k-", lw=0.8)
         for key, mk in ((("hex", "akinci", "standard"), "o"), (("hex", "akinci", "weiler2018"),
                                                                  "x"),
-                        (("hex", "lattice", "weiler2018"), "+")):
+                        (("hex", "lattice", "weiler2018"), "+"),
+                        (("hex", "lattice", "takahashi2015"), "^")):
+            if key not in results:
+                continue
             _e, y, u = results[key][frac]
             ax.plot(u * 1e6, y * 1e3, mk, ms=3, label=" ".join(key) if frac == STEADY else None)
     ax.set_xlabel("u [um/s]")

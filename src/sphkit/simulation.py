@@ -54,7 +54,11 @@ from sphkit.scene.schema import PressureConfig, Scene, SceneError
 from sphkit.surface_tension.akinci2013 import Akinci2013
 from sphkit.surface_tension.becker2007 import BeckerTeschner2007
 from sphkit.surface_tension.he2014 import He2014
+from sphkit.viscosity.bender2017 import Bender2017
+from sphkit.viscosity.peer2015 import Peer2015
+from sphkit.viscosity.peer2016 import Peer2016
 from sphkit.viscosity.standard import StandardViscosity
+from sphkit.viscosity.takahashi2015 import Takahashi2015
 from sphkit.viscosity.weiler2018 import Weiler2018
 from sphkit.viscosity.xsph import XSPH
 from sphkit.vorticity.confinement import VorticityConfinement
@@ -95,9 +99,12 @@ BOUNDARY_MODELS: dict[str, type] = {"akinci2012": Akinci2012, "koschier2017": Ko
 BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012", 1: "koschier2017", 2: "bender2019"}
 #: viscosity models by scene name and SPlisHSPlasH ``viscosityMethod`` number
 VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH,
-                                     "weiler2018": Weiler2018}
+                                     "weiler2018": Weiler2018, "bender2017": Bender2017,
+                                     "peer2015": Peer2015, "peer2016": Peer2016,
+                                     "takahashi2015": Takahashi2015}
 #: (SPlisHSPlasH 2.16+ numbering; XSPH is its separate per-material filter, not a number)
-VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 6: "weiler2018"}
+VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 2: "bender2017", 3: "peer2015",
+                                           4: "peer2016", 5: "takahashi2015", 6: "weiler2018"}
 #: vorticity models by scene name and SPlisHSPlasH ``vorticityMethod`` number
 VORTICITY_MODELS: dict[str, type] = {"micropolar": MicropolarBender2017,
                                       "confinement": VorticityConfinement}
@@ -126,8 +133,10 @@ class StepStats:
     iterations: int = 1  #: pressure-solver iterations (1 for WCSPH)
     divergence_iterations: int = 0  #: DFSPH's divergence-solver iterations
     divergence_error: float = 0.0  #: DFSPH's average divergence error (fraction of rho0)
-    viscosity_iterations: int = 0  #: implicit viscosity solver's CG iterations
-    viscosity_residual: float = 0.0  #: its final relative residual |b - A v| / |b|
+    viscosity_iterations: int = 0  #: implicit viscosity solver's iterations (CG or Jacobi)
+    #: its final residual: relative |b - A v| / |b| of the CG solves; bender2017: the average
+    #: strain-rate error [1/s]
+    viscosity_residual: float = 0.0
 
     def as_dict(self) -> dict:
         """Plain-dict form (for manifests and logs)."""
@@ -136,7 +145,8 @@ class StepStats:
 
 #: methods whose pair loops take minimum-image distances (configuration.periodic_x)
 PERIODIC_METHODS = {"pressure": {"wcsph", "dfsph"},
-                    "viscosity": {"none", "standard", "weiler2018"}, "vorticity": {"none"}}
+                    "viscosity": {"none", "standard", "weiler2018", "bender2017", "peer2015",
+                                  "peer2016", "takahashi2015"}, "vorticity": {"none"}}
 
 
 def _check_periodic(scene: Scene, mat) -> None:
@@ -226,7 +236,18 @@ class Simulation:
             self.forces.append(XSPH(vis.coefficient, vis.boundary_coefficient))
         elif vis.method == "weiler2018":
             self.forces.append(Weiler2018(vis.coefficient, vis.boundary_coefficient,
-                                          vis.max_iterations, vis.max_error))
+                                          vis.max_iterations or 100, vis.max_error))
+        elif vis.method == "takahashi2015":
+            self.forces.append(Takahashi2015(vis.coefficient, vis.max_iterations or 100,
+                                             vis.max_error))
+        elif vis.method == "bender2017":
+            self.forces.append(Bender2017(vis.coefficient, vis.max_iterations or 50,
+                                          vis.max_error))
+        elif vis.method == "peer2015":
+            self.forces.append(Peer2015(vis.coefficient, vis.max_iterations or 50, vis.max_error))
+        elif vis.method == "peer2016":
+            self.forces.append(Peer2016(vis.coefficient, vis.max_iterations or 50, vis.max_error,
+                                        vis.max_iterations_omega or 50, vis.max_error_omega))
         vort = mat.vorticity
         if vort.method == "micropolar":
             self.forces.append(MicropolarBender2017(vort.coefficient, vort.viscosity_omega,

@@ -51,10 +51,16 @@ objects):
 ``density0``                1000 kg/m^3
 ``viscosityMethod``         0 (none); 1 Standard (``"Standard viscosity": {"viscosity": nu,
                             "viscosityBoundary": nu_b}``, nu default 0.01 m^2/s, kinematic),
-                            2 Bender and Koschier 2017, 3 Peer et al. 2015, 4 Peer et al. 2016,
-                            5 Takahashi et al. 2015, 6 Weiler et al. 2018 (``"Weiler et al.
-                            2018": {"viscosity", "viscosityBoundary", "viscoMaxIter" 100,
-                            "viscoMaxError" 0.01}``, supported) (numbering of 2.16+;
+                            the implicit models, each with its block of ``"viscosity"``,
+                            ``"viscoMaxIter"``, ``"viscoMaxError"`` (default 0.01):
+                            2 Bender and Koschier 2017 (``"Bender and Koschier 2017"``,
+                            viscosity a factor in [0, 1], default 0.01, viscoMaxIter 50),
+                            3 Peer et al. 2015 (``"Peer et al. 2015"``, factor, 50),
+                            4 Peer et al. 2016 (``"Peer et al. 2016"``, factor, 50, also
+                            ``"viscoMaxIterOmega"`` 50, ``"viscoMaxErrorOmega"`` 0.01),
+                            5 Takahashi et al. 2015 (``"Takahashi et al. 2015 (improved)"``,
+                            kinematic, 100), 6 Weiler et al. 2018 (``"Weiler et al. 2018"``,
+                            kinematic, 100, also ``"viscosityBoundary"`` 0) (numbering of 2.16+;
                             the XSPH filter is no longer a viscosity method but the per-material
                             block ``"XSPH": {"xsph": c, "xsphBoundary": c_b}``, default 0)
 ``vorticityMethod``         0 (none); 1 micropolar model of Bender et al. 2017 (``"Bender et al.
@@ -386,8 +392,18 @@ _VISCOSITY_METHODS = {
     0: "none", 1: "Standard", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
     4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)", 6: "Weiler et al. 2018",
 }
-# implicit viscosity models sphkit supports: number -> (scene method, SPlisHSPlasH namespace)
-_IMPLICIT_VISCOSITY = {6: ("weiler2018", "Weiler et al. 2018")}
+# implicit viscosity models sphkit supports: number -> (scene method, SPlisHSPlasH namespace,
+# viscoMaxIter default); their viscoMaxError default is 0.01 (read back from pysplishsplash 2.19)
+_IMPLICIT_VISCOSITY = {
+    2: ("bender2017", "Bender and Koschier 2017", 50),
+    3: ("peer2015", "Peer et al. 2015", 50),
+    4: ("peer2016", "Peer et al. 2016", 50),
+    5: ("takahashi2015", "Takahashi et al. 2015 (improved)", 100),
+    6: ("weiler2018", "Weiler et al. 2018", 100),
+}
+# models whose "viscosity" is a dimensionless factor in [0, 1]; models with a viscosityBoundary
+_FACTOR_VISCOSITY = {2, 3, 4}
+_BOUNDARY_VISCOSITY = {6}
 _VORTICITY_METHODS = {
     0: "none", 1: "Bender et al. 2017 micropolar model", 2: "vorticity confinement",
     3: "Liu et al. 2021 vorticity refinement",
@@ -822,8 +838,8 @@ class _Translator:
                 "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",
                 "dragMethod", "elasticityMethod", "Standard viscosity", "XSPH", "viscosity",
                 "viscosityBoundary", "xsph", "xsphBoundary", "vorticity", "viscosityOmega",
-                "inertiaInverse", "viscoMaxIter", "viscoMaxError", "surfaceTension",
-                "surfaceTensionBoundary", "drag",
+                "inertiaInverse", "viscoMaxIter", "viscoMaxError", "viscoMaxIterOmega",
+                "viscoMaxErrorOmega", "surfaceTension", "surfaceTensionBoundary", "drag",
             }
             self.collect_unknown(m, w, known, _MATERIAL_QUIET | _MATERIAL_NAMESPACES)
             mid = self.text(m, "id", w, "Fluid")
@@ -895,31 +911,55 @@ class _Translator:
 
     def implicit_viscosity(self, m: Mapping[str, Any], w: str, k: int,
                            vm: int) -> dict[str, Any]:
-        """An implicit viscosity model's block (``viscosity``, ``viscosityBoundary``,
-        ``viscoMaxIter``, ``viscoMaxError``; flat keys of scenes before 2.16 are read too)."""
-        method, ns_key = _IMPLICIT_VISCOSITY[vm]
+        """An implicit viscosity model's block (``viscosity``, ``viscoMaxIter``,
+        ``viscoMaxError``; Weiler et al. 2018 also ``viscosityBoundary``, Peer et al. 2016 also
+        ``viscoMaxIterOmega``, ``viscoMaxErrorOmega``; flat keys of scenes before 2.16 are read
+        too)."""
+        method, ns_key, max_iter = _IMPLICIT_VISCOSITY[vm]
         nsw = f"{w}.{ns_key}"
         ns = self.obj(m, ns_key, nsw)
-        self.collect_unknown(ns, nsw, {"viscosity", "viscosityBoundary", "viscoMaxIter",
-                                       "viscoMaxError"}, set())
+        keys = {"viscosity", "viscoMaxIter", "viscoMaxError"}
+        if vm in _BOUNDARY_VISCOSITY:
+            keys.add("viscosityBoundary")
+        if vm == 4:
+            keys |= {"viscoMaxIterOmega", "viscoMaxErrorOmega"}
+        self.collect_unknown(ns, nsw, keys, set())
+        src = nsw if ns else w
         nu = self.num(ns, "viscosity", nsw, self.num(m, "viscosity", w, 0.01, nonneg=True),
                       nonneg=True)
-        nub = self.num(ns, "viscosityBoundary", nsw,
-                       self.num(m, "viscosityBoundary", w, 0.0, nonneg=True), nonneg=True)
-        its = self.integer(ns, "viscoMaxIter", nsw, self.integer(m, "viscoMaxIter", w, 100))
-        if its < 1:
-            raise self.error(f"{nsw}.viscoMaxIter", its, "an integer >= 1")
-        err = self.num(ns, "viscoMaxError", nsw,
-                       self.num(m, "viscoMaxError", w, 0.01, positive=True), positive=True)
-        if not err < 1:
-            raise self.error(f"{nsw}.viscoMaxError", err, "a relative residual in (0, 1)")
-        src = nsw if ns else w
-        for ours, theirs in (("coefficient", "viscosity"),
-                             ("boundary_coefficient", "viscosityBoundary"),
-                             ("max_iterations", "viscoMaxIter"), ("max_error", "viscoMaxError")):
+        if vm in _FACTOR_VISCOSITY and not nu <= 1.0:
+            raise self.error(f"{src}.viscosity", nu,
+                             f"a dimensionless factor in [0, 1] ({_VISCOSITY_METHODS[vm]})")
+        out: dict[str, Any] = {"method": method, "coefficient": nu}
+        fields = [("coefficient", "viscosity"), ("max_iterations", "viscoMaxIter"),
+                  ("max_error", "viscoMaxError")]
+        if vm in _BOUNDARY_VISCOSITY:
+            out["boundary_coefficient"] = self.num(
+                ns, "viscosityBoundary", nsw,
+                self.num(m, "viscosityBoundary", w, 0.0, nonneg=True), nonneg=True)
+            fields.append(("boundary_coefficient", "viscosityBoundary"))
+        # bender2017's maxError is an absolute strain rate [1/s]; the CG solvers' a relative
+        # residual below 1
+        below_one = vm != 2
+        for suffix, ours in (("", ""), ("Omega", "_omega")) if vm == 4 else (("", ""),):
+            its = self.integer(ns, f"viscoMaxIter{suffix}", nsw,
+                               self.integer(m, f"viscoMaxIter{suffix}", w, max_iter))
+            if its < 1:
+                raise self.error(f"{src}.viscoMaxIter{suffix}", its, "an integer >= 1")
+            err = self.num(ns, f"viscoMaxError{suffix}", nsw,
+                           self.num(m, f"viscoMaxError{suffix}", w, 0.01, positive=True),
+                           positive=True)
+            if below_one and not err < 1:
+                raise self.error(f"{src}.viscoMaxError{suffix}", err,
+                                 "a relative residual in (0, 1)")
+            out[f"max_iterations{ours}"] = its
+            out[f"max_error{ours}"] = err
+            if ours:
+                fields += [(f"max_iterations{ours}", f"viscoMaxIter{suffix}"),
+                           (f"max_error{ours}", f"viscoMaxError{suffix}")]
+        for ours, theirs in fields:
             self.origin[f"materials[{k}].viscosity.{ours}"] = f"{src}.{theirs}"
-        return {"method": method, "coefficient": nu, "boundary_coefficient": nub,
-                "max_iterations": its, "max_error": err}
+        return out
 
     def vorticity(self, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
         """The material's vorticity model (``vorticityMethod``; 1: "Bender et al. 2017" block,

@@ -98,26 +98,77 @@ class PressureConfig(_Model):
 
 
 class ViscosityConfig(_Model):
-    """Non-pressure viscosity: ``standard`` (explicit Morris/Monaghan Laplacian), ``xsph``,
-    ``weiler2018`` (implicit, Weiler et al. 2018, SPlisHSPlasH's viscosityMethod 6)."""
+    """Non-pressure viscosity (one model per material; SPlisHSPlasH's ``viscosityMethod`` number):
 
-    method: Literal["none", "standard", "xsph", "weiler2018"] = "none"
+    * ``standard``: explicit Morris/Monaghan Laplacian (1); ``xsph``: XSPH smoothing (SPlisHSPlasH's
+      separate XSPH block);
+    * implicit: ``bender2017`` (Bender & Koschier 2017, strain-rate constraints, 2),
+      ``peer2015`` (Peer et al. 2015, 3), ``peer2016`` (Peer & Teschner 2016, 4),
+      ``takahashi2015`` (Takahashi et al. 2015, SPlisHSPlasH's improved form, 5),
+      ``weiler2018`` (Weiler et al. 2018, 6).
+
+    ``coefficient`` is a kinematic viscosity for standard, takahashi2015 and weiler2018, but a
+    dimensionless per-step factor in [0, 1] for bender2017, peer2015 and peer2016 (the fraction of
+    strain rate or shear the step removes); ``boundary_coefficient`` exists for standard, xsph and
+    weiler2018 only (the other models have SPlisHSPlasH's fixed wall terms).
+    """
+
+    method: Literal["none", "standard", "xsph", "weiler2018", "bender2017", "takahashi2015",
+                    "peer2015", "peer2016"] = "none"
     coefficient: float = Field(
         0.0, ge=0,
-        description="standard, weiler2018: kinematic viscosity nu [m^2/s] (dynamic viscosity "
-        "mu = nu * density0 [Pa s]); xsph: smoothing factor c in [0, 1]",
+        description="standard, weiler2018, takahashi2015: kinematic viscosity nu [m^2/s] (dynamic "
+        "viscosity mu = nu * density0 [Pa s]); xsph: smoothing factor c in [0, 1]; bender2017, "
+        "peer2015, peer2016: dimensionless factor in [0, 1] (bender2017: target strain rate "
+        "(1 - c) times the current one; peer: shear scaled by 1 - c)",
     )
     boundary_coefficient: float = Field(
-        0.0, ge=0, description="same meaning as coefficient, for fluid-boundary pairs"
+        0.0, ge=0,
+        description="standard, xsph, weiler2018: same meaning as coefficient, for fluid-boundary "
+        "pairs (must stay 0 for the other implicit models)",
     )
-    max_iterations: int = Field(
-        100, ge=1, description="implicit solvers: maximum CG iterations (SPlisHSPlasH viscoMaxIter)"
+    max_iterations: int | None = Field(
+        None, ge=1,
+        description="implicit solvers: maximum iterations (SPlisHSPlasH viscoMaxIter; default "
+        "per method: weiler2018 and takahashi2015 100, bender2017, peer2015, peer2016 50)",
     )
     max_error: float = Field(
-        0.01, gt=0, lt=1,
-        description="implicit solvers: tolerance on the relative residual |b - A v| / |b| of the "
-        "linear solve, dimensionless (SPlisHSPlasH viscoMaxError)",
+        0.01, gt=0,
+        description="implicit solvers (SPlisHSPlasH viscoMaxError, default 0.01): the tolerance "
+        "on the relative residual |b - A v| / |b| of the linear solve, dimensionless, below 1; "
+        "bender2017: the average strain-rate error [1/s]",
     )
+    max_iterations_omega: int | None = Field(
+        None, ge=1,
+        description="peer2016: maximum iterations of the vorticity diffusion solve "
+        "(SPlisHSPlasH viscoMaxIterOmega, default 50)",
+    )
+    max_error_omega: float = Field(
+        0.01, gt=0, lt=1,
+        description="peer2016: relative-residual tolerance of the vorticity diffusion solve "
+        "(SPlisHSPlasH viscoMaxErrorOmega)",
+    )
+
+    @model_validator(mode="after")
+    def _ranges(self) -> ViscosityConfig:
+        m = self.method
+        if m in ("bender2017", "peer2015", "peer2016") and not self.coefficient <= 1.0:
+            raise ValueError(
+                f"coefficient {self.coefficient}: {m}'s viscosity is a dimensionless factor; "
+                "expected a value in [0, 1]"
+            )
+        if m in ("bender2017", "takahashi2015", "peer2015", "peer2016"):
+            if self.boundary_coefficient != 0.0:
+                raise ValueError(
+                    f"boundary_coefficient {self.boundary_coefficient}: {m} has no separate "
+                    "boundary viscosity (SPlisHSPlasH's fixed wall term is used); expected 0"
+                )
+        if m in ("weiler2018", "takahashi2015", "peer2015", "peer2016") and not self.max_error < 1:
+            raise ValueError(
+                f"max_error {self.max_error}: {m} stops on the relative residual of its linear "
+                "solve; expected a value in (0, 1)"
+            )
+        return self
 
 
 class VorticityConfig(_Model):

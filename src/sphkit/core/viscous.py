@@ -1,0 +1,264 @@
+"""Compiled pieces shared by the implicit viscosity models (``sphkit.viscosity``).
+
+Methods never import each other, so what two of them share lives here:
+
+* :func:`velocity_gradient` -- the SPH velocity gradient
+  ``(grad v)_i = sum_j w_ij (v_j - v_i) (x) grad W_ij`` with ``w_ij = m_j / rho_j`` (Takahashi et
+  al. 2015) or ``m_j / rho_i`` (Peer et al. 2015, 2016), stored row-major as (dim * dim, N):
+  row ``a * dim + b`` holds ``d v_a / d x_b``;
+* :func:`kernel_sum_diagonal`, :func:`kernel_sum_matvec`, :func:`target_gradient_rhs` -- the
+  linear system of the velocity reconstruction of Peer et al. 2015 (also used for the vorticity
+  of Peer & Teschner 2016):
+  ``(A x)_i = d_i x_i - sum_j m_j W_ij x_j`` with ``d_i = sum_j m_j W_ij + rho0 sum_b V_b W_ib``
+  (the density without the self term; the boundary term optional), and the right-hand side
+  ``b_i = sum_j m_j (T_i + T_j)/2 x_ij W_ij`` of target gradients T;
+* :func:`decompose_target` -- Peer et al.'s target gradient: ``grad v = R + V + S`` (spin,
+  expansion ``V = (div v / dim) I``, shear) and ``T = R + V + xi S``, with V left out where a
+  particle is below rest density and not expanding (SPlisHSPlasH's rule);
+* :func:`target_gradients`, :func:`kernel_sum_solve`, :func:`reconstruct_velocity` -- the
+  drivers of Peer et al.'s steps: gradients and targets, the Jacobi-preconditioned CG solves of the
+  kernel-sum system per component (:func:`sphkit.core.krylov.cg`), the velocity reconstruction;
+* :func:`wall_friction` -- SPlisHSPlasH's XSPH-type wall friction of the strain-rate models,
+  ``a_i -= (c / dt) sum_b (rho0 V_b / rho_i) (v_i - v_b) W_ib``;
+* :func:`add_velocity_change` -- ``a += (v_new - v) / dt`` (an implicit model's result as an
+  acceleration), optionally keeping ``v_new - v`` for the next warm start.
+
+All loops take ``L`` > 0 for periodic x (minimum-image differences, ``configuration.periodic_x``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.krylov import JacobiPreconditioner, KrylovStats, cg
+from sphkit.core.state import SimState
+
+_JIT = dict(cache=True, fastmath=True)
+
+
+@numba.njit(parallel=True, **_JIT)
+def velocity_gradient(x, v, m, rho, off, idx, h, kid, dim, L, own_density, out):
+    """``out[a * dim + b, i] = sum_j w_ij (v_j - v_i)_a (grad W_ij)_b``; ``w_ij = m_j / rho_i``
+    if ``own_density`` else ``m_j / rho_j``."""
+    for i in numba.prange(x.shape[1]):
+        for c in range(dim * dim):
+            out[c, i] = 0.0
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - x[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            w = m[j] / (rho[i] if own_density else rho[j])
+            f = w * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            g = (f * d0, f * d1, f * d2)
+            for a in range(dim):
+                dva = v[a, j] - v[a, i]
+                for b in range(dim):
+                    out[a * dim + b, i] += dva * g[b]
+
+
+@numba.njit(parallel=True, **_JIT)
+def kernel_sum_diagonal(x, m, off, idx, bx, bV, boff, bidx, rho0, with_boundary, h, kid, dim,
+                        L, out):
+    """``out_i = sum_j m_j W_ij (+ rho0 sum_b V_b W_ib)``: the density without the self term."""
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        s = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - x[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            s += m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+        if with_boundary:
+            for k in range(boff[i], boff[i + 1]):
+                b = bidx[k]
+                d0 = xi0 - bx[0, b]
+                if L > 0.0:
+                    d0 -= L * math.floor(d0 / L + 0.5)
+                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
+                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
+                s += rho0 * bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+        out[i] = s
+
+
+@numba.njit(parallel=True, **_JIT)
+def kernel_sum_matvec(x, m, off, idx, diag, h, kid, dim, L, u, out):
+    """``out_i = diag_i u_i - sum_j m_j W_ij u_j`` for scalar unknowns u (N,)."""
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        s = diag[i] * u[i]
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - x[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            s -= m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim) * u[j]
+        out[i] = s
+
+
+@numba.njit(parallel=True, **_JIT)
+def target_gradient_rhs(x, m, off, idx, T, h, kid, dim, L, out):
+    """``out[:, i] = sum_j m_j (T_i + T_j) / 2 x_ij W_ij`` with gradients T (dim * dim, N),
+    row-major like :func:`velocity_gradient`; out (dim, N)."""
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        for a in range(dim):
+            out[a, i] = 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - x[1, j] if dim > 1 else 0.0
+            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            f = 0.5 * m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d = (d0, d1, d2)
+            for a in range(dim):
+                s = 0.0
+                for b in range(dim):
+                    s += (T[a * dim + b, i] + T[a * dim + b, j]) * d[b]
+                out[a, i] += f * s
+
+
+@numba.njit(parallel=True, **_JIT)
+def decompose_target(G, rho, rho0, xi, dim, spin, T):
+    """``T_i = [R_i] + V_i + xi S_i`` from velocity gradients G (dim * dim, N) (row-major, see
+    :func:`velocity_gradient`); R_i is included if ``spin``; V_i is left out where
+    ``rho_i < rho0`` and ``div v_i <= 0``."""
+    for i in numba.prange(G.shape[1]):
+        div = 0.0
+        for a in range(dim):
+            div += G[a * dim + a, i]
+        keep_v = rho[i] >= rho0 or div > 0.0
+        ev = div / dim
+        for a in range(dim):
+            for b in range(dim):
+                gab = G[a * dim + b, i]
+                gba = G[b * dim + a, i]
+                vab = ev if a == b else 0.0
+                t = xi * (0.5 * (gab + gba) - vab)
+                if keep_v:
+                    t += vab
+                if spin:
+                    t += 0.5 * (gab - gba)
+                T[a * dim + b, i] = t
+
+
+@numba.njit(parallel=True, **_JIT)
+def wall_friction(x, v, rho, bx, bv, bV, boff, bidx, c, rho0, h, kid, dim, L, inv_dt, a):
+    """``a_i -= (c / dt) sum_b (rho0 V_b / rho_i) (v_i - v_b) W_ib`` (Akinci 2012 particles)."""
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        f0 = 0.0
+        f1 = 0.0
+        f2 = 0.0
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            d0 = xi0 - bx[0, b]
+            if L > 0.0:
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
+            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
+            s = (c * inv_dt * rho0 * bV[b] / rho[i]
+                 * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim))
+            f0 += s * (v[0, i] - bv[0, b])
+            f1 += s * (v[1, i] - bv[1, b]) if dim > 1 else 0.0
+            f2 += s * (v[2, i] - bv[2, b]) if dim > 2 else 0.0
+        a[0, i] -= f0
+        if dim > 1:
+            a[1, i] -= f1
+        if dim > 2:
+            a[2, i] -= f2
+
+
+@numba.njit(parallel=True, **_JIT)
+def add_velocity_change(v, vnew, inv_dt, a, dv, keep):
+    """``a += (v_new - v) / dt``; with ``keep`` also ``dv = v_new - v`` (next warm start)."""
+    dim = v.shape[0]
+    for i in numba.prange(v.shape[1]):
+        for d in range(dim):
+            t = vnew[d, i] - v[d, i]
+            a[d, i] += t * inv_dt
+            if keep:
+                dv[d, i] = t
+
+
+# ---------------------------------------------------------------------------------------------
+# drivers of the Peer et al. velocity reconstruction
+
+
+def kernel_sum_solve(state: SimState, diag: np.ndarray, rhs: np.ndarray, guess: np.ndarray,
+                     tol: float, max_iter: int, name: str) -> tuple[np.ndarray, KrylovStats]:
+    """Solve ``d_i u_i - sum_j m_j W_ij u_j = rhs`` per row of rhs (k, N) by Jacobi-preconditioned
+    CG from ``guess`` (k, N); a row whose solve takes no iteration keeps its guess. Returns the
+    solution (k, N) and the stats (iterations summed, the largest residual)."""
+    f = state.fluid
+    x, m, nl = f["x"], f["m"], state.nl_ff
+
+    def matvec(u: np.ndarray, out: np.ndarray) -> None:
+        kernel_sum_matvec(x, m, nl.offsets, nl.indices, diag, state.h, state.kid, state.dim,
+                          state.period, u, out)
+
+    pre = JacobiPreconditioner(diag)
+    out = np.empty(rhs.shape)
+    its, res, ok = 0, 0.0, True
+    for c in range(rhs.shape[0]):
+        g = np.ascontiguousarray(guess[c], dtype=np.float64)
+        sol, st = cg(matvec, rhs[c], g, precond=pre, tol=tol, max_iter=max_iter,
+                     name=f"{name} (component {c})", step=state.step)
+        out[c] = g if st.iterations == 0 else sol
+        its += st.iterations
+        res = max(res, st.residual)
+        ok = ok and st.converged
+    return out, KrylovStats(its, res, ok)
+
+
+def target_gradients(state: SimState, xi: float, spin: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity gradients G and targets T (both (dim * dim, N), row-major)."""
+    f = state.fluid
+    n, dim = f.n, state.dim
+    G = np.empty((dim * dim, n))
+    velocity_gradient(f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets, state.nl_ff.indices,
+                      state.h, state.kid, dim, state.period, True, G)
+    T = np.empty_like(G)
+    decompose_target(G, f["rho"], state.rho0, xi, dim, spin, T)
+    return G, T
+
+
+def reconstruct_velocity(state: SimState, T: np.ndarray, tol: float, max_iter: int,
+                         name: str) -> tuple[np.ndarray, KrylovStats]:
+    """The velocities whose Taylor expansion matches the target gradients T, warm-started with
+    the current velocities."""
+    f, b = state.fluid, state.boundary
+    n, dim = f.n, state.dim
+    x, m = f["x"], f["m"]
+    nl, nb = state.nl_ff, state.nl_fb
+    diag = np.empty(n)
+    kernel_sum_diagonal(x, m, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
+                        state.rho0, True, state.h, state.kid, dim, state.period, diag)
+    rhs = np.empty((dim, n))
+    target_gradient_rhs(x, m, nl.offsets, nl.indices, T, state.h, state.kid, dim, state.period,
+                        rhs)
+    return kernel_sum_solve(state, diag, rhs, f["v"], tol, max_iter, name)
