@@ -21,7 +21,7 @@ One step (DESIGN.md, "Data flow of one time step"):
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +29,7 @@ import numpy as np
 from sphkit.boundary.akinci2012 import Akinci2012
 from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.koschier2017 import Koschier2017
+from sphkit.boundary.rigid import RigidBodies, body_from_mesh, box_wall, mesh_wall
 from sphkit.core.boundary_map import MapGeometry
 from sphkit.core.kernels import kernel_id, lattice_volume
 from sphkit.core.neighbors import neighbor_lists, zorder_permutation
@@ -137,6 +138,9 @@ class StepStats:
     #: its final residual: relative |b - A v| / |b| of the CG solves; bender2017: the average
     #: strain-rate error [1/s]
     viscosity_residual: float = 0.0
+    #: moving rigid bodies: name, force and torque of the fluid on the body [N, N m] (torque
+    #: about its centre of mass or, kinematic, its pivot), position, velocity, angular velocity
+    rigid_bodies: list = field(default_factory=list)
 
     def as_dict(self) -> dict:
         """Plain-dict form (for manifests and logs)."""
@@ -207,6 +211,8 @@ class Simulation:
             fluid.register(name)
         boundary = ParticleSet(self.dim, self.dtype)
         boundary.register("pressure_mirror")
+        boundary.register("rigid_body", "scalar", np.int64)  # 1-based moving body, 0 static
+        self._rigid_meshes: list = []  # (k, mesh) of the scene's moving meshes
         self.state = SimState(fluid=fluid, boundary=boundary, dim=self.dim, h=h, kid=kid, r=r,
                               rho0=mat.density0, gravity=g.astype(self.dtype))
         if cfg.periodic_x is not None:
@@ -265,6 +271,7 @@ class Simulation:
         if boundary.n:
             boundary.permute(zorder_permutation(boundary["x"], h))
         self.boundary_model.init(self.state)
+        self.rigid = self._rigid_bodies(scene)
         for force in self.forces:
             if hasattr(force, "init"):
                 force.init(self.state)
@@ -333,6 +340,12 @@ class Simulation:
             st.fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
                          rho=mat.density0)
         if self._maps:
+            moving = [k for k, mb in enumerate(scene.meshes) if mb.dynamic or mb.kinematic]
+            if moving:
+                raise SceneError(
+                    f"meshes[{moving[0]}]: a moving rigid body needs boundary particles; "
+                    f"expected configuration.boundary.method 'akinci2012', got "
+                    f"{scene.configuration.boundary.method!r}")
             return  # boxes and meshes become maps (see _map_geometries)
         up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
         for k, box in enumerate(scene.boxes):
@@ -345,7 +358,56 @@ class Simulation:
             mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
                                       mb.rotation_axis, mb.rotation_angle, mb.scale)
             pts = sampling.sample_mesh_surface(mesh, r, dim)
+            if mb.dynamic or mb.kinematic:  # a moving rigid body (sphkit.boundary.rigid)
+                from sphkit.boundary.rigid import inset_samples
+
+                if dim == 3:  # the fluid rests at the mesh surface (see inset_samples)
+                    pts = inset_samples(mesh, pts, r)
+                self._rigid_meshes.append((k, mesh))
+                st.boundary.add(pts, name=f"meshes[{k}]", rigid_body=len(self._rigid_meshes))
+                continue
             st.boundary.add(clip(pts), name=f"meshes[{k}]")
+
+    def _rigid_bodies(self, scene: Scene) -> RigidBodies:
+        """The scene's kinematic and dynamic meshes as rigid bodies; static boxes and meshes are
+        the walls dynamic bodies collide with."""
+        bodies = []
+        for k, mesh in self._rigid_meshes:
+            mb = scene.meshes[k]
+            if self.dim != 3:
+                raise SceneError(f"meshes[{k}]: moving rigid bodies are 3D only; expected "
+                                 f"configuration.dim 3, got {self.dim}")
+            if mb.dynamic and scene.configuration.pressure.method == "pbf":
+                raise SceneError(f"meshes[{k}].dynamic: true is not coupled to pressure method "
+                                 "'pbf'; expected one of dfsph, iisph, pcisph, wcsph")
+            if self.state.period > 0.0:
+                raise SceneError(f"meshes[{k}]: moving rigid bodies do not support "
+                                 "configuration.periodic_x yet")
+            try:
+                bodies.append(body_from_mesh(f"meshes[{k}]", mesh, mb.dynamic, mb.density,
+                                             mb.velocity, mb.angular_velocity,
+                                             mb.rotation_center, mb.friction))
+            except ValueError as e:
+                raise SceneError(f"meshes[{k}].geometry_file: {mb.geometry_file!r}: {e}") from None
+        walls = []
+        if any(b.dynamic for b in bodies):
+            from sphkit.scene import sampling
+
+            up = int(np.argmax(np.abs(self.state.gravity))) if np.any(self.state.gravity) else 2
+            for k, box in enumerate(scene.boxes):
+                walls.append((box_wall(box.min, box.max, up if box.open_top else None),
+                              f"boxes[{k}]"))
+            for k, mb in enumerate(scene.meshes):
+                if not (mb.dynamic or mb.kinematic):
+                    mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
+                                              mb.rotation_axis, mb.rotation_angle, mb.scale)
+                    walls.append((mesh_wall(mesh, mb.invert), f"meshes[{k}]"))
+        rigid = RigidBodies(bodies, scene.configuration.pressure.method, walls,
+                            margin=self.state.r)
+        if bodies:
+            rigid.init(self.state)
+            self.boundary_model.rebuild(self.state)
+        return rigid
 
     def _add_fluid_file(self, k: int, ff, vol: float) -> None:
         """Fluid from a particle file (``scene.fluid_files[k]``), with the lattice volume."""
@@ -478,6 +540,8 @@ class Simulation:
             return tc.dt
         st = self.state
         vmax = max_speed(st.fluid["v"], None)
+        if self.rigid.bodies:  # moving boundary particles obey the CFL condition too
+            vmax = max(vmax, max_speed(st.boundary["v"], None))
         dt = cfl_time_step(vmax, st.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
         return float(min(dt, self.pressure.max_time_step(st)))
 
@@ -497,8 +561,13 @@ class Simulation:
         for force in self.forces:
             force.apply(st, dt)
         ps = self.pressure.solve(st, dt)
+        if self.rigid.bodies:  # fluid forces on the bodies, from this step's pressure
+            self.rigid.fluid_forces(st)
         st.pair_grads = None  # positions change: the cache is stale
         symplectic_euler(f["x"], f["v"], f["a"], dt)
+        if self.rigid.bodies:  # move the bodies and their particles; new boundary grid
+            self.rigid.advance(st, dt, self.time)
+            self.boundary_model.rebuild(st)
         if st.period > 0.0:
             wrap_periodic(f["x"], st.period_lo, st.period)
         self.dt = dt
@@ -511,7 +580,8 @@ class Simulation:
                           density_error_avg=ps.density_error_avg,
                           density_error_max=ps.density_error_max, iterations=ps.iterations,
                           divergence_iterations=ps.divergence_iterations,
-                          divergence_error=ps.divergence_error)
+                          divergence_error=ps.divergence_error,
+                          rigid_bodies=[b.stats() for b in self.rigid.bodies])
         for force in self.forces:  # implicit non-pressure solvers report their solve
             ks = getattr(force, "stats", None)
             if ks is not None:

@@ -57,6 +57,11 @@ class Akinci2012:
                      state.period, bd["V"])
             self.grid = Grid(bd["x"], state.h)
 
+    def rebuild(self, state: SimState) -> None:
+        """Rebuild the boundary grid after boundary particles moved (rigid bodies)."""
+        bd = state.boundary
+        self.grid = Grid(bd["x"], state.h) if bd.n else None
+
     def update(self, state: SimState) -> None:
         """Fluid-boundary neighbour lists for the current fluid positions."""
         if self.grid is None:

@@ -1184,10 +1184,7 @@ class _Translator:
                 "mapFile",
             }
             self.collect_unknown(rb, w, known, _RIGID_QUIET)
-            if self.flag(rb, "isDynamic", w, False):
-                raise self.unsupported(
-                    f"{w}.isDynamic", "true: dynamic rigid bodies are not supported yet"
-                )
+            dynamic = self.flag(rb, "isDynamic", w, False)
             if self.flag(rb, "isAnimated", w, False):
                 raise self.unsupported(
                     f"{w}.isAnimated", "true: animated rigid bodies are not supported yet"
@@ -1237,6 +1234,12 @@ class _Translator:
                 "map_thickness": self.num(rb, "mapThickness", w, 0.0),
                 "map_resolution": res,
             })
+            if dynamic:  # PositionBasedDynamics' density and friction apply to sphkit's bodies
+                out[-1].update(dynamic=True,
+                               density=self.num(rb, "density", w, 1000.0, positive=True),
+                               friction=self.num(rb, "friction", w, 0.5, nonneg=True))
+                self.origin[f"meshes[{n}].density"] = f"{w}.density"
+                self.origin[f"meshes[{n}].friction"] = f"{w}.friction"
         self.origin["meshes"] = "RigidBodies"
         return out
 

@@ -334,12 +334,41 @@ class MeshBoundary(_Model):
         "configuration.boundary.map_resolution",
     )
 
+    # rigid bodies (boundary.method akinci2012, 3D; see sphkit.boundary.rigid)
+    dynamic: bool = Field(False, description="a dynamic rigid body moved by fluid forces, "
+                          "gravity and contacts (SPlisHSPlasH isDynamic)")
+    density: float = Field(1000.0, gt=0.0, allow_inf_nan=False,
+                           description="dynamic bodies: density of the closed mesh [kg/m^3]")
+    velocity: Vec | None = Field(
+        None, description="kinematic bodies: prescribed velocity [m/s]; dynamic: initial one")
+    angular_velocity: Vec | None = Field(
+        None, description="kinematic bodies: prescribed angular velocity vector [rad/s] about "
+        "rotation_center; dynamic: the initial one (about the centre of mass)")
+    rotation_center: Vec | None = Field(
+        None, description="kinematic bodies: point the rotation turns about at t = 0 [m]; "
+        "default the mesh's centre of mass")
+    friction: float = Field(0.5, ge=0.0, allow_inf_nan=False,
+                            description="dynamic bodies: Coulomb friction coefficient of "
+                            "contacts with static walls")
+
     @field_validator("map_resolution")
     @classmethod
     def _cells(cls, v: list[int] | None) -> list[int] | None:
         if v is not None and (len(v) not in (2, 3) or min(v) < 1):
             raise ValueError(f"map_resolution {v}: expected 2 or 3 positive cell counts")
         return v
+
+    @field_validator("velocity", "angular_velocity", "rotation_center")
+    @classmethod
+    def _vec3(cls, v: Vec | None) -> Vec | None:
+        if v is not None and len(v) != 3:
+            raise ValueError(f"{v}: expected 3 components")
+        return v
+
+    @property
+    def kinematic(self) -> bool:
+        """A prescribed motion (velocity or angular velocity given, not dynamic)."""
+        return not self.dynamic and (any(self.velocity or []) or any(self.angular_velocity or []))
 
 
 class FluidMesh(_Model):
