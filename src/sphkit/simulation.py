@@ -401,7 +401,7 @@ class Simulation:
                 if not (mb.dynamic or mb.kinematic):
                     mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
                                               mb.rotation_axis, mb.rotation_angle, mb.scale)
-                    walls.append((mesh_wall(mesh, mb.invert), f"meshes[{k}]"))
+                    walls.append((mesh_wall(mesh, mb.invert, self.state.r), f"meshes[{k}]"))
         rigid = RigidBodies(bodies, scene.configuration.pressure.method, walls,
                             margin=self.state.r)
         if bodies:

@@ -37,10 +37,11 @@ Dynamic bodies are advanced with symplectic Euler on linear and angular momentum
 ``v += dt (F / M + g)``, ``omega += dt I_w^-1 (T - omega x I_w omega)`` with the world inertia
 ``I_w = R I R^T``, then contacts, then ``c += dt v``, ``R <- exp([omega] dt) R``.
 
-Contacts with static walls (scene ``boxes``, analytic distance; static ``meshes``, trimesh's
-signed distance): every boundary particle of the body is a contact point; a projected
-Gauss-Seidel on velocity impulses enforces ``phi(x_p) + dt u_p . n >= 0`` (speculative contacts:
-restitution 0, a penetrating point is pushed out at ``0.5 depth / dt``) with Coulomb friction
+Contacts with static walls (scene ``boxes``, analytic distance; static ``meshes``, their signed
+distance on a lattice of spacing r): every boundary particle of the body is a contact point; a
+projected Gauss-Seidel on velocity impulses enforces ``phi(x_p) - r + dt u_p . n >= 0`` (the
+particles lie r inside the mesh, see :func:`inset_samples`; speculative contacts: restitution 0,
+a penetrating point is pushed out at ``0.5 depth / dt``) with Coulomb friction
 ``|lambda_t| <= mu lambda_n``. Contacts between two bodies are not handled.
 """
 
@@ -451,15 +452,23 @@ def box_wall(lo, hi, open_axis: int | None):
     return dist
 
 
-def mesh_wall(mesh, invert: bool = False):
-    """Distance to a static mesh (positive outside the mesh; ``invert``: a container)."""
-    import trimesh
+def mesh_wall(mesh, invert: bool = False, spacing: float = 0.01):
+    """Distance to a static mesh (positive outside the mesh; ``invert``: a container), from its
+    signed distance on a lattice of the given spacing [m] (:func:`sphkit.core.sdf.
+    mesh_sdf_lattice`) interpolated trilinearly."""
+    from scipy.interpolate import RegularGridInterpolator
 
-    pq = trimesh.proximity.ProximityQuery(mesh)
+    from sphkit.core.sdf import mesh_sdf_lattice
+
+    lo = np.asarray(mesh.bounds[0], dtype=np.float64) - 3.0 * spacing
+    hi = np.asarray(mesh.bounds[1], dtype=np.float64) + 3.0 * spacing
+    shape = np.ceil((hi - lo) / spacing).astype(np.int64) + 1
+    d = mesh_sdf_lattice(mesh.vertices, mesh.faces, lo, [spacing] * 3, shape)
+    axes = [lo[k] + spacing * np.arange(shape[k]) for k in range(3)]
+    f = RegularGridInterpolator(axes, -d if invert else d, bounds_error=False, fill_value=None)
 
     def dist(p: np.ndarray) -> np.ndarray:
-        s = pq.signed_distance(p.T)  # trimesh: positive inside
-        return s if invert else -s
+        return f(p.T)
 
     return dist
 
