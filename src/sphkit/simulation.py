@@ -29,7 +29,7 @@ import numpy as np
 from sphkit.boundary.akinci2012 import Akinci2012
 from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.koschier2017 import Koschier2017
-from sphkit.boundary.rigid import RigidBodies, body_from_mesh, box_wall, mesh_wall
+from sphkit.boundary.rigid import INSET, RigidBodies, body_from_mesh, box_wall, mesh_wall
 from sphkit.core.boundary_map import MapGeometry
 from sphkit.core.kernels import kernel_id, lattice_volume
 from sphkit.core.neighbors import neighbor_lists, zorder_permutation
@@ -362,7 +362,7 @@ class Simulation:
                 from sphkit.boundary.rigid import inset_samples
 
                 if dim == 3:  # the fluid rests at the mesh surface (see inset_samples)
-                    pts = inset_samples(mesh, pts, r)
+                    pts = inset_samples(mesh, pts, INSET * r)
                 self._rigid_meshes.append((k, mesh))
                 st.boundary.add(pts, name=f"meshes[{k}]", rigid_body=len(self._rigid_meshes))
                 continue
@@ -403,7 +403,7 @@ class Simulation:
                                               mb.rotation_axis, mb.rotation_angle, mb.scale)
                     walls.append((mesh_wall(mesh, mb.invert, self.state.r), f"meshes[{k}]"))
         rigid = RigidBodies(bodies, scene.configuration.pressure.method, walls,
-                            margin=self.state.r)
+                            margin=INSET * self.state.r)
         if bodies:
             rigid.init(self.state)
             self.boundary_model.rebuild(self.state)
