@@ -69,7 +69,7 @@ def test_floating_box_settles_half_submerged(tmp_path: Path) -> None:
     The fraction counts the points of a 40^3 grid in the (rotated) cube below the water level.
     Tolerance +-5 %, the issue's: at this resolution (cube side 4h) the fluid's distance to the
     boundary particles (about r, set by Akinci's volumes) is uncertain by a fraction of r = 6 %
-    of the side. Measured: 0.495.
+    of the side. Measured: 0.530.
     """
     side, L, H = 0.2, 0.5, 0.3
     lo, hi = (L - side) / 2, (L + side) / 2
@@ -81,16 +81,18 @@ def test_floating_box_settles_half_submerged(tmp_path: Path) -> None:
                                  "layers": 2}))
     body = sim.rigid.bodies[0]
     assert body.mass == pytest.approx(500.0 * side ** 3, rel=1e-9)  # trimesh mass properties
-    x = sim.fluid["x"]
-    far = (np.abs(x[0] - L / 2) > side / 2 + 0.05) | (np.abs(x[2] - L / 2) > side / 2 + 0.05)
     g = (np.arange(40) + 0.5) / 40 * side - side / 2
     grid = np.stack(np.meshgrid(g, g, g, indexing="ij")).reshape(3, -1)
     frac = []
     while sim.time < 2.0:
         sim.step()
         if sim.time > 1.0:
+            x = sim.fluid["x"]  # (the fluid is reordered every few steps)
+            far = (np.abs(x[0] - L / 2) > side / 2 + 0.05) | (np.abs(x[2] - L / 2) > side / 2
+                                                              + 0.05)
             level = _water_level(sim, far, H / (2 * R))
             frac.append(np.mean((body.c[:, None] + body.R @ grid)[1] < level))
+    print(f"submerged fraction {np.mean(frac):.3f}")
     assert 0.45 <= np.mean(frac) <= 0.55, np.mean(frac)
 
 
@@ -98,7 +100,8 @@ def test_heavy_box_rests_on_floor(tmp_path: Path) -> None:
     """A 0.2 m cube of density 2000 standing on the floor of a tank of water stays there: its
     lowest corner never goes below the floor by more than 0.1 r (the contacts keep the mesh
     surface at the wall; 0.1 r allows the Gauss-Seidel residual), it does not drift more than
-    r, and it comes to rest (|v| < 0.05 m/s at the end, the fluid's sloshing speed here)."""
+    r, and it comes to rest (|v| < 0.05 m/s at the end, the fluid's sloshing speed here).
+    Measured: lowest corner -0.000 mm, drift 0.000 mm, final speed 0.0000 m/s."""
     side, L, H = 0.2, 0.5, 0.3
     lo, hi = (L - side) / 2, (L + side) / 2
     mesh = {"geometry_file": _box_file(tmp_path, [side] * 3),
@@ -114,6 +117,8 @@ def test_heavy_box_rests_on_floor(tmp_path: Path) -> None:
     while sim.time < 0.6:
         sim.step()
         lowest = min(lowest, float((body.c[:, None] + body.R @ corners)[1].min()))
+    print(f"lowest corner {lowest * 1000:+.3f} mm, drift {np.linalg.norm(body.c - c0) * 1000:.3f} "
+          f"mm, final speed {np.linalg.norm(body.v):.4f} m/s")
     assert lowest >= -0.1 * R, lowest
     assert np.linalg.norm(body.c - c0) < R
     assert np.linalg.norm(body.v) < 0.05
@@ -123,7 +128,7 @@ def test_kinematic_paddle_torque_opposes_rotation(tmp_path: Path) -> None:
     """A paddle turning at pi rad/s about the vertical axis of a tank: the fluid's torque on it
     opposes the rotation (drag), and the fluid picks up angular momentum in the sense of the
     rotation. Both are signs, averaged over the second half of 0.3 s (the start-up is left out);
-    the reported torque is the StepStats field ``rigid_bodies``."""
+    the reported torque is the StepStats field ``rigid_bodies``. Measured: -0.16 N m."""
     L, H = 0.4, 0.2
     lo, hi = [0.1, 0.025, 0.175], [0.3, 0.225, 0.225]
     paddle = {"geometry_file": _box_file(tmp_path, [0.2, 0.2, 0.05]),
@@ -136,6 +141,7 @@ def test_kinematic_paddle_torque_opposes_rotation(tmp_path: Path) -> None:
         st = sim.step()
         if sim.time > 0.15:
             torque.append(st.rigid_bodies[0]["torque"][1])
+    print(f"mean torque {np.mean(torque):.4f} N m")
     assert np.mean(torque) < 0.0, np.mean(torque)
     f = sim.fluid
     d = f["x"] - np.array([0.2, 0.0, 0.2])[:, None]
@@ -146,13 +152,13 @@ def test_kinematic_paddle_torque_opposes_rotation(tmp_path: Path) -> None:
     assert b.R[0, 2] == pytest.approx(np.sin(np.pi * sim.time), abs=1e-12)
 
 
-@pytest.mark.parametrize("method", ["dfsph", "wcsph"])
+@pytest.mark.parametrize("method", ["dfsph", "iisph", "pcisph", "wcsph"])
 def test_momentum_conserved_body_and_fluid(tmp_path: Path, method: str) -> None:
     """No gravity, no walls: a 1 kg cube moving at 1 m/s runs into a free block of water. The
     fluid's and the body's momentum change but their sum stays; its drift is round-off (the
     body's force is minus the fluid's boundary force, pair by pair), bound 1e-12 of the initial
     momentum (measured 1e-16). The exchange itself must be substantial (the fluid takes over
-    10 %; measured 40 % with DFSPH, 49 % with WCSPH after 0.12 s)."""
+    10 %; measured 35-38 % with DFSPH, IISPH, PCISPH, 45 % with WCSPH after 0.12 s)."""
     mesh = {"geometry_file": _box_file(tmp_path, [0.1] * 3),
             "translation": [0.3, 0.1, 0.1], "dynamic": True, "density": 1000.0,
             "velocity": [-1.0, 0.0, 0.0]}
