@@ -196,3 +196,30 @@ def test_rigid_scene_errors(tmp_path: Path) -> None:
         _scene(blocks, [{**mesh, "density": -1.0}])
     with pytest.raises(Exception, match=r"angular_velocity"):
         _scene(blocks, [{**mesh, "angular_velocity": [1.0, 0.0]}])
+
+
+def test_splishsplash_dynamic_rigid_body(tmp_path: Path) -> None:
+    """SPlisHSPlasH RigidBodies: isDynamic with PBD's density and friction become a dynamic
+    mesh; the mass is density times the closed mesh's volume."""
+    from sphkit.scene.loader import from_splishsplash
+
+    _box_file(tmp_path, [0.2, 0.1, 0.2], "body.obj")
+    data = {
+        "Configuration": {"particleRadius": 0.0125, "simulationMethod": 4,
+                          "boundaryHandlingMethod": 0, "gravitation": [0, -9.81, 0]},
+        "Materials": [{"id": "Fluid", "density0": 1000}],
+        "RigidBodies": [{"geometryFile": "body.obj", "translation": [0.5, 0.5, 0.5],
+                         "isDynamic": True, "density": 700, "friction": 0.2}],
+        "FluidBlocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}],
+    }
+    scene = from_splishsplash(data, tmp_path / "scene.json")
+    mb = scene.meshes[0]
+    assert (mb.dynamic, mb.density, mb.friction) == (True, 700.0, 0.2)
+    sim = Simulation(scene)
+    body = sim.rigid.bodies[0]
+    assert body.mass == pytest.approx(700.0 * 0.2 * 0.1 * 0.2, rel=1e-9)
+    assert np.allclose(body.c, [0.5, 0.5, 0.5])
+    # inertia tensor of a solid box about its centre: m/12 (b^2 + c^2) on the diagonal
+    m = body.mass
+    assert np.allclose(np.diag(body.inertia), [m / 12 * (0.01 + 0.04), m / 12 * (0.04 + 0.04),
+                                               m / 12 * (0.04 + 0.01)], rtol=1e-9)
