@@ -77,7 +77,7 @@ def run(case: str, r: float, until: float, mesh_file: str, dt_max: float, solver
             t.append(sim.time)
             y.append(body.c[1])
             lowest = min(lowest, float((body.c[:, None] + body.R @ corners)[1].min()))
-            if sim.time > until - 1.0:
+            if case == "float" and sim.time > until - 1.0:
                 x = sim.fluid["x"]  # (reordered every few steps)
                 far = ((np.abs(x[0] - L / 2) > SIDE / 2 + 0.05)
                        | (np.abs(x[2] - L / 2) > SIDE / 2 + 0.05))
