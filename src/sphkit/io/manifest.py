@@ -299,6 +299,8 @@ class Manifest:
             "divergence_error": None if last is None else getattr(last, "divergence_error", 0.0),
             "max_displacement": max_displacement,
         }
+        if getattr(last, "rigid_bodies", None):  # moving bodies: fluid force, torque, pose
+            record["rigid_bodies"] = last.rigid_bodies
         self.data["frames"].append(_clean(record))
         self.data["last_step"] = stats_dict(last)
         self.write()
