@@ -154,13 +154,15 @@ def test_kinematic_paddle_torque_opposes_rotation(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("method", ["dfsph", "iisph", "pcisph", "wcsph"])
 def test_momentum_conserved_body_and_fluid(tmp_path: Path, method: str) -> None:
-    """No gravity, no walls: a 1 kg cube moving at 1 m/s runs into a free block of water. The
-    fluid's and the body's momentum change but their sum stays; its drift is round-off (the
-    body's force is minus the fluid's boundary force, pair by pair), bound 1e-12 of the initial
-    momentum (measured 1e-16). The exchange itself must be substantial (the fluid takes over
-    10 %; measured 35-38 % with DFSPH, IISPH, PCISPH, 45 % with WCSPH after 0.12 s)."""
+    """No gravity, no walls: a 1 kg cube moving at 1 m/s runs off-centre into a free block of
+    water. The fluid's and the body's momentum and angular momentum change but their sums stay:
+    the drift is round-off (the body's force is minus the fluid's boundary force, pair by pair,
+    and the pair forces are central), bound 1e-12 of the initial values (measured 1e-16 to
+    6e-16; the cube's inertia is isotropic, so the rotation update is exact too). The exchange
+    itself must be substantial: the fluid takes over 10 % of the momentum (measured 27-29 % with
+    DFSPH, IISPH, PCISPH, 37 % with WCSPH after 0.12 s) and the cube spins (0.4-0.9 rad/s)."""
     mesh = {"geometry_file": _box_file(tmp_path, [0.1] * 3),
-            "translation": [0.3, 0.1, 0.1], "dynamic": True, "density": 1000.0,
+            "translation": [0.3, 0.1, 0.17], "dynamic": True, "density": 1000.0,
             "velocity": [-1.0, 0.0, 0.0]}
     blocks = [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2], "material": "water"}]
     # no viscosity: its boundary term is not passed to bodies (see sphkit.boundary.rigid)
@@ -171,10 +173,19 @@ def test_momentum_conserved_body_and_fluid(tmp_path: Path, method: str) -> None:
         f = sim.fluid
         return (f["m"] * f["v"]).sum(axis=1) + body.mass * body.v
 
-    p0 = momentum()
+    def angular_momentum() -> np.ndarray:  # about the origin
+        f = sim.fluid
+        lf = (f["m"] * np.cross(f["x"].T, f["v"].T).T).sum(axis=1)
+        return lf + body.mass * np.cross(body.c, body.v) + body.world_inertia() @ body.omega
+
+    p0, l0 = momentum(), angular_momentum()
     while sim.time < 0.12:
         sim.step()
-    p = momentum()
+    p, lm = momentum(), angular_momentum()
+    print(f"{method}: |dL| / |L0| = {np.linalg.norm(lm - l0) / np.linalg.norm(l0):.2e}, "
+          f"omega {body.omega}")
+    assert np.linalg.norm(lm - l0) < 1e-12 * np.linalg.norm(l0)
+    assert np.linalg.norm(body.omega) > 0.1  # the off-centre hit spins the cube
     assert np.linalg.norm(p - p0) < 1e-12 * np.linalg.norm(p0)
     fluid = (sim.fluid["m"] * sim.fluid["v"]).sum(axis=1)
     print(f"{method}: |dP| / |P0| = {np.linalg.norm(p - p0) / np.linalg.norm(p0):.2e}, "
