@@ -535,10 +535,12 @@ class Simulation:
 
     def run(self, until: float | None = None, fps: float | None = None,
             on_frame: Callable[[Simulation, int], None] | None = None,
-            on_step: Callable[[Simulation, StepStats], None] | None = None) -> None:
+            on_step: Callable[[Simulation, StepStats], None] | None = None,
+            after_step: Callable[[Simulation], bool] | None = None) -> bool:
         """Step until simulated time ``until`` (default: the scene's), calling ``on_frame(sim, k)``
         at t = 0 and every ``1/fps`` (default: the scene's output fps) and ``on_step`` after each
-        step."""
+        step. ``after_step(sim)`` is called once the step's frames are written (checkpoints);
+        when it returns True the run stops there. Returns True when ``until`` was reached."""
         until = self.scene.configuration.time.until if until is None else float(until)
         fps = self.scene.output.fps if fps is None else float(fps)
         if self._frame < 0:
@@ -556,3 +558,6 @@ class Simulation:
                 self._frame += 1
                 if on_frame:
                     on_frame(self, self._frame)
+            if after_step is not None and after_step(self):
+                return False
+        return True
