@@ -26,9 +26,10 @@ scene fields (:class:`sphkit.scene.schema.Emitter`):
   centred on ``x0``, open towards d (SPlisHSPlasH's ``EmitterBox.obj``/``EmitterCylinder.obj``
   scaled by ``Emitter::getSize``), unless ``housing`` is false.
 
-Emitted particles get the lattice mass ``rho0 V`` of the scene's fluid blocks. Not done:
-SPlisHSPlasH's particle reuse (``emitterReuseParticles``) and its ``maxEmitterParticles`` limit
-(sphkit's particle sets grow without a limit).
+Emitted particles get the lattice mass ``rho0 V`` of the scene's fluid blocks. ``max_particles``
+(SPlisHSPlasH's per-material ``maxEmitterParticles``) caps the particles the emitters of a
+material add (the smallest limit among them counts). Not done: SPlisHSPlasH's particle reuse
+(``emitterReuseParticles``).
 """
 
 from __future__ import annotations
@@ -99,6 +100,8 @@ class FluidEmitter:
         self.start = float(cfg.start_time)
         self.end = math.inf if cfg.end_time is None else float(cfg.end_time)
         self.material = cfg.material
+        self.max_particles = getattr(cfg, "max_particles", None)
+        self.emitted = 0  #: particles emitted so far
         x0 = np.zeros(3)
         x0[: len(cfg.position)] = cfg.position
         self.x0 = x0
@@ -145,10 +148,11 @@ class FluidEmitter:
         speed = self.speed if self.start <= t <= self.end else 10.0 * self.r / CLEAR_AHEAD
         return speed * self.direction
 
-    def emit(self, fluid: ParticleSet, t: float, mass: float, volume: float,
-             rho0: float) -> int:
-        """Add the layers due by time ``t`` to ``fluid`` (fields x, v, m, V0, rho); return how
-        many particles were added."""
+    def emit(self, fluid: ParticleSet, t: float, mass: float, volume: float, rho0: float,
+             budget: float = math.inf) -> int:
+        """Add the layers due by time ``t`` to ``fluid`` (fields x, v, m, V0, rho), at most
+        ``budget`` particles (a layer is cut short, later ones are skipped, as SPlisHSPlasH does
+        at ``maxEmitterParticles``); return how many particles were added."""
         added = 0
         vel = self.speed * self.direction
         while True:
@@ -156,10 +160,13 @@ class FluidEmitter:
             if tk > t or tk > self.end:
                 return added
             x = self.x0 + self.offsets + (t - tk) * vel
-            fluid.add(x[:, : self.dim], name=self.name, m=mass, V0=volume, rho=rho0,
-                      v=vel[: self.dim])
+            take = int(min(len(x), max(budget - added, 0)))
+            if take:
+                fluid.add(x[:take, : self.dim], name=self.name, m=mass, V0=volume, rho=rho0,
+                          v=vel[: self.dim])
             self.count += 1
-            added += len(x)
+            self.emitted += take
+            added += take
 
     def animate(self, fluid: ParticleSet, t: float, dt: float) -> None:
         """After the integration of the step ending at time ``t``: particles in the emitter region
@@ -198,9 +205,10 @@ class FluidEmitter:
 
     # -- checkpoints ---------------------------------------------------------------------------
     def state(self) -> dict:
-        """What a checkpoint needs: the number of layers emitted."""
-        return {"count": self.count}
+        """What a checkpoint needs: the layers and particles emitted so far."""
+        return {"count": self.count, "emitted": self.emitted}
 
     def set_state(self, state: dict) -> None:
         """Restore :meth:`state`."""
         self.count = int(state["count"])
+        self.emitted = int(state["emitted"])

@@ -503,7 +503,11 @@ class Simulation:
         f = self.state.fluid
         for em in self.emitters:
             rho0 = self.scene.material(em.material).density0
-            em.emit(f, self.time, rho0 * self._lattice_volume, self._lattice_volume, rho0)
+            group = [e for e in self.emitters if e.material == em.material]
+            caps = [e.max_particles for e in group if e.max_particles is not None]
+            budget = min(caps) - sum(e.emitted for e in group) if caps else float("inf")
+            em.emit(f, self.time, rho0 * self._lattice_volume, self._lattice_volume, rho0,
+                    budget)
         if self._empty_at_init and f.n:  # e.g. PCISPH's template reads the fluid's volume
             self.pressure.init(self.state)
             self._empty_at_init = False

@@ -253,6 +253,9 @@ class Emitter(_Model):
     start_time: float = Field(0.0, ge=0, description="first emission [s]")
     end_time: float | None = Field(None, description="last emission [s] (None: never stops)")
     material: str = "fluid"
+    max_particles: int | None = Field(
+        None, ge=0, description="stop emitting after this many particles (SPlisHSPlasH's "
+        "maxEmitterParticles: the emitters of one material share the smallest limit among them)")
     housing: bool = Field(
         True, description="surround the emitter with boundary particles, a box (cylinder) open "
         "towards the emit direction, as SPlisHSPlasH does")
