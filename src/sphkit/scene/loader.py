@@ -575,8 +575,7 @@ class _Translator:
         meshes = self.rigid_bodies(rigid)
         emitters = self.emitters(dim, r)
         for e in emitters:
-            if e["material"] not in ids:
-                ids.append(e["material"])
+            if e["material"] not in [m["id"] for m in materials]:
                 materials.append({"id": e["material"]})
 
         scene: dict[str, Any] = {
