@@ -5,6 +5,8 @@
     sphkit run [SCENE] [--until T] [--out DIR] [--fps F] [--format vtk,ply,bgeo] [--quiet|--verbose]
     sphkit surface OUTDIR [--format obj,ply,vtk] [--radius R] [--smoothing-length 2] ...
     sphkit render OUTDIR [--color velocity|pressure|density] [--video auto|mp4|gif|none] ...
+    sphkit run --resume DIR [--until T]
+    sphkit compat [--markdown docs/compatibility.md] [--radius-scale F] [--steps N]
     sphkit scenes
     sphkit --version
 
@@ -153,6 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
     from sphkit.cli_post import add_post_commands
 
     add_post_commands(sub)
+    from sphkit.cli_compat import add_compat_command
+
+    add_compat_command(sub)
     return parser
 
 
@@ -627,6 +632,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_run(args, argv)
         if args.command == "scenes":
             return cmd_scenes(args)
+        if args.command == "compat":
+            from sphkit.cli_compat import cmd_compat
+
+            return cmd_compat(args)
         from sphkit.cli_post import run_post_command
 
         return run_post_command(args)
