@@ -117,6 +117,12 @@ def check_scene(path: Path, steps: int = 5, radius_scale: float = 1.0,
         if max_particles is not None and n > max_particles:
             result.status = "loads, not run"
             result.detail = f"{n} particles > --max-particles {max_particles}"
+        elif radius_scale != 1.0 and scene.fluid_files:
+            # particle files keep their own spacing: with a coarsened radius the fluid would
+            # start at radius_scale^dim times its rest density
+            result.status = "loads, not run"
+            result.detail = (f"particle files are not coarsened by --radius-scale "
+                             f"{radius_scale:g}; run it with --radius-scale 1")
         else:
             try:
                 for _ in range(steps):
