@@ -44,7 +44,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 SCENES = HERE / "scenes"
 DEFAULT_SCENES = [SCENES / f"dambreak_{m}.json" for m in ("wcsph", "pcisph", "pbf", "iisph",
-                                                          "dfsph")]
+                                                          "dfsph", "dfsph_volumemaps")]
 GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
 TIMEOUT_S = 1800  # per code and scene
 
@@ -195,7 +195,7 @@ def _row(scene: str, code: str, r: dict) -> str:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", nargs="*", type=Path, default=DEFAULT_SCENES,
-                    help="SPlisHSPlasH scene files (default: the five dam breaks)")
+                    help="SPlisHSPlasH scene files (default: the six dam breaks)")
     ap.add_argument("--threads", type=int, default=2, help="threads for both codes (default 2)")
     ap.add_argument("--until", type=float, metavar="T",
                     help="simulated end time [s] for every scene (default: each scene's stopAt)")

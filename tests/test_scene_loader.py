@@ -459,7 +459,7 @@ def test_benchmark_scenes_share_their_settings() -> None:
         ({"FluidBlocks": {"denseMode": 1}}, r"FluidBlocks\[0\]\.denseMode: 1"),
         ({"FluidBlocks": {"end": [-0.6, 1.0, 0.5]}}, r"FluidBlocks\[0\]\.end.*exceed start"),
         ({"FluidBlocks": {"initialAngularVelocity": [0, 1, 0]}}, r"initialAngularVelocity"),
-        ({"Emitters": [{"width": 5}]}, r"Emitters: 1 entry; emitters are not supported yet"),
+        ({"Emitters": [{"type": 2}]}, r"Emitters\[0\]\.type: got 2: expected 0 \(box\)"),
         ({"FluidModels": [{"particleFile": "a.bgeo"}]},
          r"FluidModels\[0\]\.particleFile: got 'a\.bgeo': expected an existing particle file"),
     ],

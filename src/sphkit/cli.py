@@ -5,6 +5,8 @@
     sphkit run [SCENE] [--until T] [--out DIR] [--fps F] [--format vtk,ply,bgeo] [--quiet|--verbose]
     sphkit surface OUTDIR [--format obj,ply,vtk] [--radius R] [--smoothing-length 2] ...
     sphkit render OUTDIR [--color velocity|pressure|density] [--video auto|mp4|gif|none] ...
+    sphkit run --resume DIR [--until T]
+    sphkit compat [--markdown docs/compatibility.md] [--radius-scale F] [--steps N]
     sphkit scenes
     sphkit --version
 
@@ -75,6 +77,19 @@ def _positive_float(what: str, example: str) -> Callable[[str], float]:
     return parse
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"got {text!r}; expected a positive integer, e.g. 2")
+    return value
+
+
+_positive_int.__name__ = "positive integer"
+
+
 def _formats(text: str) -> list[str]:
     names = [s.strip().lower() for s in text.split(",") if s.strip()]
     bad = [n for n in names if n not in FORMATS]
@@ -104,9 +119,10 @@ def build_parser() -> argparse.ArgumentParser:
         "run", help="simulate a scene and write frames",
         description="Simulate a scene and write its frames and manifest.json.",
         epilog="Exit codes: 0 finished, 1 failed, 2 bad arguments or scene, 3 unstable, "
-               "130 interrupted.",
+               "130 interrupted (143 terminated); a run stopped by a signal writes a "
+               "checkpoint and continues with --resume DIR.",
     )
-    run.add_argument("scene", nargs="?", default=DEFAULT_SCENE, metavar="SCENE",
+    run.add_argument("scene", nargs="?", default=None, metavar="SCENE",
                      help=f"built-in scene name (see 'sphkit scenes') or scene file "
                           f"(default: {DEFAULT_SCENE})")
     run.add_argument("--until", type=_positive_float("simulated end time in seconds", "2.5"),
@@ -119,6 +135,15 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--format", type=_formats, dest="formats", metavar="LIST",
                      help=f"comma-separated frame formats out of {', '.join(FORMATS)} "
                           "(default: the scene's)")
+    run.add_argument("--checkpoint-every", type=_positive_float(
+                         "simulated seconds between checkpoints", "0.5"), metavar="T",
+                     help="write a checkpoint every T simulated seconds and at the end into "
+                          "DIR/checkpoints (one is always written when a signal stops the run)")
+    run.add_argument("--keep-checkpoints", type=_positive_int, default=2, metavar="N",
+                     help="keep the newest N checkpoints (default 2)")
+    run.add_argument("--resume", type=Path, metavar="DIR",
+                     help="continue the run in output folder DIR from its newest checkpoint, "
+                          "appending frames (only --until may change the scene)")
     run.add_argument("--quiet", "-q", action="store_true",
                      help="print nothing but errors")
     run.add_argument("--verbose", "-v", action="store_true",
@@ -130,6 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
     from sphkit.cli_post import add_post_commands
 
     add_post_commands(sub)
+    from sphkit.cli_compat import add_compat_command
+
+    add_compat_command(sub)
     return parser
 
 
@@ -327,20 +355,36 @@ class _Terminated(KeyboardInterrupt):
     """SIGTERM, handled like Ctrl-C."""
 
 
-@contextmanager
-def _sigterm_as_interrupt() -> Iterator[None]:
-    def handler(signum: int, frame: object) -> None:
-        raise _Terminated()
+class _StopRequest:
+    """The signal (SIGINT/SIGTERM) that asked the run to stop after the current step."""
 
+    def __init__(self) -> None:
+        self.signum: int | None = None
+
+
+@contextmanager
+def _graceful_stop(stop: _StopRequest) -> Iterator[None]:
+    """While the block runs, SIGINT and SIGTERM ask the run to stop after the current step
+    (``stop.signum``); a second signal stops at once (KeyboardInterrupt, or _Terminated)."""
+    def handler(signum: int, frame: object) -> None:
+        if stop.signum is not None:
+            raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+        stop.signum = signum
+
+    previous = {}
     try:
-        previous = signal.signal(signal.SIGTERM, handler)
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, handler)
     except ValueError:  # not the main thread
+        for sig, old in previous.items():
+            signal.signal(sig, old)
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, old in previous.items():
+            signal.signal(sig, old)
 
 
 def _remove_previous_run(out_dir: Path) -> int:
@@ -380,14 +424,16 @@ def _say(report: _Reporter, text: str) -> None:
     get_logger("cli").info(text, extra={"console": False})
 
 
-def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
-    """``sphkit run``: simulate, write frames and the manifest; return the exit code."""
+def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
+    """The scene and simulation of a fresh run (the command-line overrides applied), or an exit
+    code after printing the error."""
     from sphkit.scene.loader import load_scene
     from sphkit.scene.schema import SceneError
-    from sphkit.simulation import InstabilityError, Simulation
+    from sphkit.simulation import Simulation
 
+    name = args.scene or DEFAULT_SCENE
     try:
-        scene = load_scene(args.scene)
+        scene = load_scene(name)
         if args.until is not None:
             scene.configuration.time.until = args.until
         if args.fps is not None:
@@ -396,41 +442,65 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
             scene.output.formats = args.formats
         sim = Simulation.from_scene(scene)
     except SceneError as e:
-        _error(f"scene {args.scene!r}:\n{e}")
+        _error(f"scene {name!r}:\n{e}")
         return EXIT_USAGE
     except OSError as e:
-        _error(f"scene {args.scene!r}: {e}")
+        _error(f"scene {name!r}: {e}")
         return EXIT_USAGE
     except KeyboardInterrupt:
         _error("interrupted while building the simulation")
         return EXIT_INTERRUPTED
+    return scene, sim
+
+
+def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    """``sphkit run``: simulate, write frames and the manifest; return the exit code."""
+    from sphkit.cli_resume import CheckpointSchedule, prepare_resume
+    from sphkit.simulation import InstabilityError
+
+    resume = None
+    if getattr(args, "resume", None) is not None:
+        resume = prepare_resume(args, argv)
+        if isinstance(resume, int):
+            return resume
+        scene, sim, out_dir = resume.scene, resume.sim, resume.out_dir
+    else:
+        built = _build_new_run(args)
+        if isinstance(built, int):
+            return built
+        scene, sim = built
+        out_dir = args.out or Path(scene.output.directory or Path("out") / scene.name)
 
     until = scene.configuration.time.until
-    fps = scene.output.fps
-    formats = list(scene.output.formats)
-    out_dir = args.out or Path(scene.output.directory or Path("out") / scene.name)
-    attributes = scene.output.attributes
+    fps = resume.fps if resume else scene.output.fps
+    formats = resume.formats if resume else list(scene.output.formats)
+    attributes = resume.attributes if resume else scene.output.attributes
+    label = str(args.resume) if resume else (args.scene or DEFAULT_SCENE)
     if attributes is not None:
         try:
             resolve_attributes(attributes, sim.fluid)
         except ValueError as e:
-            _error(f"scene {args.scene!r}: {e}")
+            _error(f"scene {label!r}: {e}")
             return EXIT_USAGE
     session = getattr(args, "log_session", None)
     log = get_logger("cli")
 
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
-        removed = _remove_previous_run(out_dir)
+        removed = 0 if resume else _remove_previous_run(out_dir)
         if session is not None:
-            session.add_file(out_dir)
+            session.add_file(out_dir, append=resume is not None)
         writer = FrameWriter(out_dir, formats, sim.dim, attributes=attributes)
-        manifest = Manifest(
-            out_dir, scene, command=["sphkit", *argv],
-            output={"directory": str(out_dir), "formats": formats, "fps": fps,
-                    "dim": sim.dim, "attributes": attributes,
-                    "series": writer.series_path.name if "vtk" in formats else None},
-        )
+        if resume:
+            writer.resume_after(sim._frame)
+            manifest = resume.manifest(["sphkit", *argv])
+        else:
+            manifest = Manifest(
+                out_dir, scene, command=["sphkit", *argv],
+                output={"directory": str(out_dir), "formats": formats, "fps": fps,
+                        "dim": sim.dim, "attributes": attributes,
+                        "series": writer.series_path.name if "vtk" in formats else None},
+            )
     except OSError as e:
         _error(f"cannot write to the output folder {str(out_dir)!r}: {e}")
         return EXIT_FAILED
@@ -442,6 +512,9 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
              extra={"console": False})
     if removed:
         _say(report, f"removed {removed} file(s) of the previous run in {out_dir}")
+    if resume:
+        for line in resume.messages:
+            _say(report, line)
     _say(report,
         f"scene {scene.name!r}: {sim.fluid.n} fluid and {sim.boundary.n} boundary particles, "
         f"{sim.dim}D, until t = {until:g} s; {fps:g} frames/s as {', '.join(formats)} "
@@ -465,16 +538,39 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         report.count_step(stats)
         report.step(s)
 
+    checkpoints = CheckpointSchedule(out_dir, sim, manifest, args.checkpoint_every,
+                                     args.keep_checkpoints)
+    stop = _StopRequest()
+
+    def after_step(s: Any) -> bool:
+        checkpoints.after_step(s)
+        return stop.signum is not None
+
     try:
-        with _sigterm_as_interrupt(), report:
-            sim.run(until=until, fps=fps, on_frame=on_frame, on_step=on_step)
-            report.done(sim)
+        with _graceful_stop(stop), report:
+            finished = sim.run(until=until, fps=fps, on_frame=on_frame, on_step=on_step,
+                               after_step=after_step)
+            if finished:
+                report.done(sim)
+        if not finished:  # SIGINT/SIGTERM: the step is complete, its frames are written
+            terminated = stop.signum == signal.SIGTERM
+            why = "terminated (SIGTERM)" if terminated else "interrupted (Ctrl-C)"
+            path = checkpoints.write(sim)
+            _finish(manifest, "interrupted",
+                    f"{why} at step {sim.step_count}, t = {sim.time:.6g} s; checkpoint "
+                    f"{checkpoints.relative(path)}", sim.last)
+            _error(f"{why} at t = {sim.time:.6g} s after step {sim.step_count}; the "
+                   f"{len(manifest.frames)} frame(s) written so far are kept in {out_dir}; "
+                   f"continue with: sphkit run --resume {out_dir}")
+            return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+        if args.checkpoint_every is not None:
+            checkpoints.write(sim)  # the end state, to extend the run with --resume --until
         manifest.finish("finished", stats=sim.last)
     except InstabilityError as e:
         _finish(manifest, "unstable", str(e), e.stats)
         _error(f"{e}\nThe {len(manifest.frames)} frame(s) written so far are kept in {out_dir}.")
         return EXIT_UNSTABLE
-    except KeyboardInterrupt as e:
+    except KeyboardInterrupt as e:  # a second signal, or one outside the step loop
         terminated = isinstance(e, _Terminated)
         why = "terminated (SIGTERM)" if terminated else "interrupted (Ctrl-C)"
         _finish(manifest, "interrupted",
@@ -536,6 +632,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_run(args, argv)
         if args.command == "scenes":
             return cmd_scenes(args)
+        if args.command == "compat":
+            from sphkit.cli_compat import cmd_compat
+
+            return cmd_compat(args)
         from sphkit.cli_post import run_post_command
 
         return run_post_command(args)

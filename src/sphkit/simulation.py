@@ -14,7 +14,9 @@ One step (DESIGN.md, "Data flow of one time step"):
    solver, which adds the pressure acceleration (PBF: the acceleration that lands on its
    corrected positions);
 7. symplectic Euler;
-8. stability guard: NaN/inf velocities or a speed above ``configuration.max_velocity`` raise
+8. emitters (:mod:`sphkit.emitters`): particles in an emitter's region move with it, then the
+   layers due by the new time are added;
+9. stability guard: NaN/inf velocities or a speed above ``configuration.max_velocity`` raise
    :class:`InstabilityError` with a diagnosis (step, time, max velocity, CFL number, density error).
 """
 
@@ -46,6 +48,7 @@ from sphkit.core.timestep import (
 )
 from sphkit.drag.gissler2017 import Gissler2017
 from sphkit.drag.macklin2014 import Macklin2014
+from sphkit.emitters import FluidEmitter
 from sphkit.pressure.dfsph import DFSPH
 from sphkit.pressure.iisph import IISPH
 from sphkit.pressure.pbf import PBF
@@ -193,7 +196,8 @@ class Simulation:
         h = 4.0 * r
         kid = kernel_id(cfg.kernel)
         used = ({b.material for b in scene.fluid_blocks} | {f.material for f in scene.fluid_files}
-                | {b.material for b in scene.fluid_meshes}) or {scene.materials[0].id}
+                | {b.material for b in scene.fluid_meshes}
+                | {e.material for e in scene.emitters}) or {scene.materials[0].id}
         if len(used) > 1:
             raise SceneError(
                 f"fluid_blocks: materials {sorted(used)}; multiphase fluids are not supported yet, "
@@ -221,11 +225,16 @@ class Simulation:
             _check_periodic(scene, mat)
         bm_cls = BOUNDARY_MODELS[cfg.boundary.method]
         self._maps = getattr(bm_cls, "uses_maps", False)  # walls as maps, not particles
+        self.emitters = [FluidEmitter(e, self.dim, r, h, name=f"emitters[{k}]")
+                         for k, e in enumerate(scene.emitters)]
         self._sample(scene)
-        if fluid.n == 0:
+        if fluid.n == 0 and not self.emitters:
             raise SceneError(
                 "fluid_blocks, fluid_files: the scene has no fluid particles; expected at least one"
+                " (or an emitter)"
             )
+        self._lattice_volume = lattice_volume(2.0 * r, kid, h, self.dim)
+        self._empty_at_init = fluid.n == 0  # methods that read the fluid initialise at emission
 
         self.pressure = build_pressure_solver(cfg.pressure)
         if self._maps:
@@ -367,6 +376,10 @@ class Simulation:
                 st.boundary.add(pts, name=f"meshes[{k}]", rigid_body=len(self._rigid_meshes))
                 continue
             st.boundary.add(clip(pts), name=f"meshes[{k}]")
+        for k, (em, cfg) in enumerate(zip(self.emitters, scene.emitters, strict=True)):
+            if cfg.housing:
+                pts = sampling.sample_mesh_surface(em.housing_mesh(), r, dim)
+                st.boundary.add(clip(pts), name=f"emitters[{k}].housing")
 
     def _rigid_bodies(self, scene: Scene) -> RigidBodies:
         """The scene's kinematic and dynamic meshes as rigid bodies; static boxes and meshes are
@@ -476,6 +489,76 @@ class Simulation:
                                    thickness=mb.map_thickness, resolution=mres))
         return out
 
+    # -- checkpoints ----------------------------------------------------------------------------
+    def checkpoint_state(self) -> dict:
+        """The clock and the state of components outside the particle fields (JSON-ready)."""
+        return {"time": self.time, "step_count": self.step_count, "dt": self.dt,
+                "frame": self._frame, "last": None if self.last is None else self.last.as_dict(),
+                "emitters": [em.state() for em in self.emitters],
+                "empty_at_init": self._empty_at_init}
+
+    def save_checkpoint(self, path: str | Path, extra: dict | None = None,
+                        keep: int | None = None) -> Path:
+        """Write everything needed to continue this run to ``path`` (see
+        :mod:`sphkit.io.checkpoint`); ``extra`` is stored for the caller."""
+        from sphkit.io.checkpoint import write_checkpoint
+
+        return write_checkpoint(path, {"fluid": self.state.fluid, "boundary": self.state.boundary},
+                                self.checkpoint_state(), self.scene.model_dump(mode="json"),
+                                extra=extra, keep=keep)
+
+    @classmethod
+    def from_checkpoint(cls, src) -> Simulation:
+        """Continue a run from a checkpoint (a file, a :class:`~sphkit.io.checkpoint.Checkpoint`,
+        or an output folder: its newest). The scene is the one stored in the checkpoint; its
+        files (meshes, particle files) must still exist. On the CPU, with the same versions and
+        thread count, the continued run repeats the uninterrupted one bit for bit."""
+        from sphkit.io.checkpoint import Checkpoint, CheckpointError, read_checkpoint
+
+        ck = src if isinstance(src, Checkpoint) else read_checkpoint(src)
+        try:
+            scene = Scene.model_validate(ck.meta["scene"])
+        except Exception as e:
+            raise CheckpointError(f"{str(ck.path)!r}: its scene is not valid here ({e})") from None
+        sim = cls(scene)
+        sim.restore_checkpoint(ck)
+        return sim
+
+    def restore_checkpoint(self, ck) -> None:
+        """Load a :class:`~sphkit.io.checkpoint.Checkpoint` of this scene into this simulation."""
+        from sphkit.io.checkpoint import CheckpointError
+
+        st = self.state
+        sets = ck.meta["sets"]
+        try:
+            old_bx = st.boundary["x"].copy()
+            st.boundary.set_state(sets["boundary"], ck.arrays.get("boundary", {}))
+            if old_bx.shape != st.boundary["x"].shape or not np.array_equal(old_bx,
+                                                                             st.boundary["x"]):
+                # the walls moved since the checkpoint's scene was sampled: rebuild the boundary
+                # model's structures from the stored walls, keep the stored fields
+                self.boundary_model.init(st)
+                st.boundary.set_state(sets["boundary"], ck.arrays.get("boundary", {}))
+            st.fluid.set_state(sets["fluid"], ck.arrays.get("fluid", {}))
+        except (ValueError, KeyError) as e:
+            raise CheckpointError(f"{str(ck.path)!r}: {e}") from None
+        s = ck.meta["state"]
+        self.time = float(s["time"])
+        self.step_count = int(s["step_count"])
+        self.dt = float(s["dt"])
+        self._frame = int(s["frame"])
+        st.time, st.step = self.time, self.step_count
+        self.last = None if s.get("last") is None else StepStats(**s["last"])
+        emitters = s.get("emitters", [])
+        if len(emitters) != len(self.emitters):
+            raise CheckpointError(f"{str(ck.path)!r}: {len(emitters)} emitter state(s) for "
+                                  f"{len(self.emitters)} emitter(s)")
+        for em, es in zip(self.emitters, emitters, strict=True):
+            em.set_state(es)
+        self._empty_at_init = bool(s.get("empty_at_init", False))
+        if st.fluid.n and not self._empty_at_init:
+            self.pressure.init(st)  # re-derive what solvers compute from the fluid
+
     # -- user-facing state ----------------------------------------------------------------------
     @property
     def fluid(self) -> ParticleSet:
@@ -550,6 +633,8 @@ class Simulation:
         st = self.state
         f = st.fluid
         st.step = self.step_count + 1  # the step being computed (named in solver warnings)
+        if f.n == 0:  # nothing to simulate before the first emission
+            return self._empty_step()
         self._neighbors()
         self.compute_density()
         dt = self._time_step()
@@ -570,10 +655,13 @@ class Simulation:
             self.boundary_model.rebuild(st)
         if st.period > 0.0:
             wrap_periodic(f["x"], st.period_lo, st.period)
+        for em in self.emitters:
+            em.animate(f, self.time + dt, dt)
         self.dt = dt
         self.time += dt
         self.step_count += 1
         st.time, st.step = self.time, self.step_count
+        self._emit()
         vmax, bad = speed_check(f["v"])
         stats = StepStats(step=self.step_count, time=self.time, dt=dt, n_fluid=f.n,
                           max_velocity=vmax, cfl=vmax * dt / (2.0 * st.r),
@@ -592,6 +680,36 @@ class Simulation:
             raise InstabilityError(self._diagnosis(stats, bad, limit), stats)
         return stats
 
+    def _emit(self) -> None:
+        """Add the emitters' layers due by the current time."""
+        if not self.emitters:
+            return
+        f = self.state.fluid
+        for em in self.emitters:
+            rho0 = self.scene.material(em.material).density0
+            group = [e for e in self.emitters if e.material == em.material]
+            caps = [e.max_particles for e in group if e.max_particles is not None]
+            budget = min(caps) - sum(e.emitted for e in group) if caps else float("inf")
+            em.emit(f, self.time, rho0 * self._lattice_volume, self._lattice_volume, rho0,
+                    budget)
+        if self._empty_at_init and f.n:  # e.g. PCISPH's template reads the fluid's volume
+            self.pressure.init(self.state)
+            self._empty_at_init = False
+
+    def _empty_step(self) -> StepStats:
+        """A step without fluid (an emitter starts later): the clock advances by time.dt."""
+        dt = self.scene.configuration.time.dt
+        self.dt = dt
+        self.time += dt
+        self.step_count += 1
+        self.state.time, self.state.step = self.time, self.step_count
+        self._emit()
+        stats = StepStats(step=self.step_count, time=self.time, dt=dt, n_fluid=self.state.fluid.n,
+                          max_velocity=0.0, cfl=0.0, density_error_avg=0.0,
+                          density_error_max=0.0, iterations=0)
+        self.last, self.last_solver = stats, None
+        return stats
+
     def _diagnosis(self, s: StepStats, bad: int, limit: float) -> str:
         what = (f"{bad} particle(s) with NaN/inf velocity" if bad
                 else f"max velocity {s.max_velocity:.4g} m/s exceeds the limit {limit:.4g} m/s")
@@ -605,14 +723,16 @@ class Simulation:
 
     def run(self, until: float | None = None, fps: float | None = None,
             on_frame: Callable[[Simulation, int], None] | None = None,
-            on_step: Callable[[Simulation, StepStats], None] | None = None) -> None:
+            on_step: Callable[[Simulation, StepStats], None] | None = None,
+            after_step: Callable[[Simulation], bool] | None = None) -> bool:
         """Step until simulated time ``until`` (default: the scene's), calling ``on_frame(sim, k)``
         at t = 0 and every ``1/fps`` (default: the scene's output fps) and ``on_step`` after each
-        step."""
+        step. ``after_step(sim)`` is called once the step's frames are written (checkpoints);
+        when it returns True the run stops there. Returns True when ``until`` was reached."""
         until = self.scene.configuration.time.until if until is None else float(until)
         fps = self.scene.output.fps if fps is None else float(fps)
         if self._frame < 0:
-            if self.step_count == 0:
+            if self.step_count == 0 and self.state.fluid.n:
                 self._neighbors()
                 self.compute_density()
             self._frame = 0
@@ -626,3 +746,6 @@ class Simulation:
                 self._frame += 1
                 if on_frame:
                     on_frame(self, self._frame)
+            if after_step is not None and after_step(self):
+                return False
+        return True

@@ -5,6 +5,11 @@ DESIGN.md prescribes; :meth:`ParticleSet.view` hands out the usual (N, dim) layo
 Methods register the per-particle fields they need (``register``) instead of keeping private
 arrays, so that output, checkpoints, reordering and the GPU backend see every field.
 Every set carries an ``id`` field: a stable user-visible particle number that survives reordering.
+
+Storage grows by capacity doubling: each field lives in a flat buffer of ``capacity`` particles
+and ``ps[name]`` is a C-contiguous view of its first ``n`` (a (dim, n) view for vectors), so that
+appending particles every few steps (emitters) reallocates only when the capacity is exceeded.
+The views are replaced when particles are added: take ``ps[name]`` again after :meth:`add`.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ class FieldSpec:
     name: str
     kind: str
     dtype: np.dtype
+    fill: float = 0.0  #: value of particles added later (e.g. NaN: "no history yet")
 
 
 @dataclass
@@ -49,8 +55,11 @@ class ParticleSet:
         self.dim = dim
         self.dtype = np.dtype(dtype)
         self.n = 0
+        self.capacity = 0  #: particles the buffers hold before the next reallocation
+        self.next_id = 0  #: the id the next added particle gets (ids are never reused)
         self.specs: dict[str, FieldSpec] = {}
         self.fields: dict[str, np.ndarray] = {}
+        self._buffers: dict[str, np.ndarray] = {}
         self.objects: list[ObjectRange] = []
         self.register("x", "vector")
         self.register("id", "scalar", np.int64)
@@ -68,16 +77,49 @@ class ParticleSet:
             if spec.kind != kind or spec.dtype != dt:
                 raise ValueError(f"field {name} is already registered as {spec.kind} {spec.dtype}")
             return self.fields[name]
-        self.specs[name] = FieldSpec(name, kind, dt)
-        self.fields[name] = np.full(self._shape(kind, self.n), fill, dtype=dt)
+        self.specs[name] = FieldSpec(name, kind, dt, fill)
+        self._buffers[name] = np.full(self._width(kind) * self.capacity, fill, dtype=dt)
+        self._view(name)
         return self.fields[name]
 
+    def _width(self, kind: str) -> int:
+        return self.dim if kind == "vector" else 3 if kind == "vector3" else 1
+
     def _shape(self, kind: str, n: int) -> tuple[int, ...]:
-        if kind == "vector":
-            return (self.dim, n)
-        if kind == "vector3":
-            return (3, n)
-        return (n,)
+        if kind == "scalar":
+            return (n,)
+        return (self._width(kind), n)
+
+    def _view(self, name: str) -> None:
+        """Point ``fields[name]`` at the first ``n`` particles of its buffer (C-contiguous)."""
+        spec = self.specs[name]
+        w = self._width(spec.kind)
+        self.fields[name] = self._buffers[name][: w * self.n].reshape(self._shape(spec.kind,
+                                                                                  self.n))
+
+    def _grow(self, m: int) -> None:
+        """Make room for ``m`` more particles: rows move apart inside the buffer, or into a
+        buffer of twice the capacity when it is full."""
+        n, new_n = self.n, self.n + m
+        if new_n > self.capacity:
+            cap = max(2 * self.capacity, new_n, 16)
+            for fname, spec in self.specs.items():
+                w = self._width(spec.kind)
+                buf = np.full(w * cap, spec.fill, dtype=spec.dtype)
+                old = self.fields[fname].reshape(w, n)
+                buf[: w * new_n].reshape(w, new_n)[:, :n] = old
+                self._buffers[fname] = buf
+            self.capacity = cap
+        else:
+            for fname, spec in self.specs.items():
+                w = self._width(spec.kind)
+                buf = self._buffers[fname]
+                for d in range(w - 1, -1, -1):  # last row first: no row overwrites an unread one
+                    buf[d * new_n: d * new_n + n] = buf[d * n: d * n + n].copy()
+                    buf[d * new_n + n: (d + 1) * new_n] = spec.fill
+        self.n = new_n
+        for fname in self.specs:
+            self._view(fname)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.fields[name]
@@ -98,22 +140,24 @@ class ParticleSet:
     def add(self, x: np.ndarray, name: str = "object", **values: np.ndarray | float) -> ObjectRange:
         """Append particles at positions ``x`` (M, dim) and return their object range.
 
-        Keyword arguments give initial values of registered fields (broadcast); other fields are
-        zero. Ids continue from the largest id so far.
+        Keyword arguments give initial values of registered fields (broadcast); other fields get
+        the ``fill`` they were registered with (0 by default). Ids continue from :attr:`next_id`
+        (one past the largest id ever handed out), so they stay unique. The buffers grow by
+        doubling (see the module docstring). Adds under the name of the last object, directly
+        after it, extend its range instead of opening a new one (an emitter's layers).
         """
         x = np.asarray(x, dtype=self.dtype)
         if x.ndim != 2 or x.shape[1] != self.dim:
             raise ValueError(f"{name}: positions of shape {x.shape}; expected (M, {self.dim})")
         m = x.shape[0]
         start = self.n
-        next_id = int(self.fields["id"].max()) + 1 if self.n else 0
-        for fname, spec in self.specs.items():
-            new = np.zeros(self._shape(spec.kind, self.n + m), dtype=spec.dtype)
-            new[..., : self.n] = self.fields[fname]
-            self.fields[fname] = new
-        self.n += m
+        if self.n:
+            self.next_id = max(self.next_id, int(self.fields["id"].max()) + 1)
+        next_id = self.next_id
+        self._grow(m)
         self.fields["x"][:, start:] = x.T
         self.fields["id"][start:] = np.arange(next_id, next_id + m)
+        self.next_id = next_id + m
         for fname, val in values.items():
             if fname not in self.specs:
                 raise KeyError(f"field {fname} is not registered")
@@ -122,7 +166,11 @@ class ParticleSet:
                 self.fields[fname][:, start:] = arr.reshape(-1, 1) if arr.ndim == 1 else arr.T
             else:
                 self.fields[fname][start:] = arr
-        rng = ObjectRange(name, start, self.n)
+        last = self.objects[-1] if self.objects else None
+        if last is not None and last.name == name and last.end == next_id:
+            last.end = next_id + m  # repeated adds of one object (an emitter) extend its range
+            return last
+        rng = ObjectRange(name, next_id, next_id + m)
         self.objects.append(rng)
         return rng
 
@@ -145,9 +193,51 @@ class ParticleSet:
         """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles."""
         for fname, spec in self.specs.items():
             a = self.fields[fname]
-            b = a[perm] if spec.kind == "scalar" else a[:, perm]
-            self.fields[fname] = np.ascontiguousarray(b)
+            a[...] = a[perm] if spec.kind == "scalar" else a[:, perm]
 
     def order_by_id(self) -> np.ndarray:
         """Permutation that sorts the particles by id (to compare states across reorderings)."""
         return np.argsort(self.fields["id"], kind="stable")
+
+    # -- checkpoints ------------------------------------------------------------------------------
+    def state(self) -> tuple[dict, dict[str, np.ndarray]]:
+        """Everything needed to rebuild this set: (metadata, {field: array of the n particles}).
+
+        The arrays are the fields in memory order (not sorted by id), so that a restored set
+        walks its neighbours in the same order and a resumed run repeats the same arithmetic.
+        """
+        meta = {
+            "dim": self.dim, "dtype": self.dtype.str, "n": self.n, "next_id": self.next_id,
+            "specs": {k: {"kind": s.kind, "dtype": s.dtype.str, "fill": s.fill}
+                      for k, s in self.specs.items()},
+            "objects": [[o.name, o.start, o.end] for o in self.objects],
+        }
+        return meta, {k: self.fields[k].copy() for k in self.specs}
+
+    def set_state(self, meta: dict, arrays: dict[str, np.ndarray]) -> None:
+        """Replace every field, ids and object ranges by a :meth:`state` (fields the state has
+        and this set lacks are registered; a field this set has and the state lacks is an error:
+        the state was written by another configuration)."""
+        if int(meta["dim"]) != self.dim:
+            raise ValueError(f"particle state of dimension {meta['dim']}; expected {self.dim}")
+        missing = sorted(set(self.specs) - set(meta["specs"]))
+        if missing:
+            raise ValueError(f"particle state lacks the field(s) {missing} that this simulation "
+                             "registered; it was written by another scene or sphkit version")
+        for name, sp in meta["specs"].items():
+            self.register(name, sp["kind"], np.dtype(sp["dtype"]), sp.get("fill", 0.0))
+        n = int(meta["n"])
+        self.n = 0
+        self.capacity = 0
+        for name in self.specs:
+            self._buffers[name] = np.zeros(0, dtype=self.specs[name].dtype)
+            self._view(name)
+        self._grow(n)
+        for name, spec in self.specs.items():
+            a = np.asarray(arrays[name])
+            if a.shape != self.fields[name].shape or a.dtype != spec.dtype:
+                raise ValueError(f"particle state field {name}: {a.dtype} {a.shape}; expected "
+                                 f"{spec.dtype} {self.fields[name].shape}")
+            self.fields[name][...] = a
+        self.next_id = int(meta["next_id"])
+        self.objects = [ObjectRange(str(a), int(b), int(c)) for a, b, c in meta["objects"]]

@@ -363,6 +363,28 @@ class FrameWriter:
             paths.append(path)
         return paths
 
+    def resume_after(self, frame: int) -> None:
+        """Continue a series whose frames up to ``frame`` are on disk (a resumed run): the VTK
+        series index keeps their entries, and the displacement of the next frame is measured
+        from frame ``frame`` (read back from the first format that has it)."""
+        try:
+            data = json.loads(self.series_path.read_text(encoding="utf-8"))
+            entries = data.get("files", [])
+        except (OSError, ValueError, AttributeError):
+            entries = []
+        keep = {self.path(k, "vtk").name for k in range(frame + 1)}
+        self._series = [e for e in entries if e.get("name") in keep]
+        self._prev = None
+        for fmt in self.formats:
+            path = self.path(frame, fmt)
+            if path.is_file():
+                try:
+                    arrays = read_frame(path)
+                except (OSError, ValueError):
+                    continue
+                self._prev = (arrays["id"], arrays["position"])
+                break
+
     def _track_displacement(self, arrays: dict[str, np.ndarray]) -> None:
         ids, pos = arrays["id"], arrays["position"]
         if self._prev is None:

@@ -29,7 +29,11 @@ a valid manifest describing the frames on disk. Layout (``format_version`` 1)::
                            "divergence_error": ...},
       "run_stats": {"steps": 120, "mean_iterations": 3.4, "max_iterations": 7,
                     "mean_divergence_iterations": 1.1, "mean_density_error": 0.0004,
-                    "max_density_error": 0.02, "mean_divergence_error": 0.0009}
+                    "max_density_error": 0.02, "mean_divergence_error": 0.0009},
+      "checkpoint": null | {"file": "checkpoints/checkpoint_000000120.npz", "time": ...,
+                            "step": ..., "frame": ...},
+      "resumed": [{"checkpoint": ..., "time": ..., "step": ..., "frame": ..., "command": [...],
+                   "started": ..., "sphkit_version": ...}]   (only in resumed runs)
     }
 
 Units: times and ``dt`` [s], ``max_velocity`` [m/s], ``max_displacement`` [m] (largest distance a
@@ -42,7 +46,9 @@ all steps so far (see :meth:`Manifest.add_step`): ``mean_iterations`` and ``max_
 step, ``mean_divergence_iterations`` per step, ``mean_density_error`` (the mean over steps of
 ``density_error_avg``), ``max_density_error`` (the largest ``density_error_max``) and
 ``mean_divergence_error``. Statistics that are not known yet (before the first step) or not
-finite (an exploded run) are ``null``; file names are relative to the manifest.
+finite (an exploded run) are ``null``; file names are relative to the manifest. ``checkpoint``
+is the newest checkpoint written (``sphkit run --checkpoint-every``, or at a stop by a signal);
+a resumed run (``sphkit run --resume``) keeps the frames up to its checkpoint's and appends.
 """
 
 from __future__ import annotations
@@ -192,6 +198,24 @@ class RunStats:
         n = self._counts.get(key, 0)
         return self._sums[key] / n if n else None
 
+    def state(self) -> dict[str, Any]:
+        """The running totals (for a checkpoint; :meth:`from_state` continues them)."""
+        return {"steps": self.steps, "sums": dict(self._sums), "counts": dict(self._counts),
+                "max_iterations": self.max_iterations,
+                "max_density_error": self.max_density_error}
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any] | None) -> RunStats:
+        """Totals saved by :meth:`state` (empty totals for None)."""
+        rs = cls()
+        if state:
+            rs.steps = int(state["steps"])
+            rs._sums = {str(k): float(v) for k, v in state["sums"].items()}
+            rs._counts = {str(k): int(v) for k, v in state["counts"].items()}
+            rs.max_iterations = state.get("max_iterations")
+            rs.max_density_error = state.get("max_density_error")
+        return rs
+
     def as_dict(self) -> dict[str, Any]:
         """The manifest's ``run_stats``."""
         return {
@@ -243,6 +267,29 @@ class Manifest:
         }
         self.run_stats = RunStats()
         self.write()
+
+    @classmethod
+    def resume(cls, out_dir: str | os.PathLike[str], frame: int,
+               command: Sequence[str] | None = None, run_stats: RunStats | None = None,
+               note: dict[str, Any] | None = None) -> Manifest:
+        """Continue the manifest of ``out_dir`` after its frame ``frame`` (a resumed run): later
+        frame records are dropped (they are written again), the status is "running" again, and
+        ``resumed`` lists each resume (``note``, the command and when). ``wall_time_s`` keeps
+        counting from the earlier runs' total."""
+        self = cls.__new__(cls)
+        self.out_dir = Path(out_dir)
+        self.path = self.out_dir / MANIFEST_NAME
+        self.data = read_manifest(self.path)
+        wall = float(self.data.get("wall_time_s") or 0.0)
+        self._t0 = time.perf_counter() - wall
+        self.data["frames"] = [r for r in self.data.get("frames", []) if r["frame"] <= frame]
+        self.data.update(status="running", message=None, ended=None)
+        self.data.setdefault("resumed", []).append({
+            **(note or {}), "command": list(sys.argv if command is None else command),
+            "started": _now(), "sphkit_version": sphkit_version()})
+        self.run_stats = run_stats or RunStats()
+        self.write()
+        return self
 
     @property
     def status(self) -> str:

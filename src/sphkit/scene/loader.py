@@ -88,6 +88,14 @@ objects):
                             ``id``, ``initialVelocity``, ``initialAngularVelocity`` (these
                             replace the file's velocities, as in SPlisHSPlasH); OBJ meshes to
                             fill are not supported
+``Emitters``                ``type`` 0 (box) / 1 (circle), ``width``/``height`` 5 (particles,
+                            become ``width``/``height`` = n 2r), ``translation``,
+                            ``rotationAxis``/``rotationAngle`` (forced about z in 2D, where every
+                            emitter is a box of width 1 as in ``createEmitters``), ``velocity``
+                            1, ``id``, ``emitStartTime`` 0, ``emitEndTime`` (none) ->
+                            ``emitters`` (:mod:`sphkit.emitters`); the material's
+                            ``maxEmitterParticles`` (10,000) -> ``max_particles``;
+                            ``emitterReuseParticles`` is not supported (a warning)
 ==========================  ===============================================================
 
 Older scenes (before 2.16) write solver and method parameters flat (``"stiffness"`` or
@@ -338,9 +346,8 @@ def _check_particle_file(f: Path, given: str, where: str) -> None:
 # SPlisHSPlasH
 # ----------------------------------------------------------------------------------------------
 
-_SPH_ARRAYS = ("Materials", "FluidBlocks", "RigidBodies", "FluidModels")
+_SPH_ARRAYS = ("Materials", "FluidBlocks", "RigidBodies", "FluidModels", "Emitters")
 _SPH_UNSUPPORTED_ARRAYS = {
-    "Emitters": "emitters",
     "AnimationFields": "animation fields",
     # joints of PositionBasedDynamics, which only connect dynamic rigid bodies
     "BallJoints": "joints between dynamic rigid bodies",
@@ -447,7 +454,7 @@ _CONFIG_QUIET = {
 }
 _MATERIAL_QUIET = {
     "colorField", "colorMapType", "renderMinValue", "renderMaxValue", "visible",
-    # emitter settings (emitters are rejected on their own)
+    # emitter settings (read with the emitters; the box only matters with reuse, see notes)
     "maxEmitterParticles", "emitterReuseParticles", "emitterBoxMin", "emitterBoxMax",
 }
 # namespaces of non-pressure methods; ignored when the material does not select the method
@@ -592,7 +599,8 @@ class _Translator:
 
         cfg = self.obj(data, "Configuration", "Configuration")
         rigid = self.array("RigidBodies")
-        configuration, output = self.configuration(cfg, bool(rigid))
+        # emitters come with a housing of boundary particles: the boundary method matters
+        configuration, output = self.configuration(cfg, bool(rigid) or bool(self.array("Emitters")))
         dim = configuration["dim"]
         r = configuration["particle_radius"]
         materials = self.materials()
@@ -611,6 +619,10 @@ class _Translator:
         if not materials:
             materials.append({"id": "Fluid"})
         meshes = self.rigid_bodies(rigid)
+        emitters = self.emitters(dim, r)
+        for e in emitters:
+            if e["material"] not in [m["id"] for m in materials]:
+                materials.append({"id": e["material"]})
 
         scene: dict[str, Any] = {
             "name": self.path.stem if self.path else "splishsplash",
@@ -625,6 +637,8 @@ class _Translator:
             scene["fluid_files"] = fluid_files
         if fluid_meshes:
             scene["fluid_meshes"] = fluid_meshes
+        if emitters:
+            scene["emitters"] = emitters
         if output:
             scene["output"] = output
         if self.path is not None:
@@ -1171,6 +1185,63 @@ class _Translator:
                 entry["angular_velocity"] = omega
             out.append(entry)
         self.origin["fluid_files"] = "FluidModels"
+        return out
+
+    def emitters(self, dim: int, r: float) -> list[dict[str, Any]]:
+        """``Emitters`` -> ``emitters`` (``SimulatorBase::createEmitters``, ``Emitter.cpp``):
+        widths in particles become metres (``n 2r``); in 2D every emitter is a box of width 1,
+        its line ``height`` (box) or ``width`` (circle) particles long, rotating about z; the
+        material's ``maxEmitterParticles`` (10,000) becomes ``max_particles``."""
+        caps = {}
+        for m in self.array("Materials"):
+            cap = self.integer(m, "maxEmitterParticles", "Materials[]", 10000)
+            caps[self.text(m, "id", "Materials[]", "Fluid")] = cap
+            if self.flag(m, "emitterReuseParticles", "Materials[]", False):
+                self.notes.append(
+                    f"Materials[id={m.get('id', 'Fluid')!r}].emitterReuseParticles: true: "
+                    "sphkit does not recycle particles that leave emitterBoxMin/emitterBoxMax; "
+                    "they stay in the simulation")
+        out = []
+        for k, e in enumerate(self.array("Emitters")):
+            w = f"Emitters[{k}]"
+            known = {"type", "width", "height", "translation", "rotationAxis", "rotationAngle",
+                     "velocity", "id", "emitStartTime", "emitEndTime"}
+            self.collect_unknown(e, w, known, set())
+            kind = self.integer(e, "type", w, 0)
+            if kind not in (0, 1):
+                raise self.error(f"{w}.type", kind, "0 (box) or 1 (circle)")
+            width = self.integer(e, "width", w, 5)
+            height = self.integer(e, "height", w, 5)
+            for key, v in (("width", width), ("height", height)):
+                if v < 1:
+                    raise self.error(f"{w}.{key}", v, "a number of particles >= 1")
+            velocity = self.num(e, "velocity", w, 1.0, positive=True)
+            start = self.num(e, "emitStartTime", w, 0.0, nonneg=True)
+            end = None if e.get("emitEndTime") is None else self.num(e, "emitEndTime", w, 0.0)
+            if end is not None and end < start:
+                raise self.error(f"{w}.emitEndTime", end, f"a time >= emitStartTime {start}")
+            axis = self.vec3(e, "rotationAxis", w, [0.0, 0.0, 1.0])
+            angle = self.num(e, "rotationAngle", w, 0.0)
+            diam = 2.0 * r
+            entry: dict[str, Any] = {
+                "shape": "circle" if kind == 1 else "box",
+                "position": self.vec3(e, "translation", w, [0.0, 0.0, 0.0]),
+                "velocity": velocity, "start_time": start, "end_time": end,
+                "material": self.text(e, "id", w, "Fluid"),
+            }
+            if dim == 2:  # SPlisHSPlasH: a box of width 1, rotated about z
+                entry.update(shape="box", width=(width if kind == 1 else height) * diam,
+                             rotation_axis=[0.0, 0.0, 1.0], rotation_angle=angle)
+            else:
+                if angle != 0.0 and not any(axis):
+                    raise self.error(f"{w}.rotationAxis", axis, "a non-zero axis")
+                entry.update(width=width * diam, height=height * diam, rotation_axis=axis,
+                             rotation_angle=angle)
+            entry["max_particles"] = caps.get(entry["material"], 10000)
+            n = len(out)
+            self.origin[f"emitters[{n}]"] = w
+            out.append(entry)
+        self.origin["emitters"] = "Emitters"
         return out
 
     def rigid_bodies(self, bodies: list[dict[str, Any]]) -> list[dict[str, Any]]:

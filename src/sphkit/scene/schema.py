@@ -388,6 +388,46 @@ class FluidMesh(_Model):
     velocity: Vec | None = Field(None, description="initial velocity [m/s]")
 
 
+class Emitter(_Model):
+    """A fluid emitter (SPlisHSPlasH's ``Emitters``; :mod:`sphkit.emitters`).
+
+    Every ``2r / velocity`` seconds from ``start_time`` to ``end_time`` it adds a layer of
+    particles (spacing 2r) at ``position``, moving with ``velocity`` along the emit direction
+    ``R e_x`` (R: ``rotation_angle`` about ``rotation_axis``). Box: ``round(width / 2r)`` particles
+    along ``R e_z`` times ``round(height / 2r)`` along ``R e_y``; circle: the lattice points of
+    that grid (``width`` by ``width``) within the disc of diameter ``width``. In 2D a layer is a
+    line of ``round(width / 2r)`` particles along ``R e_y`` (rotations about z only).
+    """
+
+    shape: Literal["box", "circle"] = "box"
+    position: Vec = Field(description="centre of the emitted layer [m] (dim or 3 components)")
+    width: float = Field(gt=0, description="box: extent along R e_z; circle: diameter; 2D: "
+                         "length of the emitted line [m]")
+    height: float | None = Field(None, gt=0, description="box in 3D: extent along R e_y [m] "
+                                 "(default: width)")
+    velocity: float = Field(1.0, gt=0, description="emission speed along R e_x [m/s]")
+    rotation_axis: Vec = Field([0.0, 0.0, 1.0], description="rotation axis (3 components)")
+    rotation_angle: float = Field(0.0, description="rotation about rotation_axis [rad]")
+    start_time: float = Field(0.0, ge=0, description="first emission [s]")
+    end_time: float | None = Field(None, description="last emission [s] (None: never stops)")
+    material: str = "fluid"
+    max_particles: int | None = Field(
+        None, ge=0, description="stop emitting after this many particles (SPlisHSPlasH's "
+        "maxEmitterParticles: the emitters of one material share the smallest limit among them)")
+    housing: bool = Field(
+        True, description="surround the emitter with boundary particles, a box (cylinder) open "
+        "towards the emit direction, as SPlisHSPlasH does")
+
+    @model_validator(mode="after")
+    def _valid(self) -> Emitter:
+        if len(self.rotation_axis) != 3:
+            raise ValueError(f"rotation_axis {self.rotation_axis} must have 3 components")
+        if self.end_time is not None and not self.end_time >= self.start_time:
+            raise ValueError(f"end_time {self.end_time} must not precede start_time "
+                             f"{self.start_time}")
+        return self
+
+
 class BoundaryConfig(_Model):
     """Boundary model: ``akinci2012`` boundary particles (Akinci et al. 2012), ``koschier2017``
     density maps (Koschier & Bender 2017) or ``bender2019`` volume maps (Bender et al. 2019)."""
@@ -480,6 +520,7 @@ class Scene(_Model):
     boxes: list[Box] = Field(default_factory=list)
     meshes: list[MeshBoundary] = Field(default_factory=list)
     fluid_meshes: list[FluidMesh] = Field(default_factory=list)
+    emitters: list[Emitter] = Field(default_factory=list)
     output: OutputConfig = OutputConfig()
     source: str | None = Field(None, description="path of the file the scene was read from")
 
@@ -531,6 +572,17 @@ class Scene(_Model):
             if va is not None and len(va) != dim:
                 raise ValueError(
                     f"materials[{k}].drag.air_velocity {va} must have {dim} components")
+        for k, e in enumerate(self.emitters):
+            if len(e.position) not in (dim, 3):
+                raise ValueError(f"emitters[{k}].position {e.position} must have {dim} components")
+            if e.material not in ids:
+                raise ValueError(
+                    f"emitters[{k}].material {e.material!r} is not one of {sorted(ids)}"
+                )
+            if dim == 2 and e.rotation_angle != 0.0 and (e.rotation_axis[0] != 0.0
+                                                         or e.rotation_axis[1] != 0.0):
+                raise ValueError(f"emitters[{k}].rotation_axis {e.rotation_axis}: in 2D "
+                                 "emitters rotate about z; expected [0, 0, 1]")
         for k, b in enumerate(self.boxes):
             if len(b.min) != dim:
                 raise ValueError(f"boxes[{k}].min {b.min} must have {dim} components")

@@ -1,0 +1,154 @@
+"""Emitters (sphkit.emitters): emission rate, timing window, initial velocity, layout, the
+SPlisHSPlasH translation and checkpoints of a run with an emitter."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sphkit.scene.loader import load_scene
+from sphkit.scene.schema import Scene
+from sphkit.simulation import Simulation
+
+R = 0.02  # particle radius [m]
+
+
+def _scene(dim: int, emitter: dict, **cfg: object) -> Scene:
+    base = {"dim": dim, "particle_radius": R, "gravity": [0.0, 0.0, 0.0][:dim],
+            "pressure": {"method": "wcsph"}, **cfg}
+    return Scene.model_validate({"configuration": base, "emitters": [emitter]})
+
+
+def _run_recording(sim: Simulation, until: float) -> list[tuple[float, int]]:
+    out = [(sim.time, sim.fluid.n)]
+    while sim.time < until:
+        sim.step()
+        out.append((sim.time, sim.fluid.n))
+    return out
+
+
+def test_box_emitter_rate_window_and_velocity_3d() -> None:
+    w, hgt, v, start, end = 0.24, 0.16, 1.0, 0.05, 0.25
+    sim = _scene(3, {"position": [0.0, 0.0, 0.0], "width": w, "height": hgt, "velocity": v,
+                     "start_time": start, "end_time": end, "housing": False})
+    sim = Simulation(sim)
+    em = sim.emitters[0]
+    assert em.per_layer == round(w / (2 * R)) * round(hgt / (2 * R)) == 24
+    record = _run_recording(sim, 0.35)
+    per_layer = em.per_layer
+    for t, n in record:
+        if t < start:
+            assert n == 0  # nothing before emitStartTime
+            continue
+        # the rate of a stream of cross-section w * hgt at speed v, in particles of volume
+        # (2r)^3: within one layer, because layers arrive in whole steps of 2r / v
+        expected = w * hgt / (2 * R) ** 2 * v * (min(t, end) - start) / (2 * R)
+        assert abs(n - expected) <= per_layer, (t, n, expected)
+    # nothing after emitEndTime: the count at the end is the layers due in [start, end]
+    assert record[-1][1] == per_layer * (math.floor((end - start) * v / (2 * R) + 1e-9) + 1)
+
+
+def test_emitted_particles_move_with_the_emitter_velocity() -> None:
+    # rotated 90 degrees about z: emits along +y
+    cfg = {"position": [0.1, 0.2, 0.3], "width": 0.16, "height": 0.16, "velocity": 2.0,
+           "rotation_axis": [0.0, 0.0, 1.0], "rotation_angle": math.pi / 2, "housing": False}
+    sim = Simulation(_scene(3, cfg, time={"dt": 0.001, "cfl": False}))
+    em = sim.emitters[0]
+    np.testing.assert_allclose(em.direction, [0.0, 1.0, 0.0], atol=1e-15)
+    sim.step()
+    assert sim.fluid.n == em.per_layer == 16
+    # the new layer moves at v d exactly and lies on a plane through x0 normal to d, advanced
+    # by (t - t_0) v (t_0 = 0): positions x0 + offsets + t v d
+    # (cos(pi/2) = 6e-17 in the rotation: tolerance 1e-15 m/s)
+    np.testing.assert_allclose(sim.velocities, np.tile([0.0, 2.0, 0.0], (16, 1)), atol=1e-15)
+    np.testing.assert_allclose(sim.positions[:, 1], 0.2 + sim.time * 2.0, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.sort(np.unique(sim.positions[:, 0].round(12))),
+                               0.1 + np.array([-3, -1, 1, 3]) * R, atol=1e-12)
+    # a few steps later the first layers are still in the emitter region (3h/2 = 0.12 m ahead):
+    # still moving rigidly at 2 m/s along +y, whatever the pressure between fresh layers
+    for _ in range(40):  # t = 0.041 s: layers emitted at 0, 0.02 and 0.04 s
+        sim.step()
+    v = sim.velocities
+    inside = sim.positions[:, 1] - 0.2 < 1.5 * 4 * R - 0.01
+    assert inside.sum() == 48
+    np.testing.assert_allclose(v[inside], np.tile([0.0, 2.0, 0.0], (inside.sum(), 1)),
+                               atol=1e-12)
+
+
+def test_circle_emitter_layer_and_2d_line() -> None:
+    sim = Simulation(_scene(3, {"shape": "circle", "position": [0, 0, 0], "width": 0.2,
+                                "housing": False}))
+    em = sim.emitters[0]
+    # the 5 x 5 grid points within the disc of diameter 0.2 m (radius 5 r): all but the corners
+    off = em.offsets
+    assert em.per_layer == 21
+    assert np.all(np.hypot(off[:, 1], off[:, 2]) <= 5 * R + 1e-12)
+    np.testing.assert_allclose(off[:, 0], 0.0)  # in the plane normal to d = e_x
+    sim2 = Simulation(_scene(2, {"shape": "circle", "position": [0, 0], "width": 0.2}))
+    em2 = sim2.emitters[0]
+    assert em2.per_layer == 5  # 2D: a line of width / 2r particles along R e_y
+    np.testing.assert_allclose(em2.offsets[:, 0], 0.0)
+    assert sim2.boundary.n > 0  # the housing (open box section: back wall and two sides)
+    hx = sim2.boundary.view("x")
+    assert hx[:, 0].max() <= 4 * R + 1e-9 and hx[:, 0].min() >= -4 * R - 1e-9
+
+
+def test_max_particles_caps_emission() -> None:
+    sim = Simulation(_scene(2, {"position": [0, 0], "width": 0.2, "max_particles": 12,
+                                "housing": False}))
+    _run_recording(sim, 0.2)
+    assert sim.fluid.n == 12  # 2 full layers of 5 and 2 particles of the third
+    assert len(np.unique(sim.ids)) == 12
+
+
+def test_checkpoint_restores_emitter_state_bit_for_bit(tmp_path: Path) -> None:
+    scene = Scene.model_validate({
+        "configuration": {"dim": 2, "particle_radius": R, "pressure": {"method": "dfsph"}},
+        "boxes": [{"min": [0.0, 0.0], "max": [1.0, 0.6]}],
+        "emitters": [{"position": [0.3, 0.4], "width": 0.12, "velocity": 1.0,
+                      "start_time": 0.02, "end_time": 0.15}],
+    })
+    full = Simulation(scene)
+    full.run(until=0.12, fps=50)
+    half = Simulation(scene)
+    half.run(until=0.06, fps=50)
+    half.save_checkpoint(tmp_path / "checkpoints" / "checkpoint_000000001.npz")
+    resumed = Simulation.from_checkpoint(tmp_path)
+    assert resumed.emitters[0].count == half.emitters[0].count > 0
+    resumed.run(until=0.12, fps=50)
+    assert full.fluid.n == resumed.fluid.n > half.fluid.n
+    for name in full.fluid.fields:
+        np.testing.assert_array_equal(full.fluid[name], resumed.fluid[name], err_msg=name)
+
+
+def test_splishsplash_emitters_translate() -> None:
+    d = {
+        "Configuration": {"sim2D": True, "boundaryHandlingMethod": 0, "particleRadius": 0.025},
+        "Materials": [{"id": "Fluid", "maxEmitterParticles": 300}],
+        "Emitters": [
+            {"width": 8, "height": 5, "translation": [-1.2, 0.8, 0], "velocity": 2, "type": 0,
+             "emitEndTime": 4},
+            {"width": 7, "translation": [0.9, 0.25, 0], "rotationAxis": [0, 1, 0],
+             "rotationAngle": math.pi, "velocity": 2, "type": 1, "emitStartTime": 2},
+        ],
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = load_scene(d)
+    a, b = scene.emitters
+    # 2D: a box emits `height` particles, a circle `width` (SimulatorBase::createEmitters)
+    assert (a.shape, a.width, a.end_time, a.max_particles) == ("box", 5 * 0.05, 4.0, 300)
+    assert (b.shape, b.width, b.start_time, b.end_time) == ("box", 7 * 0.05, 2.0, None)
+    assert b.rotation_axis == [0.0, 0.0, 1.0] and b.rotation_angle == pytest.approx(math.pi)
+    d3 = {"Configuration": {"boundaryHandlingMethod": 0},
+          "Emitters": [{"width": 4, "height": 3, "type": 1, "velocity": 3}]}
+    e = load_scene(d3).emitters[0]
+    assert (e.shape, e.velocity) == ("circle", 3.0)
+    assert (e.width, e.height) == pytest.approx((4 * 0.05, 3 * 0.05), rel=1e-15)
+    with pytest.raises(Exception, match=r"Emitters\[0\]\.type"):
+        load_scene({"Configuration": {"boundaryHandlingMethod": 0},
+                    "Emitters": [{"type": 3}]})
