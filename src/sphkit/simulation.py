@@ -495,7 +495,7 @@ class Simulation:
         return {"time": self.time, "step_count": self.step_count, "dt": self.dt,
                 "frame": self._frame, "last": None if self.last is None else self.last.as_dict(),
                 "emitters": [em.state() for em in self.emitters],
-                "empty_at_init": self._empty_at_init}
+                "empty_at_init": self._empty_at_init, "rigid_bodies": self.rigid.state()}
 
     def save_checkpoint(self, path: str | Path, extra: dict | None = None,
                         keep: int | None = None) -> Path:
@@ -556,6 +556,12 @@ class Simulation:
         for em, es in zip(self.emitters, emitters, strict=True):
             em.set_state(es)
         self._empty_at_init = bool(s.get("empty_at_init", False))
+        try:
+            self.rigid.set_state(s.get("rigid_bodies", []))
+        except ValueError as e:
+            raise CheckpointError(f"{str(ck.path)!r}: {e}") from None
+        if self.rigid.bodies:
+            self.boundary_model.rebuild(st)  # the grid of the stored body positions
         if st.fluid.n and not self._empty_at_init:
             self.pressure.init(st)  # re-derive what solvers compute from the fluid
 

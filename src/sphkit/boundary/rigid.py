@@ -358,6 +358,23 @@ class RigidBodies:
         w = np.array([b.omega for b in self.bodies])
         _pose(bd["x_body"], bd["rigid_body"], c, R, v, w, bd["x"], bd["v"])
 
+    # -- checkpoints ----------------------------------------------------------------------------
+    def state(self) -> list[dict]:
+        """The bodies' motion state (JSON-ready; floats round-trip exactly)."""
+        return [{"c": b.c.tolist(), "R": b.R.tolist(), "v": b.v.tolist(),
+                 "omega": b.omega.tolist(), "force": b.force.tolist(),
+                 "torque": b.torque.tolist()} for b in self.bodies]
+
+    def set_state(self, state: list[dict]) -> None:
+        """Restore :meth:`state` (the boundary fields are restored with the particle set)."""
+        if len(state) != len(self.bodies):
+            raise ValueError(f"{len(state)} rigid body state(s) for {len(self.bodies)} bodies")
+        for b, s in zip(self.bodies, state, strict=True):
+            b.c, b.R, b.v, b.omega = (np.array(s[k], dtype=np.float64)
+                                      for k in ("c", "R", "v", "omega"))
+            b.force = np.array(s["force"], dtype=np.float64)
+            b.torque = np.array(s["torque"], dtype=np.float64)
+
     # -- coupling -------------------------------------------------------------------------------
     def pressure_factor(self, state: SimState) -> tuple[np.ndarray, float]:
         """``(kf_i, use_mirror)`` with the boundary share of the solver's pressure acceleration
