@@ -17,11 +17,11 @@ sampling does not change as the body moves). Each step their positions and veloc
 fields ``x``, ``v``; the solvers read ``v`` in their divergence terms) follow the body's pose,
 and the boundary grid is rebuilt.
 
-Fluid forces (Eq. 11-13 of the paper): the force of boundary particle b on fluid particle i is
-minus the force of i on b, ``F_b<-i = -m_i a_i<-b``, summed over the body into a force
-``F = sum_b F_b`` and a torque ``T = sum_b (x_b - c) x F_b``. The boundary share of the pressure
-acceleration is taken from the very expression each solver applies, so that momentum is
-conserved to round-off:
+Fluid forces: the boundary pressure term of the paper's Eq. (10) acts on fluid particle i, and
+its reaction on boundary particle b is minus it, ``F_b<-i = -m_i a_i<-b``, summed over the
+body into a force ``F = sum_b F_b`` and a torque ``T = sum_b (x_b - c) x F_b``. The boundary
+share of the pressure acceleration is taken from the very expression each solver applies, so
+that momentum is conserved to round-off:
 
 * WCSPH (:func:`sphkit.core.operators.pressure_accel_body`):
   ``a_i<-b = -rho0 V_b (p_i / rho_i^2 + p_i / rho0^2) grad W_ib``;
