@@ -336,6 +336,15 @@ class RigidBodies:
         bd = state.boundary
         bd.register("x_body", "vector")
         body = bd["rigid_body"]
+        # static walls: volumes from the static particles only (a body that starts close to a
+        # wall must not shrink the wall's volumes for the rest of the run)
+        sel0 = np.flatnonzero(body == 0)
+        if self.bodies and sel0.size:
+            xs = np.ascontiguousarray(bd["x"][:, sel0])
+            nl = neighbor_lists(xs, state.h)
+            V = np.empty(sel0.size, dtype=bd.dtype)
+            _volumes(xs, nl.offsets, nl.indices, state.h, state.kid, state.dim, V)
+            bd["V"][sel0] = V
         for k, rb in enumerate(self.bodies):
             sel = np.flatnonzero(body == k + 1)
             xs = bd["x"][:, sel]
