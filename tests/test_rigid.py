@@ -150,6 +150,15 @@ def test_kinematic_paddle_torque_opposes_rotation(tmp_path: Path) -> None:
     # the paddle turned by omega t about its pivot
     b = sim.rigid.bodies[0]
     assert b.R[0, 2] == pytest.approx(np.sin(np.pi * sim.time), abs=1e-12)
+    # the reported pose (the per-frame transform of the manifest) places the body's particles:
+    # x = R x_body + c, to round-off
+    rec = st.rigid_bodies[0]
+    rot, c = np.array(rec["rotation"]), np.array(rec["position"])
+    np.testing.assert_allclose(rot @ rot.T, np.eye(3), atol=1e-12)
+    bd = sim.boundary
+    on = bd["rigid_body"] == 1
+    np.testing.assert_allclose(rot @ bd["x_body"][:, on] + c[:, None], bd["x"][:, on],
+                               atol=1e-12)
 
 
 @pytest.mark.parametrize("method", ["dfsph", "iisph", "pcisph", "wcsph"])

@@ -296,10 +296,13 @@ class RigidBody:
         return self.R @ self.inertia @ self.R.T
 
     def stats(self) -> dict:
-        """Plain-dict state for step statistics (lists of floats)."""
+        """Plain-dict state for step statistics (lists of floats): the pose is ``position`` (c)
+        and ``rotation`` (R, row-major 3x3), so that a point of the body is at
+        ``x = R x_body + c`` (``x_body``: its position in the body frame, which is the scene
+        placement at t = 0 minus the t = 0 position)."""
         return {"name": self.name, "force": self.force.tolist(), "torque": self.torque.tolist(),
-                "position": self.c.tolist(), "velocity": self.v.tolist(),
-                "angular_velocity": self.omega.tolist()}
+                "position": self.c.tolist(), "rotation": self.R.tolist(),
+                "velocity": self.v.tolist(), "angular_velocity": self.omega.tolist()}
 
 
 class RigidBodies:
