@@ -106,40 +106,48 @@ def _load6(a, i, dim):
     return a[0, i], a[1, i], 0.0, a[2, i], 0.0, 0.0
 
 
+@numba.njit(inline="always", **_JIT)
+def _strain_sums(i, x, v, m, off, idx, h, kid, dim, L):
+    """The six sums ``sum_j m_j sym((v_j - v_i) grad W_ij)`` of particle i (before the factor
+    ``0.5 / rho_i``), shared by :func:`strain_rate` and :func:`_constraint`."""
+    xi0 = x[0, i]
+    xi1 = x[1, i] if dim > 1 else 0.0
+    xi2 = x[2, i] if dim > 2 else 0.0
+    vi0 = v[0, i]
+    vi1 = v[1, i] if dim > 1 else 0.0
+    vi2 = v[2, i] if dim > 2 else 0.0
+    e0 = 0.0
+    e1 = 0.0
+    e2 = 0.0
+    e3 = 0.0
+    e4 = 0.0
+    e5 = 0.0
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0 = xi0 - x[0, j]
+        if L > 0.0:
+            d0 -= L * math.floor(d0 / L + 0.5)
+        d1 = xi1 - x[1, j] if dim > 1 else 0.0
+        d2 = xi2 - x[2, j] if dim > 2 else 0.0
+        f = m[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+        w0 = v[0, j] - vi0
+        w1 = v[1, j] - vi1 if dim > 1 else 0.0
+        w2 = v[2, j] - vi2 if dim > 2 else 0.0
+        p = _pair_strain(w0, w1, w2, f * d0, f * d1, f * d2)
+        e0 += p[0]
+        e1 += p[1]
+        e2 += p[2]
+        e3 += p[3]
+        e4 += p[4]
+        e5 += p[5]
+    return e0, e1, e2, e3, e4, e5
+
+
 @numba.njit(parallel=True, **_JIT)
 def strain_rate(x, v, m, rho, off, idx, h, kid, dim, L, scale, out):
     """``out_i = scale * E_i(v)`` ((nc, N), components :data:`COMPONENTS`)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        vi0 = v[0, i]
-        vi1 = v[1, i] if dim > 1 else 0.0
-        vi2 = v[2, i] if dim > 2 else 0.0
-        e0 = 0.0
-        e1 = 0.0
-        e2 = 0.0
-        e3 = 0.0
-        e4 = 0.0
-        e5 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = m[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            w0 = v[0, j] - vi0
-            w1 = v[1, j] - vi1 if dim > 1 else 0.0
-            w2 = v[2, j] - vi2 if dim > 2 else 0.0
-            p = _pair_strain(w0, w1, w2, f * d0, f * d1, f * d2)
-            e0 += p[0]
-            e1 += p[1]
-            e2 += p[2]
-            e3 += p[3]
-            e4 += p[4]
-            e5 += p[5]
+        e0, e1, e2, e3, e4, e5 = _strain_sums(i, x, v, m, off, idx, h, kid, dim, L)
         s = scale * 0.5 / rho[i]
         out[0, i] = s * e0
         out[1, i] = s * e1
@@ -262,36 +270,7 @@ def _constraint(x, v, m, rho, off, idx, h, kid, dim, L, target, Kinv, lam):
     nc = target.shape[0]
     err = 0.0
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        vi0 = v[0, i]
-        vi1 = v[1, i] if dim > 1 else 0.0
-        vi2 = v[2, i] if dim > 2 else 0.0
-        e0 = 0.0
-        e1 = 0.0
-        e2 = 0.0
-        e3 = 0.0
-        e4 = 0.0
-        e5 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = m[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            w0 = v[0, j] - vi0
-            w1 = v[1, j] - vi1 if dim > 1 else 0.0
-            w2 = v[2, j] - vi2 if dim > 2 else 0.0
-            p = _pair_strain(w0, w1, w2, f * d0, f * d1, f * d2)
-            e0 += p[0]
-            e1 += p[1]
-            e2 += p[2]
-            e3 += p[3]
-            e4 += p[4]
-            e5 += p[5]
+        e0, e1, e2, e3, e4, e5 = _strain_sums(i, x, v, m, off, idx, h, kid, dim, L)
         s = 0.5 / rho[i]
         if dim == 3:
             c = (s * e0 - target[0, i], s * e1 - target[1, i], s * e2 - target[2, i],
