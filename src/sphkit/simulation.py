@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from sphkit.boundary.akinci2012 import Akinci2012
+from sphkit.boundary.band2018 import MLSPressureExtrapolation
 from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.koschier2017 import Koschier2017
 from sphkit.boundary.rigid import INSET, RigidBodies, body_from_mesh, box_wall, mesh_wall
@@ -280,6 +281,16 @@ class Simulation:
         if boundary.n:
             boundary.permute(zorder_permutation(boundary["x"], h))
         self.boundary_model.init(self.state)
+        if cfg.boundary.pressure == "mls":
+            if self._maps:
+                raise SceneError(
+                    "configuration.boundary.pressure: 'mls' extrapolates the pressure to boundary "
+                    f"particles; expected configuration.boundary.method 'akinci2012', got "
+                    f"{cfg.boundary.method!r}")
+            # static boundary particles only: rigid bodies keep their own boundary term
+            self.state.boundary_pressure = MLSPressureExtrapolation(
+                boundary["rigid_body"] == 0)
+            self.state.boundary_pressure.init(self.state)
         self.rigid = self._rigid_bodies(scene)
         for force in self.forces:
             if hasattr(force, "init"):
@@ -617,11 +628,13 @@ class Simulation:
         if getattr(self.pressure, "uses_pair_gradients", False):
             # one pass for the densities and the solver's cached pair gradients
             st.pair_grads = PairGradients(st, with_density=True)
-            return
-        st.pair_grads = None
-        density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
-                    st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim, f["rho"],
-                    st.period)
+        else:
+            st.pair_grads = None
+            density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
+                        st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim,
+                        f["rho"], st.period)
+        if st.boundary_pressure is not None:  # MLS coefficients of this step's pairs
+            st.boundary_pressure.prepare(st)
 
     def _time_step(self) -> float:
         tc = self.scene.configuration.time

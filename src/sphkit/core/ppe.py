@@ -14,8 +14,10 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
 
 * :func:`kappa_accel_cached` -- the pressure acceleration of a "kappa" field
   (kappa = p / (rho0 rho_hat^2)):
-  ``a_i = -sum_j V_j (k_i + k_j) grad W_ij - sum_b V_b (1 + m_b) k_i grad W_ib`` (a solver whose
-  variable is q passes ``k = w q``). ``m_b`` is the boundary field ``pressure_mirror``: 0 gives
+  ``a_i = -sum_j V_j (k_i + k_j) grad W_ij - sum_b V_b ((1 + m_b) k_i + k_b) grad W_ib`` (a
+  solver whose variable is q passes ``k = w q``; ``k_b`` is an extrapolated boundary pressure
+  ``p_b / rho0`` where the scene asks for one, :mod:`sphkit.boundary.band2018`, else 0).
+  ``m_b`` is the boundary field ``pressure_mirror``: 0 gives
   SPlisHSPlasH's boundary term ``V_b k_i`` (DFSPH, IISPH), which balances the about twice too
   large Akinci volumes of a *single* surface layer (meshes, maps); 1 mirrors the boundary
   pressure fully (Akinci et al. 2012, ``p_b = p_i``) in the symmetric form of the fluid pairs, as
@@ -193,9 +195,11 @@ def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim
 
 
 @numba.njit(parallel=True, **_JIT)
-def kappa_accel_cached(k, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
-    """a[:, i] = pressure acceleration of the field k (overwrites a); the boundary term carries
-    ``1 + bmirror[b]`` (see the module docstring).
+def kappa_accel_cached(k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
+    """a[:, i] = pressure acceleration of the field k (overwrites a); the boundary term is
+    ``-sum_b V_b (k_i (1 + bmirror[b]) + kb[b]) grad W_ib`` (see the module docstring): kb is
+    the extrapolated boundary value ``p_b / rho0`` where a boundary model sets one (Band et al.
+    2018, :mod:`sphkit.boundary.band2018`), else 0.
 
     A solver whose variable is q with weights w passes ``k = w * q`` (one gather per pair
     instead of two: a fifth faster)."""
@@ -212,12 +216,13 @@ def kappa_accel_cached(k, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
             if dim > 2:
                 a2 -= s * gw[2, kk]
         for kk in range(boff[i], boff[i + 1]):
-            kb = ki * (1.0 + bmirror[bidx[kk]])
-            a0 -= kb * gwb[0, kk]
+            b = bidx[kk]
+            sb = ki * (1.0 + bmirror[b]) + kb[b]
+            a0 -= sb * gwb[0, kk]
             if dim > 1:
-                a1 -= kb * gwb[1, kk]
+                a1 -= sb * gwb[1, kk]
             if dim > 2:
-                a2 -= kb * gwb[2, kk]
+                a2 -= sb * gwb[2, kk]
         a[0, i] = a0
         if dim > 1:
             a[1, i] = a1

@@ -79,14 +79,36 @@ class IterationControl:
         return self.max_iterations, avg, mx, False
 
 
-def boundary_mirror(state: SimState) -> np.ndarray:
+def boundary_mirror(state: SimState, diagonal: bool = False) -> np.ndarray:
     """The boundary field ``pressure_mirror`` (0 where a boundary model does not set it): the
     share of mirrored boundary pressure added to SPlisHSPlasH's boundary term (see
-    :func:`sphkit.core.ppe.kappa_accel_cached`)."""
+    :func:`sphkit.core.ppe.kappa_accel_cached`). ``diagonal``: the share the Jacobi diagonals
+    use, which counts extrapolated boundary pressures (``state.boundary_pressure``) as
+    mirrored."""
     b = state.boundary
     if "pressure_mirror" in b.specs and b["pressure_mirror"].shape[0] == b.n:
-        return b["pressure_mirror"]
-    return np.zeros(b.n, dtype=b.dtype)
+        m = b["pressure_mirror"]
+    else:
+        m = np.zeros(b.n, dtype=b.dtype)
+    if diagonal and state.boundary_pressure is not None:
+        m = m + state.boundary_pressure.diagonal_mirror
+    return m
+
+
+class BoundaryKappa:
+    """The boundary values ``k_b = p_b / rho0`` that :func:`sphkit.core.ppe.kappa_accel_cached`
+    adds to its boundary term: extrapolated from the fluid field k by
+    ``state.boundary_pressure`` when the scene asks for it, else zero (mirroring only)."""
+
+    def __init__(self, state: SimState) -> None:
+        self.ext = state.boundary_pressure
+        self.kb = np.zeros(state.boundary.n, dtype=state.fluid.dtype)
+
+    def __call__(self, k: np.ndarray) -> np.ndarray:
+        """``k_b`` for the fluid field k (the same zero array when nothing is extrapolated)."""
+        if self.ext is not None:
+            self.ext.extrapolate(k, self.kb)
+        return self.kb
 
 
 class PairGradients:
@@ -125,7 +147,7 @@ class PairGradients:
         st = self.state
         out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
         diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
-                        boundary_mirror(st), self.gw, self.gwb, st.dim, out)
+                        boundary_mirror(st, diagonal=True), self.gw, self.gwb, st.dim, out)
         return out
 
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
@@ -165,10 +187,11 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
 
     k = np.empty_like(q)
     mirror = boundary_mirror(state)
+    kb = BoundaryKappa(state)
 
     def sweep(_k: int) -> tuple[float, float]:
         np.multiply(w, q, out=k)
-        kappa_accel_cached(k, nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
+        kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                            g.gwb, dim, a)
         pair_divergence_cached(a, still, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw,
                                g.gwb, dim, Ap)
@@ -177,6 +200,6 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
 
     its, avg, mx, ok = control.run(sweep, state.step)
     np.multiply(w, q, out=k)
-    kappa_accel_cached(k, nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw, g.gwb,
-                       dim, a)
+    kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
+                       g.gwb, dim, a)
     return a, its, avg, mx, ok

@@ -41,6 +41,11 @@ class SimState:
     #: this step's cached pair gradients (:class:`sphkit.core.solver.PairGradients`), made with
     #: the densities for solvers that set ``uses_pair_gradients``; None outside that window
     pair_grads: Any = None
+    #: boundary pressure extrapolation (e.g. :class:`sphkit.boundary.band2018.
+    #: MLSPressureExtrapolation`): ``prepare(state)`` once per step after the densities,
+    #: ``extrapolate(k, out)`` the boundary values ``p_b / rho0`` of a fluid field k,
+    #: ``diagonal_mirror``; None: the boundary pressure is mirrored (``pressure_mirror``)
+    boundary_pressure: Any = None
     #: periodic along x: particles live in ``[period_lo, period_lo + period)``; period = 0: not
     #: periodic. Pair loops take minimum-image x differences ``d - L round(d / L)`` [m]
     period_lo: float = 0.0

@@ -61,7 +61,13 @@ import numba
 import numpy as np
 
 from sphkit.core.ppe import density_at, kappa_accel_cached, lattice_diagonal
-from sphkit.core.solver import IterationControl, PairGradients, SolverStats, boundary_mirror
+from sphkit.core.solver import (
+    BoundaryKappa,
+    IterationControl,
+    PairGradients,
+    SolverStats,
+    boundary_mirror,
+)
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -131,6 +137,7 @@ class PCISPH:
         rho_hat = np.empty(n, dtype=f.dtype)
         factor = self.delta / (dt * dt)
         mirror = boundary_mirror(state)
+        kb = BoundaryKappa(state)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
 
         def sweep(_k: int) -> tuple[float, float]:
@@ -138,8 +145,8 @@ class PCISPH:
             density_at(x, dx, f["m"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
                        nb.indices, state.rho0, state.h, state.kid, state.dim, rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
-            kappa_accel_cached(p, nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
-                               g.gwb, state.dim, ap)
+            kappa_accel_cached(p, kb(p), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror,
+                               g.gw, g.gwb, state.dim, ap)
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)

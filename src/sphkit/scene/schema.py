@@ -433,6 +433,11 @@ class BoundaryConfig(_Model):
     density maps (Koschier & Bender 2017) or ``bender2019`` volume maps (Bender et al. 2019)."""
 
     method: Literal["akinci2012", "koschier2017", "bender2019"] = "akinci2012"
+    pressure: Literal["mirror", "mls"] = Field(
+        "mirror", description="akinci2012: pressure of the static boundary particles in the "
+        "pressure force: 'mirror' (p_b = p_i, Akinci et al. 2012) or 'mls' (moving least squares "
+        "extrapolation from the fluid, Band et al. 2018)",
+    )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
         "radius (at most 8 million grid points)",
