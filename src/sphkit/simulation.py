@@ -154,12 +154,14 @@ class StepStats:
 #: methods whose pair loops take minimum-image distances (configuration.periodic_x)
 PERIODIC_METHODS = {"pressure": {"wcsph", "dfsph"},
                     "viscosity": {"none", "standard", "weiler2018", "bender2017", "peer2015",
-                                  "peer2016", "takahashi2015"}, "vorticity": {"none"}}
+                                  "peer2016", "takahashi2015"}, "vorticity": {"none"},
+                    "surface_tension": {"none", "becker2007", "akinci2013", "he2014"}}
 
 
 def _check_periodic(scene: Scene, mat) -> None:
     used = {"pressure": scene.configuration.pressure.method,
-            "viscosity": mat.viscosity.method, "vorticity": mat.vorticity.method}
+            "viscosity": mat.viscosity.method, "vorticity": mat.vorticity.method,
+            "surface_tension": mat.surface_tension.method}
     for role, name in used.items():
         if name not in PERIODIC_METHODS[role]:
             where = ("configuration.pressure.method" if role == "pressure"

@@ -301,11 +301,12 @@ def laplacian(x: np.ndarray, V: np.ndarray, A: np.ndarray, nl: NeighborList, h: 
 
 
 @numba.njit(parallel=True, **_JIT)
-def color_field_cpu(x, m, rho, off, idx, bx, bV, boff, bidx, h, kid, dim, c):
+def color_field_cpu(x, m, rho, off, idx, bx, bV, boff, bidx, h, kid, dim, c, L=0.0):
     """Colour field ``c_i = sum_j (m_j/rho_j) W_ij`` (self included) ``+ sum_b V_b W_ib``.
 
     ``c = 1`` inside the fluid (next to walls too, as the boundary counts) and falls to about
-    1/2 at a free surface (He et al. 2014, Eq. 4, as SPlisHSPlasH evaluates it).
+    1/2 at a free surface (He et al. 2014, Eq. 4, as SPlisHSPlasH evaluates it). ``L`` > 0:
+    periodic along x with period L [m] (minimum-image distances).
     """
     for i in numba.prange(x.shape[1]):
         xi0 = x[0, i]
@@ -315,12 +316,16 @@ def color_field_cpu(x, m, rho, off, idx, bx, bV, boff, bidx, h, kid, dim, c):
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0 = xi0 - x[0, j]
+            if L > 0.0:  # periodic along x: minimum image
+                d0 -= L * math.floor(d0 / L + 0.5)
             d1 = xi1 - x[1, j] if dim > 1 else 0.0
             d2 = xi2 - x[2, j] if dim > 2 else 0.0
             s += m[j] / rho[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             d0 = xi0 - bx[0, b]
+            if L > 0.0:  # periodic along x: minimum image
+                d0 -= L * math.floor(d0 / L + 0.5)
             d1 = xi1 - bx[1, b] if dim > 1 else 0.0
             d2 = xi2 - bx[2, b] if dim > 2 else 0.0
             s += bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
@@ -328,12 +333,13 @@ def color_field_cpu(x, m, rho, off, idx, bx, bV, boff, bidx, h, kid, dim, c):
 
 
 @numba.njit(parallel=True, **_JIT)
-def surface_normals_cpu(x, m, rho, off, idx, scale, h, kid, dim, n):
+def surface_normals_cpu(x, m, rho, off, idx, scale, h, kid, dim, n, L=0.0):
     """Unnormalized surface normals ``n_i = scale * sum_j (m_j/rho_j) grad W_ij`` (fluid only).
 
     This is the gradient of the colour field: it vanishes in a full neighbourhood and at a free
     surface it points *into* the fluid with length about ``scale / h`` times a kernel-dependent
-    constant. Akinci et al. 2013 use ``scale = h`` so that ``n`` is dimensionless.
+    constant. Akinci et al. 2013 use ``scale = h`` so that ``n`` is dimensionless. ``L`` > 0:
+    periodic along x with period L [m].
     """
     for i in numba.prange(x.shape[1]):
         xi0 = x[0, i]
@@ -345,6 +351,8 @@ def surface_normals_cpu(x, m, rho, off, idx, scale, h, kid, dim, n):
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0 = xi0 - x[0, j]
+            if L > 0.0:  # periodic along x: minimum image
+                d0 -= L * math.floor(d0 / L + 0.5)
             d1 = xi1 - x[1, j] if dim > 1 else 0.0
             d2 = xi2 - x[2, j] if dim > 2 else 0.0
             s = m[j] / rho[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)

@@ -80,7 +80,8 @@ def adhesion_kernel(r: float, h: float) -> float:
 
 
 @numba.njit(cache=True, fastmath=True)
-def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a):
+def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a,
+                L=0.0):
     """Add the cohesion, curvature and adhesion acceleration of fluid particle i to ``a[:, i]``."""
     xi0 = x[0, i]
     xi1 = x[1, i]
@@ -95,6 +96,8 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0 = xi0 - x[0, j]
+        if L > 0.0:  # periodic along x: minimum image
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - x[1, j]
         d2 = xi2 - x[2, j] if dim == 3 else 0.0
         r2 = d0 * d0 + d1 * d1 + d2 * d2
@@ -118,6 +121,8 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0 = xi0 - bx[0, b]
+        if L > 0.0:  # periodic along x: minimum image
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - bx[1, b]
         d2 = xi2 - bx[2, b] if dim == 3 else 0.0
         r2 = d0 * d0 + d1 * d1 + d2 * d2
@@ -134,10 +139,11 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _akinci_cpu(x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a):
+def _akinci_cpu(x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a,
+                L=0.0):
     for i in numba.prange(x.shape[1]):
         akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim,
-                    a)
+                    a, L)
 
 
 def _coefficient(what: str, value: float) -> float:
@@ -180,10 +186,11 @@ class Akinci2013:
             self.init(state)
         nl = state.nl_ff
         surface_normals_cpu(f["x"], f["m"], f["rho"], nl.offsets, nl.indices, state.h, state.h,
-                            state.kid, state.dim, f["normal"])
+                            state.kid, state.dim, f["normal"], state.period)
         _akinci_cpu(f["x"], f["m"], f["rho"], f["normal"], nl.offsets, nl.indices, b["x"], b["V"],
                     state.nl_fb.offsets, state.nl_fb.indices, self.coefficient,
-                    self.boundary_coefficient, state.rho0, state.h, state.dim, f["a"])
+                    self.boundary_coefficient, state.rho0, state.h, state.dim, f["a"],
+                    state.period)
 
     def cohesion_sigma(self, rho0: float, mass: float, h: float, dim: int) -> tuple[float, float]:
         """(sigma, p_int) of the cohesion term alone for a uniform continuum of particles of

@@ -48,7 +48,7 @@ from sphkit.core.state import SimState
 
 @numba.njit(cache=True, fastmath=True)
 def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho0, h, kid, dim,
-                a):
+                a, L=0.0):
     """Add the cohesion and boundary adhesion acceleration of fluid particle i to ``a[:, i]``."""
     xi0 = x[0, i]
     xi1 = x[1, i]
@@ -60,6 +60,8 @@ def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0 = xi0 - x[0, j]
+        if L > 0.0:  # periodic along x: minimum image
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - x[1, j]
         d2 = xi2 - x[2, j] if dim == 3 else 0.0
         r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
@@ -74,6 +76,8 @@ def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0 = xi0 - bx[0, b]
+        if L > 0.0:  # periodic along x: minimum image
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - bx[1, b]
         d2 = xi2 - bx[2, b] if dim == 3 else 0.0
         r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
@@ -90,10 +94,11 @@ def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _becker_cpu(x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho0, h, kid, dim, a):
+def _becker_cpu(x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho0, h, kid, dim, a,
+                L=0.0):
     for i in numba.prange(x.shape[1]):
         becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho0, h, kid,
-                    dim, a)
+                    dim, a, L)
 
 
 def _coefficient(what: str, value: float) -> float:
@@ -135,7 +140,7 @@ class BeckerTeschner2007:
         _becker_cpu(f["x"], f["m"], state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["V"],
                     state.nl_fb.offsets, state.nl_fb.indices, self.coefficient,
                     self.boundary_coefficient, 2.0 * state.r, state.rho0, state.h, state.kid,
-                    state.dim, f["a"])
+                    state.dim, f["a"], state.period)
 
     def equivalent_sigma(self, rho0: float, mass: float, r: float, h: float, kid: int,
                          dim: int) -> tuple[float, float]:

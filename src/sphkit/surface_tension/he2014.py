@@ -44,7 +44,7 @@ from sphkit.core.state import SimState
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _grad_c2_cpu(x, m, rho, c, off, idx, h, kid, dim, g2):
+def _grad_c2_cpu(x, m, rho, c, off, idx, h, kid, dim, g2, L=0.0):
     """``g2[i] = |(1/c_i) sum_j (m_j/rho_j) c_j grad W_ij|^2``."""
     for i in numba.prange(x.shape[1]):
         xi0 = x[0, i]
@@ -56,6 +56,8 @@ def _grad_c2_cpu(x, m, rho, c, off, idx, h, kid, dim, g2):
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0 = xi0 - x[0, j]
+            if L > 0.0:  # periodic along x: minimum image
+                d0 -= L * math.floor(d0 / L + 0.5)
             d1 = xi1 - x[1, j]
             d2 = xi2 - x[2, j] if dim == 3 else 0.0
             w = m[j] / rho[j] * c[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2),
@@ -68,7 +70,8 @@ def _grad_c2_cpu(x, m, rho, c, off, idx, h, kid, dim, g2):
 
 
 @numba.njit(cache=True, fastmath=True)
-def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a):
+def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a,
+            L=0.0):
     """Add the colour-field surface tension acceleration of fluid particle i to ``a[:, i]``."""
     xi0 = x[0, i]
     xi1 = x[1, i]
@@ -80,6 +83,8 @@ def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, k
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0 = xi0 - x[0, j]
+        if L > 0.0:  # periodic along x: minimum image
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - x[1, j]
         d2 = xi2 - x[2, j] if dim == 3 else 0.0
         w = m[j] / rho[j] * (gi + g2[j]) * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2),
@@ -93,6 +98,8 @@ def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, k
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0 = xi0 - bx[0, b]
+        if L > 0.0:  # periodic along x: minimum image
+            d0 -= L * math.floor(d0 / L + 0.5)
         d1 = xi1 - bx[1, b]
         d2 = xi2 - bx[2, b] if dim == 3 else 0.0
         w = bV[b] * gi * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
@@ -107,9 +114,9 @@ def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, k
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _he_cpu(x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a):
+def _he_cpu(x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a, L=0.0):
     for i in numba.prange(x.shape[1]):
-        he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a)
+        he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a, L)
 
 
 def _coefficient(what: str, value: float) -> float:
@@ -153,12 +160,13 @@ class He2014:
             self.init(state)
         nl, nb = state.nl_ff, state.nl_fb
         color_field_cpu(f["x"], f["m"], f["rho"], nl.offsets, nl.indices, b["x"], b["V"],
-                        nb.offsets, nb.indices, state.h, state.kid, state.dim, f["color"])
+                        nb.offsets, nb.indices, state.h, state.kid, state.dim, f["color"],
+                        state.period)
         _grad_c2_cpu(f["x"], f["m"], f["rho"], f["color"], nl.offsets, nl.indices, state.h,
-                     state.kid, state.dim, f["grad_c2"])
+                     state.kid, state.dim, f["grad_c2"], state.period)
         _he_cpu(f["x"], f["m"], f["rho"], f["grad_c2"], nl.offsets, nl.indices, b["x"], b["V"],
                 nb.offsets, nb.indices, self.coefficient, self.boundary_coefficient, state.h,
-                state.kid, state.dim, f["a"])
+                state.kid, state.dim, f["a"], state.period)
 
 
 __all__ = ["He2014", "he_body"]
