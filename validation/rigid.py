@@ -14,8 +14,8 @@ of the lattice walls):
 * ``sink`` (density 2000): it sinks and must rest on the floor; the table gives the lowest
   corner's height over the floor at any time (negative: penetration) and the final speed.
 
-Measured (validation/README.md): the sinking cube lands and rests with WCSPH at dt 0.5 ms; with
-DFSPH the squeezed film under it blows up at the landing (not solved yet).
+Measured (validation/README.md): the sinking cube lands and rests with DFSPH (the default) and
+with WCSPH.
 
 Prints a table; with matplotlib, ``validation/rigid.png`` shows the cube's height over time.
 """

@@ -386,7 +386,10 @@ class Simulation:
                 if dim == 3:  # the fluid rests at the mesh surface (see inset_samples)
                     pts = inset_samples(mesh, pts, INSET * r)
                 self._rigid_meshes.append((k, mesh))
-                st.boundary.add(pts, name=f"meshes[{k}]", rigid_body=len(self._rigid_meshes))
+                # pressure mirrored fully as at the box walls, so that fluid squeezed between a
+                # body and a box wall is pushed as the gradient of its density (see RigidBodies)
+                st.boundary.add(pts, name=f"meshes[{k}]", rigid_body=len(self._rigid_meshes),
+                                pressure_mirror=1.0)
                 continue
             st.boundary.add(clip(pts), name=f"meshes[{k}]")
         for k, (em, cfg) in enumerate(zip(self.emitters, scene.emitters, strict=True)):
@@ -429,10 +432,13 @@ class Simulation:
                                               mb.rotation_axis, mb.rotation_angle, mb.scale)
                     walls.append((mesh_wall(mesh, mb.invert, self.state.r), f"meshes[{k}]"))
         rigid = RigidBodies(bodies, scene.configuration.pressure.method, walls,
-                            margin=INSET * self.state.r)
+                            margin=INSET * self.state.r,
+                            meshes=[mesh for _k, mesh in self._rigid_meshes])
         if bodies:
             rigid.init(self.state)
             self.boundary_model.rebuild(self.state)
+        if rigid.any_dynamic:  # strong coupling: the pressure solves see the bodies give way
+            self.state.boundary_response = rigid.pressure_response
         return rigid
 
     def _add_fluid_file(self, k: int, ff, vol: float) -> None:
@@ -659,6 +665,8 @@ class Simulation:
         self._neighbors()
         self.compute_density()
         dt = self._time_step()
+        if self.rigid.bodies:
+            self.rigid.begin_step(st)
         pre = getattr(self.pressure, "pre_forces", None)
         if pre is not None:  # DFSPH: factors and the divergence-free solve
             pre(st, dt)

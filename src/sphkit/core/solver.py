@@ -184,6 +184,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     a = np.empty_like(x)
     Ap = np.empty(f.n, dtype=x.dtype)
     still = np.zeros_like(state.boundary["x"])  # boundary particles take no pressure accel.
+    response = state.boundary_response  # ... unless they yield to it (dynamic rigid bodies)
 
     k = np.empty_like(q)
     mirror = boundary_mirror(state)
@@ -193,7 +194,8 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         np.multiply(w, q, out=k)
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                            g.gwb, dim, a)
-        pair_divergence_cached(a, still, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw,
+        ab = still if response is None else response(k, g.gwb)
+        pair_divergence_cached(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw,
                                g.gwb, dim, Ap)
         avg, mx = jacobi_update(q, s, Ap, ap_factor, scale, omega, active, one_sided)
         return avg * error_factor, mx * error_factor

@@ -50,6 +50,11 @@ class SimState:
     #: periodic. Pair loops take minimum-image x differences ``d - L round(d / L)`` [m]
     period_lo: float = 0.0
     period: float = 0.0
+    #: strong two-way coupling with moving boundaries: ``f(k, gwb) -> ab`` gives the
+    #: accelerations (dim, N_boundary) of the boundary particles under the pressure field k of a
+    #: Jacobi sweep (:func:`sphkit.core.solver.jacobi_ppe`; ``gwb`` the cached ``V_b grad W_ib``),
+    #: e.g. dynamic rigid bodies pushed by the fluid; None: the boundary does not yield
+    boundary_response: Any = None
 
     @property
     def periodic(self) -> tuple[float, float] | None:
