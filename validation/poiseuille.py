@@ -59,6 +59,7 @@ U_MAX = FORCE * WIDTH**2 / (8.0 * NU)
 SETTLING = WIDTH**2 / (math.pi**2 * NU) * math.log(100.0 * 32.0 / math.pi**3)
 FRACTIONS = (0.2, 0.5, 1.0)
 STEADY = 2.5  # the steady profile is compared at 2.5 t_s (transient below 1e-4 u_max)
+CG_TOL = 1e-7  # relative residual of the implicit solves
 
 
 def analytic(y: np.ndarray, t: float, terms: int = 200) -> np.ndarray:
@@ -78,33 +79,45 @@ METHODS = ("standard", "weiler2018", "takahashi2015")
 WALL_VISCOSITY = {"standard": NU, "weiler2018": NU, "takahashi2015": 0.0}
 
 
-def _scene(method: str, r: float, lx: float, dt: float, c: float) -> Scene:
+def _scene(method: str, r: float, lx: float, dt: float, c: float, wall_velocity: str = "zero",
+           beta_max: float = 1.5, kernel: str = "cubic", eps: float = 0.01) -> Scene:
+    vis = {"method": method, "coefficient": NU,
+           "boundary_coefficient": WALL_VISCOSITY[method], "max_error": CG_TOL}
+    if eps != 0.01:
+        vis["laplacian_eps"] = eps
+    if wall_velocity != "zero":
+        vis.update(boundary_velocity=wall_velocity, morris_beta_max=beta_max)
     return Scene.model_validate({
         "name": f"poiseuille-{method}",
         "configuration": {
             "dim": 2, "particle_radius": r, "gravity": [FORCE, 0.0], "zsort_every": 0,
+            "kernel": kernel,
             "periodic_x": [0.0, lx],
             "pressure": {"method": "wcsph", "equation": "linear", "stiffness": c * c},
             "time": {"dt": dt, "cfl": False},
         },
-        "materials": [{"density0": RHO0,
-                       "viscosity": {"method": method, "coefficient": NU,
-                                     "boundary_coefficient": WALL_VISCOSITY[method],
-                                     "max_error": 1e-4}}],
+        "materials": [{"density0": RHO0, "viscosity": vis}],
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [lx, WIDTH]}],
         "boxes": [{"min": [0.0, 0.0], "max": [lx, WIDTH], "layers": 3}],
     })
 
 
-def square_channel(method: str, n: int = 20, columns: int = 12) -> Simulation:
+def square_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinci",
+                   wall_velocity: str = "zero", beta_max: float = 1.5, kernel: str = "cubic"
+                   ) -> Simulation:
     """The channel on sphkit's square lattice (n particles across), as a scene."""
     r = WIDTH / (2 * n)
     dt = 0.125 * (2 * r) ** 2 / NU  # explicit viscous limit (smoothing length 2r)
-    return Simulation(_scene(method, r, columns * 2 * r, dt, 0.4 * 2 * r / dt))
+    sim = Simulation(_scene(method, r, columns * 2 * r, dt, 0.4 * 2 * r / dt, wall_velocity,
+                            beta_max, kernel))
+    if walls == "lattice":
+        sim.state.boundary["V"][:] = sim.state.fluid["V0"][0]
+    return sim
 
 
-def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinci"
-                ) -> Simulation:
+def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinci",
+                wall_velocity: str = "zero", beta_max: float = 1.5, kernel: str = "cubic",
+                eps: float = 0.01, support: float = 2.0) -> Simulation:
     """The channel on a hexagonal lattice: n rows across (row distance L/n), ``columns``
     particles per row and period, three wall rows on each side; the particle radius r is set by
     ``(2r)^2`` = the lattice's area per particle, so that h = 4r as everywhere in sphkit."""
@@ -113,9 +126,11 @@ def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinc
 
     dy = WIDTH / n
     a = 2.0 * dy / math.sqrt(3.0)
-    r = a * math.sqrt(math.sqrt(3.0) / 2.0) / 2.0
-    dt = 0.125 * (2 * r) ** 2 / NU
-    sim = Simulation(_scene(method, r, columns * a, dt, 0.4 * 2 * r / dt))
+    spacing = a * math.sqrt(math.sqrt(3.0) / 2.0)  # sqrt of the area per particle
+    r = support * spacing / 4.0
+    dt = 0.125 * spacing**2 / NU
+    sim = Simulation(_scene(method, r, columns * a, dt, 0.4 * spacing / dt, wall_velocity,
+                            beta_max, kernel, eps))
     st = sim.state
 
     def rows(ks: list[int]) -> np.ndarray:
@@ -124,13 +139,22 @@ def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinc
 
     # rest volume: the inverse of the kernel sum over the infinite hexagonal lattice
     lat = np.array([[a * (i + 0.5 * j), dy * j] for i in range(-8, 9) for j in range(-8, 9)])
-    vol = 1.0 / Kernel("cubic", st.h, 2).w(np.linalg.norm(lat, axis=1)).sum()
+    vol = 1.0 / Kernel(kernel, st.h, 2).w(np.linalg.norm(lat, axis=1)).sum()
     fluid = ParticleSet(2, st.fluid.dtype)
     for name, spec in st.fluid.specs.items():
         fluid.register(name, spec.kind, spec.dtype)
     fluid.add(rows(list(range(n))), name="channel", m=RHO0 * vol, V0=vol, rho=RHO0)
     wall = ParticleSet(2, st.boundary.dtype)
-    wall.add(rows([-1, -2, -3, n, n + 1, n + 2]), name="walls")
+    for name, spec in st.boundary.specs.items():
+        wall.register(name, spec.kind, spec.dtype)
+    layers = max(3, math.ceil(st.h / dy))  # wall rows: at least the kernel support deep
+    low = rows([-1 - k for k in range(layers)])
+    high = rows([n + k for k in range(layers)])
+    # distance behind the wall surface (y = 0 or y = L) and the normal into the wall, for the
+    # Morris no-slip wall velocity
+    wall.add(np.concatenate([low, high]), name="walls",
+             wall_distance=np.concatenate([-low[:, 1], high[:, 1] - WIDTH]),
+             wall_normal=np.array([[0.0, -1.0]] * len(low) + [[0.0, 1.0]] * len(high)))
     st.fluid, st.boundary = fluid, wall
     sim.boundary_model.init(st)
     if walls == "lattice":
