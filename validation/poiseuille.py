@@ -1,11 +1,11 @@
 """Plane Poiseuille flow (Morris, Fox & Zhu 1997, J. Comput. Phys. 136, Sec. 4.1).
 
-A 2D channel of width ``L = 1 mm`` between two static walls (y = 0 and y = L, three rows of
-boundary particles each, no-slip through the boundary viscosity nu_b = nu, wall velocity 0),
+A 2D channel of width ``L = 1 mm`` between two static walls (y = 0 and y = L, rows of
+boundary particles, no-slip through the boundary viscosity nu_b = nu; see the setups below),
 periodic along x (12 particle spacings), fluid at rest at t = 0 and driven by a body force
 ``F = 2e-4 m/s^2`` along x; ``nu = 1e-6 m^2/s``, ``rho0 = 1000 kg/m^3`` (Re = u_max L / nu
 = 0.025). Pressure solver: WCSPH with the linear state equation, sound speed chosen so that the
-acoustic step equals the explicit viscous step ``0.125 (2r)^2 / nu`` (Mach number 4e-4). Both
+acoustic step equals the explicit viscous step ``0.125 spacing^2 / nu`` (Mach number 4e-4). Both
 viscosities run at that step.
 
 Analytic solution (Morris et al. 1997, Eq. 21):
@@ -20,18 +20,36 @@ error of a profile is ``max_i |u_i - u(y_i, t)| / u_max`` over all particles; ``
 curvature of a parabola fitted to the steady profile of the rows farther than h from the walls,
 divided by the analytic ``-F / nu`` (independent of what the walls do).
 
-Particles sit on a hexagonal lattice (rows along x, built here: scenes sample square lattices).
-On sphkit's square lattice the Monaghan-form Laplacian of the standard and the Weiler viscosity,
-with SPlisHSPlasH's support h = 4r = 2 spacings, sees a shear along the lattice axes with 65 %
-of its strength (lattice sum of ``2(d+2) V F dx^2 dy^2 / r^2``: 1.30 instead of 2 for the cubic
-spline in 2D, 1.40 in 3D); on the hexagonal lattice that sum is isotropic and 1.962 (-1.9 %). The
-``square`` row of the table shows the square-lattice run for the record.
+Setups (the table's ``case`` column, lattice/walls/setup/wall velocity):
 
-Walls: ``akinci`` gives the wall particles Akinci 2012 volumes (sphkit's boundary model);
-``lattice`` overrides them with the fluid's lattice volume, i.e. the walls are a layer of
-resting fluid. Both keep the wall velocity 0 in the boundary viscosity (SPlisHSPlasH's wall
-term); Morris et al. instead extrapolate the fluid velocity antisymmetrically into the wall,
-which sphkit does not do, so a slip at the walls remains (see the table).
+* lattice: ``hex`` -- rows along x on a hexagonal lattice (built here: scenes sample square
+  lattices); ``square`` -- the scene path (``fluid_blocks`` + ``boxes``) on sphkit's square
+  lattice. On the square lattice the Monaghan-form Laplacian of the standard and the Weiler
+  viscosity is strongly anisotropic at sphkit's h = 4r = 2 spacings (lattice sum of
+  ``2(d+2) V F dx^2 dy^2 / r^2`` for a shear along the axes: 0.66 of the continuum value for the
+  cubic spline in 2D, 0.94 at 3 spacings, 0.97 at 4), so it cannot meet the target; on the
+  hexagonal lattice the sum is within 2 % (cubic spline) or 0.1 % (quintic, >= 2.5 spacings).
+* walls: ``akinci`` -- Akinci 2012 volumes (sphkit's boundary model; they compress the first
+  fluid row and the profile drifts towards a plug flow); ``lattice`` -- the wall particles get
+  the fluid's lattice volume, i.e. they are rows of resting fluid (Morris' wall particles),
+  as many rows as the kernel support needs.
+* setup: ``Morris`` -- Morris et al.'s kernel and resolution: their quintic spline with
+  support 3 particle spacings (smoothing length = spacing; ``h`` here is the support radius,
+  the particle radius is set to h/4) and their regularisation ``0.01 (smoothing length)^2 =
+  0.01/9 h^2`` (viscosity option ``laplacian_eps``); ``sphkit`` -- sphkit's defaults: cubic
+  spline, h = 4r = 2 spacings (``(2r)^2`` = area per particle) and SPlisHSPlasH's
+  ``0.01 h^2``, which alone makes the cubic spline's shear Laplacian 4.9 % weak (continuum
+  integral), so the profile's curvature is about 4 % high.
+* wall velocity (viscosity option ``boundary_velocity``): ``zero`` -- the wall particles' own
+  velocity (SPlisHSPlasH); the fluid slips by about a constant number of spacings.
+  ``morris1997`` -- Morris et al.'s no-slip velocity extrapolated antisymmetrically across the
+  wall plane, ``v_i - v_b = beta v_i``, ``beta = min(beta_max, 1 + d_b/d_i)``
+  (``morris_beta_max``): ``b<=1.5`` is the paper's bound, ``b<=4`` one that on the lattice only
+  acts on pairs of negligible kernel weight (the exact extrapolation).
+
+All runs use WCSPH with the linear state equation at the explicit viscous step
+``0.125 spacing^2 / nu`` (sound speed: acoustic step = that step, Mach 4e-4); Weiler 2018 is
+solved to a relative residual of 1e-7 (``CG_TOL``).
 
 Run ``python validation/poiseuille.py`` (``--n`` rows across the channel, default 20;
 ``--quick`` for 10). It prints the errors at t = 0.2, 0.5, 1.0 t_s and of the steady profile (at
@@ -74,9 +92,32 @@ def analytic(y: np.ndarray, t: float, terms: int = 200) -> np.ndarray:
 
 
 #: the methods compared, with their wall viscosity (takahashi2015 has none: SPlisHSPlasH's fixed
-#: XSPH-type wall friction 0.1 acts instead)
-METHODS = ("standard", "weiler2018", "takahashi2015")
+#: XSPH-type wall friction 0.1 acts instead); takahashi2015 runs only with ``--methods``
+METHODS = ("standard", "weiler2018")
 WALL_VISCOSITY = {"standard": NU, "weiler2018": NU, "takahashi2015": 0.0}
+
+#: Morris et al.'s setup: their quintic spline with support 3 spacings (smoothing length = the
+#: spacing) and their regularisation 0.01 (smoothing length)^2 = 0.01/9 of the support squared
+MORRIS = dict(kernel="quintic", support=3.0, eps=0.01 / 9.0)
+#: the bound on Morris' beta used for the target rows: on the lattice it only acts on pairs whose
+#: kernel weight is negligible (beta = 1 + d_b/d_i reaches 6 for the first fluid row and the
+#: third wall row, 3 spacings apart), so the extrapolation is Morris' exact one
+BETA_MAX = 4.0
+
+#: (label, builder, keyword arguments) of the table's rows, each run for every method
+CASES = (
+    ("hex/lattice/Morris/morris1997 b<=4", "hex",
+     dict(walls="lattice", wall_velocity="morris1997", beta_max=BETA_MAX, **MORRIS)),
+    ("hex/lattice/Morris/morris1997 b<=1.5", "hex",
+     dict(walls="lattice", wall_velocity="morris1997", beta_max=1.5, **MORRIS)),
+    ("hex/lattice/Morris/zero", "hex", dict(walls="lattice", **MORRIS)),
+    ("hex/lattice/sphkit/morris1997 b<=4", "hex",
+     dict(walls="lattice", wall_velocity="morris1997", beta_max=BETA_MAX)),
+    ("square/akinci/sphkit/morris1997 b<=4", "square",
+     dict(wall_velocity="morris1997", beta_max=BETA_MAX)),
+    ("square/lattice/sphkit/morris1997 b<=4", "square",
+     dict(walls="lattice", wall_velocity="morris1997", beta_max=BETA_MAX)),
+)
 
 
 def _scene(method: str, r: float, lx: float, dt: float, c: float, wall_velocity: str = "zero",
@@ -198,24 +239,28 @@ def main(argv: list[str] | None = None) -> int:
     n = 10 if args.quick else args.n
     print(f"Poiseuille flow, {n} rows across, u_max {U_MAX:.3g} m/s, "
           f"settling time t_s {SETTLING:.3f} s; error = max |u - u_exact| / u_max")
-    print(f"{'lattice':<8}{'walls':<8}{'method':<12}"
+    print("case = lattice/walls/setup/wall velocity; setup Morris = quintic spline, support 3 "
+          "spacings, eps 0.01/9 h^2; sphkit = cubic spline, support 2 spacings (h = 4r), "
+          "eps 0.01 h^2")
+    print(f"{'case':<38}{'method':<12}"
           + "".join(f"{f'{f} t_s':>9}" for f in FRACTIONS)
           + f"{'steady':>9}{'curv':>8}{'time [s]':>9}")
     results = {}
-    cases = [("hex", "akinci"), ("hex", "lattice"), ("square", "akinci")]
-    for lattice, walls in cases:
+    for label, lattice, kw in CASES:
         for method in methods:
+            if method == "takahashi2015" and kw.get("wall_velocity", "zero") != "zero":
+                continue  # no wall viscosity term to take a wall velocity
             t0 = time.perf_counter()
-            sim = (hex_channel(method, n, walls=walls) if lattice == "hex"
-                   else square_channel(method, n))
+            sim = (hex_channel(method, n, **kw) if lattice == "hex"
+                   else square_channel(method, n, **kw))
             res = run(sim)
             wall = time.perf_counter() - t0
-            results[(lattice, walls, method)] = res
+            results[(label, method)] = res
             _e, y, u = res[STEADY]
             k = curvature(y, u, sim.state.h) / (-FORCE / NU)
-            print(f"{lattice:<8}{walls:<8}{method:<12}"
+            print(f"{label:<38}{method:<12}"
                   + "".join(f"{100 * res[f][0]:8.2f}%" for f in FRACTIONS)
-                  + f"{100 * res[STEADY][0]:8.2f}%{k:8.3f}{wall:9.1f}")
+                  + f"{100 * res[STEADY][0]:8.2f}%{k:8.3f}{wall:9.1f}", flush=True)
     try:
         import matplotlib
 
@@ -226,20 +271,20 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     fig, ax = plt.subplots(figsize=(6, 4))
     yy = np.linspace(0.0, WIDTH, 200)
+    shown = [(CASES[0][0], "standard", "o"), (CASES[0][0], "weiler2018", "x"),
+             (CASES[2][0], "standard", "+")]
     for frac in (*FRACTIONS, STEADY):
         ax.plot(analytic(yy, frac * SETTLING) * 1e6, yy * 1e3, "k-", lw=0.8)
-        for key, mk in ((("hex", "akinci", "standard"), "o"), (("hex", "akinci", "weiler2018"),
-                                                                 "x"),
-                        (("hex", "lattice", "weiler2018"), "+"),
-                        (("hex", "lattice", "takahashi2015"), "^")):
-            if key not in results:
+        for label, method, mk in shown:
+            if (label, method) not in results:
                 continue
-            _e, y, u = results[key][frac]
-            ax.plot(u * 1e6, y * 1e3, mk, ms=3, label=" ".join(key) if frac == STEADY else None)
+            _e, y, u = results[(label, method)][frac]
+            ax.plot(u * 1e6, y * 1e3, mk, ms=3,
+                    label=f"{label} {method}" if frac == STEADY else None)
     ax.set_xlabel("u [um/s]")
     ax.set_ylabel("y [mm]")
     ax.set_title("Poiseuille start-up (lines: Morris 1997 Eq. 21)")
-    ax.legend()
+    ax.legend(fontsize=7)
     path = Path(__file__).with_suffix(".png")
     fig.savefig(path, dpi=120, bbox_inches="tight")
     print(f"plot: {path}")

@@ -6,7 +6,9 @@ SPlisHSPlasH's ``Viscosity_Standard`` uses:
 
     a_i += 2 (d + 2) nu sum_j (m_j / rho_ij) (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) grad W_ij
 
-with kinematic viscosity nu [m^2/s] and ``rho_ij = (rho_i + rho_j) / 2``. SPlisHSPlasH uses
+with kinematic viscosity nu [m^2/s] and ``rho_ij = (rho_i + rho_j) / 2`` (``0.01 h^2``: the
+option ``eps`` times h^2, h the support radius; see
+:data:`sphkit.core.viscous.LAPLACIAN_EPS`). SPlisHSPlasH uses
 ``m_j / rho_j``; the pair-averaged density makes the pair forces exactly antisymmetric, so linear
 momentum is conserved to round-off (tested), and it equals ``m_j / rho_j`` at uniform density.
 It is Galilean invariant, vanishes for rigid rotation and
@@ -31,8 +33,13 @@ import numba
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.state import SimState
-from sphkit.core.viscous import (BOUNDARY_VELOCITIES, LAPLACIAN_EPS, MORRIS_BETA_MAX,
-                                 morris_beta, register_wall_fields)
+from sphkit.core.viscous import (
+    BOUNDARY_VELOCITIES,
+    LAPLACIAN_EPS,
+    MORRIS_BETA_MAX,
+    morris_beta,
+    register_wall_fields,
+)
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)

@@ -15,12 +15,14 @@ Monaghan 2005 projected form of :mod:`sphkit.viscosity.standard` with ``mu = nu 
               grad W_ib
 
 (the second line is the fluid-boundary viscosity with Akinci 2012 boundary particles, wall
-velocity v_b, ``mu_b = nu_b rho0``). With ``boundary_velocity = "morris1997"`` the wall term's
-``v_i - v_b`` becomes ``beta_ib (v_i - v_b)``, the no-slip wall of Morris, Fox & Zhu 1997 (J.
-Comput. Phys. 136, 214-226: the wall particle takes the fluid velocity extrapolated
-antisymmetrically across the wall surface, ``beta = min(beta_max, 1 + d_b / d_i)``, see
+velocity v_b, ``mu_b = nu_b rho0``; ``0.01 h^2`` is the option ``eps`` times h^2). With
+``boundary_velocity = "morris1997"`` the wall term's ``v_i - v_b`` becomes
+``beta_ib (v_i - v_b)``, the no-slip wall of Morris, Fox & Zhu 1997 (J. Comput. Phys. 136,
+214-226: the wall particle takes the fluid velocity extrapolated antisymmetrically across the
+wall surface, ``beta = min(beta_max, 1 + d_b / d_i)``, see
 :func:`sphkit.core.viscous.morris_beta`); beta depends on positions only, so the system stays
-linear in v (and symmetric: beta scales the diagonal blocks). Backward Euler gives the linear system for the new velocity
+linear in v (and symmetric: beta scales the diagonal blocks). Backward Euler gives the linear
+system for the new velocity
 
     (I - (dt / rho_i) L) v^{t+dt} = v^t - (dt / rho_i) B v_b,
 
@@ -52,8 +54,13 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.state import SimState
-from sphkit.core.viscous import (BOUNDARY_VELOCITIES, LAPLACIAN_EPS, MORRIS_BETA_MAX,
-                                 morris_beta, register_wall_fields)
+from sphkit.core.viscous import (
+    BOUNDARY_VELOCITIES,
+    LAPLACIAN_EPS,
+    MORRIS_BETA_MAX,
+    morris_beta,
+    register_wall_fields,
+)
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -256,13 +263,13 @@ class Weiler2018:
         rhs = np.empty((dim, n))
         blocks = np.empty((dim, dim, n))
         _rhs_blocks(x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"], bn, bd,
-                    nb.offsets, nb.indices, cf, cb, bm, self.eps, state.rho0, state.h, state.kid, dim,
-                    state.period, dt, rhs, blocks)
+                    nb.offsets, nb.indices, cf, cb, bm, self.eps, state.rho0, state.h,
+                    state.kid, dim, state.period, dt, rhs, blocks)
 
         def matvec(u: np.ndarray, out: np.ndarray) -> None:
             _matvec(x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], bn, bd, nb.offsets,
-                    nb.indices, u.reshape(dim, n), cf, cb, bm, self.eps, state.rho0, state.h, state.kid,
-                    dim, state.period, dt, out.reshape(dim, n))
+                    nb.indices, u.reshape(dim, n), cf, cb, bm, self.eps, state.rho0, state.h,
+                    state.kid, dim, state.period, dt, out.reshape(dim, n))
 
         dv = f["weiler_dv"]
         x0 = (v + dv).ravel()
