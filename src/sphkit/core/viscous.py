@@ -293,17 +293,15 @@ def register_wall_fields(boundary) -> None:
 def morris_beta(d0, d1, d2, n0, n1, n2, db, beta_max):
     """No-slip walls of Morris, Fox & Zhu 1997 (J. Comput. Phys. 136, 214-226).
 
-    The paper's boundary-condition treatment (the section before its test problems; its Sec. 4
-    holds the Poiseuille test and Eq. 21 the series solution; the number of the boundary
-    equations could not be checked here) as follows:
-
-    Each boundary particle b gets, for the fluid particle i it interacts with, the artificial
-    velocity extrapolated antisymmetrically across the wall surface,
-    ``v_b = v_wall - (d_b / d_i) (v_i - v_wall)`` (the paper writes it for v_wall = 0:
-    ``v_B = -(d_B / d_A) v_A``), so that the linear profile through v_i and v_b is v_wall on the
-    surface; the relative velocity in the viscous term becomes ``v_i - v_b = beta (v_i -
-    v_wall)`` with ``beta = min(beta_max, 1 + d_b / d_i)`` (Morris: beta_max = 1.5, which bounds
-    the artificial velocity of particles that come close to the wall).
+    The paper's boundary-condition treatment, in the section before its test problems (whose
+    Poiseuille case has the series solution Eq. 21); the section and equation numbers of the
+    boundary treatment could not be checked here. Each boundary particle b gets, for the fluid
+    particle i it interacts with, the artificial velocity extrapolated antisymmetrically across
+    the wall surface, ``v_b = v_wall - (d_b / d_i) (v_i - v_wall)`` (the paper writes it for
+    v_wall = 0: ``v_B = -(d_B / d_A) v_A``), so that the linear profile through v_i and v_b is
+    v_wall on the surface; the relative velocity in the viscous term becomes
+    ``v_i - v_b = beta (v_i - v_wall)`` with ``beta = min(beta_max, 1 + d_b / d_i)`` (Morris:
+    beta_max = 1.5, which bounds the artificial velocity of particles close to the wall).
 
     ``(d0, d1, d2) = x_i - x_b``; ``n`` is b's wall normal (from the fluid into the wall) and
     ``db`` its distance behind the surface; the surface is the plane through ``x_b - d_b n``
