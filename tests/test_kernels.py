@@ -15,7 +15,7 @@ from scipy import integrate
 
 from sphkit.core.kernels import KERNEL_IDS, Kernel, kernel_dw, kernel_w, lattice_volume
 
-NAMES = ["cubic", "wendland", "poly6", "spiky"]
+NAMES = ["cubic", "wendland", "poly6", "spiky", "quintic"]
 DIMS = [1, 2, 3]
 H = 0.7  # a support radius that is not 1, so that every power of h in s_d is exercised
 
@@ -45,7 +45,7 @@ def test_integral_over_support_is_one(name: str, dim: int) -> None:
         lambda r: _radial_measure(r, dim) * float(k.w(r)),
         0.0,
         H,
-        points=[H / 2],  # the cubic spline's break; harmless for the others
+        points=[H / 3, H / 2, 2 * H / 3],  # the cubic's and the quintic's breaks
         epsabs=1e-13,
         epsrel=1e-13,
         limit=200,
@@ -62,8 +62,9 @@ def test_integral_over_support_is_one(name: str, dim: int) -> None:
 # that the lattice rule converges fast) |sum W dV - 1| <= 2e-6 and relative |sum grad| <= 7.6e-5
 # (1D Wendland is worst); spiky has a kink of W at r = 0 (W'(0) != 0), i.e. a jump of grad W, so its
 # sums converge only at O(spacing^2) and O(spacing): measured 1.0e-3 and 2.0e-2 (1D is worst).
-SUM_TOL = {"cubic": 2e-5, "wendland": 2e-5, "poly6": 2e-5, "spiky": 5e-3}
-GRAD_SUM_TOL = {"cubic": 5e-4, "wendland": 5e-4, "poly6": 5e-4, "spiky": 5e-2}
+# The quintic spline (C4) is smoother than the cubic and gets the cubic's tolerances.
+SUM_TOL = {"cubic": 2e-5, "wendland": 2e-5, "poly6": 2e-5, "spiky": 5e-3, "quintic": 2e-5}
+GRAD_SUM_TOL = {"cubic": 5e-4, "wendland": 5e-4, "poly6": 5e-4, "spiky": 5e-2, "quintic": 5e-4}
 
 
 @pytest.mark.parametrize("dim", DIMS)
@@ -127,13 +128,16 @@ def test_gradient_at_origin_is_zero(name: str, dim: int) -> None:
 
 @pytest.mark.parametrize("name", NAMES)
 def test_compiled_scalar_functions_agree_with_kernel_class(name: str) -> None:
-    # the same compiled code path, so equal to rounding (1e-14 relative)
+    # the same compiled code path, so equal to rounding (1e-14 relative; 2e-14 for the quintic,
+    # whose fifth powers near the support edge round differently in the vectorised array loop
+    # under fastmath: measured 1.1e-14)
     k = Kernel(name, H, 3)
     r = np.linspace(0.0, 1.2 * H, 37)
     w = np.array([kernel_w(KERNEL_IDS[name], ri, H, 3) for ri in r])
     dw = np.array([kernel_dw(KERNEL_IDS[name], ri, H, 3) for ri in r])
-    np.testing.assert_allclose(w, k.w(r), rtol=1e-14, atol=0)
-    np.testing.assert_allclose(dw, k.dw_over_r(r), rtol=1e-14, atol=0)
+    rtol = 2e-14 if name == "quintic" else 1e-14
+    np.testing.assert_allclose(w, k.w(r), rtol=rtol, atol=0)
+    np.testing.assert_allclose(dw, k.dw_over_r(r), rtol=rtol, atol=0)
 
 
 # -- symmetry, sign, support -------------------------------------------------------------------
@@ -174,7 +178,7 @@ def test_zero_outside_support(name: str, dim: int) -> None:
 
 
 # -- validation ---------------------------------------------------------------------------------
-@pytest.mark.parametrize("name", ["gaussian", "", "Cubic spline", 4, -1])
+@pytest.mark.parametrize("name", ["gaussian", "", "Cubic spline", 5, -1])
 def test_bad_kernel_name_raises(name: object) -> None:
     with pytest.raises(ValueError, match="^kernel"):
         Kernel(name, H, 3)  # type: ignore[arg-type]

@@ -219,6 +219,8 @@ class Simulation:
         boundary = ParticleSet(self.dim, self.dtype)
         boundary.register("pressure_mirror")
         boundary.register("rigid_body", "scalar", np.int64)  # 1-based moving body, 0 static
+        boundary.register("wall_normal", "vector")  # box walls: into the wall (Morris 1997 no-slip)
+        boundary.register("wall_distance")  # box walls: distance behind the wall surface [m]
         self._rigid_meshes: list = []  # (k, mesh) of the scene's moving meshes
         self.state = SimState(fluid=fluid, boundary=boundary, dim=self.dim, h=h, kid=kid, r=r,
                               rho0=mat.density0, gravity=g.astype(self.dtype))
@@ -249,12 +251,16 @@ class Simulation:
         self.forces: list = []
         vis = mat.viscosity
         if vis.method == "standard":
-            self.forces.append(StandardViscosity(vis.coefficient, vis.boundary_coefficient))
+            self.forces.append(StandardViscosity(vis.coefficient, vis.boundary_coefficient,
+                                                 vis.boundary_velocity, vis.morris_beta_max,
+                                                 vis.laplacian_eps))
         elif vis.method == "xsph":
             self.forces.append(XSPH(vis.coefficient, vis.boundary_coefficient))
         elif vis.method == "weiler2018":
             self.forces.append(Weiler2018(vis.coefficient, vis.boundary_coefficient,
-                                          vis.max_iterations or 100, vis.max_error))
+                                          vis.max_iterations or 100, vis.max_error,
+                                          vis.boundary_velocity, vis.morris_beta_max,
+                                          vis.laplacian_eps))
         elif vis.method == "takahashi2015":
             self.forces.append(Takahashi2015(vis.coefficient, vis.max_iterations or 100,
                                              vis.max_error))
@@ -375,7 +381,10 @@ class Simulation:
                                      open_top_axis=up if box.open_top else None)
             # lattice walls whose Akinci volumes stand for the missing fluid: the boundary
             # pressure is mirrored fully in the iterative solvers (core.ppe.kappa_accel_cached)
-            st.boundary.add(clip(pts), name=f"boxes[{k}]", pressure_mirror=1.0)
+            pts = clip(pts)
+            dist, normal = sampling.box_wall_distance(pts, box.min, box.max)
+            st.boundary.add(pts, name=f"boxes[{k}]", pressure_mirror=1.0, wall_distance=dist,
+                            wall_normal=normal)
         for k, mb in enumerate(scene.meshes):
             mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
                                       mb.rotation_axis, mb.rotation_angle, mb.scale)

@@ -166,6 +166,36 @@ def box_walls(
 # ----------------------------------------------------------------------------------------------
 
 
+def box_wall_distance(points: np.ndarray, lo: ArrayLike, hi: ArrayLike
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Distance of wall particles to the surface of the box ``[lo, hi]`` and the unit wall normal.
+
+    For a point outside the box the nearest surface point is the point clamped into the box, so
+    the distance is ``|p - clamp(p)|`` and the normal ``(p - clamp(p)) / distance`` points from
+    the fluid into the wall (at edges and corners diagonally). Points on or inside the box get
+    distance 0 and normal 0 (no wall distance known). Used by the no-slip wall velocity of Morris
+    et al. 1997 (:func:`sphkit.core.viscous.morris_beta`).
+
+    Args:
+        points: ``(M, dim)`` wall particle positions [m].
+        lo: inner lower corner of the box [m] (at least ``dim`` components).
+        hi: inner upper corner [m].
+
+    Returns:
+        ``(M,)`` distances [m] and ``(M, dim)`` unit normals.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    dim = p.shape[1]
+    a = _as_vector(lo, "lo")[:dim]
+    b = _as_vector(hi, "hi")[:dim]
+    off = p - np.clip(p, a, b)
+    dist = np.linalg.norm(off, axis=1)
+    normal = np.zeros_like(p)
+    out = dist > 0.0
+    normal[out] = off[out] / dist[out, None]
+    return dist, normal
+
+
 def rotation_matrix(axis: ArrayLike, angle: float) -> np.ndarray:
     """3x3 rotation by ``angle`` [rad] about ``axis`` (normalized here; right-hand rule)."""
     ax = np.asarray(axis, dtype=np.float64).ravel()

@@ -127,6 +127,27 @@ class ViscosityConfig(_Model):
         description="standard, xsph, weiler2018: same meaning as coefficient, for fluid-boundary "
         "pairs (must stay 0 for the other implicit models)",
     )
+    boundary_velocity: Literal["zero", "morris1997"] = Field(
+        "zero",
+        description="standard, weiler2018: the wall velocity in the boundary viscosity term; "
+        "'zero' uses the wall particle's own velocity (SPlisHSPlasH; the fluid slips by a few "
+        "particle spacings), 'morris1997' the fluid velocity extrapolated antisymmetrically "
+        "across the wall surface (Morris, Fox & Zhu 1997 no-slip walls; needs the walls' "
+        "distance to their surface, known for boxes; other walls keep their own velocity)",
+    )
+    morris_beta_max: float = Field(
+        1.5, ge=1,
+        description="boundary_velocity 'morris1997': upper bound beta_max of the factor "
+        "beta = 1 + d_b / d_i on the relative velocity (Morris et al.: 1.5), dimensionless",
+    )
+    laplacian_eps: float = Field(
+        0.01, gt=0,
+        description="standard, weiler2018: regularisation eps of the Laplacian's "
+        "1 / (|x_ij|^2 + eps h^2), a fraction of the support radius h squared, dimensionless "
+        "(SPlisHSPlasH: 0.01, which weakens the cubic spline's shear Laplacian by 4.9 %; Morris "
+        "et al. 1997 and Monaghan use 0.01 of the smoothing length squared, 0.0025 for the "
+        "cubic spline)",
+    )
     max_iterations: int | None = Field(
         None, ge=1,
         description="implicit solvers: maximum iterations (SPlisHSPlasH viscoMaxIter; default "
@@ -163,6 +184,17 @@ class ViscosityConfig(_Model):
                     f"boundary_coefficient {self.boundary_coefficient}: {m} has no separate "
                     "boundary viscosity (SPlisHSPlasH's fixed wall term is used); expected 0"
                 )
+        if self.boundary_velocity != "zero" and m not in ("standard", "weiler2018"):
+            raise ValueError(
+                f"boundary_velocity {self.boundary_velocity!r}: only the standard and weiler2018 "
+                f"viscosities have a wall velocity in their boundary term, not {m!r}; expected "
+                "'zero'"
+            )
+        if self.laplacian_eps != 0.01 and m not in ("standard", "weiler2018"):
+            raise ValueError(
+                f"laplacian_eps {self.laplacian_eps}: only the standard and weiler2018 "
+                f"viscosities have this Laplacian, not {m!r}; expected the default 0.01"
+            )
         if m in ("weiler2018", "takahashi2015", "peer2015", "peer2016") and not self.max_error < 1:
             raise ValueError(
                 f"max_error {self.max_error}: {m} stops on the relative residual of its linear "
@@ -473,7 +505,7 @@ class Configuration(_Model):
 
     dim: Literal[2, 3] = 3
     particle_radius: float = Field(0.025, gt=0, description="particle radius r [m]")
-    kernel: Literal["cubic", "wendland", "poly6", "spiky"] = "cubic"
+    kernel: Literal["cubic", "wendland", "poly6", "spiky", "quintic"] = "cubic"
     gravity: Vec = Field([0.0, -9.81, 0.0], description="gravitational acceleration [m/s^2]")
     precision: Literal["float64", "float32"] = "float64"
     time: TimeConfig = TimeConfig()

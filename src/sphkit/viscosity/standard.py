@@ -6,12 +6,23 @@ SPlisHSPlasH's ``Viscosity_Standard`` uses:
 
     a_i += 2 (d + 2) nu sum_j (m_j / rho_ij) (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2) grad W_ij
 
-with kinematic viscosity nu [m^2/s] and ``rho_ij = (rho_i + rho_j) / 2``. SPlisHSPlasH uses
+with kinematic viscosity nu [m^2/s] and ``rho_ij = (rho_i + rho_j) / 2`` (``0.01 h^2``: the
+option ``eps`` times h^2, h the support radius; see
+:data:`sphkit.core.viscous.LAPLACIAN_EPS`). SPlisHSPlasH uses
 ``m_j / rho_j``; the pair-averaged density makes the pair forces exactly antisymmetric, so linear
 momentum is conserved to round-off (tested), and it equals ``m_j / rho_j`` at uniform density.
 It is Galilean invariant, vanishes for rigid rotation and
 conserves linear and angular momentum. Boundary particles (static or moving with velocity v_b)
 contribute the same term with ``m_j / rho_j -> rho0 V_b / rho_i`` and their own ``nu_b``.
+
+Wall velocity (``boundary_velocity``): ``zero`` (default, SPlisHSPlasH) uses the boundary
+particle's own velocity v_b in ``v_ib``, which lets the fluid slip by a few particle spacings;
+``morris1997`` gives it the velocity extrapolated antisymmetrically from the fluid particle
+across the wall surface (Morris, Fox & Zhu 1997, no-slip walls, see
+:func:`sphkit.core.viscous.morris_beta`): ``v_i - v_b -> beta (v_i - v_b)`` with
+``beta = min(beta_max, 1 + d_b / d_i)``, d the distances to the wall surface (boundary fields
+``wall_distance`` and ``wall_normal``, set for box walls; particles without a wall distance keep
+beta = 1).
 """
 
 from __future__ import annotations
@@ -22,14 +33,21 @@ import numba
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.state import SimState
+from sphkit.core.viscous import (
+    BOUNDARY_VELOCITIES,
+    LAPLACIAN_EPS,
+    MORRIS_BETA_MAX,
+    morris_beta,
+    register_wall_fields,
+)
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, kid, dim, L,
-              a):
+def _standard(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, beta_max, epsf,
+              rho0, h, kid, dim, L, a):
     # coordinates are hoisted into scalars and the dim branches are loop invariant: this form
     # runs about twice as fast as loops over d (measured), and stays dimension-generic
-    eps = 0.01 * h * h
+    eps = epsf * h * h
     c = 2.0 * (dim + 2)
     for i in numba.prange(x.shape[1]):
         acc0 = 0.0
@@ -83,7 +101,9 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, 
                     d2 = xi2 - bx[2, b]
                     w2 = vi2 - bv[2, b]
                 r2 = d0 * d0 + d1 * d1 + d2 * d2
-                vx = w0 * d0 + w1 * d1 + w2 * d2
+                beta = morris_beta(d0, d1, d2, bn[0, b], bn[1, b] if dim > 1 else 0.0,
+                                   bn[2, b] if dim > 2 else 0.0, bd[b], beta_max)
+                vx = beta * (w0 * d0 + w1 * d1 + w2 * d2)
                 s = (c * nub * (rho0 * bV[b] / ri) * vx / (r2 + eps)
                      * kernel_dw(kid, math.sqrt(r2), h, dim))
                 acc0 += s * d0
@@ -97,20 +117,41 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, nu, nub, rho0, h, 
 
 
 class StandardViscosity:
-    """Explicit Morris/Monaghan viscosity; ``nu`` and ``nu_boundary`` are kinematic [m^2/s]."""
+    """Explicit Morris/Monaghan viscosity; ``nu`` and ``nu_boundary`` are kinematic [m^2/s].
+
+    ``boundary_velocity``: ``"zero"`` (the wall particles' own velocity, SPlisHSPlasH) or
+    ``"morris1997"`` (no-slip extrapolation, bounded by ``beta_max``, Morris' 1.5 by default).
+    """
 
     name = "standard"
 
-    def __init__(self, nu: float, nu_boundary: float = 0.0) -> None:
+    def __init__(self, nu: float, nu_boundary: float = 0.0, boundary_velocity: str = "zero",
+                 beta_max: float = MORRIS_BETA_MAX, eps: float = LAPLACIAN_EPS) -> None:
         if nu < 0 or nu_boundary < 0:
             raise ValueError(f"viscosity: {nu!r}/{nu_boundary!r}; expected non-negative values")
+        if boundary_velocity not in BOUNDARY_VELOCITIES:
+            raise ValueError(f"viscosity: boundary_velocity {boundary_velocity!r}; expected one "
+                             f"of {', '.join(BOUNDARY_VELOCITIES)}")
+        if not beta_max >= 1.0:
+            raise ValueError(f"viscosity: beta_max {beta_max!r}; expected a value >= 1")
+        if not eps > 0.0:
+            raise ValueError(f"viscosity: eps {eps!r}; expected a value > 0")
+        self.eps = float(eps)
         self.nu = float(nu)
         self.nu_boundary = float(nu_boundary)
+        self.boundary_velocity = boundary_velocity
+        self.beta_max = float(beta_max) if boundary_velocity == "morris1997" else 0.0
+
+    def init(self, state: SimState) -> None:
+        """Make sure the boundary carries the wall fields of the Morris wall velocity."""
+        register_wall_fields(state.boundary)
 
     def apply(self, state: SimState, dt: float) -> None:
         """Add the viscous acceleration to ``state.fluid['a']``."""
         f, b = state.fluid, state.boundary
+        register_wall_fields(b)
         _standard(f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets, state.nl_ff.indices,
-                  b["x"], b["v"], b["V"], state.nl_fb.offsets, state.nl_fb.indices, self.nu,
-                  self.nu_boundary, state.rho0, state.h, state.kid, state.dim, state.period,
+                  b["x"], b["v"], b["V"], b["wall_normal"], b["wall_distance"],
+                  state.nl_fb.offsets, state.nl_fb.indices, self.nu, self.nu_boundary,
+                  self.beta_max, self.eps, state.rho0, state.h, state.kid, state.dim, state.period,
                   f["a"])

@@ -15,7 +15,14 @@ Monaghan 2005 projected form of :mod:`sphkit.viscosity.standard` with ``mu = nu 
               grad W_ib
 
 (the second line is the fluid-boundary viscosity with Akinci 2012 boundary particles, wall
-velocity v_b, ``mu_b = nu_b rho0``). Backward Euler gives the linear system for the new velocity
+velocity v_b, ``mu_b = nu_b rho0``; ``0.01 h^2`` is the option ``eps`` times h^2). With
+``boundary_velocity = "morris1997"`` the wall term's ``v_i - v_b`` becomes
+``beta_ib (v_i - v_b)``, the no-slip wall of Morris, Fox & Zhu 1997 (J. Comput. Phys. 136,
+214-226: the wall particle takes the fluid velocity extrapolated antisymmetrically across the
+wall surface, ``beta = min(beta_max, 1 + d_b / d_i)``, see
+:func:`sphkit.core.viscous.morris_beta`); beta depends on positions only, so the system stays
+linear in v (and symmetric: beta scales the diagonal blocks). Backward Euler gives the linear
+system for the new velocity
 
     (I - (dt / rho_i) L) v^{t+dt} = v^t - (dt / rho_i) B v_b,
 
@@ -47,14 +54,22 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.state import SimState
+from sphkit.core.viscous import (
+    BOUNDARY_VELOCITIES,
+    LAPLACIAN_EPS,
+    MORRIS_BETA_MAX,
+    morris_beta,
+    register_wall_fields,
+)
 
 _JIT = dict(cache=True, fastmath=True)
 
 
 @numba.njit(parallel=True, **_JIT)
-def _matvec(x, m, rho, off, idx, bx, bV, boff, bidx, u, cf, cb, rho0, h, kid, dim, L, dt, out):
+def _matvec(x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, beta_max, epsf, rho0, h,
+            kid, dim, L, dt, out):
     """out = (I - dt/rho_i L) u for flat (dim, N) vectors u, out (as 2D views)."""
-    eps = 0.01 * h * h
+    eps = epsf * h * h
     for i in numba.prange(x.shape[1]):
         xi0 = x[0, i]
         xi1 = x[1, i] if dim > 1 else 0.0
@@ -90,8 +105,10 @@ def _matvec(x, m, rho, off, idx, bx, bV, boff, bidx, u, cf, cb, rho0, h, kid, di
                 d1 = xi1 - bx[1, b] if dim > 1 else 0.0
                 d2 = xi2 - bx[2, b] if dim > 2 else 0.0
                 r2 = d0 * d0 + d1 * d1 + d2 * d2
-                s = (cb * rho0 * bV[b] / rho[i] * (ui0 * d0 + ui1 * d1 + ui2 * d2) / (r2 + eps)
-                     * kernel_dw(kid, math.sqrt(r2), h, dim))
+                beta = morris_beta(d0, d1, d2, bn[0, b], bn[1, b] if dim > 1 else 0.0,
+                                   bn[2, b] if dim > 2 else 0.0, bd[b], beta_max)
+                s = (beta * cb * rho0 * bV[b] / rho[i] * (ui0 * d0 + ui1 * d1 + ui2 * d2)
+                     / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim))
                 a0 += s * d0
                 a1 += s * d1
                 a2 += s * d2
@@ -104,10 +121,10 @@ def _matvec(x, m, rho, off, idx, bx, bV, boff, bidx, u, cf, cb, rho0, h, kid, di
 
 
 @numba.njit(parallel=True, **_JIT)
-def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, cf, cb, rho0, h, kid, dim, L,
-                dt, rhs, blocks):
+def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, beta_max, epsf,
+                rho0, h, kid, dim, L, dt, rhs, blocks):
     """rhs_i = v_i - dt/rho_i B_i v_b and the diagonal blocks of the system matrix."""
-    eps = 0.01 * h * h
+    eps = epsf * h * h
     for i in numba.prange(x.shape[1]):
         xi0 = x[0, i]
         xi1 = x[1, i] if dim > 1 else 0.0
@@ -145,8 +162,10 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, cf, cb, rho0, h,
                 d1 = xi1 - bx[1, b] if dim > 1 else 0.0
                 d2 = xi2 - bx[2, b] if dim > 2 else 0.0
                 r2 = d0 * d0 + d1 * d1 + d2 * d2
-                s = cb * rho0 * bV[b] / rho[i] / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h,
-                                                                        dim)
+                beta = morris_beta(d0, d1, d2, bn[0, b], bn[1, b] if dim > 1 else 0.0,
+                                   bn[2, b] if dim > 2 else 0.0, bd[b], beta_max)
+                s = (beta * cb * rho0 * bV[b] / rho[i] / (r2 + eps)
+                     * kernel_dw(kid, math.sqrt(r2), h, dim))
                 g00 += s * d0 * d0
                 g01 += s * d0 * d1
                 g02 += s * d0 * d2
@@ -198,21 +217,34 @@ class Weiler2018:
     name = "weiler2018"
 
     def __init__(self, nu: float, nu_boundary: float = 0.0, max_iterations: int = 100,
-                 max_error: float = 0.01) -> None:
+                 max_error: float = 0.01, boundary_velocity: str = "zero",
+                 beta_max: float = MORRIS_BETA_MAX, eps: float = LAPLACIAN_EPS) -> None:
         if not (nu >= 0 and nu_boundary >= 0):
             raise ValueError(f"viscosity: {nu!r}/{nu_boundary!r}; expected non-negative values")
         if max_iterations < 1 or not max_error > 0:
             raise ValueError(f"viscosity: max_iterations {max_iterations!r}, max_error "
                              f"{max_error!r}; expected >= 1 and > 0")
+        if boundary_velocity not in BOUNDARY_VELOCITIES:
+            raise ValueError(f"viscosity: boundary_velocity {boundary_velocity!r}; expected one "
+                             f"of {', '.join(BOUNDARY_VELOCITIES)}")
+        if not beta_max >= 1.0:
+            raise ValueError(f"viscosity: beta_max {beta_max!r}; expected a value >= 1")
+        if not eps > 0.0:
+            raise ValueError(f"viscosity: eps {eps!r}; expected a value > 0")
+        self.eps = float(eps)
         self.nu = float(nu)
         self.nu_boundary = float(nu_boundary)
+        self.boundary_velocity = boundary_velocity
+        self.beta_max = float(beta_max) if boundary_velocity == "morris1997" else 0.0
         self.max_iterations = int(max_iterations)
         self.max_error = float(max_error)
         self.stats = KrylovStats()
 
     def init(self, state: SimState) -> None:
-        """Register the warm-start field ``weiler_dv`` (last step's velocity change)."""
+        """Register the warm-start field ``weiler_dv`` (last step's velocity change) and the
+        boundary's wall fields (Morris wall velocity)."""
         state.fluid.register("weiler_dv", "vector")
+        register_wall_fields(state.boundary)
 
     def apply(self, state: SimState, dt: float) -> None:
         """Solve the implicit viscosity system and add its acceleration to ``a``."""
@@ -226,16 +258,18 @@ class Weiler2018:
         cb = c * self.nu_boundary * state.rho0
         x, v, m, rho = f["x"], f["v"], f["m"], f["rho"]
         nl, nb = state.nl_ff, state.nl_fb
+        register_wall_fields(b)
+        bn, bd, bm = b["wall_normal"], b["wall_distance"], self.beta_max
         rhs = np.empty((dim, n))
         blocks = np.empty((dim, dim, n))
-        _rhs_blocks(x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"], nb.offsets,
-                    nb.indices, cf, cb, state.rho0, state.h, state.kid, dim, state.period, dt,
-                    rhs, blocks)
+        _rhs_blocks(x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"], bn, bd,
+                    nb.offsets, nb.indices, cf, cb, bm, self.eps, state.rho0, state.h,
+                    state.kid, dim, state.period, dt, rhs, blocks)
 
         def matvec(u: np.ndarray, out: np.ndarray) -> None:
-            _matvec(x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
-                    u.reshape(dim, n), cf, cb, state.rho0, state.h, state.kid, dim,
-                    state.period, dt, out.reshape(dim, n))
+            _matvec(x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], bn, bd, nb.offsets,
+                    nb.indices, u.reshape(dim, n), cf, cb, bm, self.eps, state.rho0, state.h,
+                    state.kid, dim, state.period, dt, out.reshape(dim, n))
 
         dv = f["weiler_dv"]
         x0 = (v + dv).ravel()
