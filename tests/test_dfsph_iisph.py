@@ -21,9 +21,10 @@ G = 9.81
 ETA = 0.05  # target average density error [%] (SPlisHSPlasH's shipped scenes use 0.05 %)
 
 
-def _column_scene(method: str, dim: int, eta: float = ETA, max_iterations: int = 200) -> Scene:
+def _column_scene(method: str, dim: int, eta: float = ETA, max_iterations: int = 200,
+                  w: float = 0.6, bp: str = "mirror") -> Scene:
     r = 0.01 if dim == 2 else 0.02
-    w, hgt = 0.6, (0.5 if dim == 2 else 0.4)
+    hgt = 0.5 if dim == 2 else 0.4
     gap = 2 * r
     start = [gap, 0.0] if dim == 2 else [gap, 0.0, gap]
     end = [w - gap, hgt] if dim == 2 else [w - gap, hgt, w - gap]
@@ -34,6 +35,7 @@ def _column_scene(method: str, dim: int, eta: float = ETA, max_iterations: int =
             "pressure": {"method": method, "max_error": eta, "max_iterations": max_iterations},
             # dt_max bounds the step at rest, where the CFL step would grow to its maximum
             "time": {"dt_max": 0.002},
+            "boundary": {"pressure": bp},
         },
         "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
         "fluid_blocks": [{"start": start, "end": end}],
@@ -42,9 +44,9 @@ def _column_scene(method: str, dim: int, eta: float = ETA, max_iterations: int =
 
 
 @cache
-def _settled(method: str, dim: int) -> dict:
+def _settled(method: str, dim: int, w: float = 0.6, bp: str = "mls") -> dict:
     """Run the column for 1.5 s, then average pressure and height per particle over 0.5 s."""
-    sim = Simulation(_column_scene(method, dim))
+    sim = Simulation(_column_scene(method, dim, w=w, bp=bp))
     sim.run(until=1.5)
     n = sim.fluid.n
     p_sum, y_sum, its = np.zeros(n), np.zeros(n), []
@@ -77,20 +79,30 @@ def test_hydrostatic_column(method: str, dim: int) -> None:
     # column is only 10 particles high)
     assert res["vmean"] < 0.08
     # pressure slope over the middle 80% of the column, pressures and heights averaged over
-    # the last 0.5 s (the per-step split of the pressure between iterations fluctuates).
-    # Measured with full pressure mirroring at the lattice walls (boundary field
-    # pressure_mirror = 1, see sphkit.core.ppe): 2D +0.9 to +1.9 % (DFSPH, varies with the
-    # thread count), +2.6 % (IISPH); 3D +4.0 to +4.5 % (DFSPH), +8.4 % (IISPH) on this coarse
-    # column (13 x 10 x 13 particles, the wall layers weigh much). With SPlisHSPlasH's one-sided
-    # boundary term it was 2D +5.2 / +5.3 %, 3D 0.0 / +5.2 %. The rest is the SPH gradient's
-    # discretization error on the settled packing (validation/README.md); the issue's 2 % is
-    # reached in 2D, not in 3D.
-    y, p = res["y"], res["p"]
-    top = y.max()
-    sel = (y > 0.1 * top) & (y < 0.9 * top)
-    slope = -np.polyfit(y[sel], p[sel], 1)[0]
-    bound = 0.04 if dim == 2 else 0.10
-    assert abs(slope / (1000.0 * G) - 1.0) < bound, slope / (1000.0 * G)
+    # the last 0.5 s (the per-step split of the pressure between iterations fluctuates), with
+    # the boundary pressure extrapolated by MLS (Band et al. 2018; configuration.boundary.
+    # pressure 'mls'): with mirroring (p_b = p_i) a side wall cannot carry the vertical pressure
+    # gradient and the slope was 2D +2.5 % (DFSPH, mean of widths 0.5-0.7 m), 3D +4.5 % (DFSPH)
+    # / +8.4 % (IISPH). The settled packing is chaotic -- any change of the code, thread count
+    # or thread timing rearranges it and moves one column's slope by up to 1.5 % in 2D -- so
+    # three widths are measured and their mean is tested. 3D: the issue's 2 % for the mean,
+    # 3 % for each (measured 2026-11-26: DFSPH -1.1 .. -0.6 %, IISPH +0.6 .. +1.2 %). 2D: the
+    # columns away from the walls keep a +1..2 % excess from the packing (validation/README.md),
+    # measured DFSPH +1.0 .. +2.7 % (mean +1.2 % in a quiet run, +2.2 % under load), IISPH
+    # +0.8 .. +2.0 %: the mean is tested against 2.5 %, each against 3.5 % -- the issue's 2 %
+    # is reached on average, not for every 2D packing.
+    widths = (0.5, 0.6, 0.7) if dim == 2 else (0.56, 0.6, 0.64)  # 3D: multiples of 2r
+    slopes = []
+    for w in widths:
+        r = _settled(method, dim, w)
+        y, p = r["y"], r["p"]
+        top = y.max()
+        sel = (y > 0.1 * top) & (y < 0.9 * top)
+        slopes.append(-np.polyfit(y[sel], p[sel], 1)[0] / (1000.0 * G))
+    err = np.array(slopes) - 1.0
+    mean_bound, each_bound = (0.025, 0.035) if dim == 2 else (0.02, 0.03)
+    assert abs(err.mean()) < mean_bound, slopes
+    assert np.all(np.abs(err) < each_bound), slopes
 
 
 @pytest.mark.parametrize("method", ["dfsph", "iisph"])

@@ -84,12 +84,13 @@ def _transpose(boff, bidx, nb):
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, coef):
+def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, ridge, coef):
     """``coef[t] = c_bf rho_hat_f^2`` for the t-th boundary -> fluid pair (module docstring).
 
     ``use[b]`` False: the sample is not extrapolated (coefficients 0). Positions are scaled by
-    1/h in the moment matrix for its conditioning; a pivot below 1e-6 of the matrix' largest
-    diagonal entry selects the Shepard fallback."""
+    1/h in the moment matrix for its conditioning; ``ridge`` (:data:`RIDGE`) is the Tikhonov
+    weight of its gradient block; a pivot below 1e-6 of the matrix' largest diagonal entry
+    selects the Shepard fallback."""
     n = dim + 1
     for b in numba.prange(bx.shape[1]):
         t0 = toff[b]
@@ -119,7 +120,7 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, coef):
         # Tikhonov term on the gradient block: a gradient the neighbours do not determine (all
         # of them on one row, as under a single fluid layer) is taken as 0 instead of noise
         for p in range(1, n):
-            m[p, p] += RIDGE * wsum
+            m[p, p] += ridge * wsum
         # solve M u = e_0 by Gauss-Jordan with partial pivoting (M is symmetric: u is the
         # first row of M^-1)
         m[0, n] = 1.0
@@ -221,7 +222,8 @@ class MLSPressureExtrapolation:
 
     name = "mls"
 
-    def __init__(self, use: np.ndarray) -> None:
+    def __init__(self, use: np.ndarray, ridge: float = RIDGE) -> None:
+        self.ridge = float(ridge)
         self.use = np.ascontiguousarray(use, dtype=np.bool_)
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
         self.tfluid = np.empty(0, dtype=np.int64)
@@ -250,7 +252,7 @@ class MLSPressureExtrapolation:
         self.coef = np.empty(self.tfluid.shape[0], dtype=f.dtype)
         rho_hat = f["rho"] / state.rho0
         mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.use, state.h,
-                         state.kid, state.dim, state.period, self.coef)
+                         state.kid, state.dim, state.period, self.ridge, self.coef)
 
     def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:
         """For a state-equation solver (WCSPH) whose boundary term mirrored ``p_b = p_i``:

@@ -112,7 +112,9 @@ def box_walls(
     ``lo - r - 2r k`` and ``hi + r + 2r k`` on each axis, edges and corners included. Between the
     walls the points follow the interior lattice, so a fluid block filling the container is
     exactly ``2r`` from the first wall layer. When ``hi - lo`` is not a multiple of ``2r`` the
-    upper walls stay at ``hi + r``, a little more than ``2r`` from the last fluid particle.
+    upper walls stay at ``hi + r``, a little more than ``2r`` from the last fluid particle, and
+    the points along each face are spaced evenly at a little less than ``2r`` (no gap wider
+    than ``2r`` anywhere in the walls).
 
     Args:
         lo: inner lower corner [m], 1 to 3 components.
@@ -138,7 +140,14 @@ def box_walls(
         raise ValueError(f"open_top_axis must be in [0, {dim}), got {open_top_axis}")
 
     k = np.arange(layers, dtype=np.float64)
-    interior = [_axis_lattice(a[d], b[d], r) for d in range(dim)]
+    # wall coordinates along a face: evenly spaced between the first wall layers lo - r and
+    # hi + r, at most 2r apart; the fluid lattice when hi - lo is a multiple of 2r. (The fluid
+    # lattice itself would leave a gap of up to 4r before the upper walls, through which fluid
+    # leaked at the upper edges of a 3D box.)
+    interior = []
+    for d in range(dim):
+        m = max(1, int(np.ceil((b[d] - a[d] + 2.0 * r) / (2.0 * r) - 1e-9)))
+        interior.append(np.linspace(a[d] - r, b[d] + r, m + 1)[1:-1])
     low = [a[d] - r - 2.0 * r * k[::-1] for d in range(dim)]
     high = [b[d] + r + 2.0 * r * k for d in range(dim)]
 
