@@ -11,6 +11,8 @@ from sphkit.boundary.band2018 import RIDGE, MLSPressureExtrapolation
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation
 
+L = 0.32  # tank width [m], a multiple of the spacing 2r: the walls continue the fluid lattice
+
 
 def _tank(dim: int, bp: str = "mls", method: str = "akinci2012") -> Scene:
     r = 0.02
@@ -18,8 +20,8 @@ def _tank(dim: int, bp: str = "mls", method: str = "akinci2012") -> Scene:
         "configuration": {"dim": dim, "particle_radius": r,
                           "pressure": {"method": "dfsph"},
                           "boundary": {"method": method, "pressure": bp}},
-        "fluid_blocks": [{"start": [0.0] * dim, "end": [0.3] * dim}],
-        "boxes": [{"min": [0.0] * dim, "max": [0.3] * dim, "layers": 2}],
+        "fluid_blocks": [{"start": [0.0] * dim, "end": [L] * dim}],
+        "boxes": [{"min": [0.0] * dim, "max": [L] * dim, "layers": 2}],
     })
 
 
@@ -68,7 +70,7 @@ def test_mls_reproduces_linear_pressure_at_the_walls(dim: int) -> None:
 def test_mls_with_ridge_keeps_the_gradient_along_the_wall(dim: int) -> None:
     """With the default Tikhonov weight, the pressure gradient *along* a wall (what a side wall
     must carry in a hydrostatic column) is still extrapolated: error below 10 % of the pressure
-    change over one support radius h at the floor samples (measured 2D 3.8 %, 3D 7.1 %: the ridge
+    change over one support radius h at the floor samples (measured 2D 4.9 %, 3D 5.2 %: the ridge
     shortens the fitted gradient by about RIDGE over the neighbours' second moment in units of
     h^2, ~0.1 for a single row). The
     gradient *normal* to the wall is not determined by the single fluid row that a wall sample
@@ -79,10 +81,11 @@ def test_mls_with_ridge_keeps_the_gradient_along_the_wall(dim: int) -> None:
     grad[0] = 4e4  # [Pa/m], along the floor
     out, exact, counts = _extrapolate(sim, grad, RIDGE)
     bx = st.boundary["x"]
-    floor = (bx[1] < 0.0) & np.all((np.delete(bx, 1, axis=0) > 0.0)
-                                   & (np.delete(bx, 1, axis=0) < 0.3), axis=0)
+    # floor samples at least h from the side walls (full neighbourhoods along the floor)
+    side = np.delete(bx, 1, axis=0)
+    floor = (bx[1] < 0.0) & np.all((side > st.h) & (side < L - st.h), axis=0)
     sel = floor & (counts >= dim + 1)
-    assert sel.sum() >= 5
+    assert sel.sum() >= 3
     err = np.abs(out[sel] - exact[sel]).max()
     assert err < 0.10 * grad[0] * st.h / st.rho0, err / (grad[0] * st.h / st.rho0)
 
