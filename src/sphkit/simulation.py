@@ -368,13 +368,14 @@ class Simulation:
             st.fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
                          rho=mat.density0)
         if self._maps:
-            moving = [k for k, mb in enumerate(scene.meshes) if mb.dynamic or mb.kinematic]
-            if moving:
-                raise SceneError(
-                    f"meshes[{moving[0]}]: a moving rigid body needs boundary particles; "
-                    f"expected configuration.boundary.method 'akinci2012', got "
-                    f"{scene.configuration.boundary.method!r}")
-            return  # boxes and meshes become maps (see _map_geometries)
+            # boxes and meshes become maps (see _map_geometries); a moving mesh's map lives in
+            # its body's frame (sphkit.core.boundary_map, "Moving rigid bodies")
+            for k, mb in enumerate(scene.meshes):
+                if mb.dynamic or mb.kinematic:
+                    self._rigid_meshes.append((k, sampling.load_mesh(
+                        self._resolve(mb.geometry_file), mb.translation, mb.rotation_axis,
+                        mb.rotation_angle, mb.scale)))
+            return
         up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
         for k, box in enumerate(scene.boxes):
             pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
@@ -445,6 +446,8 @@ class Simulation:
                             meshes=[mesh for _k, mesh in self._rigid_meshes])
         if bodies:
             rigid.init(self.state)
+            if self._maps:  # the moving meshes' maps are queried in their bodies' frames
+                self.boundary_model.bind_bodies(rigid.bodies)
             self.boundary_model.rebuild(self.state)
         if rigid.any_dynamic:  # strong coupling: the pressure solves see the bodies give way
             self.state.boundary_response = rigid.pressure_response
@@ -513,8 +516,10 @@ class Simulation:
                     )
                 sdf = PolygonDistance(a, b)
             mres = tuple(mb.map_resolution) if mb.map_resolution else res
+            body = [j for j, _m in self._rigid_meshes].index(k) + 1 if (
+                mb.dynamic or mb.kinematic) else 0
             out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
-                                   thickness=mb.map_thickness, resolution=mres))
+                                   thickness=mb.map_thickness, resolution=mres, body=body))
         return out
 
     # -- checkpoints ----------------------------------------------------------------------------

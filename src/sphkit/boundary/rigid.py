@@ -513,6 +513,9 @@ class RigidBodies:
             _volumes(xl, nl.offsets, nl.indices, state.h, state.kid, state.dim, V)
             bd["V"][sel] = V
         self._sel = [np.flatnonzero(body == k + 1) for k in range(len(self.bodies))]
+        # bodies without particles (density / volume maps): the map model writes the virtual
+        # boundary particles' positions and velocities each step, place() leaves them alone
+        self._particles = bool(np.any(body > 0))
         self._verts, self._sdf, self._radius = [], [], []
         for k, rb in enumerate(self.bodies):
             if k < len(self.meshes):
@@ -530,7 +533,7 @@ class RigidBodies:
 
     def place(self, state: SimState) -> None:
         """Boundary positions and velocities from the bodies' poses."""
-        if not self.bodies:
+        if not self.bodies or not self._particles:
             return
         bd = state.boundary
         c = np.array([b.c for b in self.bodies])
