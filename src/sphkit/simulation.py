@@ -516,10 +516,12 @@ class Simulation:
                     )
                 sdf = PolygonDistance(a, b)
             mres = tuple(mb.map_resolution) if mb.map_resolution else res
-            body = [j for j, _m in self._rigid_meshes].index(k) + 1 if (
-                mb.dynamic or mb.kinematic) else 0
+            body, thick = 0, mb.map_thickness
+            if mb.dynamic or mb.kinematic:  # a moving body: its map lives in its frame
+                body = [j for j, _m in self._rigid_meshes].index(k) + 1
+                thick -= BOUNDARY_MODELS[bc.method].moving_inset_in_radii * st.r
             out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
-                                   thickness=mb.map_thickness, resolution=mres, body=body))
+                                   thickness=thick, resolution=mres, body=body))
         return out
 
     # -- checkpoints ----------------------------------------------------------------------------

@@ -552,6 +552,9 @@ class MapBoundaryModel(ABC):
 
     name = "map"
     offset_in_radii = 0.0
+    #: depth [r] by which a moving body's map surface is moved into its mesh (a negative
+    #: ``MapGeometry.thickness``), so that the fluid rests about r outside the mesh
+    moving_inset_in_radii = 0.0
     uses_maps = True
 
     def __init__(self, geometries: list[MapGeometry] | None = None,
