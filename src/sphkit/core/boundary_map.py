@@ -594,7 +594,9 @@ class MapBoundaryModel(ABC):
         self._c0 = [np.array(b.c, dtype=np.float64) for b in self.bodies]
 
     def rebuild(self, state: SimState) -> None:
-        """After the rigid bodies moved: nothing to do, :meth:`update` reads their poses."""
+        """After the rigid bodies moved: nothing to rebuild, :meth:`update` reads their poses
+        (the interface of the particle models, whose grid follows the bodies)."""
+        return None
 
     def update(self, state: SimState) -> None:
         """Virtual boundary particles and fluid-boundary lists for the current fluid positions."""
