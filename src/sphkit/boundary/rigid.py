@@ -56,6 +56,15 @@ Measured on the landing cube: without it the landing cube bounced, penetrated th
 PBF moves positions and is not coupled (a scene with a dynamic body and PBF is rejected).
 Viscous boundary forces are not transferred to bodies.
 
+Density and volume maps (:mod:`sphkit.core.boundary_map`, "Moving rigid bodies"): a body has no
+particles of its own; each step the map model writes one virtual boundary particle per fluid
+particle near the body (boundary fields ``x``, ``V``, ``v`` the body's surface velocity,
+``rigid_body`` the body's number, ``pressure_mirror`` 0), and :meth:`RigidBodies.fluid_forces`
+and :meth:`RigidBodies.pressure_response` sum the same reactions over them (the solvers treat a
+virtual particle as any boundary particle, so momentum is conserved to round-off as well). The
+contact points of such a body are its mesh vertices only; :meth:`RigidBodies.place` leaves the
+virtual particles to the map model.
+
 Dynamic bodies are advanced with symplectic Euler on linear and angular momentum:
 ``v += dt (F / M + g)``, ``omega += dt I_w^-1 (T - omega x I_w omega)`` with the world inertia
 ``I_w = R I R^T``, then contacts, then ``c += dt v``, ``R <- exp([omega] dt) R``.
