@@ -28,6 +28,11 @@ in every solver exactly as an Akinci particle: density ``rho0 V_b W(x_i - x_b)``
 gradient terms ``V_b grad W(x_i - x_b)``. A particle found inside (``phi <= 0``, which happens
 only after too large steps) is moved ``min(2r - phi, 0.1 r)`` along n and stopped, as in
 SPlisHSPlasH; :attr:`pushed` counts these events.
+
+Moving rigid bodies (paper, Sec. 5): the map of a kinematic or dynamic body is computed once in
+the body's frame and queried there, and the virtual particle goes back to the world with the
+body's surface velocity (:mod:`sphkit.core.boundary_map`, "Moving rigid bodies"); the map of a
+moving body is built for its mesh moved :data:`MOVING_INSET` r inward.
 """
 
 from __future__ import annotations
