@@ -413,9 +413,6 @@ class Simulation:
         bodies = []
         for k, mesh in self._rigid_meshes:
             mb = scene.meshes[k]
-            if self.dim != 3:
-                raise SceneError(f"meshes[{k}]: moving rigid bodies are 3D only; expected "
-                                 f"configuration.dim 3, got {self.dim}")
             if mb.dynamic and scene.configuration.pressure.method == "pbf":
                 raise SceneError(f"meshes[{k}].dynamic: true is not coupled to pressure method "
                                  "'pbf'; expected one of dfsph, iisph, pcisph, wcsph")
@@ -425,7 +422,7 @@ class Simulation:
             try:
                 bodies.append(body_from_mesh(f"meshes[{k}]", mesh, mb.dynamic, mb.density,
                                              mb.velocity, mb.angular_velocity,
-                                             mb.rotation_center, mb.friction))
+                                             mb.rotation_center, mb.friction, self.dim))
             except ValueError as e:
                 raise SceneError(f"meshes[{k}].geometry_file: {mb.geometry_file!r}: {e}") from None
         walls = []
@@ -434,8 +431,9 @@ class Simulation:
 
             up = int(np.argmax(np.abs(self.state.gravity))) if np.any(self.state.gravity) else 2
             for k, box in enumerate(scene.boxes):
-                walls.append((box_wall(box.min, box.max, up if box.open_top else None),
-                              f"boxes[{k}]"))
+                lo = list(box.min) + [-np.inf] * (3 - self.dim)  # 2D: no walls along z
+                hi = list(box.max) + [np.inf] * (3 - self.dim)
+                walls.append((box_wall(lo, hi, up if box.open_top else None), f"boxes[{k}]"))
             for k, mb in enumerate(scene.meshes):
                 if not (mb.dynamic or mb.kinematic):
                     mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
