@@ -393,8 +393,11 @@ class Simulation:
             if mb.dynamic or mb.kinematic:  # a moving rigid body (sphkit.boundary.rigid)
                 from sphkit.boundary.rigid import inset_samples
 
-                if dim == 3:  # the fluid rests at the mesh surface (see inset_samples)
-                    pts = inset_samples(mesh, pts, INSET * r)
+                # the fluid rests at the mesh surface (see inset_samples); 2D: the section's
+                # samples (z = 0) move along the side faces' normals, which lie in the plane
+                p3 = np.zeros((len(pts), 3))
+                p3[:, :dim] = pts
+                pts = inset_samples(mesh, p3, INSET * r)[:, :dim]
                 self._rigid_meshes.append((k, mesh))
                 # pressure mirrored fully as at the box walls, so that fluid squeezed between a
                 # body and a box wall is pushed as the gradient of its density (see RigidBodies)
