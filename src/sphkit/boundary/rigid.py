@@ -65,6 +65,13 @@ virtual particle as any boundary particle, so momentum is conserved to round-off
 contact points of such a body are its mesh vertices only; :meth:`RigidBodies.place` leaves the
 virtual particles to the map model.
 
+2D: a body is the section of its mesh with z = 0 and moves in the xy-plane; vectors stay 3D
+internally with z = 0 (angular velocity (0, 0, w)), mass and polar moment per metre of depth
+come from the section (:func:`section_mass_properties`), its contact points are the ends of the
+section's segments, and the compiled passes read and write the (2, N) fields. Measured
+(tests/test_rigid_2d.py): momentum exchange to round-off, a floating square 0.48 submerged; a
+heavy square landing on the floor blew up in the squeezed film (not solved yet).
+
 Dynamic bodies are advanced with symplectic Euler on linear and angular momentum:
 ``v += dt (F / M + g)``, ``omega += dt I_w^-1 (T - omega x I_w omega)`` with the world inertia
 ``I_w = R I R^T``, then contacts, then ``c += dt v``, ``R <- exp([omega] dt) R``.
