@@ -416,6 +416,14 @@ class Simulation:
         bodies = []
         for k, mesh in self._rigid_meshes:
             mb = scene.meshes[k]
+            if self.dim == 2:  # the body moves in the xy-plane
+                for fname, ok in (("velocity", lambda u: u[2] == 0.0),
+                                  ("angular_velocity", lambda u: u[0] == 0.0 and u[1] == 0.0)):
+                    u = getattr(mb, fname)
+                    if u is not None and not ok(u):
+                        raise SceneError(
+                            f"meshes[{k}].{fname}: {list(u)}; expected motion in the xy-plane "
+                            "in 2D: velocity (vx, vy, 0), angular_velocity (0, 0, w)")
             if mb.dynamic and scene.configuration.pressure.method == "pbf":
                 raise SceneError(f"meshes[{k}].dynamic: true is not coupled to pressure method "
                                  "'pbf'; expected one of dfsph, iisph, pcisph, wcsph")
