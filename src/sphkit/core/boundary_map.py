@@ -566,11 +566,14 @@ class MapBoundaryModel(ABC):
         self.pushed = 0  #: fluid particles pushed out of a solid so far (fallback)
 
     def init(self, state: SimState) -> None:
-        """Build (or load) every geometry's map; register the boundary fields."""
+        """Build (or load) every geometry's map; register the boundary fields. Called again
+        (a checkpoint restore whose walls differ), it rebuilds the maps instead of adding a
+        second copy of each."""
         bd = state.boundary
         bd.register("V")
         bd.register("v", "vector")
         integrate, params = self._integrate(state)
+        self.maps = []
         for g in self.geometries:
             if g.sdf.dim != state.dim:
                 raise ValueError(f"{g.name}: a {g.sdf.dim}D geometry in a {state.dim}D scene")
