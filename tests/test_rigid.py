@@ -289,13 +289,19 @@ def test_momentum_conserved_body_and_fluid(tmp_path: Path, method: str) -> None:
 
 
 def test_rigid_scene_errors(tmp_path: Path) -> None:
-    """Moving bodies need 3D boundary particles; bad fields name their path."""
+    """2D bodies move in the xy-plane (boundary particles and maps); bad fields name their
+    path."""
     mesh = {"geometry_file": _box_file(tmp_path, [0.1] * 3), "dynamic": True}
     blocks = [{"start": [0, 0, 0], "end": [0.1, 0.1, 0.1], "material": "water"}]
-    with pytest.raises(SceneError, match=r"meshes\[0\].*akinci2012"):
-        scene = _scene(blocks, [mesh])
-        scene.configuration.boundary.method = "koschier2017"
-        Simulation(scene)
+    for method, field, value in (("akinci2012", "angular_velocity", [1.0, 0.0, 0.0]),
+                                 ("koschier2017", "velocity", [0.0, 0.0, 1.0])):
+        scene = Scene.model_validate({
+            "configuration": {"dim": 2, "particle_radius": R, "boundary": {"method": method}},
+            "materials": [{"id": "water"}],
+            "fluid_blocks": [{"start": [0, 0], "end": [0.1, 0.1], "material": "water"}],
+            "meshes": [{**mesh, "translation": [0.3, 0.0, 0.0], field: value}]})
+        with pytest.raises(SceneError, match=rf"meshes\[0\]\.{field}.*xy-plane"):
+            Simulation(scene)
     with pytest.raises(SceneError, match=r"meshes\[0\]\.dynamic.*pbf"):
         Simulation(_scene(blocks, [mesh], method="pbf"))
     with pytest.raises(Exception, match=r"density"):

@@ -368,13 +368,14 @@ class Simulation:
             st.fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
                          rho=mat.density0)
         if self._maps:
-            moving = [k for k, mb in enumerate(scene.meshes) if mb.dynamic or mb.kinematic]
-            if moving:
-                raise SceneError(
-                    f"meshes[{moving[0]}]: a moving rigid body needs boundary particles; "
-                    f"expected configuration.boundary.method 'akinci2012', got "
-                    f"{scene.configuration.boundary.method!r}")
-            return  # boxes and meshes become maps (see _map_geometries)
+            # boxes and meshes become maps (see _map_geometries); a moving mesh's map lives in
+            # its body's frame (sphkit.core.boundary_map, "Moving rigid bodies")
+            for k, mb in enumerate(scene.meshes):
+                if mb.dynamic or mb.kinematic:
+                    self._rigid_meshes.append((k, sampling.load_mesh(
+                        self._resolve(mb.geometry_file), mb.translation, mb.rotation_axis,
+                        mb.rotation_angle, mb.scale)))
+            return
         up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
         for k, box in enumerate(scene.boxes):
             pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
@@ -392,8 +393,11 @@ class Simulation:
             if mb.dynamic or mb.kinematic:  # a moving rigid body (sphkit.boundary.rigid)
                 from sphkit.boundary.rigid import inset_samples
 
-                if dim == 3:  # the fluid rests at the mesh surface (see inset_samples)
-                    pts = inset_samples(mesh, pts, INSET * r)
+                # the fluid rests at the mesh surface (see inset_samples); 2D: the section's
+                # samples (z = 0) move along the side faces' normals, which lie in the plane
+                p3 = np.zeros((len(pts), 3))
+                p3[:, :dim] = pts
+                pts = inset_samples(mesh, p3, INSET * r)[:, :dim]
                 self._rigid_meshes.append((k, mesh))
                 # pressure mirrored fully as at the box walls, so that fluid squeezed between a
                 # body and a box wall is pushed as the gradient of its density (see RigidBodies)
@@ -412,9 +416,14 @@ class Simulation:
         bodies = []
         for k, mesh in self._rigid_meshes:
             mb = scene.meshes[k]
-            if self.dim != 3:
-                raise SceneError(f"meshes[{k}]: moving rigid bodies are 3D only; expected "
-                                 f"configuration.dim 3, got {self.dim}")
+            if self.dim == 2:  # the body moves in the xy-plane
+                for fname, ok in (("velocity", lambda u: u[2] == 0.0),
+                                  ("angular_velocity", lambda u: u[0] == 0.0 and u[1] == 0.0)):
+                    u = getattr(mb, fname)
+                    if u is not None and not ok(u):
+                        raise SceneError(
+                            f"meshes[{k}].{fname}: {list(u)}; expected motion in the xy-plane "
+                            "in 2D: velocity (vx, vy, 0), angular_velocity (0, 0, w)")
             if mb.dynamic and scene.configuration.pressure.method == "pbf":
                 raise SceneError(f"meshes[{k}].dynamic: true is not coupled to pressure method "
                                  "'pbf'; expected one of dfsph, iisph, pcisph, wcsph")
@@ -424,7 +433,7 @@ class Simulation:
             try:
                 bodies.append(body_from_mesh(f"meshes[{k}]", mesh, mb.dynamic, mb.density,
                                              mb.velocity, mb.angular_velocity,
-                                             mb.rotation_center, mb.friction))
+                                             mb.rotation_center, mb.friction, self.dim))
             except ValueError as e:
                 raise SceneError(f"meshes[{k}].geometry_file: {mb.geometry_file!r}: {e}") from None
         walls = []
@@ -433,8 +442,9 @@ class Simulation:
 
             up = int(np.argmax(np.abs(self.state.gravity))) if np.any(self.state.gravity) else 2
             for k, box in enumerate(scene.boxes):
-                walls.append((box_wall(box.min, box.max, up if box.open_top else None),
-                              f"boxes[{k}]"))
+                lo = list(box.min) + [-np.inf] * (3 - self.dim)  # 2D: no walls along z
+                hi = list(box.max) + [np.inf] * (3 - self.dim)
+                walls.append((box_wall(lo, hi, up if box.open_top else None), f"boxes[{k}]"))
             for k, mb in enumerate(scene.meshes):
                 if not (mb.dynamic or mb.kinematic):
                     mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
@@ -445,6 +455,8 @@ class Simulation:
                             meshes=[mesh for _k, mesh in self._rigid_meshes])
         if bodies:
             rigid.init(self.state)
+            if self._maps:  # the moving meshes' maps are queried in their bodies' frames
+                self.boundary_model.bind_bodies(rigid.bodies)
             self.boundary_model.rebuild(self.state)
         if rigid.any_dynamic:  # strong coupling: the pressure solves see the bodies give way
             self.state.boundary_response = rigid.pressure_response
@@ -513,8 +525,12 @@ class Simulation:
                     )
                 sdf = PolygonDistance(a, b)
             mres = tuple(mb.map_resolution) if mb.map_resolution else res
+            body, thick = 0, mb.map_thickness
+            if mb.dynamic or mb.kinematic:  # a moving body: its map lives in its frame
+                body = [j for j, _m in self._rigid_meshes].index(k) + 1
+                thick -= BOUNDARY_MODELS[bc.method].moving_inset_in_radii * st.r
             out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
-                                   thickness=mb.map_thickness, resolution=mres))
+                                   thickness=thick, resolution=mres, body=body))
         return out
 
     # -- checkpoints ----------------------------------------------------------------------------

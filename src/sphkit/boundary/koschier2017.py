@@ -171,10 +171,10 @@ class Koschier2017(MapBoundaryModel):
 
         return integrate, ["density map", SCALE, f, kid, qw.size]
 
-    def _query(self, bmap: BoundaryMap, state: SimState, xb: np.ndarray, Vb: np.ndarray) -> int:
-        f = state.fluid
+    def _query(self, bmap: BoundaryMap, state: SimState, x: np.ndarray, v: np.ndarray,
+               xb: np.ndarray, Vb: np.ndarray) -> int:
         ax = bmap.geometry.extend_axis
         top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
-        return _query(f["x"], f["v"], bmap.phi, bmap.values, bmap.lo, bmap.cell, bmap.res,
+        return _query(x, v, bmap.phi, bmap.values, bmap.lo, bmap.cell, bmap.res,
                       bmap.spacing, bmap.shape, state.dim, ax, top, state.h, state.r, state.kid,
                       xb, Vb)

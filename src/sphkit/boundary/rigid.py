@@ -56,6 +56,22 @@ Measured on the landing cube: without it the landing cube bounced, penetrated th
 PBF moves positions and is not coupled (a scene with a dynamic body and PBF is rejected).
 Viscous boundary forces are not transferred to bodies.
 
+Density and volume maps (:mod:`sphkit.core.boundary_map`, "Moving rigid bodies"): a body has no
+particles of its own; each step the map model writes one virtual boundary particle per fluid
+particle near the body (boundary fields ``x``, ``V``, ``v`` the body's surface velocity,
+``rigid_body`` the body's number, ``pressure_mirror`` 0), and :meth:`RigidBodies.fluid_forces`
+and :meth:`RigidBodies.pressure_response` sum the same reactions over them (the solvers treat a
+virtual particle as any boundary particle, so momentum is conserved to round-off as well). The
+contact points of such a body are its mesh vertices only; :meth:`RigidBodies.place` leaves the
+virtual particles to the map model.
+
+2D: a body is the section of its mesh with z = 0 and moves in the xy-plane; vectors stay 3D
+internally with z = 0 (angular velocity (0, 0, w)), mass and polar moment per metre of depth
+come from the section (:func:`section_mass_properties`), its contact points are the ends of the
+section's segments, and the compiled passes read and write the (2, N) fields. Measured
+(tests/test_rigid_2d.py): momentum exchange to round-off, a floating square 0.48 submerged; a
+heavy square landing on the floor blew up in the squeezed film (not solved yet).
+
 Dynamic bodies are advanced with symplectic Euler on linear and angular momentum:
 ``v += dt (F / M + g)``, ``omega += dt I_w^-1 (T - omega x I_w omega)`` with the world inertia
 ``I_w = R I R^T``, then contacts, then ``c += dt v``, ``R <- exp([omega] dt) R``.
@@ -86,6 +102,7 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
+import trimesh
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import neighbor_lists
@@ -124,20 +141,24 @@ def _volumes(x, off, idx, h, kid, dim, V):
 @numba.njit(parallel=True, **_JIT)
 def _pose(xl, body, c, R, v, w, x, bv):
     """World positions and velocities of the particles of moving bodies (body id > 0):
-    ``x = c + R x_l``, ``v_b = v + omega x (R x_l)`` (3D)."""
+    ``x = c + R x_l``, ``v_b = v + omega x (R x_l)``; c, v, w, R 3D, the fields (dim, N) (2D:
+    the third coordinate is 0, the body turns about z)."""
+    dim = x.shape[0]
     for b in numba.prange(x.shape[1]):
         k = body[b] - 1
         if k < 0:
             continue
-        r0 = R[k, 0, 0] * xl[0, b] + R[k, 0, 1] * xl[1, b] + R[k, 0, 2] * xl[2, b]
-        r1 = R[k, 1, 0] * xl[0, b] + R[k, 1, 1] * xl[1, b] + R[k, 1, 2] * xl[2, b]
-        r2 = R[k, 2, 0] * xl[0, b] + R[k, 2, 1] * xl[1, b] + R[k, 2, 2] * xl[2, b]
+        l2 = xl[2, b] if dim == 3 else 0.0
+        r0 = R[k, 0, 0] * xl[0, b] + R[k, 0, 1] * xl[1, b] + R[k, 0, 2] * l2
+        r1 = R[k, 1, 0] * xl[0, b] + R[k, 1, 1] * xl[1, b] + R[k, 1, 2] * l2
+        r2 = R[k, 2, 0] * xl[0, b] + R[k, 2, 1] * xl[1, b] + R[k, 2, 2] * l2
         x[0, b] = c[k, 0] + r0
         x[1, b] = c[k, 1] + r1
-        x[2, b] = c[k, 2] + r2
         bv[0, b] = v[k, 0] + w[k, 1] * r2 - w[k, 2] * r1
         bv[1, b] = v[k, 1] + w[k, 2] * r0 - w[k, 0] * r2
-        bv[2, b] = v[k, 2] + w[k, 0] * r1 - w[k, 1] * r0
+        if dim == 3:
+            x[2, b] = c[k, 2] + r2
+            bv[2, b] = v[k, 2] + w[k, 0] * r1 - w[k, 1] * r0
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -147,6 +168,7 @@ def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid
     share of ``m_i a_i``); ``out[chunk, body, 0:3]`` force, ``3:6`` torque, summed over chunks of
     fluid particles by the caller (no write races)."""
     n = x.shape[1]
+    dim = x.shape[0]
     out[:] = 0.0
     per = (n + nchunk - 1) // nchunk
     for ch in numba.prange(nchunk):
@@ -159,9 +181,9 @@ def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid
                     continue
                 d0 = x[0, i] - bx[0, b]
                 d1 = x[1, i] - bx[1, b]
-                d2 = x[2, i] - bx[2, b]
+                d2 = x[2, i] - bx[2, b] if dim == 3 else 0.0
                 r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-                s = fi * (1.0 + use_mirror * bmirror[b]) * bV[b] * kernel_dw(kid, r, h, 3)
+                s = fi * (1.0 + use_mirror * bmirror[b]) * bV[b] * kernel_dw(kid, r, h, dim)
                 f0 = s * d0
                 f1 = s * d1
                 f2 = s * d2
@@ -170,7 +192,7 @@ def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid
                 out[ch, k, 2] += f2
                 q0 = bx[0, b] - c[k, 0]
                 q1 = bx[1, b] - c[k, 1]
-                q2 = bx[2, b] - c[k, 2]
+                q2 = bx[2, b] - c[k, 2] if dim == 3 else 0.0
                 out[ch, k, 3] += q1 * f2 - q2 * f1
                 out[ch, k, 4] += q2 * f0 - q0 * f2
                 out[ch, k, 5] += q0 * f1 - q1 * f0
@@ -181,6 +203,7 @@ def _reaction_cached(m, k, boff, bidx, gwb, bmirror, bx, body, c, nchunk, out):
     """:func:`_reaction` from the cached ``gwb = V_b grad W_ib`` of a Jacobi sweep and its
     pressure field k (acceleration units, ``a_i<-b = -(1 + m_b) k_i V_b grad W_ib``)."""
     n = k.shape[0]
+    dim = bx.shape[0]
     out[:] = 0.0
     per = (n + nchunk - 1) // nchunk
     for ch in numba.prange(nchunk):
@@ -196,13 +219,13 @@ def _reaction_cached(m, k, boff, bidx, gwb, bmirror, bx, body, c, nchunk, out):
                 s = fi * (1.0 + bmirror[b])
                 f0 = s * gwb[0, kk]
                 f1 = s * gwb[1, kk]
-                f2 = s * gwb[2, kk]
+                f2 = s * gwb[2, kk] if dim == 3 else 0.0
                 out[ch, bk, 0] += f0
                 out[ch, bk, 1] += f1
                 out[ch, bk, 2] += f2
                 q0 = bx[0, b] - c[bk, 0]
                 q1 = bx[1, b] - c[bk, 1]
-                q2 = bx[2, b] - c[bk, 2]
+                q2 = bx[2, b] - c[bk, 2] if dim == 3 else 0.0
                 out[ch, bk, 3] += q1 * f2 - q2 * f1
                 out[ch, bk, 4] += q2 * f0 - q0 * f2
                 out[ch, bk, 5] += q0 * f1 - q1 * f0
@@ -211,20 +234,21 @@ def _reaction_cached(m, k, boff, bidx, gwb, bmirror, bx, body, c, nchunk, out):
 @numba.njit(parallel=True, **_JIT)
 def _point_accel(bx, body, c, acc, ab):
     """``ab[:, b] = a_k + alpha_k x (x_b - c_k)`` for the particles of body k (acc[k] = (a,
-    alpha)), 0 for static walls."""
+    alpha)), 0 for static walls (fields (dim, N); 2D: the third coordinate is 0)."""
+    dim = bx.shape[0]
     for b in numba.prange(bx.shape[1]):
         k = body[b] - 1
         if k < 0:
-            ab[0, b] = 0.0
-            ab[1, b] = 0.0
-            ab[2, b] = 0.0
+            for d in range(dim):
+                ab[d, b] = 0.0
             continue
         q0 = bx[0, b] - c[k, 0]
         q1 = bx[1, b] - c[k, 1]
-        q2 = bx[2, b] - c[k, 2]
+        q2 = bx[2, b] - c[k, 2] if dim == 3 else 0.0
         ab[0, b] = acc[k, 0] + acc[k, 4] * q2 - acc[k, 5] * q1
         ab[1, b] = acc[k, 1] + acc[k, 5] * q0 - acc[k, 3] * q2
-        ab[2, b] = acc[k, 2] + acc[k, 3] * q1 - acc[k, 4] * q0
+        if dim == 3:
+            ab[2, b] = acc[k, 2] + acc[k, 3] * q1 - acc[k, 4] * q0
 
 
 @numba.njit(**_JIT)
@@ -506,23 +530,27 @@ class RigidBodies:
         for k, rb in enumerate(self.bodies):
             sel = np.flatnonzero(body == k + 1)
             xs = bd["x"][:, sel]
-            bd["x_body"][:, sel] = rb.R.T @ (xs - rb.c[:, None])
+            dim = state.dim
+            bd["x_body"][:, sel] = rb.R[:dim, :dim].T @ (xs - rb.c[:dim, None])
             xl = np.ascontiguousarray(bd["x_body"][:, sel])
             nl = neighbor_lists(xl, state.h)
             V = np.empty(sel.size, dtype=bd.dtype)
             _volumes(xl, nl.offsets, nl.indices, state.h, state.kid, state.dim, V)
             bd["V"][sel] = V
         self._sel = [np.flatnonzero(body == k + 1) for k in range(len(self.bodies))]
+        # bodies without particles (density / volume maps): the map model writes the virtual
+        # boundary particles' positions and velocities each step, place() leaves them alone
+        self._particles = bool(np.any(body > 0))
         self._verts, self._sdf, self._radius = [], [], []
         for k, rb in enumerate(self.bodies):
             if k < len(self.meshes):
-                vl = rb.R.T @ (np.asarray(self.meshes[k].vertices, dtype=np.float64).T
-                               - rb.c[:, None])
+                vl = rb.R.T @ (_contact_vertices(self.meshes[k], state.dim) - rb.c[:, None])
                 self._sdf.append(body_sdf(self.meshes[k], rb.c, state.r))
             else:
                 vl = np.zeros((3, 0))
                 self._sdf.append((np.zeros(3), 1.0, np.full((2, 2, 2), np.inf)))
-            xl = bd["x_body"][:, self._sel[k]]
+            xl = np.zeros((3, self._sel[k].size))
+            xl[: state.dim] = bd["x_body"][:, self._sel[k]]
             self._verts.append(np.ascontiguousarray(vl))
             self._radius.append(float(np.max(np.linalg.norm(np.concatenate([vl, xl], axis=1),
                                                             axis=0), initial=0.0)))
@@ -530,7 +558,7 @@ class RigidBodies:
 
     def place(self, state: SimState) -> None:
         """Boundary positions and velocities from the bodies' poses."""
-        if not self.bodies:
+        if not self.bodies or not self._particles:
             return
         bd = state.boundary
         c = np.array([b.c for b in self.bodies])
@@ -654,7 +682,8 @@ class RigidBodies:
         its mesh vertices (0: the corners, which the particles' margin does not cover when the
         body is tilted)."""
         b = self.bodies[k]
-        xp = state.boundary["x"][:, self._sel[k]]
+        xp = np.zeros((3, self._sel[k].size))  # 2D: z = 0
+        xp[: state.dim] = state.boundary["x"][:, self._sel[k]]
         xv = b.c[:, None] + b.R @ self._verts[k]
         marg = np.concatenate([np.full(xp.shape[1], self.margin), np.zeros(xv.shape[1])])
         return np.concatenate([xp, xv], axis=1), marg
@@ -788,12 +817,72 @@ def mesh_wall(mesh, invert: bool = False, spacing: float = 0.01):
     return dist
 
 
+def _section(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """The section of a mesh with the plane z = 0 as 2D segments a -> b (E, 2), oriented so
+    that the solid lies on their left (counter-clockwise loops), from the faces' normals."""
+    segs, faces = trimesh.intersections.mesh_plane(mesh, plane_normal=[0.0, 0.0, 1.0],
+                                                   plane_origin=[0.0, 0.0, 0.0],
+                                                   return_faces=True)
+    if len(segs) == 0:
+        return np.empty((0, 2)), np.empty((0, 2))
+    s = np.asarray(segs, dtype=np.float64)[:, :, :2]
+    a, b = s[:, 0].copy(), s[:, 1].copy()
+    n = np.asarray(mesh.face_normals, dtype=np.float64)[faces, :2]  # outward
+    d = b - a
+    flip = d[:, 1] * n[:, 0] - d[:, 0] * n[:, 1] < 0.0  # the right normal (dy, -dx) points out
+    a[flip], b[flip] = b[flip].copy(), a[flip].copy()
+    return a, b
+
+
+def section_mass_properties(mesh) -> tuple[float, np.ndarray, float]:
+    """Area [m^2], centroid (2,) and polar moment of area about the centroid [m^4] of the
+    section of a closed mesh with z = 0 (Green's theorem over its oriented segments)."""
+    a, b = _section(mesh)
+    cr = a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]
+    area = 0.5 * float(cr.sum())
+    if not area > 0.0:
+        return 0.0, np.zeros(2), 0.0
+    cx = float(((a[:, 0] + b[:, 0]) * cr).sum()) / (6.0 * area)
+    cy = float(((a[:, 1] + b[:, 1]) * cr).sum()) / (6.0 * area)
+    j = float(((a[:, 0] ** 2 + a[:, 0] * b[:, 0] + b[:, 0] ** 2 + a[:, 1] ** 2
+                + a[:, 1] * b[:, 1] + b[:, 1] ** 2) * cr).sum()) / 12.0
+    return area, np.array([cx, cy]), j - area * (cx * cx + cy * cy)
+
+
+def _contact_vertices(mesh, dim: int) -> np.ndarray:
+    """Contact points of a body's mesh (3, K): its vertices; 2D: the ends of its section's
+    segments (z = 0)."""
+    if dim == 3:
+        return np.asarray(mesh.vertices, dtype=np.float64).T
+    a, _b = _section(mesh)
+    return np.concatenate([a.T, np.zeros((1, len(a)))])
+
+
 def body_from_mesh(name: str, mesh, dynamic: bool, density: float, velocity, angular_velocity,
-                   rotation_center, friction: float) -> RigidBody:
+                   rotation_center, friction: float, dim: int = 3) -> RigidBody:
     """A body from its closed mesh (placed at t = 0): mass properties for dynamic bodies (about
-    the centre of mass), the pivot for kinematic ones."""
+    the centre of mass), the pivot for kinematic ones. 2D: the body is the section of the mesh
+    with z = 0, moving in the xy-plane: mass per unit depth ``density * area`` [kg/m] and the
+    polar moment ``density * J`` [kg m^2/m] (put on all three axes; only z turns), velocity
+    (vx, vy, 0) and angular velocity (0, 0, w)."""
     v = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=np.float64)
     w = np.zeros(3) if angular_velocity is None else np.asarray(angular_velocity, np.float64)
+    if dim == 2:
+        if v[2] != 0.0 or w[0] != 0.0 or w[1] != 0.0:
+            raise ValueError(f"{name}: velocity {v.tolist()}, angular_velocity {w.tolist()}; "
+                             "expected motion in the xy-plane in 2D: velocity (vx, vy, 0), "
+                             "angular_velocity (0, 0, w)")
+        area, cen, j = section_mass_properties(mesh)
+        if not area > 0.0:
+            raise ValueError(f"{name}: its section with z = 0 is not a closed region; expected "
+                             "a closed mesh crossing z = 0")
+        com = np.array([cen[0], cen[1], 0.0])
+        if dynamic:
+            return RigidBody(name, True, com, v, w, mass=density * area,
+                             inertia=np.eye(3) * density * j, friction=friction)
+        c = com if rotation_center is None else np.asarray(rotation_center, dtype=np.float64)
+        c = np.array([c[0], c[1], 0.0])
+        return RigidBody(name, False, c.copy(), v, w, c0=c.copy(), friction=friction)
     if dynamic:
         if not mesh.is_volume:
             raise ValueError(f"{name}: the mesh is not a closed volume (watertight, "

@@ -37,6 +37,23 @@ particle ``(x_b, V_b)`` (V_b = 0: none); :meth:`MapBoundaryModel.update` packs t
 ``state.boundary`` (fields ``x``, ``V``, ``v`` = 0, ``id`` = the fluid particle's id) and the CSR
 lists ``state.nl_fb`` (at most one entry per map and fluid particle), so every pressure solver
 uses them through its usual boundary terms ``rho0 V_b W(x_i - x_b)`` and ``V_b grad W(x_i - x_b)``.
+
+Moving rigid bodies (Bender et al. 2019, Sec. 5, "dynamic rigid bodies"; SPlisHSPlasH's
+``BoundaryModel_Bender2019``/``_Koschier2017`` with a dynamic ``RigidBodyObject``): a body's map
+is computed once, for its geometry as placed at t = 0, and the body's pose ``x = c + R (x_0 -
+c_0)`` (centre c, rotation R; ``c_0`` its centre at t = 0, where R = I) moves it. Each step a
+fluid particle is taken into the body frame, ``x_l = c_0 + R^T (x_i - c)``, with its velocity
+relative to the body, ``u_l = R^T (v_i - v_c - omega x (x_i - c))``; the method's query runs
+there unchanged (distances, volumes and kernel values do not change under a rigid motion), and
+the virtual particle goes back to the world, ``x_b = c + R (x_b,l - c_0)``, with the velocity of
+the body's surface at it, ``v_b = v_c + omega x (x_b - c)``, which the solvers' divergence terms
+and the viscosities read (boundary field ``v``). The packed virtual particle carries the body's
+number in the boundary field ``rigid_body``, so that the reaction of the fluid's boundary force
+on it, ``-m_i a_i<-b``, is summed into the body's force and torque about c exactly as for
+boundary particles (:mod:`sphkit.boundary.rigid`; the two-way coupling of the paper's Sec. 5).
+A fluid particle found inside a moving solid is pushed out in the body frame and its relative
+velocity treated as the method does for static walls (this fallback is not a pair force: the
+body does not feel it, so momentum is not conserved in the steps where it happens).
 """
 
 from __future__ import annotations
@@ -293,7 +310,10 @@ class MapGeometry:
     ``thickness``: moves the surface this far into the fluid [m] (``mapThickness``);
     ``resolution``: cells per axis (``mapResolution``), None: automatic;
     ``extend_axis``: for a box open along +axis, queries above the grid are clamped into it (the
-    geometry does not change along that axis there).
+    geometry does not change along that axis there);
+    ``body``: 1-based number of the moving rigid body the geometry belongs to (0: static). Its
+    map is built once, for the geometry as placed at t = 0, and queried in the body's frame
+    (:meth:`MapBoundaryModel.bind_bodies`).
     """
 
     name: str
@@ -302,6 +322,7 @@ class MapGeometry:
     thickness: float = 0.0
     resolution: tuple[int, ...] | None = None
     extend_axis: int = -1
+    body: int = 0
 
 
 class BoundaryMap:
@@ -428,7 +449,7 @@ def _count(Vb, counts):
 
 
 @numba.njit(parallel=True, **_JIT)
-def _pack(xb, Vb, fid, off, bx, bV, bid, idx):
+def _pack(xb, Vb, vb, mbody, fid, off, bx, bV, bv, bbody, bid, idx):
     k, dim, n = xb.shape
     for i in numba.prange(n):
         q = off[i]
@@ -436,10 +457,87 @@ def _pack(xb, Vb, fid, off, bx, bV, bid, idx):
             if Vb[m, i] > 0.0:
                 for d in range(dim):
                     bx[d, q] = xb[m, d, i]
+                    bv[d, q] = vb[m, d, i]
                 bV[q] = Vb[m, i]
+                bbody[q] = mbody[m]
                 bid[q] = fid[i]
                 idx[q] = q
                 q += 1
+
+
+@numba.njit(**_JIT)
+def _rot(R, a0, a1, a2):
+    """R a for a 3x3 R."""
+    return (R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2,
+            R[1, 0] * a0 + R[1, 1] * a1 + R[1, 2] * a2,
+            R[2, 0] * a0 + R[2, 1] * a1 + R[2, 2] * a2)
+
+
+@numba.njit(**_JIT)
+def _rot_t(R, a0, a1, a2):
+    """R^T a for a 3x3 R."""
+    return (R[0, 0] * a0 + R[1, 0] * a1 + R[2, 0] * a2,
+            R[0, 1] * a0 + R[1, 1] * a1 + R[2, 1] * a2,
+            R[0, 2] * a0 + R[1, 2] * a1 + R[2, 2] * a2)
+
+
+@numba.njit(parallel=True, **_JIT)
+def to_body_frame(x, v, c, R, vc, w, c0, xl, ul):
+    """Fluid positions and velocities in a body's frame (module docstring):
+    ``x_l = c_0 + R^T (x - c)``, ``u_l = R^T (v - v_c - omega x (x - c))``. Vectors are 3D
+    (c, vc, w, c0 of length 3, R 3x3); in 2D the body turns about z (third rows ignored)."""
+    dim = x.shape[0]
+    for i in numba.prange(x.shape[1]):
+        q0 = x[0, i] - c[0]
+        q1 = x[1, i] - c[1]
+        q2 = x[2, i] - c[2] if dim == 3 else 0.0
+        u0 = v[0, i] - vc[0] - (w[1] * q2 - w[2] * q1)
+        u1 = v[1, i] - vc[1] - (w[2] * q0 - w[0] * q2)
+        u2 = (v[2, i] if dim == 3 else 0.0) - vc[2] - (w[0] * q1 - w[1] * q0)
+        a0, a1, a2 = _rot_t(R, q0, q1, q2)
+        b0, b1, b2 = _rot_t(R, u0, u1, u2)
+        xl[0, i] = c0[0] + a0
+        xl[1, i] = c0[1] + a1
+        ul[0, i] = b0
+        ul[1, i] = b1
+        if dim == 3:
+            xl[2, i] = c0[2] + a2
+            ul[2, i] = b2
+
+
+@numba.njit(parallel=True, **_JIT)
+def from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb, xb, vb, x, v):
+    """Back to the world after a query in a body's frame (module docstring): the virtual
+    particles ``x_b = c + R (x_b,l - c_0)`` (xb in place) with the surface velocity
+    ``v_b = v_c + omega x (x_b - c)``; the fluid particles the query pushed (``xl != xl0``) get
+    ``x = c + R (x_l - c_0)`` and ``v = R u_l + v_c + omega x (x - c)``."""
+    dim = x.shape[0]
+    for i in numba.prange(x.shape[1]):
+        if Vb[i] > 0.0:
+            q0, q1, q2 = _rot(R, xb[0, i] - c0[0], xb[1, i] - c0[1],
+                              xb[2, i] - c0[2] if dim == 3 else 0.0)
+            xb[0, i] = c[0] + q0
+            xb[1, i] = c[1] + q1
+            vb[0, i] = vc[0] + w[1] * q2 - w[2] * q1
+            vb[1, i] = vc[1] + w[2] * q0 - w[0] * q2
+            if dim == 3:
+                xb[2, i] = c[2] + q2
+                vb[2, i] = vc[2] + w[0] * q1 - w[1] * q0
+        moved = False
+        for d in range(dim):
+            if xl[d, i] != xl0[d, i]:
+                moved = True
+        if moved:
+            q0, q1, q2 = _rot(R, xl[0, i] - c0[0], xl[1, i] - c0[1],
+                              xl[2, i] - c0[2] if dim == 3 else 0.0)
+            u0, u1, u2 = _rot(R, ul[0, i], ul[1, i], ul[2, i] if dim == 3 else 0.0)
+            x[0, i] = c[0] + q0
+            x[1, i] = c[1] + q1
+            v[0, i] = u0 + vc[0] + w[1] * q2 - w[2] * q1
+            v[1, i] = u1 + vc[1] + w[2] * q0 - w[0] * q2
+            if dim == 3:
+                x[2, i] = c[2] + q2
+                v[2, i] = u2 + vc[2] + w[0] * q1 - w[1] * q0
 
 
 class MapBoundaryModel(ABC):
@@ -447,12 +545,16 @@ class MapBoundaryModel(ABC):
 
     Subclasses set ``name``, ``offset`` (added to the map distance's shift), implement
     ``_integrate(state)`` (returning the node-integration callable and its cache parameters) and
-    ``_query(bmap, state, xb, Vb) -> int`` (fills one map's virtual particles, returns how many
-    fluid particles it pushed out of the solid).
+    ``_query(bmap, state, x, v, xb, Vb) -> int`` (fills one map's virtual particles for the
+    fluid positions x and velocities v (dim, N) given in the map's frame, pushes particles found
+    in the solid out by changing x and v, returns how many it pushed).
     """
 
     name = "map"
     offset_in_radii = 0.0
+    #: depth [r] by which a moving body's map surface is moved into its mesh (a negative
+    #: ``MapGeometry.thickness``), so that the fluid rests about r outside the mesh
+    moving_inset_in_radii = 0.0
     uses_maps = True
 
     def __init__(self, geometries: list[MapGeometry] | None = None,
@@ -464,11 +566,14 @@ class MapBoundaryModel(ABC):
         self.pushed = 0  #: fluid particles pushed out of a solid so far (fallback)
 
     def init(self, state: SimState) -> None:
-        """Build (or load) every geometry's map; register the boundary fields."""
+        """Build (or load) every geometry's map; register the boundary fields. Called again
+        (a checkpoint restore whose walls differ), it rebuilds the maps instead of adding a
+        second copy of each."""
         bd = state.boundary
         bd.register("V")
         bd.register("v", "vector")
         integrate, params = self._integrate(state)
+        self.maps = []
         for g in self.geometries:
             if g.sdf.dim != state.dim:
                 raise ValueError(f"{g.name}: a {g.sdf.dim}D geometry in a {state.dim}D scene")
@@ -477,6 +582,25 @@ class MapBoundaryModel(ABC):
             self.maps.append(bmap)
             self.cache_hits += int(hit)
 
+    def bind_bodies(self, bodies: list) -> None:
+        """The moving rigid bodies whose maps this model queries in their frames (geometries
+        with ``body`` > 0): objects with ``c``, ``R`` (3x3), ``v``, ``omega`` (world, 3D, SI),
+        e.g. :class:`sphkit.boundary.rigid.RigidBody`, numbered from 1 in this order and posed
+        at t = 0 now (``R`` = I): their present centres are the maps' frame origins ``c_0``."""
+        self.bodies = list(bodies)
+        for g in self.geometries:
+            if g.body > len(self.bodies):
+                raise ValueError(f"{g.name}: rigid body {g.body} of {len(self.bodies)}")
+        for b in self.bodies:
+            if not np.allclose(b.R, np.eye(3), atol=1e-12):
+                raise ValueError("bind_bodies: the bodies must be at their t = 0 pose (R = I)")
+        self._c0 = [np.array(b.c, dtype=np.float64) for b in self.bodies]
+
+    def rebuild(self, state: SimState) -> None:
+        """After the rigid bodies moved: nothing to rebuild, :meth:`update` reads their poses
+        (the interface of the particle models, whose grid follows the bodies)."""
+        return None
+
     def update(self, state: SimState) -> None:
         """Virtual boundary particles and fluid-boundary lists for the current fluid positions."""
         f = state.fluid
@@ -484,8 +608,27 @@ class MapBoundaryModel(ABC):
         k = len(self.maps)
         xb = np.zeros((k, dim, n))
         Vb = np.zeros((k, n))
+        vb = np.zeros((k, dim, n))
+        mbody = np.zeros(k, np.int64)
         for m, bmap in enumerate(self.maps):
-            self.pushed += int(self._query(bmap, state, xb[m], Vb[m]))
+            kb = bmap.geometry.body
+            if kb == 0:
+                self.pushed += int(self._query(bmap, state, f["x"], f["v"], xb[m], Vb[m]))
+                continue
+            body = getattr(self, "bodies", [])
+            if kb > len(body):
+                raise RuntimeError(f"{bmap.geometry.name}: moving map without its body; call "
+                                   "bind_bodies first")
+            b, c0 = body[kb - 1], self._c0[kb - 1]
+            c, R = np.asarray(b.c, np.float64), np.asarray(b.R, np.float64)
+            vc, w = np.asarray(b.v, np.float64), np.asarray(b.omega, np.float64)
+            xl = np.empty((dim, n))
+            ul = np.empty((dim, n))
+            to_body_frame(f["x"], f["v"], c, R, vc, w, c0, xl, ul)
+            xl0 = xl.copy()
+            self.pushed += int(self._query(bmap, state, xl, ul, xb[m], Vb[m]))
+            from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb[m], xb[m], vb[m], f["x"], f["v"])
+            mbody[m] = kb
         counts = np.zeros(n + 1, np.int64)
         if k:
             _count(Vb, counts)
@@ -498,11 +641,15 @@ class MapBoundaryModel(ABC):
             bid = np.empty(total, np.int64)
             bx = np.empty((dim, total))
             bV = np.empty(total)
-            _pack(xb, Vb, f["id"], off, bx, bV, bid, idx)
+            bv = np.empty((dim, total))
+            bbody = np.empty(total, np.int64)
+            _pack(xb, Vb, vb, mbody, f["id"], off, bx, bV, bv, bbody, bid, idx)
             bd.fields["x"][...] = bx
             bd.fields["V"][...] = bV
             bd.fields["id"][...] = bid
-        bd.fields["v"][...] = 0.0
+            bd.fields["v"][...] = bv
+            if "rigid_body" in bd.fields:
+                bd.fields["rigid_body"][...] = bbody
         state.nl_fb = NeighborList(off, idx)
 
     # -- provided by the method ----------------------------------------------------------------
@@ -511,5 +658,7 @@ class MapBoundaryModel(ABC):
         """The node-integration callable of :func:`build_map` and its cache parameters."""
 
     @abstractmethod
-    def _query(self, bmap: BoundaryMap, state: SimState, xb: np.ndarray, Vb: np.ndarray) -> int:
-        """Fill one map's virtual particles (xb (dim, N), Vb (N,)); return the pushed count."""
+    def _query(self, bmap: BoundaryMap, state: SimState, x: np.ndarray, v: np.ndarray,
+               xb: np.ndarray, Vb: np.ndarray) -> int:
+        """Fill one map's virtual particles (xb (dim, N), Vb (N,)) for the fluid positions x and
+        velocities v (dim, N) in the map's frame; return the pushed count."""

@@ -366,7 +366,7 @@ class MeshBoundary(_Model):
         "configuration.boundary.map_resolution",
     )
 
-    # rigid bodies (boundary.method akinci2012, 3D; see sphkit.boundary.rigid)
+    # rigid bodies (every boundary.method, 2D and 3D; see sphkit.boundary.rigid)
     dynamic: bool = Field(False, description="a dynamic rigid body moved by fluid forces, "
                           "gravity and contacts (SPlisHSPlasH isDynamic)")
     density: float = Field(1000.0, gt=0.0, allow_inf_nan=False,
