@@ -56,7 +56,7 @@ import math
 
 import numba
 
-from sphkit.core.kernels import kernel_dw
+from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.operators import surface_normals_cpu
 from sphkit.core.state import SimState
 
@@ -64,12 +64,16 @@ from sphkit.core.state import SimState
 #: where ``|n| h >= THRESHOLD``. Deep in the fluid ``|n| h`` is lattice noise (< 0.01); at a
 #: flat free surface it peaks at about 1.0 (2D cubic spline, h = 4r) two thirds of h inside.
 THRESHOLD = 0.1
+#: the surface layer proper, where the curvature is measured: ``|n| h >= SURFACE``
+SURFACE = 0.5
+#: neighbours enter a curvature only if their normal is within 60 degrees of the particle's
+COS_MAX = 0.5
 #: the fluid side of a free surface carries half of the colour jump (see the module docstring)
 HALF_SPACE_FACTOR = 2.0
 
 
 @numba.njit(cache=True, fastmath=True)
-def curvature_body(i, x, m, rho, n, off, idx, thr, h, kid, dim, L=0.0):
+def curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L=0.0):
     """``kappa_i = -div(n/|n|)`` at fluid particle i from the tangential derivatives of the unit
     normal over the neighbours with ``|n_j| >= thr`` (0 where ``|n_i| < thr`` or the neighbours
     do not span the tangent plane); see the module docstring."""
@@ -77,7 +81,7 @@ def curvature_body(i, x, m, rho, n, off, idx, thr, h, kid, dim, L=0.0):
     ni1 = n[1, i]
     ni2 = n[2, i] if dim == 3 else 0.0
     li = math.sqrt(ni0 * ni0 + ni1 * ni1 + ni2 * ni2)
-    if li < thr:
+    if li < thr_i:
         return 0.0
     u0 = ni0 / li
     u1 = ni1 / li
@@ -116,7 +120,7 @@ def curvature_body(i, x, m, rho, n, off, idx, thr, h, kid, dim, L=0.0):
         nj1 = n[1, j]
         nj2 = n[2, j] if dim == 3 else 0.0
         lj = math.sqrt(nj0 * nj0 + nj1 * nj1 + nj2 * nj2)
-        if lj < thr:
+        if lj < thr or nj0 * u0 + nj1 * u1 + nj2 * u2 < COS_MAX * lj:
             continue
         d0 = x[0, j] - xi0
         if L > 0.0:  # periodic along x: minimum image
@@ -151,10 +155,48 @@ def curvature_body(i, x, m, rho, n, off, idx, thr, h, kid, dim, L=0.0):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def curvature_cpu(x, m, rho, n, off, idx, thr, h, kid, dim, kappa, L=0.0):
+def curvature_cpu(x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, kappa, L=0.0):
     """``kappa[i] = -div(n/|n|)`` for all fluid particles (:func:`curvature_body`)."""
     for i in numba.prange(x.shape[1]):
-        kappa[i] = curvature_body(i, x, m, rho, n, off, idx, thr, h, kid, dim, L)
+        kappa[i] = curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L)
+
+
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def smooth_curvature_cpu(x, m, rho, n, k_raw, off, idx, thr_i, thr, h, kid, dim, kappa, L=0.0):
+    """Shepard interpolation of the curvatures ``k_raw`` of the particles with ``|n| >= thr_i``
+    to every particle with ``|n| >= thr`` (0 elsewhere)."""
+    for i in numba.prange(x.shape[1]):
+        ni0 = n[0, i]
+        ni1 = n[1, i]
+        ni2 = n[2, i] if dim == 3 else 0.0
+        if ni0 * ni0 + ni1 * ni1 + ni2 * ni2 < thr * thr:
+            kappa[i] = 0.0
+            continue
+        xi0 = x[0, i]
+        xi1 = x[1, i]
+        xi2 = x[2, i] if dim == 3 else 0.0
+        num = 0.0
+        den = 0.0
+        if ni0 * ni0 + ni1 * ni1 + ni2 * ni2 >= thr_i * thr_i:
+            w = m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
+            num += w * k_raw[i]
+            den += w
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            nj0 = n[0, j]
+            nj1 = n[1, j]
+            nj2 = n[2, j] if dim == 3 else 0.0
+            if nj0 * nj0 + nj1 * nj1 + nj2 * nj2 < thr_i * thr_i:
+                continue
+            d0 = xi0 - x[0, j]
+            if L > 0.0:  # periodic along x: minimum image
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - x[1, j]
+            d2 = xi2 - x[2, j] if dim == 3 else 0.0
+            w = m[j] / rho[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            num += w * k_raw[j]
+            den += w
+        kappa[i] = num / den if den > 0.0 else 0.0
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -203,21 +245,25 @@ class Mueller2003:
                 f"surface tension (mueller2003): dimension {state.dim}; expected 2 or 3")
         state.fluid.register("normal", "vector")
         state.fluid.register("curvature")
+        state.fluid.register("curvature_raw")
 
     def apply(self, state: SimState, dt: float) -> None:
         """Colour-field normals, curvature, then ``a += 2 sigma kappa n / rho``."""
         f = state.fluid
         if f.n == 0:
             return
-        if "normal" not in f or "curvature" not in f:
+        if "normal" not in f or "curvature_raw" not in f:
             self.init(state)
         nl = state.nl_ff
         h = state.h
         thr = THRESHOLD / h
         surface_normals_cpu(f["x"], f["m"], f["rho"], nl.offsets, nl.indices, 1.0, h, state.kid,
                             state.dim, f["normal"], state.period)
-        curvature_cpu(f["x"], f["m"], f["rho"], f["normal"], nl.offsets, nl.indices, thr, h,
-                      state.kid, state.dim, f["curvature"], state.period)
+        curvature_cpu(f["x"], f["m"], f["rho"], f["normal"], nl.offsets, nl.indices,
+                      SURFACE / h, thr, h, state.kid, state.dim, f["curvature_raw"], state.period)
+        smooth_curvature_cpu(f["x"], f["m"], f["rho"], f["normal"], f["curvature_raw"],
+                             nl.offsets, nl.indices, SURFACE / h, thr, h, state.kid, state.dim,
+                             f["curvature"], state.period)
         _csf_cpu(f["rho"], f["normal"], f["curvature"], self.coefficient, HALF_SPACE_FACTOR,
                  thr, state.dim, f["a"])
 
