@@ -55,6 +55,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.operators import surface_normals_cpu
@@ -65,11 +66,15 @@ from sphkit.core.state import SimState
 #: flat free surface it peaks at about 1.0 (2D cubic spline, h = 4r) two thirds of h inside.
 THRESHOLD = 0.1
 #: the surface layer proper, where the curvature is measured: ``|n| h >= SURFACE``
-SURFACE = 0.5
+SURFACE = 0.7
 #: neighbours enter a curvature only if their normal is within 60 degrees of the particle's
 COS_MAX = 0.5
 #: the fluid side of a free surface carries half of the colour jump (see the module docstring)
 HALF_SPACE_FACTOR = 2.0
+#: curvatures are clamped to ``|kappa| <= (dim - 1) KAPPA_MAX / h``: no radius of curvature
+#: below h (two particle spacings) is resolved, and without the clamp single particles at the
+#: corners of a sampled lattice get forces that eject them (3D drop, sigma = 5 N/m, r = 2.5 mm)
+KAPPA_MAX = 1.0
 
 
 @numba.njit(cache=True, fastmath=True)
@@ -146,12 +151,15 @@ def curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L=0.0):
     if dim == 2:
         if mtt <= 0.0:
             return 0.0
-        return -btt / mtt
-    det = mtt * mqq - mtq * mtq
-    if det <= 1e-6 * (mtt * mtt + mqq * mqq) or det <= 0.0:
-        return 0.0
-    # div = tr(M^-1 B)
-    return -(mqq * btt - mtq * bqt - mtq * btq + mtt * bqq) / det
+        kap = -btt / mtt
+    else:
+        det = mtt * mqq - mtq * mtq
+        if det <= 1e-6 * (mtt * mtt + mqq * mqq) or det <= 0.0:
+            return 0.0
+        # div = tr(M^-1 B)
+        kap = -(mqq * btt - mtq * bqt - mtq * btq + mtt * bqq) / det
+    kmax = (dim - 1) * KAPPA_MAX / h
+    return min(max(kap, -kmax), kmax)
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -162,31 +170,20 @@ def curvature_cpu(x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, kappa, L=0.0)
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def smooth_curvature_cpu(x, m, rho, n, k_raw, off, idx, thr_i, thr, h, kid, dim, kappa, L=0.0):
-    """Shepard interpolation of the curvatures ``k_raw`` of the particles with ``|n| >= thr_i``
-    to every particle with ``|n| >= thr`` (0 elsewhere)."""
+def extend_curvature_cpu(x, m, rho, k_src, w_src, off, idx, h, kid, dim, k_out, w_out, L=0.0):
+    """Shepard interpolation ``k_out_i = sum_j V_j W_ij w_j k_j / sum_j V_j W_ij w_j`` (self
+    included) of the curvatures ``k_src`` known where ``w_src`` = 1; ``w_out`` = 1 where the sum
+    has a term (one pass reaches one support radius further into the fluid)."""
     for i in numba.prange(x.shape[1]):
-        ni0 = n[0, i]
-        ni1 = n[1, i]
-        ni2 = n[2, i] if dim == 3 else 0.0
-        if ni0 * ni0 + ni1 * ni1 + ni2 * ni2 < thr * thr:
-            kappa[i] = 0.0
-            continue
         xi0 = x[0, i]
         xi1 = x[1, i]
         xi2 = x[2, i] if dim == 3 else 0.0
-        num = 0.0
-        den = 0.0
-        if ni0 * ni0 + ni1 * ni1 + ni2 * ni2 >= thr_i * thr_i:
-            w = m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
-            num += w * k_raw[i]
-            den += w
+        w = w_src[i] * m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
+        num = w * k_src[i]
+        den = w
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            nj0 = n[0, j]
-            nj1 = n[1, j]
-            nj2 = n[2, j] if dim == 3 else 0.0
-            if nj0 * nj0 + nj1 * nj1 + nj2 * nj2 < thr_i * thr_i:
+            if w_src[j] == 0.0:
                 continue
             d0 = xi0 - x[0, j]
             if L > 0.0:  # periodic along x: minimum image
@@ -194,9 +191,14 @@ def smooth_curvature_cpu(x, m, rho, n, k_raw, off, idx, thr_i, thr, h, kid, dim,
             d1 = xi1 - x[1, j]
             d2 = xi2 - x[2, j] if dim == 3 else 0.0
             w = m[j] / rho[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            num += w * k_raw[j]
+            num += w * k_src[j]
             den += w
-        kappa[i] = num / den if den > 0.0 else 0.0
+        if den > 0.0:
+            k_out[i] = num / den
+            w_out[i] = 1.0
+        else:
+            k_out[i] = 0.0
+            w_out[i] = 0.0
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -261,9 +263,14 @@ class Mueller2003:
                             state.dim, f["normal"], state.period)
         curvature_cpu(f["x"], f["m"], f["rho"], f["normal"], nl.offsets, nl.indices,
                       SURFACE / h, thr, h, state.kid, state.dim, f["curvature_raw"], state.period)
-        smooth_curvature_cpu(f["x"], f["m"], f["rho"], f["normal"], f["curvature_raw"],
-                             nl.offsets, nl.indices, SURFACE / h, thr, h, state.kid, state.dim,
-                             f["curvature"], state.period)
+        n_len = np.sqrt((f["normal"] ** 2).sum(axis=0))
+        w0 = (n_len >= SURFACE / h).astype(np.float64)
+        w1 = np.empty_like(w0)
+        k1 = np.empty_like(w0)
+        extend_curvature_cpu(f["x"], f["m"], f["rho"], f["curvature_raw"], w0, nl.offsets,
+                             nl.indices, h, state.kid, state.dim, k1, w1, state.period)
+        extend_curvature_cpu(f["x"], f["m"], f["rho"], k1, w1, nl.offsets, nl.indices, h,
+                             state.kid, state.dim, f["curvature"], w0, state.period)
         _csf_cpu(f["rho"], f["normal"], f["curvature"], self.coefficient, HALF_SPACE_FACTOR,
                  thr, state.dim, f["a"])
 
