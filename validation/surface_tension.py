@@ -474,7 +474,8 @@ def main(argv: list[str] | None = None) -> int:
             axs[1].plot(e["t"], e["p_hist"] - sl["p"], color=line[0].get_color())
     axs[0].set_xlabel("1/R [1/m]")
     axs[0].set_ylabel("p - p_slab [Pa] (dashed: sigma_slab / R)")
-    axs[0].legend(fontsize=8)
+    if rows or csf:
+        axs[0].legend(fontsize=8)
     axs[0].set_title("2D Laplace pressure")
     axs[1].set_xlabel("t [s]")
     axs[1].set_ylabel("p - p_slab [Pa]")
