@@ -32,6 +32,16 @@ the mode-2 potential flow ``v = A (-x, -y, 2z)`` oscillates with ``omega^2 = 8 s
 (Rayleigh 1879, l = 2), sigma = the 3D Kirkwood-Buff value. The period is measured from the zero
 crossings of ``<z^2> - (<x^2> + <y^2>)/2``.
 
+Müller et al. 2003 CSF (``mueller2003``): its coefficient is sigma itself, so no independent
+sigma needs to be measured and there is no internal pressure (p relative to 0 outside, no slab
+run). 2D drops of four sizes (sigma = 1 N, WCSPH linear, as above): the interior pressure p and
+``p_F``, the model's force alone pushed onto the circle (:func:`surface_force_pressure`), each
+against sigma/R. 3D: the Rayleigh drop above with sigma = 5 N/m (period 0.25 s; the capillary
+time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` = 2.0 ms is far above WCSPH's acoustic step
+``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s. The rest shape of the sampled ball drifts
+while it oscillates, so the period is taken from like extrema (:func:`period_from_extrema`);
+the zero-crossing period is printed too.
+
     python validation/surface_tension.py [--quick] [--skip-3d] [--models becker2007,...]
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
@@ -319,21 +329,32 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
             "T_extrema": period_from_extrema(t, q0), "t": t, "q": q0}
 
 
-def period_from_extrema(t: np.ndarray, q: np.ndarray) -> float:
+def period_from_extrema(t: np.ndarray, q: np.ndarray, min_swing: float = 0.1) -> float:
     """Oscillation period from the spacing of like extrema (maximum to maximum, minimum to
     minimum; vertex of the parabola through three samples), which, unlike zero crossings, is
     not thrown off when the rest shape drifts (the sampled ball relaxes while it oscillates).
-    NaN with fewer than two extrema of one kind."""
-    tmax, tmin = [], []
+    An extremum counts only if it lies ``min_swing`` times the range of q away from the previous
+    counted one (hysteresis: jitter on a creeping signal is no oscillation). NaN with fewer
+    than two extrema of one kind."""
+    thr = min_swing * float(np.ptp(q))
+    kept: list[tuple[float, float, bool]] = []  # (time, value, is_max)
     for i in range(1, len(t) - 1):
         a, b, c = q[i - 1], q[i], q[i + 1]
         if (b - a) * (c - b) >= 0.0:
             continue
         den = a - 2.0 * b + c
-        dt = t[i + 1] - t[i]
-        ti = t[i] + (0.5 * dt * (a - c) / den if den != 0.0 else 0.0)
-        (tmax if b > a else tmin).append(ti)
-    gaps = [g for lst in (tmax, tmin) for g in np.diff(lst)]
+        ti = t[i] + (0.5 * (t[i + 1] - t[i]) * (a - c) / den if den != 0.0 else 0.0)
+        is_max = bool(b > a)
+        if not kept:
+            if abs(b - q[0]) >= thr:
+                kept.append((ti, b, is_max))
+        elif kept[-1][2] == is_max:
+            if (b > kept[-1][1]) == is_max:  # a more extreme one of the same kind
+                kept[-1] = (ti, b, is_max)
+        elif abs(b - kept[-1][1]) >= thr:
+            kept.append((ti, b, is_max))
+    gaps = [g for kind in (True, False)
+            for g in np.diff([e[0] for e in kept if e[2] == kind])]
     return float(np.mean(gaps)) if gaps else float("nan")
 
 
@@ -489,7 +510,7 @@ def main(argv: list[str] | None = None) -> int:
         for e in csf:
             axs[1].plot(e["t"], e["p_hist"], color=line[0].get_color())
     for name, ray in rays:
-        axs[2].plot(ray["t"], ray["q"], label=f"{name}: T = {ray['T_measured']:.3g} s, "
+        axs[2].plot(ray["t"], ray["q"], label=f"{name}: T = {ray['T_extrema']:.3g} s, "
                     f"Rayleigh {ray['T_rayleigh']:.3g} s")
     if rays:
         axs[2].legend(fontsize=8)
