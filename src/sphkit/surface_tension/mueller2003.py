@@ -241,7 +241,10 @@ class Mueller2003:
 
     ``coefficient``: the surface tension sigma [N/m in 3D, N in 2D]; ``boundary_coefficient``:
     must be 0 (the model has no adhesion). Registers the fluid fields ``normal`` (colour
-    gradient [1/m], 'vector') and ``curvature`` [1/m].
+    gradient [1/m], 'vector'), ``curvature_raw`` (kappa measured on the surface layer, 0
+    elsewhere) and ``curvature`` (carried into the band; the one the force uses) [1/m]. The
+    time step must resolve capillary waves, ``dt < sqrt(rho dx^3 / (2 pi sigma))``; the solvers'
+    CFL/acoustic steps do not check it.
     """
 
     name = "mueller2003"
@@ -259,7 +262,7 @@ class Mueller2003:
         self.boundary_coefficient = 0.0
 
     def init(self, state: SimState) -> None:
-        """Register the ``normal`` and ``curvature`` fluid fields."""
+        """Register the ``normal``, ``curvature`` and ``curvature_raw`` fluid fields."""
         if state.dim not in (2, 3):
             raise ValueError(
                 f"surface tension (mueller2003): dimension {state.dim}; expected 2 or 3")
