@@ -32,6 +32,16 @@ the mode-2 potential flow ``v = A (-x, -y, 2z)`` oscillates with ``omega^2 = 8 s
 (Rayleigh 1879, l = 2), sigma = the 3D Kirkwood-Buff value. The period is measured from the zero
 crossings of ``<z^2> - (<x^2> + <y^2>)/2``.
 
+Müller et al. 2003 CSF (``mueller2003``): its coefficient is sigma itself, so no independent
+sigma needs to be measured and there is no internal pressure (p relative to 0 outside, no slab
+run). 2D drops of four sizes (sigma = 1 N, WCSPH linear, as above): the interior pressure p and
+``p_F``, the model's force alone pushed onto the circle (:func:`surface_force_pressure`), each
+against sigma/R. 3D: the Rayleigh drop above with sigma = 5 N/m (period 0.25 s; the capillary
+time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` = 2.0 ms is far above WCSPH's acoustic step
+``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s. The rest shape of the sampled ball drifts
+while it oscillates, so the period is taken from like extrema (:func:`period_from_extrema`);
+the zero-crossing period is printed too.
+
     python validation/surface_tension.py [--quick] [--skip-3d] [--models becker2007,...]
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
@@ -56,7 +66,7 @@ from sphkit.core.operators import (
 from sphkit.pressure.wcsph import LINEAR, state_equation
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
-from sphkit.surface_tension import Akinci2013, BeckerTeschner2007, He2014
+from sphkit.surface_tension import Akinci2013, BeckerTeschner2007, He2014, Mueller2003
 from sphkit.surface_tension.akinci2013 import _akinci_cpu
 from sphkit.surface_tension.becker2007 import _becker_cpu
 from sphkit.surface_tension.he2014 import _grad_c2_cpu, _he_cpu
@@ -65,6 +75,8 @@ RHO0 = 1000.0
 #: name -> coefficient (2D, r = 5 mm): strengths that give sigma of order 1 N, so that a drop of
 #: R ~ 0.1 m rounds off within about a second
 MODELS = {"becker2007": 5.0, "akinci2013": 0.02, "he2014": 1.0}
+#: Müller et al. 2003 CSF: its coefficient is sigma itself [N in 2D, N/m in 3D]
+CSF_SIGMA_2D = 1.0
 STIFFNESS = 200.0  #: linear state equation k [m^2/s^2]: about 0.3 % compression at p ~ 600 Pa
 
 
@@ -205,6 +217,56 @@ def drop_2d(name: str, coef: float, side: float, r: float, until: float, nsamp: 
             "t": np.array(ts), "p_hist": np.array(ps), "roundness": rs[-1], "n": sim.fluid.n}
 
 
+def surface_force_pressure(sim: Simulation) -> float:
+    """The model's surface force pushed onto a circle/sphere: ``sum_i m_i a_i . (-r_hat_i)``
+    over the area ``2 pi R`` (2D) or ``4 pi R^2`` (3D), R the drop's volume radius; with the
+    model force alone (no pressure), this is the pressure jump the force asks for (sigma/R in
+    2D, 2 sigma/R in 3D), a check of the force independent of the pressure solver."""
+    st = sim.state
+    f = st.fluid
+    model = next(fo for fo in sim.forces if isinstance(fo, Mueller2003))
+    a_save = f["a"].copy()
+    f["a"][:] = 0.0
+    model.apply(st, 0.0)
+    x = f["x"]
+    c = x.mean(axis=1, keepdims=True)
+    d = x - c
+    r = np.linalg.norm(d, axis=0)
+    radial_in = -(f["a"] * d).sum(axis=0) / np.maximum(r, 1e-12)
+    f["a"][:] = a_save
+    vol = float(f["m"].sum()) / RHO0
+    if st.dim == 2:
+        R = np.sqrt(vol / np.pi)
+        area = 2.0 * np.pi * R
+    else:
+        R = (3.0 * vol / (4.0 * np.pi)) ** (1.0 / 3.0)
+        area = 4.0 * np.pi * R * R
+    return float((f["m"] * radial_in).sum() / area)
+
+
+def drop_2d_csf(sigma: float, side: float, r: float, until: float, nsamp: int = 60) -> dict:
+    """Müller et al. 2003 drop: as :func:`drop_2d`, plus the force-based jump
+    :func:`surface_force_pressure` sampled alike."""
+    sim = Simulation(scene("mueller2003", sigma, [{"start": [-side / 2, -side / 2],
+                                                   "end": [side / 2, side / 2]}], r))
+    m = float(sim.fluid["m"][0])
+    R = float(np.sqrt(sim.fluid.n * m / RHO0 / np.pi))
+    h = 4.0 * r
+    ts, ps, pf, rs = [], [], [], []
+    for k in range(1, nsamp + 1):
+        sim.run(until=until * k / nsamp, fps=1e-3)
+        x = sim.positions
+        d = np.linalg.norm(x - x.mean(axis=0), axis=1)
+        ts.append(sim.time)
+        ps.append(float(sim.pressures[d < R - 2.0 * h].mean()))
+        pf.append(surface_force_pressure(sim))
+        rs.append(float(d.max() / R))
+    tail = slice(2 * nsamp // 3, None)
+    return {"R": R, "m": m, "p": float(np.mean(ps[tail])), "p_std": float(np.std(ps[tail])),
+            "pF": float(np.mean(pf[tail])), "pF_std": float(np.std(pf[tail])),
+            "t": np.array(ts), "p_hist": np.array(ps), "roundness": rs[-1], "n": sim.fluid.n}
+
+
 def kb_sigma(name: str, coef: float, m: float, r: float, dim: int) -> tuple[float, float]:
     """(sigma_KB, p_int_KB) of the model's pair cohesion (nan for He et al. 2014)."""
     if name == "becker2007":
@@ -229,10 +291,12 @@ def ball_blocks(R: float, r: float) -> list:
 
 
 def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
-                stiffness: float, nu: float = 2e-4, nsamp: int = 120) -> dict:
-    """Mode-2 oscillation of a 3D drop with Becker & Teschner cohesion; the measured period
-    against the Rayleigh period from the Kirkwood-Buff sigma."""
-    sim = Simulation(scene("becker2007", kappa, ball_blocks(R, r), r, dim=3, nu=nu,
+                stiffness: float, nu: float = 2e-4, nsamp: int = 120,
+                name: str = "becker2007") -> dict:
+    """Mode-2 oscillation of a 3D drop; the measured period against the Rayleigh period.
+    ``name`` becker2007: sigma is the Kirkwood-Buff value of ``kappa``; mueller2003: ``kappa``
+    is sigma [N/m] itself."""
+    sim = Simulation(scene(name, kappa, ball_blocks(R, r), r, dim=3, nu=nu,
                            stiffness=stiffness))
     x = sim.positions
     c = x.mean(axis=0)
@@ -240,7 +304,10 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
                                         2 * (x[:, 2] - c[2])], axis=1)
     m = float(sim.fluid["m"][0])
     Rv = float((sim.fluid.n * m / RHO0 * 3 / (4 * np.pi)) ** (1 / 3))
-    sigma, pint = kb_sigma("becker2007", kappa, m, r, 3)
+    if name == "mueller2003":
+        sigma, pint = kappa, 0.0
+    else:
+        sigma, pint = kb_sigma(name, kappa, m, r, 3)
     omega = np.sqrt(8 * sigma / (RHO0 * Rv**3))
     ts, qs = [0.0], [0.0]
     for k in range(1, nsamp + 1):
@@ -259,7 +326,36 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
         period = 2.0 * float(np.mean(np.diff(cross0)))
     return {"N": sim.fluid.n, "R": Rv, "sigma": sigma, "p_int": pint,
             "T_rayleigh": 2 * np.pi / omega, "T_measured": period, "crossings": len(cross0),
-            "t": t, "q": q0}
+            "T_extrema": period_from_extrema(t, q0), "t": t, "q": q0}
+
+
+def period_from_extrema(t: np.ndarray, q: np.ndarray, min_swing: float = 0.1) -> float:
+    """Oscillation period from the spacing of like extrema (maximum to maximum, minimum to
+    minimum; vertex of the parabola through three samples), which, unlike zero crossings, is
+    not thrown off when the rest shape drifts (the sampled ball relaxes while it oscillates).
+    An extremum counts only if it lies ``min_swing`` times the range of q away from the previous
+    counted one (hysteresis: jitter on a creeping signal is no oscillation). NaN with fewer
+    than two extrema of one kind."""
+    thr = min_swing * float(np.ptp(q))
+    kept: list[tuple[float, float, bool]] = []  # (time, value, is_max)
+    for i in range(1, len(t) - 1):
+        a, b, c = q[i - 1], q[i], q[i + 1]
+        if (b - a) * (c - b) >= 0.0:
+            continue
+        den = a - 2.0 * b + c
+        ti = t[i] + (0.5 * (t[i + 1] - t[i]) * (a - c) / den if den != 0.0 else 0.0)
+        is_max = bool(b > a)
+        if not kept:
+            if abs(b - q[0]) >= thr:
+                kept.append((ti, b, is_max))
+        elif kept[-1][2] == is_max:
+            if (b > kept[-1][1]) == is_max:  # a more extreme one of the same kind
+                kept[-1] = (ti, b, is_max)
+        elif abs(b - kept[-1][1]) >= thr:
+            kept.append((ti, b, is_max))
+    gaps = [g for kind in (True, False)
+            for g in np.diff([e[0] for e in kept if e[2] == kind])]
+    return float(np.mean(gaps)) if gaps else float("nan")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -267,12 +363,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="two radii, shorter runs")
     ap.add_argument("--skip-3d", action="store_true", help="2D Laplace part only")
     ap.add_argument("--skip-2d", action="store_true", help="3D Rayleigh part only")
-    ap.add_argument("--models", default=",".join(MODELS), help="comma-separated model names")
+    ap.add_argument("--models", default=",".join([*MODELS, "mueller2003"]),
+                    help="comma-separated model names")
     args = ap.parse_args(argv)
+    chosen = args.models.split(",")
+    unknown = sorted(set(chosen) - set(MODELS) - {"mueller2003"})
+    if unknown:
+        ap.error(f"--models: unknown {unknown}; expected names from "
+                 f"{sorted([*MODELS, 'mueller2003'])}")
     r = 0.005
     sides, until = ((0.10, 0.16), 1.0) if args.quick else ((0.10, 0.14, 0.20), 2.0)
     rows, hist, slabs = [], {}, {}
-    names = [] if args.skip_2d else args.models.split(",")
+    names = [] if args.skip_2d else [nm for nm in chosen if nm in MODELS]
     for name in names:
         coef = MODELS[name]
         t0 = time.perf_counter()
@@ -321,22 +423,59 @@ def main(argv: list[str] | None = None) -> int:
             ratio = sf / sl["sigma"]
             print(f"| {name} | {p0:.4g} | {sl['p']:.4g} | {sf:.4g} | {sl['sigma']:.4g} | "
                   f"{ratio:.3f} | {sf / skb:.3f} | {'yes' if abs(ratio - 1) <= 0.15 else 'no'} |")
-    ray = None
-    if not args.skip_3d:
-        t0 = time.perf_counter()
-        if args.quick:
-            ray = rayleigh_3d(kappa=0.3, R=0.03, r=0.0025, until=0.5, amp=1.0, stiffness=200.0)
-        else:
-            ray = rayleigh_3d(kappa=0.3, R=0.04, r=0.0025, until=0.8, amp=0.8, stiffness=200.0)
-        print(f"  rayleigh: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    csf = []
+    if not args.skip_2d and "mueller2003" in chosen:
+        csf_sides = (0.10, 0.14, 0.20) if args.quick else (0.10, 0.14, 0.20, 0.28)
+        for side in csf_sides:
+            t0 = time.perf_counter()
+            csf.append(drop_2d_csf(CSF_SIGMA_2D, side, r, until))
+            print(f"  mueller2003 side {side}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
         print()
-        print("3D drop, mode 2 (Becker & Teschner 2007, WCSPH linear, nu = 2e-4 m^2/s)")
-        print("| N | R [m] | sigma KB [N/m] | period Rayleigh [s] | period measured [s] | ratio | "
-              "zero crossings |")
-        print("|---|---|---|---|---|---|---|")
-        print(f"| {ray['N']} | {ray['R']:.4f} | {ray['sigma']:.4g} | {ray['T_rayleigh']:.4g} | "
-              f"{ray['T_measured']:.4g} | {ray['T_measured'] / ray['T_rayleigh']:.3f} | "
-              f"{ray['crossings']} |")
+        print(f"Müller et al. 2003 CSF, sigma = {CSF_SIGMA_2D:g} N (2D), same runs: p = mean "
+              "pressure deeper than 2h, p_F = the model force alone pushed onto the circle "
+              "(surface_force_pressure), last third of the run:")
+        print("| N | R [m] | max dist/R | p [Pa] (std) | p_F [Pa] (std) | sigma/R [Pa] | "
+              "p R / sigma | p_F R / sigma | within 15 % |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for e in csf:
+            q = e["p"] * e["R"] / CSF_SIGMA_2D
+            print(f"| {e['n']} | {e['R']:.4f} | {e['roundness']:.3f} | {e['p']:.4g} "
+                  f"({e['p_std']:.2g}) | {e['pF']:.4g} ({e['pF_std']:.2g}) | "
+                  f"{CSF_SIGMA_2D / e['R']:.4g} | {q:.3f} | "
+                  f"{e['pF'] * e['R'] / CSF_SIGMA_2D:.3f} | "
+                  f"{'yes' if abs(q - 1) <= 0.15 else 'no'} |")
+        inv = np.array([1 / e["R"] for e in csf])
+        sf, p0 = np.polyfit(inv, [e["p"] for e in csf], 1)
+        print(f"Fit p = p0 + sigma_fit / R: p0 = {p0:.4g} Pa, sigma_fit = {sf:.4g} N "
+              f"(sigma_fit / sigma = {sf / CSF_SIGMA_2D:.3f})")
+    rays = []
+    for name in ([] if args.skip_3d else [nm for nm in ("becker2007", "mueller2003")
+                                          if nm in chosen]):
+        t0 = time.perf_counter()
+        # becker2007: kappa [m^3/s^2]; mueller2003: sigma [N/m] and more viscosity (with
+        # nu = 2e-4 m^2/s particles at the corners of the sampled ball are ejected)
+        coef, nu = (0.3, 2e-4) if name == "becker2007" else (5.0, 1e-3)
+        if args.quick:
+            ray = rayleigh_3d(kappa=coef, R=0.03, r=0.0025, until=0.5, amp=1.0, stiffness=200.0,
+                              nu=nu, name=name)
+        else:
+            ray = rayleigh_3d(kappa=coef, R=0.04, r=0.0025, until=0.8, amp=0.8, stiffness=200.0,
+                              nu=nu, name=name, nsamp=160)
+        print(f"  rayleigh {name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+        rays.append((name, ray))
+    if rays:
+        print()
+        print("3D drop, mode 2 (WCSPH linear k = 200 m^2/s^2, velocity start; becker2007: "
+              "sigma = Kirkwood-Buff value of kappa 0.3, nu = 2e-4 m^2/s; mueller2003: sigma = "
+              "5 N/m, nu = 1e-3 m^2/s)")
+        print("| model | N | R [m] | sigma [N/m] | period Rayleigh [s] | period, extrema [s] | "
+              "ratio | period, zero crossings [s] (count) |")
+        print("|---|---|---|---|---|---|---|---|")
+        for name, ray in rays:
+            print(f"| {name} | {ray['N']} | {ray['R']:.4f} | {ray['sigma']:.4g} | "
+                  f"{ray['T_rayleigh']:.4g} | {ray['T_extrema']:.4g} | "
+                  f"{ray['T_extrema'] / ray['T_rayleigh']:.3f} | {ray['T_measured']:.4g} "
+                  f"({ray['crossings']}) |")
     try:
         import matplotlib
 
@@ -356,15 +495,26 @@ def main(argv: list[str] | None = None) -> int:
             axs[1].plot(e["t"], e["p_hist"] - sl["p"], color=line[0].get_color())
     axs[0].set_xlabel("1/R [1/m]")
     axs[0].set_ylabel("p - p_slab [Pa] (dashed: sigma_slab / R)")
-    axs[0].legend(fontsize=8)
+    if rows or csf:
+        axs[0].legend(fontsize=8)
     axs[0].set_title("2D Laplace pressure")
     axs[1].set_xlabel("t [s]")
     axs[1].set_ylabel("p - p_slab [Pa]")
     axs[1].set_title("2D drops: interior pressure")
-    if ray is not None:
-        axs[2].plot(ray["t"], ray["q"])
-        axs[2].set_title(f"3D mode 2: T = {ray['T_measured']:.3g} s, Rayleigh "
-                         f"{ray['T_rayleigh']:.3g} s")
+    if csf:
+        inv = np.array([1 / e["R"] for e in csf])
+        line = axs[0].errorbar(inv, [e["p"] for e in csf], yerr=[e["p_std"] for e in csf],
+                               fmt="s", label="mueller2003 (p, p_slab = 0)")
+        xx = np.linspace(0, inv.max() * 1.1, 10)
+        axs[0].plot(xx, CSF_SIGMA_2D * xx, "--", color=line[0].get_color())
+        for e in csf:
+            axs[1].plot(e["t"], e["p_hist"], color=line[0].get_color())
+    for name, ray in rays:
+        axs[2].plot(ray["t"], ray["q"], label=f"{name}: T = {ray['T_extrema']:.3g} s, "
+                    f"Rayleigh {ray['T_rayleigh']:.3g} s")
+    if rays:
+        axs[2].legend(fontsize=8)
+        axs[2].set_title("3D drop, mode 2")
     axs[2].set_xlabel("t [s]")
     axs[2].set_ylabel("<z^2> - (<x^2> + <y^2>)/2 [m^2]")
     fig.tight_layout()

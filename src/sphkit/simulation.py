@@ -59,6 +59,7 @@ from sphkit.scene.schema import PressureConfig, Scene, SceneError
 from sphkit.surface_tension.akinci2013 import Akinci2013
 from sphkit.surface_tension.becker2007 import BeckerTeschner2007
 from sphkit.surface_tension.he2014 import He2014
+from sphkit.surface_tension.mueller2003 import Mueller2003
 from sphkit.viscosity.bender2017 import Bender2017
 from sphkit.viscosity.peer2015 import Peer2015
 from sphkit.viscosity.peer2016 import Peer2016
@@ -116,7 +117,8 @@ VORTICITY_MODELS: dict[str, type] = {"micropolar": MicropolarBender2017,
 VORTICITY_MODEL_NUMBERS: dict[int, str] = {1: "micropolar", 2: "confinement"}
 #: surface tension models by scene name and SPlisHSPlasH ``surfaceTensionMethod`` number
 SURFACE_TENSION_MODELS: dict[str, type] = {"becker2007": BeckerTeschner2007,
-                                            "akinci2013": Akinci2013, "he2014": He2014}
+                                            "akinci2013": Akinci2013, "he2014": He2014,
+                                            "mueller2003": Mueller2003}
 SURFACE_TENSION_MODEL_NUMBERS: dict[int, str] = {1: "becker2007", 2: "akinci2013", 3: "he2014"}
 #: drag models by scene name and SPlisHSPlasH ``dragMethod`` number
 DRAG_MODELS: dict[str, type] = {"macklin2014": Macklin2014, "gissler2017": Gissler2017}
@@ -155,7 +157,8 @@ class StepStats:
 PERIODIC_METHODS = {"pressure": {"wcsph", "dfsph"},
                     "viscosity": {"none", "standard", "weiler2018", "bender2017", "peer2015",
                                   "peer2016", "takahashi2015"}, "vorticity": {"none"},
-                    "surface_tension": {"none", "becker2007", "akinci2013", "he2014"}}
+                    "surface_tension": {"none", "becker2007", "akinci2013", "he2014",
+                                        "mueller2003"}}
 
 
 def _check_periodic(scene: Scene, mat) -> None:

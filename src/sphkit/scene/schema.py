@@ -233,21 +233,34 @@ class SurfaceTensionConfig(_Model):
     surfaceTensionMethod 1), ``akinci2013`` (Akinci et al. 2013, 2), ``he2014`` (He et al. 2014,
     3); see :mod:`sphkit.surface_tension`. The coefficients are the models' own, not the physical
     surface tension sigma [N/m] (validation/surface_tension.py measures what they give);
-    defaults are SPlisHSPlasH's."""
+    defaults are SPlisHSPlasH's. ``mueller2003`` (Müller et al. 2003 continuum surface force, no
+    SPlisHSPlasH number): ``coefficient`` is the physical sigma, no adhesion."""
 
-    method: Literal["none", "becker2007", "akinci2013", "he2014"] = "none"
+    method: Literal["none", "becker2007", "akinci2013", "he2014", "mueller2003"] = "none"
     coefficient: float = Field(
         0.05, ge=0, le=1e6, allow_inf_nan=False,
         description="becker2007: cohesion kappa [m^d/s^2]; akinci2013: gamma (cohesion "
         "m^4/(kg s^2), curvature m/s^2: one number for both, as in the paper); he2014: surface "
-        "energy kappa [N in 3D, J in 2D] (SPlisHSPlasH surfaceTension, default 0.05)",
+        "energy kappa [N in 3D, J in 2D] (SPlisHSPlasH surfaceTension, default 0.05); "
+        "mueller2003: the surface tension sigma [N/m in 3D, N in 2D]",
     )
     boundary_coefficient: float = Field(
         0.01, ge=0, le=1e6, allow_inf_nan=False,
         description="fluid-boundary term, same units as coefficient: becker2007 and he2014 "
         "adhesion kappa_b, akinci2013 adhesion beta (SPlisHSPlasH surfaceTensionBoundary, "
-        "default 0.01)",
+        "default 0.01); mueller2003: none (0, its default)",
     )
+
+    @model_validator(mode="after")
+    def _mueller_no_adhesion(self) -> SurfaceTensionConfig:
+        if self.method == "mueller2003":
+            if "boundary_coefficient" not in self.model_fields_set:
+                self.boundary_coefficient = 0.0
+            elif self.boundary_coefficient != 0.0:
+                raise ValueError(
+                    f"boundary_coefficient {self.boundary_coefficient}: mueller2003 has no "
+                    "adhesion term; expected 0")
+        return self
 
 
 class DragConfig(_Model):
