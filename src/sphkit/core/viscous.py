@@ -281,6 +281,19 @@ LAPLACIAN_EPS = 0.01
 MORRIS_BETA_MAX = 1.5
 
 
+def check_wall_options(boundary_velocity: str, beta_max: float, eps: float) -> None:
+    """Validate the wall options shared by the Laplacian viscosities (standard, Weiler 2018):
+    ``boundary_velocity`` in :data:`BOUNDARY_VELOCITIES`, ``beta_max >= 1``, ``eps > 0``;
+    raises ValueError naming the option, its value and what was expected."""
+    if boundary_velocity not in BOUNDARY_VELOCITIES:
+        raise ValueError(f"viscosity: boundary_velocity {boundary_velocity!r}; expected one "
+                         f"of {', '.join(BOUNDARY_VELOCITIES)}")
+    if not beta_max >= 1.0:
+        raise ValueError(f"viscosity: beta_max {beta_max!r}; expected a value >= 1")
+    if not eps > 0.0:
+        raise ValueError(f"viscosity: eps {eps!r}; expected a value > 0")
+
+
 def register_wall_fields(boundary) -> None:
     """Register the boundary fields of :func:`morris_beta` (no-op if present): ``wall_normal``
     (unit normal of the wall surface at the particle, pointing from the fluid into the wall) and

@@ -34,9 +34,9 @@ import numba
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
-    BOUNDARY_VELOCITIES,
     LAPLACIAN_EPS,
     MORRIS_BETA_MAX,
+    check_wall_options,
     morris_beta,
     register_wall_fields,
 )
@@ -129,13 +129,7 @@ class StandardViscosity:
                  beta_max: float = MORRIS_BETA_MAX, eps: float = LAPLACIAN_EPS) -> None:
         if nu < 0 or nu_boundary < 0:
             raise ValueError(f"viscosity: {nu!r}/{nu_boundary!r}; expected non-negative values")
-        if boundary_velocity not in BOUNDARY_VELOCITIES:
-            raise ValueError(f"viscosity: boundary_velocity {boundary_velocity!r}; expected one "
-                             f"of {', '.join(BOUNDARY_VELOCITIES)}")
-        if not beta_max >= 1.0:
-            raise ValueError(f"viscosity: beta_max {beta_max!r}; expected a value >= 1")
-        if not eps > 0.0:
-            raise ValueError(f"viscosity: eps {eps!r}; expected a value > 0")
+        check_wall_options(boundary_velocity, beta_max, eps)
         self.eps = float(eps)
         self.nu = float(nu)
         self.nu_boundary = float(nu_boundary)

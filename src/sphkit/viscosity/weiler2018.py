@@ -55,9 +55,9 @@ from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
-    BOUNDARY_VELOCITIES,
     LAPLACIAN_EPS,
     MORRIS_BETA_MAX,
+    check_wall_options,
     morris_beta,
     register_wall_fields,
 )
@@ -224,13 +224,7 @@ class Weiler2018:
         if max_iterations < 1 or not max_error > 0:
             raise ValueError(f"viscosity: max_iterations {max_iterations!r}, max_error "
                              f"{max_error!r}; expected >= 1 and > 0")
-        if boundary_velocity not in BOUNDARY_VELOCITIES:
-            raise ValueError(f"viscosity: boundary_velocity {boundary_velocity!r}; expected one "
-                             f"of {', '.join(BOUNDARY_VELOCITIES)}")
-        if not beta_max >= 1.0:
-            raise ValueError(f"viscosity: beta_max {beta_max!r}; expected a value >= 1")
-        if not eps > 0.0:
-            raise ValueError(f"viscosity: eps {eps!r}; expected a value > 0")
+        check_wall_options(boundary_velocity, beta_max, eps)
         self.eps = float(eps)
         self.nu = float(nu)
         self.nu_boundary = float(nu_boundary)
