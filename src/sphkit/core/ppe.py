@@ -199,10 +199,11 @@ def kappa_accel_cached(k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
     """a[:, i] = pressure acceleration of the field k (overwrites a); the boundary term is
     ``-sum_b V_b (k_i (1 + bmirror[b]) + kb[b]) grad W_ib`` (see the module docstring): kb is
     the extrapolated boundary value ``p_b / rho0`` where a boundary model sets one (Band et al.
-    2018, :mod:`sphkit.boundary.band2018`), else 0.
+    2018, :mod:`sphkit.boundary.band2018`); an empty kb means 0 (no gather).
 
     A solver whose variable is q with weights w passes ``k = w * q`` (one gather per pair
     instead of two: a fifth faster)."""
+    with_kb = kb.shape[0] > 0
     for i in numba.prange(k.shape[0]):
         ki = k[i]
         a0 = 0.0
@@ -217,7 +218,9 @@ def kappa_accel_cached(k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
                 a2 -= s * gw[2, kk]
         for kk in range(boff[i], boff[i + 1]):
             b = bidx[kk]
-            sb = ki * (1.0 + bmirror[b]) + kb[b]
+            sb = ki * (1.0 + bmirror[b])
+            if with_kb:
+                sb += kb[b]
             a0 -= sb * gwb[0, kk]
             if dim > 1:
                 a1 -= sb * gwb[1, kk]

@@ -102,10 +102,12 @@ class BoundaryKappa:
 
     def __init__(self, state: SimState) -> None:
         self.ext = state.boundary_pressure
-        self.kb = np.zeros(state.boundary.n, dtype=state.fluid.dtype)
+        n = state.boundary.n if self.ext is not None else 0
+        self.kb = np.zeros(n, dtype=state.fluid.dtype)
 
     def __call__(self, k: np.ndarray) -> np.ndarray:
-        """``k_b`` for the fluid field k (the same zero array when nothing is extrapolated)."""
+        """``k_b`` for the fluid field k (an empty array, read as 0 by
+        :func:`sphkit.core.ppe.kappa_accel_cached`, when nothing is extrapolated)."""
         if self.ext is not None:
             self.ext.extrapolate(k, self.kb)
         return self.kb
