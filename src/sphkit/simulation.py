@@ -22,6 +22,7 @@ One step (DESIGN.md, "Data flow of one time step"):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -799,6 +800,8 @@ class Simulation:
             stats = self.step()
             if on_step:
                 on_step(self, stats)
+            if on_frame is None:  # no callback: jump to the frame count (a large fps spun here)
+                self._frame = max(self._frame, math.floor((self.time + 1e-9) * fps))
             while self.time >= (self._frame + 1) / fps - 1e-9:
                 self._frame += 1
                 if on_frame:
