@@ -61,26 +61,23 @@ RIDGE = 1e-2
 
 @numba.njit(**_JIT)
 def _transpose(boff, bidx, nb):
-    """CSR lists boundary -> fluid pairs: ``toff`` (nb + 1), ``tpair`` (the index k of the pair
-    in the fluid -> boundary list) and ``tfluid`` (the fluid particle of that pair)."""
+    """CSR lists boundary -> fluid pairs: ``toff`` (nb + 1) and ``tfluid`` (the fluid particle
+    of each pair)."""
     nf = boff.shape[0] - 1
     count = np.zeros(nb + 1, dtype=np.int64)
     for k in range(bidx.shape[0]):
         count[bidx[k] + 1] += 1
     for b in range(nb):
         count[b + 1] += count[b]
-    toff = count.copy()
     fill = count[:nb].copy()
-    tpair = np.empty(bidx.shape[0], dtype=np.int64)
     tfluid = np.empty(bidx.shape[0], dtype=np.int64)
     for i in range(nf):
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             t = fill[b]
-            tpair[t] = k
             tfluid[t] = i
             fill[b] += 1
-    return toff, tpair, tfluid
+    return count, tfluid
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -228,7 +225,6 @@ class MLSPressureExtrapolation:
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
         self.tfluid = np.empty(0, dtype=np.int64)
         self.coef = np.empty(0)
-        self.last: np.ndarray = np.zeros(self.use.shape[0])  #: last extrapolated k_b
 
     def init(self, state: SimState) -> None:
         """Turn mirroring off where the extrapolation replaces it."""
@@ -237,7 +233,6 @@ class MLSPressureExtrapolation:
             raise ValueError(f"MLS pressure extrapolation: {self.use.shape[0]} flags for "
                              f"{b.n} boundary particles")
         b["pressure_mirror"][self.use] = 0.0
-        self.last = np.zeros(b.n, dtype=b.dtype)
 
     @property
     def diagonal_mirror(self) -> np.ndarray:
@@ -248,7 +243,7 @@ class MLSPressureExtrapolation:
         """MLS coefficients for the current positions and neighbour lists."""
         f, b = state.fluid, state.boundary
         nb = state.nl_fb
-        self.toff, _pair, self.tfluid = _transpose(nb.offsets, nb.indices, b.n)
+        self.toff, self.tfluid = _transpose(nb.offsets, nb.indices, b.n)
         self.coef = np.empty(self.tfluid.shape[0], dtype=f.dtype)
         rho_hat = f["rho"] / state.rho0
         mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.use, state.h,
@@ -267,4 +262,3 @@ class MLSPressureExtrapolation:
     def extrapolate(self, k: np.ndarray, out: np.ndarray) -> None:
         """``out[b] = p_b / rho0`` of the fluid field k (see :func:`mls_extrapolate`)."""
         mls_extrapolate(k, self.toff, self.tfluid, self.coef, out)
-        self.last = out
