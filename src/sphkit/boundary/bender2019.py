@@ -49,6 +49,7 @@ from sphkit.core.boundary_map import (
     grid_eval,
     lattice_lookup,
     lattice_lower_bound,
+    map_query_point,
 )
 from sphkit.core.state import SimState
 
@@ -102,15 +103,7 @@ def _volumes(nodes, phi, o, s, shape, dim, qp, qw, h, f, out):
 def _query(x, v, phi, vol, lo, cell, res, spacing, shape, dim, extend_axis, top, h, r, xb, Vb):
     pushed = 0
     for i in numba.prange(x.shape[1]):
-        p0 = x[0, i]
-        p1 = x[1, i]
-        p2 = x[2, i] if dim == 3 else 0.0
-        if extend_axis == 1:
-            p1 = min(p1, top)
-        elif extend_axis == 0:
-            p0 = min(p0, top)
-        elif extend_axis == 2:
-            p2 = min(p2, top)
+        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
         if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
             continue  # far from the surface (phi is 1-Lipschitz)
         d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)

@@ -54,6 +54,7 @@ from sphkit.core.boundary_map import (
     grid_eval,
     lattice_lookup,
     lattice_lower_bound,
+    map_query_point,
 )
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.state import SimState
@@ -103,15 +104,7 @@ def _query(x, v, phi, rho_b, lo, cell, res, spacing, shape, dim, extend_axis, to
            xb, Vb):
     pushed = 0
     for i in numba.prange(x.shape[1]):
-        p0 = x[0, i]
-        p1 = x[1, i]
-        p2 = x[2, i] if dim == 3 else 0.0
-        if extend_axis == 1:
-            p1 = min(p1, top)
-        elif extend_axis == 0:
-            p0 = min(p0, top)
-        elif extend_axis == 2:
-            p2 = min(p2, top)
+        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
         if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
             continue
         d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)

@@ -259,6 +259,22 @@ def lattice_lower_bound(f, origin, spacing, shape, dim, p0, p1, p2):
     return f[(i0 * shape[1] + i1) * shape[2] + i2] - math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
 
 
+@numba.njit(**_JIT)
+def map_query_point(x, i, dim, extend_axis, top):
+    """Fluid particle i's map lookup point: its position, clamped to ``top`` along
+    ``extend_axis`` (an open box: queries above the grid see its top layer; -1: none)."""
+    p0 = x[0, i]
+    p1 = x[1, i]
+    p2 = x[2, i] if dim == 3 else 0.0
+    if extend_axis == 1:
+        p1 = min(p1, top)
+    elif extend_axis == 0:
+        p0 = min(p0, top)
+    elif extend_axis == 2:
+        p2 = min(p2, top)
+    return p0, p1, p2
+
+
 # ---------------------------------------------------------------------------------------------
 # quadrature over the ball of radius h
 
