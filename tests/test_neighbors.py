@@ -53,6 +53,23 @@ def _no_pair_near_h(xq: np.ndarray, x: np.ndarray, h: float) -> bool:
     return not np.any(np.abs(d["v"] - h) <= 1e-9 * h)
 
 
+@pytest.fixture(params=["default", "hashed"], autouse=True)
+def grid_mode(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Every test runs twice: with the grid as built by default (dense for compact sets,
+    hashed for sparse ones) and with the hashed grid forced, so both searches are checked."""
+    if request.param == "hashed":
+        monkeypatch.setattr(Grid, "dense_cells_per_point", 0)
+        monkeypatch.setattr(Grid, "dense_min_cells", 0)
+    return request.param
+
+
+def test_dense_for_compact_sets_hashed_for_sparse_ones(grid_mode: str) -> None:
+    compact = np.random.default_rng(0).uniform(0.0, 1.0, size=(3, 2000))
+    sparse = np.concatenate([compact, compact + 1000.0], axis=1)  # ~1e12 cells of size 0.05
+    assert Grid(compact, 0.05).dense == (grid_mode == "default")
+    assert not Grid(sparse, 0.05).dense
+
+
 # -- random sets ---------------------------------------------------------------------------------
 # about a dozen neighbours per particle, domains straddling 0 (negative cells are floored)
 CASES = {1: (1500, 0.005), 2: (1500, 0.05), 3: (1500, 0.12)}

@@ -1,17 +1,27 @@
-"""Neighbourhood search: uniform grid, counting sort by hashed cell, CSR neighbour lists.
+"""Neighbourhood search: uniform grid, counting sort by cell, CSR neighbour lists.
 
 The grid has cell size equal to the kernel support radius ``h``, so all neighbours of a particle
 lie in the 3^d cells around it (survey Sec. 3; Ihmsen et al. 2011, "A parallel SPH implementation
-on multi-core CPUs"). Cells are never stored densely: every particle's integer cell coordinates
-(relative to the lower corner of the point set) are packed into a 63-bit key and hashed into a
-table of ``2^k >= 2N`` buckets; a counting sort over buckets groups the particles (Hoetzlein 2014,
-as in cuNSearch). A query visits the buckets of the 3^d neighbour cells and accepts a particle
-only if its packed key equals the visited cell's key, so hash collisions cost a comparison and
-never a duplicate. Memory is O(N) whatever the extent of the domain (up to 2^21 cells per axis).
+on multi-core CPUs"). Two layouts give the same lists:
+
+* **dense** (the default whenever the point set's bounding box holds at most 32 cells per point,
+  which is the case for a fluid in a tank and for static boundaries): every cell of the box has
+  a slot, particles are counting-sorted by the row-major cell index, so a row of cells along the
+  last axis is one contiguous run of the sorted points. A query visits, for each of the 3^(d-1)
+  rows around it, only the run of cells that the ball of radius h touches (fewer candidates and
+  no hashing; a fluid-fluid query of the DFSPH benchmark scene took 3.6 instead of 4.8 ms, a
+  fluid-boundary query 0.7 instead of 2.1 ms).
+* **hashed** (sparse sets, e.g. splashes far from the bulk): every particle's integer cell
+  coordinates are packed into a 63-bit key and hashed into a table of ``2^k >= 2N`` buckets; a
+  counting sort over buckets groups the particles (Hoetzlein 2014, as in cuNSearch). A query
+  visits the buckets of the 3^d neighbour cells and accepts a particle only if its packed key
+  equals the visited cell's key, so hash collisions cost a comparison and never a duplicate.
+  Memory is O(N) whatever the extent of the domain (up to 2^21 cells per axis).
 
 Neighbour lists are compressed sparse rows: the neighbours of query point ``i`` are
 ``indices[offsets[i]:offsets[i + 1]]`` (indices into the searched set, self excluded when a set is
-queried against itself). Both passes (count, fill) run in parallel over query points.
+queried against itself). The scan writes into rows of a fixed capacity (grown and redone on
+overflow) in parallel over query points, then the rows are compacted.
 
 :func:`zorder_permutation` gives the permutation that sorts particles along a Morton (z-order)
 curve of their cells, which the simulation applies to every particle field every few steps.
@@ -136,23 +146,10 @@ def _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index, sorte
     return count
 
 
-@numba.njit(cache=True, parallel=True, fastmath=True)
-def _query(xq, dim, h, origin, mask, bucket_start, sorted_index, sorted_key, sorted_x,
-           exclude_self, cap):
-    """One pass into fixed-stride rows of ``cap`` slots, then compaction into CSR.
-
-    Returns (offsets, indices, largest count); when the largest count reaches ``cap`` the lists
-    may be incomplete (the branch-free append of :func:`_scan` reuses the last slot) and the
-    caller repeats with a larger ``cap``.
-    """
-    n = xq.shape[1]
-    inv_h = 1.0 / h
-    h2 = h * h
-    buf = np.empty(n * cap, dtype=np.int32)
-    counts = np.empty(n, dtype=np.int64)
-    for i in numba.prange(n):
-        counts[i] = _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index,
-                          sorted_key, sorted_x, exclude_self, buf, i * cap, cap)
+@numba.njit(cache=True, parallel=True)
+def _compact(buf, counts, cap):
+    """CSR (offsets, indices, largest count) from rows of ``cap`` slots holding ``counts``."""
+    n = counts.shape[0]
     offsets = np.zeros(n + 1, dtype=np.int64)
     largest = 0
     for i in range(n):
@@ -164,6 +161,123 @@ def _query(xq, dim, h, origin, mask, bucket_start, sorted_index, sorted_key, sor
         for k in range(offsets[i + 1] - o):
             indices[o + k] = buf[i * cap + k]
     return offsets, indices, largest
+
+
+@numba.njit(cache=True, parallel=True, fastmath=True)
+def _query(xq, dim, h, origin, mask, bucket_start, sorted_index, sorted_key, sorted_x,
+           exclude_self, cap):
+    """One pass into fixed-stride rows of ``cap`` slots (compacted into CSR by :func:`_compact`).
+
+    Returns (rows, counts); when a count reaches ``cap`` that row may be incomplete (the
+    branch-free append of :func:`_scan` reuses the last slot) and the caller repeats with a
+    larger ``cap``.
+    """
+    n = xq.shape[1]
+    inv_h = 1.0 / h
+    h2 = h * h
+    buf = np.empty(n * cap, dtype=np.int32)
+    counts = np.empty(n, dtype=np.int64)
+    for i in numba.prange(n):
+        counts[i] = _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index,
+                          sorted_key, sorted_x, exclude_self, buf, i * cap, cap)
+    return buf, counts
+
+
+# -- dense grid with row ranges ------------------------------------------------------------------
+@numba.njit(cache=True, inline="always")
+def _u(x, i, k, dim, inv_a):
+    """Coordinate along internal axis k (0, 1, 2; the data's axes are the last ``dim`` of them)
+    in cell units."""
+    d = k - (3 - dim)
+    if d < 0:
+        return 0.0
+    return x[d, i] * inv_a
+
+
+@numba.njit(cache=True, parallel=True)
+def _dense_cells(x, dim, inv_a, lo, shape, cells):
+    for i in numba.prange(x.shape[1]):
+        c = np.int64(0)
+        for k in range(3):
+            c = c * shape[k] + (np.int64(np.floor(_u(x, i, k, dim, inv_a))) - lo[k])
+        cells[i] = c
+
+
+@numba.njit(cache=True, inline="always")
+def _gap(u, c):
+    """Distance (cell units) from coordinate u to the cell c along one axis (0 inside)."""
+    cu = np.floor(u)
+    if c < cu:
+        return u - (c + 1.0)
+    if c > cu:
+        return c - u
+    return 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index, sorted_x,
+                exclude_self, out, pos, cap):
+    """Like :func:`_scan` on a dense grid of cells ``h / sub`` wide: for every row of cells
+    along the last axis within reach, only the cells that the ball of radius h around the
+    query point touches are visited, and they are one contiguous run of the sorted points.
+
+    Two stages: the distance test over the runs appends sorted slots branch-free (it reads
+    only the sorted coordinates), then the hits' slots are mapped to point indices and the
+    query point itself is dropped (about 10 % faster than reading the index of every
+    candidate)."""
+    u0 = _u(xq, i, 0, dim, inv_a) - lo[0]
+    u1 = _u(xq, i, 1, dim, inv_a) - lo[1]
+    u2 = _u(xq, i, 2, dim, inv_a) - lo[2]
+    qx = xq[0, i]
+    qy = xq[1, i] if dim >= 2 else 0.0
+    qz = xq[2, i] if dim >= 3 else 0.0
+    c0 = np.int64(np.floor(u0))
+    c1 = np.int64(np.floor(u1))
+    reach2 = sub * sub * (1.0 + 1e-9)  # slack: rounding never drops a cell
+    count = 0
+    last = cap - 1
+    for a0 in range(max(c0 - sub, 0), min(c0 + sub, shape[0] - 1) + 1):
+        e0 = _gap(u0, a0)
+        for a1 in range(max(c1 - sub, 0), min(c1 + sub, shape[1] - 1) + 1):
+            e1 = _gap(u1, a1)
+            rem = reach2 - e0 * e0 - e1 * e1
+            if rem <= 0.0:
+                continue
+            w = math.sqrt(rem)
+            z0 = max(np.int64(np.floor(u2 - w)), 0)
+            z1 = min(np.int64(np.floor(u2 + w)), shape[2] - 1)
+            if z0 > z1:
+                continue
+            base = (a0 * shape[1] + a1) * shape[2]
+            for s in range(cell_start[base + z0], cell_start[base + z1 + 1]):
+                tx = qx - sorted_x[0, s]
+                ty = qy - sorted_x[1, s]
+                tz = qz - sorted_x[2, s]
+                out[pos + min(count, last)] = s  # always written, kept on a hit
+                count += np.int64(tx * tx + ty * ty + tz * tz < h2)
+    if count >= cap:  # the row overflowed (its last slot was overwritten): redo, wider
+        return count
+    k = 0
+    for t in range(count):
+        j = sorted_index[out[pos + t]]
+        out[pos + k] = j
+        k += np.int64((j != i) or not exclude_self)
+    return k
+
+
+@numba.njit(cache=True, parallel=True, fastmath=True)
+def _dense_query(xq, dim, h, sub, lo, shape, cell_start, sorted_index, sorted_x, exclude_self,
+                 cap):
+    """:func:`_query` on the dense grid."""
+    n = xq.shape[1]
+    inv_a = sub / h
+    h2 = h * h
+    buf = np.empty(n * cap, dtype=np.int32)
+    counts = np.empty(n, dtype=np.int64)
+    for i in numba.prange(n):
+        counts[i] = _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index,
+                                sorted_x, exclude_self, buf, i * cap, cap)
+    return buf, counts
 
 
 @dataclass
@@ -191,7 +305,24 @@ class NeighborList:
 
 
 class Grid:
-    """A hashed uniform grid over a point set (positions of shape (dim, N)), cell size ``h``."""
+    """A uniform grid over a point set (positions of shape (dim, N)), for radius-``h`` queries.
+
+    Dense when the point set's bounding box holds at most :attr:`dense_cells_per_point` cells
+    of size ``h / SUB`` per point (every cell stored; rows of cells along the last axis are
+    contiguous runs of the sorted points, so a query visits one run per row of the ball's
+    shadow, :func:`_dense_scan`); hashed otherwise (sparse scenes, e.g. a few splashes far from
+    the bulk; :func:`_scan`). Both give the same lists.
+    """
+
+    #: cells per h along an axis of the dense grid. Finer cells cover the ball more tightly
+    #: but cost more rows: on the DFSPH benchmark scene (27 neighbours, 120 candidates per
+    #: particle with cells of size h) a fluid-fluid query took 3.6 / 4.6 / 6.5 ms with 1 / 2 / 3
+    #: cells per h, against 4.8 ms for the hashed grid (one thread).
+    SUB: int = 1
+    #: largest ratio of dense cells to points before the grid is hashed instead (small sets
+    #: may always have :attr:`dense_min_cells`)
+    dense_cells_per_point: int = 32
+    dense_min_cells: int = 1 << 16
 
     def __init__(self, x: np.ndarray, h: float) -> None:
         if x.ndim != 2 or x.shape[0] not in (1, 2, 3):
@@ -202,12 +333,43 @@ class Grid:
         self.h = float(h)
         n = x.shape[1]
         self.n = n
+        xc = np.ascontiguousarray(x)
+        if n and not np.all(np.isfinite(x)):
+            raise ValueError("positions: contain NaN or inf; cannot build a neighbour grid")
+        self.sorted_index = np.empty(n, dtype=np.int32)
+        self.sorted_key = np.empty(n, dtype=np.int64)
+        self.sorted_x = np.empty((3, n), dtype=x.dtype)  # zero-padded to 3 rows
+        self.dense = n > 0 and self._build_dense(xc)
+        if not self.dense:
+            self._build_hashed(xc)
+
+    def _build_dense(self, xc: np.ndarray) -> bool:
+        """Set up the dense grid, or return False when it would have too many cells."""
+        n, dim = self.n, self.dim
+        inv_a = self.SUB / self.h
+        lo = np.zeros(3, dtype=np.int64)
+        shape = np.ones(3, dtype=np.int64)
+        lo[3 - dim:] = np.floor(xc.min(axis=1) * inv_a).astype(np.int64)
+        shape[3 - dim:] = np.floor(xc.max(axis=1) * inv_a).astype(np.int64) - lo[3 - dim:] + 1
+        cells = 1
+        for k in range(3):
+            cells *= int(shape[k])
+        if cells > max(self.dense_cells_per_point * n, self.dense_min_cells):
+            return False
+        self.lo, self.shape, self.ncells = lo, shape, cells
+        cell = np.empty(n, dtype=np.int64)
+        _dense_cells(xc, dim, inv_a, lo, shape, cell)
+        self.cell_start = np.empty(cells + 1, dtype=np.int64)
+        _counting_sort(cell, cell, xc, cells, self.cell_start, self.sorted_index,
+                       self.sorted_key, self.sorted_x)
+        return True
+
+    def _build_hashed(self, xc: np.ndarray) -> None:
+        n, h = self.n, self.h
         origin = np.zeros(3, dtype=np.int64)
         if n:
-            if not np.all(np.isfinite(x)):
-                raise ValueError("positions: contain NaN or inf; cannot build a neighbour grid")
-            lo = np.floor(x.min(axis=1) / h).astype(np.int64)
-            hi = np.floor(x.max(axis=1) / h).astype(np.int64)
+            lo = np.floor(xc.min(axis=1) / h).astype(np.int64)
+            hi = np.floor(xc.max(axis=1) / h).astype(np.int64)
             if np.any(hi - lo > _LIMIT - 2):
                 raise ValueError(
                     f"positions: extent of {int((hi - lo).max())} cells of size {h} exceeds the "
@@ -222,12 +384,8 @@ class Grid:
         self.mask = size - 1
         keys = np.empty(n, dtype=np.int64)
         buckets = np.empty(n, dtype=np.int64)
-        xc = np.ascontiguousarray(x)
-        _cells(xc, self.dim, 1.0 / self.h, origin, self.mask, keys, buckets)
+        _cells(xc, self.dim, 1.0 / h, origin, self.mask, keys, buckets)
         self.bucket_start = np.empty(size + 1, dtype=np.int64)
-        self.sorted_index = np.empty(n, dtype=np.int32)
-        self.sorted_key = np.empty(n, dtype=np.int64)
-        self.sorted_x = np.empty((3, n), dtype=x.dtype)  # zero-padded to 3 rows
         _counting_sort(buckets, keys, xc, size, self.bucket_start, self.sorted_index,
                        self.sorted_key, self.sorted_x)
 
@@ -250,9 +408,15 @@ class Grid:
             return _periodic_query(self, xq, exclude_self, float(period[0]), float(period[1]))
         cap = self.capacity
         while True:
-            offsets, indices, largest = _query(
-                xq, self.dim, self.h, self.origin, self.mask, self.bucket_start,
-                self.sorted_index, self.sorted_key, self.sorted_x, exclude_self, cap)
+            if self.dense:
+                rows, counts = _dense_query(
+                    xq, self.dim, self.h, self.SUB, self.lo, self.shape, self.cell_start,
+                    self.sorted_index, self.sorted_x, exclude_self, cap)
+            else:
+                rows, counts = _query(
+                    xq, self.dim, self.h, self.origin, self.mask, self.bucket_start,
+                    self.sorted_index, self.sorted_key, self.sorted_x, exclude_self, cap)
+            offsets, indices, largest = _compact(rows, counts, cap)
             if largest < cap:
                 return NeighborList(offsets, indices)
             cap = int(largest) + 8  # rare: a denser neighbourhood than ever seen; redo
