@@ -69,16 +69,17 @@ def column(method: str, dim: int, until: float, cache: str, bp: str = "mirror") 
     sim = Simulation(scene)
     sim.run(until=until - 0.5)
     n = sim.fluid.n
-    p_sum, y_sum, its = np.zeros(n), np.zeros(n), []
+    p_sum, y_sum, x_sum, its = np.zeros(n), np.zeros(n), np.zeros(n), []
 
     def acc(s: Simulation, st) -> None:
         o = s.fluid.order_by_id()
         p_sum[:] += s.pressures[o]
         y_sum[:] += s.positions[o, 1]
+        x_sum[:] += s.positions[o, 0]
         its.append(st.iterations)
 
     sim.run(until=until, on_step=acc)
-    p, y = p_sum / len(its), y_sum / len(its)
+    p, y, xm = p_sum / len(its), y_sum / len(its), x_sum / len(its)
     x = sim.positions
     lo, hgt = y.min(), y.max() - y.min()
     sel = (y > lo + 0.1 * hgt) & (y < lo + 0.9 * hgt)
@@ -87,7 +88,7 @@ def column(method: str, dim: int, until: float, cache: str, bp: str = "mirror") 
                   + np.sum(x[:, 1] <= -0.5))
     return {"n": n, "slope": slope, "dev": 100 * abs(slope - 1), "standoff": (lo + 0.5) / r,
             "profile": 100 * profile_error(y, p, r),
-            "outside": outside, "its": float(np.mean(its)), "y": y, "p": p,
+            "outside": outside, "its": float(np.mean(its)), "y": y, "p": p, "x": xm,
             "time": time.perf_counter() - t0}
 
 
@@ -133,9 +134,11 @@ def main() -> None:
         runs = [(m, "mirror") for m in METHODS if m in args.methods]
         if "akinci2012" in args.methods:
             runs.insert(1, ("akinci2012", "mls"))
+        runs += [(m, "hydrostatic") for m in METHODS[1:] if m in args.methods]
         for m, bp in runs:
             c = column(m, args.dim, args.until, tmp, bp)
-            name = m + (" + MLS pressure (Band 2018)" if bp == "mls" else "")
+            name = m + {"mls": " + MLS pressure (Band 2018)", "mirror": "",
+                        "hydrostatic": " + hydrostatic wall pressure"}[bp]
             res[name] = c
             print(f"| {name} | {c['n']} | {c['slope']:.3f} | {c['dev']:.1f} | "
                   f"{c['profile']:.2f} | {c['standoff']:.2f} | {c['outside']} | "

@@ -150,6 +150,11 @@ class Bender2019(MapBoundaryModel):
 
         return integrate, ["volume map", SCALE, CUTOFF, f, qw.size, float(state.r)]
 
+    def _solid_weight(self, state: SimState):
+        f = 1.0 if state.dim == 3 else FACTOR_2D
+        h = state.h
+        return (lambda d: gamma(d, h, f)), -3.0 * h, h / f, SCALE
+
     def _query(self, bmap: BoundaryMap, state: SimState, x: np.ndarray, v: np.ndarray,
                xb: np.ndarray, Vb: np.ndarray) -> int:
         ax = bmap.geometry.extend_axis

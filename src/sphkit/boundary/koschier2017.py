@@ -164,6 +164,11 @@ class Koschier2017(MapBoundaryModel):
 
         return integrate, ["density map", SCALE, f, kid, qw.size]
 
+    def _solid_weight(self, state: SimState):
+        f = FACTOR_3D if state.dim == 3 else FACTOR_2D
+        h = state.h
+        return (lambda d: 1.0 - f * d / h if d < h / f else 0.0), -3.0 * h, h / f, SCALE
+
     def _query(self, bmap: BoundaryMap, state: SimState, x: np.ndarray, v: np.ndarray,
                xb: np.ndarray, Vb: np.ndarray) -> int:
         ax = bmap.geometry.extend_axis

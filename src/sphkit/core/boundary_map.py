@@ -67,6 +67,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from sphkit.core.kernels import kernel_dw
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.sdf import SignedDistance, cache_folder, cached_arrays, sdf_lattice_cached
 from sphkit.core.state import SimState
@@ -572,6 +573,11 @@ class MapBoundaryModel(ABC):
     #: ``MapGeometry.thickness``), so that the fluid rests about r outside the mesh
     moving_inset_in_radii = 0.0
     uses_maps = True
+    #: the wall's share of the tangential pressure gradient with a hydrostatic boundary
+    #: pressure (configuration.boundary.pressure "hydrostatic"; see "Hydrostatic boundary
+    #: pressure" in the module docstring); set before :meth:`init`
+    hydrostatic = False
+    normal_moment = True
 
     def __init__(self, geometries: list[MapGeometry] | None = None,
                  cache_dir: str | Path | None = None, cache: bool = True) -> None:
@@ -597,6 +603,32 @@ class MapBoundaryModel(ABC):
                                   integrate, self.folder)
             self.maps.append(bmap)
             self.cache_hits += int(hit)
+        self.moment_maps: list[BoundaryMap] = []
+        if self.hydrostatic:
+            qp, qw = ball_quadrature(state.h, state.dim)
+            gamma, d_lo, d_hi, scale = self._solid_weight(state)
+            t_lo, t_step, table = gamma_table(gamma, d_lo, d_hi)
+            h, kid, dim = state.h, state.kid, state.dim
+
+            for which, label in enumerate(("tangential", "normal")):
+
+                def moments(nodes, phi, o, s, shape, which=which):
+                    out = np.empty(nodes.shape[1])
+                    moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step,
+                                 table, scale, h + d_hi, which, out)
+                    return out
+
+                mparams = params + [label + " moment", t_lo, t_step, table.size,
+                                    float(table.sum()), scale]
+                for k, g in enumerate(self.geometries):
+                    bmap, hit = build_map(g, state.h, self.offset_in_radii * state.r,
+                                          f"{self.name}-{label}-moment", mparams, moments,
+                                          self.folder)
+                    if which == 0:
+                        self.moment_maps.append(bmap)
+                    else:
+                        self.moment_maps[k] = (self.moment_maps[k], bmap)
+                    self.cache_hits += int(hit)
 
     def bind_bodies(self, bodies: list) -> None:
         """The moving rigid bodies whose maps this model queries in their frames (geometries
@@ -666,7 +698,40 @@ class MapBoundaryModel(ABC):
             bd.fields["v"][...] = bv
             if "rigid_body" in bd.fields:
                 bd.fields["rigid_body"][...] = bbody
+            if self.hydrostatic and "pressure_mirror" in bd.fields:
+                bd.fields["pressure_mirror"][...] = np.where(bbody == 0, 1.0, 0.0)
         state.nl_fb = NeighborList(off, idx)
+
+    def wall_moment(self, state: SimState) -> int:
+        """Add the static maps' share of the tangential pressure gradient (hydrostatic
+        boundary pressure) to ``state.fluid['a']``; returns the number of particle-map pairs it
+        acted on (0 unless :attr:`hydrostatic`). Moving bodies' maps are left out."""
+        if not self.moment_maps:
+            return 0
+        import os
+        if os.environ.get("NOMOM"):
+            return 0
+        self.normal_moment = not os.environ.get("NONORM")
+        f = state.fluid
+        g = np.zeros(3)
+        g[: state.dim] = state.gravity
+        n = 0
+        for bmap, mm in zip(self.maps, self.moment_maps, strict=True):
+            if bmap.geometry.body != 0:
+                continue
+            ax = bmap.geometry.extend_axis
+            top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
+            n += int(wall_moment_accel(f["x"], f["rho"], state.rho0, bmap.phi, mm[0].values,
+                                       mm[1].values, self.normal_moment, bmap.lo, bmap.cell, bmap.res, bmap.spacing, bmap.shape,
+                                       state.dim, ax, top, state.h, g[0], g[1], g[2], f["a"]))
+        return n
+
+    def _solid_weight(self, state: SimState) -> tuple[Callable[[float], float], float, float,
+                                                       float]:
+        """The method's solid weight of its map integral: (gamma(d), d_lo, d_hi, scale) with
+        gamma = 0 for d >= d_hi and the table clamped below d_lo (only with
+        :attr:`hydrostatic`)."""
+        raise NotImplementedError(f"{self.name}: no hydrostatic boundary pressure")
 
     # -- provided by the method ----------------------------------------------------------------
     @abstractmethod
@@ -678,3 +743,127 @@ class MapBoundaryModel(ABC):
                xb: np.ndarray, Vb: np.ndarray) -> int:
         """Fill one map's virtual particles (xb (dim, N), Vb (N,)) for the fluid positions x and
         velocities v (dim, N) in the map's frame; return the pushed count."""
+
+
+# ---------------------------------------------------------------------------------------------
+# the wall's share of the tangential pressure gradient (hydrostatic boundary pressure)
+
+
+def gamma_table(gamma: Callable[[float], float], lo: float, hi: float,
+                n: int = 4001) -> tuple[float, float, np.ndarray]:
+    """A method's solid weight ``gamma(d)`` sampled on ``n`` points of [lo, hi] (for
+    :func:`moment_nodes`, read linearly and clamped): (lo, step, values)."""
+    d = np.linspace(lo, hi, n)
+    return float(lo), float(d[1] - d[0]), np.array([gamma(float(v)) for v in d])
+
+
+@numba.njit(**_JIT)
+def _table(t_lo, t_step, table, d):
+    u = min(max((d - t_lo) / t_step, 0.0), table.shape[0] - 1.0)
+    i = min(int(u), table.shape[0] - 2)
+    s = u - i
+    return (1.0 - s) * table[i] + s * table[i + 1]
+
+
+@numba.njit(parallel=True, **_JIT)
+def moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step, table, scale,
+                 cutoff, which, out):
+    """The tangential kernel moment of the boundary at the map nodes:
+
+        M(x) = scale * integral_{|xi| <= h} gamma(phi(x + xi)) xi (x) xi (-W'(|xi|) / |xi|) dxi
+
+    (the boundary's share of the identity ``-integral xi (x) xi W'/|xi| = I`` of the full
+    kernel), reduced to ``T = (tr M - n.M.n) / (dim - 1)`` with n the map normal (grad phi,
+    central differences on the lattice); for a plane wall ``M = T (I - n n) + M_nn n n``.
+    ``gamma`` is the method's solid weight, given as a table; T = 0 where ``phi > cutoff``."""
+    for m in numba.prange(nodes.shape[1]):
+        x0, x1, x2 = nodes[0, m], nodes[1, m], nodes[2, m]
+        d0 = lattice_lookup(phi, o, s, shape, dim, x0, x1, x2)
+        if d0 > cutoff:
+            out[m] = 0.0
+            continue
+        m00 = 0.0
+        m01 = 0.0
+        m02 = 0.0
+        m11 = 0.0
+        m12 = 0.0
+        m22 = 0.0
+        for q in range(qw.shape[0]):
+            a0, a1, a2 = qp[0, q], qp[1, q], qp[2, q]
+            d = lattice_lookup(phi, o, s, shape, dim, x0 + a0, x1 + a1, x2 + a2)
+            w = _table(t_lo, t_step, table, d)
+            if w == 0.0:
+                continue
+            rr = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+            c = -qw[q] * w * kernel_dw(kid, rr, h, dim)  # kernel_dw: W'(r) / r
+            m00 += c * a0 * a0
+            m01 += c * a0 * a1
+            m02 += c * a0 * a2
+            m11 += c * a1 * a1
+            m12 += c * a1 * a2
+            m22 += c * a2 * a2
+        e0, e1, e2 = s[0], s[1], s[2] if dim == 3 else 1.0
+        n0 = (lattice_lookup(phi, o, s, shape, dim, x0 + e0, x1, x2)
+              - lattice_lookup(phi, o, s, shape, dim, x0 - e0, x1, x2)) / (2.0 * e0)
+        n1 = (lattice_lookup(phi, o, s, shape, dim, x0, x1 + e1, x2)
+              - lattice_lookup(phi, o, s, shape, dim, x0, x1 - e1, x2)) / (2.0 * e1)
+        n2 = 0.0
+        if dim == 3:
+            n2 = (lattice_lookup(phi, o, s, shape, dim, x0, x1, x2 + e2)
+                  - lattice_lookup(phi, o, s, shape, dim, x0, x1, x2 - e2)) / (2.0 * e2)
+        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        tr = m00 + m11 + m22
+        mnn = 0.0
+        if nl > 1e-9:
+            n0 /= nl
+            n1 /= nl
+            n2 /= nl
+            mnn = (n0 * n0 * m00 + n1 * n1 * m11 + n2 * n2 * m22
+                   + 2.0 * (n0 * n1 * m01 + n0 * n2 * m02 + n1 * n2 * m12))
+        out[m] = scale * ((tr - mnn) / (dim - 1) if which == 0 else mnn)
+
+
+@numba.njit(parallel=True, **_JIT)
+def wall_moment_accel(x, rho, rho0, phi, T, N, use_n, lo, cell, res, spacing, shape, dim, extend_axis, top,
+                      h, g0, g1, g2, a):
+    """Add ``-T(x_i) (I - n n) grad k_b`` to a, with the hydrostatic boundary pressure of Adami
+    et al. 2012 (Eq. 27, static wall): ``p_b(x) = p_i + rho_i g . (x - x_i)``, i.e.
+    ``grad k_b = g / rho_hat_i`` in the kappa units of :mod:`sphkit.core.ppe`; for fluid
+    particles with ``0 < phi < h``. Returns how many particles it acted on."""
+    count = 0
+    for i in numba.prange(x.shape[1]):
+        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
+        if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
+            continue
+        d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
+        if not ok or d <= 0.0 or d >= h:
+            continue
+        t = grid_eval(T, lo, cell, res, dim, p0, p1, p2)[0]
+        nn = grid_eval(N, lo, cell, res, dim, p0, p1, p2)[0] if use_n else 0.0
+        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        if t <= 0.0 or nl < 1e-9:
+            continue
+        n0 /= nl
+        n1 /= nl
+        n2 /= nl
+        gn = g0 * n0 + g1 * n1 + g2 * n2
+        c = rho0 / rho[i]
+        a[0, i] -= c * (t * (g0 - gn * n0) + nn * gn * n0)
+        a[1, i] -= c * (t * (g1 - gn * n1) + nn * gn * n1)
+        if dim == 3:
+            a[2, i] -= c * (t * (g2 - gn * n2) + nn * gn * n2)
+        count += 1
+    return count
+
+
+class WallMomentForce:
+    """The non-pressure-force interface (``apply(state, dt)``) to
+    :meth:`MapBoundaryModel.wall_moment`, run with the other forces before the pressure solve."""
+
+    def __init__(self, model: MapBoundaryModel) -> None:
+        self.model = model
+        self.count = 0  #: particle-map pairs it acted on in the last step
+
+    def apply(self, state: SimState, dt: float) -> None:
+        """Add the walls' tangential pressure-gradient share to ``state.fluid['a']``."""
+        self.count = self.model.wall_moment(state)
