@@ -21,7 +21,7 @@ sphere obstacle, for Akinci particles, density maps and volume maps (DFSPH).
    stand-off of the fluid from the floor (lowest particle height over the tank bottom, in r);
    and how many particles left the tank. Then the layer means of each model.
 2. 3D dam break against a sphere (icosphere mesh, R = 0.1 m) in a 1 x 0.6 x 0.4 m UnitBox tank,
-   r = 0.02 m, 1.5 s at 50 frames/s: the smallest distance of a fluid particle centre from the
+   maps also with the hydrostatic boundary pressure, r = 0.02 m, 1.5 s at 50 frames/s: the smallest distance of a fluid particle centre from the
    sphere centre at any frame, in R (below 1 means a particle inside the obstacle).
 
 Writes ``validation/maps.png`` (pressure profiles) when matplotlib is installed.
@@ -159,13 +159,13 @@ def column_ensemble(method: str, dim: int, until: float, cache: str, bp: str,
     return out
 
 
-def dambreak(method: str, until: float, folder: Path) -> dict:
+def dambreak(method: str, until: float, folder: Path, bp: str = "mirror") -> dict:
     R, c, r = 0.1, np.array([0.15, -0.2, 0.0]), 0.02
     trimesh.creation.icosphere(subdivisions=4, radius=R).export(folder / "sphere.obj")
     scene = Scene.model_validate({
         "configuration": {
             "dim": 3, "particle_radius": r, "pressure": {"method": "dfsph", "max_error": 0.05},
-            "boundary": {"method": method, "map_cache_dir": str(folder)},
+            "boundary": {"method": method, "map_cache_dir": str(folder), "pressure": bp},
         },
         "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
         "fluid_blocks": [{"start": [-0.5 + 2 * r, -0.3 + 2 * r, -0.2 + 2 * r],
@@ -242,12 +242,15 @@ def main() -> None:
         print(f"\n3D dam break against a sphere mesh (R = 0.1 m), {args.dambreak_until} s")
         print("| boundary | particles | frames | min distance / R | pushed out | time [s] |")
         print("|---|---|---|---|---|---|")
-        for m in args.methods:
-            folder = Path(tmp) / m
+        druns = [(m, "mirror") for m in args.methods]
+        druns += [(m, "hydrostatic") for m in METHODS[1:] if m in args.methods]
+        for m, bp in druns:
+            folder = Path(tmp) / f"{m}-{bp}"
             folder.mkdir()
-            d = dambreak(m, args.dambreak_until, folder)
-            print(f"| {m} | {d['n']} | {d['frames']} | {d['closest']:.3f} | {d['pushed']} | "
-                  f"{d['time']:.0f} |")
+            d = dambreak(m, args.dambreak_until, folder, bp)
+            name = m + (" + hydrostatic wall pressure" if bp == "hydrostatic" else "")
+            print(f"| {name} | {d['n']} | {d['frames']} | {d['closest']:.3f} | {d['pushed']} | "
+                  f"{d['time']:.0f} |", flush=True)
 
 
 if __name__ == "__main__":
