@@ -21,8 +21,9 @@ sphere obstacle, for Akinci particles, density maps and volume maps (DFSPH).
    stand-off of the fluid from the floor (lowest particle height over the tank bottom, in r);
    and how many particles left the tank. Then the layer means of each model.
 2. 3D dam break against a sphere (icosphere mesh, R = 0.1 m) in a 1 x 0.6 x 0.4 m UnitBox tank,
-   maps also with the hydrostatic boundary pressure, r = 0.02 m, 1.5 s at 50 frames/s: the smallest distance of a fluid particle centre from the
-   sphere centre at any frame, in R (below 1 means a particle inside the obstacle).
+   maps also with the hydrostatic boundary pressure, r = 0.02 m, 1.5 s at 50 frames/s: the
+   smallest distance of a fluid particle centre from the sphere centre at any frame, in R
+   (below 1 means a particle inside the obstacle).
 
 Writes ``validation/maps.png`` (pressure profiles) when matplotlib is installed.
 """
