@@ -56,13 +56,20 @@ term integrated over the solid (the continuum form of the map),
 
 the first part is the virtual neighbour with the mirrored pressure (``pressure_mirror`` 1) and
 the second the kernel moment of the solid, ``M = -integral_solid x' (x) x' W'(|x'|)/|x'| dx'``
-(``x' = x - x_i``, weighted as the method weights its map integral), which gives the wall side
-of the kernel the hydrostatic pressure gradient along the wall too. M is precomputed on two more
-map fields, its tangential and normal parts T and N (:func:`moment_nodes`), and ``-(T (I - n n)
-+ N n n) g / rho_hat_i`` is added with the non-pressure forces (:class:`WallMomentForce`), before
-the pressure solve. Measured (2D, same tank): the wall column's excess drops to 8-9 % (density
-maps) and -5 % (volume maps). Moving bodies' maps keep SPlisHSPlasH's term (their wall
-acceleration would enter ``p_b``).
+(``x' = x - x_i``), which gives the wall side of the kernel the hydrostatic pressure gradient
+along the wall too. For a plane wall ``M = T (I - n n) + N n n``, and integrating by parts along
+the wall (``-integral t^2 W'/|x'| dt = integral W dt``) shows that the tangential part equals the
+wall's density contribution, ``T = rho_B``, for any solid weight that varies only across the
+wall. The fluid's own tangential moment obeys the same identity in the continuum, so with
+``T = rho_B`` the wall completes the kernel's tangential moment exactly where it completes the
+density, which the pressure solvers hold at rest; sphkit takes T as the virtual neighbour's
+density contribution ``V_b W(|x_i - x_b|)`` (both map types; for volume maps this is the
+point-particle density of Bender et al., not the integral). The normal part ``N = n.M.n`` is
+precomputed on one more map field with the method's own solid weight (:func:`moment_nodes`), and
+``-(T (I - n n) + N n n) g / rho_hat_i`` is added with the non-pressure forces
+(:class:`WallMomentForce`), before the pressure solve. Measured (2D, same tank): the wall
+column's excess drops to about +8 % (density maps) and -4 % (volume maps). Moving bodies' maps
+keep SPlisHSPlasH's term (their wall acceleration would enter ``p_b``).
 
 Moving rigid bodies (Bender et al. 2019, Sec. 5, "dynamic rigid bodies"; SPlisHSPlasH's
 ``BoundaryModel_Bender2019``/``_Koschier2017`` with a dynamic ``RigidBodyObject``): a body's map
@@ -93,7 +100,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from sphkit.core.kernels import kernel_dw
+from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.sdf import SignedDistance, cache_folder, cached_arrays, sdf_lattice_cached
 from sphkit.core.state import SimState
@@ -628,31 +635,27 @@ class MapBoundaryModel(ABC):
                                   integrate, self.folder)
             self.maps.append(bmap)
             self.cache_hits += int(hit)
-        #: per geometry, with :attr:`hydrostatic`: its (tangential T, normal N) moment maps
-        self.moment_maps: list[tuple[BoundaryMap, BoundaryMap]] = []
+        #: per geometry, with :attr:`hydrostatic`: its normal moment map N (:func:`moment_nodes`)
+        self.moment_maps: list[BoundaryMap] = []
         if self.hydrostatic:
             qp, qw = ball_quadrature(state.h, state.dim)
             gamma, d_lo, d_hi, scale = self._solid_weight(state)
             t_lo, t_step, table = gamma_table(gamma, d_lo, d_hi)
             h, kid, dim = state.h, state.kid, state.dim
+
+            def moments(nodes, phi, o, s, shape):
+                out = np.empty(nodes.shape[1])
+                moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step, table,
+                             scale, h + d_hi, out)
+                return out
+
+            mparams = params + ["normal moment", t_lo, t_step, table.size, float(table.sum()),
+                                scale]
             for g in self.geometries:
-                pair = []
-                for which, label in enumerate(("tangential", "normal")):
-
-                    def moments(nodes, phi, o, s, shape, which=which):
-                        out = np.empty(nodes.shape[1])
-                        moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step,
-                                     table, scale, h + d_hi, which, out)
-                        return out
-
-                    mparams = params + [label + " moment", t_lo, t_step, table.size,
-                                        float(table.sum()), scale]
-                    bmap, hit = build_map(g, state.h, self.offset_in_radii * state.r,
-                                          f"{self.name}-{label}-moment", mparams, moments,
-                                          self.folder)
-                    pair.append(bmap)
-                    self.cache_hits += int(hit)
-                self.moment_maps.append((pair[0], pair[1]))
+                bmap, hit = build_map(g, state.h, self.offset_in_radii * state.r,
+                                      f"{self.name}-normal-moment", mparams, moments, self.folder)
+                self.moment_maps.append(bmap)
+                self.cache_hits += int(hit)
 
     def bind_bodies(self, bodies: list) -> None:
         """The moving rigid bodies whose maps this model queries in their frames (geometries
@@ -701,6 +704,8 @@ class MapBoundaryModel(ABC):
             self.pushed += int(self._query(bmap, state, xl, ul, xb[m], Vb[m]))
             from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb[m], xb[m], vb[m], f["x"], f["v"])
             mbody[m] = kb
+        if self.hydrostatic:  # the wall moment reads this step's virtual particles
+            self._virtual = (xb, Vb)
         counts = np.zeros(n + 1, np.int64)
         if k:
             _count(Vb, counts)
@@ -736,15 +741,16 @@ class MapBoundaryModel(ABC):
         g = np.zeros(3)
         g[: state.dim] = state.gravity
         n = 0
-        for bmap, mm in zip(self.maps, self.moment_maps, strict=True):
+        xb, Vb = self._virtual
+        for m, (bmap, nmap) in enumerate(zip(self.maps, self.moment_maps, strict=True)):
             if bmap.geometry.body != 0:
                 continue
             ax = bmap.geometry.extend_axis
             top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
-            n += int(wall_moment_accel(f["x"], f["rho"], state.rho0, bmap.phi, mm[0].values,
-                                       mm[1].values, bmap.lo, bmap.cell, bmap.res, bmap.spacing,
-                                       bmap.shape, state.dim, ax, top, state.h, g[0], g[1], g[2],
-                                       f["a"]))
+            n += int(wall_moment_accel(f["x"], f["rho"], state.rho0, bmap.phi, nmap.values,
+                                       bmap.lo, bmap.cell, bmap.res, bmap.spacing, bmap.shape,
+                                       state.dim, ax, top, state.h, state.kid, g[0], g[1], g[2],
+                                       xb[m], Vb[m], f["a"]))
         return n
 
     def _solid_weight(self, state: SimState) -> tuple[Callable[[float], float], float, float,
@@ -788,15 +794,13 @@ def _table(t_lo, t_step, table, d):
 
 @numba.njit(parallel=True, **_JIT)
 def moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step, table, scale,
-                 cutoff, which, out):
-    """The kernel moment of the boundary at the map nodes,
+                 cutoff, out):
+    """The normal part ``N = n.M.n`` of the kernel moment of the boundary at the map nodes,
 
         M(x) = scale * integral_{|xi| <= h} gamma(phi(x + xi)) xi (x) xi (-W'(|xi|) / |xi|) dxi
 
     (the boundary's share of the identity ``-integral xi (x) xi W'/|xi| dxi = I`` of the full
-    kernel), reduced with n the map normal (grad phi, central differences on the lattice) to its
-    tangential part ``T = (tr M - n.M.n) / (dim - 1)`` (``which`` 0) or its normal part
-    ``N = n.M.n`` (``which`` 1); for a plane wall ``M = T (I - n n) + N n n``. ``gamma`` is the
+    kernel), n the map normal (grad phi, central differences on the lattice). ``gamma`` is the
     method's solid weight, given as a table; 0 where ``phi > cutoff``."""
     for m in numba.prange(nodes.shape[1]):
         x0, x1, x2 = nodes[0, m], nodes[1, m], nodes[2, m]
@@ -834,7 +838,6 @@ def moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step, tab
             n2 = (lattice_lookup(phi, o, s, shape, dim, x0, x1, x2 + e2)
                   - lattice_lookup(phi, o, s, shape, dim, x0, x1, x2 - e2)) / (2.0 * e2)
         nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        tr = m00 + m11 + m22
         mnn = 0.0
         if nl > 1e-9:
             n0 /= nl
@@ -842,34 +845,36 @@ def moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step, tab
             n2 /= nl
             mnn = (n0 * n0 * m00 + n1 * n1 * m11 + n2 * n2 * m22
                    + 2.0 * (n0 * n1 * m01 + n0 * n2 * m02 + n1 * n2 * m12))
-        out[m] = scale * ((tr - mnn) / (dim - 1) if which == 0 else mnn)
+        out[m] = scale * mnn
 
 
 @numba.njit(parallel=True, **_JIT)
-def wall_moment_accel(x, rho, rho0, phi, T, N, lo, cell, res, spacing, shape, dim, extend_axis, top,
-                      h, g0, g1, g2, a):
-    """Add ``-(T (I - n n) + N n n) g / rho_hat_i`` to a: the moment term ``-M grad k_b`` of the
-    hydrostatic boundary pressure ``p_b(x) = p_i + rho_i g . (x - x_i)`` (Adami et al. 2012,
-    Eq. 27, static wall), ``grad k_b = g / rho_hat_i`` in the kappa units of
-    :mod:`sphkit.core.ppe`, with the plane-wall form of the moment M from the maps T and N (see
-    "Hydrostatic boundary pressure" in the module docstring); for fluid particles with
-    ``0 < phi < h``. Returns how many particles it acted on."""
+def wall_moment_accel(x, rho, rho0, phi, N, lo, cell, res, spacing, shape, dim, extend_axis, top,
+                      h, kid, g0, g1, g2, xb, Vb, a):
+    """Add ``-(T (I - n n) + N n n) g / rho_hat_i`` to a for the fluid particles with a virtual
+    neighbour (xb, Vb) of this map: the moment term ``-M grad k_b`` of the hydrostatic boundary
+    pressure ``p_b(x) = p_i + rho_i g . (x - x_i)`` (Adami et al. 2012, Eq. 27, static wall),
+    ``grad k_b = g / rho_hat_i`` in the kappa units of :mod:`sphkit.core.ppe`, with the
+    tangential part T the neighbour's density contribution ``V_b W(|x_i - x_b|)`` and the normal
+    part N from the map (see "Hydrostatic boundary pressure" in the module docstring). Returns
+    how many particles it acted on."""
     count = 0
     for i in numba.prange(x.shape[1]):
+        if Vb[i] <= 0.0:
+            continue
         p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
-        if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
-            continue
         d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
-        if not ok or d <= 0.0 or d >= h:
-            continue
-        t = grid_eval(T, lo, cell, res, dim, p0, p1, p2)[0]
-        nn = grid_eval(N, lo, cell, res, dim, p0, p1, p2)[0]
         nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        if t <= 0.0 or nl < 1e-9:
+        if not ok or nl < 1e-9:
             continue
         n0 /= nl
         n1 /= nl
         n2 /= nl
+        e0 = x[0, i] - xb[0, i]
+        e1 = x[1, i] - xb[1, i]
+        e2 = x[2, i] - xb[2, i] if dim == 3 else 0.0
+        t = Vb[i] * kernel_w(kid, math.sqrt(e0 * e0 + e1 * e1 + e2 * e2), h, dim)
+        nn = grid_eval(N, lo, cell, res, dim, p0, p1, p2)[0]
         gn = g0 * n0 + g1 * n1 + g2 * n2
         c = rho0 / rho[i]
         a[0, i] -= c * (t * (g0 - gn * n0) + nn * gn * n0)
