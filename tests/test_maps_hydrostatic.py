@@ -83,9 +83,9 @@ def test_normal_moment_map_of_a_plane_wall(method: str, dim: int) -> None:
     interpolation alone was 0.029 off for the volume map at y = r."""
     st = _state(dim)
     r, h = st.r, st.h
-    # the solid is y < 0, fluid above; the map box is 0.52 m wide: 26 cells of h / 2
-    wall = MapGeometry("wall", BoxDistance([-0.1] * dim, [0.1] * (dim - 1) + [0.0]),
-                       resolution=(26,) * dim)
+    # the solid is y < 0, fluid above; the map box is 0.1 + 8h = 0.42 m wide: 21 cells of h / 2
+    wall = MapGeometry("wall", BoxDistance([-0.05] * dim, [0.05] * (dim - 1) + [0.0]),
+                       resolution=(21,) * dim)
     model = (Koschier2017 if method == "koschier2017" else Bender2019)([wall], cache=False)
     weight, offset, kinks = _weight(method, dim, h, r)
     model.hydrostatic = True
