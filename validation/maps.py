@@ -51,13 +51,16 @@ G, RHO0 = 9.81, 1000.0
 
 def mean_surface(x: np.ndarray, r: float) -> float:
     """The free surface r above the mean height of the top particle centres: the highest
-    particle of every column 2r wide (2D) or 2r x 2r (3D), averaged over the columns.
-    x: averaged positions (N, dim)."""
+    particle of every column 2r wide (2D) or 2r x 2r (3D), averaged over the columns that hold
+    at least half the median number of particles (a bin that catches only a few particles of a
+    wall row would report a low "top"). x: averaged positions (N, dim)."""
     key = np.floor(x[:, [0, 2][: x.shape[1] - 1]] / (2 * r)).astype(np.int64)
     _, col = np.unique(key, axis=0, return_inverse=True)
+    col = col.ravel()
     tops = np.full(col.max() + 1, -np.inf)
-    np.maximum.at(tops, col.ravel(), x[:, 1])
-    return float(tops.mean() + r)
+    np.maximum.at(tops, col, x[:, 1])
+    count = np.bincount(col)
+    return float(tops[count >= 0.5 * np.median(count)].mean() + r)
 
 
 def layer_errors(y: np.ndarray, p: np.ndarray, r: float,
