@@ -32,11 +32,11 @@ SPlisHSPlasH; :attr:`pushed` counts these events.
 Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrostatic"``; not in
 the paper nor in SPlisHSPlasH, see :mod:`sphkit.core.boundary_map`): the virtual neighbour
 mirrors the pressure (``-2 k_i V_b grad W_ib``) and the wall adds the kernel moment of Adami et
-al.'s (2012, Eq. 27) extrapolated pressure ``p_b = p_i + rho_i g . (x_b - x_i)``, integrated with
-the volume map's own weight ``0.8 gamma(d)`` (:meth:`Bender2019._solid_weight`; the plain
-indicator of the solid, tried too, gave slopes of 1.033 in 2D and 1.043 in 3D against 1.023 and
-0.985 with gamma). Measured in validation/maps.py's 2D tank, the fluid next to the side walls
-carries +16 % of rho0 g H above hydrostatic with SPlisHSPlasH's term and -3 % with this option.
+al.'s (2012, Eq. 27) extrapolated pressure ``p_b = p_i + rho_i g . (x_b - x_i)``: along the wall
+the virtual neighbour's density ``V_b W_ib``, across it the normal moment integrated with the
+volume map's own weight ``0.8 gamma(d)`` (:meth:`Bender2019._solid_weight`). Measured in
+validation/maps.py's 2D tank, the fluid next to the side walls carries +16 % of rho0 g H above
+hydrostatic with SPlisHSPlasH's term (SPlisHSPlasH 2.19: +11 %) and -3 % with this option.
 
 Moving rigid bodies (paper, Sec. 5): the map of a kinematic or dynamic body is computed once in
 the body's frame and queried there, and the virtual particle goes back to the world with the

@@ -37,10 +37,11 @@ Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrost
 the paper nor in SPlisHSPlasH, see :mod:`sphkit.core.boundary_map`): the virtual neighbour
 mirrors the pressure (``-2 k_i grad rho_B`` instead of ``-k_i grad rho_B``) and the wall adds
 the kernel moment of Adami et al.'s (2012, Eq. 27) extrapolated pressure ``p_b = p_i + rho_i g .
-(x_b - x_i)``, with the moment integrated with the same solid weight as rho_B, ``0.8 gamma(d)``
+(x_b - x_i)``: along the wall the density rho_B itself (the plane-wall identity), across it the
+normal moment integrated with the same solid weight as rho_B, ``0.8 gamma(d)``
 (:meth:`Koschier2017._solid_weight`). Measured in validation/maps.py's 2D tank, the fluid next to
 the side walls carries +62 % of rho0 g H above hydrostatic with SPlisHSPlasH's term (SPlisHSPlasH
-2.19 itself: +67 %) and +8 % with this option; the pressure slope goes from 1.078 to 1.021 rho0 g.
+2.19 itself: +67 %) and +8 % with this option; the pressure slope goes from 1.078 to 1.022 rho0 g.
 
 Deviation from SPlisHSPlasH: it uses the map only for ``0.1 r < phi < h`` and gives particles
 closer to the surface no boundary density (it resets their normal velocity instead). sphkit keeps

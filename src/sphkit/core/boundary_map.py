@@ -755,9 +755,9 @@ class MapBoundaryModel(ABC):
 
     def _solid_weight(self, state: SimState) -> tuple[Callable[[float], float], float, float,
                                                        float]:
-        """The method's solid weight of its map integral: (gamma(d), d_lo, d_hi, scale) with
-        gamma = 0 for d >= d_hi and the table clamped below d_lo (only with
-        :attr:`hydrostatic`)."""
+        """The method's solid weight of its map integral, for the normal moment map: (gamma(d),
+        d_lo, d_hi, scale) with gamma = 0 for d >= d_hi and the table clamped below d_lo (only
+        with :attr:`hydrostatic`)."""
         raise NotImplementedError(f"{self.name}: no hydrostatic boundary pressure")
 
     # -- provided by the method ----------------------------------------------------------------
