@@ -91,7 +91,8 @@ def test_mls_with_ridge_keeps_the_gradient_along_the_wall(dim: int) -> None:
 
 
 def test_mls_option_is_validated() -> None:
-    with pytest.raises(ValueError, match=r"configuration.boundary.pressure\n.*'mirror' or 'mls'"):
+    with pytest.raises(
+            ValueError, match=r"configuration.boundary.pressure\n.*'mirror', 'mls' or 'hydro"):
         Scene.model_validate({"configuration": {"dim": 2,
                                                 "boundary": {"pressure": "extrapolate"}}})
     with pytest.raises(SceneError, match="configuration.boundary.pressure: 'mls'"):

@@ -34,7 +34,7 @@ from sphkit.boundary.band2018 import MLSPressureExtrapolation
 from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.koschier2017 import Koschier2017
 from sphkit.boundary.rigid import INSET, RigidBodies, body_from_mesh, box_wall, mesh_wall
-from sphkit.core.boundary_map import MapGeometry
+from sphkit.core.boundary_map import MapGeometry, WallMomentForce
 from sphkit.core.kernels import kernel_id, lattice_volume
 from sphkit.core.neighbors import neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
@@ -250,6 +250,12 @@ class Simulation:
             self.boundary_model = bm_cls(self._map_geometries(scene),
                                          cache_dir=cfg.boundary.map_cache_dir,
                                          cache=cfg.boundary.map_cache)
+            self.boundary_model.hydrostatic = cfg.boundary.pressure == "hydrostatic"
+        elif cfg.boundary.pressure == "hydrostatic":
+            raise SceneError(
+                "configuration.boundary.pressure: 'hydrostatic' acts through the map of a wall; "
+                "expected configuration.boundary.method 'koschier2017' or 'bender2019', got "
+                f"{cfg.boundary.method!r}")
         else:
             self.boundary_model = bm_cls()
         self.forces: list = []
@@ -293,6 +299,8 @@ class Simulation:
         if boundary.n:
             boundary.permute(zorder_permutation(boundary["x"], h))
         self.boundary_model.init(self.state)
+        if self._maps and self.boundary_model.hydrostatic:
+            self.forces.append(WallMomentForce(self.boundary_model))
         if cfg.boundary.pressure == "mls":
             if self._maps:
                 raise SceneError(

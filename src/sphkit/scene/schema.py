@@ -478,10 +478,12 @@ class BoundaryConfig(_Model):
     density maps (Koschier & Bender 2017) or ``bender2019`` volume maps (Bender et al. 2019)."""
 
     method: Literal["akinci2012", "koschier2017", "bender2019"] = "akinci2012"
-    pressure: Literal["mirror", "mls"] = Field(
+    pressure: Literal["mirror", "mls", "hydrostatic"] = Field(
         "mirror", description="akinci2012: pressure of the static boundary particles in the "
         "pressure force: 'mirror' (p_b = p_i, Akinci et al. 2012) or 'mls' (moving least squares "
-        "extrapolation from the fluid, Band et al. 2018)",
+        "extrapolation from the fluid, Band et al. 2018); koschier2017 / bender2019: 'mirror' "
+        "(SPlisHSPlasH's boundary term) or 'hydrostatic' (adds the static walls' share of the "
+        "tangential pressure gradient for p_b = p_i + rho_i g . (x_b - x_i), Adami et al. 2012)",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
