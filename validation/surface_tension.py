@@ -34,15 +34,21 @@ crossings of ``<z^2> - (<x^2> + <y^2>)/2``.
 
 Müller et al. 2003 CSF (``mueller2003``): its coefficient is sigma itself, so no independent
 sigma needs to be measured and there is no internal pressure (p relative to 0 outside, no slab
-run). 2D drops of four sizes (sigma = 1 N, WCSPH linear, as above): the interior pressure p and
-``p_F``, the model's force alone pushed onto the circle (:func:`surface_force_pressure`), each
-against sigma/R. 3D: the Rayleigh drop above with sigma = 5 N/m (period 0.25 s; the capillary
-time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` = 2.0 ms is far above WCSPH's acoustic step
-``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s. The rest shape of the sampled ball drifts
-while it oscillates, so the period is taken from like extrema (:func:`period_from_extrema`);
-the zero-crossing period is printed too.
+run). 2D drops of four sizes (sigma = 1 N, nu = 0.005 m^2/s, 2 s), each started with random
+velocities of std :data:`V_NOISE` (without them the square stays mirror-symmetric while it
+relaxes and settles into one particular shell packing) and averaged over ``--seeds`` seeds,
+with WCSPH (linear, k = 200), IISPH and DFSPH: the mean pressure p of the particles deeper than
+2h (last third), and the model's force alone (:func:`surface_force_pressure`) as ``p_jump``, its
+integral along the radius (the jump it holds at rest, ``grad p = f``; what p must equal) and
+``p_F``, the force per area of the circle; each against sigma/R. Also the same drops started at
+rest (WCSPH) and a 3D ball at rest (2 sigma/R). 3D oscillation: the Rayleigh drop above with
+sigma = 5 N/m (period 0.25 s; the capillary time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` =
+2.0 ms is far above WCSPH's acoustic step ``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s.
+The rest shape of the sampled ball drifts while it oscillates, so the period is taken from like
+extrema (:func:`period_from_extrema`); the zero-crossing period is printed too.
 
-    python validation/surface_tension.py [--quick] [--skip-3d] [--models becker2007,...]
+    python validation/surface_tension.py [--quick] [--skip-2d] [--skip-3d]
+        [--models becker2007,...] [--solvers wcsph,iisph,dfsph] [--seeds 3]
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
 """
@@ -305,6 +311,29 @@ def csf_ensemble(sigma: float, side: float, r: float, until: float, seeds: int,
     return out
 
 
+def drop_3d_csf(sigma: float, R: float, r: float, until: float, nsamp: int = 20) -> dict:
+    """Müller et al. 2003, 3D: a sampled ball (:func:`ball_blocks`) at rest, no gravity, WCSPH
+    linear k = 200, nu = 1e-3 m^2/s; mean pressure of the particles deeper than 2h and the
+    force's ``p_jump`` (:func:`surface_force_pressure`), each over the last half of the run,
+    against the Laplace pressure 2 sigma / R."""
+    sim = Simulation(scene("mueller2003", sigma, ball_blocks(R, r), r, dim=3, nu=1e-3,
+                           stiffness=200.0))
+    m = float(sim.fluid["m"][0])
+    Rv = float((sim.fluid.n * m / RHO0 * 3 / (4 * np.pi)) ** (1 / 3))
+    h = 4.0 * r
+    ps, pj = [], []
+    for k in range(1, nsamp + 1):
+        sim.run(until=until * k / nsamp, fps=1e-3)
+        x = sim.positions
+        d = np.linalg.norm(x - x.mean(axis=0), axis=1)
+        ps.append(float(sim.pressures[d < Rv - 2.0 * h].mean()))
+        pj.append(surface_force_pressure(sim)[1])
+    tail = slice(nsamp // 2, None)
+    return {"N": sim.fluid.n, "R": Rv, "p": float(np.mean(ps[tail])),
+            "p_std": float(np.std(ps[tail])), "pJ": float(np.mean(pj[tail])),
+            "n_inner": int((d < Rv - 2.0 * h).sum())}
+
+
 def kb_sigma(name: str, coef: float, m: float, r: float, dim: int) -> tuple[float, float]:
     """(sigma_KB, p_int_KB) of the model's pair cohesion (nan for He et al. 2014)."""
     if name == "becker2007":
@@ -500,7 +529,7 @@ def main(argv: list[str] | None = None) -> int:
         print("|---|---|---|---|---|---|---|---|---|")
         for e in csf:
             q = e["p"] * e["R"] / CSF_SIGMA_2D
-            print(f"| {e['solver']} | {e['n']} | {e['R']:.4f} | {e['R'] / (4 * r):.1f} | "
+            print(f"| {e['solver']} | {e['n']} | {e['R']:.4f} | {e['R'] / (4 * r):.2f} | "
                   f"{e['roundness']:.3f} | {q:.3f} ({e['p_seed_std'] * e['R']:.3f}) | "
                   f"{e['pJ'] * e['R'] / CSF_SIGMA_2D:.3f} | "
                   f"{e['pF'] * e['R'] / CSF_SIGMA_2D:.3f} | "
@@ -512,7 +541,7 @@ def main(argv: list[str] | None = None) -> int:
             print("| N | R/h | p R / sigma (time std) | p_jump R / sigma | p_F R / sigma |")
             print("|---|---|---|---|---|")
             for e in csf_sym:
-                print(f"| {e['n']} | {e['R'] / (4 * r):.1f} | {e['p'] * e['R']:.3f} "
+                print(f"| {e['n']} | {e['R'] / (4 * r):.2f} | {e['p'] * e['R']:.3f} "
                       f"({e['p_std'] * e['R']:.3f}) | {e['pJ'] * e['R']:.3f} | "
                       f"{e['pF'] * e['R']:.3f} |")
     rays = []
@@ -543,6 +572,19 @@ def main(argv: list[str] | None = None) -> int:
                   f"{ray['T_rayleigh']:.4g} | {ray['T_extrema']:.4g} | "
                   f"{ray['T_extrema'] / ray['T_rayleigh']:.3f} | {ray['T_measured']:.4g} "
                   f"({ray['crossings']}) |")
+    if not args.skip_3d and "mueller2003" in chosen:
+        t0 = time.perf_counter()
+        d3 = drop_3d_csf(5.0, 0.03 if args.quick else 0.04, 0.0025, 0.2 if args.quick else 0.4)
+        print(f"  mueller2003 3D drop at rest: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+        print()
+        print("3D drop at rest (mueller2003, sigma = 5 N/m, r = 2.5 mm, WCSPH linear k = 200, "
+              "nu = 1e-3 m^2/s, last half of the run):")
+        print("| N | R [m] | R/h | particles deeper than 2h | p R / (2 sigma) (std) | "
+              "p_jump R / (2 sigma) |")
+        print("|---|---|---|---|---|---|")
+        q = d3["R"] / (2 * 5.0)
+        print(f"| {d3['N']} | {d3['R']:.4f} | {d3['R'] / 0.01:.2f} | {d3['n_inner']} | "
+              f"{d3['p'] * q:.3f} ({d3['p_std'] * q:.3f}) | {d3['pJ'] * q:.3f} |")
     try:
         import matplotlib
 
