@@ -604,8 +604,6 @@ def main(argv: list[str] | None = None) -> int:
             axs[1].plot(e["t"], e["p_hist"] - sl["p"], color=line[0].get_color())
     axs[0].set_xlabel("1/R [1/m]")
     axs[0].set_ylabel("p - p_slab [Pa] (dashed: sigma_slab / R)")
-    if rows or csf:
-        axs[0].legend(fontsize=8)
     axs[0].set_title("2D Laplace pressure")
     axs[1].set_xlabel("t [s]")
     axs[1].set_ylabel("p - p_slab [Pa]")
@@ -620,6 +618,8 @@ def main(argv: list[str] | None = None) -> int:
         axs[0].plot(xx, CSF_SIGMA_2D * xx, "--", color=line[0].get_color())
         for e in sel:
             axs[1].plot(e["runs"][0]["t"], e["runs"][0]["p_hist"], color=line[0].get_color())
+    if rows or csf:
+        axs[0].legend(fontsize=8)
     for name, ray in rays:
         axs[2].plot(ray["t"], ray["q"], label=f"{name}: T = {ray['T_extrema']:.3g} s, "
                     f"Rayleigh {ray['T_rayleigh']:.3g} s")
