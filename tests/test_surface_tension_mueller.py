@@ -177,10 +177,12 @@ def test_drop_holds_the_laplace_pressure() -> None:
     k = 200, random start velocities of std 0.01 m/s, seed 0) relaxes for 2 s to a circle of
     R = 0.113 m = 5.6 h. Its interior pressure (particles deeper than 2h, last third) must be
     sigma/R within the 15 % target of issue 6: measured p R/sigma = 1.030 here; in
-    validation/surface_tension.py 0.95-1.04 over R = 4-7.9 h, three solvers and three seeds
+    validation/surface_tension.py 0.95-1.08 over R = 3.95-7.9 h, three solvers and three seeds
     (seed spread <= 0.02), the spread coming from how the interior particles pack into shells
-    (validation/README.md). The force's own jump (p_jump, integrated along the radius; measured
-    1.025) must be within 5 %: that part does not depend on the pressure solver."""
+    (validation/README.md); 15 % is the issue's target, and this drop sits 3 % from 1. The
+    force's own jump (p_jump, integrated along the radius; measured 1.025 here, 0.98-1.07 in the
+    validation) must be within 5 %: that part does not depend on the pressure solver. (At
+    nu = 0.005 the drop's surface row buckles after 4-5 s; 2 s is before that.)"""
     e = val.drop_2d_csf(1.0, 0.20, 0.005, 2.0, nsamp=30, seed=0)
     assert e["roundness"] < 1.0  # the outer particles lie within R: the square is gone
     assert abs(e["p"] * e["R"] - 1.0) < 0.15, e["p"] * e["R"]
