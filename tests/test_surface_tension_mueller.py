@@ -13,6 +13,8 @@ import pytest
 from sphkit.core.kernels import kernel_id
 from sphkit.core.neighbors import NeighborList, neighbor_lists
 from sphkit.core.operators import color_field_cpu, density_cpu, laplacian, surface_normals_cpu
+from sphkit.core.particles import ParticleSet
+from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene
 from sphkit.simulation import SURFACE_TENSION_MODELS, Simulation
 from sphkit.surface_tension.mueller2003 import SURFACE, THRESHOLD, Mueller2003, curvature_cpu
@@ -104,18 +106,87 @@ def test_literal_mueller_curvature_fails_at_a_free_surface() -> None:
         assert np.mean(-lap[surf] / ln[surf] * d[surf]) < 0.0
 
 
+def _jump_of_sampled_drop(x: np.ndarray, r: float, sigma: float) -> tuple[float, float]:
+    """Apply the model once to the particles x (dim, N) at rest (masses rho0 (2r)^dim) and
+    return (depth integral of the force density along the radius, ``sum_i m_i a_i . (-r_hat_i)
+    / (2 pi d_i)`` in 2D or ``/(4 pi d_i^2)`` in 3D; the drop's volume radius R)."""
+    dim, N = x.shape
+    h, kid = 4 * r, kernel_id("cubic")
+    f = ParticleSet(dim)
+    for name in ("v", "a"):
+        f.register(name, "vector")
+    for name in ("m", "rho", "p"):
+        f.register(name)
+    f.add(np.ascontiguousarray(x.T), m=1000.0 * (2 * r) ** dim, rho=1000.0)
+    b = ParticleSet(dim)
+    b.register("V")
+    st = SimState(fluid=f, boundary=b, dim=dim, h=h, kid=kid, r=r, rho0=1000.0,
+                  gravity=np.zeros(dim))
+    st.nl_ff = neighbor_lists(f["x"], h)
+    st.nl_fb = NeighborList.empty(N)
+    density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
+                st.nl_fb.offsets, st.nl_fb.indices, 1000.0, h, kid, dim, f["rho"])
+    model = Mueller2003(sigma)
+    model.init(st)
+    f["a"][:] = 0.0
+    model.apply(st, 0.0)
+    xx = f["x"]
+    d = xx - xx.mean(axis=1, keepdims=True)
+    dist = np.maximum(np.linalg.norm(d, axis=0), 1e-12)
+    a_in = f["m"] * (-(f["a"] * d).sum(axis=0) / dist)
+    vol = N * (2 * r) ** dim
+    if dim == 2:
+        return float((a_in / (2 * np.pi * dist)).sum()), float(np.sqrt(vol / np.pi))
+    return float((a_in / (4 * np.pi * dist**2)).sum()), float((3 * vol / (4 * np.pi)) ** (1 / 3))
+
+
+@pytest.mark.parametrize("dim,radii,r,tol", [(2, (0.055, 0.075, 0.11, 0.155), 0.005, 0.01),
+                                             (3, (0.03, 0.04), 0.0025, 0.04)])
+def test_force_holds_the_laplace_jump_on_sampled_drops(dim: int, radii: tuple, r: float,
+                                                       tol: float) -> None:
+    """In a fluid at rest ``grad p = f``: the pressure jump the surface force holds is the
+    integral of its density along the radius, which must be the Laplace pressure (dim - 1)
+    sigma / R (R: the drop's volume radius). On discs of concentric rings (R = 2.75-7.75 h)
+    and Fibonacci-sampled balls (R = 2.7 and 3.7 h) the model's jump R / ((dim - 1) sigma)
+    measured 1.004 / 1.001 / 1.000 / 0.998 (2D) and 1.031 / 1.014 (3D). Tolerances 1 % (2D)
+    and 4 % (3D) hold those with room for round-off, not the earlier form (constant factor 2,
+    curvature of the layer of particle centres: 1.20 / 1.14 / 1.09 / 1.07 and 1.31 / 1.22)."""
+    sigma = 0.5
+    for R in radii:
+        x = _disc(R + r, 2 * r) if dim == 2 else _ball(R + r, 2 * r)
+        jump, Rv = _jump_of_sampled_drop(x, r, sigma)
+        assert abs(jump * Rv / ((dim - 1) * sigma) - 1.0) < tol, (dim, R, jump * Rv)
+
+
+def test_tangent_plane_moment_of_the_cubic_spline() -> None:
+    """M = int_plane W rho^2 dA: 2D int_{-h}^{h} W(|y|) y^2 dy, 3D int_0^h W(q) q^2 2 pi q dq;
+    the cubic spline's closed forms (q = rho/h, W = s (6q^3 - 6q^2 + 1) for q <= 1/2 and
+    2 s (1 - q)^3 above, s = 40/(7 pi h^2) in 2D, 8/(pi h^3) in 3D) give M = 2 s h^3 / 32 =
+    5/(14 pi) h = 0.11368 h (2D) and 31/140 h = 0.22143 h (3D); the trapezoid rule of the
+    module must agree to 1e-5 relative."""
+    from sphkit.surface_tension.mueller2003 import tangent_plane_moment
+
+    h = 0.02
+    kid = kernel_id("cubic")
+    assert abs(tangent_plane_moment(kid, h, 3) / (31 / 140 * h) - 1) < 1e-5
+    assert abs(tangent_plane_moment(kid, h, 2) / (5 / (14 * np.pi) * h) - 1) < 1e-5
+
+
 def test_drop_holds_the_laplace_pressure() -> None:
-    """A 2D square (0.28 m, 784 particles, r = 5 mm, sigma = 1 N, no gravity, WCSPH linear
-    k = 200) relaxes for 1 s to a circle of R = 0.158 m. Its interior pressure (deeper than
-    2h, last third) must be sigma/R within the 15 % target of issue 6 (measured here p R/sigma
-    = 1.03; in validation/surface_tension.py, 2 s: 1.045 for this drop, 1.05-1.18 for R >= 0.079
-    m, the spread coming from how the interior particles happen to pack), and the model force
-    alone pushed onto the circle must give sigma/R within 10 % (measured 0.99; 0.98-1.09 for
-    all drops in the validation): that part does not depend on the pressure solver."""
-    e = val.drop_2d_csf(1.0, 0.28, 0.005, 1.0, nsamp=12)
+    """A 2D square (0.20 m, 400 particles, r = 5 mm, sigma = 1 N, no gravity, WCSPH linear
+    k = 200, random start velocities of std 0.01 m/s, seed 0) relaxes for 2 s to a circle of
+    R = 0.113 m = 5.6 h. Its interior pressure (particles deeper than 2h, last third) must be
+    sigma/R within the 15 % target of issue 6: measured p R/sigma = 1.030 here; in
+    validation/surface_tension.py 0.95-1.08 over R = 3.95-7.9 h, three solvers and three seeds
+    (seed spread <= 0.02), the spread coming from how the interior particles pack into shells
+    (validation/README.md); 15 % is the issue's target, and this drop sits 3 % from 1. The
+    force's own jump (p_jump, integrated along the radius; measured 1.025 here, 0.98-1.07 in the
+    validation) must be within 5 %: that part does not depend on the pressure solver. (At
+    nu = 0.005 the drop's surface row buckles after 4-5 s; 2 s is before that.)"""
+    e = val.drop_2d_csf(1.0, 0.20, 0.005, 2.0, nsamp=30, seed=0)
     assert e["roundness"] < 1.0  # the outer particles lie within R: the square is gone
     assert abs(e["p"] * e["R"] - 1.0) < 0.15, e["p"] * e["R"]
-    assert abs(e["pF"] * e["R"] - 1.0) < 0.10, e["pF"] * e["R"]
+    assert abs(e["pJ"] * e["R"] - 1.0) < 0.05, e["pJ"] * e["R"]
 
 
 def test_scene_fields() -> None:

@@ -34,15 +34,21 @@ crossings of ``<z^2> - (<x^2> + <y^2>)/2``.
 
 Müller et al. 2003 CSF (``mueller2003``): its coefficient is sigma itself, so no independent
 sigma needs to be measured and there is no internal pressure (p relative to 0 outside, no slab
-run). 2D drops of four sizes (sigma = 1 N, WCSPH linear, as above): the interior pressure p and
-``p_F``, the model's force alone pushed onto the circle (:func:`surface_force_pressure`), each
-against sigma/R. 3D: the Rayleigh drop above with sigma = 5 N/m (period 0.25 s; the capillary
-time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` = 2.0 ms is far above WCSPH's acoustic step
-``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s. The rest shape of the sampled ball drifts
-while it oscillates, so the period is taken from like extrema (:func:`period_from_extrema`);
-the zero-crossing period is printed too.
+run). 2D drops of four sizes (sigma = 1 N, nu = 0.005 m^2/s, 2 s), each started with random
+velocities of std :data:`V_NOISE` (without them the square stays mirror-symmetric while it
+relaxes and settles into one particular shell packing) and averaged over ``--seeds`` seeds,
+with WCSPH (linear, k = 200), IISPH and DFSPH: the mean pressure p of the particles deeper than
+2h (last third), and the model's force alone (:func:`surface_force_pressure`) as ``p_jump``, its
+integral along the radius (the jump it holds at rest, ``grad p = f``; what p must equal) and
+``p_F``, the force per area of the circle; each against sigma/R. Also the same drops started at
+rest (WCSPH) and a 3D ball at rest (2 sigma/R). 3D oscillation: the Rayleigh drop above with
+sigma = 5 N/m (period 0.25 s; the capillary time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` =
+2.0 ms is far above WCSPH's acoustic step ``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s.
+The rest shape of the sampled ball drifts while it oscillates, so the period is taken from like
+extrema (:func:`period_from_extrema`); the zero-crossing period is printed too.
 
-    python validation/surface_tension.py [--quick] [--skip-3d] [--models becker2007,...]
+    python validation/surface_tension.py [--quick] [--skip-2d] [--skip-3d]
+        [--models becker2007,...] [--solvers wcsph,iisph,dfsph] [--seeds 3]
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
 """
@@ -81,10 +87,13 @@ STIFFNESS = 200.0  #: linear state equation k [m^2/s^2]: about 0.3 % compression
 
 
 def scene(name: str, coef: float, blocks: list, r: float, dim: int = 2, nu: float = 0.005,
-          stiffness: float = STIFFNESS, periodic: list | None = None) -> Scene:
-    """A gravity-free scene with one surface tension model and WCSPH (linear state equation)."""
-    cfg = {"dim": dim, "particle_radius": r, "gravity": [0.0] * dim,
-           "pressure": {"method": "wcsph", "equation": "linear", "stiffness": stiffness},
+          stiffness: float = STIFFNESS, periodic: list | None = None,
+          solver: str = "wcsph") -> Scene:
+    """A gravity-free scene with one surface tension model and WCSPH (linear state equation,
+    stiffness k) or, with ``solver`` "iisph" / "dfsph", that incompressible solver (defaults)."""
+    press = ({"method": "wcsph", "equation": "linear", "stiffness": stiffness}
+             if solver == "wcsph" else {"method": solver})
+    cfg = {"dim": dim, "particle_radius": r, "gravity": [0.0] * dim, "pressure": press,
            "time": {"dt_max": 0.002}}
     if periodic is not None:
         cfg["periodic_x"] = periodic
@@ -217,11 +226,19 @@ def drop_2d(name: str, coef: float, side: float, r: float, until: float, nsamp: 
             "t": np.array(ts), "p_hist": np.array(ps), "roundness": rs[-1], "n": sim.fluid.n}
 
 
-def surface_force_pressure(sim: Simulation) -> float:
-    """The model's surface force pushed onto a circle/sphere: ``sum_i m_i a_i . (-r_hat_i)``
-    over the area ``2 pi R`` (2D) or ``4 pi R^2`` (3D), R the drop's volume radius; with the
-    model force alone (no pressure), this is the pressure jump the force asks for (sigma/R in
-    2D, 2 sigma/R in 3D), a check of the force independent of the pressure solver."""
+def surface_force_pressure(sim: Simulation) -> tuple[float, float]:
+    """The model's surface force (alone, no pressure) as two pressures, with ``a_r`` its
+    inward radial component, d a particle's distance from the centre of mass and R the drop's
+    volume radius:
+
+    * ``p_F = sum_i m_i a_r,i / (2 pi R)`` (2D; ``/(4 pi R^2)`` in 3D): the total force per area
+      of the circle (sphere) of radius R;
+    * ``p_jump = sum_i m_i a_r,i / (2 pi d_i)`` (2D; ``/(4 pi d_i^2)`` in 3D): the integral of
+      the force density along the radius, i.e. the pressure jump the force holds in a fluid at
+      rest (``grad p = f``). This is what the interior pressure must equal: sigma/R (2D) or
+      2 sigma/R (3D). p_F is smaller by the mean depth of the force band over R.
+
+    Both check the force independently of the pressure solver."""
     st = sim.state
     f = st.fluid
     model = next(fo for fo in sim.forces if isinstance(fo, Mueller2003))
@@ -231,40 +248,90 @@ def surface_force_pressure(sim: Simulation) -> float:
     x = f["x"]
     c = x.mean(axis=1, keepdims=True)
     d = x - c
-    r = np.linalg.norm(d, axis=0)
-    radial_in = -(f["a"] * d).sum(axis=0) / np.maximum(r, 1e-12)
+    r = np.maximum(np.linalg.norm(d, axis=0), 1e-12)
+    radial_in = f["m"] * (-(f["a"] * d).sum(axis=0) / r)
     f["a"][:] = a_save
     vol = float(f["m"].sum()) / RHO0
     if st.dim == 2:
         R = np.sqrt(vol / np.pi)
-        area = 2.0 * np.pi * R
-    else:
-        R = (3.0 * vol / (4.0 * np.pi)) ** (1.0 / 3.0)
-        area = 4.0 * np.pi * R * R
-    return float((f["m"] * radial_in).sum() / area)
+        return (float(radial_in.sum() / (2.0 * np.pi * R)),
+                float((radial_in / (2.0 * np.pi * r)).sum()))
+    R = (3.0 * vol / (4.0 * np.pi)) ** (1.0 / 3.0)
+    return (float(radial_in.sum() / (4.0 * np.pi * R * R)),
+            float((radial_in / (4.0 * np.pi * r * r)).sum()))
 
 
-def drop_2d_csf(sigma: float, side: float, r: float, until: float, nsamp: int = 60) -> dict:
-    """Müller et al. 2003 drop: as :func:`drop_2d`, plus the force-based jump
-    :func:`surface_force_pressure` sampled alike."""
+#: std of the random initial velocities of the CSF drops [m/s] (``seed`` given): it breaks the
+#: exact mirror symmetry of the square lattice (the relaxation flow is ~0.05 m/s)
+V_NOISE = 0.01
+
+
+def drop_2d_csf(sigma: float, side: float, r: float, until: float, nsamp: int = 60,
+                seed: int | None = None, solver: str = "wcsph") -> dict:
+    """Müller et al. 2003 drop: as :func:`drop_2d` (mean pressure of the particles deeper than
+    2h, last third of ``nsamp`` samples), plus the force's ``p_F`` and ``p_jump``
+    (:func:`surface_force_pressure`) sampled alike. ``seed``: start with random velocities of
+    std :data:`V_NOISE` (without, the square stays mirror-symmetric while it relaxes)."""
     sim = Simulation(scene("mueller2003", sigma, [{"start": [-side / 2, -side / 2],
-                                                   "end": [side / 2, side / 2]}], r))
+                                                   "end": [side / 2, side / 2]}], r,
+                           solver=solver))
+    if seed is not None:
+        v = sim.fluid["v"]
+        v += np.random.default_rng(seed).normal(0.0, V_NOISE, v.shape)
     m = float(sim.fluid["m"][0])
     R = float(np.sqrt(sim.fluid.n * m / RHO0 / np.pi))
     h = 4.0 * r
-    ts, ps, pf, rs = [], [], [], []
+    ts, ps, pf, pj, rs = [], [], [], [], []
     for k in range(1, nsamp + 1):
         sim.run(until=until * k / nsamp, fps=1e-3)
         x = sim.positions
         d = np.linalg.norm(x - x.mean(axis=0), axis=1)
         ts.append(sim.time)
         ps.append(float(sim.pressures[d < R - 2.0 * h].mean()))
-        pf.append(surface_force_pressure(sim))
+        f_area, f_jump = surface_force_pressure(sim)
+        pf.append(f_area)
+        pj.append(f_jump)
         rs.append(float(d.max() / R))
     tail = slice(2 * nsamp // 3, None)
     return {"R": R, "m": m, "p": float(np.mean(ps[tail])), "p_std": float(np.std(ps[tail])),
             "pF": float(np.mean(pf[tail])), "pF_std": float(np.std(pf[tail])),
+            "pJ": float(np.mean(pj[tail])), "pJ_std": float(np.std(pj[tail])),
             "t": np.array(ts), "p_hist": np.array(ps), "roundness": rs[-1], "n": sim.fluid.n}
+
+
+def csf_ensemble(sigma: float, side: float, r: float, until: float, seeds: int,
+                 solver: str = "wcsph", nsamp: int = 60) -> dict:
+    """:func:`drop_2d_csf` for seeds 0 .. seeds-1: means over the seeds of p, p_F, p_jump (each
+    already a time mean) and the spread (std over the seeds) of p; ``runs``: the single drops."""
+    runs = [drop_2d_csf(sigma, side, r, until, nsamp=nsamp, seed=k, solver=solver)
+            for k in range(seeds)]
+    out = {key: float(np.mean([e[key] for e in runs])) for key in ("p", "pF", "pJ", "roundness")}
+    out.update({"p_seed_std": float(np.std([e["p"] for e in runs])), "R": runs[0]["R"],
+                "n": runs[0]["n"], "runs": runs, "solver": solver})
+    return out
+
+
+def drop_3d_csf(sigma: float, R: float, r: float, until: float, nsamp: int = 20) -> dict:
+    """Müller et al. 2003, 3D: a sampled ball (:func:`ball_blocks`) at rest, no gravity, WCSPH
+    linear k = 200, nu = 1e-3 m^2/s; mean pressure of the particles deeper than 2h and the
+    force's ``p_jump`` (:func:`surface_force_pressure`), each over the last half of the run,
+    against the Laplace pressure 2 sigma / R."""
+    sim = Simulation(scene("mueller2003", sigma, ball_blocks(R, r), r, dim=3, nu=1e-3,
+                           stiffness=200.0))
+    m = float(sim.fluid["m"][0])
+    Rv = float((sim.fluid.n * m / RHO0 * 3 / (4 * np.pi)) ** (1 / 3))
+    h = 4.0 * r
+    ps, pj = [], []
+    for k in range(1, nsamp + 1):
+        sim.run(until=until * k / nsamp, fps=1e-3)
+        x = sim.positions
+        d = np.linalg.norm(x - x.mean(axis=0), axis=1)
+        ps.append(float(sim.pressures[d < Rv - 2.0 * h].mean()))
+        pj.append(surface_force_pressure(sim)[1])
+    tail = slice(nsamp // 2, None)
+    return {"N": sim.fluid.n, "R": Rv, "p": float(np.mean(ps[tail])),
+            "p_std": float(np.std(ps[tail])), "pJ": float(np.mean(pj[tail])),
+            "n_inner": int((d < Rv - 2.0 * h).sum())}
 
 
 def kb_sigma(name: str, coef: float, m: float, r: float, dim: int) -> tuple[float, float]:
@@ -365,12 +432,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--skip-2d", action="store_true", help="3D Rayleigh part only")
     ap.add_argument("--models", default=",".join([*MODELS, "mueller2003"]),
                     help="comma-separated model names")
+    ap.add_argument("--solvers", default=None,
+                    help="mueller2003 drops: comma-separated pressure solvers from wcsph, iisph, "
+                         "dfsph (default: all three; --quick: wcsph)")
+    ap.add_argument("--seeds", type=int, default=None,
+                    help="mueller2003 drops: random starts per drop (default 3; --quick: 1)")
     args = ap.parse_args(argv)
     chosen = args.models.split(",")
     unknown = sorted(set(chosen) - set(MODELS) - {"mueller2003"})
     if unknown:
         ap.error(f"--models: unknown {unknown}; expected names from "
                  f"{sorted([*MODELS, 'mueller2003'])}")
+    if args.solvers is None:
+        args.solvers = "wcsph" if args.quick else "wcsph,iisph,dfsph"
+    bad = sorted(set(args.solvers.split(",")) - {"wcsph", "iisph", "dfsph"})
+    if bad:
+        ap.error(f"--solvers: unknown {bad}; expected names from ['dfsph', 'iisph', 'wcsph']")
+    if args.seeds is None:
+        args.seeds = 1 if args.quick else 3
+    if args.seeds < 1:
+        ap.error(f"--seeds: {args.seeds}; expected at least 1")
     r = 0.005
     sides, until = ((0.10, 0.16), 1.0) if args.quick else ((0.10, 0.14, 0.20), 2.0)
     rows, hist, slabs = [], {}, {}
@@ -423,31 +504,46 @@ def main(argv: list[str] | None = None) -> int:
             ratio = sf / sl["sigma"]
             print(f"| {name} | {p0:.4g} | {sl['p']:.4g} | {sf:.4g} | {sl['sigma']:.4g} | "
                   f"{ratio:.3f} | {sf / skb:.3f} | {'yes' if abs(ratio - 1) <= 0.15 else 'no'} |")
-    csf = []
+    csf, csf_sym = [], []
     if not args.skip_2d and "mueller2003" in chosen:
         csf_sides = (0.10, 0.14, 0.20) if args.quick else (0.10, 0.14, 0.20, 0.28)
-        for side in csf_sides:
-            t0 = time.perf_counter()
-            csf.append(drop_2d_csf(CSF_SIGMA_2D, side, r, until))
-            print(f"  mueller2003 side {side}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+        solvers = args.solvers.split(",")
+        for solver in solvers:
+            for side in csf_sides:
+                t0 = time.perf_counter()
+                csf.append(csf_ensemble(CSF_SIGMA_2D, side, r, until, args.seeds, solver=solver))
+                print(f"  mueller2003 {solver} side {side}: {time.perf_counter() - t0:.0f} s",
+                      file=sys.stderr)
+        if "wcsph" in solvers:
+            for side in csf_sides:
+                csf_sym.append(drop_2d_csf(CSF_SIGMA_2D, side, r, until))
         print()
-        print(f"Müller et al. 2003 CSF, sigma = {CSF_SIGMA_2D:g} N (2D), same runs: p = mean "
-              "pressure deeper than 2h, p_F = the model force alone pushed onto the circle "
-              "(surface_force_pressure), last third of the run:")
-        print("| N | R [m] | max dist/R | p [Pa] (std) | p_F [Pa] (std) | sigma/R [Pa] | "
-              "p R / sigma | p_F R / sigma | within 15 % |")
+        print(f"Müller et al. 2003 CSF, sigma = {CSF_SIGMA_2D:g} N (2D), nu = 0.005 m^2/s, "
+              f"{until:g} s, random initial velocities (std {V_NOISE:g} m/s), mean over "
+              f"{args.seeds} seeds. p: mean pressure of the particles deeper than 2h (last third "
+              "of each run); p_jump, p_F: the model force alone, integrated along the radius "
+              "(the pressure jump it holds) and per area of the circle "
+              "(surface_force_pressure); target: p R / sigma = 1 within 15 %:")
+        print("| solver | N | R [m] | R/h | max dist/R | p R / sigma (seed std) | "
+              "p_jump R / sigma | p_F R / sigma | within 15 % |")
         print("|---|---|---|---|---|---|---|---|---|")
         for e in csf:
             q = e["p"] * e["R"] / CSF_SIGMA_2D
-            print(f"| {e['n']} | {e['R']:.4f} | {e['roundness']:.3f} | {e['p']:.4g} "
-                  f"({e['p_std']:.2g}) | {e['pF']:.4g} ({e['pF_std']:.2g}) | "
-                  f"{CSF_SIGMA_2D / e['R']:.4g} | {q:.3f} | "
+            print(f"| {e['solver']} | {e['n']} | {e['R']:.4f} | {e['R'] / (4 * r):.2f} | "
+                  f"{e['roundness']:.3f} | {q:.3f} ({e['p_seed_std'] * e['R']:.3f}) | "
+                  f"{e['pJ'] * e['R'] / CSF_SIGMA_2D:.3f} | "
                   f"{e['pF'] * e['R'] / CSF_SIGMA_2D:.3f} | "
                   f"{'yes' if abs(q - 1) <= 0.15 else 'no'} |")
-        inv = np.array([1 / e["R"] for e in csf])
-        sf, p0 = np.polyfit(inv, [e["p"] for e in csf], 1)
-        print(f"Fit p = p0 + sigma_fit / R: p0 = {p0:.4g} Pa, sigma_fit = {sf:.4g} N "
-              f"(sigma_fit / sigma = {sf / CSF_SIGMA_2D:.3f})")
+        if csf_sym:
+            print()
+            print("The same drops started at rest (the square stays mirror-symmetric), WCSPH, "
+                  "one run each:")
+            print("| N | R/h | p R / sigma (time std) | p_jump R / sigma | p_F R / sigma |")
+            print("|---|---|---|---|---|")
+            for e in csf_sym:
+                print(f"| {e['n']} | {e['R'] / (4 * r):.2f} | {e['p'] * e['R']:.3f} "
+                      f"({e['p_std'] * e['R']:.3f}) | {e['pJ'] * e['R']:.3f} | "
+                      f"{e['pF'] * e['R']:.3f} |")
     rays = []
     for name in ([] if args.skip_3d else [nm for nm in ("becker2007", "mueller2003")
                                           if nm in chosen]):
@@ -476,6 +572,19 @@ def main(argv: list[str] | None = None) -> int:
                   f"{ray['T_rayleigh']:.4g} | {ray['T_extrema']:.4g} | "
                   f"{ray['T_extrema'] / ray['T_rayleigh']:.3f} | {ray['T_measured']:.4g} "
                   f"({ray['crossings']}) |")
+    if not args.skip_3d and "mueller2003" in chosen:
+        t0 = time.perf_counter()
+        d3 = drop_3d_csf(5.0, 0.03 if args.quick else 0.04, 0.0025, 0.2 if args.quick else 0.4)
+        print(f"  mueller2003 3D drop at rest: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+        print()
+        print("3D drop at rest (mueller2003, sigma = 5 N/m, r = 2.5 mm, WCSPH linear k = 200, "
+              "nu = 1e-3 m^2/s, last half of the run):")
+        print("| N | R [m] | R/h | particles deeper than 2h | p R / (2 sigma) (std) | "
+              "p_jump R / (2 sigma) |")
+        print("|---|---|---|---|---|---|")
+        q = d3["R"] / (2 * 5.0)
+        print(f"| {d3['N']} | {d3['R']:.4f} | {d3['R'] / 0.01:.2f} | {d3['n_inner']} | "
+              f"{d3['p'] * q:.3f} ({d3['p_std'] * q:.3f}) | {d3['pJ'] * q:.3f} |")
     try:
         import matplotlib
 
@@ -495,20 +604,22 @@ def main(argv: list[str] | None = None) -> int:
             axs[1].plot(e["t"], e["p_hist"] - sl["p"], color=line[0].get_color())
     axs[0].set_xlabel("1/R [1/m]")
     axs[0].set_ylabel("p - p_slab [Pa] (dashed: sigma_slab / R)")
-    if rows or csf:
-        axs[0].legend(fontsize=8)
     axs[0].set_title("2D Laplace pressure")
     axs[1].set_xlabel("t [s]")
     axs[1].set_ylabel("p - p_slab [Pa]")
     axs[1].set_title("2D drops: interior pressure")
-    if csf:
-        inv = np.array([1 / e["R"] for e in csf])
-        line = axs[0].errorbar(inv, [e["p"] for e in csf], yerr=[e["p_std"] for e in csf],
-                               fmt="s", label="mueller2003 (p, p_slab = 0)")
+    for solver in dict.fromkeys(e["solver"] for e in csf):
+        sel = [e for e in csf if e["solver"] == solver]
+        inv = np.array([1 / e["R"] for e in sel])
+        line = axs[0].errorbar(inv, [e["p"] for e in sel],
+                               yerr=[e["p_seed_std"] for e in sel], fmt="s",
+                               label=f"mueller2003, {solver} (p, p_slab = 0)")
         xx = np.linspace(0, inv.max() * 1.1, 10)
         axs[0].plot(xx, CSF_SIGMA_2D * xx, "--", color=line[0].get_color())
-        for e in csf:
-            axs[1].plot(e["t"], e["p_hist"], color=line[0].get_color())
+        for e in sel:
+            axs[1].plot(e["runs"][0]["t"], e["runs"][0]["p_hist"], color=line[0].get_color())
+    if rows or csf:
+        axs[0].legend(fontsize=8)
     for name, ray in rays:
         axs[2].plot(ray["t"], ray["q"], label=f"{name}: T = {ray['T_extrema']:.3g} s, "
                     f"Rayleigh {ray['T_rayleigh']:.3g} s")
