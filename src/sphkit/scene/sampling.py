@@ -98,6 +98,51 @@ def lattice_block(start: ArrayLike, end: ArrayLike, r: float) -> np.ndarray:
     return _product([_axis_lattice(lo, hi, r) for lo, hi in zip(a, b, strict=True)])
 
 
+def hexagonal_block(start: ArrayLike, end: ArrayLike, r: float, spacing: float) -> np.ndarray:
+    """2D fluid particles filling ``[start, end]`` on a hexagonal lattice with rows along x.
+
+    The hexagonal (triangular) lattice is the packing a 2D SPH fluid at rest settles into: the
+    square lattice of :func:`lattice_block` is not stable under pressure in 2D and shears into
+    hexagonal grains with frozen-in defects while a column settles (see validation/README.md,
+    "2D hydrostatic columns"). Rows ``spacing * sqrt(3) / 2`` apart start at ``start + r`` and
+    stay at or below ``end - r``; every second row is shifted by ``spacing / 2`` along x and
+    holds the points that still fit. ``spacing`` comes from
+    :func:`sphkit.core.kernels.hexagonal_spacing` (the rest density with the square lattice's
+    particle mass).
+
+    Args:
+        start: lower corner [m], 2 components.
+        end: upper corner [m], 2 components.
+        r: particle radius [m].
+        spacing: nearest-neighbour distance of the lattice [m].
+
+    Returns:
+        ``(M, 2)`` float64 positions (``M`` = 0 when the block is thinner than ``2r``).
+    """
+    r = _check_radius(r)
+    a = _as_vector(start, "start")
+    b = _as_vector(end, "end")
+    if a.shape != (2,) or b.shape != (2,):
+        raise ValueError(f"hexagonal_block: start {a.tolist()} and end {b.tolist()}; expected "
+                         "2 components each (the hexagonal lattice is 2D)")
+    if not (spacing > 0.0 and np.isfinite(spacing)):
+        raise ValueError(f"hexagonal_block: spacing {spacing!r}; expected a positive number")
+    tol = _LATTICE_TOL * r
+    dy = spacing * np.sqrt(3.0) / 2.0
+    rows = []
+    for j in range(int(np.floor((b[1] - a[1] - 2.0 * r + tol) / dy)) + 1 if
+                   b[1] - a[1] - 2.0 * r + tol >= 0.0 else 0):
+        x0 = a[0] + r + (0.5 * spacing if j % 2 else 0.0)
+        span = b[0] - r - x0 + tol
+        if span < 0.0:
+            continue
+        xs = x0 + spacing * np.arange(int(np.floor(span / spacing)) + 1)
+        rows.append(np.stack([xs, np.full(len(xs), a[1] + r + j * dy)], axis=1))
+    if not rows:
+        return np.empty((0, 2), dtype=np.float64)
+    return np.concatenate(rows)
+
+
 def box_walls(
     lo: ArrayLike,
     hi: ArrayLike,

@@ -297,6 +297,10 @@ class FluidBlock(_Model):
     end: Vec = Field(description="upper corner [m]")
     material: str = "fluid"
     velocity: Vec | None = Field(None, description="initial velocity [m/s]")
+    lattice: Literal["square", "hexagonal"] = Field(
+        "square", description="'square': spacing 2r (SPlisHSPlasH's denseMode 0); 'hexagonal' "
+        "(2D only): rows along x at the spacing with the same particle mass and rest density "
+        "(2.145 r, cubic spline), the packing a 2D fluid at rest settles into")
 
     @model_validator(mode="after")
     def _ordered(self) -> FluidBlock:
