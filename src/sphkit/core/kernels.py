@@ -245,37 +245,16 @@ def _hexagonal_points(spacing: float, h: float) -> np.ndarray:
     return pts.reshape(-1, 2)
 
 
-def hexagonal_spacing(volume: float, name: str | int, h: float) -> float:
-    """Spacing of the 2D hexagonal lattice on which particles of ``volume`` have rest density.
 
-    Returns ``a`` with ``volume * sum_k W(|k|) = 1`` over the hexagonal (triangular) lattice of
-    spacing ``a`` (self included), i.e. ``rho_i = sum_j m W_ij = rho0`` for ``m = rho0 volume``.
-    With :func:`lattice_volume` of the square lattice of spacing 2r this is the spacing of the
-    close-packed 2D fluid that has the same particle mass and the same rest density as the square
-    lattice (2.1451 r for the cubic spline at h = 4r). The root nearest to the spacing of equal
-    cell area, ``sqrt(2 volume / sqrt(3))``, is taken (lattice sums oscillate slightly with the
-    spacing).
+def hexagonal_volume(spacing: float, name: str | int, h: float) -> float:
+    """Particle volume that reproduces the rest density on the 2D hexagonal lattice.
+
+    The rule of :func:`lattice_volume` applied to the hexagonal (triangular) lattice of the
+    given nearest-neighbour spacing: ``V = 1 / sum_k W(|k|)`` over its points (self included),
+    so that ``rho_i = sum_j rho0 V W_ij = rho0`` on the lattice. For the cubic spline at
+    h = 2 spacings (spacing 2r, h = 4r) ``V = 0.8696 (2r)^2`` (the lattice's cell is
+    ``sqrt(3)/2 (2r)^2 = 0.8660 (2r)^2``), and the lattice's gradient normalisation
+    ``sum_j V grad W_ij (x_j - x_i)^T`` is ``1.0004 I`` (square lattice of spacing 2r: 1.012).
     """
     k = Kernel(name, h, 2)
-
-    def excess(a: float) -> float:
-        return volume * float(k.w(np.linalg.norm(_hexagonal_points(a, h), axis=1)).sum()) - 1.0
-
-    a0 = float(np.sqrt(2.0 * volume / np.sqrt(3.0)))
-    grid = a0 * np.linspace(0.8, 1.25, 91)
-    f = np.array([excess(a) for a in grid])
-    change = np.nonzero(np.sign(f[:-1]) != np.sign(f[1:]))[0]
-    if len(change) == 0:
-        raise ValueError(f"hexagonal_spacing: no spacing near {a0:g} gives the rest density for "
-                         f"volume {volume:g}, kernel {name!r}, h {h:g}")
-    c = change[np.argmin(np.abs(grid[change] - a0))]
-    lo, hi = grid[c], grid[c + 1]
-    flo = f[c]
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        fm = excess(mid)
-        if np.sign(fm) == np.sign(flo):
-            lo, flo = mid, fm
-        else:
-            hi = mid
-    return float(0.5 * (lo + hi))
+    return float(1.0 / k.w(np.linalg.norm(_hexagonal_points(spacing, h), axis=1)).sum())
