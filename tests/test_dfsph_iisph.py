@@ -95,9 +95,10 @@ def test_hydrostatic_column(method: str, dim: int) -> None:
     # lattice it shears into hexagonal grains with frozen-in defects, where sum_j V_j grad W_ij
     # does not vanish (0.7-0.8 /m rms against 0.35 /m from a hexagonal start) and the symmetric
     # force's zeroth-order error 2 p_i sum_j V_j grad W_ij, large at the large absolute pressure
-    # of a deep column, needs a steeper mean pressure field: square start +0.5 .. +2.2 % (DFSPH, 21 widths
-    # 0.50-0.70 m, mean +1.4 %), hexagonal start -0.3 .. +0.3 % (mean +0.07 %, std 0.14 %); IISPH
-    # +0.7 .. +1.9 % / -0.2 .. +0.5 % (validation/README.md, "2D hydrostatic columns"). Measured
+    # of a deep column, needs a steeper mean pressure field: square start +0.5 .. +2.2 % (DFSPH,
+    # 21 widths 0.50-0.70 m, mean +1.4 %), hexagonal start -0.3 .. +0.3 % (mean +0.07 %, std
+    # 0.14 %); IISPH +0.7 .. +1.9 % / -0.2 .. +0.5 % (validation/README.md, "2D hydrostatic
+    # columns"). Measured
     # here 2026-11-26: DFSPH -0.2 / 0.0 / +0.3 %, IISPH -0.2 / +0.1 / +0.1 % (1 and 2 threads).
     # 3D (square lattice, 10 particles high): measured DFSPH -1.5 .. -1.4 %, IISPH +0.6 ..
     # +1.2 %; the mean is tested against 2 %, each column against 3 %.
