@@ -22,7 +22,7 @@ ETA = 0.05  # target average density error [%] (SPlisHSPlasH's shipped scenes us
 
 
 def _column_scene(method: str, dim: int, eta: float = ETA, max_iterations: int = 200,
-                  w: float = 0.6, bp: str = "mirror") -> Scene:
+                  w: float = 0.6, bp: str = "mirror", lattice: str = "square") -> Scene:
     r = 0.01 if dim == 2 else 0.02
     hgt = 0.5 if dim == 2 else 0.4
     gap = 2 * r
@@ -38,16 +38,22 @@ def _column_scene(method: str, dim: int, eta: float = ETA, max_iterations: int =
             "boundary": {"pressure": bp},
         },
         "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
-        "fluid_blocks": [{"start": start, "end": end}],
+        "fluid_blocks": [{"start": start, "end": end, "lattice": lattice}],
         "boxes": [{"min": [0.0] * dim, "max": box_max, "layers": 2}],
     })
 
 
 @cache
 def _settled(method: str, dim: int, w: float = 0.6, bp: str = "mls") -> dict:
-    """Run the column for 1.5 s, then average pressure and height per particle over 0.5 s."""
-    sim = Simulation(_column_scene(method, dim, w=w, bp=bp))
-    sim.run(until=1.5)
+    """Let the column settle (2D 1 s, 3D 1.5 s), then average pressure and height per particle
+    over 0.5 s. 2D columns start on the hexagonal lattice (``fluid_blocks[].lattice``), the
+    packing a 2D fluid at rest settles into (see test_hydrostatic_column); their slope is within
+    0.5 % of its final value after 0.25 s and within 0.2 % after 0.75 s (DFSPH 0.6 m, IISPH
+    0.7 m, 0.25 s averages up to 2.5 s)."""
+    lattice = "hexagonal" if dim == 2 else "square"
+    settle = 1.0 if dim == 2 else 1.5
+    sim = Simulation(_column_scene(method, dim, w=w, bp=bp, lattice=lattice))
+    sim.run(until=settle)
     n = sim.fluid.n
     p_sum, y_sum, its = np.zeros(n), np.zeros(n), []
 
@@ -57,7 +63,7 @@ def _settled(method: str, dim: int, w: float = 0.6, bp: str = "mls") -> dict:
         y_sum[:] += s.positions[order, 1]
         its.append(st.iterations)
 
-    sim.run(until=2.0, on_step=accumulate)
+    sim.run(until=settle + 0.5, on_step=accumulate)
     k = len(its)
     order = sim.fluid.order_by_id()
     return {"p": p_sum / k, "y": y_sum / k, "x": sim.positions[order], "rho": sim.densities,
@@ -79,18 +85,23 @@ def test_hydrostatic_column(method: str, dim: int) -> None:
     # column is only 10 particles high)
     assert res["vmean"] < 0.08
     # pressure slope over the middle 80% of the column, pressures and heights averaged over
-    # the last 0.5 s (the per-step split of the pressure between iterations fluctuates), with
-    # the boundary pressure extrapolated by MLS (Band et al. 2018; configuration.boundary.
-    # pressure 'mls'): with mirroring (p_b = p_i) a side wall cannot carry the vertical pressure
-    # gradient and the slope was 2D +2.5 % (DFSPH, mean of widths 0.5-0.7 m), 3D +4.5 % (DFSPH)
-    # / +8.4 % (IISPH). The settled packing is chaotic -- any change of the code, thread count
-    # or thread timing rearranges it and moves one column's slope by up to 1.5 % in 2D -- so
-    # three widths are measured and their mean is tested. 3D: the issue's 2 % for the mean,
-    # 3 % for each (measured 2026-11-26: DFSPH -1.1 .. -0.6 %, IISPH +0.6 .. +1.2 %). 2D: the
-    # columns away from the walls keep a +1..2 % excess from the packing (validation/README.md),
-    # measured DFSPH +1.0 .. +2.7 % (mean +1.2 % in a quiet run, +2.2 % under load), IISPH
-    # +0.8 .. +2.0 %: the mean is tested against 2.5 %, each against 3.5 % -- the issue's 2 %
-    # is reached on average, not for every 2D packing.
+    # the last 0.5 s (the per-step split of the pressure between iterations fluctuates by about
+    # 2 %), with the boundary pressure extrapolated by MLS (Band et al. 2018; configuration.
+    # boundary.pressure 'mls'): with mirroring (p_b = p_i) a side wall cannot carry the vertical
+    # pressure gradient and the slope was 2D +2.5 % (DFSPH, mean of widths 0.5-0.7 m), 3D +4.5 %
+    # (DFSPH) / +8.4 % (IISPH). The issue's 2 % is tested for every column.
+    # 2D: the column starts on the hexagonal lattice (touching discs, V = 1 / sum_k W over it;
+    # fluid_blocks[].lattice), the packing a 2D fluid at rest settles into. Sampled on the square
+    # lattice it shears into hexagonal grains with frozen-in defects, where sum_j V_j grad W_ij
+    # does not vanish (0.7-0.8 /m rms against 0.35 /m from a hexagonal start) and the symmetric
+    # force's zeroth-order error 2 p_i sum_j V_j grad W_ij, large at the large absolute pressure
+    # of a deep column, needs a steeper mean pressure field: square start +0.5 .. +2.2 % (DFSPH,
+    # 21 widths 0.50-0.70 m, mean +1.4 %), hexagonal start -0.3 .. +0.3 % (mean +0.07 %, std
+    # 0.14 %); IISPH +0.7 .. +1.9 % / -0.2 .. +0.5 % (validation/README.md, "2D hydrostatic
+    # columns"). Measured
+    # here 2026-11-26: DFSPH -0.2 / 0.0 / +0.3 %, IISPH -0.2 / +0.1 / +0.1 % (1 and 2 threads).
+    # 3D (square lattice, 10 particles high): measured DFSPH -1.5 .. -1.4 %, IISPH +0.6 ..
+    # +1.2 %; the mean is tested against 2 %, each column against 3 %.
     widths = (0.5, 0.6, 0.7) if dim == 2 else (0.56, 0.6, 0.64)  # 3D: multiples of 2r
     slopes = []
     for w in widths:
@@ -100,18 +111,20 @@ def test_hydrostatic_column(method: str, dim: int) -> None:
         sel = (y > 0.1 * top) & (y < 0.9 * top)
         slopes.append(-np.polyfit(y[sel], p[sel], 1)[0] / (1000.0 * G))
     err = np.array(slopes) - 1.0
-    mean_bound, each_bound = (0.025, 0.035) if dim == 2 else (0.02, 0.03)
+    mean_bound, each_bound = (0.02, 0.02) if dim == 2 else (0.02, 0.03)
     assert abs(err.mean()) < mean_bound, slopes
     assert np.all(np.abs(err) < each_bound), slopes
 
 
 @pytest.mark.parametrize("method", ["dfsph", "iisph"])
 def test_iterations_at_rest_are_few(method: str) -> None:
-    """Measured at rest (2D column, 25 particles deep, eta 0.05 %, dt 2 ms): DFSPH 10, IISPH 23
-    iterations per step on average (IISPH's warm start keeps only half the pressure); bound: 20
-    (DFSPH) and 50 (IISPH) on average."""
+    """Measured at rest (2D column, 23 rows deep, eta 0.05 %, dt 2 ms): DFSPH 21, IISPH 21
+    iterations per step on average (both warm starts keep only half the pressure; SPlisHSPlasH's
+    DFSPH takes 21 on the same column, 2.19 wheel; sphkit's DFSPH took 10 with the one-sided
+    update it used until 2026-11-26, see sphkit.pressure.dfsph); bound: 30 (DFSPH) and 50
+    (IISPH) on average."""
     its = _settled(method, 2)["iterations"]
-    bound = 20 if method == "dfsph" else 50
+    bound = 30 if method == "dfsph" else 50
     assert its.mean() <= bound, its.mean()
 
 

@@ -29,7 +29,7 @@ RHO0 = 1000.0
 
 def _column(method: str, dim: int = 2, width: float = 0.3, height: float = 0.5,
             r: float = 0.01, max_error: float = 0.05, nu: float = 0.01, margin: float = 0.2,
-            bp: str = "mirror", **pressure) -> Scene:
+            bp: str = "mirror", lattice: str = "square", **pressure) -> Scene:
     m = margin * r
     up = [m + height + 0.1] if dim == 2 else [m + height + 0.1, width + 2 * m]
     grav = [0.0, -G] + [0.0] * (dim - 2)
@@ -45,7 +45,7 @@ def _column(method: str, dim: int = 2, width: float = 0.3, height: float = 0.5,
                        "viscosity": {"method": "standard", "coefficient": nu,
                                      "boundary_coefficient": nu}}],
         "fluid_blocks": [{"start": [m] * dim,
-                          "end": [m + width, m + height, m + width][:dim]}],
+                          "end": [m + width, m + height, m + width][:dim], "lattice": lattice}],
         "boxes": [{"min": [0.0] * dim, "max": [width + 2 * m] + up, "layers": 2}],
     })
 
@@ -67,14 +67,15 @@ def _settle(sim: Simulation, until: float, window: float) -> dict:
     return {"p": acc["p"] / acc["k"], "x": acc["x"] / acc["k"], "its": np.array(acc["its"])}
 
 
-def _slope_error(x: np.ndarray, p: np.ndarray, r: float, box_width: float) -> float:
+def _slope_error(x: np.ndarray, p: np.ndarray, r: float, box_width: float,
+                 inner: bool = True) -> float:
     """Least-squares slope of p over height, relative to rho0 g, minus 1: middle 80% of the
-    column, particles at least 3r from the side walls."""
+    column, particles at least 3r from the side walls (all with ``inner=False``)."""
     y = x[:, 1]
     top = y.max()
     side = np.delete(x, 1, axis=1)
-    inner = np.all((side > 3 * r) & (side < box_width - 3 * r), axis=1)
-    sel = inner & (y > 0.1 * top) & (y < 0.9 * top)
+    keep = np.all((side > 3 * r) & (side < box_width - 3 * r), axis=1) if inner else True
+    sel = keep & (y > 0.1 * top) & (y < 0.9 * top)
     assert sel.sum() > 20
     return float(-np.polyfit(y[sel], p[sel], 1)[0] / (RHO0 * G) - 1.0)
 
@@ -157,33 +158,37 @@ def test_registry_and_parameters() -> None:
 # -- hydrostatic columns -----------------------------------------------------------------------
 
 def test_pcisph_hydrostatic_column_2d() -> None:
-    """2D column 0.3 x 0.5 m, r = 0.01, max_error 0.05 %, dt <= 2 ms, settled for 2 s.
+    """2D column 0.3 x 0.5 m, r = 0.01, max_error 0.05 %, dt <= 2 ms, settled for 2 s, sampled on
+    the hexagonal lattice (``fluid_blocks[].lattice``; the packing a 2D fluid at rest settles
+    into, see tests/test_dfsph_iisph.py::test_hydrostatic_column and validation/README.md).
 
     * mean compression <= 0.06 %: the solver stops at an average *predicted* compression <= 0.05 %
       and the last pressure increment only lowers it (measured 0.050 %);
-    * the top stays within one diameter of its start (measured 0.8 cm lower: the 0.2 r margins
-      and the top layer settling into the one below);
-    * pressure slope (least squares, middle 80 %, >= 3r from the walls), with the boundary
-      pressure extrapolated by MLS (Band et al. 2018, ``boundary.pressure: mls``): PCISPH
-      rebuilds the pressure from 0 every step and stops at the tolerance, so the slope of a
-      single step scatters (standard deviation 1.5 % at dt = 2 ms, more at smaller steps); the
-      pressure averaged over the last 0.5 s is tested against the issue's 2 % (measured +0.7 %,
-      with mirrored boundary pressure +0.4 %; the last step alone -0.3 %, tested against 5 %).
-      With mirroring the same average for widths 0.2 / 0.4 m, end times 1.5 / 2.5 s and
-      dt = 1 ms gave +4.1, +2.7, -1.7, +0.7 and -1.6 % (the settled particle arrangement
-      differs; IISPH shows the same spread);
-    * about 52 iterations per step at rest (g H dt^2 / (2 delta eta), see the module doc); five
-      steps hit the 100-iteration limit when the column lands after its 0.2 r drop (t = 0.03 s).
+    * the top stays within 1.5 diameters of its start (measured 1.9 cm lower: the block's odd
+      rows hold one particle less, a gap the fluid fills when it spreads to the walls);
+    * pressure slope (least squares, middle 80 %), with the boundary pressure extrapolated by MLS
+      (Band et al. 2018, ``boundary.pressure: mls``): PCISPH rebuilds the pressure from 0 every
+      step and stops at the tolerance, so the slope of a single step scatters (standard deviation
+      2.2 % over the last 0.5 s); the pressure averaged over the last 0.5 s is tested against the
+      issue's 2 %, for particles >= 3r from the walls (measured -0.5 %) and for the full width
+      (-0.2 %); the last step alone (measured -6.0 %, the extreme of the last 0.5 s, range -6.0
+      .. +4.2 %) against 8 %. Sampled on the square lattice the same column gave +0.7 % (>= 3r)
+      and +1.5 % (full width); 11 widths 0.5-0.7 m (validation/hydrostatic.py's column):
+      square +0.8 .. +2.0 %, hexagonal -0.4 .. +0.1 %;
+    * about 34 iterations per step at rest (g H dt^2 / (2 delta eta), see the module doc; 48 on
+      the square lattice); some steps hit the 100-iteration limit when the column lands after
+      its 0.2 r drop (t = 0.03 s).
     """
     r = 0.01
-    sim = Simulation(_column("pcisph", bp="mls"))
+    sim = Simulation(_column("pcisph", bp="mls", lattice="hexagonal"))
     top0 = sim.positions[:, 1].max()
     res = _settle(sim, until=2.0, window=0.5)
     assert _compression(sim) <= 0.0006
-    assert sim.positions[:, 1].max() >= top0 - 2 * r
+    assert sim.positions[:, 1].max() >= top0 - 3 * r
     box = 0.3 + 0.4 * r
     assert abs(_slope_error(res["x"], res["p"], r, box)) < 0.02
-    assert abs(_slope_error(sim.positions, sim.pressures, r, box)) < 0.05
+    assert abs(_slope_error(res["x"], res["p"], r, box, inner=False)) < 0.02
+    assert abs(_slope_error(sim.positions, sim.pressures, r, box)) < 0.08
     assert 20 <= res["its"][-100:].mean() <= 80
     assert sim.last.max_velocity < 0.1
     assert np.all(sim.pressures >= 0)

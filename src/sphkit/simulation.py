@@ -35,7 +35,7 @@ from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.koschier2017 import Koschier2017
 from sphkit.boundary.rigid import INSET, RigidBodies, body_from_mesh, box_wall, mesh_wall
 from sphkit.core.boundary_map import MapGeometry, WallMomentForce
-from sphkit.core.kernels import kernel_id, lattice_volume
+from sphkit.core.kernels import hexagonal_volume, kernel_id, lattice_volume
 from sphkit.core.neighbors import neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
@@ -353,7 +353,15 @@ class Simulation:
             return pts[(pts[:, 0] >= lo - 1e-9 * r) & (pts[:, 0] < lo + st.period - 1e-9 * r)]
 
         for k, blk in enumerate(scene.fluid_blocks):
-            pts = clip(sampling.lattice_block(blk.start, blk.end, r))
+            bvol = vol
+            if blk.lattice == "hexagonal":  # spacing 2r, V = 1 / sum_k W over that lattice
+                if dim != 2:
+                    raise SceneError(f"fluid_blocks[{k}].lattice: 'hexagonal' in {dim}D; "
+                                     "expected 'square' (the hexagonal lattice is 2D only)")
+                pts = clip(sampling.hexagonal_block(blk.start, blk.end, r))
+                bvol = hexagonal_volume(2.0 * r, st.kid, st.h)
+            else:
+                pts = clip(sampling.lattice_block(blk.start, blk.end, r))
             if len(pts) == 0:
                 raise SceneError(
                     f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
@@ -361,7 +369,7 @@ class Simulation:
                 )
             mat = scene.material(blk.material)
             vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
-            st.fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
+            st.fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * bvol, V0=bvol, v=vel,
                          rho=mat.density0)
         for k, ff in enumerate(scene.fluid_files):
             self._add_fluid_file(k, ff, vol)

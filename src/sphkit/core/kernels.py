@@ -235,3 +235,26 @@ def lattice_volume(spacing: float, name: str | int, h: float, dim: int) -> float
     axes = [np.arange(-n, n + 1) * spacing] * dim
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
     return float(1.0 / k.w(np.linalg.norm(grid, axis=1)).sum())
+
+
+def _hexagonal_points(spacing: float, h: float) -> np.ndarray:
+    """Points of the 2D hexagonal (triangular) lattice of the given spacing within ``h``."""
+    n = int(np.ceil(h / (0.5 * np.sqrt(3.0) * spacing))) + 2
+    i, j = np.meshgrid(np.arange(-2 * n, 2 * n + 1), np.arange(-n, n + 1), indexing="ij")
+    pts = np.stack([(i + 0.5 * (j % 2)) * spacing, j * 0.5 * np.sqrt(3.0) * spacing], axis=-1)
+    return pts.reshape(-1, 2)
+
+
+
+def hexagonal_volume(spacing: float, name: str | int, h: float) -> float:
+    """Particle volume that reproduces the rest density on the 2D hexagonal lattice.
+
+    The rule of :func:`lattice_volume` applied to the hexagonal (triangular) lattice of the
+    given nearest-neighbour spacing: ``V = 1 / sum_k W(|k|)`` over its points (self included),
+    so that ``rho_i = sum_j rho0 V W_ij = rho0`` on the lattice. For the cubic spline at
+    h = 2 spacings (spacing 2r, h = 4r) ``V = 0.8696 (2r)^2`` (the lattice's cell is
+    ``sqrt(3)/2 (2r)^2 = 0.8660 (2r)^2``), and the lattice's gradient normalisation
+    ``sum_j V grad W_ij (x_j - x_i)^T`` is ``1.0004 I`` (square lattice of spacing 2r: 1.012).
+    """
+    k = Kernel(name, h, 2)
+    return float(1.0 / k.w(np.linalg.norm(_hexagonal_points(spacing, h), axis=1)).sum())

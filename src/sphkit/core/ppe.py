@@ -57,8 +57,10 @@ _JIT = dict(cache=True, fastmath=True)
 def jacobi_update(q, s, Ap, ap_factor, scale, omega, active, one_sided):
     """One Jacobi update of q from the residual ``r_i = s_i - f Ap_i`` (f = ap_factor).
 
-    * ``one_sided`` False (IISPH): ``q_i <- max(q_i - omega scale_i r_i, 0)``;
-    * ``one_sided`` True (DFSPH as SPlisHSPlasH implements it): only compressive residuals act,
+    * ``one_sided`` False (IISPH, and DFSPH with omega 0.5 as SPlisHSPlasH's
+      ``TimeStepDFSPH``): ``q_i <- max(q_i - omega scale_i r_i, 0)``;
+    * ``one_sided`` True (the update SPlisHSPlasH's DFSPH keeps commented out; no sphkit solver
+      uses it since 2026-11-26, see :mod:`sphkit.pressure.dfsph`): only compressive residuals act,
       ``r_i <- min(r_i, 0)`` (0 for inactive particles), ``q_i <- q_i - omega scale_i r_i``, so q
       only grows from its warm start and needs no clamp.
 

@@ -30,11 +30,18 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
 warm start, as SPlisHSPlasH does; the reported pressure is ``p = (kappa + kappa^v) rho^2 / rho0``
 (both solves apply pressure impulses within the step).
 
-As in SPlisHSPlasH's current code (not the papers' ``max(..., 0)`` form), the iterations are
-one-sided: only compressive residuals ``min(s_i - A kappa_i, 0)`` act, with weight 1, so kappa
-grows monotonically from its warm start and needs no clamp
-(:func:`sphkit.core.ppe.jacobi_update`). Both
-solvers are :func:`sphkit.core.solver.jacobi_ppe` with A from :mod:`sphkit.core.ppe`.
+The iterations are SPlisHSPlasH's (``TimeStepDFSPH::pressureSolveIteration`` /
+``divergenceSolveIteration``): the relaxed Jacobi update ``kappa_i <- max(kappa_i - 0.5 (s_i -
+A kappa_i) alpha_i, 0)`` in both directions, clamped at 0; only the *error* counts compressive
+residuals ``min(s_i - A kappa_i, 0)`` alone. (Until 2026-11-26 sphkit used the line SPlisHSPlasH
+keeps commented out, ``kappa_i -= min(s_i - A kappa_i, 0) alpha_i``: one-sided, weight 1, so
+kappa could only grow from its halved warm start. At rest that turned the pressure into a
+relaxation oscillation -- it decayed by half per step until the column compressed, then was
+rebuilt in one step -- with a per-step hydrostatic slope scattering by +-94 % (SPlisHSPlasH's
+2D column: +-1.9 %, sphkit's now +-1.8 %), a column that never came to rest (mean speed 0.02
+m/s) and a time-averaged 2D slope 1-2 % steep; see validation/README.md, "2D hydrostatic
+columns".) Both solvers are :func:`sphkit.core.solver.jacobi_ppe` with A from
+:mod:`sphkit.core.ppe`.
 """
 
 from __future__ import annotations
@@ -71,6 +78,12 @@ def _divergence_source(div, active, dt, kprev, s, kappa):
         else:
             s[i] = 0.0
             kappa[i] = 0.0
+
+
+#: Jacobi relaxation of both solves: SPlisHSPlasH's ``p_rho2_i = max(p_rho2_i - 0.5 (s_i -
+#: aij_pj) factor_i, 0)`` (``TimeStepDFSPH::pressureSolveIteration`` and
+#: ``divergenceSolveIteration``).
+OMEGA = 0.5
 
 
 class DFSPH:
@@ -121,8 +134,8 @@ class DFSPH:
         _divergence_source(div, active, dt, f["dfsph_kappa_v"], s, kappa)
         ones = np.ones_like(div)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
-                                           alpha / dt, dt, 1.0, active, error_factor=dt,
-                                           one_sided=True, grads=self._grads)
+                                           alpha / dt, dt, OMEGA, active, error_factor=dt,
+                                           grads=self._grads)
         f["v"] += dt * a
         f["dfsph_kappa_v"] = kappa * dt
         self._kappa_v = kappa
@@ -141,8 +154,8 @@ class DFSPH:
         ones = np.ones_like(div)
         active = np.ones(f.n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
-                                         alpha / (dt * dt), dt * dt, 1.0, active,
-                                         one_sided=True, grads=self._grads)
+                                         alpha / (dt * dt), dt * dt, OMEGA, active,
+                                         grads=self._grads)
         self._grads = None
         f["a"] += a
         f["dfsph_kappa"] = kappa * (dt * dt)

@@ -98,6 +98,49 @@ def lattice_block(start: ArrayLike, end: ArrayLike, r: float) -> np.ndarray:
     return _product([_axis_lattice(lo, hi, r) for lo, hi in zip(a, b, strict=True)])
 
 
+def hexagonal_block(start: ArrayLike, end: ArrayLike, r: float) -> np.ndarray:
+    """2D fluid particles filling ``[start, end]`` on a hexagonal lattice of spacing ``2r``.
+
+    The hexagonal (triangular) lattice of touching discs of radius r, rows along x: the packing
+    a 2D SPH fluid at rest settles into. The square lattice of :func:`lattice_block` is not
+    stable under pressure in 2D; a column sampled on it shears into hexagonal grains with
+    frozen-in defects while it settles (see validation/README.md, "2D hydrostatic columns").
+    Rows ``sqrt(3) r`` apart start at ``start + r`` and stay at or below ``end - r``; every
+    second row is shifted by ``r`` along x and holds the points that still fit. The particles'
+    volume is :func:`sphkit.core.kernels.hexagonal_volume` of this lattice (0.8696 (2r)^2 for
+    the cubic spline), so that the block is at rest density.
+
+    Args:
+        start: lower corner [m], 2 components.
+        end: upper corner [m], 2 components.
+        r: particle radius [m].
+
+    Returns:
+        ``(M, 2)`` float64 positions (``M`` = 0 when the block is thinner than ``2r``).
+    """
+    r = _check_radius(r)
+    a = _as_vector(start, "start")
+    b = _as_vector(end, "end")
+    if a.shape != (2,) or b.shape != (2,):
+        raise ValueError(f"hexagonal_block: start {a.tolist()} and end {b.tolist()}; expected "
+                         "2 components each (the hexagonal lattice is 2D)")
+    spacing = 2.0 * r
+    tol = _LATTICE_TOL * r
+    dy = spacing * np.sqrt(3.0) / 2.0
+    height = b[1] - a[1] - 2.0 * r + tol
+    rows = []
+    for j in range(int(np.floor(height / dy)) + 1 if height >= 0.0 else 0):
+        x0 = a[0] + r + (0.5 * spacing if j % 2 else 0.0)
+        span = b[0] - r - x0 + tol
+        if span < 0.0:
+            continue
+        xs = x0 + spacing * np.arange(int(np.floor(span / spacing)) + 1)
+        rows.append(np.stack([xs, np.full(len(xs), a[1] + r + j * dy)], axis=1))
+    if not rows:
+        return np.empty((0, 2), dtype=np.float64)
+    return np.concatenate(rows)
+
+
 def box_walls(
     lo: ArrayLike,
     hi: ArrayLike,

@@ -291,12 +291,17 @@ class Material(_Model):
 
 
 class FluidBlock(_Model):
-    """An axis-aligned block of fluid, sampled on a lattice of spacing 2r."""
+    """An axis-aligned block of fluid, sampled on a lattice of spacing 2r (square, or hexagonal
+    in 2D)."""
 
     start: Vec = Field(description="lower corner [m]")
     end: Vec = Field(description="upper corner [m]")
     material: str = "fluid"
     velocity: Vec | None = Field(None, description="initial velocity [m/s]")
+    lattice: Literal["square", "hexagonal"] = Field(
+        "square", description="'square': spacing 2r (SPlisHSPlasH's denseMode 0); 'hexagonal' "
+        "(2D only): touching discs (spacing 2r, rows along x), the packing a 2D fluid at rest "
+        "settles into; particle volume 1 / sum_k W over the lattice as for 'square'")
 
     @model_validator(mode="after")
     def _ordered(self) -> FluidBlock:
