@@ -124,6 +124,11 @@ class DFSPH:
                                            alpha / dt, dt, 1.0, active, error_factor=dt,
                                            one_sided=True, grads=self._grads)
         f["v"] += dt * a
+        response = state.boundary_response
+        if response is not None:
+            # strong coupling: the boundary that yielded to kappa^v in the solve takes its
+            # velocity change too, so that the density solve sees the bodies as the fluid does
+            state.boundary["v"] += dt * response(kappa, self._grads.gwb)
         f["dfsph_kappa_v"] = kappa * dt
         self._kappa_v = kappa
         self._div_stats = (its, avg)
