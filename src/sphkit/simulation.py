@@ -464,7 +464,6 @@ class Simulation:
             self.boundary_model.rebuild(self.state)
         if rigid.any_dynamic:  # strong coupling: the pressure solves see the bodies give way
             self.state.boundary_response = rigid.pressure_response
-            self.state.boundary_response_bound = rigid.coupling_bound
         return rigid
 
     def _add_fluid_file(self, k: int, ff, vol: float) -> None:

@@ -252,102 +252,6 @@ def _point_accel(bx, body, c, acc, ab):
 
 
 @numba.njit(**_JIT)
-def _body_sums(i, boff, bidx, gwb, bmirror, bx, body, c, inv_m, sc):
-    """For fluid particle i and every dynamic body k among its boundary neighbours:
-    ``sc[k, 0:6] = sum_b (V_b grad W_ib, q_b x V_b grad W_ib)`` (the particle's row of the body
-    coupling, q_b = x_b - c_k) and ``sc[k, 6:12]`` the same with ``(1 + m_b)`` (its column, up to
-    m_i w_i); ``sc[k, 12]`` = 0 marks the body as not yet visited by the caller."""
-    dim = bx.shape[0]
-    for kk in range(boff[i], boff[i + 1]):
-        k = body[bidx[kk]] - 1
-        if k >= 0:
-            for t in range(13):
-                sc[k, t] = 0.0
-    for kk in range(boff[i], boff[i + 1]):
-        b = bidx[kk]
-        k = body[b] - 1
-        if k < 0 or inv_m[k] == 0.0:
-            continue
-        g0 = gwb[0, kk]
-        g1 = gwb[1, kk]
-        g2 = gwb[2, kk] if dim == 3 else 0.0
-        q0 = bx[0, b] - c[k, 0]
-        q1 = bx[1, b] - c[k, 1]
-        q2 = bx[2, b] - c[k, 2] if dim == 3 else 0.0
-        r0 = q1 * g2 - q2 * g1
-        r1 = q2 * g0 - q0 * g2
-        r2 = q0 * g1 - q1 * g0
-        f = 1.0 + bmirror[b]
-        sc[k, 0] += g0
-        sc[k, 1] += g1
-        sc[k, 2] += g2
-        sc[k, 3] += r0
-        sc[k, 4] += r1
-        sc[k, 5] += r2
-        sc[k, 6] += f * g0
-        sc[k, 7] += f * g1
-        sc[k, 8] += f * g2
-        sc[k, 9] += f * r0
-        sc[k, 10] += f * r1
-        sc[k, 11] += f * r2
-
-
-@numba.njit(**_JIT)
-def _w_norm(sc, k, o, inv_m, Iinv):
-    """``sqrt(|u|^2 / M + v . I_w^-1 v)`` of ``(u, v) = sc[k, o:o + 6]``: the size of a
-    generalized force on body k in the metric of its inverse mass (Cauchy-Schwarz factor)."""
-    u = sc[k, o] ** 2 + sc[k, o + 1] ** 2 + sc[k, o + 2] ** 2
-    s = inv_m[k] * u
-    for a in range(3):
-        for e in range(3):
-            s += sc[k, o + 3 + a] * Iinv[k, a, e] * sc[k, o + 3 + e]
-    return math.sqrt(max(s, 0.0))
-
-
-@numba.njit(parallel=True, **_JIT)
-def _coupling_columns(m, w, boff, bidx, gwb, bmirror, bx, body, c, inv_m, Iinv, nchunk, scratch,
-                      out):
-    """``out[chunk, k] = sum_j m_j w_j |J_jk|_W`` over the fluid particles of each chunk: the
-    sizes of the columns of the body coupling (see :meth:`RigidBodies.coupling_bound`)."""
-    n = m.shape[0]
-    out[:] = 0.0
-    per = (n + nchunk - 1) // nchunk
-    for ch in numba.prange(nchunk):
-        sc = scratch[ch]
-        for i in range(ch * per, min(n, (ch + 1) * per)):
-            if boff[i + 1] == boff[i]:
-                continue
-            _body_sums(i, boff, bidx, gwb, bmirror, bx, body, c, inv_m, sc)
-            for kk in range(boff[i], boff[i + 1]):
-                k = body[bidx[kk]] - 1
-                if k < 0 or inv_m[k] == 0.0 or sc[k, 12] != 0.0:
-                    continue
-                sc[k, 12] = 1.0
-                out[ch, k] += m[i] * w[i] * _w_norm(sc, k, 6, inv_m, Iinv)
-
-
-@numba.njit(parallel=True, **_JIT)
-def _coupling_rows(boff, bidx, gwb, bmirror, bx, body, c, inv_m, Iinv, S, nchunk, scratch, out):
-    """``out[i] = sum_k |g_ik|_W S_k``: Cauchy-Schwarz bound of the row sums of the body
-    coupling (see :meth:`RigidBodies.coupling_bound`)."""
-    n = out.shape[0]
-    per = (n + nchunk - 1) // nchunk
-    for ch in numba.prange(nchunk):
-        sc = scratch[ch]
-        for i in range(ch * per, min(n, (ch + 1) * per)):
-            out[i] = 0.0
-            if boff[i + 1] == boff[i]:
-                continue
-            _body_sums(i, boff, bidx, gwb, bmirror, bx, body, c, inv_m, sc)
-            for kk in range(boff[i], boff[i + 1]):
-                k = body[bidx[kk]] - 1
-                if k < 0 or inv_m[k] == 0.0 or sc[k, 12] != 0.0:
-                    continue
-                sc[k, 12] = 1.0
-                out[i] += _w_norm(sc, k, 0, inv_m, Iinv) * S[k]
-
-
-@numba.njit(**_JIT)
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
@@ -637,11 +541,6 @@ class RigidBodies:
         # bodies without particles (density / volume maps): the map model writes the virtual
         # boundary particles' positions and velocities each step, place() leaves them alone
         self._particles = bool(np.any(body > 0))
-        # the bodies' particles in their frames, for the mirror zone (_mirror_zone)
-        from scipy.spatial import cKDTree
-
-        self._trees = [cKDTree(bd["x_body"][:, s].T) if s.size else None for s in self._sel]
-        self._mirror0: np.ndarray | None = None
         self._verts, self._sdf, self._radius = [], [], []
         for k, rb in enumerate(self.bodies):
             if k < len(self.meshes):
@@ -744,84 +643,12 @@ class RigidBodies:
         _point_accel(bd["x"], bd["rigid_body"], self._c, acc, ab)
         return ab
 
-    def coupling_bound(self, w: np.ndarray, gwb: np.ndarray) -> np.ndarray:
-        """Strong coupling's share of the Jacobi diagonals (the state's
-        ``boundary_response_bound``, used by :func:`sphkit.core.solver.jacobi_ppe`).
-
-        Through a body, the pressure variable q_j of every fluid particle next to it changes the
-        divergence of every other one: the coupling ``C_ij = g_i . W J_j m_j w_j`` (``g_i``: the
-        particle's summed ``(V_b grad W_ib, q_b x V_b grad W_ib)`` over the body's particles,
-        ``J_j`` the same with ``1 + m_b``, W = diag(1/M, I_w^-1)) has rank 6 (3 in 2D) and can
-        far outweigh the fluid diagonal: a particle pressed between a body and a wall has a
-        near-zero diagonal (its pressure pushes it both ways) but moves the body, and all the
-        particles under a body push it at once. Plain Jacobi then overshoots by a factor of up
-        to the number of particles pushing (measured: the Jacobi-scaled coupling reached
-        eigenvalues of 5-11 just before a 2D heavy square blew up). As mass splitting does for
-        parallel Jacobi on rigid-body contacts (Tonge, Benevolenski and Voroshilov 2012, "Mass
-        splitting for jitter-free parallel rigid body simulation", ACM TOG 31(4)), each
-        particle's diagonal takes the body's response to all of them: the returned
-        ``bound_i = |g_i|_W sum_j m_j w_j |J_j|_W >= sum_j |C_ij|`` (Cauchy-Schwarz), summed over
-        bodies, is added to the diagonal. This changes the step size only, not the solution."""
-        st = self._state
-        f, bd = st.fluid, st.boundary
-        nb = len(self.bodies)
-        inv_m = np.array([1.0 / b.mass if b.dynamic else 0.0 for b in self.bodies])
-        Iinv = np.ascontiguousarray(np.array(self._Iinv, dtype=np.float64).reshape(nb, 3, 3))
-        nchunk = max(1, min(64, f.n // 256))
-        scratch = np.zeros((nchunk, nb, 13))
-        cols = np.empty((nchunk, nb))
-        args = (st.nl_fb.offsets, st.nl_fb.indices, gwb, bd["pressure_mirror"], bd["x"],
-                bd["rigid_body"], self._c, inv_m, Iinv)
-        _coupling_columns(f["m"], np.ascontiguousarray(w), *args, nchunk, scratch, cols)
-        out = np.empty(f.n)
-        _coupling_rows(*args, cols.sum(axis=0), nchunk, scratch, out)
-        return out
-
     def begin_step(self, state: SimState) -> None:
-        """Cache this step's centres and world inverse inertias for :meth:`pressure_response`;
-        set the boundary pressure mirroring near the bodies (:meth:`_mirror_zone`)."""
+        """Cache this step's centres and world inverse inertias for :meth:`pressure_response`."""
         self._state = state
         self._c = np.array([b.c for b in self.bodies])
         self._Iinv = [np.linalg.inv(b.world_inertia()) if b.dynamic else np.zeros((3, 3))
                       for b in self.bodies]
-        self._mirror_zone(state)
-
-    def _mirror_zone(self, state: SimState) -> None:
-        """Boundary field ``pressure_mirror``: 0 on the bodies' particles and on the static
-        boundary particles within 2h of a body's particle, the static value elsewhere.
-
-        Every fluid particle that sees a body thus meets the same one-sided boundary term
-        (SPlisHSPlasH's, m_b = 0) on all its boundary neighbours. Equal factors make its push
-        the gradient of its density (a particle between a body and a wall is not pushed where
-        its density is stationary), and m_b = 0 keeps the pressure operator definite: with
-        full mirroring on both sides (m_b = 1 on body and floor), two fluid particles stacked
-        between a body and the floor make ``A`` indefinite, each mirrored wall pushing its
-        particle into the other harder than they repel (1D model: indefinite for mutual
-        gradients between 1/2 and 1 of the wall's). Measured on the 2D heavy square: largest
-        eigenvalue of that 2x2 block +4e-4 with mirroring on both sides, -1.5e-3 one-sided;
-        the one-sided Jacobi then grew the pair's pressure by 9 % per sweep to 5e5 Pa and the
-        run blew up. Fluid next to a body sees the same wall term as far from walls (body
-        particles within h, walls within h of the fluid particle: within 2h of the body)."""
-        if not self._particles:
-            return
-        bd = state.boundary
-        if self._mirror0 is None or self._mirror0.shape[0] != bd.n:
-            self._mirror0 = np.where(bd["rigid_body"] > 0, 0.0, bd["pressure_mirror"])
-        m = self._mirror0.copy()
-        static = np.flatnonzero((bd["rigid_body"] == 0) & (m != 0.0))
-        if static.size:
-            xs = np.zeros((3, static.size))
-            xs[: state.dim] = bd["x"][:, static]
-            reach = 2.0 * state.h
-            for k, b in enumerate(self.bodies):
-                near = np.flatnonzero(np.linalg.norm(xs - b.c[:, None], axis=0)
-                                      < self._radius[k] + reach)
-                if near.size == 0 or self._trees[k] is None:
-                    continue
-                xl = (b.R.T @ (xs[:, near] - b.c[:, None]))[: state.dim]
-                d, _j = self._trees[k].query(xl.T, distance_upper_bound=reach)
-                m[static[near[np.isfinite(d)]]] = 0.0
-        bd["pressure_mirror"][:] = m
 
     # -- time integration -----------------------------------------------------------------------
     def advance(self, state: SimState, dt: float, time: float) -> None:

@@ -187,11 +187,6 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     Ap = np.empty(f.n, dtype=x.dtype)
     still = np.zeros_like(state.boundary["x"])  # boundary particles take no pressure accel.
     response = state.boundary_response  # ... unless they yield to it (dynamic rigid bodies)
-    bound = state.boundary_response_bound
-    if response is not None and bound is not None:
-        # the yielding boundary couples the particles around it: its share of the diagonal
-        # (sphkit.boundary.rigid.RigidBodies.coupling_bound) shortens their Jacobi steps
-        scale = scale / (1.0 + scale * ap_factor * bound(w, g.gwb))
 
     k = np.empty_like(q)
     mirror = boundary_mirror(state)

@@ -55,10 +55,6 @@ class SimState:
     #: Jacobi sweep (:func:`sphkit.core.solver.jacobi_ppe`; ``gwb`` the cached ``V_b grad W_ib``),
     #: e.g. dynamic rigid bodies pushed by the fluid; None: the boundary does not yield
     boundary_response: Any = None
-    #: with ``boundary_response``: ``f(w, gwb) -> (N,)`` a bound of the row sums of the
-    #: coupling the response adds to the pressure operator (per unit of q, for k = w q), which
-    #: the Jacobi sweeps add to their diagonals (:func:`sphkit.core.solver.jacobi_ppe`)
-    boundary_response_bound: Any = None
 
     @property
     def periodic(self) -> tuple[float, float] | None:
