@@ -184,7 +184,7 @@ def test_2d_heavy_square_sinks_and_rests_on_floor(tmp_path: Path) -> None:
       above the floor (no fluid layer left under it; measured 0.00 mm), |v| < 0.01 m/s and
       |omega| < 0.1 rad/s (measured 8.5e-4 m/s and 2e-14 rad/s).
 
-    Known fragile (validation/README.md, "Rigid bodies"): of six neighbouring set-ups (box
+    Known fragile (validation/README.md, "Rigid bodies in 2D"): of six neighbouring set-ups (box
     layers 1 or 2, start 7, 7.5 or 8 cm), five land like this one and the 2-layer, 7.5 cm one
     still blows up; the film under the body is ejected by a runaway of the Jacobi iterations,
     not by a resolved flow."""
