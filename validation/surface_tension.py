@@ -239,6 +239,17 @@ def surface_force_pressure(sim: Simulation) -> tuple[float, float]:
       2 sigma/R (3D). p_F is smaller by the mean depth of the force band over R.
 
     Both check the force independently of the pressure solver."""
+    radial_in, r, R, dim = _radial_surface_force(sim)
+    if dim == 2:
+        return (float(radial_in.sum() / (2.0 * np.pi * R)),
+                float((radial_in / (2.0 * np.pi * r)).sum()))
+    return (float(radial_in.sum() / (4.0 * np.pi * R * R)),
+            float((radial_in / (4.0 * np.pi * r * r)).sum()))
+
+
+def _radial_surface_force(sim: Simulation) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """Müller 2003 force alone: (``m_i a_r,i`` inward radial, distances d_i from the centre of
+    mass, volume radius R, dim). Needs a simulation that has taken a step (neighbour lists)."""
     st = sim.state
     f = st.fluid
     model = next(fo for fo in sim.forces if isinstance(fo, Mueller2003))
@@ -252,13 +263,22 @@ def surface_force_pressure(sim: Simulation) -> tuple[float, float]:
     radial_in = f["m"] * (-(f["a"] * d).sum(axis=0) / r)
     f["a"][:] = a_save
     vol = float(f["m"].sum()) / RHO0
-    if st.dim == 2:
-        R = np.sqrt(vol / np.pi)
-        return (float(radial_in.sum() / (2.0 * np.pi * R)),
-                float((radial_in / (2.0 * np.pi * r)).sum()))
-    R = (3.0 * vol / (4.0 * np.pi)) ** (1.0 / 3.0)
-    return (float(radial_in.sum() / (4.0 * np.pi * R * R)),
-            float((radial_in / (4.0 * np.pi * r * r)).sum()))
+    R = np.sqrt(vol / np.pi) if st.dim == 2 else (3.0 * vol / (4.0 * np.pi)) ** (1.0 / 3.0)
+    return radial_in, r, float(R), st.dim
+
+
+def mode_lever(sim: Simulation, l: int = 2) -> float:
+    """``<(d/R)^(l+1)>`` over the Müller 2003 force of a 3D drop at rest, weighted by each
+    particle's share of the pressure jump (``m_i a_r,i / (4 pi d_i^2)``, see
+    :func:`surface_force_pressure`): the factor by which a force that holds the right jump but
+    acts at depth d below the surface R drives the mode-l potential flow ``phi ~ r^l P_l``.
+    Its power on that flow is ``sum_i F_i . grad phi(x_i) ~ sum_i (jump share)_i d_i^(l+1)``,
+    against ``jump R^(l+1)`` for a force on the surface itself, so the mode's stiffness, and
+    omega^2, are this factor times Rayleigh's; the predicted period ratio is its -1/2 power
+    (validation/README.md)."""
+    radial_in, r, R, _ = _radial_surface_force(sim)
+    w = radial_in / (r * r)
+    return float((w * (r / R) ** (l + 1)).sum() / w.sum())
 
 
 #: std of the random initial velocities of the CSF drops [m/s] (``seed`` given): it breaks the
@@ -371,6 +391,7 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
     if relax > 0.0:
         sim.run(until=relax, fps=1e-3)
         sim.velocities[:] = 0.0
+    lever = mode_lever(sim) if name == "mueller2003" and relax > 0.0 else float("nan")
     t_kick = sim.time
     x = sim.positions
     c = x.mean(axis=0)
@@ -404,7 +425,8 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
     return {"N": sim.fluid.n, "R": Rv, "sigma": sigma, "p_int": pint,
             "T_rayleigh": 2 * np.pi / omega, "T_measured": period, "crossings": len(cross0),
             "T_extrema": period_from_extrema(t, q0), "t": t, "q": q0,
-            **damped_fit(t, q0, omega), "gamma_lamb": 5.0 * nu / Rv**2, "relax": relax}
+            **damped_fit(t, q0, omega), "gamma_lamb": 5.0 * nu / Rv**2, "relax": relax,
+            "lever": lever}
 
 
 def damped_fit(t: np.ndarray, q: np.ndarray, omega: float) -> dict:
@@ -616,8 +638,9 @@ def main(argv: list[str] | None = None) -> int:
               "gamma: fitted damping rate, Lamb: 5 nu / R^2)")
         print("| model | N | R [m] | R/h | relax [s] | sigma [N/m] | period Rayleigh [s] | "
               "period, extrema [s] | ratio | period, fit [s] (ratio) | gamma, Lamb [1/s] | "
-              "fit resid | period, zero crossings [s] (count) |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+              "fit resid | period, zero crossings [s] (count) | <(d/R)^3> of the force at the "
+              "kick | predicted ratio <(d/R)^3>^(-1/2) |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for name, ray in rays:
             print(f"| {name} | {ray['N']} | {ray['R']:.4f} | {ray['R'] / ray['h']:.2f} | "
                   f"{ray['relax']:.1f} | {ray['sigma']:.4g} | "
@@ -625,7 +648,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{ray['T_extrema'] / ray['T_rayleigh']:.3f} | {ray['T_fit']:.4g} "
                   f"({ray['T_fit'] / ray['T_rayleigh']:.3f}) | {ray['gamma']:.2f}, "
                   f"{ray['gamma_lamb']:.2f} | {ray['fit_resid']:.3f} | {ray['T_measured']:.4g} "
-                  f"({ray['crossings']}) |")
+                  f"({ray['crossings']}) | {ray['lever']:.3f} | {ray['lever'] ** -0.5:.3f} |")
     if not args.skip_3d and "mueller2003" in chosen:
         t0 = time.perf_counter()
         d3 = drop_3d_csf(5.0, 0.03 if args.quick else 0.04, 0.0025, 0.2 if args.quick else 0.4)
