@@ -44,11 +44,18 @@ integral along the radius (the jump it holds at rest, ``grad p = f``; what p mus
 rest (WCSPH) and a 3D ball at rest (2 sigma/R). 3D oscillation: the Rayleigh drop above with
 sigma = 5 N/m (period 0.25 s; the capillary time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` =
 2.0 ms is far above WCSPH's acoustic step ``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s.
-The rest shape of the sampled ball drifts while it oscillates, so the period is taken from like
-extrema (:func:`period_from_extrema`); the zero-crossing period is printed too.
+The sampled ball first relaxes at rest for 0.4 s and is kicked then (kicked at once, the lattice
+rearranges while it oscillates: its rest shape drifts and the period reads 1.18-1.21 times
+Rayleigh's instead of 1.14). The period is taken from like extrema
+(:func:`period_from_extrema`) and from a damped-cosine fit (:func:`damped_fit`, with the damping
+rate against Lamb's ``5 nu / R^2``); the zero-crossing period is printed too. The force's depth
+factor :func:`mode_lever` on the relaxed drop predicts the period ratio (the CSF force holds
+the right pressure jump but acts inside the fluid, where it drives the mode less).
+``--rayleigh-radii`` runs the same drop at other resolutions.
 
     python validation/surface_tension.py [--quick] [--skip-2d] [--skip-3d]
         [--models becker2007,...] [--solvers wcsph,iisph,dfsph] [--seeds 3]
+        [--rayleigh-radii 0.0025,0.002,0.0016667]
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
 """
