@@ -44,11 +44,18 @@ integral along the radius (the jump it holds at rest, ``grad p = f``; what p mus
 rest (WCSPH) and a 3D ball at rest (2 sigma/R). 3D oscillation: the Rayleigh drop above with
 sigma = 5 N/m (period 0.25 s; the capillary time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` =
 2.0 ms is far above WCSPH's acoustic step ``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s.
-The rest shape of the sampled ball drifts while it oscillates, so the period is taken from like
-extrema (:func:`period_from_extrema`); the zero-crossing period is printed too.
+The sampled ball first relaxes at rest for 0.4 s and is kicked then (kicked at once, the lattice
+rearranges while it oscillates: its rest shape drifts and the period reads 1.18-1.21 times
+Rayleigh's instead of 1.14). The period is taken from like extrema
+(:func:`period_from_extrema`) and from a damped-cosine fit (:func:`damped_fit`, with the damping
+rate against Lamb's ``5 nu / R^2``); the zero-crossing period is printed too. The force's depth
+factor :func:`mode_lever` on the relaxed drop predicts the period ratio (the CSF force holds
+the right pressure jump but acts inside the fluid, where it drives the mode less).
+``--rayleigh-radii`` runs the same drop at other resolutions.
 
     python validation/surface_tension.py [--quick] [--skip-2d] [--skip-3d]
         [--models becker2007,...] [--solvers wcsph,iisph,dfsph] [--seeds 3]
+        [--rayleigh-radii 0.0025,0.002,0.0016667]
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
 """
@@ -239,6 +246,17 @@ def surface_force_pressure(sim: Simulation) -> tuple[float, float]:
       2 sigma/R (3D). p_F is smaller by the mean depth of the force band over R.
 
     Both check the force independently of the pressure solver."""
+    radial_in, r, R, dim = _radial_surface_force(sim)
+    if dim == 2:
+        return (float(radial_in.sum() / (2.0 * np.pi * R)),
+                float((radial_in / (2.0 * np.pi * r)).sum()))
+    return (float(radial_in.sum() / (4.0 * np.pi * R * R)),
+            float((radial_in / (4.0 * np.pi * r * r)).sum()))
+
+
+def _radial_surface_force(sim: Simulation) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """Müller 2003 force alone: (``m_i a_r,i`` inward radial, distances d_i from the centre of
+    mass, volume radius R, dim). Needs a simulation that has taken a step (neighbour lists)."""
     st = sim.state
     f = st.fluid
     model = next(fo for fo in sim.forces if isinstance(fo, Mueller2003))
@@ -252,13 +270,22 @@ def surface_force_pressure(sim: Simulation) -> tuple[float, float]:
     radial_in = f["m"] * (-(f["a"] * d).sum(axis=0) / r)
     f["a"][:] = a_save
     vol = float(f["m"].sum()) / RHO0
-    if st.dim == 2:
-        R = np.sqrt(vol / np.pi)
-        return (float(radial_in.sum() / (2.0 * np.pi * R)),
-                float((radial_in / (2.0 * np.pi * r)).sum()))
-    R = (3.0 * vol / (4.0 * np.pi)) ** (1.0 / 3.0)
-    return (float(radial_in.sum() / (4.0 * np.pi * R * R)),
-            float((radial_in / (4.0 * np.pi * r * r)).sum()))
+    R = np.sqrt(vol / np.pi) if st.dim == 2 else (3.0 * vol / (4.0 * np.pi)) ** (1.0 / 3.0)
+    return radial_in, r, float(R), st.dim
+
+
+def mode_lever(sim: Simulation, l: int = 2) -> float:
+    """``<(d/R)^(l+1)>`` over the Müller 2003 force of a 3D drop at rest, weighted by each
+    particle's share of the pressure jump (``m_i a_r,i / (4 pi d_i^2)``, see
+    :func:`surface_force_pressure`): the factor by which a force that holds the right jump but
+    acts at depth d below the surface R drives the mode-l potential flow ``phi ~ r^l P_l``.
+    Its power on that flow is ``sum_i F_i . grad phi(x_i) ~ sum_i (jump share)_i d_i^(l+1)``,
+    against ``jump R^(l+1)`` for a force on the surface itself, so the mode's stiffness, and
+    omega^2, are this factor times Rayleigh's; the predicted period ratio is its -1/2 power
+    (validation/README.md)."""
+    radial_in, r, R, _ = _radial_surface_force(sim)
+    w = radial_in / (r * r)
+    return float((w * (r / R) ** (l + 1)).sum() / w.sum())
 
 
 #: std of the random initial velocities of the CSF drops [m/s] (``seed`` given): it breaks the
@@ -359,12 +386,20 @@ def ball_blocks(R: float, r: float) -> list:
 
 def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
                 stiffness: float, nu: float = 2e-4, nsamp: int = 120,
-                name: str = "becker2007") -> dict:
+                name: str = "becker2007", relax: float = 0.0) -> dict:
     """Mode-2 oscillation of a 3D drop; the measured period against the Rayleigh period.
     ``name`` becker2007: sigma is the Kirkwood-Buff value of ``kappa``; mueller2003: ``kappa``
-    is sigma [N/m] itself."""
+    is sigma [N/m] itself. ``relax`` > 0: the sampled ball first relaxes at rest for that long
+    [s] (velocities then set to zero), so that the kick starts from a drop in equilibrium
+    instead of a lattice that rearranges while it oscillates (see validation/README.md); times
+    and the deformation are then counted from the kick."""
     sim = Simulation(scene(name, kappa, ball_blocks(R, r), r, dim=3, nu=nu,
                            stiffness=stiffness))
+    if relax > 0.0:
+        sim.run(until=relax, fps=1e-3)
+        sim.velocities[:] = 0.0
+    lever = mode_lever(sim) if name == "mueller2003" and relax > 0.0 else float("nan")
+    t_kick = sim.time
     x = sim.positions
     c = x.mean(axis=0)
     sim.velocities[:] = amp * np.stack([-(x[:, 0] - c[0]), -(x[:, 1] - c[1]),
@@ -376,15 +411,18 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
     else:
         sigma, pint = kb_sigma(name, kappa, m, r, 3)
     omega = np.sqrt(8 * sigma / (RHO0 * Rv**3))
-    ts, qs = [0.0], [0.0]
-    for k in range(1, nsamp + 1):
-        sim.run(until=until * k / nsamp, fps=1e-3)
+    def deformation() -> float:
         y = sim.positions - sim.positions.mean(axis=0)
-        ts.append(sim.time)
-        qs.append(float((y[:, 2] ** 2).mean() - 0.5 * ((y[:, 0] ** 2).mean()
-                                                        + (y[:, 1] ** 2).mean())))
+        return float((y[:, 2] ** 2).mean() - 0.5 * ((y[:, 0] ** 2).mean()
+                                                     + (y[:, 1] ** 2).mean()))
+
+    ts, qs = [0.0], [deformation()]
+    for k in range(1, nsamp + 1):
+        sim.run(until=t_kick + until * k / nsamp, fps=1e-3)
+        ts.append(sim.time - t_kick)
+        qs.append(deformation())
     t, q = np.array(ts), np.array(qs)
-    q0 = q - q[0]  # the sampled ball is not exactly isotropic; deformation from the start
+    q0 = q - q[0]  # the start shape is not exactly isotropic; deformation from the start
     # the oscillation is about the rest shape: remove its mean over whole half-periods
     cross0 = [t[i] - q0[i] * (t[i + 1] - t[i]) / (q0[i + 1] - q0[i])
               for i in range(1, len(t) - 1) if q0[i] * q0[i + 1] < 0]
@@ -393,7 +431,35 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
         period = 2.0 * float(np.mean(np.diff(cross0)))
     return {"N": sim.fluid.n, "R": Rv, "sigma": sigma, "p_int": pint,
             "T_rayleigh": 2 * np.pi / omega, "T_measured": period, "crossings": len(cross0),
-            "T_extrema": period_from_extrema(t, q0), "t": t, "q": q0}
+            "T_extrema": period_from_extrema(t, q0), "t": t, "q": q0,
+            **damped_fit(t, q0, omega), "gamma_lamb": 5.0 * nu / Rv**2, "relax": relax,
+            "lever": lever}
+
+
+def damped_fit(t: np.ndarray, q: np.ndarray, omega: float) -> dict:
+    """Least-squares fit of ``a exp(-gamma t) cos(w t + phi) + c`` to q(t) (start guesses: w =
+    0.7 / 0.85 / 1 / 1.15 omega, the best kept): ``T_fit = 2 pi / w``, ``gamma`` [1/s] (to
+    compare with Lamb's ``5 nu / R^2`` for l = 2) and ``fit_resid``, the rms residual over |a|
+    (small: the signal is one damped cosine)."""
+    from scipy.optimize import curve_fit
+
+    def f(tt, a, g, w, ph, c):
+        return a * np.exp(-g * tt) * np.cos(w * tt + ph) + c
+
+    best = None
+    for wg in (0.7 * omega, 0.85 * omega, omega, 1.15 * omega):
+        try:
+            p, _ = curve_fit(f, t, q, p0=[0.5 * np.ptp(q), 3.0, wg, -np.pi / 2, 0.0],
+                             maxfev=20000)
+        except RuntimeError:
+            continue
+        res = float(np.sqrt(np.mean((f(t, *p) - q) ** 2)) / max(abs(p[0]), 1e-300))
+        if best is None or res < best[1]:
+            best = (p, res)
+    if best is None:
+        return {"T_fit": float("nan"), "gamma": float("nan"), "fit_resid": float("nan")}
+    return {"T_fit": 2 * np.pi / abs(float(best[0][2])), "gamma": float(best[0][1]),
+            "fit_resid": best[1]}
 
 
 def period_from_extrema(t: np.ndarray, q: np.ndarray, min_swing: float = 0.1) -> float:
@@ -437,6 +503,9 @@ def main(argv: list[str] | None = None) -> int:
                          "dfsph (default: all three; --quick: wcsph)")
     ap.add_argument("--seeds", type=int, default=None,
                     help="mueller2003 drops: random starts per drop (default 3; --quick: 1)")
+    ap.add_argument("--rayleigh-radii", default="0.0025",
+                    help="mueller2003 mode-2 drop (R = 0.04 m): comma-separated particle radii "
+                         "r [m] (resolution study: 0.0025,0.002,0.0016667 for R = 4, 5, 6 h)")
     args = ap.parse_args(argv)
     chosen = args.models.split(",")
     unknown = sorted(set(chosen) - set(MODELS) - {"mueller2003"})
@@ -551,27 +620,42 @@ def main(argv: list[str] | None = None) -> int:
         # becker2007: kappa [m^3/s^2]; mueller2003: sigma [N/m] and more viscosity (with
         # nu = 2e-4 m^2/s particles at the corners of the sampled ball are ejected)
         coef, nu = (0.3, 2e-4) if name == "becker2007" else (5.0, 1e-3)
-        if args.quick:
-            ray = rayleigh_3d(kappa=coef, R=0.03, r=0.0025, until=0.5, amp=1.0, stiffness=200.0,
-                              nu=nu, name=name)
-        else:
-            ray = rayleigh_3d(kappa=coef, R=0.04, r=0.0025, until=0.8, amp=0.8, stiffness=200.0,
-                              nu=nu, name=name, nsamp=160)
-        print(f"  rayleigh {name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
-        rays.append((name, ray))
+        # mueller2003: the sampled ball relaxes at rest for 0.4 s before the kick (without it
+        # the lattice rearranges during the first periods and the period reads 1.18-1.21 times
+        # Rayleigh's instead of 1.14; validation/README.md)
+        relax = 0.0 if name == "becker2007" else (0.2 if args.quick else 0.4)
+        radii = ([0.0025] if name == "becker2007" or args.quick
+                 else [float(v) for v in args.rayleigh_radii.split(",")])
+        for rr in radii:
+            if args.quick:
+                ray = rayleigh_3d(kappa=coef, R=0.03, r=rr, until=0.5, amp=1.0,
+                                  stiffness=200.0, nu=nu, name=name, relax=relax)
+            else:
+                ray = rayleigh_3d(kappa=coef, R=0.04, r=rr, until=0.8, amp=0.8,
+                                  stiffness=200.0, nu=nu, name=name, nsamp=160, relax=relax)
+            ray["h"] = 4.0 * rr
+            print(f"  rayleigh {name} r = {rr}: {time.perf_counter() - t0:.0f} s",
+                  file=sys.stderr)
+            rays.append((name, ray))
     if rays:
         print()
         print("3D drop, mode 2 (WCSPH linear k = 200 m^2/s^2, velocity start; becker2007: "
-              "sigma = Kirkwood-Buff value of kappa 0.3, nu = 2e-4 m^2/s; mueller2003: sigma = "
-              "5 N/m, nu = 1e-3 m^2/s)")
-        print("| model | N | R [m] | sigma [N/m] | period Rayleigh [s] | period, extrema [s] | "
-              "ratio | period, zero crossings [s] (count) |")
-        print("|---|---|---|---|---|---|---|---|")
+              "sigma = Kirkwood-Buff value of kappa 0.3, nu = 2e-4 m^2/s, kicked at once; "
+              "mueller2003: sigma = 5 N/m, nu = 1e-3 m^2/s, kicked after relaxing at rest; "
+              "gamma: fitted damping rate, Lamb: 5 nu / R^2)")
+        print("| model | N | R [m] | R/h | relax [s] | sigma [N/m] | period Rayleigh [s] | "
+              "period, extrema [s] | ratio | period, fit [s] (ratio) | gamma, Lamb [1/s] | "
+              "fit resid | period, zero crossings [s] (count) | <(d/R)^3> of the force at the "
+              "kick | predicted ratio <(d/R)^3>^(-1/2) |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for name, ray in rays:
-            print(f"| {name} | {ray['N']} | {ray['R']:.4f} | {ray['sigma']:.4g} | "
+            print(f"| {name} | {ray['N']} | {ray['R']:.4f} | {ray['R'] / ray['h']:.2f} | "
+                  f"{ray['relax']:.1f} | {ray['sigma']:.4g} | "
                   f"{ray['T_rayleigh']:.4g} | {ray['T_extrema']:.4g} | "
-                  f"{ray['T_extrema'] / ray['T_rayleigh']:.3f} | {ray['T_measured']:.4g} "
-                  f"({ray['crossings']}) |")
+                  f"{ray['T_extrema'] / ray['T_rayleigh']:.3f} | {ray['T_fit']:.4g} "
+                  f"({ray['T_fit'] / ray['T_rayleigh']:.3f}) | {ray['gamma']:.2f}, "
+                  f"{ray['gamma_lamb']:.2f} | {ray['fit_resid']:.3f} | {ray['T_measured']:.4g} "
+                  f"({ray['crossings']}) | {ray['lever']:.3f} | {ray['lever'] ** -0.5:.3f} |")
     if not args.skip_3d and "mueller2003" in chosen:
         t0 = time.perf_counter()
         d3 = drop_3d_csf(5.0, 0.03 if args.quick else 0.04, 0.0025, 0.2 if args.quick else 0.4)
@@ -621,7 +705,8 @@ def main(argv: list[str] | None = None) -> int:
     if rows or csf:
         axs[0].legend(fontsize=8)
     for name, ray in rays:
-        axs[2].plot(ray["t"], ray["q"], label=f"{name}: T = {ray['T_extrema']:.3g} s, "
+        axs[2].plot(ray["t"], ray["q"], label=f"{name}, R = {ray['R'] / ray['h']:.1f} h: "
+                    f"T = {ray['T_extrema']:.3g} s, "
                     f"Rayleigh {ray['T_rayleigh']:.3g} s")
     if rays:
         axs[2].legend(fontsize=8)
