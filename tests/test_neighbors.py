@@ -205,6 +205,15 @@ def test_sparse_set_over_a_million_cells(dim: int) -> None:
     assert np.all(nl.counts() >= 1)  # every point finds at least its partner
 
 
+def test_coordinates_beyond_int64_cells_raise() -> None:
+    # a blown-up particle at 1e25 m: its cell index does not fit in int64; the grid must say so
+    # (the dense layout declines, the hashed one names the extent) instead of wrapping around
+    x = np.random.default_rng(3).uniform(0.0, 1.0, size=(3, 100))
+    x[0, 0] = 1e25
+    with pytest.raises(ValueError, match="extent"):
+        Grid(x, 0.1)
+
+
 def test_extent_beyond_grid_limit_raises() -> None:
     x = np.array([[0.0, 3e6]])  # 3e6 cells of size 1 > 2^21 - 4
     with pytest.raises(ValueError, match="^positions"):

@@ -347,15 +347,18 @@ class Grid:
         """Set up the dense grid, or return False when it would have too many cells."""
         n, dim = self.n, self.dim
         inv_a = self.SUB / self.h
+        flo = np.floor(xc.min(axis=1) * inv_a)
+        fhi = np.floor(xc.max(axis=1) * inv_a)
+        # the cell count in floating point first: far-flung points (or coordinates beyond the
+        # int64 range) go to the hashed grid, which names the extent it cannot hold
+        if float(np.prod(fhi - flo + 1.0)) > max(self.dense_cells_per_point * n,
+                                                 self.dense_min_cells):
+            return False
         lo = np.zeros(3, dtype=np.int64)
         shape = np.ones(3, dtype=np.int64)
-        lo[3 - dim:] = np.floor(xc.min(axis=1) * inv_a).astype(np.int64)
-        shape[3 - dim:] = np.floor(xc.max(axis=1) * inv_a).astype(np.int64) - lo[3 - dim:] + 1
-        cells = 1
-        for k in range(3):
-            cells *= int(shape[k])
-        if cells > max(self.dense_cells_per_point * n, self.dense_min_cells):
-            return False
+        lo[3 - dim:] = flo.astype(np.int64)
+        shape[3 - dim:] = fhi.astype(np.int64) - lo[3 - dim:] + 1
+        cells = int(np.prod(shape))
         self.lo, self.shape, self.ncells = lo, shape, cells
         cell = np.empty(n, dtype=np.int64)
         _dense_cells(xc, dim, inv_a, lo, shape, cell)
@@ -368,14 +371,14 @@ class Grid:
         n, h = self.n, self.h
         origin = np.zeros(3, dtype=np.int64)
         if n:
-            lo = np.floor(xc.min(axis=1) / h).astype(np.int64)
-            hi = np.floor(xc.max(axis=1) / h).astype(np.int64)
-            if np.any(hi - lo > _LIMIT - 2):
+            flo = np.floor(xc.min(axis=1) / h)
+            ext = np.floor(xc.max(axis=1) / h) - flo  # in floating point: no int64 overflow
+            if np.any(ext > _LIMIT - 2):
                 raise ValueError(
-                    f"positions: extent of {int((hi - lo).max())} cells of size {h} exceeds the "
+                    f"positions: extent of {float(ext.max()):.4g} cells of size {h} exceeds the "
                     f"grid's limit of {_LIMIT - 2} cells per axis"
                 )
-            origin[: self.dim] = lo
+            origin[: self.dim] = flo.astype(np.int64)
         self.origin = origin
         size = 1
         while size < 2 * max(n, 1):
