@@ -1,7 +1,8 @@
 """sphkit vs SPlisHSPlasH on one and the same scene file, side by side, in one run.
 
     python benchmarks/vs_splishsplash.py [SCENE.json ...] [--threads 2] [--until T]
-                                         [--codes sphkit,splishsplash] [--json FILE]
+                                         [--codes sphkit,splishsplash] [--repeat 3]
+                                         [--json FILE]
 
 Without scene arguments it runs the five 3D dam breaks of ``benchmarks/scenes`` (SPlisHSPlasH's
 DamBreakModel setup: 19^3 fluid particles of radius 0.025 m, Akinci boundary particles, standard
@@ -16,14 +17,17 @@ the CFL step with cflFactor 1 and at most 5 ms, to t = 1 s). For each scene it r
 * sphkit on the same file (after a short warm-up run so that Numba's compile time is not counted),
   in a subprocess with ``NUMBA_NUM_THREADS`` set to the same thread count,
 
-and prints for each code: fluid and boundary particles, simulated seconds, wall seconds, steps,
+``--repeat N`` times, alternating the two codes (so that a disturbance of the shared machine hits
+both alike), and prints for each code its fastest run (the least disturbed measurement, as
+``timeit`` reports): fluid and boundary particles, simulated seconds, wall seconds, steps,
 mean pressure-solver iterations per step (``it/step``; ``-`` for WCSPH, which does not iterate),
 mean DFSPH divergence iterations per step (``div/step``), the mean density error (``rho err``:
 the average over steps of the fluid average of max(rho / rho0 - 1, 0), in % of rho0, measured the
 same way in both codes from the density field each holds after the step), sphkit's own solver
 error (``solver err``: the mean of ``StepStats.density_error_avg``; the wheel does not expose
 SPlisHSPlasH's), milliseconds per step, and the ratio sphkit / SPlisHSPlasH of the wall time per
-simulated second (below 1 means sphkit is faster). A scene sphkit cannot run yet (a solver that is
+simulated second of the fastest runs (below 1 means sphkit is faster), followed by the ratio of
+each pair of runs. A scene sphkit cannot run yet (a solver that is
 not implemented) is reported as ``sphkit: not available: <reason>`` and the script goes on.
 """
 
@@ -170,6 +174,16 @@ def _with_end_time(scene: Path, until: float, folder: Path) -> Path:
     return path
 
 
+def _per_sim_s(r: dict) -> float:
+    return r["wall"] / r["sim_time"] if r["sim_time"] > 0 else float("inf")
+
+
+def _fastest(runs: list[dict]) -> dict:
+    """The run with the least wall time per simulated second, or the first failure."""
+    ok = [r for r in runs if "wall" in r]
+    return min(ok, key=_per_sim_s) if ok else runs[0]
+
+
 def _num(value: float | None, spec: str, scale: float = 1.0) -> str:
     return "-" if value is None else f"{value * scale:{spec}}"
 
@@ -201,9 +215,14 @@ def main() -> int:
                     help="simulated end time [s] for every scene (default: each scene's stopAt)")
     ap.add_argument("--codes", default="sphkit,splishsplash", metavar="LIST",
                     help="which codes to run: sphkit, splishsplash or both (default)")
+    ap.add_argument("--repeat", type=int, default=3, metavar="N",
+                    help="paired runs per scene, alternating the codes; each code's fastest run "
+                         "is reported (default 3)")
     ap.add_argument("--json", type=Path, metavar="FILE", help="also write the results as JSON")
     args = ap.parse_args()
     codes = {c.strip().lower() for c in args.codes.split(",") if c.strip()}
+    if args.repeat < 1:
+        ap.error(f"--repeat: got {args.repeat}; expected a positive number of runs")
     if not codes or not codes <= {"sphkit", "splishsplash"}:
         ap.error(f"--codes: got {args.codes!r}; expected sphkit, splishsplash or both, "
                  "comma-separated")
@@ -223,17 +242,32 @@ def main() -> int:
             scene = scene.resolve()  # the wheel crashes on a relative scene path
             path = scene if args.until is None else _with_end_time(scene, args.until, Path(tmp))
             sk = sp = {"unavailable": "not run (--codes)"}
-            if "sphkit" in codes:
-                sk = run_sphkit(path, args.threads)
+            runs_sk: list[dict] = []
+            runs_sp: list[dict] = []
+            for _ in range(args.repeat):  # alternate: a disturbance hits both codes alike
+                if "sphkit" in codes:
+                    runs_sk.append(run_sphkit(path, args.threads))
+                if "splishsplash" in codes:
+                    runs_sp.append(run_splishsplash(path, args.threads))
+                if any("wall" not in r for r in runs_sk + runs_sp):
+                    break  # a code failed or is unavailable: no point in repeating
+            if runs_sk:
+                sk = _fastest(runs_sk)
                 print(_row(scene.name, "sphkit", sk), flush=True)
-            if "splishsplash" in codes:
-                sp = run_splishsplash(path, args.threads)
+            if runs_sp:
+                sp = _fastest(runs_sp)
                 print(_row(scene.name, "SPlisHSPlasH", sp), flush=True)
-            entry = {"scene": scene.name, "sphkit": sk, "splishsplash": sp, "ratio": None}
+            entry = {"scene": scene.name, "sphkit": sk, "splishsplash": sp, "ratio": None,
+                     "runs": {"sphkit": runs_sk, "splishsplash": runs_sp}}
             if "wall" in sk and "wall" in sp and sk["sim_time"] > 0 and sp["sim_time"] > 0:
-                entry["ratio"] = (sk["wall"] / sk["sim_time"]) / (sp["wall"] / sp["sim_time"])
+                entry["ratio"] = _per_sim_s(sk) / _per_sim_s(sp)
+                pairs = [_per_sim_s(a) / _per_sim_s(b)
+                         for a, b in zip(runs_sk, runs_sp, strict=False)
+                         if "wall" in a and "wall" in b]
+                each = ", ".join(f"{r:.2f}" for r in pairs)
                 print(f"{scene.name:22s} ratio sphkit/SPlisHSPlasH wall time per simulated "
-                      f"second: {entry['ratio']:.2f}", flush=True)
+                      f"second: {entry['ratio']:.2f} (fastest runs; the {len(pairs)} paired runs: "
+                      f"{each})", flush=True)
             results.append(entry)
     if args.json:
         args.json.write_text(json.dumps(results, indent=1) + "\n")

@@ -24,7 +24,7 @@ import numpy as np
 from sphkit.core.ppe import (
     density_pair_gradients,
     diagonal_cached,
-    jacobi_update,
+    jacobi_sweep,
     kappa_accel_cached,
     pair_divergence_cached,
     pair_gradients,
@@ -171,7 +171,8 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
 
     One iteration: ``a = kappa_accel_cached(w q)``; ``Ap = ap_factor * pair_divergence_cached(a)``;
     ``q <- max(q - omega scale (s - Ap), 0)``, or with ``one_sided`` only the compressive part
-    of the residual acts (see :func:`sphkit.core.ppe.jacobi_update`). The error of an iteration
+    of the residual acts (see :func:`sphkit.core.ppe.jacobi_sweep`, which computes Ap and updates
+    q in one pass). The error of an iteration
     is the compressive residual ``max(Ap - s, 0)`` of ``active`` particles averaged over all
     particles, times ``error_factor``.
     ``grads`` are the step's cached pair gradients (computed here when not given).
@@ -184,26 +185,22 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     g = PairGradients(state) if grads is None else grads
     dim = state.dim
     a = np.empty_like(x)
-    Ap = np.empty(f.n, dtype=x.dtype)
     still = np.zeros_like(state.boundary["x"])  # boundary particles take no pressure accel.
     response = state.boundary_response  # ... unless they yield to it (dynamic rigid bodies)
 
-    k = np.empty_like(q)
+    k = w * q  # the weighted variable; jacobi_sweep keeps it up to date
     mirror = boundary_mirror(state)
     kb = BoundaryKappa(state)
 
     def sweep(_k: int) -> tuple[float, float]:
-        np.multiply(w, q, out=k)
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                            g.gwb, dim, a)
         ab = still if response is None else response(k, g.gwb)
-        pair_divergence_cached(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw,
-                               g.gwb, dim, Ap)
-        avg, mx = jacobi_update(q, s, Ap, ap_factor, scale, omega, active, one_sided)
+        avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
+                               dim, q, s, ap_factor, scale, omega, active, one_sided, w, k)
         return avg * error_factor, mx * error_factor
 
     its, avg, mx, ok = control.run(sweep, state.step)
-    np.multiply(w, q, out=k)
     kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                        g.gwb, dim, a)
     return a, its, avg, mx, ok
