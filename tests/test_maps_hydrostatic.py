@@ -238,9 +238,10 @@ def test_hydrostatic_profile_in_mesh_tank(method: str, pressure: str, tmp_path: 
     decaying upwards, the same at 5x tighter solver tolerance) that the symmetric pressure
     force of the layered packing does not feel -- each row's pressure acceleration balances g
     within 0.6 % -- so it is not part of the pressure the fluid exerts; see validation/README.md,
-    "Hydrostatic column in the mesh tank (2026-11-26, after DFSPH's update)". Measured single
-    runs 1.4-1.6 (Akinci + MLS), 0.7-1.6 (density maps), 0.7-1.5 (volume maps); one 2 s run of
-    the volume maps gave 2.0, hence the two realizations."""
+    "Hydrostatic column in the mesh tank (2026-11-26, after DFSPH's update)". Measured here
+    (two realizations): 1.38 % (Akinci + MLS), 0.70 % (density maps), 1.04 % (volume maps); the
+    particle values give 5.6 / 2.4 / 2.6 %. Single runs scatter: 1.4-1.6, 0.7-1.6, 0.7-1.5 %,
+    and one 2 s run of the volume maps gave 2.0 %, hence the mean of two realizations."""
     maps = _maps_validation()
     runs = [maps.column(method, 2, 1.5, str(tmp_path), pressure, k, "hexagonal",
                         size=(0.6, 0.5)) for k in range(2)]
