@@ -7,9 +7,9 @@ sphere obstacle, for Akinci particles, density maps and volume maps (DFSPH).
 1. Hydrostatic column: benchmarks/scenes/UnitBox.obj scaled to a tank of width W (mapInvert),
    water of height H starting 2r off the walls (``--lattice hexagonal``: the 2D block sampled
    on the hexagonal lattice of touching discs, ``fluid_blocks[].lattice``, in the same box),
-   DFSPH (max error 0.05 %); pressures and heights
-   averaged per particle over the last 0.5 s. Boundaries: Akinci particles (mirrored / one-sided
-   pressure, and the MLS pressure of Band et al. 2018), density and volume maps with
+   DFSPH (max error 0.05 %); pressures and heights averaged per particle over the last 0.5 s.
+   Boundaries: Akinci particles (mirrored / one-sided pressure, and the MLS pressure of Band
+   et al. 2018), density and volume maps with
    SPlisHSPlasH's boundary term and with the hydrostatic boundary pressure
    (``configuration.boundary.pressure: "hydrostatic"``, :mod:`sphkit.core.boundary_map`).
    Prints the pressure slope over the middle 80 % of the column as a multiple of rho0 g and its
@@ -22,10 +22,13 @@ sphere obstacle, for Akinci particles, density maps and volume maps (DFSPH).
    the worst layer's mean ("noise") and which layer it is; realization 0 alone (the single-run
    number of earlier tables); the profile error with the free surface r above the *mean*
    height of the top particle centres (:func:`mean_surface`; the highest single particle sits
-   0.3-0.8 r above them, 1-1.6 % of H in 2D and up to 4 % in 3D); the mean deviation of the
-   particles within 3r of a side wall ("wall columns"); the
-   stand-off of the fluid from the floor (lowest particle height over the tank bottom, in r);
-   and how many particles left the tank. Then the layer means of each model.
+   0.3-0.8 r above them, 1-1.6 % of H in 2D and up to 4 % in 3D); the profile error of the
+   pressure read as an SPH field (:func:`interpolated_pressure`, "SPH field": the particle
+   pressures carry a floor-excited row-alternating mode that the pressure force does not
+   feel, see validation/README.md); the mean deviation of the particles within 3r of a side
+   wall ("wall columns"); the stand-off of the fluid from the floor (lowest particle height
+   over the tank bottom, in r); and how many particles left the tank. Then the layer means of
+   each model.
 2. 3D dam break against a sphere (icosphere mesh, R = 0.1 m) in a 1 x 0.6 x 0.4 m UnitBox tank,
    maps also with the hydrostatic boundary pressure, r = 0.02 m, 1.5 s at 50 frames/s: the
    smallest distance of a fluid particle centre from the sphere centre at any frame, in R
