@@ -2,11 +2,14 @@
 sphere obstacle, for Akinci particles, density maps and volume maps (DFSPH).
 
     python validation/maps.py [--dim 2|3] [--until 2.0] [--realizations K] [--skip-dambreak]
+                              [--lattice square|hexagonal]
 
 1. Hydrostatic column: benchmarks/scenes/UnitBox.obj scaled to a tank of width W (mapInvert),
-   water of height H starting 2r off the walls, DFSPH (max error 0.05 %); pressures and heights
-   averaged per particle over the last 0.5 s. Boundaries: Akinci particles (mirrored / one-sided
-   pressure, and the MLS pressure of Band et al. 2018), density and volume maps with
+   water of height H starting 2r off the walls (``--lattice hexagonal``: the 2D block sampled
+   on the hexagonal lattice of touching discs, ``fluid_blocks[].lattice``, in the same box),
+   DFSPH (max error 0.05 %); pressures and heights averaged per particle over the last 0.5 s.
+   Boundaries: Akinci particles (mirrored / one-sided pressure, and the MLS pressure of Band
+   et al. 2018), density and volume maps with
    SPlisHSPlasH's boundary term and with the hydrostatic boundary pressure
    (``configuration.boundary.pressure: "hydrostatic"``, :mod:`sphkit.core.boundary_map`).
    Prints the pressure slope over the middle 80 % of the column as a multiple of rho0 g and its
@@ -19,10 +22,13 @@ sphere obstacle, for Akinci particles, density maps and volume maps (DFSPH).
    the worst layer's mean ("noise") and which layer it is; realization 0 alone (the single-run
    number of earlier tables); the profile error with the free surface r above the *mean*
    height of the top particle centres (:func:`mean_surface`; the highest single particle sits
-   0.3-0.8 r above them, 1-1.6 % of H in 2D and up to 4 % in 3D); the mean deviation of the
-   particles within 3r of a side wall ("wall columns"); the
-   stand-off of the fluid from the floor (lowest particle height over the tank bottom, in r);
-   and how many particles left the tank. Then the layer means of each model.
+   0.3-0.8 r above them, 1-1.6 % of H in 2D and up to 4 % in 3D); the profile error of the
+   pressure read as an SPH field (:func:`interpolated_pressure`, "SPH field": the particle
+   pressures carry a floor-excited row-alternating mode that the pressure force does not
+   feel, see validation/README.md); the mean deviation of the particles within 3r of a side
+   wall ("wall columns"); the stand-off of the fluid from the floor (lowest particle height
+   over the tank bottom, in r); and how many particles left the tank. Then the layer means of
+   each model.
 2. 3D dam break against a sphere (icosphere mesh, R = 0.1 m) in a 1 x 0.6 x 0.4 m UnitBox tank,
    maps also with the hydrostatic boundary pressure, r = 0.02 m, 1.5 s at 50 frames/s: the
    smallest distance of a fluid particle centre from the sphere centre at any frame, in R
@@ -40,7 +46,9 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from scipy.spatial import cKDTree
 
+from sphkit.core.kernels import Kernel
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
 
@@ -88,6 +96,32 @@ def profile_error(y: np.ndarray, p: np.ndarray, r: float, surface: float | None 
     return float(np.abs(layer_errors(y, p, r, surface)[:, 0]).max())
 
 
+def interpolated_pressure(x: np.ndarray, p: np.ndarray, r: float) -> np.ndarray:
+    """The SPH pressure field at each particle, read the way a pressure probe reads it: the
+    moving-least-squares fit of a linear field ``a + b . (x_j - x_i)`` to the particle
+    pressures of the fluid neighbours j (self included) with the kernel weights ``W_ij``
+    (cubic spline, support 4r, equal particle volumes), evaluated at x_i (``a``). Exact for a
+    linear (hydrostatic) field also where the neighbourhood is one-sided (the lowest layers of
+    the 3D window lie within 4r of the floor); the zeroth-order Shepard sum
+    ``sum_j p_j W_ij / sum_j W_ij`` that e.g. DualSPHysics' gauges use is biased there. The fit
+    averages over about two particle rows on either side, which removes most of the
+    row-alternating part of the particle pressures -- a mode the symmetric pressure force of a
+    layered packing does not feel (see validation/README.md, "the odd-even row mode").
+    x: averaged positions (N, dim); p: (N,)."""
+    n, dim = x.shape
+    kern = Kernel("cubic", 4 * r, dim)
+    i, j = cKDTree(x).query_pairs(4 * r, output_type="ndarray").T
+    i, j = np.concatenate([i, j, np.arange(n)]), np.concatenate([j, i, np.arange(n)])
+    d = x[j] - x[i]
+    w = kern.w(np.linalg.norm(d, axis=1))
+    basis = np.concatenate([np.ones((len(i), 1)), d / r], axis=1)  # (pairs, dim + 1)
+    m = np.zeros((n, dim + 1, dim + 1))
+    np.add.at(m, i, w[:, None, None] * basis[:, :, None] * basis[:, None, :])
+    rhs = np.zeros((n, dim + 1))
+    np.add.at(rhs, i, (w * p[j])[:, None] * basis)
+    return np.linalg.solve(m, rhs[:, :, None])[:, 0, 0]
+
+
 def wall_excess(x: np.ndarray, p: np.ndarray, r: float, W: float) -> float:
     """Mean deviation of the pressure from rho0 g (depth) of the particles less than 3r from a
     side wall (tank half-width W / 2) in the middle 80 % of the column, as a fraction of
@@ -101,11 +135,15 @@ def wall_excess(x: np.ndarray, p: np.ndarray, r: float, W: float) -> float:
 
 
 def column(method: str, dim: int, until: float, cache: str, bp: str = "mirror",
-           realization: int = 0) -> dict:
+           realization: int = 0, lattice: str = "square", size: tuple[float, float] | None = None,
+           average: float = 0.5) -> dict:
     """One settled column. ``realization`` k > 0 starts from the lattice jittered by up to
-    0.1 r (uniform, seed k): the same column settling into another packing."""
+    0.1 r (uniform, seed k): the same column settling into another packing. ``lattice``: the
+    fluid block's sampling (``fluid_blocks[].lattice``; "hexagonal" is 2D only), in the same
+    block 2r off the walls. ``size``: tank width W and water height H [m] (default 0.6 x 0.5 in
+    2D, 0.6 x 0.4 in 3D); pressures and positions are averaged over the last ``average`` s."""
     r = 0.01 if dim == 2 else 0.02
-    W, H = (0.6, 0.5) if dim == 2 else (0.6, 0.4)
+    W, H = size or ((0.6, 0.5) if dim == 2 else (0.6, 0.4))
     start = [-W / 2 + 2 * r, -0.5 + 2 * r, -W / 2 + 2 * r][:dim]
     end = [W / 2 - 2 * r, -0.5 + 2 * r + H, W / 2 - 2 * r][:dim]
     scene = Scene.model_validate({
@@ -116,7 +154,7 @@ def column(method: str, dim: int, until: float, cache: str, bp: str = "mirror",
             "boundary": {"method": method, "map_cache_dir": cache, "pressure": bp},
         },
         "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
-        "fluid_blocks": [{"start": start, "end": end}],
+        "fluid_blocks": [{"start": start, "end": end, "lattice": lattice}],
         "meshes": [{"geometry_file": str(UNIT_BOX), "scale": [W, 1.0, W], "invert": True}],
     })
     t0 = time.perf_counter()
@@ -124,7 +162,7 @@ def column(method: str, dim: int, until: float, cache: str, bp: str = "mirror",
     if realization:
         x0 = sim.fluid["x"]
         x0 += np.random.default_rng(realization).uniform(-0.1 * r, 0.1 * r, x0.shape)
-    sim.run(until=until - 0.5)
+    sim.run(until=until - average)
     n = sim.fluid.n
     p_sum, x_sum, its = np.zeros(n), np.zeros((n, dim)), []
 
@@ -146,20 +184,22 @@ def column(method: str, dim: int, until: float, cache: str, bp: str = "mirror",
     return {"n": n, "slope": slope, "dev": 100 * abs(slope - 1), "standoff": (lo + 0.5) / r,
             "profile": 100 * profile_error(y, p, r), "layers": layer_errors(y, p, r),
             "layers_ms": layer_errors(y, p, r, mean_surface(xm, r)),
+            "layers_sph": (lsph := layer_errors(y, interpolated_pressure(xm, p, r), r)),
+            "profile_sph": 100 * float(np.abs(lsph[:, 0]).max()),
             "wall": 100 * wall_excess(xm, p, r, W),
             "outside": outside, "its": float(np.mean(its)), "y": y, "p": p, "x": xm,
             "time": time.perf_counter() - t0}
 
 
 def column_ensemble(method: str, dim: int, until: float, cache: str, bp: str,
-                    realizations: int) -> dict:
+                    realizations: int, lattice: str = "square") -> dict:
     """:func:`column` for realizations 0 .. K-1. The layer errors are averaged over the
     realizations layer by layer (layer j of each run: the same height over its floor); the
     ensemble profile error is the largest |mean|, with the standard error of that layer's mean
     (``noise``: the packing scatter, sqrt(sum of the runs' squared standard errors) / K).
     Slopes, wall excess, stand-off, iterations: means; outside: the sum; realization 0 alone is
     the single-run number of earlier tables (``profile0``)."""
-    runs = [column(method, dim, until, cache, bp, k) for k in range(realizations)]
+    runs = [column(method, dim, until, cache, bp, k, lattice) for k in range(realizations)]
     nl = min(len(c["layers"]) for c in runs)
     lay = np.stack([c["layers"][:nl] for c in runs])  # (K, layers, 2)
     mean = lay[:, :, 0].mean(axis=0)
@@ -167,11 +207,13 @@ def column_ensemble(method: str, dim: int, until: float, cache: str, bp: str,
     j = int(np.argmax(np.abs(mean)))
     lay_ms = np.stack([c["layers_ms"][:nl] for c in runs])
     mean_ms = lay_ms[:, :, 0].mean(axis=0)
+    mean_sph = np.stack([c["layers_sph"][:nl] for c in runs])[:, :, 0].mean(axis=0)
     out = dict(runs[0])
     out.update({
         "profile0": runs[0]["profile"], "profile": 100 * abs(mean[j]), "noise": 100 * se[j],
         "worst": j, "layer_means": 100 * mean,
         "profile_ms": 100 * float(np.abs(mean_ms).max()), "layer_means_ms": 100 * mean_ms,
+        "profile_sph": 100 * float(np.abs(mean_sph).max()), "layer_means_sph": 100 * mean_sph,
         "slope": float(np.mean([c["slope"] for c in runs])),
         "wall": float(np.mean([c["wall"] for c in runs])),
         "standoff": float(np.mean([c["standoff"] for c in runs])),
@@ -217,16 +259,21 @@ def main() -> None:
     ap.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     ap.add_argument("--realizations", type=int, default=None,
                     help="columns per model, from jittered lattices (default 4 in 2D, 3 in 3D)")
+    ap.add_argument("--lattice", default="square", choices=("square", "hexagonal"),
+                    help="column: fluid block sampling (fluid_blocks[].lattice; hexagonal: 2D)")
     args = ap.parse_args()
+    if args.lattice == "hexagonal" and args.dim != 2:
+        ap.error(f"--lattice hexagonal needs --dim 2 (got --dim {args.dim}): the hexagonal "
+                 "lattice is 2D")
     with tempfile.TemporaryDirectory() as tmp:
         k = args.realizations or (4 if args.dim == 2 else 3)
         print(f"Hydrostatic column in a UnitBox.obj tank ({args.dim}D, DFSPH, {args.until} s, "
-              f"{k} realization(s))")
+              f"{k} realization(s), {args.lattice} lattice)")
         print("| boundary | particles | slope / rho0 g | |slope - 1| [%] | profile error "
               "[% rho0 g H] (noise) | worst layer | realization 0 | mean-surface profile error | "
-              "wall columns [% rho0 g H] | "
+              "SPH-interpolated profile error | wall columns [% rho0 g H] | "
               "stand-off [r] | outside | iterations | time [s] |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         res = {}
         runs = [(m, "mirror") for m in METHODS if m in args.methods]
         if "akinci2012" in args.methods:
@@ -234,20 +281,22 @@ def main() -> None:
         runs += [(m, "hydrostatic") for m in METHODS[1:] if m in args.methods]
         layers = {}
         for m, bp in runs:
-            c = column_ensemble(m, args.dim, args.until, tmp, bp, k)
+            c = column_ensemble(m, args.dim, args.until, tmp, bp, k, args.lattice)
             name = m + {"mls": " + MLS pressure (Band 2018)", "mirror": "",
                         "hydrostatic": " + hydrostatic wall pressure"}[bp]
             res[name] = c
-            layers[name] = (c["layer_means"], c["layer_means_ms"])
+            layers[name] = (c["layer_means"], c["layer_means_ms"], c["layer_means_sph"])
             print(f"| {name} | {c['n']} | {c['slope']:.3f} | {c['dev']:.1f} | "
                   f"{c['profile']:.2f} ({c['noise']:.2f}) | {c['worst'] + 1} of "
                   f"{len(c['layer_means'])} | {c['profile0']:.2f} | {c['profile_ms']:.2f} | "
+                  f"{c['profile_sph']:.2f} | "
                   f"{c['wall']:+.1f} | {c['standoff']:.2f} | {c['outside']} | "
                   f"{c['its']:.1f} | {c['time']:.0f} |", flush=True)
         print("\nLayer means [% rho0 g H], bottom to top of the middle 80 %:")
-        for name, (lm, lms) in layers.items():
+        for name, (lm, lms, lsph) in layers.items():
             print(f"  {name}: " + " ".join(f"{v:+.1f}" for v in lm))
             print("    mean surface: " + " ".join(f"{v:+.1f}" for v in lms))
+            print("    SPH-interpolated: " + " ".join(f"{v:+.1f}" for v in lsph))
         try:
             import matplotlib
 
