@@ -55,7 +55,8 @@ the right pressure jump but acts inside the fluid, where it drives the mode less
 
     python validation/surface_tension.py [--quick] [--skip-2d] [--skip-3d]
         [--models becker2007,...] [--solvers wcsph,iisph,dfsph] [--seeds 3]
-        [--rayleigh-radii 0.0025,0.002,0.0016667]
+        [--rayleigh-radii 0.0025,0.002,0.0016667] [--rayleigh-solver wcsph|dfsph]
+        [--rayleigh-jitter 0.05 --rayleigh-seeds 0,1,2] [--rayleigh-antisym]
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
 """
@@ -95,13 +96,14 @@ STIFFNESS = 200.0  #: linear state equation k [m^2/s^2]: about 0.3 % compression
 
 def scene(name: str, coef: float, blocks: list, r: float, dim: int = 2, nu: float = 0.005,
           stiffness: float = STIFFNESS, periodic: list | None = None,
-          solver: str = "wcsph") -> Scene:
+          solver: str = "wcsph", dt_max: float = 0.002) -> Scene:
     """A gravity-free scene with one surface tension model and WCSPH (linear state equation,
-    stiffness k) or, with ``solver`` "iisph" / "dfsph", that incompressible solver (defaults)."""
+    stiffness k) or, with ``solver`` "iisph" / "dfsph", that incompressible solver (defaults);
+    ``dt_max`` [s] bounds the time step."""
     press = ({"method": "wcsph", "equation": "linear", "stiffness": stiffness}
              if solver == "wcsph" else {"method": solver})
     cfg = {"dim": dim, "particle_radius": r, "gravity": [0.0] * dim, "pressure": press,
-           "time": {"dt_max": 0.002}}
+           "time": {"dt_max": dt_max}}
     if periodic is not None:
         cfg["periodic_x"] = periodic
     return Scene.model_validate({
@@ -384,33 +386,51 @@ def ball_blocks(R: float, r: float) -> list:
             for (i, j), z in cols.items()]
 
 
-def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
-                stiffness: float, nu: float = 2e-4, nsamp: int = 120,
-                name: str = "becker2007", relax: float = 0.0) -> dict:
-    """Mode-2 oscillation of a 3D drop; the measured period against the Rayleigh period.
-    ``name`` becker2007: sigma is the Kirkwood-Buff value of ``kappa``; mueller2003: ``kappa``
-    is sigma [N/m] itself. ``relax`` > 0: the sampled ball first relaxes at rest for that long
-    [s] (velocities then set to zero), so that the kick starts from a drop in equilibrium
-    instead of a lattice that rearranges while it oscillates (see validation/README.md); times
-    and the deformation are then counted from the kick."""
-    sim = Simulation(scene(name, kappa, ball_blocks(R, r), r, dim=3, nu=nu,
-                           stiffness=stiffness))
+def capillary_dt(sigma: float, r: float) -> float:
+    """The capillary time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` [s] (dx = 2r)."""
+    return float(np.sqrt(RHO0 * (2.0 * r) ** 3 / (2.0 * np.pi * sigma)))
+
+
+def relaxed_ball(kappa: float, R: float, r: float, relax: float, nu: float,
+                 stiffness: float = 200.0, name: str = "mueller2003", solver: str = "wcsph",
+                 dt_max: float = 0.002, jitter: float = 0.0,
+                 seed: int = 0) -> tuple[np.ndarray, float]:
+    """Positions (N, 3) of the sampled ball (:func:`ball_blocks`) after ``relax`` [s] at rest,
+    and the force's :func:`mode_lever` there (mueller2003 with ``relax`` > 0, else nan).
+    ``jitter`` > 0: the lattice positions are first displaced by normal random offsets of std
+    ``jitter * 2r`` (``seed``), so that the ball relaxes into a disordered packing instead of the
+    one packing that the exactly symmetric lattice settles into (validation/README.md: the
+    relaxed lattice ball at R = 5 h oscillates 1.33-1.36 times slower than Rayleigh's, the
+    jittered ones 1.07-1.12)."""
+    sim = Simulation(scene(name, kappa, ball_blocks(R, r), r, dim=3, nu=nu, stiffness=stiffness,
+                           solver=solver, dt_max=dt_max))
+    if jitter > 0.0:
+        x = sim.positions
+        x += np.random.default_rng(seed).normal(0.0, jitter * 2.0 * r, x.shape)
+    lever = float("nan")
     if relax > 0.0:
         sim.run(until=relax, fps=1e-3)
-        sim.velocities[:] = 0.0
-    lever = mode_lever(sim) if name == "mueller2003" and relax > 0.0 else float("nan")
-    t_kick = sim.time
+        if name == "mueller2003":
+            lever = mode_lever(sim)
+    return sim.positions.copy(), lever
+
+
+def mode2_signal(kappa: float, R: float, r: float, x0: np.ndarray, amp: float, until: float,
+                 nsamp: int, nu: float, stiffness: float = 200.0, name: str = "mueller2003",
+                 solver: str = "wcsph", dt_max: float = 0.002) -> tuple:
+    """Kick the drop at positions ``x0`` (at rest) with the mode-2 potential flow
+    ``v = amp (-x, -y, 2z)`` (about its centre of mass) and sample the deformation
+    ``q = <z^2> - (<x^2> + <y^2>)/2`` [m^2] ``nsamp`` times over ``until`` [s]: (t, q, sim)."""
+    sim = Simulation(scene(name, kappa, ball_blocks(R, r), r, dim=3, nu=nu, stiffness=stiffness,
+                           solver=solver, dt_max=dt_max))
+    if sim.fluid.n != x0.shape[0]:
+        raise ValueError(f"mode2_signal: {x0.shape[0]} positions for {sim.fluid.n} particles")
+    sim.positions[:] = x0
     x = sim.positions
     c = x.mean(axis=0)
     sim.velocities[:] = amp * np.stack([-(x[:, 0] - c[0]), -(x[:, 1] - c[1]),
                                         2 * (x[:, 2] - c[2])], axis=1)
-    m = float(sim.fluid["m"][0])
-    Rv = float((sim.fluid.n * m / RHO0 * 3 / (4 * np.pi)) ** (1 / 3))
-    if name == "mueller2003":
-        sigma, pint = kappa, 0.0
-    else:
-        sigma, pint = kb_sigma(name, kappa, m, r, 3)
-    omega = np.sqrt(8 * sigma / (RHO0 * Rv**3))
+
     def deformation() -> float:
         y = sim.positions - sim.positions.mean(axis=0)
         return float((y[:, 2] ** 2).mean() - 0.5 * ((y[:, 0] ** 2).mean()
@@ -418,12 +438,42 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
 
     ts, qs = [0.0], [deformation()]
     for k in range(1, nsamp + 1):
-        sim.run(until=t_kick + until * k / nsamp, fps=1e-3)
-        ts.append(sim.time - t_kick)
+        sim.run(until=until * k / nsamp, fps=1e-3)
+        ts.append(sim.time)
         qs.append(deformation())
-    t, q = np.array(ts), np.array(qs)
+    return np.array(ts), np.array(qs), sim
+
+
+def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
+                stiffness: float, nu: float = 2e-4, nsamp: int = 120,
+                name: str = "becker2007", relax: float = 0.0, jitter: float = 0.0,
+                seed: int = 0, solver: str = "wcsph", dt_max: float = 0.002,
+                antisym: bool = False) -> dict:
+    """Mode-2 oscillation of a 3D drop; the measured period against the Rayleigh period.
+    ``name`` becker2007: sigma is the Kirkwood-Buff value of ``kappa``; mueller2003: ``kappa``
+    is sigma [N/m] itself. ``relax`` > 0: the sampled ball (``jitter``, ``seed``: see
+    :func:`relaxed_ball`) first relaxes at rest for that long [s] and is kicked then, so that
+    the kick starts from a drop in equilibrium instead of a lattice that rearranges while it
+    oscillates (validation/README.md); times and the deformation are counted from the kick.
+    ``antisym``: the relaxed drop is kicked twice, with +amp and -amp, and the signal is
+    ``(q(+amp) - q(-amp)) / 2``: the part odd in the kick, free of the drift of the rest shape
+    and of the even (quadratic) response."""
+    x0, lever = relaxed_ball(kappa, R, r, relax, nu, stiffness, name, solver, dt_max, jitter,
+                             seed)
+    t, q, sim = mode2_signal(kappa, R, r, x0, amp, until, nsamp, nu, stiffness, name, solver,
+                             dt_max)
     q0 = q - q[0]  # the start shape is not exactly isotropic; deformation from the start
-    # the oscillation is about the rest shape: remove its mean over whole half-periods
+    if antisym:
+        _, qm, _ = mode2_signal(kappa, R, r, x0, -amp, until, nsamp, nu, stiffness, name,
+                                solver, dt_max)
+        q0 = 0.5 * (q0 - (qm - qm[0]))
+    m = float(sim.fluid["m"][0])
+    Rv = float((sim.fluid.n * m / RHO0 * 3 / (4 * np.pi)) ** (1 / 3))
+    if name == "mueller2003":
+        sigma, pint = kappa, 0.0
+    else:
+        sigma, pint = kb_sigma(name, kappa, m, r, 3)
+    omega = np.sqrt(8 * sigma / (RHO0 * Rv**3))
     cross0 = [t[i] - q0[i] * (t[i + 1] - t[i]) / (q0[i + 1] - q0[i])
               for i in range(1, len(t) - 1) if q0[i] * q0[i + 1] < 0]
     period = float("nan")
@@ -433,7 +483,8 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
             "T_rayleigh": 2 * np.pi / omega, "T_measured": period, "crossings": len(cross0),
             "T_extrema": period_from_extrema(t, q0), "t": t, "q": q0,
             **damped_fit(t, q0, omega), "gamma_lamb": 5.0 * nu / Rv**2, "relax": relax,
-            "lever": lever}
+            "lever": lever, "jitter": jitter, "seed": seed, "solver": solver, "amp": amp,
+            "antisym": antisym}
 
 
 def damped_fit(t: np.ndarray, q: np.ndarray, omega: float) -> dict:
@@ -506,6 +557,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rayleigh-radii", default="0.0025",
                     help="mueller2003 mode-2 drop (R = 0.04 m): comma-separated particle radii "
                          "r [m] (resolution study: 0.0025,0.002,0.0016667 for R = 4, 5, 6 h)")
+    ap.add_argument("--rayleigh-solver", default="wcsph", choices=("wcsph", "dfsph"),
+                    help="mueller2003 mode-2 drop: pressure solver (dfsph: dt_max 0.7 times the "
+                         "capillary bound)")
+    ap.add_argument("--rayleigh-jitter", type=float, default=0.0,
+                    help="mueller2003 mode-2 drop: std of random lattice offsets before relaxing, "
+                         "in particle spacings (0.05: disordered packing)")
+    ap.add_argument("--rayleigh-seeds", default="0",
+                    help="mueller2003 mode-2 drop: comma-separated jitter seeds")
+    ap.add_argument("--rayleigh-antisym", action="store_true",
+                    help="mueller2003 mode-2 drop: kick with +A and -A, use (q(+A) - q(-A))/2")
     args = ap.parse_args(argv)
     chosen = args.models.split(",")
     unknown = sorted(set(chosen) - set(MODELS) - {"mueller2003"})
@@ -626,30 +687,45 @@ def main(argv: list[str] | None = None) -> int:
         relax = 0.0 if name == "becker2007" else (0.2 if args.quick else 0.4)
         radii = ([0.0025] if name == "becker2007" or args.quick
                  else [float(v) for v in args.rayleigh_radii.split(",")])
+        csf_opts: dict = {}
+        seeds = [0]
+        if name == "mueller2003":
+            csf_opts = {"jitter": args.rayleigh_jitter, "solver": args.rayleigh_solver,
+                        "antisym": args.rayleigh_antisym}
+            if args.rayleigh_jitter > 0.0:
+                seeds = [int(v) for v in args.rayleigh_seeds.split(",")]
         for rr in radii:
-            if args.quick:
-                ray = rayleigh_3d(kappa=coef, R=0.03, r=rr, until=0.5, amp=1.0,
-                                  stiffness=200.0, nu=nu, name=name, relax=relax)
-            else:
-                ray = rayleigh_3d(kappa=coef, R=0.04, r=rr, until=0.8, amp=0.8,
-                                  stiffness=200.0, nu=nu, name=name, nsamp=160, relax=relax)
-            ray["h"] = 4.0 * rr
-            print(f"  rayleigh {name} r = {rr}: {time.perf_counter() - t0:.0f} s",
-                  file=sys.stderr)
-            rays.append((name, ray))
+            for seed in seeds:
+                opts = dict(csf_opts, seed=seed)
+                if opts.get("solver") == "dfsph":
+                    opts["dt_max"] = 0.7 * capillary_dt(coef, rr)
+                if args.quick:
+                    ray = rayleigh_3d(kappa=coef, R=0.03, r=rr, until=0.5, amp=1.0,
+                                      stiffness=200.0, nu=nu, name=name, relax=relax, **opts)
+                else:
+                    ray = rayleigh_3d(kappa=coef, R=0.04, r=rr, until=0.8, amp=0.8,
+                                      stiffness=200.0, nu=nu, name=name, nsamp=160,
+                                      relax=relax, **opts)
+                ray["h"] = 4.0 * rr
+                print(f"  rayleigh {name} r = {rr} seed {seed}: "
+                      f"{time.perf_counter() - t0:.0f} s", file=sys.stderr)
+                rays.append((name, ray))
     if rays:
         print()
         print("3D drop, mode 2 (WCSPH linear k = 200 m^2/s^2, velocity start; becker2007: "
               "sigma = Kirkwood-Buff value of kappa 0.3, nu = 2e-4 m^2/s, kicked at once; "
               "mueller2003: sigma = 5 N/m, nu = 1e-3 m^2/s, kicked after relaxing at rest; "
               "gamma: fitted damping rate, Lamb: 5 nu / R^2)")
-        print("| model | N | R [m] | R/h | relax [s] | sigma [N/m] | period Rayleigh [s] | "
+        print("| model | solver | jitter (seed) | +-A | N | R [m] | R/h | relax [s] | "
+              "sigma [N/m] | period Rayleigh [s] | "
               "period, extrema [s] | ratio | period, fit [s] (ratio) | gamma, Lamb [1/s] | "
               "fit resid | period, zero crossings [s] (count) | <(d/R)^3> of the force at the "
               "kick | predicted ratio <(d/R)^3>^(-1/2) |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for name, ray in rays:
-            print(f"| {name} | {ray['N']} | {ray['R']:.4f} | {ray['R'] / ray['h']:.2f} | "
+            print(f"| {name} | {ray['solver']} | {ray['jitter']:g} ({ray['seed']}) | "
+                  f"{'yes' if ray['antisym'] else 'no'} | {ray['N']} | {ray['R']:.4f} | "
+                  f"{ray['R'] / ray['h']:.2f} | "
                   f"{ray['relax']:.1f} | {ray['sigma']:.4g} | "
                   f"{ray['T_rayleigh']:.4g} | {ray['T_extrema']:.4g} | "
                   f"{ray['T_extrema'] / ray['T_rayleigh']:.3f} | {ray['T_fit']:.4g} "
