@@ -215,14 +215,15 @@ def slab_2d(name: str, coef: float, r: float, width: float, thick: float, until:
             "vmax": float(np.abs(sim.velocities).max())}
 
 
-def drop_2d(name: str, coef: float, side: float, r: float, until: float, nsamp: int = 60) -> dict:
-    """Relax a square of side ``side``; mean pressure deeper than 2h over the last third."""
-    sim = Simulation(scene(name, coef, [{"start": [-side / 2, -side / 2],
-                                         "end": [side / 2, side / 2]}], r))
+def _sample_drop_2d(sim: Simulation, until: float, nsamp: int, probe=None) -> dict:
+    """Run a 2D drop to ``until`` in ``nsamp`` samples; at each, the mean pressure of the
+    particles deeper than 2h, the roundness max(d) / R and ``probe(sim)`` (a tuple of numbers,
+    e.g. :func:`surface_force_pressure`). Returns the sample histories and the means / stds over
+    the last third."""
     m = float(sim.fluid["m"][0])
     R = float(np.sqrt(sim.fluid.n * m / RHO0 / np.pi))
-    h = 4.0 * r
-    ts, ps, rs = [], [], []
+    h = 4.0 * sim.state.r
+    ts, ps, rs, extra = [], [], [], []
     for k in range(1, nsamp + 1):
         sim.run(until=until * k / nsamp, fps=1e-3)
         x = sim.positions
@@ -230,9 +231,21 @@ def drop_2d(name: str, coef: float, side: float, r: float, until: float, nsamp: 
         ts.append(sim.time)
         ps.append(float(sim.pressures[d < R - 2.0 * h].mean()))
         rs.append(float(d.max() / R))
+        if probe is not None:
+            extra.append(probe(sim))
     tail = slice(2 * nsamp // 3, None)
     return {"R": R, "m": m, "p": float(np.mean(ps[tail])), "p_std": float(np.std(ps[tail])),
-            "t": np.array(ts), "p_hist": np.array(ps), "roundness": rs[-1], "n": sim.fluid.n}
+            "t": np.array(ts), "p_hist": np.array(ps), "roundness": rs[-1], "n": sim.fluid.n,
+            "extra": np.array(extra), "tail": tail}
+
+
+def drop_2d(name: str, coef: float, side: float, r: float, until: float, nsamp: int = 60) -> dict:
+    """Relax a square of side ``side``; mean pressure deeper than 2h over the last third."""
+    sim = Simulation(scene(name, coef, [{"start": [-side / 2, -side / 2],
+                                         "end": [side / 2, side / 2]}], r))
+    out = _sample_drop_2d(sim, until, nsamp)
+    del out["extra"], out["tail"]
+    return out
 
 
 def surface_force_pressure(sim: Simulation) -> tuple[float, float]:
@@ -307,25 +320,12 @@ def drop_2d_csf(sigma: float, side: float, r: float, until: float, nsamp: int = 
     if seed is not None:
         v = sim.fluid["v"]
         v += np.random.default_rng(seed).normal(0.0, V_NOISE, v.shape)
-    m = float(sim.fluid["m"][0])
-    R = float(np.sqrt(sim.fluid.n * m / RHO0 / np.pi))
-    h = 4.0 * r
-    ts, ps, pf, pj, rs = [], [], [], [], []
-    for k in range(1, nsamp + 1):
-        sim.run(until=until * k / nsamp, fps=1e-3)
-        x = sim.positions
-        d = np.linalg.norm(x - x.mean(axis=0), axis=1)
-        ts.append(sim.time)
-        ps.append(float(sim.pressures[d < R - 2.0 * h].mean()))
-        f_area, f_jump = surface_force_pressure(sim)
-        pf.append(f_area)
-        pj.append(f_jump)
-        rs.append(float(d.max() / R))
-    tail = slice(2 * nsamp // 3, None)
-    return {"R": R, "m": m, "p": float(np.mean(ps[tail])), "p_std": float(np.std(ps[tail])),
-            "pF": float(np.mean(pf[tail])), "pF_std": float(np.std(pf[tail])),
-            "pJ": float(np.mean(pj[tail])), "pJ_std": float(np.std(pj[tail])),
-            "t": np.array(ts), "p_hist": np.array(ps), "roundness": rs[-1], "n": sim.fluid.n}
+    out = _sample_drop_2d(sim, until, nsamp, probe=surface_force_pressure)
+    tail, extra = out.pop("tail"), out.pop("extra")
+    pf, pj = extra[tail, 0], extra[tail, 1]
+    out.update({"pF": float(np.mean(pf)), "pF_std": float(np.std(pf)),
+                "pJ": float(np.mean(pj)), "pJ_std": float(np.std(pj))})
+    return out
 
 
 def csf_ensemble(sigma: float, side: float, r: float, until: float, seeds: int,
