@@ -69,8 +69,29 @@ virtual particles to the map model.
 internally with z = 0 (angular velocity (0, 0, w)), mass and polar moment per metre of depth
 come from the section (:func:`section_mass_properties`), its contact points are the ends of the
 section's segments, and the compiled passes read and write the (2, N) fields. Measured
-(tests/test_rigid_2d.py): momentum exchange to round-off, a floating square 0.48 submerged; a
-heavy square landing on the floor blew up in the squeezed film (not solved yet).
+(tests/test_rigid_2d.py): momentum exchange to round-off, a floating square 0.48 submerged, a
+heavy square (density 2000) sinks and rests flat on the floor (the 0.2 m square of
+``validation/rigid.py --dim 2`` still diverges, see below). It blew up at landing (t = 0.195
+s, 175 m/s) while DFSPH's divergence solve and density solve both stopped the body: the body
+yielded to the divergence pressure inside the solve but kept its old velocity for the density
+solve, which stopped it again, and the sum (6300 N on a 20 kg/m body, 30x its weight) threw it
+back up into the squeezed film. The divergence impulse now moves the yielding boundary
+(:mod:`sphkit.pressure.dfsph`).
+
+Landing through water needs the last fluid layer under the body to go. In this discrete model a
+single layer between two walls is at rest density (each wall's Akinci volumes stand for the fluid
+beyond it), so the squeezed film thins by spacing out (particles 3.2 r apart, 1.6 r gap) rather
+than draining, and a sparse film has no lateral pressure gradient to drive it out. What ejects it
+is a runaway of the one-sided Jacobi iterations: with full mirroring on both sides (m_b = 1 on
+body and floor) the pressure operator of two particles stacked between them is indefinite
+(largest eigenvalue of the 2x2 block +4e-4 against -1.5e-3 one-sided, measured), and all the
+particles under a body push it at once (Jacobi-scaled coupling eigenvalues up to 5-11, against
+0.1 while sinking). Removing both (one-sided term near bodies, a mass-splitting bound on the
+Jacobi diagonals; this branch's history) stopped every blow-up but left the body on the last
+layer (2D: 1.5-1.7 r above the floor; 3D: tilted, rocking), as volume maps do (3.5 r). So the
+landing relies on the runaway, in 3D (fluid ejected at 1.9-3.7 m/s) as in 2D, where one of six
+neighbouring set-ups of the test and the validation square still blow up (validation/README.md,
+"Rigid bodies in 2D").
 
 Dynamic bodies are advanced with symplectic Euler on linear and angular momentum:
 ``v += dt (F / M + g)``, ``omega += dt I_w^-1 (T - omega x I_w omega)`` with the world inertia
