@@ -20,7 +20,9 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
    strong coupling) takes its velocity change ``dt a_b(kappa^v)`` too, so that the density
    solve sees the bodies as the fluid now does (otherwise it stops a landing body a second time:
    the 2D heavy square of tests/test_rigid_2d.py was thrown back at 30x its weight and blew up);
-3. non-pressure forces (the simulation), ``v* = v + dt a``;
+3. non-pressure forces (the simulation), ``v* = v + dt a``; the boundary velocities of dynamic
+   rigid bodies are advanced by theirs (gravity) too (:meth:`sphkit.boundary.rigid.RigidBodies.
+   predict`), so that the density solve sees the bodies fall as the fluid does;
 4. the **constant-density solver** (Alg. 2): ``rho_hat*_i = max(rho_hat_i + dt D rho_hat_i/Dt(v*),
    1)``, ``s_i = 1 - rho_hat*_i``, warm start ``kappa_i = 0.5 min(kappa_prev, 0.00025) / dt^2``
    where ``rho_hat* > 1``, iterations ``kappa_i <- max(kappa_i - 0.5 (s_i - A kappa_i) alpha_i /
