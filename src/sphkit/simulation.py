@@ -719,6 +719,8 @@ class Simulation:
         a[:] = st.gravity[:, None]
         for force in self.forces:
             force.apply(st, dt)
+        if st.boundary_response is not None:  # strong coupling: the solve sees the bodies'
+            self.rigid.predict(st, dt)  # predicted velocities (gravity), as the fluid's
         ps = self.pressure.solve(st, dt)
         if self.rigid.bodies:  # fluid forces on the bodies, from this step's pressure
             self.rigid.fluid_forces(st)

@@ -15,8 +15,14 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
    2D, whose residual is also left out of the error), warm start
    ``kappa^v_i = 0.5 min(kappa^v_prev, 0.5) / dt`` where the density increases, iterations
    ``kappa^v_i <- max(kappa^v_i - 0.5 (s_i - A kappa^v_i) alpha_i / dt, 0)`` until the average
-   ``|D rho_hat / Dt| dt`` is at most ``max_error_v``; then ``v += dt a(kappa^v)``;
-3. non-pressure forces (the simulation), ``v* = v + dt a``;
+   ``|D rho_hat / Dt| dt`` is at most ``max_error_v``; then ``v += dt a(kappa^v)``, and a
+   boundary that yields to the pressure (``state.boundary_response``: dynamic rigid bodies,
+   strong coupling) takes its velocity change ``dt a_b(kappa^v)`` too, so that the density
+   solve sees the bodies as the fluid now does (otherwise it stops a landing body a second time:
+   the 2D heavy square of tests/test_rigid_2d.py was thrown back at 30x its weight and blew up);
+3. non-pressure forces (the simulation), ``v* = v + dt a``; the boundary velocities of dynamic
+   rigid bodies are advanced by theirs (gravity) too (:meth:`sphkit.boundary.rigid.RigidBodies.
+   predict`), so that the density solve sees the bodies fall as the fluid does;
 4. the **constant-density solver** (Alg. 2): ``rho_hat*_i = max(rho_hat_i + dt D rho_hat_i/Dt(v*),
    1)``, ``s_i = 1 - rho_hat*_i``, warm start ``kappa_i = 0.5 min(kappa_prev, 0.00025) / dt^2``
    where ``rho_hat* > 1``, iterations ``kappa_i <- max(kappa_i - 0.5 (s_i - A kappa_i) alpha_i /
@@ -137,6 +143,11 @@ class DFSPH:
                                            alpha / dt, dt, OMEGA, active, error_factor=dt,
                                            grads=self._grads)
         f["v"] += dt * a
+        response = state.boundary_response
+        if response is not None:
+            # strong coupling: the boundary that yielded to kappa^v in the solve takes its
+            # velocity change too, so that the density solve sees the bodies as the fluid does
+            state.boundary["v"] += dt * response(kappa, self._grads.gwb)
         f["dfsph_kappa_v"] = kappa * dt
         self._kappa_v = kappa
         self._div_stats = (its, avg)
