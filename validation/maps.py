@@ -2,7 +2,8 @@
 sphere obstacle, for Akinci particles, density maps and volume maps (DFSPH).
 
     python validation/maps.py [--dim 2|3] [--until 2.0] [--realizations K] [--skip-dambreak]
-                              [--lattice square|hexagonal]
+                              [--lattice square|hexagonal] [--radius R]
+                              [--pressures mirror mls hydrostatic]
 
 1. Hydrostatic column: benchmarks/scenes/UnitBox.obj scaled to a tank of width W (mapInvert),
    water of height H starting 2r off the walls (``--lattice hexagonal``: the 2D block sampled
@@ -136,13 +137,15 @@ def wall_excess(x: np.ndarray, p: np.ndarray, r: float, W: float) -> float:
 
 def column(method: str, dim: int, until: float, cache: str, bp: str = "mirror",
            realization: int = 0, lattice: str = "square", size: tuple[float, float] | None = None,
-           average: float = 0.5) -> dict:
+           average: float = 0.5, radius: float | None = None) -> dict:
     """One settled column. ``realization`` k > 0 starts from the lattice jittered by up to
     0.1 r (uniform, seed k): the same column settling into another packing. ``lattice``: the
     fluid block's sampling (``fluid_blocks[].lattice``; "hexagonal" is 2D only), in the same
     block 2r off the walls. ``size``: tank width W and water height H [m] (default 0.6 x 0.5 in
-    2D, 0.6 x 0.4 in 3D); pressures and positions are averaged over the last ``average`` s."""
-    r = 0.01 if dim == 2 else 0.02
+    2D, 0.6 x 0.4 in 3D); pressures and positions are averaged over the last ``average`` s.
+    ``radius``: particle radius r [m] (default 0.01 in 2D, 0.02 in 3D); the tank and the water
+    block keep their size, so a smaller r puts more rows under the free surface."""
+    r = radius or (0.01 if dim == 2 else 0.02)
     W, H = size or ((0.6, 0.5) if dim == 2 else (0.6, 0.4))
     start = [-W / 2 + 2 * r, -0.5 + 2 * r, -W / 2 + 2 * r][:dim]
     end = [W / 2 - 2 * r, -0.5 + 2 * r + H, W / 2 - 2 * r][:dim]
@@ -192,14 +195,16 @@ def column(method: str, dim: int, until: float, cache: str, bp: str = "mirror",
 
 
 def column_ensemble(method: str, dim: int, until: float, cache: str, bp: str,
-                    realizations: int, lattice: str = "square") -> dict:
+                    realizations: int, lattice: str = "square",
+                    radius: float | None = None) -> dict:
     """:func:`column` for realizations 0 .. K-1. The layer errors are averaged over the
     realizations layer by layer (layer j of each run: the same height over its floor); the
     ensemble profile error is the largest |mean|, with the standard error of that layer's mean
     (``noise``: the packing scatter, sqrt(sum of the runs' squared standard errors) / K).
     Slopes, wall excess, stand-off, iterations: means; outside: the sum; realization 0 alone is
     the single-run number of earlier tables (``profile0``)."""
-    runs = [column(method, dim, until, cache, bp, k, lattice) for k in range(realizations)]
+    runs = [column(method, dim, until, cache, bp, k, lattice, radius=radius)
+            for k in range(realizations)]
     nl = min(len(c["layers"]) for c in runs)
     lay = np.stack([c["layers"][:nl] for c in runs])  # (K, layers, 2)
     mean = lay[:, :, 0].mean(axis=0)
@@ -259,6 +264,13 @@ def main() -> None:
     ap.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     ap.add_argument("--realizations", type=int, default=None,
                     help="columns per model, from jittered lattices (default 4 in 2D, 3 in 3D)")
+    ap.add_argument("--pressures", nargs="+", default=["mirror", "mls", "hydrostatic"],
+                    choices=("mirror", "mls", "hydrostatic"),
+                    help="column: boundary pressures to run (configuration.boundary.pressure; "
+                    "'mls' with akinci2012, 'hydrostatic' with the maps)")
+    ap.add_argument("--radius", type=float, default=None,
+                    help="column: particle radius [m] (default 0.01 in 2D, 0.02 in 3D; the tank "
+                    "and the water keep their size)")
     ap.add_argument("--lattice", default="square", choices=("square", "hexagonal"),
                     help="column: fluid block sampling (fluid_blocks[].lattice; hexagonal: 2D)")
     args = ap.parse_args()
@@ -267,8 +279,9 @@ def main() -> None:
                  "lattice is 2D")
     with tempfile.TemporaryDirectory() as tmp:
         k = args.realizations or (4 if args.dim == 2 else 3)
-        print(f"Hydrostatic column in a UnitBox.obj tank ({args.dim}D, DFSPH, {args.until} s, "
-              f"{k} realization(s), {args.lattice} lattice)")
+        r = args.radius or (0.01 if args.dim == 2 else 0.02)
+        print(f"Hydrostatic column in a UnitBox.obj tank ({args.dim}D, r = {r} m, DFSPH, "
+              f"{args.until} s, {k} realization(s), {args.lattice} lattice)")
         print("| boundary | particles | slope / rho0 g | |slope - 1| [%] | profile error "
               "[% rho0 g H] (noise) | worst layer | realization 0 | mean-surface profile error | "
               "SPH-interpolated profile error | wall columns [% rho0 g H] | "
@@ -279,9 +292,10 @@ def main() -> None:
         if "akinci2012" in args.methods:
             runs.insert(1, ("akinci2012", "mls"))
         runs += [(m, "hydrostatic") for m in METHODS[1:] if m in args.methods]
+        runs = [(m, bp) for m, bp in runs if bp in args.pressures]
         layers = {}
         for m, bp in runs:
-            c = column_ensemble(m, args.dim, args.until, tmp, bp, k, args.lattice)
+            c = column_ensemble(m, args.dim, args.until, tmp, bp, k, args.lattice, args.radius)
             name = m + {"mls": " + MLS pressure (Band 2018)", "mirror": "",
                         "hydrostatic": " + hydrostatic wall pressure"}[bp]
             res[name] = c
