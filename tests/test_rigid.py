@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from _landing import track_landing
 
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation
@@ -154,15 +155,8 @@ def test_heavy_box_sinks_and_rests_on_floor(tmp_path: Path) -> None:
     body = sim.rigid.bodies[0]
     s = np.array([-1.0, 1.0]) * side / 2
     corners = np.stack(np.meshgrid(s, s, s, indexing="ij")).reshape(3, -1)
-    lowest, landed, vmax = np.inf, None, 0.0
-    while sim.time < 1.2:
-        st = sim.step()
-        low = float((body.c[:, None] + body.R @ corners)[1].min())
-        lowest = min(lowest, low)
-        if landed is None and low < 0.1 * R:
-            landed = sim.time
-        if landed is not None:
-            vmax = max(vmax, st.max_velocity)
+    track = track_landing(sim, body, corners, 1.2, R)
+    lowest, landed, vmax, low = track.lowest, track.landed, track.vmax, track.final
     drift = np.linalg.norm((body.c - [L / 2, 0.0, L / 2])[[0, 2]])
     print(f"landed at {landed} s, lowest {lowest * 1000:+.3f} mm, fluid after landing "
           f"{vmax:.2f} m/s, final {low * 1000:+.3f} mm, {np.linalg.norm(body.v):.1e} m/s, "

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from _landing import track_landing
 
 from sphkit.boundary.rigid import section_mass_properties
 from sphkit.scene.schema import Scene
@@ -213,15 +214,8 @@ def test_2d_heavy_square_sinks_and_rests_on_floor(tmp_path: Path) -> None:
     assert body.mass == pytest.approx(20.0, rel=1e-12)  # 2000 kg/m^3 * 0.01 m^2 [kg/m]
     s = np.array([-1.0, 1.0]) * side / 2
     corners = np.stack(np.meshgrid(s, s, [0.0], indexing="ij")).reshape(3, -1)
-    lowest, landed, vmax = np.inf, None, 0.0
-    while sim.time < 1.2:
-        st = sim.step()
-        low = float((body.c[:, None] + body.R @ corners)[1].min())
-        lowest = min(lowest, low)
-        if landed is None and low < 0.1 * R:
-            landed = sim.time
-        if landed is not None:
-            vmax = max(vmax, st.max_velocity)
+    track = track_landing(sim, body, corners, 1.2, R)
+    lowest, landed, vmax = track.lowest, track.landed, track.vmax
     x = sim.fluid["x"]
     print(f"landed at {landed} s, lowest {lowest * 1000:+.3f} mm, fluid after landing "
           f"{vmax:.2f} m/s, centre {(body.c[1] - side / 2) * 1000:+.2f} mm above rest, "
