@@ -57,7 +57,15 @@ SCRIPT = textwrap.dedent(
 def test_bodies_match_cpu_under_cuda_simulator() -> None:
     """Tolerance 1e-12 relative: same formulas and summation order, only rounding differs
     (fastmath on the CPU may reassociate)."""
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    _run_script(dict(os.environ, NUMBA_ENABLE_CUDASIM="1"))
+
+
+def _without_simulator() -> dict:
+    return {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+
+
+def _run_script(env: dict) -> None:
+    """Run SCRIPT in a subprocess with ``env``; both dimensions must report a match."""
     res = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True,
                          timeout=600)
     assert res.returncode == 0, res.stdout + res.stderr
@@ -66,11 +74,11 @@ def test_bodies_match_cpu_under_cuda_simulator() -> None:
 
 def _cuda_gpu() -> bool:
     """Whether numba.cuda sees a real GPU (asked in a subprocess, without the simulator)."""
-    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
     try:
         res = subprocess.run([sys.executable, "-c",
                               "from numba import cuda; print(cuda.is_available())"],
-                             env=env, capture_output=True, text=True, timeout=120)
+                             env=_without_simulator(), capture_output=True, text=True,
+                             timeout=120)
     except (OSError, subprocess.TimeoutExpired):
         return False
     return res.returncode == 0 and res.stdout.strip().endswith("True")
@@ -80,8 +88,4 @@ def _cuda_gpu() -> bool:
 def test_bodies_match_cpu_on_gpu() -> None:
     """The same kernels on a real GPU. Tolerance 1e-12 relative: the GPU contracts a * b + c
     into fused multiply-adds, which changes only the last bits of each term."""
-    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
-    res = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True,
-                         timeout=600)
-    assert res.returncode == 0, res.stdout + res.stderr
-    assert "dim 2 ok" in res.stdout and "dim 3 ok" in res.stdout
+    _run_script(_without_simulator())

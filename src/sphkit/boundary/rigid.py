@@ -149,6 +149,7 @@ import trimesh
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import neighbor_lists
+from sphkit.core.particles import ParticleSet
 from sphkit.core.sdf import tri_dist2
 from sphkit.core.state import SimState
 
@@ -549,7 +550,7 @@ class RigidBodies:
         self.solver = solver
         self.walls = walls or []
         self.contact_iterations = contact_iterations
-        self._ab: np.ndarray | None = None  # boundary accelerations of pressure_response
+        self._ab: np.ndarray | None = None  # _boundary_accel's buffer
 
     @property
     def any_dynamic(self) -> bool:
@@ -680,6 +681,12 @@ class RigidBodies:
             if b.dynamic:
                 acc[j, :3] = tot[j, :3] / b.mass
                 acc[j, 3:] = self._Iinv[j] @ tot[j, 3:]
+        return self._boundary_accel(bd, acc)
+
+    def _boundary_accel(self, bd: ParticleSet, acc: np.ndarray) -> np.ndarray:
+        """Accelerations (dim, N_b) of the boundary particles from their bodies' linear and
+        angular accelerations ``acc`` (bodies, 6) about this step's centres (0 on static walls),
+        in a buffer reused across calls."""
         ab = self._ab
         if ab is None or ab.shape != bd["x"].shape:
             ab = self._ab = np.empty_like(bd["x"])
@@ -707,11 +714,7 @@ class RigidBodies:
                 acc[k, :3] = g
                 acc[k, 3:] = -(self._Iinv[k] @ np.cross(b.omega, Iw @ b.omega))
         bd = state.boundary
-        ab = self._ab
-        if ab is None or ab.shape != bd["x"].shape:
-            ab = self._ab = np.empty_like(bd["x"])
-        _point_accel(bd["x"], bd["rigid_body"], self._c, acc, ab)
-        bd["v"] += dt * ab
+        bd["v"] += dt * self._boundary_accel(bd, acc)
 
     def begin_step(self, state: SimState) -> None:
         """Cache this step's centres and world inverse inertias for :meth:`pressure_response`."""

@@ -230,11 +230,20 @@ def lattice_volume(spacing: float, name: str | int, h: float, dim: int) -> float
     discretization error (a few percent for the cubic spline at h = 2 * spacing) and is what
     sphkit uses for the mass of lattice-sampled fluid (instead of SPlisHSPlasH's fixed factor 0.8).
     """
-    k = Kernel(name, h, dim)
+    return _volume_on(cubic_lattice_points(spacing, h, dim), name, h, dim)
+
+
+def _volume_on(points: np.ndarray, name: str | int, h: float, dim: int) -> float:
+    """``1 / sum_k W(|x_k|)`` over lattice points (N, dim) around the origin, self included."""
+    return float(1.0 / Kernel(name, h, dim).w(np.linalg.norm(points, axis=1)).sum())
+
+
+def cubic_lattice_points(spacing: float, h: float, dim: int) -> np.ndarray:
+    """Points (N, dim) of the cubic lattice of the given spacing around the origin (included),
+    covering the ball of radius h."""
     n = int(np.ceil(h / spacing)) + 1
     axes = [np.arange(-n, n + 1) * spacing] * dim
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
-    return float(1.0 / k.w(np.linalg.norm(grid, axis=1)).sum())
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
 
 
 def _hexagonal_points(spacing: float, h: float) -> np.ndarray:
@@ -243,7 +252,6 @@ def _hexagonal_points(spacing: float, h: float) -> np.ndarray:
     i, j = np.meshgrid(np.arange(-2 * n, 2 * n + 1), np.arange(-n, n + 1), indexing="ij")
     pts = np.stack([(i + 0.5 * (j % 2)) * spacing, j * 0.5 * np.sqrt(3.0) * spacing], axis=-1)
     return pts.reshape(-1, 2)
-
 
 
 def hexagonal_volume(spacing: float, name: str | int, h: float) -> float:
@@ -256,5 +264,4 @@ def hexagonal_volume(spacing: float, name: str | int, h: float) -> float:
     ``sqrt(3)/2 (2r)^2 = 0.8660 (2r)^2``), and the lattice's gradient normalisation
     ``sum_j V grad W_ij (x_j - x_i)^T`` is ``1.0004 I`` (square lattice of spacing 2r: 1.012).
     """
-    k = Kernel(name, h, 2)
-    return float(1.0 / k.w(np.linalg.norm(_hexagonal_points(spacing, h), axis=1)).sum())
+    return _volume_on(_hexagonal_points(spacing, h), name, h, 2)

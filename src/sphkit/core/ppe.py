@@ -69,19 +69,15 @@ _JIT_GATHER = dict(cache=True, fastmath=set(GATHER_FASTMATH))
 
 @numba.njit(parallel=True, **_JIT_GATHER)
 def jacobi_sweep(a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, scale, omega, active,
-                 one_sided, w, k):
+                 w, k):
     """The second half of one Jacobi iteration, in one pass: for every particle the product
     ``Ap_i`` = :func:`pair_divergence_cached` of the pressure accelerations a (boundary
     accelerations ab), the residual ``r_i = s_i - f Ap_i`` (f = ap_factor), the update of q and
     the weighted variable ``k_i = w_i q_i`` that the next :func:`kappa_accel_cached` reads (the
-    pass reads only a, so writing q and k in place keeps it a Jacobi sweep).
-
-    * ``one_sided`` False (IISPH, and DFSPH with omega 0.5 as SPlisHSPlasH's
-      ``TimeStepDFSPH``): ``q_i <- max(q_i - omega scale_i r_i, 0)``;
-    * ``one_sided`` True (the update SPlisHSPlasH's DFSPH keeps commented out; no sphkit solver
-      uses it since 2026-11-26, see :mod:`sphkit.pressure.dfsph`): only compressive residuals act,
-      ``r_i <- min(r_i, 0)`` (0 for inactive particles), ``q_i <- q_i - omega scale_i r_i``, so q
-      only grows from its warm start and needs no clamp.
+    pass reads only a, so writing q and k in place keeps it a Jacobi sweep). The update is
+    ``q_i <- max(q_i - omega scale_i r_i, 0)`` (IISPH, and DFSPH with omega 0.5 as
+    SPlisHSPlasH's ``TimeStepDFSPH``; the one-sided update DFSPH used before 2026-11-26 is
+    described in :mod:`sphkit.pressure.dfsph`).
 
     Returns (mean over all particles, max) of the compressive residual ``max(-r_i, 0)`` of active
     particles, before the update. (One pass instead of a divergence pass, an update pass and a
@@ -92,11 +88,7 @@ def jacobi_sweep(a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, sca
     mx = 0.0
     for i in numba.prange(n):
         r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim)
-        if one_sided:
-            r = min(r, 0.0) if active[i] else 0.0
-            qi = q[i] - omega * scale[i] * r
-        else:
-            qi = max(q[i] - omega * scale[i] * r, 0.0)
+        qi = max(q[i] - omega * scale[i] * r, 0.0)
         q[i] = qi
         k[i] = w[i] * qi
         if active[i]:
@@ -337,11 +329,9 @@ def lattice_diagonal(spacing: float, h: float, kid: int, dim: int, V: float) -> 
     |grad W(x_0 - x_k)|^2`` [1/m^2]. PCISPH's factor is ``delta = 1 / (2 D0)`` (Solenthaler &
     Pajarola 2009, Eq. 8, in normalized units; SPlisHSPlasH ``SimulationDataPCISPH::init``).
     """
-    from sphkit.core.kernels import Kernel
+    from sphkit.core.kernels import Kernel, cubic_lattice_points
 
-    n = int(np.ceil(h / spacing)) + 1
-    axes = [np.arange(-n, n + 1) * spacing] * dim
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
+    grid = cubic_lattice_points(spacing, h, dim)
     d = np.linalg.norm(grid, axis=1)
     g = Kernel(kid, h, dim).grad(-grid[(d > 0.0) & (d < h)])
     s1 = g.sum(axis=0)

@@ -164,17 +164,16 @@ class PairGradients:
 
 def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray,
                s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
-               active: np.ndarray, error_factor: float = 1.0, one_sided: bool = False,
+               active: np.ndarray, error_factor: float = 1.0,
                grads: PairGradients | None = None
                ) -> tuple[np.ndarray, int, float, float, bool]:
     """Relaxed Jacobi on ``A q = s``; q is updated in place and clamped to q >= 0.
 
     One iteration: ``a = kappa_accel_cached(w q)``; ``Ap = ap_factor * pair_divergence_cached(a)``;
-    ``q <- max(q - omega scale (s - Ap), 0)``, or with ``one_sided`` only the compressive part
-    of the residual acts (see :func:`sphkit.core.ppe.jacobi_sweep`, which computes Ap and updates
-    q in one pass). The error of an iteration
-    is the compressive residual ``max(Ap - s, 0)`` of ``active`` particles averaged over all
-    particles, times ``error_factor``.
+    ``q <- max(q - omega scale (s - Ap), 0)`` (:func:`sphkit.core.ppe.jacobi_sweep` computes Ap
+    and updates q in one pass). The error of an iteration is the compressive residual
+    ``max(Ap - s, 0)`` of ``active`` particles averaged over all particles, times
+    ``error_factor``.
     ``grads`` are the step's cached pair gradients (computed here when not given).
     Returns (pressure acceleration of the final q, iterations, average error, max error,
     converged).
@@ -197,7 +196,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
                            g.gwb, dim, a)
         ab = still if response is None else response(k, g.gwb)
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
-                               dim, q, s, ap_factor, scale, omega, active, one_sided, w, k)
+                               dim, q, s, ap_factor, scale, omega, active, w, k)
         return avg * error_factor, mx * error_factor
 
     its, avg, mx, ok = control.run(sweep, state.step)
