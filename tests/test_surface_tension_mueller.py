@@ -158,6 +158,55 @@ def test_force_holds_the_laplace_jump_on_sampled_drops(dim: int, radii: tuple, r
         assert abs(jump * Rv / ((dim - 1) * sigma) - 1.0) < tol, (dim, R, jump * Rv)
 
 
+@pytest.mark.parametrize("R", [0.04, 0.06])
+def test_laplace_jump_of_rough_balls(R: float, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A rough surface must not read as extra curvature. Fibonacci balls of R = 4 h and 6 h
+    (r = 2.5 mm) with every particle displaced by normal noise of std 0.05 dx (three seeds): the
+    force's Laplace jump R / (2 sigma) measured 1.007-1.010 (4 h) and 1.006-1.007 (6 h) with the
+    smoothed directions; with each particle's own normal (``SMOOTHING = 0``, the earlier model)
+    1.057-1.068 and 1.099-1.105, a bias that grows with R/h (module docstring). 3 % holds the
+    first with room for round-off and is below the smallest biased value."""
+    import sphkit.surface_tension.mueller2003 as mod
+
+    def jumps() -> list[float]:
+        out = []
+        for seed in range(3):
+            x = _ball(R + 0.0025, 0.005)
+            x = x + np.random.default_rng(seed).normal(0.0, 0.05 * 0.005, x.shape)
+            jump, Rv = _jump_of_sampled_drop(x, 0.0025, 0.5)
+            out.append(jump * Rv)
+        return out
+
+    smoothed = jumps()
+    assert all(abs(q - 1.0) < 0.03 for q in smoothed), smoothed
+    monkeypatch.setattr(mod, "SMOOTHING", 0)
+    monkeypatch.setattr(mod, "NEIGHBOUR", THRESHOLD)
+    raw = jumps()
+    assert all(q - 1.0 > 0.03 for q in raw), raw
+
+
+def test_3d_drop_oscillates_with_the_rayleigh_frequency() -> None:
+    """Issue 6: a 3D drop (R = 0.04 m = 5 h, r = 2 mm, 4169 particles, sigma = 5 N/m,
+    nu = 1e-3 m^2/s, no gravity, DFSPH) relaxes at rest for 0.4 s from a lattice ball jittered by
+    0.05 particle spacings (seed 0) and is kicked with the mode-2 flow ``v = +-A (-x, -y, 2z)``,
+    A = 0.8 1/s; the signal is the part of ``q = <z^2> - (<x^2> + <y^2>)/2`` odd in A. Its
+    period must be Rayleigh's ``2 pi / sqrt(8 sigma / (rho R^3))`` within 15 % (the issue's
+    target on omega, here held on the period, which is stricter for a slow drop). Measured
+    1.108 (like extrema; damped-cosine fit 1.111); seeds 1 and 2: 1.106 / 1.107, the lattice
+    start 1.098; resolution study 4 / 5 / 6 / 7 h: 1.156 / 1.108 / 1.076 / 1.051 (the remaining
+    excess is the force acting in a band under the surface, an O(h/R) lever; validation/
+    README.md). The fit must also be a decaying cosine (damping > 0, residual < 5 % of the
+    amplitude: measured 1.64 1/s and 1.8 %): the earlier curvature estimator fed energy into
+    finer drops."""
+    res = val.rayleigh_3d(5.0, 0.04, 0.002, 0.6, 0.8, 200.0, nu=1e-3, nsamp=120,
+                          name="mueller2003", relax=0.4, jitter=0.05, seed=0, solver="dfsph",
+                          dt_max=0.7 * val.capillary_dt(5.0, 0.002), antisym=True)
+    ratio = res["T_extrema"] / res["T_rayleigh"]
+    assert abs(ratio - 1.0) <= 0.15, ratio
+    assert abs(res["T_fit"] / res["T_rayleigh"] - ratio) < 0.03, res["T_fit"]
+    assert res["gamma"] > 0.0 and res["fit_resid"] < 0.05, (res["gamma"], res["fit_resid"])
+
+
 def test_tangent_plane_moment_of_the_cubic_spline() -> None:
     """M = int_plane W rho^2 dA: 2D int_{-h}^{h} W(|y|) y^2 dy, 3D int_0^h W(q) q^2 2 pi q dq;
     the cubic spline's closed forms (q = rho/h, W = s (6q^3 - 6q^2 + 1) for q <= 1/2 and

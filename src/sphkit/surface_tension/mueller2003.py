@@ -42,14 +42,29 @@ We therefore keep Eqs. (15), (16) and the force ``f = sigma kappa n`` of Eq. (19
   proper, ``|n| h >= SURFACE`` (1.0-1.3 there, at most ~0.5 deeper), as the divergence of the
   unit normal (the geometric definition that Eq. (17) approximates when |n| is constant along
   n). Since ``n/|n|`` has unit length, its divergence is its *tangential* divergence, estimated
-  by weighted least squares over the neighbours j with ``|n_j| h >= THRESHOLD`` whose normals
-  are within 60 degrees of n_i (tangent basis t_k of n_i, weights ``V_j |W'_ij| / r_ij``)::
+  by weighted least squares over the neighbours j with ``|n_j| h >= NEIGHBOUR`` (the surface
+  layer and the particles just under it) whose normals are within 60 degrees of n_i (tangent
+  basis t_k of n_i, weights ``V_j |W'_ij| / r_ij``)::
 
       kappa_i = -tr(M^-1 B),  M_kl = sum_j w_ij s_k s_l,  B_kl = sum_j w_ij s_k e_l,
-      s_k = t_k . (x_j - x_i),  e_l = t_l . (n_j/|n_j| - n_i/|n_i|)
+      s_k = t_k . (x_j - x_i),  e_l = t_l . (u_j - u_i)
 
-  clamped to ``|kappa| <= (dim - 1) KAPPA_MAX / h``. On a relaxed 2D drop this gives
-  ``kappa d = 1.00 +- 0.14`` (d: the particle's distance from the centre; test and validation).
+  clamped to ``|kappa| <= (dim - 1) KAPPA_MAX / h``.
+* **directions smoothed first.** The unit normals u in the fit are not the particles' own
+  ``n/|n|`` but the directions of n after ``SMOOTHING`` (2) Shepard passes
+  ``n_i <- sum_j V_j W_ij n_j`` (self included; :meth:`Mueller2003.smoothed_directions`). The
+  raw normals of a disordered surface carry the particle-scale roughness: a particle that sticks
+  out has a large |n| (so it is a surface-layer particle) and its neighbours' normals lean
+  towards it, so its ``-div u`` reads a curvature of the bump, not of the drop. This bias is
+  always positive (the sunken particles, whose bias is negative, fall below SURFACE) and, in
+  units of the drop's curvature, grows like R/h: on relaxed 3D drops (jittered start) the raw
+  estimate read ``kappa d / 2`` = 1.19 / 1.28 / 1.56 at R = 4 / 6 / 8 h (std 0.19-0.38), which
+  made the mode-2 stiffness fall with resolution until the 7 h drop no longer oscillated and
+  jittered 6 h drops never came to rest (validation/README.md). With the smoothed directions:
+  1.005 / 1.028 / 1.062 (std 0.03-0.07) on drops that relax with this model. Smoothing pulls
+  in the directions of the second layer as well, which would add their larger curvature
+  ``1/(d - 2r)`` to the fit; that is why only neighbours with ``|n_j| h >= NEIGHBOUR`` = 0.4
+  enter it (with 0.1 the Laplace jump of sampled discs rose by 1-3 %, see the tests).
 * **the interface, one particle radius out.** Eq. (19) needs the curvature of the fluid's
   surface, the colour field's ``c = 1/2`` contour (the surface Müller et al. render). A particle
   fills the cell of half-width r around its centre, so that contour lies about r outside the
@@ -114,6 +129,12 @@ COS_MAX = 0.5
 #: below h (two particle spacings) is resolved, and without the clamp single particles at the
 #: corners of a sampled lattice get forces that eject them (3D drop, sigma = 5 N/m, r = 2.5 mm)
 KAPPA_MAX = 1.0
+#: Shepard smoothing passes of the normals' directions before the curvature is measured
+#: (module docstring: removes the roughness bias of the raw normals)
+SMOOTHING = 2
+#: neighbours enter a curvature where ``|n_j| h >= NEIGHBOUR`` (the surface layer and the
+#: particles just under it; not the second layer, whose smoothed normals are inward too)
+NEIGHBOUR = 0.4
 
 
 @numba.njit(cache=True, fastmath=True)
@@ -199,6 +220,37 @@ def curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L=0.0):
         kap = -(mqq * btt - mtq * bqt - mtq * btq + mtt * bqq) / det
     kmax = (dim - 1) * KAPPA_MAX / h
     return min(max(kap, -kmax), kmax)
+
+
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def smooth_vectors_cpu(x, m, rho, v, off, idx, h, kid, dim, out, L=0.0):
+    """Shepard-weighted sum ``out_i = sum_j V_j W_ij v_j`` (self included, ``V = m/rho``) of the
+    vectors v: one smoothing pass of the colour-gradient normals, whose direction (not length)
+    is what the curvature is measured from."""
+    for i in numba.prange(x.shape[1]):
+        xi0 = x[0, i]
+        xi1 = x[1, i]
+        xi2 = x[2, i] if dim == 3 else 0.0
+        w = m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
+        s0 = w * v[0, i]
+        s1 = w * v[1, i]
+        s2 = w * v[2, i] if dim == 3 else 0.0
+        for k in range(off[i], off[i + 1]):
+            j = idx[k]
+            d0 = xi0 - x[0, j]
+            if L > 0.0:  # periodic along x: minimum image
+                d0 -= L * math.floor(d0 / L + 0.5)
+            d1 = xi1 - x[1, j]
+            d2 = xi2 - x[2, j] if dim == 3 else 0.0
+            w = m[j] / rho[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            s0 += w * v[0, j]
+            s1 += w * v[1, j]
+            if dim == 3:
+                s2 += w * v[2, j]
+        out[0, i] = s0
+        out[1, i] = s1
+        if dim == 3:
+            out[2, i] = s2
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -409,6 +461,23 @@ class Mueller2003:
         state.fluid.register("surface_depth")
         self._moment = tangent_plane_moment(state.kid, state.h, state.dim)
 
+    def smoothed_directions(self, state: SimState) -> np.ndarray:
+        """The colour-gradient normals ``n`` (computed) with their directions smoothed by
+        ``SMOOTHING`` Shepard passes and their own lengths: what the curvature is measured
+        from (module docstring)."""
+        f = state.fluid
+        nl = state.nl_ff
+        nrm = f["normal"]
+        a = nrm
+        b = np.empty_like(nrm)
+        for _ in range(SMOOTHING):
+            smooth_vectors_cpu(f["x"], f["m"], f["rho"], a, nl.offsets, nl.indices, state.h,
+                               state.kid, state.dim, b, state.period)
+            a, b = b, (np.empty_like(nrm) if a is nrm else a)
+        ln = np.sqrt((nrm * nrm).sum(axis=0))
+        la = np.sqrt((a * a).sum(axis=0))
+        return a * np.divide(ln, la, out=np.zeros_like(ln), where=la > 0.0)
+
     def apply(self, state: SimState, dt: float) -> None:
         """Colour-field normals, surface-layer curvature, the band carry, then the force."""
         f = state.fluid
@@ -423,8 +492,9 @@ class Mueller2003:
         x, m, rho, nrm = f["x"], f["m"], f["rho"], f["normal"]
         surface_normals_cpu(x, m, rho, nl.offsets, nl.indices, 1.0, h, state.kid, dim, nrm,
                             state.period)
-        curvature_cpu(x, m, rho, nrm, nl.offsets, nl.indices, SURFACE / h, thr, h, state.kid,
-                      dim, f["curvature_raw"], state.period)
+        nd = self.smoothed_directions(state)
+        curvature_cpu(x, m, rho, nd, nl.offsets, nl.indices, SURFACE / h, NEIGHBOUR / h, h,
+                      state.kid, dim, f["curvature_raw"], state.period)
         n = f.n
         k0, w0, w1 = np.empty(n), np.empty(n), np.empty(n)
         e0, u0 = np.empty((dim, n)), np.empty((dim, n))
@@ -442,5 +512,6 @@ class Mueller2003:
                  f["surface_depth"], f["a"])
 
 
-__all__ = ["KAPPA_MAX", "SURFACE", "THRESHOLD", "Mueller2003", "curvature_body", "curvature_cpu",
+__all__ = ["KAPPA_MAX", "NEIGHBOUR", "SMOOTHING", "SURFACE", "THRESHOLD", "Mueller2003",
+           "curvature_body", "curvature_cpu", "smooth_vectors_cpu",
            "extend_band_cpu", "surface_layer_cpu", "tangent_plane_moment"]
