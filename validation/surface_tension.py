@@ -42,21 +42,22 @@ with WCSPH (linear, k = 200), IISPH and DFSPH: the mean pressure p of the partic
 integral along the radius (the jump it holds at rest, ``grad p = f``; what p must equal) and
 ``p_F``, the force per area of the circle; each against sigma/R. Also the same drops started at
 rest (WCSPH) and a 3D ball at rest (2 sigma/R). 3D oscillation: the Rayleigh drop above with
-sigma = 5 N/m (period 0.25 s; the capillary time step bound ``sqrt(rho dx^3 / (2 pi sigma))`` =
-2.0 ms is far above WCSPH's acoustic step ``0.4 h / sqrt(k)`` = 0.28 ms) and nu = 1e-3 m^2/s.
-The sampled ball first relaxes at rest for 0.4 s and is kicked then (kicked at once, the lattice
-rearranges while it oscillates: its rest shape drifts and the period reads 1.18-1.21 times
-Rayleigh's instead of 1.14). The period is taken from like extrema
-(:func:`period_from_extrema`) and from a damped-cosine fit (:func:`damped_fit`, with the damping
-rate against Lamb's ``5 nu / R^2``); the zero-crossing period is printed too. The force's depth
-factor :func:`mode_lever` on the relaxed drop predicts the period ratio (the CSF force holds
-the right pressure jump but acts inside the fluid, where it drives the mode less).
+sigma = 5 N/m (period 0.25 s) and nu = 1e-3 m^2/s, by default with DFSPH (time step at most 0.7
+times the capillary bound ``sqrt(rho dx^3 / (2 pi sigma))``), at R = 4, 5, 6 and 7 h, from a
+lattice ball jittered by 0.05 particle spacings (two seeds) that first relaxes at rest for 0.4 s
+and is then kicked with +A and with -A; the signal is the part odd in A,
+``(q(+A) - q(-A)) / 2`` (kicked at once, the lattice rearranges while it oscillates; the odd
+part removes the drift of the rest shape; validation/README.md). The period is taken from like
+extrema (:func:`period_from_extrema`) and from a damped-cosine fit (:func:`damped_fit`, with the
+damping rate against Lamb's ``5 nu / R^2``); the zero-crossing period is printed too. The
+force's depth factor :func:`mode_lever` on the relaxed drop predicts the period ratio (the CSF
+force holds the right pressure jump but acts inside the fluid, where it drives the mode less).
 ``--rayleigh-radii`` runs the same drop at other resolutions.
 
     python validation/surface_tension.py [--quick] [--skip-2d] [--skip-3d]
         [--models becker2007,...] [--solvers wcsph,iisph,dfsph] [--seeds 3]
-        [--rayleigh-radii 0.0025,0.002,0.0016667] [--rayleigh-solver wcsph|dfsph]
-        [--rayleigh-jitter 0.05 --rayleigh-seeds 0,1,2] [--rayleigh-antisym]
+        [--rayleigh-radii 0.0025,0.002,0.0016667,0.0014286] [--rayleigh-solver dfsph|wcsph]
+        [--rayleigh-jitter 0.05 --rayleigh-seeds 0,1] [--no-rayleigh-antisym]
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
 """
@@ -554,19 +555,20 @@ def main(argv: list[str] | None = None) -> int:
                          "dfsph (default: all three; --quick: wcsph)")
     ap.add_argument("--seeds", type=int, default=None,
                     help="mueller2003 drops: random starts per drop (default 3; --quick: 1)")
-    ap.add_argument("--rayleigh-radii", default="0.0025",
+    ap.add_argument("--rayleigh-radii", default="0.0025,0.002,0.0016667,0.0014286",
                     help="mueller2003 mode-2 drop (R = 0.04 m): comma-separated particle radii "
-                         "r [m] (resolution study: 0.0025,0.002,0.0016667 for R = 4, 5, 6 h)")
-    ap.add_argument("--rayleigh-solver", default="wcsph", choices=("wcsph", "dfsph"),
+                         "r [m] (default: the resolution study R = 4, 5, 6, 7 h)")
+    ap.add_argument("--rayleigh-solver", default="dfsph", choices=("wcsph", "dfsph"),
                     help="mueller2003 mode-2 drop: pressure solver (dfsph: dt_max 0.7 times the "
                          "capillary bound)")
-    ap.add_argument("--rayleigh-jitter", type=float, default=0.0,
+    ap.add_argument("--rayleigh-jitter", type=float, default=0.05,
                     help="mueller2003 mode-2 drop: std of random lattice offsets before relaxing, "
                          "in particle spacings (0.05: disordered packing)")
-    ap.add_argument("--rayleigh-seeds", default="0",
+    ap.add_argument("--rayleigh-seeds", default="0,1",
                     help="mueller2003 mode-2 drop: comma-separated jitter seeds")
-    ap.add_argument("--rayleigh-antisym", action="store_true",
-                    help="mueller2003 mode-2 drop: kick with +A and -A, use (q(+A) - q(-A))/2")
+    ap.add_argument("--rayleigh-antisym", action=argparse.BooleanOptionalAction, default=True,
+                    help="mueller2003 mode-2 drop: kick with +A and -A, use (q(+A) - q(-A))/2 "
+                         "(default; --no-rayleigh-antisym: +A only)")
     args = ap.parse_args(argv)
     chosen = args.models.split(",")
     unknown = sorted(set(chosen) - set(MODELS) - {"mueller2003"})
@@ -712,16 +714,17 @@ def main(argv: list[str] | None = None) -> int:
                 rays.append((name, ray))
     if rays:
         print()
-        print("3D drop, mode 2 (WCSPH linear k = 200 m^2/s^2, velocity start; becker2007: "
+        print("3D drop, mode 2 (velocity start; becker2007: WCSPH linear k = 200 m^2/s^2, "
               "sigma = Kirkwood-Buff value of kappa 0.3, nu = 2e-4 m^2/s, kicked at once; "
-              "mueller2003: sigma = 5 N/m, nu = 1e-3 m^2/s, kicked after relaxing at rest; "
-              "gamma: fitted damping rate, Lamb: 5 nu / R^2)")
+              "mueller2003: the solver in the table, sigma = 5 N/m, nu = 1e-3 m^2/s, kicked "
+              "after relaxing at rest; gamma: fitted damping rate, Lamb: 5 nu / R^2)")
         print("| model | solver | jitter (seed) | +-A | N | R [m] | R/h | relax [s] | "
               "sigma [N/m] | period Rayleigh [s] | "
               "period, extrema [s] | ratio | period, fit [s] (ratio) | gamma, Lamb [1/s] | "
               "fit resid | period, zero crossings [s] (count) | <(d/R)^3> of the force at the "
-              "kick | predicted ratio <(d/R)^3>^(-1/2) |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+              "kick | predicted ratio <(d/R)^3>^(-1/2) | omega / omega_Rayleigh | "
+              "within 15 % |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for name, ray in rays:
             print(f"| {name} | {ray['solver']} | {ray['jitter']:g} ({ray['seed']}) | "
                   f"{'yes' if ray['antisym'] else 'no'} | {ray['N']} | {ray['R']:.4f} | "
@@ -731,7 +734,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"{ray['T_extrema'] / ray['T_rayleigh']:.3f} | {ray['T_fit']:.4g} "
                   f"({ray['T_fit'] / ray['T_rayleigh']:.3f}) | {ray['gamma']:.2f}, "
                   f"{ray['gamma_lamb']:.2f} | {ray['fit_resid']:.3f} | {ray['T_measured']:.4g} "
-                  f"({ray['crossings']}) | {ray['lever']:.3f} | {ray['lever'] ** -0.5:.3f} |")
+                  f"({ray['crossings']}) | {ray['lever']:.3f} | {ray['lever'] ** -0.5:.3f} | "
+                  f"{ray['T_rayleigh'] / ray['T_extrema']:.3f} | "
+                  f"{'yes' if abs(ray['T_rayleigh'] / ray['T_extrema'] - 1) <= 0.15 else 'no'} |")
     if not args.skip_3d and "mueller2003" in chosen:
         t0 = time.perf_counter()
         d3 = drop_3d_csf(5.0, 0.03 if args.quick else 0.04, 0.0025, 0.2 if args.quick else 0.4)
