@@ -37,10 +37,13 @@ _JIT = dict(cache=True, fastmath=True)
 
 
 @numba.njit(**_JIT, inline="always")
-def _dist(x, i, y, j, dim):
+def _dist(x, i, y, j, dim, L=0.0):
+    """|x_i - y_j|; ``L`` > 0: minimum image along x (period L)."""
     r2 = 0.0
     for d in range(dim):
         t = x[d, i] - y[d, j]
+        if d == 0 and L > 0.0:
+            t -= L * math.floor(t / L + 0.5)
         r2 += t * t
     return np.sqrt(r2)
 
@@ -154,12 +157,12 @@ def pressure_accel_cpu(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid,
 
 
 @numba.njit(parallel=True, **_JIT)
-def _interpolate(x, V, A, off, idx, h, kid, dim, out):
+def _interpolate(x, V, A, off, idx, h, kid, dim, out, L=0.0):
     for i in numba.prange(x.shape[1]):
         s = V[i] * A[i] * kernel_w(kid, 0.0, h, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            s += V[j] * A[j] * kernel_w(kid, _dist(x, i, x, j, dim), h, dim)
+            s += V[j] * A[j] * kernel_w(kid, _dist(x, i, x, j, dim, L), h, dim)
         out[i] = s
 
 
@@ -245,10 +248,11 @@ def _laplacian(x, V, A, off, idx, h, kid, dim, out):
 
 
 def interpolate(x: np.ndarray, V: np.ndarray, A: np.ndarray, nl: NeighborList, h: float,
-                kid: int) -> np.ndarray:
-    """SPH interpolation ``sum_j V_j A_j W_ij`` (self included) of a scalar field."""
+                kid: int, period: float = 0.0) -> np.ndarray:
+    """SPH interpolation ``sum_j V_j A_j W_ij`` (self included) of a scalar field; ``period``
+    > 0: periodic along x with that period [m] (minimum-image distances)."""
     out = np.empty(x.shape[1])
-    _interpolate(x, V, A, nl.offsets, nl.indices, h, kid, x.shape[0], out)
+    _interpolate(x, V, A, nl.offsets, nl.indices, h, kid, x.shape[0], out, period)
     return out
 
 

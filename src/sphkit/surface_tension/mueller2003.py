@@ -112,7 +112,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
-from sphkit.core.operators import surface_normals_cpu
+from sphkit.core.operators import interpolate, surface_normals_cpu
 from sphkit.core.state import SimState
 
 #: Müller's threshold l, made dimensionless: a particle carries a force where
@@ -220,37 +220,6 @@ def curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L=0.0):
         kap = -(mqq * btt - mtq * bqt - mtq * btq + mtt * bqq) / det
     kmax = (dim - 1) * KAPPA_MAX / h
     return min(max(kap, -kmax), kmax)
-
-
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def smooth_vectors_cpu(x, m, rho, v, off, idx, h, kid, dim, out, L=0.0):
-    """Shepard-weighted sum ``out_i = sum_j V_j W_ij v_j`` (self included, ``V = m/rho``) of the
-    vectors v: one smoothing pass of the colour-gradient normals, whose direction (not length)
-    is what the curvature is measured from."""
-    for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i]
-        xi2 = x[2, i] if dim == 3 else 0.0
-        w = m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
-        s0 = w * v[0, i]
-        s1 = w * v[1, i]
-        s2 = w * v[2, i] if dim == 3 else 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j]
-            d2 = xi2 - x[2, j] if dim == 3 else 0.0
-            w = m[j] / rho[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            s0 += w * v[0, j]
-            s1 += w * v[1, j]
-            if dim == 3:
-                s2 += w * v[2, j]
-        out[0, i] = s0
-        out[1, i] = s1
-        if dim == 3:
-            out[2, i] = s2
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -466,14 +435,12 @@ class Mueller2003:
         ``SMOOTHING`` Shepard passes and their own lengths: what the curvature is measured
         from (module docstring)."""
         f = state.fluid
-        nl = state.nl_ff
         nrm = f["normal"]
+        V = f["m"] / f["rho"]
         a = nrm
-        b = np.empty_like(nrm)
-        for _ in range(SMOOTHING):
-            smooth_vectors_cpu(f["x"], f["m"], f["rho"], a, nl.offsets, nl.indices, state.h,
-                               state.kid, state.dim, b, state.period)
-            a, b = b, (np.empty_like(nrm) if a is nrm else a)
+        for _ in range(SMOOTHING):  # n_i <- sum_j V_j W_ij n_j, component by component
+            a = np.stack([interpolate(f["x"], V, a[c], state.nl_ff, state.h, state.kid,
+                                      state.period) for c in range(state.dim)])
         ln = np.sqrt((nrm * nrm).sum(axis=0))
         la = np.sqrt((a * a).sum(axis=0))
         return a * np.divide(ln, la, out=np.zeros_like(ln), where=la > 0.0)
@@ -513,5 +480,5 @@ class Mueller2003:
 
 
 __all__ = ["KAPPA_MAX", "NEIGHBOUR", "SMOOTHING", "SURFACE", "THRESHOLD", "Mueller2003",
-           "curvature_body", "curvature_cpu", "smooth_vectors_cpu",
+           "curvature_body", "curvature_cpu",
            "extend_band_cpu", "surface_layer_cpu", "tangent_plane_moment"]
