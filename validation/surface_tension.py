@@ -558,9 +558,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rayleigh-radii", default="0.0025,0.002,0.0016667,0.0014286",
                     help="mueller2003 mode-2 drop (R = 0.04 m): comma-separated particle radii "
                          "r [m] (default: the resolution study R = 4, 5, 6, 7 h)")
-    ap.add_argument("--rayleigh-solver", default="dfsph", choices=("wcsph", "dfsph"),
-                    help="mueller2003 mode-2 drop: pressure solver (dfsph: dt_max 0.7 times the "
-                         "capillary bound)")
+    ap.add_argument("--rayleigh-solver", default="dfsph", choices=("wcsph", "iisph", "dfsph"),
+                    help="mueller2003 mode-2 drop: pressure solver (dfsph, iisph: dt_max 0.7 "
+                         "times the capillary bound)")
     ap.add_argument("--rayleigh-jitter", type=float, default=0.05,
                     help="mueller2003 mode-2 drop: std of random lattice offsets before relaxing, "
                          "in particle spacings (0.05: disordered packing)")
@@ -699,7 +699,7 @@ def main(argv: list[str] | None = None) -> int:
         for rr in radii:
             for seed in seeds:
                 opts = dict(csf_opts, seed=seed)
-                if opts.get("solver") == "dfsph":
+                if opts.get("solver") in ("dfsph", "iisph"):
                     opts["dt_max"] = 0.7 * capillary_dt(coef, rr)
                 if args.quick:
                     ray = rayleigh_3d(kappa=coef, R=0.03, r=rr, until=0.5, amp=1.0,
