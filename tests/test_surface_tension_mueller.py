@@ -192,8 +192,8 @@ def test_3d_drop_oscillates_with_the_rayleigh_frequency() -> None:
     A = 0.8 1/s; the signal is the part of ``q = <z^2> - (<x^2> + <y^2>)/2`` odd in A. Its
     period must be Rayleigh's ``2 pi / sqrt(8 sigma / (rho R^3))`` within 15 % (the issue's
     target on omega, here held on the period, which is stricter for a slow drop). Measured
-    1.108 (like extrema; damped-cosine fit 1.111); seeds 1 and 2: 1.106 / 1.107, the lattice
-    start 1.098; resolution study 4 / 5 / 6 / 7 h: 1.156 / 1.108 / 1.076 / 1.051 (the remaining
+    1.108 (like extrema; damped-cosine fit 1.111); seed 2: 1.109, the lattice start 1.098, +A
+    only 1.109; resolution study 4 / 5 / 6 / 7 h: 1.156 / 1.108 / 1.076 / 1.051 (the remaining
     excess is the force acting in a band under the surface, an O(h/R) lever; validation/
     README.md). The fit must also be a decaying cosine (damping > 0, residual < 5 % of the
     amplitude: measured 1.64 1/s and 1.8 %): the earlier curvature estimator fed energy into
