@@ -158,12 +158,18 @@ def pressure_accel_cpu(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid,
 
 @numba.njit(parallel=True, **_JIT)
 def _interpolate(x, V, A, off, idx, h, kid, dim, out, L=0.0):
+    """``out[c, i] = sum_j V_j A[c, j] W_ij`` for every row c of A (one kernel value per
+    pair for all rows)."""
+    nc = A.shape[0]
     for i in numba.prange(x.shape[1]):
-        s = V[i] * A[i] * kernel_w(kid, 0.0, h, dim)
+        w = V[i] * kernel_w(kid, 0.0, h, dim)
+        for c in range(nc):
+            out[c, i] = w * A[c, i]
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            s += V[j] * A[j] * kernel_w(kid, _dist(x, i, x, j, dim, L), h, dim)
-        out[i] = s
+            w = V[j] * kernel_w(kid, _dist(x, i, x, j, dim, L), h, dim)
+            for c in range(nc):
+                out[c, i] += w * A[c, j]
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -249,11 +255,13 @@ def _laplacian(x, V, A, off, idx, h, kid, dim, out):
 
 def interpolate(x: np.ndarray, V: np.ndarray, A: np.ndarray, nl: NeighborList, h: float,
                 kid: int, period: float = 0.0) -> np.ndarray:
-    """SPH interpolation ``sum_j V_j A_j W_ij`` (self included) of a scalar field; ``period``
-    > 0: periodic along x with that period [m] (minimum-image distances)."""
-    out = np.empty(x.shape[1])
-    _interpolate(x, V, A, nl.offsets, nl.indices, h, kid, x.shape[0], out, period)
-    return out
+    """SPH interpolation ``sum_j V_j A_j W_ij`` (self included) of a scalar field A (N,), or of
+    each row of A (k, N) in one pass over the pairs; ``period`` > 0: periodic along x with that
+    period [m] (minimum-image distances)."""
+    A2 = np.ascontiguousarray(A, dtype=np.float64).reshape(-1, x.shape[1])
+    out = np.empty_like(A2)
+    _interpolate(x, V, A2, nl.offsets, nl.indices, h, kid, x.shape[0], out, period)
+    return out.reshape(np.shape(A))
 
 
 def gradient(x: np.ndarray, m: np.ndarray, rho: np.ndarray, A: np.ndarray, nl: NeighborList,

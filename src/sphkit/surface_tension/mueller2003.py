@@ -438,9 +438,8 @@ class Mueller2003:
         nrm = f["normal"]
         V = f["m"] / f["rho"]
         a = nrm
-        for _ in range(SMOOTHING):  # n_i <- sum_j V_j W_ij n_j, component by component
-            a = np.stack([interpolate(f["x"], V, a[c], state.nl_ff, state.h, state.kid,
-                                      state.period) for c in range(state.dim)])
+        for _ in range(SMOOTHING):  # n_i <- sum_j V_j W_ij n_j
+            a = interpolate(f["x"], V, a, state.nl_ff, state.h, state.kid, state.period)
         ln = np.sqrt((nrm * nrm).sum(axis=0))
         la = np.sqrt((a * a).sum(axis=0))
         return a * np.divide(ln, la, out=np.zeros_like(ln), where=la > 0.0)
