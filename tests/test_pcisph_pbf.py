@@ -16,12 +16,13 @@ import logging
 import numpy as np
 import pytest
 
+from sphkit import registry
 from sphkit.core.ppe import density_at
 from sphkit.core.solver import PairGradients
 from sphkit.pressure.pbf import PBF, pbf_lambda
 from sphkit.pressure.pcisph import PCISPH
 from sphkit.scene.schema import PressureConfig, Scene
-from sphkit.simulation import PRESSURE_SOLVER_NUMBERS, Simulation, build_pressure_solver
+from sphkit.simulation import Simulation
 
 G = 9.81
 RHO0 = 1000.0
@@ -141,7 +142,12 @@ def test_pbf_lambda_pass_matches_density_at_and_a_numpy_reference() -> None:
 
 def test_registry_and_parameters() -> None:
     """SPlisHSPlasH numbers 1 and 2, and the scene's PBF parameters reach the solver."""
-    assert PRESSURE_SOLVER_NUMBERS[1] == "pcisph" and PRESSURE_SOLVER_NUMBERS[2] == "pbf"
+    assert registry.by_number("pressure", 1).name == "pcisph"
+    assert registry.by_number("pressure", 2).name == "pbf"
+
+    def build_pressure_solver(p: PressureConfig):
+        return registry.get("pressure", p.method).load().from_config(p)
+
     ps = build_pressure_solver(PressureConfig(method="pcisph", max_error=0.1, max_iterations=7))
     assert isinstance(ps, PCISPH)
     assert (ps.control.min_iterations, ps.control.max_iterations) == (3, 7)

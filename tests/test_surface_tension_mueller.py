@@ -10,13 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sphkit import registry
 from sphkit.core.kernels import kernel_id
 from sphkit.core.neighbors import NeighborList, neighbor_lists
 from sphkit.core.operators import color_field_cpu, density_cpu, laplacian, surface_normals_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene
-from sphkit.simulation import SURFACE_TENSION_MODELS, Simulation
+from sphkit.simulation import Simulation
 from sphkit.surface_tension.mueller2003 import SURFACE, THRESHOLD, Mueller2003, curvature_cpu
 
 _PATH = Path(__file__).resolve().parent.parent / "validation" / "surface_tension.py"
@@ -240,7 +241,7 @@ def test_drop_holds_the_laplace_pressure() -> None:
 
 def test_scene_fields() -> None:
     """Scene name, the default and rejected boundary_coefficient, bad sigma."""
-    assert SURFACE_TENSION_MODELS["mueller2003"] is Mueller2003
+    assert registry.get("surface_tension", "mueller2003").load() is Mueller2003
 
     def mat(st: dict) -> Scene:
         return Scene.model_validate({"materials": [{"surface_tension": st}],

@@ -29,18 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from sphkit.boundary.akinci2012 import Akinci2012
-from sphkit.boundary.band2018 import MLSPressureExtrapolation
-from sphkit.boundary.bender2019 import Bender2019
-from sphkit.boundary.koschier2017 import Koschier2017
-from sphkit.boundary.rigid import INSET, RigidBodies, body_from_mesh, box_wall, mesh_wall
-from sphkit.core.boundary_map import MapGeometry, WallMomentForce
-from sphkit.core.kernels import hexagonal_volume, kernel_id, lattice_volume
+from sphkit.core.krylov import KrylovStats
 from sphkit.core.neighbors import neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats
-from sphkit.core.state import SimState
 from sphkit.core.timestep import (
     cfl_time_step,
     max_speed,
@@ -48,82 +41,8 @@ from sphkit.core.timestep import (
     symplectic_euler,
     wrap_periodic,
 )
-from sphkit.drag.gissler2017 import Gissler2017
-from sphkit.drag.macklin2014 import Macklin2014
-from sphkit.emitters import FluidEmitter
-from sphkit.pressure.dfsph import DFSPH
-from sphkit.pressure.iisph import IISPH
-from sphkit.pressure.pbf import PBF
-from sphkit.pressure.pcisph import PCISPH
-from sphkit.pressure.wcsph import WCSPH
-from sphkit.scene.schema import PressureConfig, Scene, SceneError
-from sphkit.surface_tension.akinci2013 import Akinci2013
-from sphkit.surface_tension.becker2007 import BeckerTeschner2007
-from sphkit.surface_tension.he2014 import He2014
-from sphkit.surface_tension.mueller2003 import Mueller2003
-from sphkit.viscosity.bender2017 import Bender2017
-from sphkit.viscosity.peer2015 import Peer2015
-from sphkit.viscosity.peer2016 import Peer2016
-from sphkit.viscosity.standard import StandardViscosity
-from sphkit.viscosity.takahashi2015 import Takahashi2015
-from sphkit.viscosity.weiler2018 import Weiler2018
-from sphkit.viscosity.xsph import XSPH
-from sphkit.vorticity.confinement import VorticityConfinement
-from sphkit.vorticity.micropolar_bender2017 import MicropolarBender2017
-
-#: pressure solvers by scene name and by SPlisHSPlasH ``simulationMethod`` number
-PRESSURE_SOLVERS: dict[str, type] = {"wcsph": WCSPH, "pcisph": PCISPH, "pbf": PBF,
-                                      "iisph": IISPH, "dfsph": DFSPH}
-PRESSURE_SOLVER_NUMBERS: dict[int, str] = {0: "wcsph", 1: "pcisph", 2: "pbf", 3: "iisph",
-                                           4: "dfsph"}
-
-
-def build_pressure_solver(p: PressureConfig):
-    """The pressure solver a scene's ``configuration.pressure`` names, with its parameters."""
-    if p.method == "wcsph":
-        return WCSPH(equation=p.equation, stiffness=p.stiffness, exponent=p.exponent,
-                     acoustic_cfl=p.acoustic_cfl)
-    common = dict(max_error=p.max_error, min_iterations=p.min_iterations,
-                  max_iterations=p.max_iterations)
-    if p.method == "dfsph":
-        return DFSPH(**common, max_error_v=p.max_error_v, max_iterations_v=p.max_iterations_v,
-                     divergence_solver=p.divergence_solver)
-    if p.method == "iisph":
-        return IISPH(**common)
-    if p.method == "pcisph":
-        return PCISPH(**common)
-    if p.method == "pbf":
-        return PBF(**common, epsilon=p.pbf_epsilon, s_corr=p.pbf_s_corr, s_corr_k=p.pbf_s_corr_k,
-                   s_corr_n=p.pbf_s_corr_n, s_corr_dq=p.pbf_s_corr_dq,
-                   velocity_update=p.pbf_velocity_update)
-    raise SceneError(
-        f"configuration.pressure.method: {p.method!r} is not implemented yet; expected one of "
-        f"{sorted(PRESSURE_SOLVERS)}"
-    )
-#: boundary models by scene name and SPlisHSPlasH ``boundaryHandlingMethod`` number
-BOUNDARY_MODELS: dict[str, type] = {"akinci2012": Akinci2012, "koschier2017": Koschier2017,
-                                     "bender2019": Bender2019}
-BOUNDARY_MODEL_NUMBERS: dict[int, str] = {0: "akinci2012", 1: "koschier2017", 2: "bender2019"}
-#: viscosity models by scene name and SPlisHSPlasH ``viscosityMethod`` number
-VISCOSITY_MODELS: dict[str, type] = {"standard": StandardViscosity, "xsph": XSPH,
-                                     "weiler2018": Weiler2018, "bender2017": Bender2017,
-                                     "peer2015": Peer2015, "peer2016": Peer2016,
-                                     "takahashi2015": Takahashi2015}
-#: (SPlisHSPlasH 2.16+ numbering; XSPH is its separate per-material filter, not a number)
-VISCOSITY_MODEL_NUMBERS: dict[int, str] = {1: "standard", 2: "bender2017", 3: "peer2015",
-                                           4: "peer2016", 5: "takahashi2015", 6: "weiler2018"}
-#: vorticity models by scene name and SPlisHSPlasH ``vorticityMethod`` number
-VORTICITY_MODELS: dict[str, type] = {"micropolar": MicropolarBender2017,
-                                      "confinement": VorticityConfinement}
-VORTICITY_MODEL_NUMBERS: dict[int, str] = {1: "micropolar", 2: "confinement"}
-#: surface tension models by scene name and SPlisHSPlasH ``surfaceTensionMethod`` number
-SURFACE_TENSION_MODELS: dict[str, type] = {"becker2007": BeckerTeschner2007,
-                                            "akinci2013": Akinci2013, "he2014": He2014,
-                                            "mueller2003": Mueller2003}
-SURFACE_TENSION_MODEL_NUMBERS: dict[int, str] = {1: "becker2007", 2: "akinci2013", 3: "he2014"}
-#: drag models by scene name and SPlisHSPlasH ``dragMethod`` number
-DRAG_MODELS: dict[str, type] = {"macklin2014": Macklin2014, "gissler2017": Gissler2017}
-DRAG_MODEL_NUMBERS: dict[int, str] = {1: "macklin2014", 2: "gissler2017"}
+from sphkit.scene.schema import Scene
+from sphkit.world import World, build_world
 
 
 @dataclass
@@ -154,28 +73,6 @@ class StepStats:
         return asdict(self)
 
 
-#: methods whose pair loops take minimum-image distances (configuration.periodic_x)
-PERIODIC_METHODS = {"pressure": {"wcsph", "dfsph"},
-                    "viscosity": {"none", "standard", "weiler2018", "bender2017", "peer2015",
-                                  "peer2016", "takahashi2015"}, "vorticity": {"none"},
-                    "surface_tension": {"none", "becker2007", "akinci2013", "he2014",
-                                        "mueller2003"}}
-
-
-def _check_periodic(scene: Scene, mat) -> None:
-    used = {"pressure": scene.configuration.pressure.method,
-            "viscosity": mat.viscosity.method, "vorticity": mat.vorticity.method,
-            "surface_tension": mat.surface_tension.method}
-    for role, name in used.items():
-        if name not in PERIODIC_METHODS[role]:
-            where = ("configuration.pressure.method" if role == "pressure"
-                     else f"materials[{scene.materials.index(mat)}].{role}.method")
-            raise SceneError(
-                f"{where}: {name!r} does not support configuration.periodic_x yet; expected one "
-                f"of {sorted(PERIODIC_METHODS[role])}"
-            )
-
-
 class InstabilityError(RuntimeError):
     """The simulation became unstable; ``stats`` holds the step that showed it."""
 
@@ -194,131 +91,27 @@ class Simulation:
         x = sim.positions   # (N, dim) NumPy view
     """
 
-    def __init__(self, scene: Scene) -> None:
-        self.scene = scene
-        cfg = scene.configuration
-        self.dim = cfg.dim
-        self.dtype = np.dtype(cfg.precision)
-        r = cfg.particle_radius
-        h = 4.0 * r
-        kid = kernel_id(cfg.kernel)
-        used = ({b.material for b in scene.fluid_blocks} | {f.material for f in scene.fluid_files}
-                | {b.material for b in scene.fluid_meshes}
-                | {e.material for e in scene.emitters}) or {scene.materials[0].id}
-        if len(used) > 1:
-            raise SceneError(
-                f"fluid_blocks: materials {sorted(used)}; multiphase fluids are not supported yet, "
-                "expected all blocks to use one material"
-            )
-        mat = scene.material(next(iter(used)))
-        self.material = mat
-        g = np.zeros(self.dim)
-        g[:] = cfg.gravity[: self.dim]
-
-        fluid = ParticleSet(self.dim, self.dtype)
-        for name in ("v", "a"):
-            fluid.register(name, "vector")
-        for name in ("m", "V0", "rho", "p"):  # V0 = m / rho0, the rest volume
-            fluid.register(name)
-        boundary = ParticleSet(self.dim, self.dtype)
-        boundary.register("pressure_mirror")
-        boundary.register("rigid_body", "scalar", np.int64)  # 1-based moving body, 0 static
-        boundary.register("wall_normal", "vector")  # box walls: into the wall (Morris 1997 no-slip)
-        boundary.register("wall_distance")  # box walls: distance behind the wall surface [m]
-        self._rigid_meshes: list = []  # (k, mesh) of the scene's moving meshes
-        self.state = SimState(fluid=fluid, boundary=boundary, dim=self.dim, h=h, kid=kid, r=r,
-                              rho0=mat.density0, gravity=g.astype(self.dtype))
-        if cfg.periodic_x is not None:
-            self.state.period_lo = float(cfg.periodic_x[0])
-            self.state.period = float(cfg.periodic_x[1] - cfg.periodic_x[0])
-            _check_periodic(scene, mat)
-        bm_cls = BOUNDARY_MODELS[cfg.boundary.method]
-        self._maps = getattr(bm_cls, "uses_maps", False)  # walls as maps, not particles
-        self.emitters = [FluidEmitter(e, self.dim, r, h, name=f"emitters[{k}]")
-                         for k, e in enumerate(scene.emitters)]
-        self._sample(scene)
-        if fluid.n == 0 and not self.emitters:
-            raise SceneError(
-                "fluid_blocks, fluid_files: the scene has no fluid particles; expected at least one"
-                " (or an emitter)"
-            )
-        self._lattice_volume = lattice_volume(2.0 * r, kid, h, self.dim)
-        self._empty_at_init = fluid.n == 0  # methods that read the fluid initialise at emission
-
-        self.pressure = build_pressure_solver(cfg.pressure)
-        if self._maps:
-            self.boundary_model = bm_cls(self._map_geometries(scene),
-                                         cache_dir=cfg.boundary.map_cache_dir,
-                                         cache=cfg.boundary.map_cache)
-            self.boundary_model.hydrostatic = cfg.boundary.pressure == "hydrostatic"
-        elif cfg.boundary.pressure == "hydrostatic":
-            raise SceneError(
-                "configuration.boundary.pressure: 'hydrostatic' acts through the map of a wall; "
-                "expected configuration.boundary.method 'koschier2017' or 'bender2019', got "
-                f"{cfg.boundary.method!r}")
-        else:
-            self.boundary_model = bm_cls()
-        self.forces: list = []
-        vis = mat.viscosity
-        if vis.method == "standard":
-            self.forces.append(StandardViscosity(vis.coefficient, vis.boundary_coefficient,
-                                                 vis.boundary_velocity, vis.morris_beta_max,
-                                                 vis.laplacian_eps))
-        elif vis.method == "xsph":
-            self.forces.append(XSPH(vis.coefficient, vis.boundary_coefficient))
-        elif vis.method == "weiler2018":
-            self.forces.append(Weiler2018(vis.coefficient, vis.boundary_coefficient,
-                                          vis.max_iterations or 100, vis.max_error,
-                                          vis.boundary_velocity, vis.morris_beta_max,
-                                          vis.laplacian_eps))
-        elif vis.method == "takahashi2015":
-            self.forces.append(Takahashi2015(vis.coefficient, vis.max_iterations or 100,
-                                             vis.max_error))
-        elif vis.method == "bender2017":
-            self.forces.append(Bender2017(vis.coefficient, vis.max_iterations or 50,
-                                          vis.max_error))
-        elif vis.method == "peer2015":
-            self.forces.append(Peer2015(vis.coefficient, vis.max_iterations or 50, vis.max_error))
-        elif vis.method == "peer2016":
-            self.forces.append(Peer2016(vis.coefficient, vis.max_iterations or 50, vis.max_error,
-                                        vis.max_iterations_omega or 50, vis.max_error_omega))
-        vort = mat.vorticity
-        if vort.method == "micropolar":
-            self.forces.append(MicropolarBender2017(vort.coefficient, vort.viscosity_omega,
-                                                    vort.inertia_inverse))
-        elif vort.method == "confinement":
-            self.forces.append(VorticityConfinement(vort.coefficient))
-        st_cfg = mat.surface_tension
-        if st_cfg.method != "none":
-            self.forces.append(SURFACE_TENSION_MODELS[st_cfg.method](
-                st_cfg.coefficient, st_cfg.boundary_coefficient))
-        if mat.drag.method != "none":
-            self.forces.append(DRAG_MODELS[mat.drag.method](mat.drag.coefficient,
-                                                            mat.drag.air_velocity))
-
-        if boundary.n:
-            boundary.permute(zorder_permutation(boundary["x"], h))
-        self.boundary_model.init(self.state)
-        if self._maps and self.boundary_model.hydrostatic:
-            self.forces.append(WallMomentForce(self.boundary_model))
-        if cfg.boundary.pressure == "mls":
-            if self._maps:
-                raise SceneError(
-                    "configuration.boundary.pressure: 'mls' extrapolates the pressure to boundary "
-                    f"particles; expected configuration.boundary.method 'akinci2012', got "
-                    f"{cfg.boundary.method!r}")
-            # static boundary particles only: rigid bodies keep their own boundary term
-            self.state.boundary_pressure = MLSPressureExtrapolation(
-                boundary["rigid_body"] == 0)
-            self.state.boundary_pressure.init(self.state)
-        self.rigid = self._rigid_bodies(scene)
-        for force in self.forces:
-            if hasattr(force, "init"):
-                force.init(self.state)
-        self.pressure.init(self.state)
+    def __init__(self, scene: Scene | World) -> None:
+        """Step the world of ``scene`` (built here with :func:`sphkit.world.build_world`, or
+        given ready-built)."""
+        world = scene if isinstance(scene, World) else build_world(scene)
+        self.world = world
+        self.scene = world.scene
+        self.dim = world.state.dim
+        self.dtype = world.state.fluid.dtype
+        self.material = world.material
+        self.state = world.state
+        self.pressure = world.pressure
+        self.boundary_model = world.boundary_model
+        self.forces = world.forces
+        self.rigid = world.rigid
+        self.emitters = world.emitters
+        self._maps = world.maps  # walls as maps, not particles
+        self._lattice_volume = world.lattice_volume
+        self._empty_at_init = self.state.fluid.n == 0  # methods reading the fluid: at emission
         self.time = 0.0
         self.step_count = 0
-        self.dt = cfg.time.dt
+        self.dt = self.scene.configuration.time.dt
         self.last: StepStats | None = None
         self.last_solver: SolverStats | None = None
         self._frame = -1
@@ -332,226 +125,6 @@ class Simulation:
         from sphkit.scene.loader import load_scene
 
         return cls(load_scene(src))
-
-    def _resolve(self, path: str) -> Path:
-        p = Path(path)
-        if not p.is_absolute() and self.scene.source:
-            p = Path(self.scene.source).parent / p
-        return p
-
-    def _sample(self, scene: Scene) -> None:
-        from sphkit.scene import sampling
-
-        st = self.state
-        r, dim = st.r, self.dim
-        vol = lattice_volume(2.0 * r, st.kid, st.h, dim)
-
-        def clip(pts: np.ndarray) -> np.ndarray:  # periodic along x: keep [lo, lo + L)
-            if st.period <= 0.0:
-                return pts
-            lo = st.period_lo
-            return pts[(pts[:, 0] >= lo - 1e-9 * r) & (pts[:, 0] < lo + st.period - 1e-9 * r)]
-
-        for k, blk in enumerate(scene.fluid_blocks):
-            bvol = vol
-            if blk.lattice == "hexagonal":  # spacing 2r, V = 1 / sum_k W over that lattice
-                if dim != 2:
-                    raise SceneError(f"fluid_blocks[{k}].lattice: 'hexagonal' in {dim}D; "
-                                     "expected 'square' (the hexagonal lattice is 2D only)")
-                pts = clip(sampling.hexagonal_block(blk.start, blk.end, r))
-                bvol = hexagonal_volume(2.0 * r, st.kid, st.h)
-            else:
-                pts = clip(sampling.lattice_block(blk.start, blk.end, r))
-            if len(pts) == 0:
-                raise SceneError(
-                    f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
-                    f"radius {r}; expected a block at least 2r = {2 * r} wide on every axis"
-                )
-            mat = scene.material(blk.material)
-            vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
-            st.fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * bvol, V0=bvol, v=vel,
-                         rho=mat.density0)
-        for k, ff in enumerate(scene.fluid_files):
-            self._add_fluid_file(k, ff, vol)
-        for k, fm in enumerate(scene.fluid_meshes):
-            mesh = sampling.load_mesh(self._resolve(fm.geometry_file), fm.translation,
-                                      fm.rotation_axis, fm.rotation_angle, fm.scale)
-            pts = sampling.sample_mesh_volume(mesh, r, dim, invert=fm.invert)
-            if len(pts) == 0:
-                raise SceneError(
-                    f"fluid_meshes[{k}]: {fm.geometry_file!r} holds no particle of radius {r}; "
-                    "expected a closed mesh at least 2r wide" + (" that crosses z = 0" if dim == 2
-                                                                 else "")
-                )
-            mat = scene.material(fm.material)
-            vel = np.zeros(dim) if fm.velocity is None else np.asarray(fm.velocity, float)
-            st.fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
-                         rho=mat.density0)
-        if self._maps:
-            # boxes and meshes become maps (see _map_geometries); a moving mesh's map lives in
-            # its body's frame (sphkit.core.boundary_map, "Moving rigid bodies")
-            for k, mb in enumerate(scene.meshes):
-                if mb.dynamic or mb.kinematic:
-                    self._rigid_meshes.append((k, sampling.load_mesh(
-                        self._resolve(mb.geometry_file), mb.translation, mb.rotation_axis,
-                        mb.rotation_angle, mb.scale)))
-            return
-        up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
-        for k, box in enumerate(scene.boxes):
-            pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
-                                     open_top_axis=up if box.open_top else None)
-            # lattice walls whose Akinci volumes stand for the missing fluid: the boundary
-            # pressure is mirrored fully in the iterative solvers (core.ppe.kappa_accel_cached)
-            pts = clip(pts)
-            dist, normal = sampling.box_wall_distance(pts, box.min, box.max)
-            st.boundary.add(pts, name=f"boxes[{k}]", pressure_mirror=1.0, wall_distance=dist,
-                            wall_normal=normal)
-        for k, mb in enumerate(scene.meshes):
-            mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
-                                      mb.rotation_axis, mb.rotation_angle, mb.scale)
-            pts = sampling.sample_mesh_surface(mesh, r, dim)
-            if mb.dynamic or mb.kinematic:  # a moving rigid body (sphkit.boundary.rigid)
-                from sphkit.boundary.rigid import inset_samples
-
-                # the fluid rests at the mesh surface (see inset_samples); 2D: the section's
-                # samples (z = 0) move along the side faces' normals, which lie in the plane
-                p3 = np.zeros((len(pts), 3))
-                p3[:, :dim] = pts
-                pts = inset_samples(mesh, p3, INSET * r)[:, :dim]
-                self._rigid_meshes.append((k, mesh))
-                # pressure mirrored fully as at the box walls, so that fluid squeezed between a
-                # body and a box wall is pushed as the gradient of its density (see RigidBodies)
-                st.boundary.add(pts, name=f"meshes[{k}]", rigid_body=len(self._rigid_meshes),
-                                pressure_mirror=1.0)
-                continue
-            st.boundary.add(clip(pts), name=f"meshes[{k}]")
-        for k, (em, cfg) in enumerate(zip(self.emitters, scene.emitters, strict=True)):
-            if cfg.housing:
-                pts = sampling.sample_mesh_surface(em.housing_mesh(), r, dim)
-                st.boundary.add(clip(pts), name=f"emitters[{k}].housing")
-
-    def _rigid_bodies(self, scene: Scene) -> RigidBodies:
-        """The scene's kinematic and dynamic meshes as rigid bodies; static boxes and meshes are
-        the walls dynamic bodies collide with."""
-        bodies = []
-        for k, mesh in self._rigid_meshes:
-            mb = scene.meshes[k]
-            if self.dim == 2:  # the body moves in the xy-plane
-                for fname, ok in (("velocity", lambda u: u[2] == 0.0),
-                                  ("angular_velocity", lambda u: u[0] == 0.0 and u[1] == 0.0)):
-                    u = getattr(mb, fname)
-                    if u is not None and not ok(u):
-                        raise SceneError(
-                            f"meshes[{k}].{fname}: {list(u)}; expected motion in the xy-plane "
-                            "in 2D: velocity (vx, vy, 0), angular_velocity (0, 0, w)")
-            if mb.dynamic and scene.configuration.pressure.method == "pbf":
-                raise SceneError(f"meshes[{k}].dynamic: true is not coupled to pressure method "
-                                 "'pbf'; expected one of dfsph, iisph, pcisph, wcsph")
-            if self.state.period > 0.0:
-                raise SceneError(f"meshes[{k}]: moving rigid bodies do not support "
-                                 "configuration.periodic_x yet")
-            try:
-                bodies.append(body_from_mesh(f"meshes[{k}]", mesh, mb.dynamic, mb.density,
-                                             mb.velocity, mb.angular_velocity,
-                                             mb.rotation_center, mb.friction, self.dim))
-            except ValueError as e:
-                raise SceneError(f"meshes[{k}].geometry_file: {mb.geometry_file!r}: {e}") from None
-        walls = []
-        if any(b.dynamic for b in bodies):
-            from sphkit.scene import sampling
-
-            up = int(np.argmax(np.abs(self.state.gravity))) if np.any(self.state.gravity) else 2
-            for k, box in enumerate(scene.boxes):
-                lo = list(box.min) + [-np.inf] * (3 - self.dim)  # 2D: no walls along z
-                hi = list(box.max) + [np.inf] * (3 - self.dim)
-                walls.append((box_wall(lo, hi, up if box.open_top else None), f"boxes[{k}]"))
-            for k, mb in enumerate(scene.meshes):
-                if not (mb.dynamic or mb.kinematic):
-                    mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
-                                              mb.rotation_axis, mb.rotation_angle, mb.scale)
-                    walls.append((mesh_wall(mesh, mb.invert, self.state.r), f"meshes[{k}]"))
-        rigid = RigidBodies(bodies, scene.configuration.pressure.method, walls,
-                            margin=INSET * self.state.r,
-                            meshes=[mesh for _k, mesh in self._rigid_meshes])
-        if bodies:
-            rigid.init(self.state)
-            if self._maps:  # the moving meshes' maps are queried in their bodies' frames
-                self.boundary_model.bind_bodies(rigid.bodies)
-            self.boundary_model.rebuild(self.state)
-        if rigid.any_dynamic:  # strong coupling: the pressure solves see the bodies give way
-            self.state.boundary_response = rigid.pressure_response
-        return rigid
-
-    def _add_fluid_file(self, k: int, ff, vol: float) -> None:
-        """Fluid from a particle file (``scene.fluid_files[k]``), with the lattice volume."""
-        import warnings
-
-        from sphkit.io.particle_files import (
-            ParticleFileError,
-            load_fluid_particles,
-            spacing_warning,
-        )
-
-        st = self.state
-        try:
-            x, v = load_fluid_particles(
-                self._resolve(ff.file), self.dim, translation=ff.translation, scale=ff.scale,
-                rotation_axis=ff.rotation_axis, rotation_angle=ff.rotation_angle,
-                velocity=ff.velocity, angular_velocity=ff.angular_velocity,
-                use_file_velocity=ff.use_file_velocity)
-        except ParticleFileError as e:
-            raise SceneError(f"fluid_files[{k}].file: {e}") from None
-        if len(x) == 0:
-            raise SceneError(f"fluid_files[{k}].file: {ff.file!r} holds no particles; "
-                             "expected at least one")
-        note = spacing_warning(x, st.r, f"fluid_files[{k}] ({ff.file})")
-        if note:
-            warnings.warn(note, UserWarning, stacklevel=3)
-        mat = self.scene.material(ff.material)
-        st.fluid.add(x, name=f"fluid_files[{k}]", m=mat.density0 * vol, V0=vol, v=v,
-                     rho=mat.density0)
-
-    def _map_geometries(self, scene: Scene) -> list[MapGeometry]:
-        """Boxes and meshes as signed distances for density and volume maps.
-
-        Boxes are containers (the fluid inside, ``invert``), analytic; an open box extends to
-        infinity along the gravity axis. Meshes: 3D triangle meshes, in 2D the section of the
-        mesh with the plane z = 0 (as for boundary particles).
-        """
-        from sphkit.core.sdf import BoxDistance, MeshDistance, PolygonDistance
-        from sphkit.scene import sampling
-
-        st, dim = self.state, self.dim
-        bc = scene.configuration.boundary
-        res = tuple(bc.map_resolution) if bc.map_resolution else None
-        up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
-        out = []
-        for k, box in enumerate(scene.boxes):
-            open_axis = up if box.open_top else None
-            out.append(MapGeometry(f"boxes[{k}]", BoxDistance(box.min, box.max, open_axis),
-                                   invert=True, resolution=res,
-                                   extend_axis=-1 if open_axis is None else open_axis))
-        for k, mb in enumerate(scene.meshes):
-            mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
-                                      mb.rotation_axis, mb.rotation_angle, mb.scale)
-            if dim == 3:
-                sdf = MeshDistance(mesh.vertices, mesh.faces)
-            else:
-                a, b = sampling.section_segments(mesh)
-                if len(a) == 0:
-                    raise SceneError(
-                        f"meshes[{k}]: {mb.geometry_file!r} does not cross the plane z = 0; "
-                        "expected a mesh whose section is the 2D boundary"
-                    )
-                sdf = PolygonDistance(a, b)
-            mres = tuple(mb.map_resolution) if mb.map_resolution else res
-            body, thick = 0, mb.map_thickness
-            if mb.dynamic or mb.kinematic:  # a moving body: its map lives in its frame
-                body = [j for j, _m in self._rigid_meshes].index(k) + 1
-                thick -= BOUNDARY_MODELS[bc.method].moving_inset_in_radii * st.r
-            out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
-                                   thickness=thick, resolution=mres, body=body))
-        return out
 
     # -- checkpoints ----------------------------------------------------------------------------
     def checkpoint_state(self) -> dict:
@@ -678,7 +251,7 @@ class Simulation:
         """Fluid densities from the current neighbour lists (fluid + boundary)."""
         st = self.state
         f, b = st.fluid, st.boundary
-        if getattr(self.pressure, "uses_pair_gradients", False):
+        if self.pressure.uses_pair_gradients:
             # one pass for the densities and the solver's cached pair gradients
             st.pair_grads = PairGradients(st, with_density=True)
         else:
@@ -712,9 +285,7 @@ class Simulation:
         dt = self._time_step()
         if self.rigid.bodies:
             self.rigid.begin_step(st)
-        pre = getattr(self.pressure, "pre_forces", None)
-        if pre is not None:  # DFSPH: factors and the divergence-free solve
-            pre(st, dt)
+        self.pressure.pre_forces(st, dt)  # DFSPH: factors and the divergence-free solve
         a = f["a"]
         a[:] = st.gravity[:, None]
         for force in self.forces:
@@ -746,15 +317,21 @@ class Simulation:
                           divergence_iterations=ps.divergence_iterations,
                           divergence_error=ps.divergence_error,
                           rigid_bodies=[b.stats() for b in self.rigid.bodies])
-        for force in self.forces:  # implicit non-pressure solvers report their solve
-            ks = getattr(force, "stats", None)
-            if ks is not None:
-                stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
+        ks = self._viscosity_stats()  # an implicit viscosity reports its solve
+        if ks is not None:
+            stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
         self.last, self.last_solver = stats, ps
         limit = self.scene.configuration.max_velocity
         if bad or vmax > limit or not np.all(np.isfinite(f["x"])):
             raise InstabilityError(self._diagnosis(stats, bad, limit), stats)
         return stats
+
+    def _viscosity_stats(self) -> KrylovStats | None:
+        """The last solve of the material's viscosity, when it is implicit."""
+        for force, role in zip(self.forces, self.world.force_roles, strict=True):
+            if role == "viscosity":
+                return force.stats
+        return None
 
     def _emit(self) -> None:
         """Add the emitters' layers due by the current time."""

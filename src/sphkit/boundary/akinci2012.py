@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_w
+from sphkit.core.methods import BoundaryModel
 from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists
 from sphkit.core.state import SimState
 
@@ -38,7 +39,7 @@ def _volumes(x, off, idx, h, kid, dim, L, V):
         V[b] = 1.0 / s
 
 
-class Akinci2012:
+class Akinci2012(BoundaryModel):
     """Static boundary particles with Akinci volumes; rebuilds fluid-boundary neighbour lists."""
 
     name = "akinci2012"

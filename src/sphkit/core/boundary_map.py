@@ -92,7 +92,7 @@ body does not feel it, so momentum is not conserved in the steps where it happen
 from __future__ import annotations
 
 import math
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,6 +101,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.methods import BoundaryModel, NonPressureForce
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.sdf import SignedDistance, cache_folder, cached_arrays, sdf_lattice_cached
 from sphkit.core.state import SimState
@@ -590,7 +591,7 @@ def from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb, xb, vb, x, v):
                 v[2, i] = u2 + vc[2] + w[0] * q1 - w[1] * q0
 
 
-class MapBoundaryModel(ABC):
+class MapBoundaryModel(BoundaryModel):
     """Base of the map boundary models: builds one map per geometry, assembles virtual particles.
 
     Subclasses set ``name``, ``offset`` (added to the map distance's shift), implement
@@ -670,6 +671,11 @@ class MapBoundaryModel(ABC):
             if not np.allclose(b.R, np.eye(3), atol=1e-12):
                 raise ValueError("bind_bodies: the bodies must be at their t = 0 pose (R = I)")
         self._c0 = [np.array(b.c, dtype=np.float64) for b in self.bodies]
+
+    def forces(self) -> list:
+        """With :attr:`hydrostatic`: the walls' share of the tangential pressure gradient
+        (:class:`WallMomentForce`), run with the other non-pressure forces."""
+        return [WallMomentForce(self)] if self.hydrostatic else []
 
     def rebuild(self, state: SimState) -> None:
         """After the rigid bodies moved: nothing to rebuild, :meth:`update` reads their poses
@@ -885,7 +891,7 @@ def wall_moment_accel(x, rho, rho0, phi, N, lo, cell, res, spacing, shape, dim, 
     return count
 
 
-class WallMomentForce:
+class WallMomentForce(NonPressureForce):
     """The non-pressure-force interface (``apply(state, dt)``) to
     :meth:`MapBoundaryModel.wall_moment`, run with the other forces before the pressure solve."""
 

@@ -48,10 +48,12 @@ Units: the scale ``c`` is dimensionless.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 
 RHO_AIR = 1.2041  #: air density [kg/m^3]
@@ -131,7 +133,7 @@ def deformation_coefficient(L: float, rho_l: float) -> float:
     return C_F * we_wo_v * c_def / (C_K * C_B)
 
 
-class Gissler2017:
+class Gissler2017(NonPressureForce):
     """Droplet-deformation air drag of Gissler et al. 2017 (SPlisHSPlasH "Gissler et al. 2017").
 
     ``coefficient``: dimensionless scale of the drag (SPlisHSPlasH ``drag``);
@@ -139,6 +141,11 @@ class Gissler2017:
     """
 
     name = "gissler2017"
+
+    @classmethod
+    def from_config(cls, p: Any) -> Gissler2017:
+        """The Gissler2017 of a material's ``drag`` (scene model)."""
+        return cls(p.coefficient, p.air_velocity)
 
     def __init__(self, coefficient: float = 0.01,
                  air_velocity: list[float] | np.ndarray | None = None) -> None:

@@ -22,10 +22,12 @@ Units: ``k`` [kg/s] (``k v / m`` is an acceleration). Default (SPlisHSPlasH ``dr
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 
 
@@ -39,7 +41,7 @@ def _macklin_cpu(v, m, rho, k, rho0, va, dim, a):
                 a[d, i] -= c * (v[d, i] - va[d])
 
 
-class Macklin2014:
+class Macklin2014(NonPressureForce):
     """Density-deficit air drag of Macklin et al. 2014 (SPlisHSPlasH "Macklin et al. 2014").
 
     ``coefficient``: k [kg/s]; ``air_velocity``: velocity of the surrounding air [m/s]
@@ -47,6 +49,11 @@ class Macklin2014:
     """
 
     name = "macklin2014"
+
+    @classmethod
+    def from_config(cls, p: Any) -> Macklin2014:
+        """The Macklin2014 of a material's ``drag`` (scene model)."""
+        return cls(p.coefficient, p.air_velocity)
 
     def __init__(self, coefficient: float = 0.01,
                  air_velocity: list[float] | np.ndarray | None = None) -> None:

@@ -52,9 +52,12 @@ columns".) Both solvers are :func:`sphkit.core.solver.jacobi_ppe` with A from
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
+from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import neighbor_counts
 from sphkit.core.solver import IterationControl, PairGradients, SolverStats, jacobi_ppe
 from sphkit.core.state import SimState
@@ -92,11 +95,18 @@ def _divergence_source(div, active, dt, kprev, s, kappa):
 OMEGA = 0.5
 
 
-class DFSPH:
+class DFSPH(PressureSolver):
     """Divergence-free SPH: constant-density and divergence-free solvers with warm starts."""
 
     uses_pair_gradients = True  #: the simulation computes them with the densities
     name = "dfsph"
+
+    @classmethod
+    def from_config(cls, p: Any) -> DFSPH:
+        """The DFSPH of a scene's ``configuration.pressure`` (scene model)."""
+        return cls(max_error=p.max_error, min_iterations=p.min_iterations,
+                   max_iterations=p.max_iterations, max_error_v=p.max_error_v,
+                   max_iterations_v=p.max_iterations_v, divergence_solver=p.divergence_solver)
 
     def __init__(self, max_error: float = 0.01, max_error_v: float = 0.1,
                  min_iterations: int | None = None, max_iterations: int = 100,
@@ -176,3 +186,9 @@ class DFSPH:
         its_v, err_v = self._div_stats
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            divergence_iterations=its_v, divergence_error=err_v, converged=ok)
+
+    def boundary_reaction(self, state: SimState) -> BoundaryReaction:
+        """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` for both solves
+        together: ``k_i = kappa_i + kappa^v_i = p_i rho0 / rho_i^2``, mirrored share included."""
+        f = state.fluid
+        return BoundaryReaction(f["p"] * state.rho0 / f["rho"] ** 2, 1.0)

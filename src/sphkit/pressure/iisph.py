@@ -28,9 +28,12 @@ The loop is :func:`sphkit.core.solver.jacobi_ppe` with weight ``w = 1 / rho_hat^
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
+from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.solver import IterationControl, PairGradients, SolverStats, jacobi_ppe
 from sphkit.core.state import SimState
 
@@ -45,11 +48,17 @@ def _setup(rho, rho0, div, D, dt, tiny, s, w, scale):
         scale[i] = rh * rh / (D[i] * dt * dt) if D[i] > tiny else 0.0
 
 
-class IISPH:
+class IISPH(PressureSolver):
     """Implicit incompressible SPH with relaxed Jacobi (omega = 0.5) and warm start."""
 
     uses_pair_gradients = True  #: the simulation computes them with the densities
     name = "iisph"
+
+    @classmethod
+    def from_config(cls, p: Any) -> IISPH:
+        """The IISPH of a scene's ``configuration.pressure`` (scene model)."""
+        return cls(max_error=p.max_error, min_iterations=p.min_iterations,
+                   max_iterations=p.max_iterations)
 
     def __init__(self, max_error: float = 0.01, min_iterations: int | None = None,
                  max_iterations: int = 100, omega: float = 0.5) -> None:
@@ -85,3 +94,9 @@ class IISPH:
         f["p"] = p * state.rho0
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
+
+    def boundary_reaction(self, state: SimState) -> BoundaryReaction:
+        """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached`:
+        ``k_i = p_i rho0 / rho_i^2``, mirrored share included."""
+        f = state.fluid
+        return BoundaryReaction(f["p"] * state.rho0 / f["rho"] ** 2, 1.0)

@@ -61,11 +61,13 @@ velocity update; gravity enters the prediction in both.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.methods import PressureSolver
 from sphkit.core.ppe import lattice_diagonal
 from sphkit.core.solver import IterationControl, SolverStats
 from sphkit.core.state import SimState
@@ -166,10 +168,18 @@ def pbf_correction(x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, s_c
             out[2, i] = c2
 
 
-class PBF:
+class PBF(PressureSolver):
     """Position based fluids: Jacobi sweeps over clamped density constraints."""
 
     name = "pbf"
+
+    @classmethod
+    def from_config(cls, p: Any) -> PBF:
+        """The PBF of a scene's ``configuration.pressure`` (scene model)."""
+        return cls(max_error=p.max_error, min_iterations=p.min_iterations,
+                   max_iterations=p.max_iterations, epsilon=p.pbf_epsilon, s_corr=p.pbf_s_corr,
+                   s_corr_k=p.pbf_s_corr_k, s_corr_n=p.pbf_s_corr_n, s_corr_dq=p.pbf_s_corr_dq,
+                   velocity_update=p.pbf_velocity_update)
 
     def __init__(self, max_error: float = 0.01, min_iterations: int | None = None,
                  max_iterations: int = 100, epsilon: float = 1e-6, s_corr: bool = False,

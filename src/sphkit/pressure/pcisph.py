@@ -57,9 +57,12 @@ r (0.15-0.2 r) off the walls.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
+from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import density_at, kappa_accel_cached, lattice_diagonal
 from sphkit.core.solver import (
     BoundaryKappa,
@@ -97,11 +100,17 @@ def _pressure_update(rho_hat, factor, p):
     return tot / max(n, 1), mx
 
 
-class PCISPH:
+class PCISPH(PressureSolver):
     """Predictive-corrective incompressible SPH with SPlisHSPlasH's template scaling factor."""
 
     uses_pair_gradients = True  #: the simulation computes them with the densities
     name = "pcisph"
+
+    @classmethod
+    def from_config(cls, p: Any) -> PCISPH:
+        """The PCISPH of a scene's ``configuration.pressure`` (scene model)."""
+        return cls(max_error=p.max_error, min_iterations=p.min_iterations,
+                   max_iterations=p.max_iterations)
 
     def __init__(self, max_error: float = 0.01, min_iterations: int | None = None,
                  max_iterations: int = 100) -> None:
@@ -154,3 +163,8 @@ class PCISPH:
         f["p"] = p * state.rho0
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
+
+    def boundary_reaction(self, state: SimState) -> BoundaryReaction:
+        """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` with PCISPH's
+        variable ``p~ = p / rho0``, mirrored share included."""
+        return BoundaryReaction(state.fluid["p"] / state.rho0, 1.0)

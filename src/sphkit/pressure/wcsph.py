@@ -17,9 +17,12 @@ h_s = h/2 = 2r (Monaghan 1992).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
+from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.operators import pressure_accel_cpu
 from sphkit.core.solver import SolverStats
 from sphkit.core.state import SimState
@@ -46,10 +49,16 @@ def state_equation(rho, rho0, equation, stiffness, exponent, p):
     return tot / max(n, 1), mx
 
 
-class WCSPH:
+class WCSPH(PressureSolver):
     """State-equation pressure solver (Tait or linear) with symmetric pressure forces."""
 
     name = "wcsph"
+
+    @classmethod
+    def from_config(cls, p: Any) -> WCSPH:
+        """The WCSPH of a scene's ``configuration.pressure`` (scene model)."""
+        return cls(equation=p.equation, stiffness=p.stiffness, exponent=p.exponent,
+                   acoustic_cfl=p.acoustic_cfl)
 
     def __init__(self, equation: str = "tait", stiffness: float = 50000.0,
                  exponent: float = 7.0, acoustic_cfl: bool = True) -> None:
@@ -94,3 +103,10 @@ class WCSPH:
         if state.boundary_pressure is not None:  # extrapolated instead of mirrored p_b
             state.boundary_pressure.correct_mirrored(state, f["a"])
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
+
+    def boundary_reaction(self, state: SimState) -> BoundaryReaction:
+        """The boundary term of :func:`sphkit.core.operators.pressure_accel_body`:
+        ``k_i = rho0 (p_i / rho_i^2 + p_i / rho0^2)``, without the mirror share."""
+        f = state.fluid
+        p, rho, rho0 = f["p"], f["rho"], state.rho0
+        return BoundaryReaction(rho0 * (p / rho ** 2 + p / rho0 ** 2), 0.0)

@@ -8,11 +8,32 @@ what was expected (see :func:`format_validation_error`).
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from sphkit import registry
+
 Vec = list[float]
+
+
+def _choices(role: str) -> Any:
+    """The scene names of a role's methods (:mod:`sphkit.registry`) as a ``Literal``, with
+    ``"none"`` first for the optional non-pressure forces."""
+    names = registry.names(role)
+    if role in registry.OPTIONAL_ROLES:
+        names = ("none", *names)
+    return Literal[names]  # type: ignore[valid-type]
+
+
+#: the methods a scene may name, read from the registry (one place names them)
+PressureMethod = _choices("pressure")
+ViscosityMethod = _choices("viscosity")
+VorticityMethod = _choices("vorticity")
+SurfaceTensionMethod = _choices("surface_tension")
+DragMethod = _choices("drag")
+BoundaryMethod = _choices("boundary")
+BoundaryPressureMethod = _choices("boundary_pressure")
 
 
 class _Model(BaseModel):
@@ -49,7 +70,7 @@ class PressureConfig(_Model):
     at None take the solver's SPlisHSPlasH default.
     """
 
-    method: Literal["wcsph", "pcisph", "pbf", "iisph", "dfsph"] = "wcsph"
+    method: PressureMethod = "wcsph"
     equation: Literal["tait", "linear"] = Field(
         "tait", description="wcsph: tait: p = B((rho/rho0)^gamma - 1); linear: p = k (rho - rho0)"
     )
@@ -113,8 +134,7 @@ class ViscosityConfig(_Model):
     weiler2018 only (the other models have SPlisHSPlasH's fixed wall terms).
     """
 
-    method: Literal["none", "standard", "xsph", "weiler2018", "bender2017", "takahashi2015",
-                    "peer2015", "peer2016"] = "none"
+    method: ViscosityMethod = "none"
     coefficient: float = Field(
         0.0, ge=0,
         description="standard, weiler2018, takahashi2015: kinematic viscosity nu [m^2/s] (dynamic "
@@ -209,7 +229,7 @@ class VorticityConfig(_Model):
     (Macklin & Mueller 2013, vorticityMethod 2, :mod:`sphkit.vorticity.confinement`); defaults
     are SPlisHSPlasH's."""
 
-    method: Literal["none", "micropolar", "confinement"] = "none"
+    method: VorticityMethod = "none"
     coefficient: float = Field(
         0.01, ge=0, allow_inf_nan=False,
         description="micropolar: vortex viscosity (transfer coefficient) nu_t [m^2/s], a kinematic "
@@ -236,7 +256,7 @@ class SurfaceTensionConfig(_Model):
     defaults are SPlisHSPlasH's. ``mueller2003`` (Müller et al. 2003 continuum surface force, no
     SPlisHSPlasH number): ``coefficient`` is the physical sigma, no adhesion."""
 
-    method: Literal["none", "becker2007", "akinci2013", "he2014", "mueller2003"] = "none"
+    method: SurfaceTensionMethod = "none"
     coefficient: float = Field(
         0.05, ge=0, le=1e6, allow_inf_nan=False,
         description="becker2007: cohesion kappa [m^d/s^2]; akinci2013: gamma (cohesion "
@@ -268,7 +288,7 @@ class DragConfig(_Model):
     dragMethod 1) or ``gissler2017`` (Gissler et al. 2017, dragMethod 2); see
     :mod:`sphkit.drag`."""
 
-    method: Literal["none", "macklin2014", "gissler2017"] = "none"
+    method: DragMethod = "none"
     coefficient: float = Field(
         0.01, ge=0, le=1e6, allow_inf_nan=False,
         description="macklin2014: k [kg/s] of a = -(k/m)(v - v_air) max(0, 1 - rho/rho0); "
@@ -482,8 +502,8 @@ class BoundaryConfig(_Model):
     """Boundary model: ``akinci2012`` boundary particles (Akinci et al. 2012), ``koschier2017``
     density maps (Koschier & Bender 2017) or ``bender2019`` volume maps (Bender et al. 2019)."""
 
-    method: Literal["akinci2012", "koschier2017", "bender2019"] = "akinci2012"
-    pressure: Literal["mirror", "mls", "hydrostatic"] = Field(
+    method: BoundaryMethod = "akinci2012"
+    pressure: BoundaryPressureMethod = Field(
         "mirror", description="akinci2012: pressure of the static boundary particles in the "
         "pressure force: 'mirror' (p_b = p_i, Akinci et al. 2012) or 'mls' (moving least squares "
         "extrapolation from the fluid, Band et al. 2018); koschier2017 / bender2019: 'mirror' "

@@ -45,10 +45,12 @@ Defaults (SPlisHSPlasH): gamma (``surfaceTension``) 0.05, beta (``surfaceTension
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 from scipy.integrate import quad
 
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import surface_normals_cpu
 from sphkit.core.state import SimState
 
@@ -153,7 +155,7 @@ def _coefficient(what: str, value: float) -> float:
     return value
 
 
-class Akinci2013:
+class Akinci2013(NonPressureForce):
     """Surface tension (cohesion + curvature) and boundary adhesion of Akinci et al. 2013.
 
     ``coefficient``: gamma (cohesion and curvature, model units, see the module docstring);
@@ -162,6 +164,11 @@ class Akinci2013:
     """
 
     name = "akinci2013"
+
+    @classmethod
+    def from_config(cls, p: Any) -> Akinci2013:
+        """The Akinci2013 of a material's ``surface_tension`` (scene model)."""
+        return cls(p.coefficient, p.boundary_coefficient)
 
     def __init__(self, coefficient: float = 0.05, boundary_coefficient: float = 0.01) -> None:
         self.coefficient = _coefficient("surface tension (akinci2013): coefficient", coefficient)

@@ -38,11 +38,13 @@ Defaults (SPlisHSPlasH): kappa = 0.05, kappa_b = 0.01.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 from scipy.integrate import quad
 
 from sphkit.core.kernels import kernel_w
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 
 
@@ -108,7 +110,7 @@ def _coefficient(what: str, value: float) -> float:
     return value
 
 
-class BeckerTeschner2007:
+class BeckerTeschner2007(NonPressureForce):
     """Cohesion forces of Becker & Teschner 2007 (SPlisHSPlasH "Becker & Teschner 2007").
 
     ``coefficient``: kappa [m^d/s^2]; ``boundary_coefficient``: kappa_b [m^d/s^2] (adhesion to
@@ -116,6 +118,11 @@ class BeckerTeschner2007:
     """
 
     name = "becker2007"
+
+    @classmethod
+    def from_config(cls, p: Any) -> BeckerTeschner2007:
+        """The BeckerTeschner2007 of a material's ``surface_tension`` (scene model)."""
+        return cls(p.coefficient, p.boundary_coefficient)
 
     def __init__(self, coefficient: float = 0.05, boundary_coefficient: float = 0.01) -> None:
         self.coefficient = _coefficient("surface tension (becker2007): coefficient", coefficient)

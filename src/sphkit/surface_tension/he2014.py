@@ -35,10 +35,12 @@ Defaults (SPlisHSPlasH): kappa (``surfaceTension``) 0.05, kappa_b (``surfaceTens
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 
 from sphkit.core.kernels import kernel_dw
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import color_field_cpu
 from sphkit.core.state import SimState
 
@@ -126,7 +128,7 @@ def _coefficient(what: str, value: float) -> float:
     return value
 
 
-class He2014:
+class He2014(NonPressureForce):
     """Colour-field surface tension of He et al. 2014 (SPlisHSPlasH "He et al. 2014").
 
     ``coefficient``: kappa (surface energy coefficient, see the module docstring);
@@ -135,6 +137,11 @@ class He2014:
     """
 
     name = "he2014"
+
+    @classmethod
+    def from_config(cls, p: Any) -> He2014:
+        """The He2014 of a material's ``surface_tension`` (scene model)."""
+        return cls(p.coefficient, p.boundary_coefficient)
 
     def __init__(self, coefficient: float = 0.05, boundary_coefficient: float = 0.01) -> None:
         self.coefficient = _coefficient("surface tension (he2014): coefficient", coefficient)

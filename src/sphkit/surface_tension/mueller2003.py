@@ -107,11 +107,13 @@ fraction of the total surface force). There is no adhesion term (``boundary_coef
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import interpolate, surface_normals_cpu
 from sphkit.core.state import SimState
 
@@ -390,7 +392,7 @@ def tangent_plane_moment(kid: int, h: float, dim: int, samples: int = 4001) -> f
     return float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(q)))
 
 
-class Mueller2003:
+class Mueller2003(NonPressureForce):
     """Continuum surface force of Müller et al. 2003 with the free-surface corrections of the
     module docstring.
 
@@ -405,6 +407,11 @@ class Mueller2003:
     """
 
     name = "mueller2003"
+
+    @classmethod
+    def from_config(cls, p: Any) -> Mueller2003:
+        """The Mueller2003 of a material's ``surface_tension`` (scene model)."""
+        return cls(p.coefficient, p.boundary_coefficient)
 
     def __init__(self, coefficient: float = 0.05, boundary_coefficient: float = 0.0) -> None:
         sigma = float(coefficient)

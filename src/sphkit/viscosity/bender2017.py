@@ -67,12 +67,14 @@ from __future__ import annotations
 
 import logging
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import KrylovStats
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 from sphkit.core.viscous import add_velocity_change, wall_friction
 
@@ -331,7 +333,7 @@ def _impulse(x, m, rho, off, idx, h, kid, dim, L, lam, v):
             v[2, i] -= dv2
 
 
-class Bender2017:
+class Bender2017(NonPressureForce):
     """Strain-rate viscosity; ``nu`` is a dimensionless factor in [0, 1] (see the module).
 
     After :meth:`apply`, ``stats`` holds the Jacobi iterations of the step and, as ``residual``,
@@ -343,6 +345,11 @@ class Bender2017:
     BOUNDARY_FRICTION = 0.1
     #: bound of the Jacobi relaxation, which SPlisHSPlasH's form makes m_i [kg] (see the module)
     MAX_RELAXATION = 0.2
+
+    @classmethod
+    def from_config(cls, p: Any) -> Bender2017:
+        """The Bender2017 of a material's ``viscosity`` (scene model)."""
+        return cls(p.coefficient, p.max_iterations or 50, p.max_error)
 
     def __init__(self, nu: float, max_iterations: int = 50, max_error: float = 0.01) -> None:
         if not 0.0 <= nu <= 1.0:

@@ -51,12 +51,15 @@ Dimension: ``V = (div v / d) I`` uses the dimension d of the simulation; SPlisHS
 
 from __future__ import annotations
 
+from typing import Any
+
 from sphkit.core.krylov import KrylovStats
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 from sphkit.core.viscous import add_velocity_change, reconstruct_velocity, target_gradients
 
 
-class Peer2015:
+class Peer2015(NonPressureForce):
     """Velocity reconstruction from a target gradient; ``nu`` dimensionless in [0, 1].
 
     After :meth:`apply`, ``stats`` holds the CG iterations (summed over the velocity components,
@@ -64,6 +67,11 @@ class Peer2015:
     """
 
     name = "peer2015"
+
+    @classmethod
+    def from_config(cls, p: Any) -> Peer2015:
+        """The Peer2015 of a material's ``viscosity`` (scene model)."""
+        return cls(p.coefficient, p.max_iterations or 50, p.max_error)
 
     def __init__(self, nu: float, max_iterations: int = 50, max_error: float = 0.01) -> None:
         if not 0.0 <= nu <= 1.0:

@@ -44,10 +44,13 @@ is kept only up to the d-weighted mean of the velocity reconstruction, and ``V``
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
 from sphkit.core.krylov import KrylovStats
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     add_velocity_change,
@@ -89,11 +92,17 @@ def _add_spin(w, dim, T):
             T[7, i] += 0.5 * w[0, i]
 
 
-class Peer2016:
+class Peer2016(NonPressureForce):
     """Peer 2015's velocity reconstruction with diffused vorticity; ``nu`` dimensionless in
     [0, 1]."""
 
     name = "peer2016"
+
+    @classmethod
+    def from_config(cls, p: Any) -> Peer2016:
+        """The Peer2016 of a material's ``viscosity`` (scene model)."""
+        return cls(p.coefficient, p.max_iterations or 50, p.max_error,
+                   p.max_iterations_omega or 50, p.max_error_omega)
 
     def __init__(self, nu: float, max_iterations: int = 50, max_error: float = 0.01,
                  max_iterations_omega: int = 50, max_error_omega: float = 0.01) -> None:

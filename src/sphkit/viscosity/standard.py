@@ -28,10 +28,12 @@ beta = 1).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 
 from sphkit.core.kernels import kernel_dw
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
@@ -116,7 +118,7 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, b
             a[2, i] += acc2
 
 
-class StandardViscosity:
+class StandardViscosity(NonPressureForce):
     """Explicit Morris/Monaghan viscosity; ``nu`` and ``nu_boundary`` are kinematic [m^2/s].
 
     ``boundary_velocity``: ``"zero"`` (the wall particles' own velocity, SPlisHSPlasH) or
@@ -124,6 +126,12 @@ class StandardViscosity:
     """
 
     name = "standard"
+
+    @classmethod
+    def from_config(cls, p: Any) -> StandardViscosity:
+        """The StandardViscosity of a material's ``viscosity`` (scene model)."""
+        return cls(p.coefficient, p.boundary_coefficient, p.boundary_velocity, p.morris_beta_max,
+                   p.laplacian_eps)
 
     def __init__(self, nu: float, nu_boundary: float = 0.0, boundary_velocity: str = "zero",
                  beta_max: float = MORRIS_BETA_MAX, eps: float = LAPLACIAN_EPS) -> None:

@@ -56,12 +56,14 @@ the free-surface particles; a shear wave decays like backward Euler of ``dv/dt =
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 from sphkit.core.viscous import add_velocity_change, wall_friction
 
@@ -231,7 +233,7 @@ def _diagonal_blocks(x, m, rho, off, idx, h, kid, dim, L, mu, dt, blocks):
             blocks[2, 1, i] = o
 
 
-class Takahashi2015:
+class Takahashi2015(NonPressureForce):
     """Implicit stress-divergence viscosity; ``nu`` kinematic [m^2/s].
 
     After :meth:`apply`, ``stats`` holds the CG iterations and relative residual of the step.
@@ -240,6 +242,11 @@ class Takahashi2015:
     name = "takahashi2015"
     #: SPlisHSPlasH's XSPH-type wall friction factor (fixed, not scaled by the viscosity)
     BOUNDARY_FRICTION = 0.1
+
+    @classmethod
+    def from_config(cls, p: Any) -> Takahashi2015:
+        """The Takahashi2015 of a material's ``viscosity`` (scene model)."""
+        return cls(p.coefficient, p.max_iterations or 100, p.max_error)
 
     def __init__(self, nu: float, max_iterations: int = 100, max_error: float = 0.01) -> None:
         if not nu >= 0:

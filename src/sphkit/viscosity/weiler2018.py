@@ -47,12 +47,14 @@ x differences take the minimum image. Units: ``nu`` and ``nu_boundary`` are kine
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
@@ -207,7 +209,7 @@ def _apply(v, vnew, inv_dt, a, dv):
             dv[d, i] = t
 
 
-class Weiler2018:
+class Weiler2018(NonPressureForce):
     """Implicit Laplacian viscosity; ``nu``, ``nu_boundary`` kinematic [m^2/s].
 
     After :meth:`apply`, ``stats`` holds the CG iterations and relative residual of the step
@@ -215,6 +217,12 @@ class Weiler2018:
     """
 
     name = "weiler2018"
+
+    @classmethod
+    def from_config(cls, p: Any) -> Weiler2018:
+        """The Weiler2018 of a material's ``viscosity`` (scene model)."""
+        return cls(p.coefficient, p.boundary_coefficient, p.max_iterations or 100, p.max_error,
+                   p.boundary_velocity, p.morris_beta_max, p.laplacian_eps)
 
     def __init__(self, nu: float, nu_boundary: float = 0.0, max_iterations: int = 100,
                  max_error: float = 0.01, boundary_velocity: str = "zero",

@@ -11,9 +11,12 @@ with dimensionless smoothing factors c, c_b in [0, 1] (Macklin & Mueller 2013 us
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 
 from sphkit.core.kernels import kernel_w
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 
 
@@ -51,10 +54,15 @@ def _xsph(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, c, cb, rho0, h, kid, d
             a[2, i] += acc2
 
 
-class XSPH:
+class XSPH(NonPressureForce):
     """XSPH smoothing with factors ``c`` (fluid) and ``c_boundary`` (dimensionless, 0..1)."""
 
     name = "xsph"
+
+    @classmethod
+    def from_config(cls, p: Any) -> XSPH:
+        """The XSPH of a material's ``viscosity`` (scene model)."""
+        return cls(p.coefficient, p.boundary_coefficient)
 
     def __init__(self, c: float, c_boundary: float = 0.0) -> None:
         if not (0 <= c <= 1 and 0 <= c_boundary <= 1):

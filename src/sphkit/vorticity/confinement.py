@@ -34,10 +34,12 @@ omega (in 2D only the z row).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 
 from sphkit.core.kernels import kernel_dw
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 
 
@@ -118,12 +120,17 @@ def _confinement_cpu(x, m, rho, omega, norm, off, idx, eps, h, kid, dim, a):
         confinement_body(i, x, m, rho, omega, norm, off, idx, eps, h, kid, dim, a)
 
 
-class VorticityConfinement:
+class VorticityConfinement(NonPressureForce):
     """Vorticity confinement (Macklin & Mueller 2013, Eqs. 15-16; SPlisHSPlasH "Vorticity
     confinement"). ``coefficient``: epsilon [m/s]. Registers the fluid fields ``vorticity``
     ('vector3', [1/s]) and ``vorticity_norm`` ([1/s])."""
 
     name = "confinement"
+
+    @classmethod
+    def from_config(cls, p: Any) -> VorticityConfinement:
+        """The VorticityConfinement of a material's ``vorticity`` (scene model)."""
+        return cls(p.coefficient)
 
     def __init__(self, coefficient: float = 0.01) -> None:
         eps = float(coefficient)

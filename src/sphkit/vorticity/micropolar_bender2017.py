@@ -69,11 +69,13 @@ W_ij = -d`` (1.2% in 2D, 2.0% in 3D for the cubic spline at h = 4r); see tests/t
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
 
 
@@ -191,7 +193,7 @@ def _nonneg(name: str, value: float) -> float:
     return value
 
 
-class MicropolarBender2017:
+class MicropolarBender2017(NonPressureForce):
     """Micropolar vorticity model of Bender et al. 2017 (SPlisHSPlasH's "Micropolar model").
 
     ``vorticity``: transfer coefficient nu_t [m^2/s]; ``viscosity_omega``: angular viscosity
@@ -201,6 +203,11 @@ class MicropolarBender2017:
     """
 
     name = "micropolar"
+
+    @classmethod
+    def from_config(cls, p: Any) -> MicropolarBender2017:
+        """The MicropolarBender2017 of a material's ``vorticity`` (scene model)."""
+        return cls(p.coefficient, p.viscosity_omega, p.inertia_inverse)
 
     def __init__(self, vorticity: float = 0.01, viscosity_omega: float = 0.1,
                  inertia_inverse: float = 0.5) -> None:

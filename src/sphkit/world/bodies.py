@@ -1,0 +1,41 @@
+"""The rigid bodies of a world: the scene's kinematic and dynamic meshes, and the static walls
+that dynamic bodies collide with (:mod:`sphkit.boundary.rigid`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sphkit.boundary.rigid import INSET, RigidBodies, body_from_mesh, box_wall, mesh_wall
+from sphkit.core.state import SimState
+from sphkit.scene.schema import Scene, SceneError
+from sphkit.world.meshes import SceneMeshes
+from sphkit.world.walls import gravity_axis, moving_meshes
+
+
+def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes,
+                 solver: str) -> RigidBodies:
+    """The moving bodies of the scene (boundary field ``rigid_body`` numbers them from 1 in
+    the order of :func:`sphkit.world.walls.moving_meshes`), not yet initialised."""
+    bodies = []
+    moving = moving_meshes(scene)
+    for k in moving:
+        mb = scene.meshes[k]
+        try:
+            bodies.append(body_from_mesh(f"meshes[{k}]", meshes.mesh(k), mb.dynamic, mb.density,
+                                         mb.velocity, mb.angular_velocity,
+                                         mb.rotation_center, mb.friction, state.dim))
+        except ValueError as e:
+            raise SceneError(f"meshes[{k}].geometry_file: {mb.geometry_file!r}: {e}") from None
+    walls = []
+    if any(b.dynamic for b in bodies):
+        dim = state.dim
+        up = gravity_axis(state) if np.any(state.gravity) else 2
+        for k, box in enumerate(scene.boxes):
+            lo = list(box.min) + [-np.inf] * (3 - dim)  # 2D: no walls along z
+            hi = list(box.max) + [np.inf] * (3 - dim)
+            walls.append((box_wall(lo, hi, up if box.open_top else None), f"boxes[{k}]"))
+        for k, mb in enumerate(scene.meshes):
+            if k not in moving:
+                walls.append((mesh_wall(meshes.mesh(k), mb.invert, state.r), f"meshes[{k}]"))
+    return RigidBodies(bodies, solver, walls, margin=INSET * state.r,
+                       meshes=[meshes.mesh(k) for k in moving])

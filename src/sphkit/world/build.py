@@ -1,0 +1,151 @@
+"""``build_world(scene) -> World``: everything a simulation steps, built once from a scene.
+
+DESIGN.md, "One time step": building a world -- sampling the fluid and the walls, loading each
+mesh once, building maps and rigid bodies, constructing the methods the scene names from the
+registry, checking the scene across its fields -- happens here, never in the step. The
+:class:`World` holds the state (particle sets and constants) and the built methods;
+:class:`sphkit.simulation.Simulation` steps it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sphkit import registry
+from sphkit.boundary.rigid import RigidBodies
+from sphkit.core.kernels import kernel_id, lattice_volume
+from sphkit.core.methods import BoundaryModel, NonPressureForce, PressureSolver
+from sphkit.core.neighbors import zorder_permutation
+from sphkit.core.particles import ParticleSet
+from sphkit.core.state import SimState
+from sphkit.emitters import FluidEmitter
+from sphkit.scene.checks import check_scene
+from sphkit.scene.schema import Material, Scene, SceneError
+from sphkit.world.bodies import rigid_bodies
+from sphkit.world.fluid import add_fluid
+from sphkit.world.meshes import SceneMeshes
+from sphkit.world.walls import add_wall_particles, map_geometries
+
+
+@dataclass
+class World:
+    """A built scene: the state and the methods that act on it.
+
+    ``forces`` are the non-pressure forces in the order the step applies them (viscosity,
+    vorticity, surface tension, drag, then the boundary model's own), ``force_roles`` their
+    roles (``"viscosity"``, ..., ``"boundary"``).
+    """
+
+    scene: Scene
+    state: SimState
+    material: Material
+    pressure: PressureSolver
+    boundary_model: BoundaryModel
+    rigid: RigidBodies
+    emitters: list[FluidEmitter]
+    #: volume 1 / sum_k W of the 2r lattice: the rest volume of sampled and emitted fluid [m^dim]
+    lattice_volume: float
+    forces: list[NonPressureForce] = field(default_factory=list)
+    force_roles: list[str] = field(default_factory=list)
+
+    @property
+    def maps(self) -> bool:
+        """Whether the walls are maps (density / volume maps) rather than particles."""
+        return registry.get("boundary", self.scene.configuration.boundary.method).kind == "maps"
+
+
+def _state(scene: Scene, mat: Material) -> SimState:
+    """Empty particle sets with the fields every method reads, and the constants."""
+    cfg = scene.configuration
+    dim = cfg.dim
+    dtype = np.dtype(cfg.precision)
+    fluid = ParticleSet(dim, dtype)
+    for name in ("v", "a"):
+        fluid.register(name, "vector")
+    for name in ("m", "V0", "rho0", "rho", "p"):  # V0 = m / rho0, the rest volume
+        fluid.register(name)
+    boundary = ParticleSet(dim, dtype)
+    boundary.register("pressure_mirror")
+    boundary.register("rigid_body", "scalar", np.int64)  # 1-based moving body, 0 static
+    boundary.register("wall_normal", "vector")  # box walls: into the wall (Morris 1997 no-slip)
+    boundary.register("wall_distance")  # box walls: distance behind the wall surface [m]
+    g = np.zeros(dim)
+    g[:] = cfg.gravity[:dim]
+    r = cfg.particle_radius
+    state = SimState(fluid=fluid, boundary=boundary, dim=dim, h=4.0 * r,
+                     kid=kernel_id(cfg.kernel), r=r, rho0=mat.density0,
+                     gravity=g.astype(dtype))
+    if cfg.periodic_x is not None:
+        state.period_lo = float(cfg.periodic_x[0])
+        state.period = float(cfg.periodic_x[1] - cfg.periodic_x[0])
+    return state
+
+
+def _forces(mat: Material) -> tuple[list[NonPressureForce], list[str]]:
+    """The non-pressure forces a material names, in the order of the step."""
+    forces, roles = [], []
+    for role in registry.OPTIONAL_ROLES:
+        conf = getattr(mat, role)
+        if conf.method != "none":
+            forces.append(registry.get(role, conf.method).load().from_config(conf))
+            roles.append(role)
+    return forces, roles
+
+
+def build_world(scene: Scene) -> World:
+    """Build the world of a scene (raises :class:`~sphkit.scene.schema.SceneError` naming the
+    field when the scene cannot be built)."""
+    mat = check_scene(scene)
+    cfg = scene.configuration
+    state = _state(scene, mat)
+    r, h, dim = state.r, state.h, state.dim
+    boundary_info = registry.get("boundary", cfg.boundary.method)
+    maps = boundary_info.kind == "maps"
+    emitters = [FluidEmitter(e, dim, r, h, name=f"emitters[{k}]")
+                for k, e in enumerate(scene.emitters)]
+    meshes = SceneMeshes(scene)
+    add_fluid(state, scene, meshes)
+    if not maps:  # maps: boxes and meshes become signed distances (map_geometries)
+        add_wall_particles(state, scene, meshes, emitters)
+    if state.fluid.n == 0 and not emitters:
+        raise SceneError(
+            "fluid_blocks, fluid_files: the scene has no fluid particles; expected at least one"
+            " (or an emitter)"
+        )
+    pressure = registry.get("pressure", cfg.pressure.method).load().from_config(cfg.pressure)
+    model_cls = boundary_info.load()
+    if maps:
+        model = model_cls(map_geometries(state, scene, meshes, model_cls.moving_inset_in_radii),
+                          cache_dir=cfg.boundary.map_cache_dir, cache=cfg.boundary.map_cache)
+        model.hydrostatic = cfg.boundary.pressure == "hydrostatic"
+    else:
+        model = model_cls()
+    forces, roles = _forces(mat)
+    bd = state.boundary
+    if bd.n:
+        bd.permute(zorder_permutation(bd["x"], h))
+    model.init(state)
+    extra = model.forces()
+    forces += extra
+    roles += ["boundary"] * len(extra)
+    bp = registry.get("boundary_pressure", cfg.boundary.pressure)
+    if bp.target is not None:  # a boundary pressure model of its own (MLS)
+        # static boundary particles only: rigid bodies keep their own boundary term
+        state.boundary_pressure = bp.load()(bd["rigid_body"] == 0)
+        state.boundary_pressure.init(state)
+    rigid = rigid_bodies(state, scene, meshes, cfg.pressure.method)
+    if rigid.bodies:
+        rigid.init(state)
+        model.bind_bodies(rigid.bodies)  # maps query the moving meshes in their frames
+        model.rebuild(state)
+    if rigid.any_dynamic:  # strong coupling: the pressure solves see the bodies give way
+        state.boundary_response = rigid.pressure_response
+    for force in forces:
+        force.init(state)
+    pressure.init(state)
+    return World(scene=scene, state=state, material=mat, pressure=pressure,
+                 boundary_model=model, rigid=rigid, emitters=emitters,
+                 lattice_volume=lattice_volume(2.0 * r, state.kid, h, dim), forces=forces,
+                 force_roles=roles)

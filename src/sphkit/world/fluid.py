@@ -1,0 +1,92 @@
+"""The fluid of a world: blocks, particle files and filled meshes sampled into particles.
+
+Every fluid particle gets the lattice volume ``V0 = 1 / sum_k W(|k| 2r)`` of its lattice (square,
+or hexagonal in 2D), the mass ``m = rho0 V0`` and the rest density ``rho0`` of its material, so
+that the interior of freshly sampled fluid is at rest density (README, "mass of lattice-sampled
+fluid").
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from sphkit.core.kernels import hexagonal_volume, lattice_volume
+from sphkit.core.state import SimState
+from sphkit.scene import sampling
+from sphkit.scene.schema import Scene, SceneError
+from sphkit.world.meshes import SceneMeshes
+
+
+def periodic_clip(state: SimState, pts: np.ndarray) -> np.ndarray:
+    """The points inside ``[lo, lo + L)`` along a periodic x axis (all of them otherwise)."""
+    if state.period <= 0.0:
+        return pts
+    lo, r = state.period_lo, state.r
+    return pts[(pts[:, 0] >= lo - 1e-9 * r) & (pts[:, 0] < lo + state.period - 1e-9 * r)]
+
+
+def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
+    """Sample the scene's fluid blocks, particle files and fluid meshes into ``state.fluid``."""
+    r, dim = state.r, state.dim
+    vol = lattice_volume(2.0 * r, state.kid, state.h, dim)
+    fluid = state.fluid
+    for k, blk in enumerate(scene.fluid_blocks):
+        bvol = vol
+        if blk.lattice == "hexagonal":  # spacing 2r, V = 1 / sum_k W over that lattice
+            pts = periodic_clip(state, sampling.hexagonal_block(blk.start, blk.end, r))
+            bvol = hexagonal_volume(2.0 * r, state.kid, state.h)
+        else:
+            pts = periodic_clip(state, sampling.lattice_block(blk.start, blk.end, r))
+        if len(pts) == 0:
+            raise SceneError(
+                f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
+                f"radius {r}; expected a block at least 2r = {2 * r} wide on every axis"
+            )
+        mat = scene.material(blk.material)
+        vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
+        fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * bvol, V0=bvol, v=vel,
+                  rho=mat.density0, rho0=mat.density0)
+    for k, ff in enumerate(scene.fluid_files):
+        _add_fluid_file(state, scene, meshes, k, ff, vol)
+    for k, fm in enumerate(scene.fluid_meshes):
+        pts = sampling.sample_mesh_volume(meshes.fluid_mesh(k), r, dim, invert=fm.invert)
+        if len(pts) == 0:
+            raise SceneError(
+                f"fluid_meshes[{k}]: {fm.geometry_file!r} holds no particle of radius {r}; "
+                "expected a closed mesh at least 2r wide" + (" that crosses z = 0" if dim == 2
+                                                             else "")
+            )
+        mat = scene.material(fm.material)
+        vel = np.zeros(dim) if fm.velocity is None else np.asarray(fm.velocity, float)
+        fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
+                  rho=mat.density0, rho0=mat.density0)
+
+
+def _add_fluid_file(state: SimState, scene: Scene, meshes: SceneMeshes, k: int, ff,
+                    vol: float) -> None:
+    """Fluid from a particle file (``scene.fluid_files[k]``), with the lattice volume."""
+    from sphkit.io.particle_files import (
+        ParticleFileError,
+        load_fluid_particles,
+        spacing_warning,
+    )
+
+    try:
+        x, v = load_fluid_particles(
+            meshes.path(ff.file), state.dim, translation=ff.translation, scale=ff.scale,
+            rotation_axis=ff.rotation_axis, rotation_angle=ff.rotation_angle,
+            velocity=ff.velocity, angular_velocity=ff.angular_velocity,
+            use_file_velocity=ff.use_file_velocity)
+    except ParticleFileError as e:
+        raise SceneError(f"fluid_files[{k}].file: {e}") from None
+    if len(x) == 0:
+        raise SceneError(f"fluid_files[{k}].file: {ff.file!r} holds no particles; "
+                         "expected at least one")
+    note = spacing_warning(x, state.r, f"fluid_files[{k}] ({ff.file})")
+    if note:
+        warnings.warn(note, UserWarning, stacklevel=4)
+    mat = scene.material(ff.material)
+    state.fluid.add(x, name=f"fluid_files[{k}]", m=mat.density0 * vol, V0=vol, v=v,
+                    rho=mat.density0, rho0=mat.density0)

@@ -1,0 +1,45 @@
+"""The meshes a scene names, each loaded once per world.
+
+A scene names mesh files in ``meshes`` (walls and rigid bodies) and ``fluid_meshes`` (fluid
+filling a mesh). Walls, maps, rigid bodies and their contact walls all need the same placed
+mesh; :class:`SceneMeshes` loads each entry the first time it is asked for and keeps it, with
+the paths resolved against the scene file's folder as the scene loader resolves them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import trimesh
+
+from sphkit.scene import sampling
+from sphkit.scene.loader import resolve_scene_path
+from sphkit.scene.schema import Scene
+
+
+class SceneMeshes:
+    """``mesh(k)``: ``scene.meshes[k]`` placed in the scene; ``fluid_mesh(k)``: the same for
+    ``scene.fluid_meshes[k]`` (trimesh, loaded on first use)."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        self._meshes: dict[tuple[str, int], trimesh.Trimesh] = {}
+
+    def path(self, file: str) -> Path:
+        """A file named in the scene, resolved against the scene file's folder."""
+        return resolve_scene_path(self.scene, file)
+
+    def _load(self, kind: str, k: int, m) -> trimesh.Trimesh:
+        key = (kind, k)
+        if key not in self._meshes:
+            self._meshes[key] = sampling.load_mesh(self.path(m.geometry_file), m.translation,
+                                                   m.rotation_axis, m.rotation_angle, m.scale)
+        return self._meshes[key]
+
+    def mesh(self, k: int) -> trimesh.Trimesh:
+        """``scene.meshes[k]`` placed in the scene."""
+        return self._load("meshes", k, self.scene.meshes[k])
+
+    def fluid_mesh(self, k: int) -> trimesh.Trimesh:
+        """``scene.fluid_meshes[k]`` placed in the scene."""
+        return self._load("fluid_meshes", k, self.scene.fluid_meshes[k])

@@ -1,0 +1,115 @@
+"""The walls of a world: boundary particles (Akinci et al. 2012) or map geometries.
+
+With a particle boundary model, scene ``boxes`` become lattice walls (two-layer lattices whose
+Akinci volumes stand for the missing fluid, so the boundary pressure is mirrored fully:
+boundary field ``pressure_mirror`` 1), static ``meshes`` their surface samples, moving meshes
+(rigid bodies) their surface samples moved ``INSET`` r into the mesh, and emitter housings
+their surface samples. With a map model (density or volume maps) boxes and meshes become
+signed distances instead (:func:`map_geometries`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sphkit.boundary.rigid import INSET, inset_samples
+from sphkit.core.boundary_map import MapGeometry
+from sphkit.core.state import SimState
+from sphkit.scene import sampling
+from sphkit.scene.schema import Scene, SceneError
+from sphkit.world.fluid import periodic_clip
+from sphkit.world.meshes import SceneMeshes
+
+
+def gravity_axis(state: SimState) -> int:
+    """The axis of gravity (the 'up' of an open box); the last axis without gravity."""
+    g = state.gravity
+    return int(np.argmax(np.abs(g))) if np.any(g) else state.dim - 1
+
+
+def moving_meshes(scene: Scene) -> list[int]:
+    """Indices of the scene's moving meshes (kinematic or dynamic rigid bodies), in body
+    order: body k + 1 is ``scene.meshes[moving_meshes(scene)[k]]``."""
+    return [k for k, mb in enumerate(scene.meshes) if mb.dynamic or mb.kinematic]
+
+
+def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
+                       housings: list) -> None:
+    """Sample boxes, meshes and emitter housings into ``state.boundary``."""
+    r, dim = state.r, state.dim
+    up = gravity_axis(state)
+    bd = state.boundary
+    for k, box in enumerate(scene.boxes):
+        pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
+                                 open_top_axis=up if box.open_top else None)
+        # lattice walls whose Akinci volumes stand for the missing fluid: the boundary
+        # pressure is mirrored fully in the iterative solvers (core.ppe.kappa_accel_cached)
+        pts = periodic_clip(state, pts)
+        dist, normal = sampling.box_wall_distance(pts, box.min, box.max)
+        bd.add(pts, name=f"boxes[{k}]", pressure_mirror=1.0, wall_distance=dist,
+               wall_normal=normal)
+    bodies = moving_meshes(scene)
+    for k in range(len(scene.meshes)):
+        mesh = meshes.mesh(k)
+        pts = sampling.sample_mesh_surface(mesh, r, dim)
+        if k in bodies:  # a moving rigid body (sphkit.boundary.rigid)
+            # the fluid rests at the mesh surface (see inset_samples); 2D: the section's
+            # samples (z = 0) move along the side faces' normals, which lie in the plane
+            p3 = np.zeros((len(pts), 3))
+            p3[:, :dim] = pts
+            pts = inset_samples(mesh, p3, INSET * r)[:, :dim]
+            # pressure mirrored fully as at the box walls, so that fluid squeezed between a
+            # body and a box wall is pushed as the gradient of its density (see RigidBodies)
+            bd.add(pts, name=f"meshes[{k}]", rigid_body=bodies.index(k) + 1,
+                   pressure_mirror=1.0)
+            continue
+        bd.add(periodic_clip(state, pts), name=f"meshes[{k}]")
+    for k, (em, cfg) in enumerate(zip(housings, scene.emitters, strict=True)):
+        if cfg.housing:
+            pts = sampling.sample_mesh_surface(em.housing_mesh(), r, dim)
+            bd.add(periodic_clip(state, pts), name=f"emitters[{k}].housing")
+
+
+def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
+                   moving_inset_in_radii: float) -> list[MapGeometry]:
+    """Boxes and meshes as signed distances for density and volume maps.
+
+    Boxes are containers (the fluid inside, ``invert``), analytic; an open box extends to
+    infinity along the gravity axis. Meshes: 3D triangle meshes, in 2D the section of the
+    mesh with the plane z = 0 (as for boundary particles). A moving mesh's map lives in its
+    body's frame (:mod:`sphkit.core.boundary_map`, "Moving rigid bodies"), its surface moved
+    ``moving_inset_in_radii`` r into the mesh.
+    """
+    from sphkit.core.sdf import BoxDistance, MeshDistance, PolygonDistance
+
+    dim = state.dim
+    bc = scene.configuration.boundary
+    res = tuple(bc.map_resolution) if bc.map_resolution else None
+    up = gravity_axis(state)
+    out = []
+    for k, box in enumerate(scene.boxes):
+        open_axis = up if box.open_top else None
+        out.append(MapGeometry(f"boxes[{k}]", BoxDistance(box.min, box.max, open_axis),
+                               invert=True, resolution=res,
+                               extend_axis=-1 if open_axis is None else open_axis))
+    bodies = moving_meshes(scene)
+    for k, mb in enumerate(scene.meshes):
+        mesh = meshes.mesh(k)
+        if dim == 3:
+            sdf = MeshDistance(mesh.vertices, mesh.faces)
+        else:
+            a, b = sampling.section_segments(mesh)
+            if len(a) == 0:
+                raise SceneError(
+                    f"meshes[{k}]: {mb.geometry_file!r} does not cross the plane z = 0; "
+                    "expected a mesh whose section is the 2D boundary"
+                )
+            sdf = PolygonDistance(a, b)
+        mres = tuple(mb.map_resolution) if mb.map_resolution else res
+        body, thick = 0, mb.map_thickness
+        if k in bodies:  # a moving body: its map lives in its frame
+            body = bodies.index(k) + 1
+            thick -= moving_inset_in_radii * state.r
+        out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
+                               thickness=thick, resolution=mres, body=body))
+    return out
