@@ -21,7 +21,7 @@ DEFAULT = ["DamBreakModel_2D.json", "DamBreakModel.json"]
 
 
 def run(path, until: float) -> dict:
-    from sphkit.scene.loader import load_scene
+    from sphkit.scene.files import load_scene
     from sphkit.simulation import InstabilityError, Simulation
 
     with warnings.catch_warnings(record=True) as caught:

@@ -427,7 +427,7 @@ def _say(report: _Reporter, text: str) -> None:
 def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
     """The scene and simulation of a fresh run (the command-line overrides applied), or an exit
     code after printing the error."""
-    from sphkit.scene.loader import load_scene
+    from sphkit.scene.files import load_scene
     from sphkit.scene.schema import SceneError
     from sphkit.simulation import Simulation
 
@@ -608,7 +608,7 @@ def _finish(manifest: Manifest, status: str, message: str, stats: Any) -> None:
 
 def cmd_scenes(args: argparse.Namespace) -> int:
     """``sphkit scenes``: list the built-in scenes on stdout."""
-    from sphkit.scene.loader import builtin_scenes
+    from sphkit.scene.files import builtin_scenes
 
     scenes = builtin_scenes()
     width = max((len(n) for n in scenes), default=0)

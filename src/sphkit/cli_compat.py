@@ -6,15 +6,15 @@
                   [--scenes DIR] [--only NAME ...]
 
 Every ``*.json`` scene of the pysplishsplash wheel's ``data/Scenes`` folder (found through the
-installed distribution's file list, so wherever pip put it; ``--scenes`` names another folder)
-is loaded unchanged with :func:`sphkit.scene.loader.from_splishsplash` and, when it loads, built
-and run for ``--steps`` time steps. Each scene gets one line: ``runs`` (with its particle count
-and the warnings the loader gave, e.g. the fields sphkit ignores), ``loads, not run`` (more
-particles than ``--max-particles``), ``fails to run`` (the exception) or ``does not load`` with
-the missing feature as the loader names it. ``--radius-scale F`` multiplies the scenes'
-``particleRadius`` before loading (F = 2 has 8x fewer particles in 3D) to check big scenes
-quickly. ``--markdown FILE`` also writes the table as Markdown (``docs/compatibility.md`` is
-made this way). Without the wheel the command says so and exits 0.
+installed distribution's file list, so wherever pip put it; ``--scenes`` names another folder) is
+loaded unchanged with :func:`sphkit.scene.splishsplash.from_splishsplash` and, when it loads, built
+and run for ``--steps`` time steps. Each scene gets one line: ``runs`` (with its particle count and
+the warnings the loader gave, e.g. the fields sphkit ignores), ``loads, not run`` (more particles
+than ``--max-particles``), ``fails to run`` (the exception) or ``does not load`` with the missing
+feature as the loader names it. ``--radius-scale F`` multiplies the scenes' ``particleRadius``
+before loading (F = 2 has 8x fewer particles in 3D) to check big scenes quickly. ``--markdown FILE``
+also writes the table as Markdown (``docs/compatibility.md`` is made this way). Without the wheel
+the command says so and exits 0.
 """
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ def check_scene(path: Path, steps: int = 5, radius_scale: float = 1.0,
                 max_particles: int | None = None) -> SceneResult:
     """Load the SPlisHSPlasH scene ``path`` unchanged (``particleRadius`` times
     ``radius_scale``), build it and run ``steps`` time steps."""
-    from sphkit.scene.loader import from_splishsplash
+    from sphkit.scene.splishsplash import from_splishsplash
     from sphkit.simulation import Simulation
 
     t0 = time.perf_counter()
