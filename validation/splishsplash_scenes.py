@@ -50,7 +50,7 @@ def run(path, until: float) -> dict:
 
 
 def main() -> None:
-    from sphkit.cli_compat import wheel_scene_folder
+    from sphkit.cli.compat import wheel_scene_folder
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--until", type=float, default=1.0, help="simulated end time [s]")

@@ -24,11 +24,13 @@ import importlib.metadata
 import json
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import date
 from pathlib import Path
 from typing import Any
 
+from sphkit.cli.common import EXIT_OK, EXIT_USAGE
 from sphkit.io.atomic import atomic_write_text
 
 WHEEL = "pysplishsplash"
@@ -187,8 +189,8 @@ def markdown(results: list[SceneResult], steps: int, radius_scale: float,
     return "\n".join(lines) + "\n"
 
 
-def add_compat_command(sub: Any) -> None:
-    """Register ``sphkit compat`` on the ``sphkit`` parser's subcommands."""
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``sphkit compat`` to the ``sphkit`` command's subcommands."""
     p = sub.add_parser(
         "compat", help="check which SPlisHSPlasH scenes load and run",
         description="Load every scene of the pysplishsplash wheel unchanged, run a few steps "
@@ -204,22 +206,23 @@ def add_compat_command(sub: Any) -> None:
     p.add_argument("--scenes", type=Path, metavar="DIR",
                    help="folder of SPlisHSPlasH scenes (default: the pysplishsplash wheel's)")
     p.add_argument("--only", nargs="+", metavar="NAME", help="check only these scenes")
+    p.set_defaults(handler=cmd_compat)
 
 
-def cmd_compat(args: argparse.Namespace) -> int:
+def cmd_compat(args: argparse.Namespace, argv: Sequence[str]) -> int:
     """``sphkit compat``: print one line per scene; 0 unless the arguments are bad."""
     folder = args.scenes or wheel_scene_folder()
     if folder is None:
         print("sphkit compat: pysplishsplash is not installed (pip install pysplishsplash), so "
               "its scenes are not available; nothing to check")
-        return 0
+        return EXIT_OK
     if not Path(folder).is_dir():
         print(f"sphkit: error: --scenes {str(folder)!r}: not a folder of scene files")
-        return 2
+        return EXIT_USAGE
     if args.steps < 0 or not args.radius_scale > 0:
         print(f"sphkit: error: --steps {args.steps} / --radius-scale {args.radius_scale}: "
               "expected steps >= 0 and a scale > 0")
-        return 2
+        return EXIT_USAGE
     print(f"SPlisHSPlasH scenes in {folder}:", flush=True)
     results = check_folder(Path(folder), args.steps, args.radius_scale, args.max_particles,
                            args.only, progress=lambda r: print(_line(r), flush=True))
@@ -230,4 +233,4 @@ def cmd_compat(args: argparse.Namespace) -> int:
         atomic_write_text(args.markdown, markdown(results, args.steps, args.radius_scale,
                                                   args.max_particles))
         print(f"wrote {args.markdown}")
-    return 0
+    return EXIT_OK
