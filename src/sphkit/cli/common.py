@@ -1,11 +1,11 @@
 """What the subcommands of ``sphkit`` share: exit codes, the error printer, argument types,
 verbosity flags, log lines, and reading a run folder (``surface``, ``render``).
 
-Every message of the command is written by :func:`error` (``sphkit: error: ...`` on stderr, and
-into ``sphkit.log`` when the command has one) and names the value and what was expected; the
-argument types below raise :class:`argparse.ArgumentTypeError` with such a message, which
-argparse prints with the usage line (exit code 2). The command logs to the logger
-``"sphkit.cli"`` (:func:`sphkit.io.log.get_logger` ``("cli")``), whatever module writes.
+Errors are written by :func:`error` (``sphkit: error: ...`` on stderr, and into ``sphkit.log``
+when the command has one; ``sphkit compat`` prints its few on stdout with its table) and name the
+value and what was expected; the argument types below raise :class:`argparse.ArgumentTypeError`
+with such a message, which argparse prints with the usage line (exit code 2). Every module of
+the command logs to the logger ``"sphkit.cli"`` (:func:`sphkit.io.log.get_logger` ``("cli")``).
 """
 
 from __future__ import annotations

@@ -181,7 +181,8 @@ def scene_from_dict(data: Mapping[str, Any], path: str | Path | None = None) -> 
     """Validate a scene dict (sphkit's or SPlisHSPlasH's format) read from ``path`` (optional)."""
     if not isinstance(data, Mapping):
         raise SceneError(f"got {type(data).__name__}; expected a mapping of scene fields")
-    # the translator is loaded only for SPlisHSPlasH scenes (it reads the files through here)
+    # imported here, not at the top: the translator checks its particle files with this
+    # module's check_particle_file, and sphkit's own scenes do not need the translator
     from sphkit.scene.splishsplash import from_splishsplash, is_splishsplash
 
     if is_splishsplash(data):
