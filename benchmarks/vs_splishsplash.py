@@ -100,7 +100,7 @@ def run_splishsplash(scene: Path, threads: int) -> dict:
 SPHKIT_CODE = """
 import json, sys, time
 import numpy as np
-from sphkit.scene.loader import load_scene
+from sphkit.scene.files import load_scene
 from sphkit.scene.schema import SceneError
 from sphkit.simulation import InstabilityError, Simulation
 

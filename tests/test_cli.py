@@ -291,7 +291,7 @@ def test_run_records_iterative_solver_stats(tmp_path: Path, monkeypatch: pytest.
 def test_progress_shows_iterations_since_the_last_update() -> None:
     from types import SimpleNamespace
 
-    from sphkit.cli import _PlainReporter
+    from sphkit.cli.progress import _PlainReporter
 
     stream = io.StringIO()
     rep = _PlainReporter(1.0, stream)

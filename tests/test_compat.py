@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from sphkit.cli import main
-from sphkit.cli_compat import check_folder, wheel_scene_folder
+from sphkit.cli.compat import check_folder, wheel_scene_folder
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "compatibility.md"
 

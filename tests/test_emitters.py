@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sphkit.scene.loader import load_scene
+from sphkit.scene.files import load_scene
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
 

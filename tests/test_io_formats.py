@@ -25,7 +25,7 @@ from sphkit.io.particle_files import (
     place_particles,
     read_particle_file,
 )
-from sphkit.scene.loader import load_scene, scene_from_dict
+from sphkit.scene.files import load_scene, scene_from_dict
 from sphkit.scene.schema import SceneError
 
 DATA = Path(__file__).parent / "data" / "splishsplash"

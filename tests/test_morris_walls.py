@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sphkit.core.viscous import morris_beta
-from sphkit.scene.loader import scene_from_dict
+from sphkit.scene.files import scene_from_dict
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation
 

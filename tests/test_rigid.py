@@ -311,7 +311,7 @@ def test_rigid_scene_errors(tmp_path: Path) -> None:
 def test_splishsplash_dynamic_rigid_body(tmp_path: Path) -> None:
     """SPlisHSPlasH RigidBodies: isDynamic with PBD's density and friction become a dynamic
     mesh; the mass is density times the closed mesh's volume."""
-    from sphkit.scene.loader import from_splishsplash
+    from sphkit.scene.splishsplash import from_splishsplash
 
     _box_file(tmp_path, [0.2, 0.1, 0.2], "body.obj")
     data = {

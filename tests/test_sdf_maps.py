@@ -32,7 +32,7 @@ from sphkit.core.sdf import (
     sdf_lattice_cached,
 )
 from sphkit.core.state import SimState
-from sphkit.scene.loader import load_scene
+from sphkit.scene.files import load_scene
 from sphkit.scene.sampling import lattice_block, load_mesh, sample_mesh_surface, sample_mesh_volume
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation

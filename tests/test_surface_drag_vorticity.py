@@ -14,8 +14,8 @@ from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.drag import Gissler2017, Macklin2014
-from sphkit.scene.loader import from_splishsplash
 from sphkit.scene.schema import Material, Scene, SceneError
+from sphkit.scene.splishsplash import from_splishsplash
 from sphkit.simulation import Simulation
 from sphkit.surface_tension import Akinci2013, BeckerTeschner2007, He2014
 from sphkit.surface_tension.akinci2013 import adhesion_kernel, cohesion_kernel

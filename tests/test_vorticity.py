@@ -15,8 +15,8 @@ from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
-from sphkit.scene.loader import from_splishsplash
 from sphkit.scene.schema import Material, Scene, SceneError
+from sphkit.scene.splishsplash import from_splishsplash
 from sphkit.simulation import Simulation
 from sphkit.vorticity import MicropolarBender2017
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sphkit.scene.loader import scene_from_dict
+from sphkit.scene.files import scene_from_dict
 from sphkit.scene.schema import Scene
 from sphkit.simulation import InstabilityError, Simulation
 from sphkit.viscosity.standard import StandardViscosity

@@ -21,7 +21,7 @@ DEFAULT = ["DamBreakModel_2D.json", "DamBreakModel.json"]
 
 
 def run(path, until: float) -> dict:
-    from sphkit.scene.loader import load_scene
+    from sphkit.scene.files import load_scene
     from sphkit.simulation import InstabilityError, Simulation
 
     with warnings.catch_warnings(record=True) as caught:
@@ -50,7 +50,7 @@ def run(path, until: float) -> dict:
 
 
 def main() -> None:
-    from sphkit.cli_compat import wheel_scene_folder
+    from sphkit.cli.compat import wheel_scene_folder
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--until", type=float, default=1.0, help="simulated end time [s]")

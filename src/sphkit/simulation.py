@@ -122,7 +122,7 @@ class Simulation:
         """Build from a built-in scene name, a scene file (sphkit or SPlisHSPlasH) or a Scene."""
         if isinstance(src, Scene):
             return cls(src)
-        from sphkit.scene.loader import load_scene
+        from sphkit.scene.files import load_scene
 
         return cls(load_scene(src))
 

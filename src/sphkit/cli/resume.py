@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from sphkit.cli.common import EXIT_USAGE, error
 from sphkit.io.checkpoint import (
     Checkpoint,
     CheckpointError,
@@ -33,12 +34,6 @@ from sphkit.io.checkpoint import (
 )
 from sphkit.io.log import get_logger
 from sphkit.io.manifest import Manifest, RunStats, read_manifest
-
-
-def _error(text: str) -> None:
-    from sphkit.cli import _error as cli_error
-
-    cli_error(text)
 
 
 @dataclass
@@ -81,7 +76,6 @@ def _relative(path: Path, folder: Path) -> str:
 def prepare_resume(args: argparse.Namespace, argv: Sequence[str]) -> Resume | int:
     """Restore the run in ``args.resume`` from its newest checkpoint, or print why not and return
     the exit code (2)."""
-    from sphkit.cli import EXIT_USAGE
     from sphkit.scene.schema import SceneError
     from sphkit.simulation import Simulation
 
@@ -89,31 +83,31 @@ def prepare_resume(args: argparse.Namespace, argv: Sequence[str]) -> Resume | in
     given = [name for name, value in (("SCENE", args.scene), ("--fps", args.fps),
                                       ("--format", args.formats)) if value is not None]
     if given:
-        _error(f"--resume {str(out_dir)!r}: got {', '.join(given)} too; expected only --until "
+        error(f"--resume {str(out_dir)!r}: got {', '.join(given)} too; expected only --until "
                "(the run continues with the scene, frame rate and formats stored in its folder)")
         return EXIT_USAGE
     if args.out is not None and Path(args.out).resolve() != out_dir.resolve():
-        _error(f"--out {str(args.out)!r} with --resume {str(out_dir)!r}: a resumed run writes "
+        error(f"--out {str(args.out)!r} with --resume {str(out_dir)!r}: a resumed run writes "
                "into its own folder; expected no --out (or the same folder)")
         return EXIT_USAGE
     if not out_dir.is_dir():
-        _error(f"--resume {str(out_dir)!r}: not a folder; expected the output folder of a run")
+        error(f"--resume {str(out_dir)!r}: not a folder; expected the output folder of a run")
         return EXIT_USAGE
     try:
         old = read_manifest(out_dir)
     except (OSError, ValueError) as e:
-        _error(f"--resume {str(out_dir)!r}: no readable manifest.json ({e}); expected the output "
+        error(f"--resume {str(out_dir)!r}: no readable manifest.json ({e}); expected the output "
                "folder of a sphkit run")
         return EXIT_USAGE
     try:
         ck = read_checkpoint(out_dir)
         sim = Simulation.from_checkpoint(ck)
     except CheckpointError as e:
-        _error(f"--resume {str(out_dir)!r}: {e}; runs write checkpoints with --checkpoint-every "
+        error(f"--resume {str(out_dir)!r}: {e}; runs write checkpoints with --checkpoint-every "
                "and when Ctrl-C or SIGTERM stops them")
         return EXIT_USAGE
     except (SceneError, OSError) as e:
-        _error(f"--resume {str(out_dir)!r}: the checkpoint's scene cannot be rebuilt:\n{e}")
+        error(f"--resume {str(out_dir)!r}: the checkpoint's scene cannot be rebuilt:\n{e}")
         return EXIT_USAGE
     scene = sim.scene
     if args.checkpoint_every is None:  # keep the interval of the run being continued

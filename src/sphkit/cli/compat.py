@@ -6,15 +6,15 @@
                   [--scenes DIR] [--only NAME ...]
 
 Every ``*.json`` scene of the pysplishsplash wheel's ``data/Scenes`` folder (found through the
-installed distribution's file list, so wherever pip put it; ``--scenes`` names another folder)
-is loaded unchanged with :func:`sphkit.scene.loader.from_splishsplash` and, when it loads, built
-and run for ``--steps`` time steps. Each scene gets one line: ``runs`` (with its particle count
-and the warnings the loader gave, e.g. the fields sphkit ignores), ``loads, not run`` (more
-particles than ``--max-particles``), ``fails to run`` (the exception) or ``does not load`` with
-the missing feature as the loader names it. ``--radius-scale F`` multiplies the scenes'
-``particleRadius`` before loading (F = 2 has 8x fewer particles in 3D) to check big scenes
-quickly. ``--markdown FILE`` also writes the table as Markdown (``docs/compatibility.md`` is
-made this way). Without the wheel the command says so and exits 0.
+installed distribution's file list, so wherever pip put it; ``--scenes`` names another folder) is
+loaded unchanged with :func:`sphkit.scene.splishsplash.from_splishsplash` and, when it loads, built
+and run for ``--steps`` time steps. Each scene gets one line: ``runs`` (with its particle count and
+the warnings the loader gave, e.g. the fields sphkit ignores), ``loads, not run`` (more particles
+than ``--max-particles``), ``fails to run`` (the exception) or ``does not load`` with the missing
+feature as the loader names it. ``--radius-scale F`` multiplies the scenes' ``particleRadius``
+before loading (F = 2 has 8x fewer particles in 3D) to check big scenes quickly. ``--markdown FILE``
+also writes the table as Markdown (``docs/compatibility.md`` is made this way). Without the wheel
+the command says so and exits 0.
 """
 
 from __future__ import annotations
@@ -24,11 +24,13 @@ import importlib.metadata
 import json
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import date
 from pathlib import Path
 from typing import Any
 
+from sphkit.cli.common import EXIT_OK, EXIT_USAGE
 from sphkit.io.atomic import atomic_write_text
 
 WHEEL = "pysplishsplash"
@@ -86,7 +88,7 @@ def check_scene(path: Path, steps: int = 5, radius_scale: float = 1.0,
                 max_particles: int | None = None) -> SceneResult:
     """Load the SPlisHSPlasH scene ``path`` unchanged (``particleRadius`` times
     ``radius_scale``), build it and run ``steps`` time steps."""
-    from sphkit.scene.loader import from_splishsplash
+    from sphkit.scene.splishsplash import from_splishsplash
     from sphkit.simulation import Simulation
 
     t0 = time.perf_counter()
@@ -187,8 +189,8 @@ def markdown(results: list[SceneResult], steps: int, radius_scale: float,
     return "\n".join(lines) + "\n"
 
 
-def add_compat_command(sub: Any) -> None:
-    """Register ``sphkit compat`` on the ``sphkit`` parser's subcommands."""
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``sphkit compat`` to the ``sphkit`` command's subcommands."""
     p = sub.add_parser(
         "compat", help="check which SPlisHSPlasH scenes load and run",
         description="Load every scene of the pysplishsplash wheel unchanged, run a few steps "
@@ -204,22 +206,23 @@ def add_compat_command(sub: Any) -> None:
     p.add_argument("--scenes", type=Path, metavar="DIR",
                    help="folder of SPlisHSPlasH scenes (default: the pysplishsplash wheel's)")
     p.add_argument("--only", nargs="+", metavar="NAME", help="check only these scenes")
+    p.set_defaults(handler=cmd_compat)
 
 
-def cmd_compat(args: argparse.Namespace) -> int:
+def cmd_compat(args: argparse.Namespace, argv: Sequence[str]) -> int:
     """``sphkit compat``: print one line per scene; 0 unless the arguments are bad."""
     folder = args.scenes or wheel_scene_folder()
     if folder is None:
         print("sphkit compat: pysplishsplash is not installed (pip install pysplishsplash), so "
               "its scenes are not available; nothing to check")
-        return 0
+        return EXIT_OK
     if not Path(folder).is_dir():
         print(f"sphkit: error: --scenes {str(folder)!r}: not a folder of scene files")
-        return 2
+        return EXIT_USAGE
     if args.steps < 0 or not args.radius_scale > 0:
         print(f"sphkit: error: --steps {args.steps} / --radius-scale {args.radius_scale}: "
               "expected steps >= 0 and a scale > 0")
-        return 2
+        return EXIT_USAGE
     print(f"SPlisHSPlasH scenes in {folder}:", flush=True)
     results = check_folder(Path(folder), args.steps, args.radius_scale, args.max_particles,
                            args.only, progress=lambda r: print(_line(r), flush=True))
@@ -230,4 +233,4 @@ def cmd_compat(args: argparse.Namespace) -> int:
         atomic_write_text(args.markdown, markdown(results, args.steps, args.radius_scale,
                                                   args.max_particles))
         print(f"wrote {args.markdown}")
-    return 0
+    return EXIT_OK

@@ -1,0 +1,83 @@
+"""The ``sphkit`` command.
+
+::
+
+    sphkit run [SCENE] [--until T] [--out DIR] [--fps F] [--format vtk,ply,bgeo] [--quiet|--verbose]
+    sphkit surface OUTDIR [--format obj,ply,vtk] [--radius R] [--smoothing-length 2] ...
+    sphkit render OUTDIR [--color velocity|pressure|density] [--video auto|mp4|gif|none] ...
+    sphkit run --resume DIR [--until T]
+    sphkit compat [--markdown docs/compatibility.md] [--radius-scale F] [--steps N]
+    sphkit scenes
+    sphkit --version
+
+``sphkit run`` simulates a scene (a built-in name, see ``sphkit scenes``, or a scene file: sphkit
+JSON/YAML or SPlisHSPlasH JSON) and writes the frames and ``manifest.json`` into the output folder
+(``--out``, else the scene's ``output.directory``, else ``out/<scene name>``; relative paths are
+relative to the current folder). Frames of an earlier run that its manifest lists are removed
+first, so that the folder holds one run. Progress goes to stderr: a live bar on a terminal, a log
+line every ~2 s and at every frame otherwise. Each shows steps per second, particles, the time
+step, the density error, the pressure solver's iterations per step (``iters``, the mean over the
+steps since the previous update; ``div``: DFSPH's divergence-solver iterations, shown when there
+are any) and the largest speed. The manifest records them per frame and as run means.
+
+Exit codes: 0 finished; 1 failed (e.g. an output file could not be written); 2 bad command line
+or scene; 3 the simulation became unstable (frames so far are kept, the diagnosis is printed and
+recorded in the manifest); 130 interrupted by Ctrl-C (143 by SIGTERM).
+
+Logging: the library logs to the logger ``"sphkit"``; a command writes it, with its progress
+lines, to ``sphkit.log`` in the output folder (``run`` starts the file, ``surface`` and
+``render`` append). ``--quiet`` prints only errors, ``--verbose`` also the library's info and
+debug records (per-step statistics) on the console and in the log file.
+
+One module per subcommand: :mod:`sphkit.cli.run` (with :mod:`sphkit.cli.progress` and
+:mod:`sphkit.cli.resume`), :mod:`sphkit.cli.scenes`, :mod:`sphkit.cli.surface`,
+:mod:`sphkit.cli.render`, :mod:`sphkit.cli.compat`; what they share (exit codes, the error
+printer, argument types, verbosity flags, run folders) is in :mod:`sphkit.cli.common`. A
+subcommand module has ``add_parser(sub)``, which adds its parser and sets its handler
+(``parser.set_defaults(handler=cmd)``, a :data:`~sphkit.cli.common.Handler`: ``cmd(args, argv)
+-> exit code``); adding a subcommand is a new module and its line in :data:`COMMANDS`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from sphkit.cli import compat, render, run, scenes, surface
+from sphkit.cli.common import EXIT_USAGE
+from sphkit.io.log import command_logging
+from sphkit.io.manifest import sphkit_version
+
+__all__ = ["COMMANDS", "build_parser", "main"]
+
+#: the subcommand modules, in the order ``sphkit --help`` lists them
+COMMANDS = (run, scenes, surface, render, compat)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``sphkit`` command."""
+    parser = argparse.ArgumentParser(
+        prog="sphkit",
+        description="Smoothed Particle Hydrodynamics for computer graphics.",
+    )
+    parser.add_argument("--version", action="version", version=f"sphkit {sphkit_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for command in COMMANDS:
+        command.add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``sphkit`` command with ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # --help, --version, or a usage error (already printed)
+        return e.code if isinstance(e.code, int) else EXIT_USAGE
+    with command_logging(quiet=getattr(args, "quiet", False),
+                         verbose=getattr(args, "verbose", False)) as session:
+        args.log_session = session
+        return args.handler(args, argv)

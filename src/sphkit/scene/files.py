@@ -1,0 +1,233 @@
+"""Scene files: sphkit's own JSON/YAML, built-in scenes, and the entry point :func:`load_scene`.
+
+:func:`load_scene` is the one entry point; every front end produces a validated
+:class:`~sphkit.scene.schema.Scene`: sphkit's own format (:func:`scene_from_dict`) and
+SPlisHSPlasH's JSON scenes (:func:`~sphkit.scene.splishsplash.from_splishsplash`, chosen by
+:func:`~sphkit.scene.splishsplash.is_splishsplash`). Every error is a
+:class:`~sphkit.scene.schema.SceneError` whose message names the field path, the value and what
+was expected. Files are read as UTF-8 JSON or YAML (``yaml.safe_load``: no tags that run code);
+a malformed file is reported with its line and column. Paths written in a scene (meshes,
+particle files) are relative to the scene file's folder (:func:`resolve_scene_path`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import ValidationError
+
+from sphkit.scene.schema import Scene, SceneError, format_validation_error
+
+__all__ = [
+    "builtin_scenes",
+    "builtin_scene_path",
+    "check_particle_file",
+    "load_scene",
+    "load_scene_file",
+    "resolve_scene_path",
+    "scene_from_dict",
+]
+
+SCENE_SUFFIXES = (".json", ".yaml", ".yml")
+_SCENES_DIR = Path(__file__).resolve().parent.parent / "scenes"
+
+
+# ----------------------------------------------------------------------------------------------
+# built-in scenes
+# ----------------------------------------------------------------------------------------------
+
+
+def _builtin_files() -> dict[str, Path]:
+    if not _SCENES_DIR.is_dir():
+        return {}
+    return {
+        p.stem: p
+        for p in sorted(_SCENES_DIR.iterdir())
+        if p.is_file() and p.suffix.lower() in SCENE_SUFFIXES
+    }
+
+
+def builtin_scenes() -> dict[str, str]:
+    """The built-in scenes: name -> one-line description (sorted by name)."""
+    out = {}
+    for name, path in _builtin_files().items():
+        try:
+            data = _read_mapping(path)
+            out[name] = str(data.get("description", "")).strip()
+        except SceneError as err:
+            out[name] = f"(unreadable: {err})"
+    return out
+
+
+def builtin_scene_path(name: str) -> Path:
+    """Path of the built-in scene ``name``; SceneError listing the known names otherwise."""
+    files = _builtin_files()
+    if name not in files:
+        raise SceneError(
+            f"unknown built-in scene {name!r}; built-in scenes: {', '.join(files) or '(none)'}"
+        )
+    return files[name]
+
+
+# ----------------------------------------------------------------------------------------------
+# files
+# ----------------------------------------------------------------------------------------------
+
+
+def _parse_json(text: str, path: Path) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as err:
+        raise SceneError(
+            f"scene file {str(path)!r}: invalid JSON at line {err.lineno}, column {err.colno}: "
+            f"{err.msg}"
+        ) from None
+
+
+def _parse_yaml(text: str, path: Path) -> Any:
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None) or getattr(err, "context_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(err, "problem", None) or str(err)
+        raise SceneError(f"scene file {str(path)!r}: invalid YAML{where}: {problem}") from None
+
+
+def _read_mapping(path: Path) -> dict[str, Any]:
+    """Read a JSON or YAML file whose top level is a mapping."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"scene file {str(path)!r}: not found") from None
+    except IsADirectoryError:
+        raise SceneError(f"scene file {str(path)!r}: is a directory, expected a file") from None
+    except UnicodeDecodeError:
+        raise SceneError(f"scene file {str(path)!r}: not a UTF-8 text file") from None
+    except OSError as err:
+        raise SceneError(f"scene file {str(path)!r}: cannot be read ({err.strerror})") from None
+    suffix = path.suffix.lower()
+    if suffix == ".json" or (suffix not in (".yaml", ".yml") and text.lstrip().startswith("{")):
+        data = _parse_json(text, path)
+    else:
+        data = _parse_yaml(text, path)
+    if not isinstance(data, dict):
+        raise SceneError(
+            f"scene file {str(path)!r}: got {type(data).__name__} at the top level; "
+            "expected a mapping of scene fields"
+        )
+    return data
+
+
+def resolve_scene_path(scene: Scene, path: str | Path) -> Path:
+    """Resolve a path written in a scene (e.g. a mesh file) against the scene file's folder."""
+    p = Path(path).expanduser()
+    if p.is_absolute() or not scene.source:
+        return p
+    return Path(scene.source).parent / p
+
+
+def load_scene_file(path: str | Path) -> Scene:
+    """Load a scene file: sphkit's JSON/YAML, or a SPlisHSPlasH JSON scene."""
+    p = Path(path).expanduser()
+    return scene_from_dict(_read_mapping(p), p)
+
+
+def load_scene(src: str | os.PathLike[str] | Mapping[str, Any] | Scene) -> Scene:
+    """Load a scene from a built-in name, a file, a dict, or return a Scene as it is.
+
+    Args:
+        src: a :class:`Scene`; a dict (sphkit's fields, or SPlisHSPlasH's when it has a
+            ``Configuration`` block); a path to a sphkit JSON/YAML or SPlisHSPlasH JSON file
+            (``scene.source`` becomes the file path, ``scene.name`` its stem unless the file
+            names the scene); or a built-in scene name (see :func:`builtin_scenes`).
+
+    Raises:
+        SceneError: the file is missing or malformed (with the line), the name is unknown (the
+            message lists the built-in scenes), or a field is invalid (path, value, expectation).
+    """
+    if isinstance(src, Scene):
+        return src
+    if isinstance(src, Mapping):
+        return scene_from_dict(src)
+    if isinstance(src, (str, os.PathLike)):
+        name = os.fspath(src)
+        path = Path(name).expanduser()
+        if path.is_file():
+            return load_scene_file(path)
+        files = _builtin_files()
+        if name in files:
+            return load_scene_file(files[name])
+        if path.is_dir():
+            raise SceneError(f"scene {name!r}: is a directory, expected a scene file")
+        if path.suffix.lower() in SCENE_SUFFIXES or "/" in name or os.sep in name:
+            raise SceneError(f"scene file {name!r}: not found")
+        raise SceneError(
+            f"unknown scene {name!r}: neither a scene file nor a built-in scene; "
+            f"built-in scenes: {', '.join(files) or '(none)'}"
+        )
+    raise SceneError(
+        f"cannot load a scene from a {type(src).__name__}; expected a built-in scene name, "
+        "a file path, a dict or a Scene"
+    )
+
+
+def scene_from_dict(data: Mapping[str, Any], path: str | Path | None = None) -> Scene:
+    """Validate a scene dict (sphkit's or SPlisHSPlasH's format) read from ``path`` (optional)."""
+    if not isinstance(data, Mapping):
+        raise SceneError(f"got {type(data).__name__}; expected a mapping of scene fields")
+    # imported here, not at the top: the translator checks its particle files with this
+    # module's check_particle_file, and sphkit's own scenes do not need the translator
+    from sphkit.scene.splishsplash import from_splishsplash, is_splishsplash
+
+    if is_splishsplash(data):
+        return from_splishsplash(data, path)
+    d = dict(data)
+    where = "scene"
+    if path is not None:
+        p = Path(path)
+        where = f"scene file {str(p)!r}"
+        d["source"] = str(p.resolve())
+        if not d.get("name"):
+            d["name"] = p.stem
+    try:
+        scene = Scene.model_validate(d)
+    except ValidationError as err:
+        raise SceneError(f"{where}: invalid scene:\n{format_validation_error(err)}") from None
+    for k, m in enumerate(scene.meshes):
+        f = resolve_scene_path(scene, m.geometry_file)
+        if not f.is_file():
+            raise SceneError(
+                f"{where}: meshes[{k}].geometry_file: got {m.geometry_file!r}: expected an "
+                f"existing mesh file (looked for {str(f)!r})"
+            )
+    for k, ff in enumerate(scene.fluid_files):
+        check_particle_file(resolve_scene_path(scene, ff.file), ff.file,
+                             f"{where}: fluid_files[{k}].file")
+    return scene
+
+
+def check_particle_file(f: Path, given: str, where: str) -> None:
+    """SceneError naming ``where`` unless ``f`` is an existing particle file of a known format.
+
+    Args:
+        f: the file, resolved against the scene file's folder.
+        given: the path as the scene wrote it (quoted in the message).
+        where: the message's prefix: the scene and the field path.
+    """
+    from sphkit.io.particle_files import PARTICLE_FILE_SUFFIXES, particle_file_kind
+
+    if particle_file_kind(f) is None:
+        raise SceneError(
+            f"{where}: got {given!r}: expected a particle file ending in "
+            f"{', '.join(PARTICLE_FILE_SUFFIXES)}"
+        )
+    if not f.is_file():
+        raise SceneError(
+            f"{where}: got {given!r}: expected an existing particle file (looked for {str(f)!r})"
+        )

@@ -1,0 +1,274 @@
+"""The ``Materials`` of a SPlisHSPlasH scene: density, viscosity, vorticity, surface tension, drag.
+
+Each material's non-pressure methods are chosen by number (``viscosityMethod``,
+``vorticityMethod``, ``surfaceTensionMethod``, ``dragMethod``; ``elasticityMethod`` must be 0)
+and take their parameters from the block named after the method (``"Weiler et al. 2018":
+{"viscosity": ...}``) or, in scenes before 2.16, flat from the material; the XSPH filter is the
+per-material block ``"XSPH"``. Defaults and numbers: :mod:`sphkit.scene.splishsplash`; the method
+tables: :mod:`sphkit.scene.splishsplash.methods`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from sphkit.scene.splishsplash.methods import (
+    BOUNDARY_VISCOSITY,
+    DRAG_SUPPORTED,
+    FACTOR_VISCOSITY,
+    IMPLICIT_VISCOSITY,
+    MATERIAL_NAMESPACES,
+    OMEGA_VISCOSITY,
+    OTHER_METHODS,
+    STANDARD_VISCOSITY,
+    STRAIN_RATE_ERROR_VISCOSITY,
+    SUPPORTED_OTHER_METHODS,
+    SURFACE_TENSION_SUPPORTED,
+    VISCOSITY_METHODS,
+    VORTICITY_METHODS,
+    VORTICITY_SUPPORTED,
+    supported_list,
+)
+from sphkit.scene.splishsplash.reader import Reader
+
+_MATERIAL_QUIET = {
+    "colorField", "colorMapType", "renderMinValue", "renderMaxValue", "visible",
+    # emitter settings (read with the emitters; the box only matters with reuse, see notes)
+    "maxEmitterParticles", "emitterReuseParticles", "emitterBoxMin", "emitterBoxMax",
+}
+
+
+def materials(rd: Reader) -> list[dict[str, Any]]:
+    """``Materials`` -> ``materials``: density, viscosity (a ``viscosityMethod`` or the XSPH
+    block), vorticity, surface tension and drag of each fluid."""
+    out = []
+    for k, m in enumerate(rd.array("Materials")):
+        w = f"Materials[{k}]"
+        known = {
+            "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",
+            "dragMethod", "elasticityMethod", "Standard viscosity", "XSPH", "viscosity",
+            "viscosityBoundary", "xsph", "xsphBoundary", "vorticity", "viscosityOmega",
+            "inertiaInverse", "viscoMaxIter", "viscoMaxError", "viscoMaxIterOmega",
+            "viscoMaxErrorOmega", "surfaceTension", "surfaceTensionBoundary", "drag",
+        }
+        rd.collect_unknown(m, w, known, _MATERIAL_QUIET | MATERIAL_NAMESPACES)
+        mid = rd.text(m, "id", w, "Fluid")
+        density0 = rd.num(m, "density0", w, 1000.0, positive=True)
+        for key, names in OTHER_METHODS.items():
+            if key in SUPPORTED_OTHER_METHODS:  # read by surface_tension() and drag()
+                continue
+            v = rd.integer(m, key, w, 0)
+            if v != 0:
+                raise rd.unsupported(
+                    f"{w}.{key}",
+                    f"{v} ({names.get(v, 'unknown method')}) is not supported yet; "
+                    "supported: 0 (none)",
+                )
+        vm = rd.integer(m, "viscosityMethod", w, 0)
+        viscosity: dict[str, Any] = {"method": "none"}
+        if vm in STANDARD_VISCOSITY:
+            method, ns_key = STANDARD_VISCOSITY[vm]
+            ns = rd.obj(m, ns_key, f"{w}.{ns_key}")
+            nsw = f"{w}.{ns_key}"
+            rd.collect_unknown(ns, nsw, {"viscosity", "viscosityBoundary"}, set())
+            nu = rd.num(m, "viscosity", w, 0.01, nonneg=True)
+            nub = rd.num(m, "viscosityBoundary", w, 0.0, nonneg=True)
+            nu = rd.num(ns, "viscosity", nsw, nu, nonneg=True)
+            nub = rd.num(ns, "viscosityBoundary", nsw, nub, nonneg=True)
+            viscosity = {"method": method, "coefficient": nu, "boundary_coefficient": nub}
+            src = nsw if ns else w
+            rd.origin[f"materials[{k}].viscosity.coefficient"] = f"{src}.viscosity"
+            rd.origin[f"materials[{k}].viscosity.boundary_coefficient"] = (
+                f"{src}.viscosityBoundary"
+            )
+        elif vm in IMPLICIT_VISCOSITY:
+            viscosity = implicit_viscosity(rd, m, w, k, vm)
+        elif vm != 0:
+            raise rd.unsupported(
+                f"{w}.viscosityMethod",
+                f"{vm} ({VISCOSITY_METHODS.get(vm, 'unknown method')}) is not supported "
+                "yet; supported: 0 (none), "
+                + supported_list(VISCOSITY_METHODS, [*STANDARD_VISCOSITY, *IMPLICIT_VISCOSITY])
+                + " and the XSPH block",
+            )
+        xs = rd.obj(m, "XSPH", f"{w}.XSPH")
+        rd.collect_unknown(xs, f"{w}.XSPH", {"xsph", "xsphBoundary"}, set())
+        c = rd.num(m, "xsph", w, 0.0, nonneg=True)
+        cb = rd.num(m, "xsphBoundary", w, 0.0, nonneg=True)
+        c = rd.num(xs, "xsph", f"{w}.XSPH", c, nonneg=True)
+        cb = rd.num(xs, "xsphBoundary", f"{w}.XSPH", cb, nonneg=True)
+        if c > 0 or cb > 0:
+            if vm != 0:
+                raise rd.unsupported(
+                    f"{w}.XSPH",
+                    f"xsph {c} together with viscosityMethod {vm} "
+                    f"({VISCOSITY_METHODS[vm]}) is not supported yet; sphkit applies one "
+                    "viscosity model per material, expected one of them",
+                )
+            viscosity = {"method": "xsph", "coefficient": c, "boundary_coefficient": cb}
+            src = f"{w}.XSPH" if xs else w
+            rd.origin[f"materials[{k}].viscosity.coefficient"] = f"{src}.xsph"
+            rd.origin[f"materials[{k}].viscosity.boundary_coefficient"] = (
+                f"{src}.xsphBoundary"
+            )
+        vort = vorticity(rd, m, w, k)
+        rd.origin[f"materials[{k}]"] = w
+        rd.origin[f"materials[{k}].density0"] = f"{w}.density0"
+        out.append({"id": mid, "density0": density0, "viscosity": viscosity,
+                    "vorticity": vort, "surface_tension": surface_tension(rd, m, w, k),
+                    "drag": drag(rd, m, w, k)})
+    rd.origin["materials"] = "Materials"
+    return out
+
+
+def implicit_viscosity(rd: Reader, m: Mapping[str, Any], w: str, k: int,
+                       vm: int) -> dict[str, Any]:
+    """An implicit viscosity model's block (``viscosity``, ``viscoMaxIter``,
+    ``viscoMaxError``; Weiler et al. 2018 also ``viscosityBoundary``, Peer et al. 2016 also
+    ``viscoMaxIterOmega``, ``viscoMaxErrorOmega``; flat keys of scenes before 2.16 are read
+    too)."""
+    method, ns_key, max_iter = IMPLICIT_VISCOSITY[vm]
+    nsw = f"{w}.{ns_key}"
+    ns = rd.obj(m, ns_key, nsw)
+    keys = {"viscosity", "viscoMaxIter", "viscoMaxError"}
+    if vm in BOUNDARY_VISCOSITY:
+        keys.add("viscosityBoundary")
+    if vm in OMEGA_VISCOSITY:
+        keys |= {"viscoMaxIterOmega", "viscoMaxErrorOmega"}
+    rd.collect_unknown(ns, nsw, keys, set())
+    src = nsw if ns else w
+    nu = rd.num(ns, "viscosity", nsw, rd.num(m, "viscosity", w, 0.01, nonneg=True),
+                nonneg=True)
+    if vm in FACTOR_VISCOSITY and not nu <= 1.0:
+        raise rd.error(f"{src}.viscosity", nu,
+                       f"a dimensionless factor in [0, 1] ({VISCOSITY_METHODS[vm]})")
+    out: dict[str, Any] = {"method": method, "coefficient": nu}
+    fields = [("coefficient", "viscosity"), ("max_iterations", "viscoMaxIter"),
+              ("max_error", "viscoMaxError")]
+    if vm in BOUNDARY_VISCOSITY:
+        out["boundary_coefficient"] = rd.num(
+            ns, "viscosityBoundary", nsw,
+            rd.num(m, "viscosityBoundary", w, 0.0, nonneg=True), nonneg=True)
+        fields.append(("boundary_coefficient", "viscosityBoundary"))
+    # bender2017's maxError is an absolute strain rate [1/s]; the CG solvers' a relative
+    # residual below 1
+    below_one = vm not in STRAIN_RATE_ERROR_VISCOSITY
+    for suffix, ours in (("", ""), ("Omega", "_omega")) if vm in OMEGA_VISCOSITY else (("", ""),):
+        its = rd.integer(ns, f"viscoMaxIter{suffix}", nsw,
+                         rd.integer(m, f"viscoMaxIter{suffix}", w, max_iter))
+        if its < 1:
+            raise rd.error(f"{src}.viscoMaxIter{suffix}", its, "an integer >= 1")
+        err = rd.num(ns, f"viscoMaxError{suffix}", nsw,
+                     rd.num(m, f"viscoMaxError{suffix}", w, 0.01, positive=True),
+                     positive=True)
+        if below_one and not err < 1:
+            raise rd.error(f"{src}.viscoMaxError{suffix}", err,
+                           "a relative residual in (0, 1)")
+        out[f"max_iterations{ours}"] = its
+        out[f"max_error{ours}"] = err
+        if ours:
+            fields += [(f"max_iterations{ours}", f"viscoMaxIter{suffix}"),
+                       (f"max_error{ours}", f"viscoMaxError{suffix}")]
+    for ours, theirs in fields:
+        rd.origin[f"materials[{k}].viscosity.{ours}"] = f"{src}.{theirs}"
+    return out
+
+
+def vorticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
+    """The material's vorticity model (``vorticityMethod``; 1: "Bender et al. 2017" block,
+    2: "Vorticity confinement" block, or the flat keys of scenes before 2.16)."""
+    vm = rd.integer(m, "vorticityMethod", w, 0)
+    if vm == 0:
+        return {"method": "none"}
+    if vm not in VORTICITY_SUPPORTED:
+        raise rd.unsupported(
+            f"{w}.vorticityMethod",
+            f"{vm} ({VORTICITY_METHODS.get(vm, 'unknown method')}) is not supported yet; "
+            "supported: 0 (none), " + supported_list(VORTICITY_METHODS, VORTICITY_SUPPORTED),
+        )
+    method, ns_key = VORTICITY_SUPPORTED[vm]
+    if method == "confinement":
+        eps = _namespaced(rd, m, w, ns_key, {"vorticity": 0.01})
+        _origin_of_block(rd, m, w, k, "vorticity", ns_key, {"coefficient": "vorticity"})
+        return {"method": method, "coefficient": eps["vorticity"]}
+    nsw = f"{w}.{ns_key}"
+    ns = rd.obj(m, ns_key, nsw)
+    keys = {"vorticity": 0.01, "viscosityOmega": 0.1, "inertiaInverse": 0.5}
+    rd.collect_unknown(ns, nsw, set(keys), set())
+    values = {}
+    for key, default in keys.items():
+        val = rd.num(m, key, w, default, nonneg=True)
+        values[key] = rd.num(ns, key, nsw, val, nonneg=True)
+    src = nsw if ns else w
+    for ours, theirs in (("coefficient", "vorticity"), ("viscosity_omega", "viscosityOmega"),
+                         ("inertia_inverse", "inertiaInverse")):
+        rd.origin[f"materials[{k}].vorticity.{ours}"] = f"{src}.{theirs}"
+    return {"method": method, "coefficient": values["vorticity"],
+            "viscosity_omega": values["viscosityOmega"],
+            "inertia_inverse": values["inertiaInverse"]}
+
+
+def _namespaced(rd: Reader, m: Mapping[str, Any], w: str, ns_key: str,
+                keys: dict[str, float]) -> dict[str, float]:
+    """Non-negative numbers ``keys`` (name -> SPlisHSPlasH default) of a method, read from its
+    namespace block ``ns_key`` or, for scenes before 2.16, flat from the material."""
+    nsw = f"{w}.{ns_key}"
+    ns = rd.obj(m, ns_key, nsw)
+    rd.collect_unknown(ns, nsw, set(keys), set())
+    values = {}
+    for key, default in keys.items():
+        val = rd.num(m, key, w, default, nonneg=True)
+        values[key] = rd.num(ns, key, nsw, val, nonneg=True)
+    return values
+
+
+def _origin_of_block(rd: Reader, m: Mapping[str, Any], w: str, k: int, model: str, ns_key: str,
+                     fields: dict[str, str]) -> None:
+    """Record where the fields of ``materials[k].<model>`` came from: the block ``ns_key``, or
+    the material itself (scenes before 2.16)."""
+    src = f"{w}.{ns_key}" if m.get(ns_key) else w
+    for ours, theirs in fields.items():
+        rd.origin[f"materials[{k}].{model}.{ours}"] = f"{src}.{theirs}"
+
+
+def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
+    """The material's surface tension model (``surfaceTensionMethod`` 1-3 with the
+    ``surfaceTension``/``surfaceTensionBoundary`` numbers of the method's block)."""
+    sm = rd.integer(m, "surfaceTensionMethod", w, 0)
+    if sm == 0:
+        return {"method": "none"}
+    if sm not in SURFACE_TENSION_SUPPORTED:
+        names = OTHER_METHODS["surfaceTensionMethod"]
+        raise rd.unsupported(
+            f"{w}.surfaceTensionMethod",
+            f"{sm} ({names.get(sm, 'unknown method')}) is not supported yet; supported: 0 "
+            "(none), " + supported_list(names, SURFACE_TENSION_SUPPORTED),
+        )
+    method, ns_key = SURFACE_TENSION_SUPPORTED[sm]
+    v = _namespaced(rd, m, w, ns_key, {"surfaceTension": 0.05,
+                                       "surfaceTensionBoundary": 0.01})
+    _origin_of_block(rd, m, w, k, "surface_tension", ns_key,
+                     {"coefficient": "surfaceTension",
+                      "boundary_coefficient": "surfaceTensionBoundary"})
+    return {"method": method, "coefficient": v["surfaceTension"],
+            "boundary_coefficient": v["surfaceTensionBoundary"]}
+
+
+def drag(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
+    """The material's drag model (``dragMethod`` 1-2 with the ``drag`` number of the
+    method's block)."""
+    dm = rd.integer(m, "dragMethod", w, 0)
+    if dm == 0:
+        return {"method": "none"}
+    if dm not in DRAG_SUPPORTED:
+        raise rd.unsupported(
+            f"{w}.dragMethod",
+            f"{dm} (unknown method) is not supported; supported: 0 (none), "
+            + supported_list(OTHER_METHODS["dragMethod"], DRAG_SUPPORTED),
+        )
+    method, ns_key = DRAG_SUPPORTED[dm]
+    v = _namespaced(rd, m, w, ns_key, {"drag": 0.01})
+    _origin_of_block(rd, m, w, k, "drag", ns_key, {"coefficient": "drag"})
+    return {"method": method, "coefficient": v["drag"]}
+

@@ -1,0 +1,141 @@
+"""SPlisHSPlasH's method numbers and the sphkit methods they map to: every such table in one place.
+
+A SPlisHSPlasH scene chooses its methods by number (``simulationMethod``,
+``boundaryHandlingMethod``, a material's ``viscosityMethod``, ``vorticityMethod``,
+``surfaceTensionMethod``, ``dragMethod``, ``elasticityMethod``) and writes each method's
+parameters in a block named after the method (``"DFSPH": {...}``, ``"Weiler et al. 2018":
+{...}``). This module holds all the tables of the translator that name methods: SPlisHSPlasH's
+names of its numbers, the numbers sphkit implements with the ``method`` names of sphkit's scene
+schema, the per-method defaults and parameter blocks. The rest of the translator
+(:mod:`sphkit.scene.splishsplash.configuration`, :mod:`sphkit.scene.splishsplash.materials`)
+reads them only through this module, so that they can be replaced by reads from one method
+registry without touching the translation itself. Numbering as in SPlisHSPlasH 2.16+
+(``NonPressureForceRegistration.cpp``; the defaults were read back from pysplishsplash 2.19).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+# -- pressure solvers (Configuration.simulationMethod) ------------------------------------------
+
+#: SPlisHSPlasH's ``simulationMethod`` numbers -> its names (also the names of the solvers'
+#: parameter blocks in ``Configuration``)
+SIMULATION_METHODS = {
+    0: "WCSPH", 1: "PCISPH", 2: "PBF", 3: "IISPH", 4: "DFSPH", 5: "Projective Fluids", 6: "ICSPH",
+}
+#: SPlisHSPlasH's default ``simulationMethod`` (DFSPH)
+DEFAULT_SIMULATION_METHOD = 4
+#: SPlisHSPlasH ``simulationMethod`` numbers sphkit has -> ``pressure.method``
+PRESSURE_METHODS = {0: "wcsph", 1: "pcisph", 2: "pbf", 3: "iisph", 4: "dfsph"}
+#: SPlisHSPlasH's default ``minIterations`` per iterative solver: 2 from ``TimeStep``'s
+#: constructor, raised to 3 by ``TimeStepPCISPH``'s
+SOLVER_MIN_ITERATIONS = {1: 3, 2: 2, 3: 2, 4: 2}
+#: the parameters of each iterative solver's block (the block is named as the method)
+SOLVER_KEYS = {
+    1: ("minIterations", "maxIterations", "maxError"),
+    2: ("minIterations", "maxIterations", "maxError", "velocityUpdateMethod"),
+    3: ("minIterations", "maxIterations", "maxError"),
+    4: ("minIterations", "maxIterations", "maxError", "maxIterationsV", "maxErrorV",
+        "enableDivergenceSolver"),
+}
+
+# -- boundary handling (Configuration.boundaryHandlingMethod) -----------------------------------
+
+#: SPlisHSPlasH's ``boundaryHandlingMethod`` numbers -> its names
+BOUNDARY_METHODS = {
+    0: "Akinci et al. 2012 boundary particles",
+    1: "Koschier and Bender 2017 density maps",
+    2: "Bender et al. 2019 volume maps",
+    3: "Nogina and Sellan 2026",
+}
+#: SPlisHSPlasH's default ``boundaryHandlingMethod`` (Bender et al. 2019 volume maps)
+DEFAULT_BOUNDARY_METHOD = 2
+#: SPlisHSPlasH ``boundaryHandlingMethod`` numbers sphkit has -> ``boundary.method``
+BOUNDARY_MODELS = {0: "akinci2012", 1: "koschier2017", 2: "bender2019"}
+#: ``boundary.method`` of a scene without rigid bodies whose ``boundaryHandlingMethod`` sphkit
+#: does not have (the number is checked only when the scene has rigid bodies)
+FALLBACK_BOUNDARY_MODEL = "akinci2012"
+
+# -- viscosity (Materials[].viscosityMethod) ----------------------------------------------------
+
+#: SPlisHSPlasH's ``viscosityMethod`` numbers -> its names
+VISCOSITY_METHODS = {
+    0: "none", 1: "Standard", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
+    4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)", 6: "Weiler et al. 2018",
+}
+#: explicit viscosity sphkit supports: number -> (scene method, SPlisHSPlasH block)
+STANDARD_VISCOSITY = {1: ("standard", "Standard viscosity")}
+#: implicit viscosity models sphkit supports: number -> (scene method, SPlisHSPlasH block,
+#: viscoMaxIter default); their viscoMaxError default is 0.01 (read back from pysplishsplash 2.19)
+IMPLICIT_VISCOSITY = {
+    2: ("bender2017", "Bender and Koschier 2017", 50),
+    3: ("peer2015", "Peer et al. 2015", 50),
+    4: ("peer2016", "Peer et al. 2016", 50),
+    5: ("takahashi2015", "Takahashi et al. 2015 (improved)", 100),
+    6: ("weiler2018", "Weiler et al. 2018", 100),
+}
+#: models whose "viscosity" is a dimensionless factor in [0, 1]
+FACTOR_VISCOSITY = {2, 3, 4}
+#: models with a "viscosityBoundary"
+BOUNDARY_VISCOSITY = {6}
+#: models with a second solve for the angular velocity ("viscoMaxIterOmega",
+#: "viscoMaxErrorOmega")
+OMEGA_VISCOSITY = {4}
+#: models whose "viscoMaxError" is an absolute strain rate [1/s] (the CG solvers' is a relative
+#: residual below 1)
+STRAIN_RATE_ERROR_VISCOSITY = {2}
+
+# -- vorticity (Materials[].vorticityMethod) ----------------------------------------------------
+
+#: SPlisHSPlasH's ``vorticityMethod`` numbers -> its names
+VORTICITY_METHODS = {
+    0: "none", 1: "Bender et al. 2017 micropolar model", 2: "vorticity confinement",
+    3: "Liu et al. 2021 vorticity refinement",
+}
+#: vorticity models sphkit supports: number -> (scene method, SPlisHSPlasH block)
+VORTICITY_SUPPORTED = {
+    1: ("micropolar", "Bender et al. 2017"), 2: ("confinement", "Vorticity confinement"),
+}
+
+# -- surface tension, drag, elasticity (Materials[]) --------------------------------------------
+
+#: SPlisHSPlasH's numbers of the other non-pressure methods -> their names, per field
+OTHER_METHODS = {
+    "surfaceTensionMethod": {
+        1: "Becker & Teschner 2007", 2: "Akinci et al. 2013", 3: "He et al. 2014",
+        4: "Jeske et al. 2023", 5: "Zorilla, Ritter, et al. 2020",
+    },
+    "dragMethod": {1: "Macklin et al. 2014", 2: "Gissler et al. 2017"},
+    "elasticityMethod": {
+        1: "Becker et al. 2009", 2: "Peer et al. 2018", 3: "Kugelstadt et al. 2021",
+        4: "Kee et al. 2023",
+    },
+}
+#: surface tension methods sphkit implements: number -> (scene name, SPlisHSPlasH block)
+SURFACE_TENSION_SUPPORTED = {
+    1: ("becker2007", "Becker & Teschner 2007"), 2: ("akinci2013", "Akinci et al. 2013"),
+    3: ("he2014", "He et al. 2014"),
+}
+#: drag methods sphkit implements: number -> (scene name, SPlisHSPlasH block)
+DRAG_SUPPORTED = {1: ("macklin2014", "Macklin et al. 2014"),
+                  2: ("gissler2017", "Gissler et al. 2017")}
+#: the fields of :data:`OTHER_METHODS` that sphkit reads (the others must be 0)
+SUPPORTED_OTHER_METHODS = {"surfaceTensionMethod", "dragMethod"}
+
+#: the parameter blocks of SPlisHSPlasH's non-pressure methods in a material; ignored quietly
+#: when the material does not select the method
+MATERIAL_NAMESPACES = {
+    "Bender and Koschier 2017", "Peer et al. 2015", "Peer et al. 2016",
+    "Takahashi et al. 2015 (improved)", "Weiler et al. 2018", "Bender et al. 2017",
+    "Vorticity confinement", "Liu et al. 2021", "Macklin et al. 2014", "Gissler et al. 2017",
+    "Becker & Teschner 2007", "Akinci et al. 2013", "He et al. 2014", "Jeske et al. 2023",
+    "Zorilla, Ritter, et al. 2020", "Becker et al. 2009", "Peer et al. 2018",
+    "Kugelstadt et al. 2021", "Kee et al. 2023",
+}
+
+
+def supported_list(names: dict[int, str], numbers: Iterable[int]) -> str:
+    """``"1 (name), 2 (name)"`` for the method ``numbers`` (keys of ``names``, SPlisHSPlasH's
+    names of its numbers): the list of supported methods in the translator's error messages."""
+    return ", ".join(f"{n} ({names[n]})" for n in numbers)

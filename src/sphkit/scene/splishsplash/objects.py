@@ -1,0 +1,346 @@
+"""The objects of a SPlisHSPlasH scene: fluid blocks, fluid models, emitters and rigid bodies.
+
+``FluidBlocks`` become lattice blocks at SPlisHSPlasH's particle positions, ``FluidModels``
+particle files (BGEO, PLY, VTK) or closed meshes to fill with fluid, ``Emitters`` sphkit's
+emitters (:mod:`sphkit.emitters`), ``RigidBodies`` static walls or dynamic bodies given by a mesh
+(:class:`~sphkit.scene.schema.MeshBoundary`). Paths are relative to the scene file. The
+placement rules (SPlisHSPlasH's ``createFluidBlocks``, ``initFluidData``, ``createEmitters``,
+``StaticBoundarySimulator``) are described in :mod:`sphkit.scene.splishsplash`.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from sphkit.scene.files import check_particle_file
+from sphkit.scene.splishsplash.reader import Reader
+
+#: a FluidModels particleFile with these suffixes is a mesh to fill (``.ply`` is a particle file)
+_FILL_SUFFIXES = (".obj", ".stl", ".off")
+_DENSE_MODES = {1: "more dense (hexagonal layers)", 2: "dense (hexagonal close packing)"}
+_RIGID_QUIET = {
+    "color", "isWall", "samplingMode", "tubeMapOrder",
+    # PositionBasedDynamics settings, only used by dynamic bodies
+    "density", "friction", "restitution", "collisionObjectType", "collisionObjectScale",
+    "invertSDF", "id",
+}
+_BLOCK_QUIET = {"visMesh"}
+
+
+def fluid_blocks(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
+    """``FluidBlocks`` -> ``fluid_blocks`` holding SPlisHSPlasH's particle positions (a block
+    with no particle on an axis is left out with a note)."""
+    out = []
+    for k, b in enumerate(rd.array("FluidBlocks")):
+        w = f"FluidBlocks[{k}]"
+        known = {
+            "id", "start", "end", "translation", "scale", "denseMode", "initialVelocity",
+            "initialAngularVelocity",
+        }
+        rd.collect_unknown(b, w, known, _BLOCK_QUIET)
+        for key in ("start", "end"):
+            if b.get(key) is None:
+                raise rd.error(f"{w}.{key}", None, "a list of 3 finite numbers")
+        start = rd.vec3(b, "start", w, [0.0, 0.0, 0.0])
+        end = rd.vec3(b, "end", w, [0.0, 0.0, 0.0])
+        translation = rd.vec3(b, "translation", w, [0.0, 0.0, 0.0])
+        scale = rd.vec3(b, "scale", w, [1.0, 1.0, 1.0])
+        mode = rd.integer(b, "denseMode", w, 0)
+        if mode != 0:
+            raise rd.unsupported(
+                f"{w}.denseMode",
+                f"{mode} ({_DENSE_MODES.get(mode, 'unknown mode')}) is not supported yet; "
+                "supported: 0 (regular lattice)",
+            )
+        velocity = rd.vec3(b, "initialVelocity", w, [0.0, 0.0, 0.0])
+        omega = rd.vec3(b, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
+        if any(omega):
+            raise rd.unsupported(
+                f"{w}.initialAngularVelocity",
+                f"{omega}: rotating initial velocity fields are not supported yet; "
+                "expected [0, 0, 0]",
+            )
+        lo = [s * a + t for s, a, t in zip(scale, start, translation, strict=True)][:dim]
+        hi = [s * a + t for s, a, t in zip(scale, end, translation, strict=True)][:dim]
+        if not all(h > l for l, h in zip(lo, hi, strict=True)):
+            raise rd.error(
+                f"{w}.end", end,
+                f"to exceed start {start} on every axis after scale and translation "
+                f"(block {lo} .. {hi})",
+            )
+        # SPlisHSPlasH: round((hi - lo) / 2r) - 1 particles per axis, the first at lo + 2r
+        counts = [
+            math.floor((h - l) / (2.0 * r) + 0.5) - 1 for l, h in zip(lo, hi, strict=True)
+        ]
+        if min(counts) < 1:
+            rd.notes.append(
+                f"{w}: the block {lo} .. {hi} holds no particle of radius {r} in SPlisHSPlasH "
+                "(less than 2 particle diameters on an axis); it is left out"
+            )
+            continue
+        n = len(out)
+        rd.origin[f"fluid_blocks[{n}]"] = w
+        rd.origin[f"fluid_blocks[{n}].material"] = f"{w}.id"
+        rd.origin[f"fluid_blocks[{n}].velocity"] = f"{w}.initialVelocity"
+        block: dict[str, Any] = {
+            "start": [l + r for l in lo],
+            "end": [l + r + 2.0 * r * c for l, c in zip(lo, counts, strict=True)],
+            "material": rd.text(b, "id", w, "Fluid"),
+        }
+        if any(velocity[:dim]):
+            block["velocity"] = velocity[:dim]
+        out.append(block)
+    rd.origin["fluid_blocks"] = "FluidBlocks"
+    return out
+
+
+def fluid_models(rd: Reader) -> list[dict[str, Any]]:
+    """``FluidModels`` with a particle file -> ``fluid_files`` (placement and velocity as in
+    ``SimulatorBase::initFluidData``: only ``scale[0]`` scales a particle file; the file's
+    velocities are replaced by ``initialVelocity`` and ``initialAngularVelocity``)."""
+    out = []
+    base = rd.path.parent if rd.path is not None else Path.cwd()
+    for k, fm in enumerate(rd.array("FluidModels")):
+        w = f"FluidModels[{k}]"
+        known = {"particleFile", "translation", "scale", "rotationAxis", "rotationAngle", "id",
+                 "initialVelocity", "initialAngularVelocity"}
+        name = rd.text(fm, "particleFile", w, "")
+        if not name:
+            raise rd.error(f"{w}.particleFile", fm.get("particleFile"),
+                           "a particle file (BGEO, PLY, VTK) or a closed mesh (OBJ, STL) "
+                           "relative to the scene file")
+        if name.lower().endswith(_FILL_SUFFIXES):
+            continue  # a mesh to fill with fluid: fluid_mesh_models
+        rd.collect_unknown(fm, w, known, {"visMesh"})
+        p = Path(name).expanduser()
+        f = p if p.is_absolute() else base / p
+        check_particle_file(f, name, f"{rd.label}: {w}.particleFile")
+        scale = rd.vec3(fm, "scale", w, [1.0, 1.0, 1.0])
+        if not scale[0] > 0:
+            raise rd.error(f"{w}.scale", scale, "a positive first component (SPlisHSPlasH "
+                           "scales particle files by scale[0])")
+        if scale[1:] != [scale[0], scale[0]]:
+            rd.notes.append(
+                f"{w}.scale: {scale}: SPlisHSPlasH scales particle files uniformly by the "
+                f"first component, as sphkit does ({scale[0]})"
+            )
+        axis = rd.vec3(fm, "rotationAxis", w, [1.0, 0.0, 0.0])
+        angle = rd.num(fm, "rotationAngle", w, 0.0)
+        if angle != 0.0 and not any(axis):
+            raise rd.error(f"{w}.rotationAxis", axis, "a non-zero axis")
+        n = len(out)
+        rd.origin[f"fluid_files[{n}]"] = w
+        rd.origin[f"fluid_files[{n}].material"] = f"{w}.id"
+        entry: dict[str, Any] = {
+            "file": name,
+            "translation": rd.vec3(fm, "translation", w, [0.0, 0.0, 0.0]),
+            "scale": scale[0],
+            "rotation_axis": axis,
+            "rotation_angle": angle,
+            "material": rd.text(fm, "id", w, "Fluid"),
+        }
+        velocity = rd.vec3(fm, "initialVelocity", w, [0.0, 0.0, 0.0])
+        omega = rd.vec3(fm, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
+        if any(velocity):
+            entry["velocity"] = velocity
+        if any(omega):
+            entry["angular_velocity"] = omega
+        out.append(entry)
+    rd.origin["fluid_files"] = "FluidModels"
+    return out
+
+
+def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
+    """``Emitters`` -> ``emitters`` (``SimulatorBase::createEmitters``, ``Emitter.cpp``):
+    widths in particles become metres (``n 2r``); in 2D every emitter is a box of width 1,
+    its line ``height`` (box) or ``width`` (circle) particles long, rotating about z; the
+    material's ``maxEmitterParticles`` (10,000) becomes ``max_particles``."""
+    caps = {}
+    for m in rd.array("Materials"):
+        cap = rd.integer(m, "maxEmitterParticles", "Materials[]", 10000)
+        caps[rd.text(m, "id", "Materials[]", "Fluid")] = cap
+        if rd.flag(m, "emitterReuseParticles", "Materials[]", False):
+            rd.notes.append(
+                f"Materials[id={m.get('id', 'Fluid')!r}].emitterReuseParticles: true: "
+                "sphkit does not recycle particles that leave emitterBoxMin/emitterBoxMax; "
+                "they stay in the simulation")
+    out = []
+    for k, e in enumerate(rd.array("Emitters")):
+        w = f"Emitters[{k}]"
+        known = {"type", "width", "height", "translation", "rotationAxis", "rotationAngle",
+                 "velocity", "id", "emitStartTime", "emitEndTime"}
+        rd.collect_unknown(e, w, known, set())
+        kind = rd.integer(e, "type", w, 0)
+        if kind not in (0, 1):
+            raise rd.error(f"{w}.type", kind, "0 (box) or 1 (circle)")
+        width = rd.integer(e, "width", w, 5)
+        height = rd.integer(e, "height", w, 5)
+        for key, v in (("width", width), ("height", height)):
+            if v < 1:
+                raise rd.error(f"{w}.{key}", v, "a number of particles >= 1")
+        velocity = rd.num(e, "velocity", w, 1.0, positive=True)
+        start = rd.num(e, "emitStartTime", w, 0.0, nonneg=True)
+        end = None if e.get("emitEndTime") is None else rd.num(e, "emitEndTime", w, 0.0)
+        if end is not None and end < start:
+            raise rd.error(f"{w}.emitEndTime", end, f"a time >= emitStartTime {start}")
+        axis = rd.vec3(e, "rotationAxis", w, [0.0, 0.0, 1.0])
+        angle = rd.num(e, "rotationAngle", w, 0.0)
+        diam = 2.0 * r
+        entry: dict[str, Any] = {
+            "shape": "circle" if kind == 1 else "box",
+            "position": rd.vec3(e, "translation", w, [0.0, 0.0, 0.0]),
+            "velocity": velocity, "start_time": start, "end_time": end,
+            "material": rd.text(e, "id", w, "Fluid"),
+        }
+        if dim == 2:  # SPlisHSPlasH: a box of width 1, rotated about z
+            entry.update(shape="box", width=(width if kind == 1 else height) * diam,
+                         rotation_axis=[0.0, 0.0, 1.0], rotation_angle=angle)
+        else:
+            if angle != 0.0 and not any(axis):
+                raise rd.error(f"{w}.rotationAxis", axis, "a non-zero axis")
+            entry.update(width=width * diam, height=height * diam, rotation_axis=axis,
+                         rotation_angle=angle)
+        entry["max_particles"] = caps.get(entry["material"], 10000)
+        n = len(out)
+        rd.origin[f"emitters[{n}]"] = w
+        out.append(entry)
+    rd.origin["emitters"] = "Emitters"
+    return out
+
+
+def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """``RigidBodies`` -> ``meshes``: static walls, or dynamic bodies (``isDynamic``) with
+    PositionBasedDynamics' ``density`` and ``friction``."""
+    out = []
+    base = rd.path.parent if rd.path is not None else Path.cwd()
+    for k, rb in enumerate(bodies):
+        w = f"RigidBodies[{k}]"
+        known = {
+            "geometryFile", "particleFile", "translation", "rotationAxis", "rotationAngle",
+            "scale", "isDynamic", "isAnimated", "mapInvert", "mapThickness", "mapResolution",
+            "mapFile",
+        }
+        rd.collect_unknown(rb, w, known, _RIGID_QUIET)
+        dynamic = rd.flag(rb, "isDynamic", w, False)
+        if rd.flag(rb, "isAnimated", w, False):
+            raise rd.unsupported(
+                f"{w}.isAnimated", "true: animated rigid bodies are not supported yet"
+            )
+        geometry = rd.text(rb, "geometryFile", w, "")
+        if not geometry:
+            if rb.get("particleFile"):
+                raise rd.unsupported(
+                    f"{w}.particleFile",
+                    "pre-sampled boundary particles are not supported yet; expected a "
+                    "geometryFile (OBJ/PLY mesh) to sample",
+                )
+            raise rd.error(f"{w}.geometryFile", rb.get("geometryFile"),
+                           "a mesh file (OBJ/PLY/STL) relative to the scene file")
+        if rb.get("particleFile"):
+            rd.unknown.append(f"{w}.particleFile (sphkit samples geometryFile instead)")
+        if rb.get("mapFile"):
+            rd.unknown.append(f"{w}.mapFile (sphkit computes the map from geometryFile)")
+        res = rb.get("mapResolution", [20, 20, 20])
+        if (not isinstance(res, list) or len(res) != 3
+                or not all(isinstance(c, int) and not isinstance(c, bool) and c >= 1
+                           for c in res)):
+            raise rd.error(f"{w}.mapResolution", res, "a list of 3 positive integers")
+        rd.origin[f"meshes[{len(out)}].map_resolution"] = f"{w}.mapResolution"
+        rd.origin[f"meshes[{len(out)}].map_thickness"] = f"{w}.mapThickness"
+        p = Path(geometry).expanduser()
+        f = p if p.is_absolute() else base / p
+        if not f.is_file():
+            raise rd.error(f"{w}.geometryFile", geometry,
+                           f"an existing mesh file (looked for {str(f)!r})")
+        scale = rd.vec3(rb, "scale", w, [1.0, 1.0, 1.0])
+        if not all(scale):
+            raise rd.error(f"{w}.scale", scale, "non-zero scale factors")
+        axis = rd.vec3(rb, "rotationAxis", w, [1.0, 0.0, 0.0])
+        angle = rd.num(rb, "rotationAngle", w, 0.0)
+        if angle != 0.0 and not any(axis):
+            raise rd.error(f"{w}.rotationAxis", axis, "a non-zero axis")
+        n = len(out)
+        rd.origin[f"meshes[{n}]"] = w
+        out.append({
+            "geometry_file": geometry,
+            "translation": rd.vec3(rb, "translation", w, [0.0, 0.0, 0.0]),
+            "rotation_axis": axis,
+            "rotation_angle": angle,
+            "scale": scale,
+            "invert": rd.flag(rb, "mapInvert", w, False),
+            "map_thickness": rd.num(rb, "mapThickness", w, 0.0),
+            "map_resolution": res,
+        })
+        if dynamic:  # PositionBasedDynamics' density and friction apply to sphkit's bodies
+            out[-1].update(dynamic=True,
+                           density=rd.num(rb, "density", w, 1000.0, positive=True),
+                           friction=rd.num(rb, "friction", w, 0.5, nonneg=True))
+            rd.origin[f"meshes[{n}].density"] = f"{w}.density"
+            rd.origin[f"meshes[{n}].friction"] = f"{w}.friction"
+    rd.origin["meshes"] = "RigidBodies"
+    return out
+
+
+def fluid_mesh_models(rd: Reader, dim: int) -> list[dict[str, Any]]:
+    """FluidModels whose particleFile is a closed mesh: fluid filling it (sphkit samples the
+    mesh through its exact signed distance at the lattice points, so ``resolutionSDF`` is
+    not needed); particle files are :meth:`fluid_models`."""
+    out = []
+    base = rd.path.parent if rd.path is not None else Path.cwd()
+    for k, fm in enumerate(rd.array("FluidModels")):
+        w = f"FluidModels[{k}]"
+        known = {
+            "particleFile", "id", "translation", "scale", "rotationAxis", "rotationAngle",
+            "invert", "resolutionSDF", "denseMode", "initialVelocity",
+            "initialAngularVelocity",
+        }
+        f = rd.text(fm, "particleFile", w, "")
+        if not f.lower().endswith(_FILL_SUFFIXES):
+            continue  # a particle file (or missing: reported by fluid_models)
+        rd.collect_unknown(fm, w, known, _BLOCK_QUIET)
+        p = Path(f).expanduser()
+        if not (p if p.is_absolute() else base / p).is_file():
+            raise rd.error(f"{w}.particleFile", f,
+                           f"an existing mesh file (looked for {str(base / p)!r})")
+        mode = rd.integer(fm, "denseMode", w, 0)
+        if mode != 0:
+            raise rd.unsupported(
+                f"{w}.denseMode",
+                f"{mode} ({_DENSE_MODES.get(mode, 'unknown mode')}) is not supported yet; "
+                "supported: 0 (regular lattice)",
+            )
+        omega = rd.vec3(fm, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
+        if any(omega):
+            raise rd.unsupported(
+                f"{w}.initialAngularVelocity",
+                f"{omega}: rotating initial velocity fields are not supported yet; "
+                "expected [0, 0, 0]",
+            )
+        scale = rd.vec3(fm, "scale", w, [1.0, 1.0, 1.0])
+        if not all(scale):
+            raise rd.error(f"{w}.scale", scale, "non-zero scale factors")
+        axis = rd.vec3(fm, "rotationAxis", w, [1.0, 0.0, 0.0])
+        angle = rd.num(fm, "rotationAngle", w, 0.0)
+        if angle != 0.0 and not any(axis):
+            raise rd.error(f"{w}.rotationAxis", axis, "a non-zero axis")
+        velocity = rd.vec3(fm, "initialVelocity", w, [0.0, 0.0, 0.0])
+        n = len(out)
+        rd.origin[f"fluid_meshes[{n}]"] = w
+        rd.origin[f"fluid_meshes[{n}].material"] = f"{w}.id"
+        entry: dict[str, Any] = {
+            "geometry_file": f,
+            "translation": rd.vec3(fm, "translation", w, [0.0, 0.0, 0.0]),
+            "rotation_axis": axis,
+            "rotation_angle": angle,
+            "scale": scale,
+            "invert": rd.flag(fm, "invert", w, False),
+            "material": rd.text(fm, "id", w, "Fluid"),
+        }
+        if any(velocity[:dim]):
+            entry["velocity"] = velocity[:dim]
+        out.append(entry)
+    return out
+
+# -- validation ----------------------------------------------------------------------------
