@@ -44,7 +44,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from sphkit.cli import compat, render, run, scenes, surface
+from sphkit.cli import compat, methods, render, run, scenes, surface
 from sphkit.cli.common import EXIT_USAGE
 from sphkit.io.log import command_logging
 from sphkit.io.manifest import sphkit_version
@@ -52,7 +52,7 @@ from sphkit.io.manifest import sphkit_version
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: the subcommand modules, in the order ``sphkit --help`` lists them
-COMMANDS = (run, scenes, surface, render, compat)
+COMMANDS = (run, scenes, methods, surface, render, compat)
 
 
 def build_parser() -> argparse.ArgumentParser:

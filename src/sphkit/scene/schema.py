@@ -1,7 +1,8 @@
 """The validated scene model (pydantic), in SI units.
 
-A scene is what a simulation is built from; both front ends (sphkit's own JSON/YAML and
-SPlisHSPlasH's JSON scene format, see :mod:`sphkit.scene.loader`) produce a :class:`Scene`.
+A scene is what a simulation is built from; both front ends (sphkit's own JSON/YAML,
+:mod:`sphkit.scene.files`, and SPlisHSPlasH's JSON scene format,
+:mod:`sphkit.scene.splishsplash`) produce a :class:`Scene`.
 Every parameter documents its unit. Validation errors name the field path, the bad value and
 what was expected (see :func:`format_validation_error`).
 """

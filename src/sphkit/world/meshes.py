@@ -13,7 +13,7 @@ from pathlib import Path
 import trimesh
 
 from sphkit.scene import sampling
-from sphkit.scene.loader import resolve_scene_path
+from sphkit.scene.files import resolve_scene_path
 from sphkit.scene.schema import Scene
 
 

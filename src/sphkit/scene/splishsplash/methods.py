@@ -8,14 +8,33 @@ parameters in a block named after the method (``"DFSPH": {...}``, ``"Weiler et a
 names of its numbers, the numbers sphkit implements with the ``method`` names of sphkit's scene
 schema, the per-method defaults and parameter blocks. The rest of the translator
 (:mod:`sphkit.scene.splishsplash.configuration`, :mod:`sphkit.scene.splishsplash.materials`)
-reads them only through this module, so that they can be replaced by reads from one method
-registry without touching the translation itself. Numbering as in SPlisHSPlasH 2.16+
-(``NonPressureForceRegistration.cpp``; the defaults were read back from pysplishsplash 2.19).
+reads them only through this module. Which numbers sphkit implements, and under which scene
+name, comes from the method registry (:mod:`sphkit.registry`); what is left here is
+SPlisHSPlasH's own naming: its names of its numbers, its parameter blocks and defaults.
+Numbering as in SPlisHSPlasH 2.16+ (``NonPressureForceRegistration.cpp``; the defaults were read
+back from pysplishsplash 2.19).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
+
+from sphkit import registry
+
+
+def implemented(role: str) -> dict[int, str]:
+    """SPlisHSPlasH's numbers of the methods sphkit implements in a role -> their scene names
+    (read from :mod:`sphkit.registry`, the one place methods are named)."""
+    return {m.splishsplash: m.name for m in registry.methods(role) if m.splishsplash is not None}
+
+
+def _with_blocks(role: str, blocks: dict[int, str]) -> dict[int, tuple[str, str]]:
+    """number -> (scene name, SPlisHSPlasH parameter block) of the implemented methods."""
+    names = implemented(role)
+    missing = sorted(set(names) - set(blocks))
+    if missing:  # a registered number the translator cannot read the parameters of
+        raise LookupError(f"SPlisHSPlasH translator: no parameter block for {role} {missing}")
+    return {n: (names[n], blocks[n]) for n in sorted(names)}
 
 # -- pressure solvers (Configuration.simulationMethod) ------------------------------------------
 
@@ -27,7 +46,7 @@ SIMULATION_METHODS = {
 #: SPlisHSPlasH's default ``simulationMethod`` (DFSPH)
 DEFAULT_SIMULATION_METHOD = 4
 #: SPlisHSPlasH ``simulationMethod`` numbers sphkit has -> ``pressure.method``
-PRESSURE_METHODS = {0: "wcsph", 1: "pcisph", 2: "pbf", 3: "iisph", 4: "dfsph"}
+PRESSURE_METHODS = implemented("pressure")
 #: SPlisHSPlasH's default ``minIterations`` per iterative solver: 2 from ``TimeStep``'s
 #: constructor, raised to 3 by ``TimeStepPCISPH``'s
 SOLVER_MIN_ITERATIONS = {1: 3, 2: 2, 3: 2, 4: 2}
@@ -52,7 +71,7 @@ BOUNDARY_METHODS = {
 #: SPlisHSPlasH's default ``boundaryHandlingMethod`` (Bender et al. 2019 volume maps)
 DEFAULT_BOUNDARY_METHOD = 2
 #: SPlisHSPlasH ``boundaryHandlingMethod`` numbers sphkit has -> ``boundary.method``
-BOUNDARY_MODELS = {0: "akinci2012", 1: "koschier2017", 2: "bender2019"}
+BOUNDARY_MODELS = implemented("boundary")
 #: ``boundary.method`` of a scene without rigid bodies whose ``boundaryHandlingMethod`` sphkit
 #: does not have (the number is checked only when the scene has rigid bodies)
 FALLBACK_BOUNDARY_MODEL = "akinci2012"
@@ -64,17 +83,21 @@ VISCOSITY_METHODS = {
     0: "none", 1: "Standard", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
     4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)", 6: "Weiler et al. 2018",
 }
-#: explicit viscosity sphkit supports: number -> (scene method, SPlisHSPlasH block)
-STANDARD_VISCOSITY = {1: ("standard", "Standard viscosity")}
-#: implicit viscosity models sphkit supports: number -> (scene method, SPlisHSPlasH block,
-#: viscoMaxIter default); their viscoMaxError default is 0.01 (read back from pysplishsplash 2.19)
-IMPLICIT_VISCOSITY = {
-    2: ("bender2017", "Bender and Koschier 2017", 50),
-    3: ("peer2015", "Peer et al. 2015", 50),
-    4: ("peer2016", "Peer et al. 2016", 50),
-    5: ("takahashi2015", "Takahashi et al. 2015 (improved)", 100),
-    6: ("weiler2018", "Weiler et al. 2018", 100),
+#: SPlisHSPlasH's parameter block of each ``viscosityMethod``
+VISCOSITY_BLOCKS = {
+    1: "Standard viscosity", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
+    4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)", 6: "Weiler et al. 2018",
 }
+#: SPlisHSPlasH's ``viscoMaxIter`` default of its implicit viscosity models (their
+#: viscoMaxError default is 0.01; read back from pysplishsplash 2.19)
+VISCOSITY_MAX_ITER = {2: 50, 3: 50, 4: 50, 5: 100, 6: 100}
+_VISCOSITY = _with_blocks("viscosity", VISCOSITY_BLOCKS)
+#: explicit viscosity sphkit supports: number -> (scene method, SPlisHSPlasH block)
+STANDARD_VISCOSITY = {n: v for n, v in _VISCOSITY.items() if n not in VISCOSITY_MAX_ITER}
+#: implicit viscosity models sphkit supports: number -> (scene method, SPlisHSPlasH block,
+#: viscoMaxIter default)
+IMPLICIT_VISCOSITY = {n: (*v, VISCOSITY_MAX_ITER[n]) for n, v in _VISCOSITY.items()
+                      if n in VISCOSITY_MAX_ITER}
 #: models whose "viscosity" is a dimensionless factor in [0, 1]
 FACTOR_VISCOSITY = {2, 3, 4}
 #: models with a "viscosityBoundary"
@@ -94,9 +117,8 @@ VORTICITY_METHODS = {
     3: "Liu et al. 2021 vorticity refinement",
 }
 #: vorticity models sphkit supports: number -> (scene method, SPlisHSPlasH block)
-VORTICITY_SUPPORTED = {
-    1: ("micropolar", "Bender et al. 2017"), 2: ("confinement", "Vorticity confinement"),
-}
+VORTICITY_SUPPORTED = _with_blocks(
+    "vorticity", {1: "Bender et al. 2017", 2: "Vorticity confinement", 3: "Liu et al. 2021"})
 
 # -- surface tension, drag, elasticity (Materials[]) --------------------------------------------
 
@@ -113,13 +135,9 @@ OTHER_METHODS = {
     },
 }
 #: surface tension methods sphkit implements: number -> (scene name, SPlisHSPlasH block)
-SURFACE_TENSION_SUPPORTED = {
-    1: ("becker2007", "Becker & Teschner 2007"), 2: ("akinci2013", "Akinci et al. 2013"),
-    3: ("he2014", "He et al. 2014"),
-}
+SURFACE_TENSION_SUPPORTED = _with_blocks("surface_tension", OTHER_METHODS["surfaceTensionMethod"])
 #: drag methods sphkit implements: number -> (scene name, SPlisHSPlasH block)
-DRAG_SUPPORTED = {1: ("macklin2014", "Macklin et al. 2014"),
-                  2: ("gissler2017", "Gissler et al. 2017")}
+DRAG_SUPPORTED = _with_blocks("drag", OTHER_METHODS["dragMethod"])
 #: the fields of :data:`OTHER_METHODS` that sphkit reads (the others must be 0)
 SUPPORTED_OTHER_METHODS = {"surfaceTensionMethod", "dragMethod"}
 
