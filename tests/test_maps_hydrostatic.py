@@ -17,8 +17,8 @@ from sphkit.boundary.koschier2017 import FACTOR_2D, FACTOR_3D, Koschier2017
 from sphkit.core.boundary_map import MapGeometry
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.particles import ParticleSet
-from sphkit.core.sdf import BoxDistance
 from sphkit.core.state import SimState
+from sphkit.geometry.sdf import BoxDistance
 from sphkit.scene.sampling import hexagonal_block
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation

@@ -22,16 +22,16 @@ from sphkit.core.boundary_map import (
 )
 from sphkit.core.kernels import Kernel, kernel_dw, kernel_w
 from sphkit.core.particles import ParticleSet
-from sphkit.core.sdf import (
+from sphkit.core.state import SimState
+from sphkit.geometry.cache import cached_arrays
+from sphkit.geometry.sdf import (
     BoxDistance,
     MeshDistance,
-    cached_arrays,
     lattice_points,
     mesh_sdf_lattice,
     polygon_sdf_lattice,
     sdf_lattice_cached,
 )
-from sphkit.core.state import SimState
 from sphkit.scene.loader import load_scene
 from sphkit.scene.sampling import lattice_block, load_mesh, sample_mesh_surface, sample_mesh_volume
 from sphkit.scene.schema import Scene

@@ -518,7 +518,7 @@ class Simulation:
         infinity along the gravity axis. Meshes: 3D triangle meshes, in 2D the section of the
         mesh with the plane z = 0 (as for boundary particles).
         """
-        from sphkit.core.sdf import BoxDistance, MeshDistance, PolygonDistance
+        from sphkit.geometry.sdf import BoxDistance, MeshDistance, PolygonDistance
         from sphkit.scene import sampling
 
         st, dim = self.state, self.dim

@@ -150,8 +150,8 @@ import trimesh
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import neighbor_lists
 from sphkit.core.particles import ParticleSet
-from sphkit.core.sdf import tri_dist2
 from sphkit.core.state import SimState
+from sphkit.geometry.sdf import tri_dist2
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -845,8 +845,8 @@ def body_sdf(mesh, c: np.ndarray, r: float, max_points: int = 96
     """Signed distance of a body's closed mesh (placed at t = 0, centre c, so that the body
     frame is the scene frame shifted by c) on a lattice in its body frame: ``(lo, spacing,
     phi)``, spacing r (coarser for large bodies: at most ``max_points`` per axis), 3 spacings
-    beyond the mesh on every side (:func:`sphkit.core.sdf.mesh_sdf_lattice`)."""
-    from sphkit.core.sdf import mesh_sdf_lattice
+    beyond the mesh on every side (:func:`sphkit.geometry.sdf.mesh_sdf_lattice`)."""
+    from sphkit.geometry.sdf import mesh_sdf_lattice
 
     V = np.asarray(mesh.vertices, dtype=np.float64) - np.asarray(c, dtype=np.float64)
     sp = max(r, float(np.max(V.max(axis=0) - V.min(axis=0))) / (max_points - 7))
@@ -871,11 +871,11 @@ def box_wall(lo, hi, open_axis: int | None):
 
 def mesh_wall(mesh, invert: bool = False, spacing: float = 0.01):
     """Distance to a static mesh (positive outside the mesh; ``invert``: a container), from its
-    signed distance on a lattice of the given spacing [m] (:func:`sphkit.core.sdf.
+    signed distance on a lattice of the given spacing [m] (:func:`sphkit.geometry.sdf.
     mesh_sdf_lattice`) interpolated trilinearly."""
     from scipy.interpolate import RegularGridInterpolator
 
-    from sphkit.core.sdf import mesh_sdf_lattice
+    from sphkit.geometry.sdf import mesh_sdf_lattice
 
     lo = np.asarray(mesh.bounds[0], dtype=np.float64) - 3.0 * spacing
     hi = np.asarray(mesh.bounds[1], dtype=np.float64) + 3.0 * spacing

@@ -17,7 +17,7 @@ These reproduce every polynomial of total degree 3 exactly, and their gradients 
 (SPlisHSPlasH's normals come from the shape-function gradients too). All nodes lie on the lattice
 of spacing ``cell / 3``; a field is stored on that whole lattice (flat, C order, 2D with a third
 axis of length 1). The signed distance field (field 0) is computed exactly at every lattice point
-(:mod:`sphkit.core.sdf`), so it can also be read trilinearly between the nodes, which the map
+(:mod:`sphkit.geometry.sdf`), so it can also be read trilinearly between the nodes, which the map
 quadrature does; the map field (field 1) is computed at the serendipity nodes only.
 
 Domain and distance, as SPlisHSPlasH's ``SimulatorBase::initDensityMap`` / ``initVolumeMap``:
@@ -102,8 +102,9 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import NeighborList
-from sphkit.core.sdf import SignedDistance, cache_folder, cached_arrays, sdf_lattice_cached
 from sphkit.core.state import SimState
+from sphkit.geometry.cache import cache_folder, cached_arrays
+from sphkit.geometry.sdf import SignedDistance, sdf_lattice_cached
 
 _JIT = dict(cache=True, fastmath=True)
 #: lattice points per field above which the automatic resolution is reduced

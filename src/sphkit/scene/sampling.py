@@ -634,7 +634,7 @@ def sample_mesh_volume(mesh: trimesh.Trimesh, r: float, dim: int = 3,
     The candidates are the lattice points ``lo + r + 2r k`` at or below ``hi - r`` (as
     :func:`lattice_block`) in the mesh's bounding box ``[lo, hi]``; a point is kept when its
     signed distance
-    to the mesh (:mod:`sphkit.core.sdf`, exact at the points) is negative (inside), or positive
+    to the mesh (:mod:`sphkit.geometry.sdf`, exact at the points) is negative (inside), or positive
     with ``invert`` (the box around the mesh is filled instead). A block-shaped mesh thus gives
     the same particles as the fluid block of the same extent.
 
@@ -647,7 +647,7 @@ def sample_mesh_volume(mesh: trimesh.Trimesh, r: float, dim: int = 3,
     Returns:
         ``(M, dim)`` float64 positions.
     """
-    from sphkit.core.sdf import mesh_sdf_lattice, polygon_sdf_lattice
+    from sphkit.geometry.sdf import mesh_sdf_lattice, polygon_sdf_lattice
 
     r = _check_radius(r)
     if dim == 3:
