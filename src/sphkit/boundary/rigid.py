@@ -151,6 +151,7 @@ from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import neighbor_lists
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
+from sphkit.geometry.rotations import rotation_exp
 from sphkit.geometry.sdf import tri_dist2
 
 _JIT = dict(cache=True, fastmath=True)
@@ -476,17 +477,6 @@ def inset_samples(mesh, pts: np.ndarray, depth: float) -> np.ndarray:
 # bodies
 
 
-def rotation(omega: np.ndarray, t: float) -> np.ndarray:
-    """``exp([omega] t)``: the rotation by angle ``|omega| t`` about ``omega`` (Rodrigues)."""
-    w = np.asarray(omega, dtype=np.float64)
-    ang = float(np.linalg.norm(w)) * t
-    if ang == 0.0:
-        return np.eye(3)
-    k = w / np.linalg.norm(w)
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(ang) * K + (1.0 - math.cos(ang)) * (K @ K)
-
-
 @dataclass
 class RigidBody:
     """One moving body (kinematic or dynamic); vectors in world coordinates, SI units.
@@ -740,11 +730,11 @@ class RigidBodies:
             self._contact(state, Iinv, dt)
         for b in self.bodies:
             if not b.dynamic:
-                b.R = rotation(b.omega, time + dt)
+                b.R = rotation_exp(b.omega, time + dt)
                 b.c = b.c0 + b.v * (time + dt)
                 continue
             b.c = b.c + dt * b.v
-            R = rotation(b.omega, dt) @ b.R
+            R = rotation_exp(b.omega, dt) @ b.R
             u, _s, vt = np.linalg.svd(R)  # keep R orthonormal
             b.R = u @ vt
         self.place(state)

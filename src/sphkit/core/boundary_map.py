@@ -104,6 +104,7 @@ from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.state import SimState
 from sphkit.geometry.cache import cache_folder, cached_arrays
+from sphkit.geometry.rotations import rotate, rotate_t
 from sphkit.geometry.sdf import SignedDistance, sdf_lattice_cached
 
 _JIT = dict(cache=True, fastmath=True)
@@ -516,22 +517,6 @@ def _pack(xb, Vb, vb, mbody, fid, off, bx, bV, bv, bbody, bid, idx):
                 q += 1
 
 
-@numba.njit(**_JIT)
-def _rot(R, a0, a1, a2):
-    """R a for a 3x3 R."""
-    return (R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2,
-            R[1, 0] * a0 + R[1, 1] * a1 + R[1, 2] * a2,
-            R[2, 0] * a0 + R[2, 1] * a1 + R[2, 2] * a2)
-
-
-@numba.njit(**_JIT)
-def _rot_t(R, a0, a1, a2):
-    """R^T a for a 3x3 R."""
-    return (R[0, 0] * a0 + R[1, 0] * a1 + R[2, 0] * a2,
-            R[0, 1] * a0 + R[1, 1] * a1 + R[2, 1] * a2,
-            R[0, 2] * a0 + R[1, 2] * a1 + R[2, 2] * a2)
-
-
 @numba.njit(parallel=True, **_JIT)
 def to_body_frame(x, v, c, R, vc, w, c0, xl, ul):
     """Fluid positions and velocities in a body's frame (module docstring):
@@ -545,8 +530,8 @@ def to_body_frame(x, v, c, R, vc, w, c0, xl, ul):
         u0 = v[0, i] - vc[0] - (w[1] * q2 - w[2] * q1)
         u1 = v[1, i] - vc[1] - (w[2] * q0 - w[0] * q2)
         u2 = (v[2, i] if dim == 3 else 0.0) - vc[2] - (w[0] * q1 - w[1] * q0)
-        a0, a1, a2 = _rot_t(R, q0, q1, q2)
-        b0, b1, b2 = _rot_t(R, u0, u1, u2)
+        a0, a1, a2 = rotate_t(R, q0, q1, q2)
+        b0, b1, b2 = rotate_t(R, u0, u1, u2)
         xl[0, i] = c0[0] + a0
         xl[1, i] = c0[1] + a1
         ul[0, i] = b0
@@ -565,7 +550,7 @@ def from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb, xb, vb, x, v):
     dim = x.shape[0]
     for i in numba.prange(x.shape[1]):
         if Vb[i] > 0.0:
-            q0, q1, q2 = _rot(R, xb[0, i] - c0[0], xb[1, i] - c0[1],
+            q0, q1, q2 = rotate(R, xb[0, i] - c0[0], xb[1, i] - c0[1],
                               xb[2, i] - c0[2] if dim == 3 else 0.0)
             xb[0, i] = c[0] + q0
             xb[1, i] = c[1] + q1
@@ -579,9 +564,9 @@ def from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb, xb, vb, x, v):
             if xl[d, i] != xl0[d, i]:
                 moved = True
         if moved:
-            q0, q1, q2 = _rot(R, xl[0, i] - c0[0], xl[1, i] - c0[1],
+            q0, q1, q2 = rotate(R, xl[0, i] - c0[0], xl[1, i] - c0[1],
                               xl[2, i] - c0[2] if dim == 3 else 0.0)
-            u0, u1, u2 = _rot(R, ul[0, i], ul[1, i], ul[2, i] if dim == 3 else 0.0)
+            u0, u1, u2 = rotate(R, ul[0, i], ul[1, i], ul[2, i] if dim == 3 else 0.0)
             x[0, i] = c[0] + q0
             x[1, i] = c[1] + q1
             v[0, i] = u0 + vc[0] + w[1] * q2 - w[2] * q1

@@ -23,6 +23,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
+from sphkit.geometry.rotations import rotation_matrix
 from sphkit.scene.schema import SceneError
 
 ArrayLike = Sequence[float] | np.ndarray
@@ -248,19 +249,6 @@ def box_wall_distance(points: np.ndarray, lo: ArrayLike, hi: ArrayLike
     return dist, normal
 
 
-def rotation_matrix(axis: ArrayLike, angle: float) -> np.ndarray:
-    """3x3 rotation by ``angle`` [rad] about ``axis`` (normalized here; right-hand rule)."""
-    ax = np.asarray(axis, dtype=np.float64).ravel()
-    if ax.size != 3:
-        raise ValueError(f"rotation axis must have 3 components, got {ax.tolist()}")
-    if float(angle) == 0.0:
-        return np.eye(3)
-    n = np.linalg.norm(ax)
-    if not n > 0.0:
-        raise ValueError(f"rotation axis {ax.tolist()} has zero length")
-    return trimesh.transformations.rotation_matrix(float(angle), ax / n)[:3, :3]
-
-
 def _read_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """Vertices and triangles of a mesh file, without materials or textures.
 
@@ -329,10 +317,14 @@ def load_mesh(
     t = np.asarray(translation, dtype=np.float64).ravel()
     if t.size != 3 or not np.all(np.isfinite(t)):
         raise SceneError(f"mesh file {str(p)!r}: translation {t.tolist()} must be 3 finite numbers")
-    try:
-        rot = rotation_matrix(rotation_axis, rotation_angle)
-    except ValueError as err:
-        raise SceneError(f"mesh file {str(p)!r}: {err}") from None
+    ax = np.asarray(rotation_axis, dtype=np.float64).ravel()
+    if ax.size != 3:
+        raise SceneError(f"mesh file {str(p)!r}: rotation axis must have 3 components, got "
+                         f"{ax.tolist()}")
+    angle = float(rotation_angle)
+    if angle != 0.0 and not np.linalg.norm(ax) > 0.0:
+        raise SceneError(f"mesh file {str(p)!r}: rotation axis {ax.tolist()} has zero length")
+    rot = rotation_matrix(ax, angle)
     # without visuals (texture seams split vertices); duplicate vertices merged
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces)
     transform = np.eye(4)
