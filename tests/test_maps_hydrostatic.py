@@ -18,8 +18,8 @@ from sphkit.core.boundary_map import MapGeometry
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
+from sphkit.geometry.sampling import hexagonal_block
 from sphkit.geometry.sdf import BoxDistance
-from sphkit.scene.sampling import hexagonal_block
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation
 

@@ -15,13 +15,13 @@ import trimesh
 import yaml
 from _wheel import wheel_scene
 
+from sphkit.geometry.sampling import lattice_block
 from sphkit.scene.loader import (
     builtin_scenes,
     from_splishsplash,
     load_scene,
     resolve_scene_path,
 )
-from sphkit.scene.sampling import lattice_block
 from sphkit.scene.schema import Scene, SceneError
 
 # -- built-in scenes ------------------------------------------------------------------------------

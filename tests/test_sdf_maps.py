@@ -24,6 +24,9 @@ from sphkit.core.kernels import Kernel, kernel_dw, kernel_w
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.geometry.cache import cached_arrays
+from sphkit.geometry.mesh_sampling import sample_mesh_surface, sample_mesh_volume
+from sphkit.geometry.meshes import load_mesh
+from sphkit.geometry.sampling import lattice_block
 from sphkit.geometry.sdf import (
     BoxDistance,
     MeshDistance,
@@ -33,7 +36,6 @@ from sphkit.geometry.sdf import (
     sdf_lattice_cached,
 )
 from sphkit.scene.loader import load_scene
-from sphkit.scene.sampling import lattice_block, load_mesh, sample_mesh_surface, sample_mesh_volume
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
 

@@ -23,7 +23,8 @@ One step (DESIGN.md, "Data flow of one time step"):
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -51,6 +52,10 @@ from sphkit.core.timestep import (
 from sphkit.drag.gissler2017 import Gissler2017
 from sphkit.drag.macklin2014 import Macklin2014
 from sphkit.emitters import FluidEmitter
+from sphkit.geometry import GeometryError
+from sphkit.geometry.mesh_sampling import sample_mesh_surface, sample_mesh_volume
+from sphkit.geometry.meshes import load_mesh, section_segments
+from sphkit.geometry.sampling import box_wall_distance, box_walls, hexagonal_block, lattice_block
 from sphkit.pressure.dfsph import DFSPH
 from sphkit.pressure.iisph import IISPH
 from sphkit.pressure.pbf import PBF
@@ -176,6 +181,16 @@ def _check_periodic(scene: Scene, mat) -> None:
             )
 
 
+@contextmanager
+def _scene_errors() -> Iterator[None]:
+    """Geometry that cannot be loaded or sampled (:class:`sphkit.geometry.GeometryError`) as a
+    :class:`SceneError` with the same message, so that the user sees exit code 2."""
+    try:
+        yield
+    except GeometryError as e:
+        raise SceneError(str(e)) from e
+
+
 class InstabilityError(RuntimeError):
     """The simulation became unstable; ``stats`` holds the step that showed it."""
 
@@ -236,7 +251,8 @@ class Simulation:
         self._maps = getattr(bm_cls, "uses_maps", False)  # walls as maps, not particles
         self.emitters = [FluidEmitter(e, self.dim, r, h, name=f"emitters[{k}]")
                          for k, e in enumerate(scene.emitters)]
-        self._sample(scene)
+        with _scene_errors():
+            self._sample(scene)
         if fluid.n == 0 and not self.emitters:
             raise SceneError(
                 "fluid_blocks, fluid_files: the scene has no fluid particles; expected at least one"
@@ -247,8 +263,9 @@ class Simulation:
 
         self.pressure = build_pressure_solver(cfg.pressure)
         if self._maps:
-            self.boundary_model = bm_cls(self._map_geometries(scene),
-                                         cache_dir=cfg.boundary.map_cache_dir,
+            with _scene_errors():
+                geometries = self._map_geometries(scene)
+            self.boundary_model = bm_cls(geometries, cache_dir=cfg.boundary.map_cache_dir,
                                          cache=cfg.boundary.map_cache)
             self.boundary_model.hydrostatic = cfg.boundary.pressure == "hydrostatic"
         elif cfg.boundary.pressure == "hydrostatic":
@@ -311,7 +328,8 @@ class Simulation:
             self.state.boundary_pressure = MLSPressureExtrapolation(
                 boundary["rigid_body"] == 0)
             self.state.boundary_pressure.init(self.state)
-        self.rigid = self._rigid_bodies(scene)
+        with _scene_errors():
+            self.rigid = self._rigid_bodies(scene)
         for force in self.forces:
             if hasattr(force, "init"):
                 force.init(self.state)
@@ -340,8 +358,6 @@ class Simulation:
         return p
 
     def _sample(self, scene: Scene) -> None:
-        from sphkit.scene import sampling
-
         st = self.state
         r, dim = st.r, self.dim
         vol = lattice_volume(2.0 * r, st.kid, st.h, dim)
@@ -358,10 +374,10 @@ class Simulation:
                 if dim != 2:
                     raise SceneError(f"fluid_blocks[{k}].lattice: 'hexagonal' in {dim}D; "
                                      "expected 'square' (the hexagonal lattice is 2D only)")
-                pts = clip(sampling.hexagonal_block(blk.start, blk.end, r))
+                pts = clip(hexagonal_block(blk.start, blk.end, r))
                 bvol = hexagonal_volume(2.0 * r, st.kid, st.h)
             else:
-                pts = clip(sampling.lattice_block(blk.start, blk.end, r))
+                pts = clip(lattice_block(blk.start, blk.end, r))
             if len(pts) == 0:
                 raise SceneError(
                     f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
@@ -374,9 +390,9 @@ class Simulation:
         for k, ff in enumerate(scene.fluid_files):
             self._add_fluid_file(k, ff, vol)
         for k, fm in enumerate(scene.fluid_meshes):
-            mesh = sampling.load_mesh(self._resolve(fm.geometry_file), fm.translation,
-                                      fm.rotation_axis, fm.rotation_angle, fm.scale)
-            pts = sampling.sample_mesh_volume(mesh, r, dim, invert=fm.invert)
+            mesh = load_mesh(self._resolve(fm.geometry_file), fm.translation,
+                             fm.rotation_axis, fm.rotation_angle, fm.scale)
+            pts = sample_mesh_volume(mesh, r, dim, invert=fm.invert)
             if len(pts) == 0:
                 raise SceneError(
                     f"fluid_meshes[{k}]: {fm.geometry_file!r} holds no particle of radius {r}; "
@@ -392,24 +408,24 @@ class Simulation:
             # its body's frame (sphkit.core.boundary_map, "Moving rigid bodies")
             for k, mb in enumerate(scene.meshes):
                 if mb.dynamic or mb.kinematic:
-                    self._rigid_meshes.append((k, sampling.load_mesh(
+                    self._rigid_meshes.append((k, load_mesh(
                         self._resolve(mb.geometry_file), mb.translation, mb.rotation_axis,
                         mb.rotation_angle, mb.scale)))
             return
         up = int(np.argmax(np.abs(st.gravity))) if np.any(st.gravity) else dim - 1
         for k, box in enumerate(scene.boxes):
-            pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
-                                     open_top_axis=up if box.open_top else None)
+            pts = box_walls(box.min, box.max, r, layers=box.layers,
+                            open_top_axis=up if box.open_top else None)
             # lattice walls whose Akinci volumes stand for the missing fluid: the boundary
             # pressure is mirrored fully in the iterative solvers (core.ppe.kappa_accel_cached)
             pts = clip(pts)
-            dist, normal = sampling.box_wall_distance(pts, box.min, box.max)
+            dist, normal = box_wall_distance(pts, box.min, box.max)
             st.boundary.add(pts, name=f"boxes[{k}]", pressure_mirror=1.0, wall_distance=dist,
                             wall_normal=normal)
         for k, mb in enumerate(scene.meshes):
-            mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
-                                      mb.rotation_axis, mb.rotation_angle, mb.scale)
-            pts = sampling.sample_mesh_surface(mesh, r, dim)
+            mesh = load_mesh(self._resolve(mb.geometry_file), mb.translation,
+                             mb.rotation_axis, mb.rotation_angle, mb.scale)
+            pts = sample_mesh_surface(mesh, r, dim)
             if mb.dynamic or mb.kinematic:  # a moving rigid body (sphkit.boundary.rigid)
                 from sphkit.boundary.rigid import inset_samples
 
@@ -427,7 +443,7 @@ class Simulation:
             st.boundary.add(clip(pts), name=f"meshes[{k}]")
         for k, (em, cfg) in enumerate(zip(self.emitters, scene.emitters, strict=True)):
             if cfg.housing:
-                pts = sampling.sample_mesh_surface(em.housing_mesh(), r, dim)
+                pts = sample_mesh_surface(em.housing_mesh(), r, dim)
                 st.boundary.add(clip(pts), name=f"emitters[{k}].housing")
 
     def _rigid_bodies(self, scene: Scene) -> RigidBodies:
@@ -458,8 +474,6 @@ class Simulation:
                 raise SceneError(f"meshes[{k}].geometry_file: {mb.geometry_file!r}: {e}") from None
         walls = []
         if any(b.dynamic for b in bodies):
-            from sphkit.scene import sampling
-
             up = int(np.argmax(np.abs(self.state.gravity))) if np.any(self.state.gravity) else 2
             for k, box in enumerate(scene.boxes):
                 lo = list(box.min) + [-np.inf] * (3 - self.dim)  # 2D: no walls along z
@@ -467,8 +481,8 @@ class Simulation:
                 walls.append((box_wall(lo, hi, up if box.open_top else None), f"boxes[{k}]"))
             for k, mb in enumerate(scene.meshes):
                 if not (mb.dynamic or mb.kinematic):
-                    mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
-                                              mb.rotation_axis, mb.rotation_angle, mb.scale)
+                    mesh = load_mesh(self._resolve(mb.geometry_file), mb.translation,
+                                     mb.rotation_axis, mb.rotation_angle, mb.scale)
                     walls.append((mesh_wall(mesh, mb.invert, self.state.r), f"meshes[{k}]"))
         rigid = RigidBodies(bodies, scene.configuration.pressure.method, walls,
                             margin=INSET * self.state.r,
@@ -519,7 +533,6 @@ class Simulation:
         mesh with the plane z = 0 (as for boundary particles).
         """
         from sphkit.geometry.sdf import BoxDistance, MeshDistance, PolygonDistance
-        from sphkit.scene import sampling
 
         st, dim = self.state, self.dim
         bc = scene.configuration.boundary
@@ -532,12 +545,12 @@ class Simulation:
                                    invert=True, resolution=res,
                                    extend_axis=-1 if open_axis is None else open_axis))
         for k, mb in enumerate(scene.meshes):
-            mesh = sampling.load_mesh(self._resolve(mb.geometry_file), mb.translation,
-                                      mb.rotation_axis, mb.rotation_angle, mb.scale)
+            mesh = load_mesh(self._resolve(mb.geometry_file), mb.translation,
+                             mb.rotation_axis, mb.rotation_angle, mb.scale)
             if dim == 3:
                 sdf = MeshDistance(mesh.vertices, mesh.faces)
             else:
-                a, b = sampling.section_segments(mesh)
+                a, b = section_segments(mesh)
                 if len(a) == 0:
                     raise SceneError(
                         f"meshes[{k}]: {mb.geometry_file!r} does not cross the plane z = 0; "

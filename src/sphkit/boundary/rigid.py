@@ -2,7 +2,7 @@
 "Versatile rigid-fluid coupling for incompressible SPH", ACM TOG 31(4).
 
 A body is a closed triangle mesh whose surface is sampled into boundary particles (one layer,
-:func:`sphkit.scene.sampling.sample_mesh_surface`). Three kinds:
+:func:`sphkit.geometry.mesh_sampling.sample_mesh_surface`). Three kinds:
 
 * static: the particles never move (handled as any static wall);
 * kinematic: a prescribed motion, constant velocity ``v`` of the pivot ``c0`` and constant
@@ -67,8 +67,9 @@ virtual particles to the map model.
 
 2D: a body is the section of its mesh with z = 0 and moves in the xy-plane; vectors stay 3D
 internally with z = 0 (angular velocity (0, 0, w)), mass and polar moment per metre of depth
-come from the section (:func:`section_mass_properties`), its contact points are the ends of the
-section's segments, and the compiled passes read and write the (2, N) fields. Measured
+come from the section (:func:`sphkit.geometry.meshes.section_mass_properties`), its contact
+points are the ends of the section's segments, and the compiled passes read and write the (2, N)
+fields. Measured
 (tests/test_rigid_2d.py): momentum exchange to round-off, a floating square 0.48 submerged, a
 heavy square (density 2000) sinks and rests flat on the floor.
 
@@ -145,12 +146,12 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
-import trimesh
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import neighbor_lists
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
+from sphkit.geometry.meshes import oriented_section, section_mass_properties
 from sphkit.geometry.rotations import rotation_exp
 from sphkit.geometry.sdf import tri_dist2
 
@@ -880,44 +881,12 @@ def mesh_wall(mesh, invert: bool = False, spacing: float = 0.01):
     return dist
 
 
-def _section(mesh) -> tuple[np.ndarray, np.ndarray]:
-    """The section of a mesh with the plane z = 0 as 2D segments a -> b (E, 2), oriented so
-    that the solid lies on their left (counter-clockwise loops), from the faces' normals."""
-    segs, faces = trimesh.intersections.mesh_plane(mesh, plane_normal=[0.0, 0.0, 1.0],
-                                                   plane_origin=[0.0, 0.0, 0.0],
-                                                   return_faces=True)
-    if len(segs) == 0:
-        return np.empty((0, 2)), np.empty((0, 2))
-    s = np.asarray(segs, dtype=np.float64)[:, :, :2]
-    a, b = s[:, 0].copy(), s[:, 1].copy()
-    n = np.asarray(mesh.face_normals, dtype=np.float64)[faces, :2]  # outward
-    d = b - a
-    flip = d[:, 1] * n[:, 0] - d[:, 0] * n[:, 1] < 0.0  # the right normal (dy, -dx) points out
-    a[flip], b[flip] = b[flip].copy(), a[flip].copy()
-    return a, b
-
-
-def section_mass_properties(mesh) -> tuple[float, np.ndarray, float]:
-    """Area [m^2], centroid (2,) and polar moment of area about the centroid [m^4] of the
-    section of a closed mesh with z = 0 (Green's theorem over its oriented segments)."""
-    a, b = _section(mesh)
-    cr = a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]
-    area = 0.5 * float(cr.sum())
-    if not area > 0.0:
-        return 0.0, np.zeros(2), 0.0
-    cx = float(((a[:, 0] + b[:, 0]) * cr).sum()) / (6.0 * area)
-    cy = float(((a[:, 1] + b[:, 1]) * cr).sum()) / (6.0 * area)
-    j = float(((a[:, 0] ** 2 + a[:, 0] * b[:, 0] + b[:, 0] ** 2 + a[:, 1] ** 2
-                + a[:, 1] * b[:, 1] + b[:, 1] ** 2) * cr).sum()) / 12.0
-    return area, np.array([cx, cy]), j - area * (cx * cx + cy * cy)
-
-
 def _contact_vertices(mesh, dim: int) -> np.ndarray:
     """Contact points of a body's mesh (3, K): its vertices; 2D: the ends of its section's
     segments (z = 0)."""
     if dim == 3:
         return np.asarray(mesh.vertices, dtype=np.float64).T
-    a, _b = _section(mesh)
+    a, _b = oriented_section(mesh)
     return np.concatenate([a.T, np.zeros((1, len(a)))])
 
 
