@@ -34,8 +34,9 @@ from sphkit.boundary.akinci2012 import Akinci2012
 from sphkit.boundary.band2018 import MLSPressureExtrapolation
 from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.koschier2017 import Koschier2017
+from sphkit.boundary.maps import MapGeometry
+from sphkit.boundary.maps_hydrostatic import WallMomentForce
 from sphkit.boundary.rigid import INSET, RigidBodies, body_from_mesh, box_wall, mesh_wall
-from sphkit.core.boundary_map import MapGeometry, WallMomentForce
 from sphkit.core.kernels import hexagonal_volume, kernel_id, lattice_volume
 from sphkit.core.neighbors import neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
@@ -405,7 +406,7 @@ class Simulation:
                          rho=mat.density0)
         if self._maps:
             # boxes and meshes become maps (see _map_geometries); a moving mesh's map lives in
-            # its body's frame (sphkit.core.boundary_map, "Moving rigid bodies")
+            # its body's frame (sphkit.boundary.maps, "Moving rigid bodies")
             for k, mb in enumerate(scene.meshes):
                 if mb.dynamic or mb.kinematic:
                     self._rigid_meshes.append((k, load_mesh(

@@ -56,7 +56,7 @@ Measured on the landing cube: without it the landing cube bounced, penetrated th
 PBF moves positions and is not coupled (a scene with a dynamic body and PBF is rejected).
 Viscous boundary forces are not transferred to bodies.
 
-Density and volume maps (:mod:`sphkit.core.boundary_map`, "Moving rigid bodies"): a body has no
+Density and volume maps (:mod:`sphkit.boundary.maps`, "Moving rigid bodies"): a body has no
 particles of its own; each step the map model writes one virtual boundary particle per fluid
 particle near the body (boundary fields ``x``, ``V``, ``v`` the body's surface velocity,
 ``rigid_body`` the body's number, ``pressure_mirror`` 0), and :meth:`RigidBodies.fluid_forces`
