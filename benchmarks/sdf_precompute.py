@@ -3,7 +3,7 @@
     python benchmarks/sdf_precompute.py [--cells 64] [--threads N]
 
 Meshes: a torus of 51,200 triangles (the issue's ~50k case) and icospheres of 20,480 and 81,920
-triangles. Each is turned into a signed distance (:mod:`sphkit.core.sdf`) on a regular lattice
+triangles. Each is turned into a signed distance (:mod:`sphkit.geometry.sdf`) on a regular lattice
 of ``cells^3`` cells (``(cells+1)^3`` points) and on the fine lattice a map grid of ``cells^3``
 cells needs (``(3 cells + 1)^3`` points: the cubic serendipity nodes lie at thirds of a cell),
 first cold, then from the cache (a fresh temporary folder). Numba compilation is excluded (one
@@ -33,7 +33,7 @@ def main() -> None:
     import numpy as np
     import trimesh
 
-    from sphkit.core.sdf import MeshDistance, sdf_lattice_cached
+    from sphkit.geometry.sdf import MeshDistance, sdf_lattice_cached
 
     meshes = {
         "torus": trimesh.creation.torus(0.35, 0.12, major_sections=400, minor_sections=64),

@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from sphkit.core.kernels import Kernel, hexagonal_volume
-from sphkit.scene.sampling import hexagonal_block
+from sphkit.geometry.sampling import hexagonal_block
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation
 

@@ -1,6 +1,6 @@
 """Hydrostatic boundary pressure for density and volume maps (configuration.boundary.pressure
-"hydrostatic", :mod:`sphkit.core.boundary_map`): the kernel-moment maps of a plane wall against
-quadrature references, and the pressure along the side walls of a settled column."""
+"hydrostatic", :mod:`sphkit.boundary.maps_hydrostatic`): the kernel-moment maps of a plane wall
+against quadrature references, and the pressure along the side walls of a settled column."""
 
 from __future__ import annotations
 
@@ -14,12 +14,12 @@ from scipy import integrate
 from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.bender2019 import gamma as vm_gamma
 from sphkit.boundary.koschier2017 import FACTOR_2D, FACTOR_3D, Koschier2017
-from sphkit.core.boundary_map import MapGeometry
+from sphkit.boundary.maps import MapGeometry
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.particles import ParticleSet
-from sphkit.core.sdf import BoxDistance
 from sphkit.core.state import SimState
-from sphkit.scene.sampling import hexagonal_block
+from sphkit.geometry.sampling import hexagonal_block
+from sphkit.geometry.sdf import BoxDistance
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation
 

@@ -15,7 +15,7 @@ import pytest
 import trimesh
 from _landing import track_landing
 
-from sphkit.boundary.rigid import section_mass_properties
+from sphkit.geometry.meshes import section_mass_properties
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
 

@@ -1,6 +1,6 @@
 """Moving rigid bodies with volume maps (Bender et al. 2019) and density maps (Koschier and
 Bender 2017): the map of a body is built once in its frame and queried in it each step
-(:mod:`sphkit.core.boundary_map`, "Moving rigid bodies"); the reaction of the fluid's boundary
+(:mod:`sphkit.boundary.maps`, "Moving rigid bodies"); the reaction of the fluid's boundary
 force on the virtual particles moves the body (:mod:`sphkit.boundary.rigid`).
 
 3D at r = 12.5 mm (h = 50 mm) as tests/test_rigid.py. The fluid starts 2 r off the walls and the

@@ -1,4 +1,4 @@
-"""Scene sampling: fluid lattices, box walls, mesh loading and surface sampling."""
+"""Geometry sampling: fluid lattices, box walls, mesh loading and surface sampling."""
 
 from __future__ import annotations
 
@@ -10,14 +10,10 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from sphkit.scene.sampling import (
-    box_walls,
-    lattice_block,
-    lattice_count,
-    load_mesh,
-    sample_mesh_surface,
-)
-from sphkit.scene.schema import SceneError
+from sphkit.geometry import GeometryError
+from sphkit.geometry.mesh_sampling import sample_mesh_surface
+from sphkit.geometry.meshes import load_mesh
+from sphkit.geometry.sampling import box_walls, lattice_block, lattice_count
 
 
 def _nn(points: np.ndarray) -> np.ndarray:
@@ -135,15 +131,15 @@ def test_load_mesh_scales_then_rotates_then_translates(box_obj: Path) -> None:
 
 
 def test_load_mesh_errors_name_the_file(tmp_path: Path, box_obj: Path) -> None:
-    with pytest.raises(SceneError, match=r"nope\.obj.*not found"):
+    with pytest.raises(GeometryError, match=r"nope\.obj.*not found"):
         load_mesh(tmp_path / "nope.obj")
     points = tmp_path / "points.obj"
     points.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
-    with pytest.raises(SceneError, match=r"points\.obj.*no triangles"):
+    with pytest.raises(GeometryError, match=r"points\.obj.*no triangles"):
         load_mesh(points)
-    with pytest.raises(SceneError, match=r"box\.obj.*scale"):
+    with pytest.raises(GeometryError, match=r"box\.obj.*scale"):
         load_mesh(box_obj, scale=[1.0, 0.0, 1.0])
-    with pytest.raises(SceneError, match=r"box\.obj.*axis"):
+    with pytest.raises(GeometryError, match=r"box\.obj.*axis"):
         load_mesh(box_obj, rotation_axis=[0.0, 0.0, 0.0], rotation_angle=1.0)
 
 

@@ -15,8 +15,8 @@ import trimesh
 import yaml
 from _wheel import wheel_scene
 
+from sphkit.geometry.sampling import lattice_block
 from sphkit.scene.files import builtin_scenes, load_scene, resolve_scene_path
-from sphkit.scene.sampling import lattice_block
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.scene.splishsplash import from_splishsplash
 

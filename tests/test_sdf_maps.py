@@ -14,26 +14,24 @@ from scipy import integrate
 from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.bender2019 import gamma as vm_gamma
 from sphkit.boundary.koschier2017 import Koschier2017
-from sphkit.core.boundary_map import (
-    MapGeometry,
-    _eval_many,
-    ball_quadrature,
-    serendipity_mask,
-)
+from sphkit.boundary.maps import MapGeometry
 from sphkit.core.kernels import Kernel, kernel_dw, kernel_w
 from sphkit.core.particles import ParticleSet
-from sphkit.core.sdf import (
+from sphkit.core.state import SimState
+from sphkit.geometry.cache import cached_arrays
+from sphkit.geometry.grids import _eval_many, ball_quadrature, serendipity_mask
+from sphkit.geometry.mesh_sampling import sample_mesh_surface, sample_mesh_volume
+from sphkit.geometry.meshes import load_mesh
+from sphkit.geometry.sampling import lattice_block
+from sphkit.geometry.sdf import (
     BoxDistance,
     MeshDistance,
-    cached_arrays,
     lattice_points,
     mesh_sdf_lattice,
     polygon_sdf_lattice,
     sdf_lattice_cached,
 )
-from sphkit.core.state import SimState
 from sphkit.scene.files import load_scene
-from sphkit.scene.sampling import lattice_block, load_mesh, sample_mesh_surface, sample_mesh_volume
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
 
@@ -147,7 +145,7 @@ def test_serendipity_interpolation_reproduces_cubics(dim: int) -> None:
     q3[:dim] = q
     _eval_many(vals.ravel(), lo3, cell3, res3, dim, q3, out)
     np.testing.assert_allclose(out, f(q)[0], atol=1e-12)
-    from sphkit.core.boundary_map import grid_eval
+    from sphkit.geometry.grids import grid_eval
 
     g = np.array([grid_eval(vals.ravel(), lo3, cell3, res3, dim, *q3[:, k])[1:1 + dim]
                   for k in range(200)]).T
@@ -224,7 +222,7 @@ def test_density_map_virtual_particle_reproduces_density_and_gradient(dim: int) 
     rho = bmap.eval_values(x.T)
     inband = (ys > 0.1 * r) & (ys < h)
     assert np.diff(st.nl_fb.offsets).tolist() == inband.astype(int).tolist()
-    from sphkit.core.boundary_map import grid_eval
+    from sphkit.geometry.grids import grid_eval
 
     bx, bV = st.boundary["x"], st.boundary["V"]
     for k, i in enumerate(np.flatnonzero(inband)):

@@ -12,7 +12,7 @@ sphere obstacle, for Akinci particles, density maps and volume maps (DFSPH).
    Boundaries: Akinci particles (mirrored / one-sided pressure, and the MLS pressure of Band
    et al. 2018), density and volume maps with
    SPlisHSPlasH's boundary term and with the hydrostatic boundary pressure
-   (``configuration.boundary.pressure: "hydrostatic"``, :mod:`sphkit.core.boundary_map`).
+   (``configuration.boundary.pressure: "hydrostatic"``, :mod:`sphkit.boundary.maps_hydrostatic`).
    Prints the pressure slope over the middle 80 % of the column as a multiple of rho0 g and its
    deviation from 1 in %; the profile error (:func:`profile_error`: the largest deviation of a
    layer-averaged pressure from rho0 g depth over the middle 80 %, layers 2r thick, the free

@@ -40,20 +40,10 @@ import numba
 import numpy as np
 
 from sphkit.core.particles import ParticleSet
+from sphkit.geometry.rotations import rotation_matrix
 
 #: SPlisHSPlasH starts animating (clearing) the emitter region this long before start_time [s]
 CLEAR_AHEAD = 0.25
-
-
-def rotation(axis: list[float] | np.ndarray, angle: float) -> np.ndarray:
-    """3x3 rotation by ``angle`` [rad] about ``axis`` (Rodrigues' formula, right-hand rule)."""
-    a = np.asarray(axis, dtype=np.float64)
-    n = float(np.linalg.norm(a))
-    if angle == 0.0 or n == 0.0:
-        return np.eye(3)
-    k = a / n
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
 
 
 @numba.njit(cache=True, fastmath=True)
@@ -106,7 +96,7 @@ class FluidEmitter:
         x0[: len(cfg.position)] = cfg.position
         self.x0 = x0
         axis = [0.0, 0.0, 1.0] if dim == 2 else cfg.rotation_axis
-        self.R = rotation(axis, float(cfg.rotation_angle))
+        self.R = rotation_matrix(axis, float(cfg.rotation_angle))
         self.direction = self.R[:, 0].copy()
         diam = 2.0 * r
         n_w = max(1, int(round(cfg.width / diam)))
@@ -191,8 +181,9 @@ class FluidEmitter:
             size[2] = 2.0 * self.h
         if self.circle:
             mesh = trimesh.creation.cylinder(radius=0.5 * size[1], height=size[0], sections=48)
-            mesh.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2,
-                                                                         [0, 1, 0]))
+            turn = np.eye(4)
+            turn[:3, :3] = rotation_matrix([0.0, 1.0, 0.0], math.pi / 2)
+            mesh.apply_transform(turn)
         else:
             mesh = trimesh.creation.box(extents=size)
         front = mesh.face_normals[:, 0] > 0.99 * np.linalg.norm(mesh.face_normals, axis=1)

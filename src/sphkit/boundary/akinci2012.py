@@ -39,6 +39,29 @@ def _volumes(x, off, idx, h, kid, dim, L, V):
         V[b] = 1.0 / s
 
 
+def boundary_volumes(x: np.ndarray, h: float, kid: int, dim: int,
+                     period: tuple[float, float] | None = None,
+                     out: np.ndarray | None = None) -> np.ndarray:
+    """The volumes of Eq. (4), ``V_b = 1 / sum_k W_bk``, of the boundary particles x (dim, N)
+    among themselves (k over x, self included).
+
+    Args:
+        x: boundary particle positions (dim, N) [m].
+        h: kernel support radius [m].
+        kid: kernel id (:func:`sphkit.core.kernels.kernel_id`).
+        dim: 2 or 3.
+        period: ``(lo, L)`` of a periodic x axis (minimum-image distances), or None.
+        out: (N,) array to write the volumes to; by default a new one of x's dtype.
+
+    Returns:
+        The volumes (N,) [m^dim] (``out`` when given).
+    """
+    nl = neighbor_lists(x, h, period)
+    V = np.empty(x.shape[1], dtype=x.dtype) if out is None else out
+    _volumes(x, nl.offsets, nl.indices, h, kid, dim, 0.0 if period is None else period[1], V)
+    return V
+
+
 class Akinci2012(BoundaryModel):
     """Static boundary particles with Akinci volumes; rebuilds fluid-boundary neighbour lists."""
 
@@ -53,9 +76,8 @@ class Akinci2012(BoundaryModel):
         bd.register("V")
         bd.register("v", "vector")
         if bd.n:
-            nl = neighbor_lists(bd["x"], state.h, state.periodic)
-            _volumes(bd["x"], nl.offsets, nl.indices, state.h, state.kid, state.dim,
-                     state.period, bd["V"])
+            boundary_volumes(bd["x"], state.h, state.kid, state.dim, state.periodic,
+                             out=bd["V"])
             self.grid = Grid(bd["x"], state.h)
 
     def rebuild(self, state: SimState) -> None:

@@ -3,7 +3,7 @@ boundary representation for SPH", Motion, Interaction and Games (MIG '19); as SP
 implements them (``BoundaryModel_Bender2019``, ``SimulatorBase::initVolumeMap``,
 ``TimeStep::computeVolumeAndBoundaryX``; its ``boundaryHandlingMethod`` 2, the default).
 
-Precomputation, per static body (:mod:`sphkit.core.boundary_map`): the map distance ``phi``
+Precomputation, per static body (:mod:`sphkit.boundary.maps`): the map distance ``phi``
 (positive in the fluid, moved ``0.5 r`` into the fluid "to prevent penetration", plus the wall
 thickness) and the boundary volume inside the support sphere of a point x (paper, Eq. 7-8),
 
@@ -30,7 +30,7 @@ only after too large steps) is moved ``min(2r - phi, 0.1 r)`` along n and stoppe
 SPlisHSPlasH; :attr:`pushed` counts these events.
 
 Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrostatic"``; not in
-the paper nor in SPlisHSPlasH, see :mod:`sphkit.core.boundary_map`): the virtual neighbour
+the paper nor in SPlisHSPlasH, see :mod:`sphkit.boundary.maps_hydrostatic`): the virtual neighbour
 mirrors the pressure (``-2 k_i V_b grad W_ib``) and the wall adds the kernel moment of Adami et
 al.'s (2012, Eq. 27) extrapolated pressure ``p_b = p_i + rho_i g . (x_b - x_i)``: along the wall
 the virtual neighbour's density ``V_b W_ib``, across it the normal moment integrated with the
@@ -40,7 +40,7 @@ hydrostatic with SPlisHSPlasH's term (SPlisHSPlasH 2.19: +11 %) and -3 % with th
 
 Moving rigid bodies (paper, Sec. 5): the map of a kinematic or dynamic body is computed once in
 the body's frame and queried there, and the virtual particle goes back to the world with the
-body's surface velocity (:mod:`sphkit.core.boundary_map`, "Moving rigid bodies"); the map of a
+body's surface velocity (:mod:`sphkit.boundary.maps`, "Moving rigid bodies"); the map of a
 moving body is built for its mesh moved :data:`MOVING_INSET` r inward.
 """
 
@@ -51,16 +51,15 @@ import math
 import numba
 import numpy as np
 
-from sphkit.core.boundary_map import (
-    BoundaryMap,
-    MapBoundaryModel,
+from sphkit.boundary.maps import BoundaryMap, MapBoundaryModel
+from sphkit.core.state import SimState
+from sphkit.geometry.grids import (
     ball_quadrature,
     grid_eval,
     lattice_lookup,
     lattice_lower_bound,
     map_query_point,
 )
-from sphkit.core.state import SimState
 
 #: depth [particle radii] by which the map surface of a *moving* body is moved into its mesh.
 #: Measured (3D, cubic kernel, r = 12.5 mm, DFSPH, a 0.2 m deep tank at rest): fluid rests

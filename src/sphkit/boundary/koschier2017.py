@@ -3,7 +3,7 @@ ACM SIGGRAPH / Eurographics Symposium on Computer Animation (SCA '17); as SPlisH
 them (``BoundaryModel_Koschier2017``, ``SimulatorBase::initDensityMap``,
 ``TimeStep::computeDensityAndGradient``; its ``boundaryHandlingMethod`` 1).
 
-Precomputation, per static body (:mod:`sphkit.core.boundary_map`): the map distance ``phi``
+Precomputation, per static body (:mod:`sphkit.boundary.maps`): the map distance ``phi``
 (positive in the fluid, moved into the fluid by the wall thickness) and the boundary's normalized
 density contribution at a point x (paper, Eq. 11-13: the kernel-weighted volume of the solid,
 with a density that grows linearly into the solid to make up for the missing fluid neighbours),
@@ -34,7 +34,7 @@ velocity is replaced by 0.05 m/s outwards (SPlisHSPlasH; its step cap ``50 r dt`
 ``0.1 r`` because the boundary model does not see dt); :attr:`pushed` counts these events.
 
 Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrostatic"``; not in
-the paper nor in SPlisHSPlasH, see :mod:`sphkit.core.boundary_map`): the virtual neighbour
+the paper nor in SPlisHSPlasH, see :mod:`sphkit.boundary.maps_hydrostatic`): the virtual neighbour
 mirrors the pressure (``-2 k_i grad rho_B`` instead of ``-k_i grad rho_B``) and the wall adds
 the kernel moment of Adami et al.'s (2012, Eq. 27) extrapolated pressure ``p_b = p_i + rho_i g .
 (x_b - x_i)``: along the wall the density rho_B itself (the plane-wall identity), across it the
@@ -57,17 +57,16 @@ import math
 import numba
 import numpy as np
 
-from sphkit.core.boundary_map import (
-    BoundaryMap,
-    MapBoundaryModel,
+from sphkit.boundary.maps import BoundaryMap, MapBoundaryModel
+from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.state import SimState
+from sphkit.geometry.grids import (
     ball_quadrature,
     grid_eval,
     lattice_lookup,
     lattice_lower_bound,
     map_query_point,
 )
-from sphkit.core.kernels import kernel_dw, kernel_w
-from sphkit.core.state import SimState
 
 #: SPlisHSPlasH's constants: density scale, ramp factor in 3D and 2D
 SCALE = 0.8

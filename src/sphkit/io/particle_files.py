@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sphkit.geometry.rotations import rotation_matrix
 from sphkit.io.bgeo import read_bgeo
 
 logger = logging.getLogger("sphkit.io")
@@ -137,17 +138,6 @@ def read_particle_file(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     if not np.all(np.isfinite(data["position"])):
         raise ParticleFileError(f"particle file {str(p)!r}: positions that are NaN or infinite")
     return data
-
-
-def rotation_matrix(axis: np.ndarray | list[float], angle: float) -> np.ndarray:
-    """Rotation by ``angle`` radians about ``axis`` (Rodrigues' formula), 3 x 3."""
-    a = np.asarray(axis, dtype=float)
-    n = np.linalg.norm(a)
-    if angle == 0.0 or n == 0.0:
-        return np.eye(3)
-    k = a / n
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(angle) * kx + (1.0 - np.cos(angle)) * (kx @ kx)
 
 
 def place_particles(points: np.ndarray, translation: list[float] | np.ndarray, scale: float,

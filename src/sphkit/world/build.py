@@ -21,6 +21,7 @@ from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.emitters import FluidEmitter
+from sphkit.geometry import GeometryError
 from sphkit.scene.checks import check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.bodies import rigid_bodies
@@ -97,6 +98,13 @@ def _forces(mat: Material) -> tuple[list[NonPressureForce], list[str]]:
 def build_world(scene: Scene) -> World:
     """Build the world of a scene (raises :class:`~sphkit.scene.schema.SceneError` naming the
     field when the scene cannot be built)."""
+    try:
+        return _build(scene)
+    except GeometryError as e:  # a mesh that cannot be loaded or sampled: the user's input
+        raise SceneError(str(e)) from None
+
+
+def _build(scene: Scene) -> World:
     mat = check_scene(scene)
     cfg = scene.configuration
     state = _state(scene, mat)

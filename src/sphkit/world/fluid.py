@@ -14,7 +14,8 @@ import numpy as np
 
 from sphkit.core.kernels import hexagonal_volume, lattice_volume
 from sphkit.core.state import SimState
-from sphkit.scene import sampling
+from sphkit.geometry.mesh_sampling import sample_mesh_volume
+from sphkit.geometry.sampling import hexagonal_block, lattice_block
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.meshes import SceneMeshes
 
@@ -35,10 +36,10 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
     for k, blk in enumerate(scene.fluid_blocks):
         bvol = vol
         if blk.lattice == "hexagonal":  # spacing 2r, V = 1 / sum_k W over that lattice
-            pts = periodic_clip(state, sampling.hexagonal_block(blk.start, blk.end, r))
+            pts = periodic_clip(state, hexagonal_block(blk.start, blk.end, r))
             bvol = hexagonal_volume(2.0 * r, state.kid, state.h)
         else:
-            pts = periodic_clip(state, sampling.lattice_block(blk.start, blk.end, r))
+            pts = periodic_clip(state, lattice_block(blk.start, blk.end, r))
         if len(pts) == 0:
             raise SceneError(
                 f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
@@ -51,7 +52,7 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
     for k, ff in enumerate(scene.fluid_files):
         _add_fluid_file(state, scene, meshes, k, ff, vol)
     for k, fm in enumerate(scene.fluid_meshes):
-        pts = sampling.sample_mesh_volume(meshes.fluid_mesh(k), r, dim, invert=fm.invert)
+        pts = sample_mesh_volume(meshes.fluid_mesh(k), r, dim, invert=fm.invert)
         if len(pts) == 0:
             raise SceneError(
                 f"fluid_meshes[{k}]: {fm.geometry_file!r} holds no particle of radius {r}; "

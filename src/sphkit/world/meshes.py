@@ -12,7 +12,7 @@ from pathlib import Path
 
 import trimesh
 
-from sphkit.scene import sampling
+from sphkit.geometry.meshes import load_mesh
 from sphkit.scene.files import resolve_scene_path
 from sphkit.scene.schema import Scene
 
@@ -32,7 +32,7 @@ class SceneMeshes:
     def _load(self, kind: str, k: int, m) -> trimesh.Trimesh:
         key = (kind, k)
         if key not in self._meshes:
-            self._meshes[key] = sampling.load_mesh(self.path(m.geometry_file), m.translation,
+            self._meshes[key] = load_mesh(self.path(m.geometry_file), m.translation,
                                                    m.rotation_axis, m.rotation_angle, m.scale)
         return self._meshes[key]
 

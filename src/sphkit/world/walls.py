@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from sphkit.boundary.maps import MapGeometry
 from sphkit.boundary.rigid import INSET, inset_samples
-from sphkit.core.boundary_map import MapGeometry
 from sphkit.core.state import SimState
-from sphkit.scene import sampling
+from sphkit.geometry.mesh_sampling import sample_mesh_surface
+from sphkit.geometry.meshes import section_segments
+from sphkit.geometry.sampling import box_wall_distance, box_walls
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.fluid import periodic_clip
 from sphkit.world.meshes import SceneMeshes
@@ -40,18 +42,18 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
     up = gravity_axis(state)
     bd = state.boundary
     for k, box in enumerate(scene.boxes):
-        pts = sampling.box_walls(box.min, box.max, r, layers=box.layers,
+        pts = box_walls(box.min, box.max, r, layers=box.layers,
                                  open_top_axis=up if box.open_top else None)
         # lattice walls whose Akinci volumes stand for the missing fluid: the boundary
         # pressure is mirrored fully in the iterative solvers (core.ppe.kappa_accel_cached)
         pts = periodic_clip(state, pts)
-        dist, normal = sampling.box_wall_distance(pts, box.min, box.max)
+        dist, normal = box_wall_distance(pts, box.min, box.max)
         bd.add(pts, name=f"boxes[{k}]", pressure_mirror=1.0, wall_distance=dist,
                wall_normal=normal)
     bodies = moving_meshes(scene)
     for k in range(len(scene.meshes)):
         mesh = meshes.mesh(k)
-        pts = sampling.sample_mesh_surface(mesh, r, dim)
+        pts = sample_mesh_surface(mesh, r, dim)
         if k in bodies:  # a moving rigid body (sphkit.boundary.rigid)
             # the fluid rests at the mesh surface (see inset_samples); 2D: the section's
             # samples (z = 0) move along the side faces' normals, which lie in the plane
@@ -66,7 +68,7 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
         bd.add(periodic_clip(state, pts), name=f"meshes[{k}]")
     for k, (em, cfg) in enumerate(zip(housings, scene.emitters, strict=True)):
         if cfg.housing:
-            pts = sampling.sample_mesh_surface(em.housing_mesh(), r, dim)
+            pts = sample_mesh_surface(em.housing_mesh(), r, dim)
             bd.add(periodic_clip(state, pts), name=f"emitters[{k}].housing")
 
 
@@ -77,10 +79,10 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
     Boxes are containers (the fluid inside, ``invert``), analytic; an open box extends to
     infinity along the gravity axis. Meshes: 3D triangle meshes, in 2D the section of the
     mesh with the plane z = 0 (as for boundary particles). A moving mesh's map lives in its
-    body's frame (:mod:`sphkit.core.boundary_map`, "Moving rigid bodies"), its surface moved
+    body's frame (:mod:`sphkit.boundary.maps`, "Moving rigid bodies"), its surface moved
     ``moving_inset_in_radii`` r into the mesh.
     """
-    from sphkit.core.sdf import BoxDistance, MeshDistance, PolygonDistance
+    from sphkit.geometry.sdf import BoxDistance, MeshDistance, PolygonDistance
 
     dim = state.dim
     bc = scene.configuration.boundary
@@ -98,7 +100,7 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
         if dim == 3:
             sdf = MeshDistance(mesh.vertices, mesh.faces)
         else:
-            a, b = sampling.section_segments(mesh)
+            a, b = section_segments(mesh)
             if len(a) == 0:
                 raise SceneError(
                     f"meshes[{k}]: {mb.geometry_file!r} does not cross the plane z = 0; "

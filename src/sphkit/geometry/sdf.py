@@ -29,27 +29,22 @@ Three sources, one interface (:class:`SignedDistance`: ``lattice(origin, spacing
   rays), in a compiled loop over lattice points (sections hold few segments).
 * :class:`BoxDistance` -- an axis-aligned box (closed, or open along one axis), analytic.
 
-:func:`cached_arrays` stores computed arrays on disk, keyed by a SHA-256 hash of everything that
-determines them (for meshes: vertices and faces as placed in the scene, so the transform is
-included, and the lattice); files are written atomically (temporary file, then rename). The cache
-folder is ``$SPHKIT_CACHE_DIR`` or ``~/.cache/sphkit``; ``SPHKIT_CACHE_DIR=off`` disables it.
+:func:`sdf_lattice_cached` keeps computed lattices in the disk cache of
+:mod:`sphkit.geometry.cache` (keyed by the vertices and faces as placed in the scene, so the
+transform is included, and the lattice).
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import tempfile
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 import numba
 import numpy as np
 
-#: bumped whenever a change alters cached results
-CACHE_VERSION = "sdf-1"
+from sphkit.geometry.cache import cached_arrays
 
 _JIT = dict(cache=True)  # no fastmath: the distance and sign code compares infinities and zeros
 
@@ -579,79 +574,11 @@ class BoxDistance(SignedDistance):
 
 def sdf_lattice_cached(src: SignedDistance, origin: Sequence[float], spacing: Sequence[float],
                       shape: Sequence[int], folder: Path | None) -> tuple[np.ndarray, bool]:
-    """:meth:`SignedDistance.lattice` through :func:`cached_arrays`; returns (values, hit)."""
+    """:meth:`SignedDistance.lattice` through :func:`sphkit.geometry.cache.cached_arrays`;
+    returns (values, hit)."""
     o = np.asarray(origin, dtype=np.float64)
     s = np.asarray(spacing, dtype=np.float64)
     shp = np.asarray(shape, dtype=np.int64)
     arrays, hit = cached_arrays("sdf", [src.key(), o, s, shp],
                                 lambda: {"d": src.lattice(o, s, shp)}, folder)
     return arrays["d"], hit
-
-
-# ---------------------------------------------------------------------------------------------
-# disk cache
-
-
-def cache_folder(override: str | os.PathLike[str] | None = None) -> Path | None:
-    """The cache folder: ``override``, else ``$SPHKIT_CACHE_DIR``, else ``~/.cache/sphkit``;
-    None when the value is ``off`` (caching disabled)."""
-    value = str(override) if override is not None else os.environ.get("SPHKIT_CACHE_DIR", "")
-    if value.strip().lower() in ("off", "none", "0", "false"):
-        return None
-    if value.strip():
-        return Path(value).expanduser()
-    return Path.home() / ".cache" / "sphkit"
-
-
-def cache_key(items: Sequence) -> str:
-    """SHA-256 (hex) of a list of arrays, numbers, strings and nested lists."""
-    h = hashlib.sha256(CACHE_VERSION.encode())
-
-    def feed(x) -> None:
-        if isinstance(x, np.ndarray):
-            a = np.ascontiguousarray(x)
-            h.update(f"nd{a.dtype.str}{a.shape}".encode())
-            h.update(a.tobytes())
-        elif isinstance(x, (list, tuple)):
-            h.update(f"seq{len(x)}".encode())
-            for y in x:
-                feed(y)
-        elif isinstance(x, float):
-            h.update(f"f{x!r}".encode())
-        else:
-            h.update(f"{type(x).__name__}{x!r}".encode())
-
-    feed(list(items))
-    return h.hexdigest()
-
-
-def cached_arrays(kind: str, items: Sequence, compute: Callable[[], dict[str, np.ndarray]],
-                  folder: Path | None) -> tuple[dict[str, np.ndarray], bool]:
-    """Arrays from ``<folder>/<kind>-<hash>.npz``, or ``compute()`` stored there atomically.
-
-    Returns (arrays, hit). A cache file that cannot be read is recomputed and replaced; a folder
-    that cannot be written leaves the result uncached.
-    """
-    if folder is None:
-        return compute(), False
-    path = Path(folder) / f"{kind}-{cache_key([kind, *items])}.npz"
-    if path.is_file():
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                return {k: z[k] for k in z.files}, True
-        except (OSError, ValueError, KeyError):
-            pass
-    arrays = compute()
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-    except OSError:
-        pass
-    return arrays, False

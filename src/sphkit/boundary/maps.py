@@ -1,23 +1,11 @@
 """Shared machinery of implicit boundary maps (density maps, Koschier & Bender 2017; volume maps,
-Bender et al. 2019): the grid and its cubic interpolation, the ball quadrature, map construction
-and caching, and the per-step assembly of one virtual boundary neighbour per fluid particle.
+Bender et al. 2019): map construction and caching, the per-step assembly of one virtual boundary
+neighbour per fluid particle, and the body frames of moving maps.
 
-Grid. As Discregrid's ``CubicLagrangeDiscreteGrid`` (used by SPlisHSPlasH), a map covers a box
-divided into ``res`` cells per axis and interpolates with the cubic *serendipity* element in
-every cell: 32 nodes in 3D (8 corners and 2 nodes on each of the 12 edges, at 1/3 and 2/3) and 12
-in 2D. In local coordinates ``xi in [-1, 1]^d`` with a node at ``xi_n``:
-
-* corner (3D) ``N = (1 + xi xi_n)(1 + eta eta_n)(1 + zeta zeta_n)(9 (xi^2 + eta^2 + zeta^2) - 19)
-  / 64``, edge along xi (``xi_n = +-1/3``) ``N = 9/64 (1 - xi^2)(1 + 9 xi xi_n)(1 + eta eta_n)
-  (1 + zeta zeta_n)``, and likewise for the other axes;
-* corner (2D) ``N = (1 + xi xi_n)(1 + eta eta_n)(9 (xi^2 + eta^2) - 10) / 32``, edge along xi
-  ``N = 9/32 (1 - xi^2)(1 + 9 xi xi_n)(1 + eta eta_n)``.
-
-These reproduce every polynomial of total degree 3 exactly, and their gradients are analytic
-(SPlisHSPlasH's normals come from the shape-function gradients too). All nodes lie on the lattice
-of spacing ``cell / 3``; a field is stored on that whole lattice (flat, C order, 2D with a third
-axis of length 1). The signed distance field (field 0) is computed exactly at every lattice point
-(:mod:`sphkit.core.sdf`), so it can also be read trilinearly between the nodes, which the map
+Grid: a map is a cubic serendipity grid (:mod:`sphkit.geometry.grids`, as Discregrid's
+``CubicLagrangeDiscreteGrid``, used by SPlisHSPlasH) with two fields on the lattice of spacing
+``cell / 3``. The signed distance field (field 0) is computed exactly at every lattice point
+(:mod:`sphkit.geometry.sdf`), so it can also be read trilinearly between the nodes, which the map
 quadrature does; the map field (field 1) is computed at the serendipity nodes only.
 
 Domain and distance, as SPlisHSPlasH's ``SimulatorBase::initDensityMap`` / ``initVolumeMap``:
@@ -39,37 +27,9 @@ lists ``state.nl_fb`` (at most one entry per map and fluid particle), so every p
 uses them through its usual boundary terms ``rho0 V_b W(x_i - x_b)`` and ``V_b grad W(x_i - x_b)``.
 
 Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrostatic"``, static
-maps only). SPlisHSPlasH's boundary term for maps, ``-k_i grad rho_B`` (``pressure_mirror`` 0,
-see :mod:`sphkit.core.ppe`), is half of the mirrored pressure, and it acts along the map normal
-only. Measured in validation/maps.py's 2D tank (and in SPlisHSPlasH 2.19 run on the same
-column), the fluid next to a side wall then carries 61 % (SPlisHSPlasH 67 %) of rho0 g H more
-pressure than the interior with density maps, 15 % (SPlisHSPlasH 9-21 %) with volume maps: the
-wall pushes with k_i, not 2 k_i, so the wall column needs about twice the pressure to keep the
-interior fluid off the wall, and nothing on the wall side carries the column's weight. With this
-option the boundary of a fluid particle i is given the pressure that Adami, Hu and Adams 2012
-("A generalized wall boundary condition for smoothed particle hydrodynamics", JCP 231, Eq. 27)
-extrapolate into a static wall, ``p_b(x) = p_i + rho_i g . (x - x_i)``. In the symmetric pressure
-term integrated over the solid (the continuum form of the map),
-
-    a_i = -integral_solid (k_i + k_b(x)) grad_i W(x_i - x) dx
-        = -2 k_i grad rho_B - M grad k_b,     grad k_b = g / rho_hat_i,
-
-the first part is the virtual neighbour with the mirrored pressure (``pressure_mirror`` 1) and
-the second the kernel moment of the solid, ``M = -integral_solid x' (x) x' W'(|x'|)/|x'| dx'``
-(``x' = x - x_i``), which gives the wall side of the kernel the hydrostatic pressure gradient
-along the wall too. For a plane wall ``M = T (I - n n) + N n n``, and integrating by parts along
-the wall (``-integral t^2 W'/|x'| dt = integral W dt``) shows that the tangential part equals the
-wall's density contribution, ``T = rho_B``, for any solid weight that varies only across the
-wall. The fluid's own tangential moment obeys the same identity in the continuum, so with
-``T = rho_B`` the wall completes the kernel's tangential moment exactly where it completes the
-density, which the pressure solvers hold at rest; sphkit takes T as the virtual neighbour's
-density contribution ``V_b W(|x_i - x_b|)`` (both map types; for volume maps this is the
-point-particle density of Bender et al., not the integral). The normal part ``N = n.M.n`` is
-precomputed on one more map field with the method's own solid weight (:func:`moment_nodes`), and
-``-(T (I - n n) + N n n) g / rho_hat_i`` is added with the non-pressure forces
-(:class:`WallMomentForce`), before the pressure solve. Measured (2D, same tank): the wall
-column's excess drops to about +8 % (density maps) and -4 % (volume maps). Moving bodies' maps
-keep SPlisHSPlasH's term (their wall acceleration would enter ``p_b``).
+maps only): the virtual neighbour mirrors the pressure and the walls add the kernel moment of the
+extrapolated pressure of Adami et al. 2012, from one more map field per geometry
+(:mod:`sphkit.boundary.maps_hydrostatic`).
 
 Moving rigid bodies (Bender et al. 2019, Sec. 5, "dynamic rigid bodies"; SPlisHSPlasH's
 ``BoundaryModel_Bender2019``/``_Koschier2017`` with a dynamic ``RigidBodyObject``): a body's map
@@ -91,7 +51,6 @@ body does not feel it, so momentum is not conserved in the steps where it happen
 
 from __future__ import annotations
 
-import math
 from abc import abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -100,253 +59,23 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from sphkit.core.kernels import kernel_dw, kernel_w
-from sphkit.core.methods import BoundaryModel, NonPressureForce
+from sphkit.boundary.maps_hydrostatic import (
+    WallMomentForce,
+    gamma_table,
+    moment_nodes,
+    wall_moment_accel,
+)
+from sphkit.core.methods import BoundaryModel
 from sphkit.core.neighbors import NeighborList
-from sphkit.core.sdf import SignedDistance, cache_folder, cached_arrays, sdf_lattice_cached
 from sphkit.core.state import SimState
+from sphkit.geometry.cache import cache_folder, cached_arrays
+from sphkit.geometry.grids import _eval_many, ball_quadrature, serendipity_mask
+from sphkit.geometry.rotations import rotate, rotate_t
+from sphkit.geometry.sdf import SignedDistance, sdf_lattice_cached
 
 _JIT = dict(cache=True, fastmath=True)
 #: lattice points per field above which the automatic resolution is reduced
 MAX_AUTO_POINTS = 8_000_000
-
-# serendipity nodes: offsets on the cell's 4^d lattice (0..3) and type (0 corner, 1+a edge along
-# axis a)
-_N3 = []
-for _a in (0, 3):
-    for _b in (0, 3):
-        for _c in (0, 3):
-            _N3.append((_a, _b, _c, 0))
-for _axis in range(3):
-    for _m in (1, 2):
-        for _b in (0, 3):
-            for _c in (0, 3):
-                _o = [0, 0, 0]
-                _o[_axis] = _m
-                _o[(_axis + 1) % 3] = _b
-                _o[(_axis + 2) % 3] = _c
-                _N3.append((_o[0], _o[1], _o[2], 1 + _axis))
-NODES3 = np.array(_N3, dtype=np.int64)
-_N2 = [(a, b, 0, 0) for a in (0, 3) for b in (0, 3)]
-for _axis in range(2):
-    for _m in (1, 2):
-        for _b in (0, 3):
-            _o = [0, 0, 0]
-            _o[_axis] = _m
-            _o[1 - _axis] = _b
-            _N2.append((_o[0], _o[1], 0, 1 + _axis))
-NODES2 = np.array(_N2, dtype=np.int64)
-
-
-# ---------------------------------------------------------------------------------------------
-# interpolation
-
-
-@numba.njit(**_JIT)
-def _locate(p, lo, cell, res):
-    """Cell index and local coordinate in [-1, 1] of p on one axis; -1 when outside."""
-    u = (p - lo) / cell
-    if u < -1e-9 or u > res + 1e-9:
-        return -1, 0.0
-    c = int(math.floor(u))
-    c = min(max(c, 0), res - 1)
-    return c, 2.0 * (u - c) - 1.0
-
-
-@numba.njit(**_JIT)
-def grid_eval(f, lo, cell, res, dim, p0, p1, p2):
-    """Cubic serendipity interpolation of the flat lattice field f at p.
-
-    Returns (value, d/dx0, d/dx1, d/dx2, inside); outside the grid (value 0, inside False).
-    """
-    c0, a = _locate(p0, lo[0], cell[0], res[0])
-    c1, b = _locate(p1, lo[1], cell[1], res[1])
-    c2 = 0
-    c = 0.0
-    if dim == 3:
-        c2, c = _locate(p2, lo[2], cell[2], res[2])
-    if c0 < 0 or c1 < 0 or c2 < 0:
-        return 0.0, 0.0, 0.0, 0.0, False
-    n1 = 3 * res[1] + 1
-    n2 = 3 * res[2] + 1 if dim == 3 else 1
-    base0, base1, base2 = 3 * c0, 3 * c1, 3 * c2
-    val = 0.0
-    g0 = 0.0
-    g1 = 0.0
-    g2 = 0.0
-    if dim == 3:
-        s2 = 9.0 * (a * a + b * b + c * c) - 19.0
-        for n in range(32):
-            oa, ob, oc, typ = NODES3[n, 0], NODES3[n, 1], NODES3[n, 2], NODES3[n, 3]
-            na = -1.0 + 2.0 * oa / 3.0
-            nb = -1.0 + 2.0 * ob / 3.0
-            nc = -1.0 + 2.0 * oc / 3.0
-            fa = 1.0 + a * na
-            fb = 1.0 + b * nb
-            fc = 1.0 + c * nc
-            if typ == 0:
-                N = fa * fb * fc * s2 / 64.0
-                da = (na * fb * fc * s2 + fa * fb * fc * 18.0 * a) / 64.0
-                db = (fa * nb * fc * s2 + fa * fb * fc * 18.0 * b) / 64.0
-                dc = (fa * fb * nc * s2 + fa * fb * fc * 18.0 * c) / 64.0
-            elif typ == 1:
-                e = (1.0 - a * a) * (1.0 + 9.0 * a * na)
-                de = -2.0 * a * (1.0 + 9.0 * a * na) + 9.0 * na * (1.0 - a * a)
-                N = 9.0 / 64.0 * e * fb * fc
-                da = 9.0 / 64.0 * de * fb * fc
-                db = 9.0 / 64.0 * e * nb * fc
-                dc = 9.0 / 64.0 * e * fb * nc
-            elif typ == 2:
-                e = (1.0 - b * b) * (1.0 + 9.0 * b * nb)
-                de = -2.0 * b * (1.0 + 9.0 * b * nb) + 9.0 * nb * (1.0 - b * b)
-                N = 9.0 / 64.0 * e * fa * fc
-                da = 9.0 / 64.0 * e * na * fc
-                db = 9.0 / 64.0 * de * fa * fc
-                dc = 9.0 / 64.0 * e * fa * nc
-            else:
-                e = (1.0 - c * c) * (1.0 + 9.0 * c * nc)
-                de = -2.0 * c * (1.0 + 9.0 * c * nc) + 9.0 * nc * (1.0 - c * c)
-                N = 9.0 / 64.0 * e * fa * fb
-                da = 9.0 / 64.0 * e * na * fb
-                db = 9.0 / 64.0 * e * fa * nb
-                dc = 9.0 / 64.0 * de * fa * fb
-            v = f[((base0 + oa) * n1 + base1 + ob) * n2 + base2 + oc]
-            val += N * v
-            g0 += da * v
-            g1 += db * v
-            g2 += dc * v
-        g2 *= 2.0 / cell[2]
-    else:
-        s2 = 9.0 * (a * a + b * b) - 10.0
-        for n in range(12):
-            oa, ob, typ = NODES2[n, 0], NODES2[n, 1], NODES2[n, 3]
-            na = -1.0 + 2.0 * oa / 3.0
-            nb = -1.0 + 2.0 * ob / 3.0
-            fa = 1.0 + a * na
-            fb = 1.0 + b * nb
-            if typ == 0:
-                N = fa * fb * s2 / 32.0
-                da = (na * fb * s2 + fa * fb * 18.0 * a) / 32.0
-                db = (fa * nb * s2 + fa * fb * 18.0 * b) / 32.0
-            elif typ == 1:
-                e = (1.0 - a * a) * (1.0 + 9.0 * a * na)
-                de = -2.0 * a * (1.0 + 9.0 * a * na) + 9.0 * na * (1.0 - a * a)
-                N = 9.0 / 32.0 * e * fb
-                da = 9.0 / 32.0 * de * fb
-                db = 9.0 / 32.0 * e * nb
-            else:
-                e = (1.0 - b * b) * (1.0 + 9.0 * b * nb)
-                de = -2.0 * b * (1.0 + 9.0 * b * nb) + 9.0 * nb * (1.0 - b * b)
-                N = 9.0 / 32.0 * e * fa
-                da = 9.0 / 32.0 * e * na
-                db = 9.0 / 32.0 * de * fa
-            v = f[(base0 + oa) * n1 + base1 + ob]
-            val += N * v
-            g0 += da * v
-            g1 += db * v
-    return val, g0 * 2.0 / cell[0], g1 * 2.0 / cell[1], g2, True
-
-
-@numba.njit(**_JIT)
-def lattice_lookup(f, origin, spacing, shape, dim, p0, p1, p2):
-    """Multilinear interpolation of the flat lattice field f at p (clamped to the lattice)."""
-    u0 = min(max((p0 - origin[0]) / spacing[0], 0.0), shape[0] - 1.0)
-    u1 = min(max((p1 - origin[1]) / spacing[1], 0.0), shape[1] - 1.0)
-    i0 = min(int(u0), shape[0] - 2)
-    i1 = min(int(u1), shape[1] - 2)
-    t0 = u0 - i0
-    t1 = u1 - i1
-    n1 = shape[1]
-    if dim == 2:
-        b = i0 * n1 + i1
-        return ((1 - t0) * ((1 - t1) * f[b] + t1 * f[b + 1])
-                + t0 * ((1 - t1) * f[b + n1] + t1 * f[b + n1 + 1]))
-    u2 = min(max((p2 - origin[2]) / spacing[2], 0.0), shape[2] - 1.0)
-    i2 = min(int(u2), shape[2] - 2)
-    t2 = u2 - i2
-    n2 = shape[2]
-    b = (i0 * n1 + i1) * n2 + i2
-    s1 = n2
-    s0 = n1 * n2
-    c00 = (1 - t2) * f[b] + t2 * f[b + 1]
-    c01 = (1 - t2) * f[b + s1] + t2 * f[b + s1 + 1]
-    c10 = (1 - t2) * f[b + s0] + t2 * f[b + s0 + 1]
-    c11 = (1 - t2) * f[b + s0 + s1] + t2 * f[b + s0 + s1 + 1]
-    return (1 - t0) * ((1 - t1) * c00 + t1 * c01) + t0 * ((1 - t1) * c10 + t1 * c11)
-
-
-@numba.njit(**_JIT)
-def lattice_lower_bound(f, origin, spacing, shape, dim, p0, p1, p2):
-    """A lower bound of a distance field at p from its nearest lattice point (1-Lipschitz):
-    ``f(q) - |p - q|``; -inf outside the lattice."""
-    u0 = (p0 - origin[0]) / spacing[0]
-    u1 = (p1 - origin[1]) / spacing[1]
-    u2 = (p2 - origin[2]) / spacing[2] if dim == 3 else 0.0
-    if u0 < 0 or u1 < 0 or u2 < 0 or u0 > shape[0] - 1 or u1 > shape[1] - 1 \
-            or u2 > shape[2] - 1:
-        return -np.inf
-    i0 = int(u0 + 0.5)
-    i1 = int(u1 + 0.5)
-    i2 = int(u2 + 0.5)
-    d0 = (u0 - i0) * spacing[0]
-    d1 = (u1 - i1) * spacing[1]
-    d2 = (u2 - i2) * spacing[2] if dim == 3 else 0.0
-    return f[(i0 * shape[1] + i1) * shape[2] + i2] - math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-
-
-@numba.njit(**_JIT)
-def map_query_point(x, i, dim, extend_axis, top):
-    """Fluid particle i's map lookup point: its position, clamped to ``top`` along
-    ``extend_axis`` (an open box: queries above the grid see its top layer; -1: none)."""
-    p0 = x[0, i]
-    p1 = x[1, i]
-    p2 = x[2, i] if dim == 3 else 0.0
-    if extend_axis == 1:
-        p1 = min(p1, top)
-    elif extend_axis == 0:
-        p0 = min(p0, top)
-    elif extend_axis == 2:
-        p2 = min(p2, top)
-    return p0, p1, p2
-
-
-# ---------------------------------------------------------------------------------------------
-# quadrature over the ball of radius h
-
-
-def ball_quadrature(h: float, dim: int, n_r: int | None = None,
-                    n_a: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Points (3, Q) (third row 0 in 2D) and weights (Q,) integrating over ``|xi| <= h``.
-
-    Product rule in polar / spherical coordinates: Gauss-Legendre in the radius (``n_r``, weight
-    r^(dim-1)), Gauss-Legendre in cos(theta) (``n_a``, 3D) and ``2 n_a`` equal steps in the
-    azimuth. Defaults: 3D 10 x 10 x 20 = 2000 points, 2D 16 x 48 = 768 points.
-    """
-    if dim == 3:
-        n_r = 10 if n_r is None else n_r
-        n_a = 10 if n_a is None else n_a
-        xr, wr = np.polynomial.legendre.leggauss(n_r)
-        r = 0.5 * h * (xr + 1.0)
-        wr = 0.5 * h * wr * r * r
-        mu, wm = np.polynomial.legendre.leggauss(n_a)
-        n_p = 2 * n_a
-        ph = (np.arange(n_p) + 0.5) * 2.0 * np.pi / n_p
-        R, M, P = np.meshgrid(r, mu, ph, indexing="ij")
-        W = (wr[:, None, None] * wm[None, :, None] * np.full(n_p, 2.0 * np.pi / n_p)[None, None])
-        st = np.sqrt(1.0 - M * M)
-        pts = np.stack([R * st * np.cos(P), R * st * np.sin(P), R * M])
-        return pts.reshape(3, -1).copy(), W.ravel().copy()
-    n_r = 16 if n_r is None else n_r
-    n_a = 24 if n_a is None else n_a
-    xr, wr = np.polynomial.legendre.leggauss(n_r)
-    r = 0.5 * h * (xr + 1.0)
-    wr = 0.5 * h * wr * r
-    n_p = 2 * n_a
-    ph = (np.arange(n_p) + 0.5) * 2.0 * np.pi / n_p
-    R, P = np.meshgrid(r, ph, indexing="ij")
-    W = wr[:, None] * np.full(n_p, 2.0 * np.pi / n_p)[None]
-    pts = np.stack([R * np.cos(P), R * np.sin(P), np.zeros_like(R)])
-    return pts.reshape(3, -1).copy(), W.ravel().copy()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -416,13 +145,6 @@ def _pad3(p: np.ndarray) -> np.ndarray:
     return q
 
 
-@numba.njit(parallel=True, **_JIT)
-def _eval_many(f, lo, cell, res, dim, p, out):
-    for i in numba.prange(p.shape[1]):
-        v, _a, _b, _c, ok = grid_eval(f, lo, cell, res, dim, p[0, i], p[1, i], p[2, i])
-        out[i] = v if ok else np.nan
-
-
 def map_domain(geom: MapGeometry, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Lower corner, cells per axis and cell size of a geometry's map grid."""
     lo, hi = geom.sdf.bounds()
@@ -478,12 +200,6 @@ def build_map(geom: MapGeometry, h: float, offset: float, method: str, params: l
     return BoundaryMap(geom, lo, res, cell, arrays["phi"], arrays["values"]), hit
 
 
-def serendipity_mask(shape: np.ndarray) -> np.ndarray:
-    """Lattice points that are serendipity nodes: at most one index not a multiple of 3."""
-    grids = np.meshgrid(*[np.arange(n) % 3 != 0 for n in shape], indexing="ij")
-    return sum(g.astype(np.int8) for g in grids) <= 1
-
-
 # ---------------------------------------------------------------------------------------------
 # per-step assembly and the shared model
 
@@ -516,22 +232,6 @@ def _pack(xb, Vb, vb, mbody, fid, off, bx, bV, bv, bbody, bid, idx):
                 q += 1
 
 
-@numba.njit(**_JIT)
-def _rot(R, a0, a1, a2):
-    """R a for a 3x3 R."""
-    return (R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2,
-            R[1, 0] * a0 + R[1, 1] * a1 + R[1, 2] * a2,
-            R[2, 0] * a0 + R[2, 1] * a1 + R[2, 2] * a2)
-
-
-@numba.njit(**_JIT)
-def _rot_t(R, a0, a1, a2):
-    """R^T a for a 3x3 R."""
-    return (R[0, 0] * a0 + R[1, 0] * a1 + R[2, 0] * a2,
-            R[0, 1] * a0 + R[1, 1] * a1 + R[2, 1] * a2,
-            R[0, 2] * a0 + R[1, 2] * a1 + R[2, 2] * a2)
-
-
 @numba.njit(parallel=True, **_JIT)
 def to_body_frame(x, v, c, R, vc, w, c0, xl, ul):
     """Fluid positions and velocities in a body's frame (module docstring):
@@ -545,8 +245,8 @@ def to_body_frame(x, v, c, R, vc, w, c0, xl, ul):
         u0 = v[0, i] - vc[0] - (w[1] * q2 - w[2] * q1)
         u1 = v[1, i] - vc[1] - (w[2] * q0 - w[0] * q2)
         u2 = (v[2, i] if dim == 3 else 0.0) - vc[2] - (w[0] * q1 - w[1] * q0)
-        a0, a1, a2 = _rot_t(R, q0, q1, q2)
-        b0, b1, b2 = _rot_t(R, u0, u1, u2)
+        a0, a1, a2 = rotate_t(R, q0, q1, q2)
+        b0, b1, b2 = rotate_t(R, u0, u1, u2)
         xl[0, i] = c0[0] + a0
         xl[1, i] = c0[1] + a1
         ul[0, i] = b0
@@ -565,7 +265,7 @@ def from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb, xb, vb, x, v):
     dim = x.shape[0]
     for i in numba.prange(x.shape[1]):
         if Vb[i] > 0.0:
-            q0, q1, q2 = _rot(R, xb[0, i] - c0[0], xb[1, i] - c0[1],
+            q0, q1, q2 = rotate(R, xb[0, i] - c0[0], xb[1, i] - c0[1],
                               xb[2, i] - c0[2] if dim == 3 else 0.0)
             xb[0, i] = c[0] + q0
             xb[1, i] = c[1] + q1
@@ -579,9 +279,9 @@ def from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb, xb, vb, x, v):
             if xl[d, i] != xl0[d, i]:
                 moved = True
         if moved:
-            q0, q1, q2 = _rot(R, xl[0, i] - c0[0], xl[1, i] - c0[1],
+            q0, q1, q2 = rotate(R, xl[0, i] - c0[0], xl[1, i] - c0[1],
                               xl[2, i] - c0[2] if dim == 3 else 0.0)
-            u0, u1, u2 = _rot(R, ul[0, i], ul[1, i], ul[2, i] if dim == 3 else 0.0)
+            u0, u1, u2 = rotate(R, ul[0, i], ul[1, i], ul[2, i] if dim == 3 else 0.0)
             x[0, i] = c[0] + q0
             x[1, i] = c[1] + q1
             v[0, i] = u0 + vc[0] + w[1] * q2 - w[2] * q1
@@ -608,8 +308,8 @@ class MapBoundaryModel(BoundaryModel):
     moving_inset_in_radii = 0.0
     uses_maps = True
     #: the wall's share of the tangential pressure gradient with a hydrostatic boundary
-    #: pressure (configuration.boundary.pressure "hydrostatic"; see "Hydrostatic boundary
-    #: pressure" in the module docstring); set before :meth:`init`
+    #: pressure (configuration.boundary.pressure "hydrostatic"; see
+    #: :mod:`sphkit.boundary.maps_hydrostatic`); set before :meth:`init`
     hydrostatic = False
 
     def __init__(self, geometries: list[MapGeometry] | None = None,
@@ -636,7 +336,8 @@ class MapBoundaryModel(BoundaryModel):
                                   integrate, self.folder)
             self.maps.append(bmap)
             self.cache_hits += int(hit)
-        #: per geometry, with :attr:`hydrostatic`: its normal moment map N (:func:`moment_nodes`)
+        #: per geometry, with :attr:`hydrostatic`: its normal moment map N
+        #: (:func:`sphkit.boundary.maps_hydrostatic.moment_nodes`)
         self.moment_maps: list[BoundaryMap] = []
         if self.hydrostatic:
             qp, qw = ball_quadrature(state.h, state.dim)
@@ -674,7 +375,8 @@ class MapBoundaryModel(BoundaryModel):
 
     def forces(self) -> list:
         """With :attr:`hydrostatic`: the walls' share of the tangential pressure gradient
-        (:class:`WallMomentForce`), run with the other non-pressure forces."""
+        (:class:`~sphkit.boundary.maps_hydrostatic.WallMomentForce`), run with the other
+        non-pressure forces."""
         return [WallMomentForce(self)] if self.hydrostatic else []
 
     def rebuild(self, state: SimState) -> None:
@@ -776,129 +478,3 @@ class MapBoundaryModel(BoundaryModel):
                xb: np.ndarray, Vb: np.ndarray) -> int:
         """Fill one map's virtual particles (xb (dim, N), Vb (N,)) for the fluid positions x and
         velocities v (dim, N) in the map's frame; return the pushed count."""
-
-
-# ---------------------------------------------------------------------------------------------
-# the wall's share of the tangential pressure gradient (hydrostatic boundary pressure)
-
-
-def gamma_table(gamma: Callable[[float], float], lo: float, hi: float,
-                n: int = 4001) -> tuple[float, float, np.ndarray]:
-    """A method's solid weight ``gamma(d)`` sampled on ``n`` points of [lo, hi] (for
-    :func:`moment_nodes`, read linearly and clamped): (lo, step, values)."""
-    d = np.linspace(lo, hi, n)
-    return float(lo), float(d[1] - d[0]), np.array([gamma(float(v)) for v in d])
-
-
-@numba.njit(**_JIT)
-def _table(t_lo, t_step, table, d):
-    u = min(max((d - t_lo) / t_step, 0.0), table.shape[0] - 1.0)
-    i = min(int(u), table.shape[0] - 2)
-    s = u - i
-    return (1.0 - s) * table[i] + s * table[i + 1]
-
-
-@numba.njit(parallel=True, **_JIT)
-def moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step, table, scale,
-                 cutoff, out):
-    """The normal part ``N = n.M.n`` of the kernel moment of the boundary at the map nodes,
-
-        M(x) = scale * integral_{|xi| <= h} gamma(phi(x + xi)) xi (x) xi (-W'(|xi|) / |xi|) dxi
-
-    (the boundary's share of the identity ``-integral xi (x) xi W'/|xi| dxi = I`` of the full
-    kernel), n the map normal (grad phi, central differences on the lattice). ``gamma`` is the
-    method's solid weight, given as a table; 0 where ``phi > cutoff``."""
-    for m in numba.prange(nodes.shape[1]):
-        x0, x1, x2 = nodes[0, m], nodes[1, m], nodes[2, m]
-        d0 = lattice_lookup(phi, o, s, shape, dim, x0, x1, x2)
-        if d0 > cutoff:
-            out[m] = 0.0
-            continue
-        m00 = 0.0
-        m01 = 0.0
-        m02 = 0.0
-        m11 = 0.0
-        m12 = 0.0
-        m22 = 0.0
-        for q in range(qw.shape[0]):
-            a0, a1, a2 = qp[0, q], qp[1, q], qp[2, q]
-            d = lattice_lookup(phi, o, s, shape, dim, x0 + a0, x1 + a1, x2 + a2)
-            w = _table(t_lo, t_step, table, d)
-            if w == 0.0:
-                continue
-            rr = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-            c = -qw[q] * w * kernel_dw(kid, rr, h, dim)  # kernel_dw: W'(r) / r
-            m00 += c * a0 * a0
-            m01 += c * a0 * a1
-            m02 += c * a0 * a2
-            m11 += c * a1 * a1
-            m12 += c * a1 * a2
-            m22 += c * a2 * a2
-        e0, e1, e2 = s[0], s[1], s[2] if dim == 3 else 1.0
-        n0 = (lattice_lookup(phi, o, s, shape, dim, x0 + e0, x1, x2)
-              - lattice_lookup(phi, o, s, shape, dim, x0 - e0, x1, x2)) / (2.0 * e0)
-        n1 = (lattice_lookup(phi, o, s, shape, dim, x0, x1 + e1, x2)
-              - lattice_lookup(phi, o, s, shape, dim, x0, x1 - e1, x2)) / (2.0 * e1)
-        n2 = 0.0
-        if dim == 3:
-            n2 = (lattice_lookup(phi, o, s, shape, dim, x0, x1, x2 + e2)
-                  - lattice_lookup(phi, o, s, shape, dim, x0, x1, x2 - e2)) / (2.0 * e2)
-        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        mnn = 0.0
-        if nl > 1e-9:
-            n0 /= nl
-            n1 /= nl
-            n2 /= nl
-            mnn = (n0 * n0 * m00 + n1 * n1 * m11 + n2 * n2 * m22
-                   + 2.0 * (n0 * n1 * m01 + n0 * n2 * m02 + n1 * n2 * m12))
-        out[m] = scale * mnn
-
-
-@numba.njit(parallel=True, **_JIT)
-def wall_moment_accel(x, rho, rho0, phi, N, lo, cell, res, spacing, shape, dim, extend_axis, top,
-                      h, kid, g0, g1, g2, xb, Vb, a):
-    """Add ``-(T (I - n n) + N n n) g / rho_hat_i`` to a for the fluid particles with a virtual
-    neighbour (xb, Vb) of this map: the moment term ``-M grad k_b`` of the hydrostatic boundary
-    pressure ``p_b(x) = p_i + rho_i g . (x - x_i)`` (Adami et al. 2012, Eq. 27, static wall),
-    ``grad k_b = g / rho_hat_i`` in the kappa units of :mod:`sphkit.core.ppe`, with the
-    tangential part T the neighbour's density contribution ``V_b W(|x_i - x_b|)`` and the normal
-    part N from the map (see "Hydrostatic boundary pressure" in the module docstring). Returns
-    how many particles it acted on."""
-    count = 0
-    for i in numba.prange(x.shape[1]):
-        if Vb[i] <= 0.0:
-            continue
-        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
-        d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
-        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        if not ok or nl < 1e-9:
-            continue
-        n0 /= nl
-        n1 /= nl
-        n2 /= nl
-        e0 = x[0, i] - xb[0, i]
-        e1 = x[1, i] - xb[1, i]
-        e2 = x[2, i] - xb[2, i] if dim == 3 else 0.0
-        t = Vb[i] * kernel_w(kid, math.sqrt(e0 * e0 + e1 * e1 + e2 * e2), h, dim)
-        nn = grid_eval(N, lo, cell, res, dim, p0, p1, p2)[0]
-        gn = g0 * n0 + g1 * n1 + g2 * n2
-        c = rho0 / rho[i]
-        a[0, i] -= c * (t * (g0 - gn * n0) + nn * gn * n0)
-        a[1, i] -= c * (t * (g1 - gn * n1) + nn * gn * n1)
-        if dim == 3:
-            a[2, i] -= c * (t * (g2 - gn * n2) + nn * gn * n2)
-        count += 1
-    return count
-
-
-class WallMomentForce(NonPressureForce):
-    """The non-pressure-force interface (``apply(state, dt)``) to
-    :meth:`MapBoundaryModel.wall_moment`, run with the other forces before the pressure solve."""
-
-    def __init__(self, model: MapBoundaryModel) -> None:
-        self.model = model
-        self.count = 0  #: particle-map pairs it acted on in the last step
-
-    def apply(self, state: SimState, dt: float) -> None:
-        """Add the walls' tangential pressure-gradient share to ``state.fluid['a']``."""
-        self.count = self.model.wall_moment(state)
