@@ -41,7 +41,7 @@ def _extrapolate(sim: Simulation, grad: np.ndarray, ridge: float) -> tuple:
     st = sim.state
     p = 3e4 + grad @ st.fluid["x"]
     k = p / st.rho0 / (st.fluid["rho"] / st.rho0) ** 2  # the solvers' variable
-    ext = MLSPressureExtrapolation(st.boundary_pressure.use, ridge=ridge)
+    ext = MLSPressureExtrapolation(st.coupling.pressure.use, ridge=ridge)
     ext.init(st)
     ext.prepare(st)
     out = np.zeros(st.boundary.n)
@@ -102,8 +102,8 @@ def test_mls_option_is_validated() -> None:
 def test_mls_leaves_moving_bodies_and_mirror_default_alone() -> None:
     """Mirroring stays the default; with 'mls' the extrapolated samples stop mirroring."""
     sim = Simulation(_tank(2, bp="mirror"))
-    assert sim.state.boundary_pressure is None
+    assert sim.state.coupling.pressure is None
     sim = Simulation(_tank(2))
-    bp = sim.state.boundary_pressure
+    bp = sim.state.coupling.pressure
     assert bp.use.all()
     assert np.all(sim.state.boundary["pressure_mirror"] == 0.0)

@@ -259,17 +259,15 @@ class Simulation:
             density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
                         st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim,
                         f["rho"], st.period)
-        if st.boundary_pressure is not None:  # MLS coefficients of this step's pairs
-            st.boundary_pressure.prepare(st)
+        st.coupling.prepare(st)  # a boundary pressure model's view of this step (MLS)
 
     def _time_step(self) -> float:
         tc = self.scene.configuration.time
         if not tc.cfl:
             return tc.dt
         st = self.state
-        vmax = max_speed(st.fluid["v"], None)
-        if self.rigid.bodies:  # moving boundary particles obey the CFL condition too
-            vmax = max(vmax, max_speed(st.boundary["v"], None))
+        # moving boundary particles obey the CFL condition too
+        vmax = max(max_speed(st.fluid["v"], None), self.rigid.max_speed(st))
         dt = cfl_time_step(vmax, st.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
         return float(min(dt, self.pressure.max_time_step(st)))
 
@@ -280,27 +278,21 @@ class Simulation:
         st.step = self.step_count + 1  # the step being computed (named in solver warnings)
         if f.n == 0:  # nothing to simulate before the first emission
             return self._empty_step()
-        self._neighbors()
-        self.compute_density()
-        dt = self._time_step()
-        if self.rigid.bodies:
-            self.rigid.begin_step(st)
+        self._neighbors()  # neighbour search (and the boundary's neighbours)
+        self.compute_density()  # densities
+        dt = self._time_step()  # CFL step and the solver's own bound
+        self.rigid.begin_step(st)  # this step's body frames
         self.pressure.pre_forces(st, dt)  # DFSPH: factors and the divergence-free solve
-        a = f["a"]
-        a[:] = st.gravity[:, None]
+        f["a"][:] = st.gravity[:, None]  # non-pressure forces
         for force in self.forces:
             force.apply(st, dt)
-        if st.boundary_response is not None:  # strong coupling: the solve sees the bodies'
-            self.rigid.predict(st, dt)  # predicted velocities (gravity), as the fluid's
-        ps = self.pressure.solve(st, dt)
-        if self.rigid.bodies:  # fluid forces on the bodies, from this step's pressure
-            self.rigid.fluid_forces(st)
+        st.coupling.predict(st, dt)  # yielding bodies take their non-pressure velocity change
+        ps = self.pressure.solve(st, dt)  # pressure
+        self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))  # its push on bodies
         st.pair_grads = None  # positions change: the cache is stale
-        symplectic_euler(f["x"], f["v"], f["a"], dt)
-        if self.rigid.bodies:  # move the bodies and their particles; new boundary grid
-            self.rigid.advance(st, dt, self.time)
-            self.boundary_model.rebuild(st)
-        if st.period > 0.0:
+        symplectic_euler(f["x"], f["v"], f["a"], dt)  # integrate
+        self.rigid.advance(st, dt, self.time)  # move the bodies (the boundary follows)
+        if st.period > 0.0:  # periodic domain along x
             wrap_periodic(f["x"], st.period_lo, st.period)
         for em in self.emitters:
             em.animate(f, self.time + dt, dt)

@@ -51,6 +51,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.methods import BoundaryPressure
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -207,14 +208,14 @@ def replace_mirrored(x, p, rho0, bx, bV, boff, bidx, use, kb, h, kid, dim, L, a)
             a[2, i] += a2
 
 
-class MLSPressureExtrapolation:
+class MLSPressureExtrapolation(BoundaryPressure):
     """Boundary pressure by MLS extrapolation (Band et al. 2018) for the iterative solvers.
 
-    The simulation calls :meth:`prepare` once per step after the densities; the solvers call
-    :meth:`extrapolate` (via :func:`sphkit.core.solver.boundary_kappa`) before every evaluation
-    of the pressure acceleration. ``use`` marks the boundary samples that are extrapolated; their
-    ``pressure_mirror`` is set to 0 (the extrapolated value replaces the mirrored one) and
-    :attr:`diagonal_mirror` is 1 there.
+    The step calls :meth:`prepare` once per step after the densities; the solvers call
+    :meth:`extrapolate` (through :meth:`sphkit.core.methods.BoundaryCoupling.boundary_kappa`)
+    before every evaluation of the pressure acceleration. ``use`` marks the boundary samples
+    that are extrapolated; their ``pressure_mirror`` is set to 0 (the extrapolated value
+    replaces the mirrored one) and :meth:`diagonal_mirror` is 1 there.
     """
 
     name = "mls"
@@ -234,7 +235,6 @@ class MLSPressureExtrapolation:
                              f"{b.n} boundary particles")
         b["pressure_mirror"][self.use] = 0.0
 
-    @property
     def diagonal_mirror(self) -> np.ndarray:
         """Mirror share used in the Jacobi diagonals (the mirrored form, see the docstring)."""
         return self.use.astype(np.float64)

@@ -154,3 +154,169 @@ class Elasticity(Protocol):
     @abstractmethod
     def apply(self, state: SimState, dt: float) -> None:
         """Add the elastic acceleration of the solid's particles."""
+
+
+# ---------------------------------------------------------------------------------------------
+# how boundaries reach the pressure solvers
+
+
+@runtime_checkable
+class BoundaryPressure(Protocol):
+    """A boundary pressure model: the pressure ``p_b`` the boundary terms of the pressure
+    solvers use, where it is not the mirrored ``p_b = p_i`` (Band et al. 2018's MLS
+    extrapolation, :mod:`sphkit.boundary.band2018`)."""
+
+    name: ClassVar[str] = ""
+
+    def init(self, state: SimState) -> None:
+        """Set the boundary fields (e.g. stop mirroring where the model replaces it)."""
+        return None
+
+    @abstractmethod
+    def diagonal_mirror(self) -> np.ndarray:
+        """The mirror share (N_boundary,) the Jacobi diagonals count for its samples."""
+
+    @abstractmethod
+    def prepare(self, state: SimState) -> None:
+        """Once per step, after the densities: what the extrapolation needs of this step."""
+
+    @abstractmethod
+    def extrapolate(self, k: np.ndarray, out: np.ndarray) -> None:
+        """``out[b] = p_b / rho0`` for the solver field k of the fluid (kappa units)."""
+
+    @abstractmethod
+    def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:
+        """For a state-equation solver whose boundary term mirrored ``p_b = p_i``: add to the
+        accelerations a the change to the model's ``p_b``."""
+
+
+@runtime_checkable
+class MovingBoundary(Protocol):
+    """Boundaries that move with bodies and may yield to the pressure of the fluid (rigid
+    bodies, :mod:`sphkit.boundary.rigid`)."""
+
+    @property
+    def yields(self) -> bool:
+        """Whether any of it is pushed by the fluid's pressure (dynamic bodies)."""
+        return False
+
+    def predict(self, state: SimState, dt: float) -> None:
+        """Before the pressure solve: advance the yielding boundary's velocities by its
+        non-pressure accelerations, as the fluid's are."""
+        return None
+
+    @abstractmethod
+    def yielding(self, state: SimState) -> np.ndarray:
+        """Which boundary particles yield (N_boundary,) bool."""
+
+    @abstractmethod
+    def response(self, k: np.ndarray, gwb: np.ndarray) -> np.ndarray:
+        """The accelerations (dim, N_boundary) of the boundary particles under the pressure
+        field k of a solver sweep (``gwb``: the cached ``V_b grad W_ib``); 0 where the boundary
+        does not yield."""
+
+
+class BoundaryCoupling:
+    """How every pressure solver meets the boundary, the same way for all of them.
+
+    * **mirror weights** (:meth:`mirror`): the boundary field ``pressure_mirror`` ``m_b``, the
+      share of mirrored boundary pressure in the boundary term
+      ``-sum_b V_b ((1 + m_b) k_i + k_b) grad W_ib`` (:func:`sphkit.core.ppe.
+      kappa_accel_cached`; 0 where a boundary model does not set it);
+    * **boundary pressure** (:meth:`boundary_kappa`, :meth:`prepare`, :meth:`correct_mirrored`):
+      the extrapolated ``k_b = p_b / rho0`` of a :class:`BoundaryPressure` model, or nothing
+      (mirrored pressure, the default);
+    * **moving boundaries** (:meth:`predict`, :meth:`response`, :meth:`take_impulse`,
+      :meth:`displacement`): how boundary particles of bodies that yield to the pressure move
+      inside the solves (strong coupling, Gissler et al. 2019); static walls by default.
+    """
+
+    def __init__(self, pressure: BoundaryPressure | None = None,
+                 moving: MovingBoundary | None = None) -> None:
+        self.pressure = pressure
+        self.moving = moving
+        self._still = np.zeros((0, 0))
+
+    # -- boundary pressure ----------------------------------------------------------------------
+    def mirror(self, state: SimState, diagonal: bool = False) -> np.ndarray:
+        """The mirror weights ``m_b`` (N_boundary,); ``diagonal``: the weights the Jacobi
+        diagonals use, which count extrapolated boundary pressures as mirrored."""
+        b = state.boundary
+        if "pressure_mirror" in b.specs and b["pressure_mirror"].shape[0] == b.n:
+            m = b["pressure_mirror"]
+        else:
+            m = np.zeros(b.n, dtype=b.dtype)
+        if diagonal and self.pressure is not None:
+            m = m + self.pressure.diagonal_mirror()
+        return m
+
+    def boundary_kappa(self, state: SimState) -> BoundaryKappa:
+        """The extrapolation ``k -> k_b`` of this step's pressure fields (see
+        :class:`BoundaryKappa`)."""
+        return BoundaryKappa(self.pressure, state)
+
+    def prepare(self, state: SimState) -> None:
+        """Once per step after the densities (the MLS coefficients of this step's pairs)."""
+        if self.pressure is not None:
+            self.pressure.prepare(state)
+
+    def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:
+        """A state-equation solver's correction from mirrored to the model's ``p_b``."""
+        if self.pressure is not None:
+            self.pressure.correct_mirrored(state, a)
+
+    # -- moving boundaries ----------------------------------------------------------------------
+    @property
+    def yields(self) -> bool:
+        """Whether some boundary yields to the pressure (strong coupling is on)."""
+        return self.moving is not None and self.moving.yields
+
+    def predict(self, state: SimState, dt: float) -> None:
+        """Before the pressure solve: the yielding boundary's non-pressure velocity change."""
+        if self.yields:
+            self.moving.predict(state, dt)
+
+    def response(self, state: SimState, k: np.ndarray, gwb: np.ndarray) -> np.ndarray:
+        """Boundary accelerations (dim, N_boundary) under the solver field k (zeros when no
+        boundary yields: then the pressure does not accelerate the boundary)."""
+        if self.yields:
+            return self.moving.response(k, gwb)
+        x = state.boundary["x"]
+        if self._still.shape != x.shape or self._still.dtype != x.dtype:
+            self._still = np.zeros_like(x)
+        return self._still
+
+    def take_impulse(self, state: SimState, k: np.ndarray, gwb: np.ndarray, dt: float) -> None:
+        """The yielding boundary takes the velocity change ``dt a_b(k)`` of a solve that
+        applied the pressure impulse of k to the fluid (DFSPH's divergence solve), so that a
+        later solve sees the boundary as the fluid does."""
+        if self.yields:
+            state.boundary["v"] += dt * self.moving.response(k, gwb)
+
+    def displacement(self, state: SimState, k: np.ndarray, gwb: np.ndarray,
+                     dt: float) -> np.ndarray:
+        """Predicted displacement of the yielding boundary particles under the field k,
+        ``dt (v_b + dt a_b(k))`` where the boundary yields and 0 elsewhere (PCISPH's predicted
+        positions); an empty array when nothing yields (the static boundary stays put)."""
+        if not self.yields:
+            return np.zeros((state.dim, 0), dtype=state.boundary.dtype)
+        ab = self.moving.response(k, gwb)
+        return np.where(self.moving.yielding(state), dt * (state.boundary["v"] + dt * ab), 0.0)
+
+
+class BoundaryKappa:
+    """The boundary values ``k_b = p_b / rho0`` that :func:`sphkit.core.ppe.kappa_accel_cached`
+    adds to its boundary term: extrapolated from the fluid field k by a
+    :class:`BoundaryPressure` model when the scene has one, else none (an empty array, which the
+    pass reads as 0: mirroring only)."""
+
+    def __init__(self, model: BoundaryPressure | None, state: SimState) -> None:
+        self.model = model
+        n = state.boundary.n if model is not None else 0
+        self.kb = np.zeros(n, dtype=state.fluid.dtype)
+
+    def __call__(self, k: np.ndarray) -> np.ndarray:
+        """``k_b`` for the fluid field k."""
+        if self.model is not None:
+            self.model.extrapolate(k, self.kb)
+        return self.kb

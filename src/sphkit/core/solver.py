@@ -79,40 +79,6 @@ class IterationControl:
         return self.max_iterations, avg, mx, False
 
 
-def boundary_mirror(state: SimState, diagonal: bool = False) -> np.ndarray:
-    """The boundary field ``pressure_mirror`` (0 where a boundary model does not set it): the
-    share of mirrored boundary pressure added to SPlisHSPlasH's boundary term (see
-    :func:`sphkit.core.ppe.kappa_accel_cached`). ``diagonal``: the share the Jacobi diagonals
-    use, which counts extrapolated boundary pressures (``state.boundary_pressure``) as
-    mirrored."""
-    b = state.boundary
-    if "pressure_mirror" in b.specs and b["pressure_mirror"].shape[0] == b.n:
-        m = b["pressure_mirror"]
-    else:
-        m = np.zeros(b.n, dtype=b.dtype)
-    if diagonal and state.boundary_pressure is not None:
-        m = m + state.boundary_pressure.diagonal_mirror
-    return m
-
-
-class BoundaryKappa:
-    """The boundary values ``k_b = p_b / rho0`` that :func:`sphkit.core.ppe.kappa_accel_cached`
-    adds to its boundary term: extrapolated from the fluid field k by
-    ``state.boundary_pressure`` when the scene asks for it, else zero (mirroring only)."""
-
-    def __init__(self, state: SimState) -> None:
-        self.ext = state.boundary_pressure
-        n = state.boundary.n if self.ext is not None else 0
-        self.kb = np.zeros(n, dtype=state.fluid.dtype)
-
-    def __call__(self, k: np.ndarray) -> np.ndarray:
-        """``k_b`` for the fluid field k (an empty array, read as 0 by
-        :func:`sphkit.core.ppe.kappa_accel_cached`, when nothing is extrapolated)."""
-        if self.ext is not None:
-            self.ext.extrapolate(k, self.kb)
-        return self.kb
-
-
 class PairGradients:
     """``V_j grad W_ij`` for every fluid and boundary pair of the current neighbour lists,
     computed once per step and shared by all Jacobi iterations of the step.
@@ -149,7 +115,7 @@ class PairGradients:
         st = self.state
         out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
         diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
-                        boundary_mirror(st, diagonal=True), self.gw, self.gwb, st.dim, out)
+                        st.coupling.mirror(st, diagonal=True), self.gw, self.gwb, st.dim, out)
         return out
 
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
@@ -184,17 +150,17 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     g = PairGradients(state) if grads is None else grads
     dim = state.dim
     a = np.empty_like(x)
-    still = np.zeros_like(state.boundary["x"])  # boundary particles take no pressure accel.
-    response = state.boundary_response  # ... unless they yield to it (dynamic rigid bodies)
+    coupling = state.coupling
 
     k = w * q  # the weighted variable; jacobi_sweep keeps it up to date
-    mirror = boundary_mirror(state)
-    kb = BoundaryKappa(state)
+    mirror = coupling.mirror(state)
+    kb = coupling.boundary_kappa(state)
 
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                            g.gwb, dim, a)
-        ab = still if response is None else response(k, g.gwb)
+        # boundary particles take no pressure acceleration unless they yield (dynamic bodies)
+        ab = coupling.response(state, k, g.gwb)
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
                                dim, q, s, ap_factor, scale, omega, active, w, k)
         return avg * error_factor, mx * error_factor

@@ -8,12 +8,16 @@ receive it, read and write fields of its particle sets, and never call each othe
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sphkit.core.methods import BoundaryCoupling
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.particles import ParticleSet
+
+if TYPE_CHECKING:
+    from sphkit.core.solver import PairGradients
 
 
 @dataclass
@@ -38,23 +42,16 @@ class SimState:
     nl_fb: NeighborList = field(default_factory=lambda: NeighborList.empty(0))
     time: float = 0.0
     step: int = 0
-    #: this step's cached pair gradients (:class:`sphkit.core.solver.PairGradients`), made with
-    #: the densities for solvers that set ``uses_pair_gradients``; None outside that window
-    pair_grads: Any = None
-    #: boundary pressure extrapolation (e.g. :class:`sphkit.boundary.band2018.
-    #: MLSPressureExtrapolation`): ``prepare(state)`` once per step after the densities,
-    #: ``extrapolate(k, out)`` the boundary values ``p_b / rho0`` of a fluid field k,
-    #: ``diagonal_mirror``; None: the boundary pressure is mirrored (``pressure_mirror``)
-    boundary_pressure: Any = None
+    #: this step's cached pair gradients ``V_j grad W_ij``, made with the densities for solvers
+    #: that set ``uses_pair_gradients``; None outside that window
+    pair_grads: PairGradients | None = None
     #: periodic along x: particles live in ``[period_lo, period_lo + period)``; period = 0: not
     #: periodic. Pair loops take minimum-image x differences ``d - L round(d / L)`` [m]
     period_lo: float = 0.0
     period: float = 0.0
-    #: strong two-way coupling with moving boundaries: ``f(k, gwb) -> ab`` gives the
-    #: accelerations (dim, N_boundary) of the boundary particles under the pressure field k of a
-    #: Jacobi sweep (:func:`sphkit.core.solver.jacobi_ppe`; ``gwb`` the cached ``V_b grad W_ib``),
-    #: e.g. dynamic rigid bodies pushed by the fluid; None: the boundary does not yield
-    boundary_response: Any = None
+    #: how the boundary reaches the pressure solvers: mirror weights, the boundary pressure of
+    #: a boundary pressure model (MLS), the response of moving bodies (strong coupling)
+    coupling: BoundaryCoupling = field(default_factory=BoundaryCoupling)
 
     @property
     def periodic(self) -> tuple[float, float] | None:

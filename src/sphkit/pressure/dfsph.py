@@ -16,8 +16,8 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
    ``kappa^v_i = 0.5 min(kappa^v_prev, 0.5) / dt`` where the density increases, iterations
    ``kappa^v_i <- max(kappa^v_i - 0.5 (s_i - A kappa^v_i) alpha_i / dt, 0)`` until the average
    ``|D rho_hat / Dt| dt`` is at most ``max_error_v``; then ``v += dt a(kappa^v)``, and a
-   boundary that yields to the pressure (``state.boundary_response``: dynamic rigid bodies,
-   strong coupling) takes its velocity change ``dt a_b(kappa^v)`` too, so that the density
+   boundary that yields to the pressure (``state.coupling``: dynamic rigid bodies, strong
+   coupling) takes its velocity change ``dt a_b(kappa^v)`` too, so that the density
    solve sees the bodies as the fluid now does (otherwise it stops a landing body a second time:
    the 2D heavy square of tests/test_rigid_2d.py was thrown back at 30x its weight and blew up);
 3. non-pressure forces (the simulation), ``v* = v + dt a``; the boundary velocities of dynamic
@@ -153,11 +153,9 @@ class DFSPH(PressureSolver):
                                            alpha / dt, dt, OMEGA, active, error_factor=dt,
                                            grads=self._grads)
         f["v"] += dt * a
-        response = state.boundary_response
-        if response is not None:
-            # strong coupling: the boundary that yielded to kappa^v in the solve takes its
-            # velocity change too, so that the density solve sees the bodies as the fluid does
-            state.boundary["v"] += dt * response(kappa, self._grads.gwb)
+        # strong coupling: a boundary that yielded to kappa^v in the solve takes its velocity
+        # change too, so that the density solve sees the bodies as the fluid does
+        state.coupling.take_impulse(state, kappa, self._grads.gwb, dt)
         f["dfsph_kappa_v"] = kappa * dt
         self._kappa_v = kappa
         self._div_stats = (its, avg)

@@ -64,13 +64,7 @@ import numpy as np
 
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import density_at, kappa_accel_cached, lattice_diagonal
-from sphkit.core.solver import (
-    BoundaryKappa,
-    IterationControl,
-    PairGradients,
-    SolverStats,
-    boundary_mirror,
-)
+from sphkit.core.solver import IterationControl, PairGradients, SolverStats
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -145,8 +139,8 @@ class PCISPH(PressureSolver):
         dx = np.empty_like(x)
         rho_hat = np.empty(n, dtype=f.dtype)
         factor = self.delta / (dt * dt)
-        mirror = boundary_mirror(state)
-        kb = BoundaryKappa(state)
+        mirror = state.coupling.mirror(state)
+        kb = state.coupling.boundary_kappa(state)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
 
         def sweep(_k: int) -> tuple[float, float]:

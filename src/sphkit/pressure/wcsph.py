@@ -100,8 +100,7 @@ class WCSPH(PressureSolver):
                            state.nl_ff.indices, b["x"], b["V"], state.nl_fb.offsets,
                            state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim, f["a"],
                            state.period)
-        if state.boundary_pressure is not None:  # extrapolated instead of mirrored p_b
-            state.boundary_pressure.correct_mirrored(state, f["a"])
+        state.coupling.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:

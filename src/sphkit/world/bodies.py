@@ -12,8 +12,7 @@ from sphkit.world.meshes import SceneMeshes
 from sphkit.world.walls import gravity_axis, moving_meshes
 
 
-def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes,
-                 solver: str) -> RigidBodies:
+def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes) -> RigidBodies:
     """The moving bodies of the scene (boundary field ``rigid_body`` numbers them from 1 in
     the order of :func:`sphkit.world.walls.moving_meshes`), not yet initialised."""
     bodies = []
@@ -37,5 +36,5 @@ def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes,
         for k, mb in enumerate(scene.meshes):
             if k not in moving:
                 walls.append((mesh_wall(meshes.mesh(k), mb.invert, state.r), f"meshes[{k}]"))
-    return RigidBodies(bodies, solver, walls, margin=INSET * state.r,
+    return RigidBodies(bodies, walls, margin=INSET * state.r,
                        meshes=[meshes.mesh(k) for k in moving])

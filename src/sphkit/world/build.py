@@ -16,7 +16,12 @@ import numpy as np
 from sphkit import registry
 from sphkit.boundary.rigid import RigidBodies
 from sphkit.core.kernels import kernel_id, lattice_volume
-from sphkit.core.methods import BoundaryModel, NonPressureForce, PressureSolver
+from sphkit.core.methods import (
+    BoundaryCoupling,
+    BoundaryModel,
+    NonPressureForce,
+    PressureSolver,
+)
 from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
@@ -139,17 +144,18 @@ def _build(scene: Scene) -> World:
     forces += extra
     roles += ["boundary"] * len(extra)
     bp = registry.get("boundary_pressure", cfg.boundary.pressure)
+    pressure_model = None
     if bp.target is not None:  # a boundary pressure model of its own (MLS)
         # static boundary particles only: rigid bodies keep their own boundary term
-        state.boundary_pressure = bp.load()(bd["rigid_body"] == 0)
-        state.boundary_pressure.init(state)
-    rigid = rigid_bodies(state, scene, meshes, cfg.pressure.method)
+        pressure_model = bp.load()(bd["rigid_body"] == 0)
+        pressure_model.init(state)
+    rigid = rigid_bodies(state, scene, meshes)
     if rigid.bodies:
         rigid.init(state)
-        model.bind_bodies(rigid.bodies)  # maps query the moving meshes in their frames
-        model.rebuild(state)
-    if rigid.any_dynamic:  # strong coupling: the pressure solves see the bodies give way
-        state.boundary_response = rigid.pressure_response
+    rigid.bind(model, state)  # the boundary model follows the bodies (a grid, or body frames)
+    # the one way the solvers meet the boundary: mirror weights, the boundary pressure model,
+    # the bodies that yield to the pressure (strong coupling)
+    state.coupling = BoundaryCoupling(pressure=pressure_model, moving=rigid)
     for force in forces:
         force.init(state)
     pressure.init(state)

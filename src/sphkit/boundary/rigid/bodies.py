@@ -23,7 +23,9 @@ import numpy as np
 from sphkit.boundary.akinci2012 import boundary_volumes
 from sphkit.boundary.rigid.contacts import BodyContacts
 from sphkit.boundary.rigid.coupling import FluidCoupling
+from sphkit.core.methods import BoundaryModel
 from sphkit.core.state import SimState
+from sphkit.core.timestep import max_speed
 from sphkit.geometry.rotations import rotation_exp
 
 _JIT = dict(cache=True, fastmath=True)
@@ -96,7 +98,6 @@ class RigidBodies(FluidCoupling, BodyContacts):
 
     Args:
         bodies: the bodies, numbered 1.. in this order in the boundary field ``rigid_body``.
-        solver: the pressure solver's scene name (chooses the reaction expression).
         walls: static obstacles for contacts as ``(distance(p (3, K)) -> (K,), name)``, where
             the distance is positive in free space, negative inside the wall.
         meshes: the closed mesh of each body as placed in the scene at t = 0 (trimesh): its
@@ -108,16 +109,30 @@ class RigidBodies(FluidCoupling, BodyContacts):
         contact_iterations: Gauss-Seidel sweeps over the contact points per step.
     """
 
-    def __init__(self, bodies: list[RigidBody], solver: str, walls: list | None = None,
+    def __init__(self, bodies: list[RigidBody], walls: list | None = None,
                  margin: float = 0.0, contact_iterations: int = 20,
                  meshes: list | None = None) -> None:
         self.bodies = bodies
         self.meshes = meshes or []
         self.margin = margin
-        self.solver = solver
         self.walls = walls or []
         self.contact_iterations = contact_iterations
         self._ab: np.ndarray | None = None  # _boundary_accel's buffer
+        self.boundary_model: BoundaryModel | None = None  # rebuilt when the bodies moved
+
+    def bind(self, boundary_model: BoundaryModel, state: SimState) -> None:
+        """The boundary model whose structures follow the bodies (after :meth:`init`): it
+        learns the bodies (maps query the moving meshes in the bodies' frames) and is rebuilt
+        now and whenever :meth:`advance` has moved them."""
+        self.boundary_model = boundary_model
+        if self.bodies:
+            boundary_model.bind_bodies(self.bodies)
+            boundary_model.rebuild(state)
+
+    def max_speed(self, state: SimState) -> float:
+        """The fastest boundary particle [m/s] when bodies move (0 without bodies), for the
+        CFL condition."""
+        return max_speed(state.boundary["v"], None) if self.bodies else 0.0
 
     @property
     def any_dynamic(self) -> bool:
@@ -181,7 +196,8 @@ class RigidBodies(FluidCoupling, BodyContacts):
     # -- time integration -----------------------------------------------------------------------
     def advance(self, state: SimState, dt: float, time: float) -> None:
         """Move the bodies from ``time`` to ``time + dt`` and place their particles: forces,
-        then the contacts of all bodies at once (:meth:`_contact`), then the poses."""
+        then the contacts of all bodies at once (:meth:`_contact`), then the poses; then the
+        bound boundary model is rebuilt (nothing happens without bodies)."""
         g = np.zeros(3)
         g[: state.dim] = state.gravity
         Iinv = np.zeros((len(self.bodies), 3, 3))
@@ -203,3 +219,5 @@ class RigidBodies(FluidCoupling, BodyContacts):
             u, _s, vt = np.linalg.svd(R)  # keep R orthonormal
             b.R = u @ vt
         self.place(state)
+        if self.bodies and self.boundary_model is not None:  # the boundary grid follows
+            self.boundary_model.rebuild(state)

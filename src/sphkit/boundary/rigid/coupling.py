@@ -7,7 +7,9 @@ Fluid forces: the boundary pressure term of Akinci et al.'s Eq. (10) acts on flu
 its reaction on boundary particle b is minus it, ``F_b<-i = -m_i a_i<-b``, summed over the
 body into a force ``F = sum_b F_b`` and a torque ``T = sum_b (x_b - c) x F_b``. The boundary
 share of the pressure acceleration is taken from the very expression each solver applies, so
-that momentum is conserved to round-off:
+that momentum is conserved to round-off. Each solver states that share itself
+(:meth:`sphkit.core.methods.PressureSolver.boundary_reaction`, ``a_i<-b = -k_i (1 + mirrored m_b)
+V_b grad W_ib``), so the bodies never ask which solver runs:
 
 * WCSPH (:func:`sphkit.core.operators.pressure_accel_body`):
   ``a_i<-b = -rho0 V_b (p_i / rho_i^2 + p_i / rho0^2) grad W_ib``;
@@ -28,18 +30,24 @@ both sides make the push vanish there. Measured: the floating cube's submerged f
 Static ``meshes`` keep 0, so a body squeezing fluid against a static mesh meets the same
 mismatch the other way round (not tested yet).
 
-Strong coupling in the iterative solvers (DFSPH, IISPH; Gissler et al. 2019, "Interlinked SPH
-pressure solvers for strong fluid-rigid coupling", ACM TOG 38(1), in its simplest form): each Jacobi
-sweep of :func:`sphkit.core.solver.jacobi_ppe` asks
-:meth:`~sphkit.boundary.rigid.RigidBodies.pressure_response` for the accelerations of the bodies'
-particles under the sweep's pressure, ``a_b = F(k) / M + (I_w^-1 T(k)) x (x_b - c)``, and the
-divergence of the relative acceleration enters the solve, so that the film under a landing body
-stops the body instead of being expelled at whatever speed a prescribed wall would need. The body is
-then advanced with the force of the converged pressure, as before (momentum is conserved to
-round-off). Measured on the landing cube: without it the landing cube bounced, penetrated the floor
-by 6-11 mm and the fluid reached 15 m/s; with it, 0 mm and 2-4 m/s.
+Strong coupling in the iterative solvers (DFSPH, IISPH, PCISPH; Gissler et al. 2019,
+"Interlinked SPH pressure solvers for strong fluid-rigid coupling", ACM TOG 38(1), in its simplest
+form): the bodies are the state's moving boundary (:class:`sphkit.core.methods.BoundaryCoupling`,
+:class:`~sphkit.core.methods.MovingBoundary`). Each Jacobi sweep of
+:func:`sphkit.core.solver.jacobi_ppe` asks :meth:`FluidCoupling.response` for the accelerations
+of the bodies' particles under the sweep's pressure, ``a_b = F(k) / M + (I_w^-1 T(k)) x (x_b -
+c)``, and the divergence of the relative acceleration enters the solve, so that the film under a
+landing body stops the body instead of being expelled at whatever speed a prescribed wall would
+need. The body is then advanced with the force of the converged pressure, as before (momentum is
+conserved to round-off). Measured on the landing cube: without it the landing cube bounced,
+penetrated the floor by 6-11 mm and the fluid reached 15 m/s; with it, 0 mm and 2-4 m/s.
+PCISPH's sweeps predict the positions of the bodies' particles as they do the fluid's,
+``x_b* = x_b + dt (v_b + dt a_b(p))`` (:meth:`sphkit.core.methods.BoundaryCoupling.
+displacement`), so that its predicted densities see the bodies give way.
 
-PBF moves positions and is not coupled (a scene with a dynamic body and PBF is rejected).
+PBF moves positions and is not coupled (a scene with a dynamic body and PBF is rejected; the
+fluid's force on kinematic bodies is reported as 0 with PBF, which has no pressure
+acceleration).
 Viscous boundary forces are not transferred to bodies.
 
 A landing body must reach the pressure solves with the velocity the step will give it, as the
@@ -96,6 +104,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw
+from sphkit.core.methods import BoundaryReaction, MovingBoundary
 from sphkit.core.pairs import point, separation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
@@ -194,52 +203,53 @@ def _point_accel(bx, body, c, acc, ab):
             ab[2, b] = acc[k, 2] + acc[k, 3] * q1 - acc[k, 4] * q0
 
 
-class FluidCoupling:
+class FluidCoupling(MovingBoundary):
     """The fluid side of the moving bodies, a base class of
     :class:`sphkit.boundary.rigid.RigidBodies`: the reaction of the boundary pressure terms on
     the bodies (:meth:`fluid_forces`), their response inside the pressure solves
-    (:meth:`pressure_response`) and their predicted velocities (:meth:`predict`). It reads the
-    attributes ``bodies`` and ``solver`` and caches this step's centres and inverse world
-    inertias (:meth:`begin_step`)."""
+    (:meth:`response`, the :class:`~sphkit.core.methods.MovingBoundary` of the state's
+    coupling) and their predicted velocities (:meth:`predict`). It reads the attribute
+    ``bodies`` and caches this step's centres and inverse world inertias (:meth:`begin_step`)."""
 
     bodies: list[RigidBody]
-    solver: str
     _ab: np.ndarray | None
 
-    def pressure_factor(self, state: SimState) -> tuple[np.ndarray, float]:
-        """``(kf_i, use_mirror)`` with the boundary share of the solver's pressure acceleration
-        ``a_i<-b = -kf_i (1 + use_mirror m_b) V_b grad W_ib`` (module docstring)."""
-        f = state.fluid
-        p, rho, rho0 = f["p"], f["rho"], state.rho0
-        if self.solver == "wcsph":
-            return rho0 * (p / rho ** 2 + p / rho0 ** 2), 0.0
-        if self.solver in ("dfsph", "iisph"):
-            return p * rho0 / rho ** 2, 1.0
-        if self.solver == "pcisph":
-            return p / rho0, 1.0
-        raise ValueError(f"pressure solver {self.solver!r} is not coupled to rigid bodies")
+    @property
+    def yields(self) -> bool:
+        """Whether a body is dynamic: its particles yield to the fluid's pressure."""
+        return any(b.dynamic for b in self.bodies)
 
-    def fluid_forces(self, state: SimState) -> None:
+    def yielding(self, state: SimState) -> np.ndarray:
+        """The boundary particles (N_b,) of dynamic bodies."""
+        dynamic = np.array([False] + [b.dynamic for b in self.bodies])
+        return dynamic[state.boundary["rigid_body"]]
+
+    def fluid_forces(self, state: SimState, reaction: BoundaryReaction | None) -> None:
         """Force and torque of the fluid on every body (after the pressure solve, before the
-        fluid moves)."""
+        fluid moves) from the solver's boundary share of its pressure acceleration (None: the
+        solver's pressure does not act on boundaries, the forces are 0)."""
         if not self.bodies:
             return
+        if reaction is None:
+            for b in self.bodies:
+                b.force = np.zeros(3)
+                b.torque = np.zeros(3)
+            return
         f, bd = state.fluid, state.boundary
-        kf, use_mirror = self.pressure_factor(state)
         nb = len(self.bodies)
         nchunk = max(1, min(64, f.n // 256))
         out = np.empty((nchunk, nb, 6))
         c = np.array([b.c for b in self.bodies])
-        _reaction(f["x"], f["m"], np.ascontiguousarray(kf), state.nl_fb.offsets,
-                  state.nl_fb.indices, bd["x"], bd["V"], bd["pressure_mirror"], use_mirror,
-                  bd["rigid_body"], c, state.h, state.kid, nchunk, out)
+        _reaction(f["x"], f["m"], np.ascontiguousarray(reaction.k), state.nl_fb.offsets,
+                  state.nl_fb.indices, bd["x"], bd["V"], bd["pressure_mirror"],
+                  reaction.mirrored, bd["rigid_body"], c, state.h, state.kid, nchunk, out)
         tot = out.sum(axis=0)
         for k, b in enumerate(self.bodies):
             b.force = tot[k, :3].copy()
             b.torque = tot[k, 3:].copy()
 
-    def pressure_response(self, k: np.ndarray, gwb: np.ndarray) -> np.ndarray:
-        """Strong coupling (the state's ``boundary_response``): the accelerations (3, N_b) of
+    def response(self, k: np.ndarray, gwb: np.ndarray) -> np.ndarray:
+        """Strong coupling (the state's moving boundary): the accelerations (3, N_b) of
         the boundary particles of dynamic bodies under the pressure field k of a Jacobi sweep,
         ``a = F(k) / M``, ``alpha = I_w^-1 T(k)`` (the reaction of the sweep's boundary pressure
         terms; gravity and the gyroscopic term are left out, they do not depend on k), so that
@@ -281,6 +291,8 @@ class FluidCoupling:
         heavy square of tests/test_rigid_2d.py then came to rest on a fluid layer 1.7 r above
         the floor, rocking, and the 3D heavy cube slid 26 mm after landing (module docstring).
         The boundary velocities are set from the poses again in :meth:`advance`."""
+        if not self.yields:
+            return
         g = np.zeros(3)
         g[: state.dim] = state.gravity
         nb = len(self.bodies)
@@ -294,7 +306,7 @@ class FluidCoupling:
         bd["v"] += dt * self._boundary_accel(bd, acc)
 
     def begin_step(self, state: SimState) -> None:
-        """Cache this step's centres and world inverse inertias for :meth:`pressure_response`."""
+        """Cache this step's centres and world inverse inertias for :meth:`response`."""
         self._state = state
         self._c = np.array([b.c for b in self.bodies])
         self._Iinv = [np.linalg.inv(b.world_inertia()) if b.dynamic else np.zeros((3, 3))
