@@ -1,4 +1,4 @@
-"""Emitters (sphkit.emitters): emission rate, timing window, initial velocity, layout, the
+"""Emitters (sphkit.world.emitters): emission rate, timing window, initial velocity, layout, the
 SPlisHSPlasH translation and checkpoints of a run with an emitter."""
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ One step (DESIGN.md, "Data flow of one time step"):
    solver, which adds the pressure acceleration (PBF: the acceleration that lands on its
    corrected positions);
 7. symplectic Euler;
-8. emitters (:mod:`sphkit.emitters`): particles in an emitter's region move with it, then the
+8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it, then the
    layers due by the new time are added;
 9. stability guard: NaN/inf velocities or a speed above ``configuration.max_velocity`` raise
    :class:`InstabilityError` with a diagnosis (step, time, max velocity, CFL number, density error).

@@ -460,7 +460,7 @@ class FluidMesh(_Model):
 
 
 class Emitter(_Model):
-    """A fluid emitter (SPlisHSPlasH's ``Emitters``; :mod:`sphkit.emitters`).
+    """A fluid emitter (SPlisHSPlasH's ``Emitters``; :mod:`sphkit.world.emitters`).
 
     Every ``2r / velocity`` seconds from ``start_time`` to ``end_time`` it adds a layer of
     particles (spacing 2r) at ``position``, moving with ``velocity`` along the emit direction

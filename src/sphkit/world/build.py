@@ -25,11 +25,11 @@ from sphkit.core.methods import (
 from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
-from sphkit.emitters import FluidEmitter
 from sphkit.geometry import GeometryError
 from sphkit.scene.checks import check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.bodies import rigid_bodies
+from sphkit.world.emitters import FluidEmitter
 from sphkit.world.fluid import add_fluid
 from sphkit.world.meshes import SceneMeshes
 from sphkit.world.walls import add_wall_particles, map_geometries

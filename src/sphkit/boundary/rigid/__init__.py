@@ -21,7 +21,7 @@ Density and volume maps (:mod:`sphkit.boundary.maps`, "Moving rigid bodies"): a 
 particles of its own; each step the map model writes one virtual boundary particle per fluid
 particle near the body (boundary fields ``x``, ``V``, ``v`` the body's surface velocity,
 ``rigid_body`` the body's number, ``pressure_mirror`` 0), and :meth:`RigidBodies.fluid_forces`
-and :meth:`RigidBodies.pressure_response` sum the same reactions over them (the solvers treat a
+and :meth:`RigidBodies.response` sum the same reactions over them (the solvers treat a
 virtual particle as any boundary particle, so momentum is conserved to round-off as well). The
 contact points of such a body are its mesh vertices only; :meth:`RigidBodies.place` leaves the
 virtual particles to the map model.

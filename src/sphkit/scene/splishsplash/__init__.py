@@ -87,7 +87,7 @@ objects):
                             ``rotationAxis``/``rotationAngle`` (forced about z in 2D, where every
                             emitter is a box of width 1 as in ``createEmitters``), ``velocity``
                             1, ``id``, ``emitStartTime`` 0, ``emitEndTime`` (none) ->
-                            ``emitters`` (:mod:`sphkit.emitters`); the material's
+                            ``emitters`` (:mod:`sphkit.world.emitters`); the material's
                             ``maxEmitterParticles`` (10,000) -> ``max_particles``;
                             ``emitterReuseParticles`` is not supported (a warning)
 ==========================  ===============================================================

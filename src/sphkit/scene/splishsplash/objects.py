@@ -2,7 +2,8 @@
 
 ``FluidBlocks`` become lattice blocks at SPlisHSPlasH's particle positions, ``FluidModels``
 particle files (BGEO, PLY, VTK) or closed meshes to fill with fluid, ``Emitters`` sphkit's
-emitters (:mod:`sphkit.emitters`), ``RigidBodies`` static walls or dynamic bodies given by a mesh
+emitters (:mod:`sphkit.world.emitters`), ``RigidBodies`` static walls or dynamic bodies given by
+a mesh
 (:class:`~sphkit.scene.schema.MeshBoundary`). Paths are relative to the scene file. The
 placement rules (SPlisHSPlasH's ``createFluidBlocks``, ``initFluidData``, ``createEmitters``,
 ``StaticBoundarySimulator``) are described in :mod:`sphkit.scene.splishsplash`.
