@@ -16,7 +16,8 @@ import yaml
 from _wheel import wheel_scene
 
 from sphkit.geometry.sampling import lattice_block
-from sphkit.scene.files import builtin_scenes, load_scene, resolve_scene_path
+from sphkit.scene.files import builtin_scenes, load_scene
+from sphkit.scene.paths import resolve_scene_path
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.scene.splishsplash import from_splishsplash
 

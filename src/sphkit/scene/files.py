@@ -7,7 +7,8 @@ SPlisHSPlasH's JSON scenes (:func:`~sphkit.scene.splishsplash.from_splishsplash`
 :class:`~sphkit.scene.schema.SceneError` whose message names the field path, the value and what
 was expected. Files are read as UTF-8 JSON or YAML (``yaml.safe_load``: no tags that run code);
 a malformed file is reported with its line and column. Paths written in a scene (meshes,
-particle files) are relative to the scene file's folder (:func:`resolve_scene_path`).
+particle files) are relative to the scene file's folder
+(:func:`sphkit.scene.paths.resolve_scene_path`).
 """
 
 from __future__ import annotations
@@ -21,15 +22,15 @@ from typing import Any
 import yaml
 from pydantic import ValidationError
 
+from sphkit.scene.paths import check_particle_file, resolve_scene_path
 from sphkit.scene.schema import Scene, SceneError, format_validation_error
+from sphkit.scene.splishsplash import from_splishsplash, is_splishsplash
 
 __all__ = [
     "builtin_scenes",
     "builtin_scene_path",
-    "check_particle_file",
     "load_scene",
     "load_scene_file",
-    "resolve_scene_path",
     "scene_from_dict",
 ]
 
@@ -124,14 +125,6 @@ def _read_mapping(path: Path) -> dict[str, Any]:
     return data
 
 
-def resolve_scene_path(scene: Scene, path: str | Path) -> Path:
-    """Resolve a path written in a scene (e.g. a mesh file) against the scene file's folder."""
-    p = Path(path).expanduser()
-    if p.is_absolute() or not scene.source:
-        return p
-    return Path(scene.source).parent / p
-
-
 def load_scene_file(path: str | Path) -> Scene:
     """Load a scene file: sphkit's JSON/YAML, or a SPlisHSPlasH JSON scene."""
     p = Path(path).expanduser()
@@ -181,10 +174,6 @@ def scene_from_dict(data: Mapping[str, Any], path: str | Path | None = None) -> 
     """Validate a scene dict (sphkit's or SPlisHSPlasH's format) read from ``path`` (optional)."""
     if not isinstance(data, Mapping):
         raise SceneError(f"got {type(data).__name__}; expected a mapping of scene fields")
-    # imported here, not at the top: the translator checks its particle files with this
-    # module's check_particle_file, and sphkit's own scenes do not need the translator
-    from sphkit.scene.splishsplash import from_splishsplash, is_splishsplash
-
     if is_splishsplash(data):
         return from_splishsplash(data, path)
     d = dict(data)
@@ -210,24 +199,3 @@ def scene_from_dict(data: Mapping[str, Any], path: str | Path | None = None) -> 
         check_particle_file(resolve_scene_path(scene, ff.file), ff.file,
                              f"{where}: fluid_files[{k}].file")
     return scene
-
-
-def check_particle_file(f: Path, given: str, where: str) -> None:
-    """SceneError naming ``where`` unless ``f`` is an existing particle file of a known format.
-
-    Args:
-        f: the file, resolved against the scene file's folder.
-        given: the path as the scene wrote it (quoted in the message).
-        where: the message's prefix: the scene and the field path.
-    """
-    from sphkit.io.particle_files import PARTICLE_FILE_SUFFIXES, particle_file_kind
-
-    if particle_file_kind(f) is None:
-        raise SceneError(
-            f"{where}: got {given!r}: expected a particle file ending in "
-            f"{', '.join(PARTICLE_FILE_SUFFIXES)}"
-        )
-    if not f.is_file():
-        raise SceneError(
-            f"{where}: got {given!r}: expected an existing particle file (looked for {str(f)!r})"
-        )

@@ -13,7 +13,7 @@ from pathlib import Path
 import trimesh
 
 from sphkit.geometry.meshes import load_mesh
-from sphkit.scene.files import resolve_scene_path
+from sphkit.scene.paths import resolve_scene_path
 from sphkit.scene.schema import Scene
 
 

@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from sphkit.scene.files import check_particle_file
+from sphkit.scene.paths import check_particle_file
 from sphkit.scene.splishsplash.reader import Reader
 
 #: a FluidModels particleFile with these suffixes is a mesh to fill (``.ply`` is a particle file)
