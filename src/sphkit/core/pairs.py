@@ -19,6 +19,12 @@ Typical use::
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         g0, g1, g2 = grad_w(kid, d0, d1, d2, r, h, dim)
+
+A loop that only needs the distance calls :func:`distance`; one that needs ``|x_ij|^2`` itself
+takes :func:`delta` and :func:`dot` (``sqrt(r^2)^2`` would round differently). A loop that folds a
+coefficient into the kernel derivative keeps ``c * kernel_dw(kid, r, h, dim)`` times the
+difference (one product per component instead of two). Velocity differences ``v_i - v_j`` are
+``delta(vi0, vi1, vi2, v, j, dim, 0.0)`` (no minimum image).
 """
 
 from __future__ import annotations
@@ -75,6 +81,33 @@ def separation(xi0, xi1, xi2, y, j, dim, L):
     """``(d0, d1, d2, r)``: the difference ``x_i - y_j`` (:func:`delta`) and its length."""
     d0, d1, d2 = delta(xi0, xi1, xi2, y, j, dim, L)
     return d0, d1, d2, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+
+
+@numba.njit(**_INLINE)
+def distance(xi0, xi1, xi2, y, j, dim, L):
+    """``|x_i - y_j|`` (minimum image along x with period ``L`` > 0)."""
+    d0, d1, d2 = delta(xi0, xi1, xi2, y, j, dim, L)
+    return math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+
+
+@numba.njit(**_INLINE)
+def displaced_point(x, dx, i, dim):
+    """``x_i + dx_i`` of two (dim, N) arrays as three scalars (a predicted position, PCISPH and
+    PBF)."""
+    x0 = x[0, i] + dx[0, i]
+    x1 = x[1, i] + dx[1, i] if dim > 1 else 0.0
+    x2 = x[2, i] + dx[2, i] if dim > 2 else 0.0
+    return x0, x1, x2
+
+
+@numba.njit(**_INLINE)
+def displaced_delta(xi0, xi1, xi2, y, dy, j, dim, L):
+    """``x_i - (y_j + dy_j)``, evaluated as ``(x_i - y_j) - dy_j``, to a displaced neighbour
+    (minimum image along x with period ``L`` > 0) as three scalars."""
+    d0 = min_image(xi0 - y[0, j] - dy[0, j], L)
+    d1 = xi1 - y[1, j] - dy[1, j] if dim > 1 else 0.0
+    d2 = xi2 - y[2, j] - dy[2, j] if dim > 2 else 0.0
+    return d0, d1, d2
 
 
 @numba.njit(**_INLINE)

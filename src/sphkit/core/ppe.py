@@ -44,12 +44,19 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.pairs import (
+    displaced_delta,
+    displaced_point,
+    distance,
+    norm,
+    point,
+    separation,
+    set_vector,
+)
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -103,22 +110,15 @@ def density_at(x, dx, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, out):
     """Normalized density at displaced positions ``x + dx`` with the neighbour lists of x
     (PCISPH's prediction): ``sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x_b)``, self included."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i] + dx[0, i]
-        xi1 = x[1, i] + dx[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] + dx[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
         s = m[i] / rho0 * kernel_w(kid, 0.0, h, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j] - dx[0, j]
-            d1 = xi1 - x[1, j] - dx[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] - dx[2, j] if dim > 2 else 0.0
-            s += m[j] / rho0 * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
+            s += m[j] / rho0 * kernel_w(kid, norm(d0, d1, d2), h, dim)
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            s += bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            s += bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, 0.0), h, dim)
         out[i] = s
 
 
@@ -132,35 +132,17 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb, L=0
     """gw[:, k] = V_j grad W_ij for the k-th fluid pair, gwb[:, k] = V_b grad W_ib (``L`` > 0:
     periodic along x with period L, minimum-image differences)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = V[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            gw[0, k] = f * d0
-            if dim > 1:
-                gw[1, k] = f * d1
-            if dim > 2:
-                gw[2, k] = f * d2
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            f = V[j] * kernel_dw(kid, r, h, dim)
+            set_vector(gw, k, dim, f * d0, f * d1, f * d2)
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            f = bV[b] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            gwb[0, k] = f * d0
-            if dim > 1:
-                gwb[1, k] = f * d1
-            if dim > 2:
-                gwb[2, k] = f * d2
+            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+            f = bV[b] * kernel_dw(kid, r, h, dim)
+            set_vector(gwb, k, dim, f * d0, f * d1, f * d2)
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -172,41 +154,21 @@ def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim
     W_ib``; ``L`` > 0: periodic along x with period L."""
     inv_rho0 = 1.0 / rho0
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         s = m[i] * kernel_w(kid, 0.0, h, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             s += m[j] * kernel_w(kid, r, h, dim)
             f = m[j] * inv_rho0 * kernel_dw(kid, r, h, dim)
-            gw[0, k] = f * d0
-            if dim > 1:
-                gw[1, k] = f * d1
-            if dim > 2:
-                gw[2, k] = f * d2
+            set_vector(gw, k, dim, f * d0, f * d1, f * d2)
         sb = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
             sb += bV[b] * kernel_w(kid, r, h, dim)
             f = bV[b] * kernel_dw(kid, r, h, dim)
-            gwb[0, k] = f * d0
-            if dim > 1:
-                gwb[1, k] = f * d1
-            if dim > 2:
-                gwb[2, k] = f * d2
+            set_vector(gwb, k, dim, f * d0, f * d1, f * d2)
         rho[i] = s + rho0 * sb
 
 

@@ -32,13 +32,12 @@ All loops take ``L`` > 0 for periodic x (minimum-image differences, ``configurat
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.krylov import JacobiPreconditioner, KrylovStats, cg
+from sphkit.core.pairs import delta, distance, point, separation
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -51,18 +50,12 @@ def velocity_gradient(x, v, m, rho, off, idx, h, kid, dim, L, own_density, out):
     for i in numba.prange(x.shape[1]):
         for c in range(dim * dim):
             out[c, i] = 0.0
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             w = m[j] / (rho[i] if own_density else rho[j])
-            f = w * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            f = w * kernel_dw(kid, r, h, dim)
             g = (f * d0, f * d1, f * d2)
             for a in range(dim):
                 dva = v[a, j] - v[a, i]
@@ -75,27 +68,15 @@ def kernel_sum_diagonal(x, m, off, idx, bx, bV, boff, bidx, rho0, with_boundary,
                         L, out):
     """``out_i = sum_j m_j W_ij (+ rho0 sum_b V_b W_ib)``: the density without the self term."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         s = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            s += m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            s += m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
         if with_boundary:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0 = xi0 - bx[0, b]
-                if L > 0.0:
-                    d0 -= L * math.floor(d0 / L + 0.5)
-                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-                s += rho0 * bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+                s += rho0 * bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
         out[i] = s
 
 
@@ -103,18 +84,11 @@ def kernel_sum_diagonal(x, m, off, idx, bx, bV, boff, bidx, rho0, with_boundary,
 def kernel_sum_matvec(x, m, off, idx, diag, h, kid, dim, L, u, out):
     """``out_i = diag_i u_i - sum_j m_j W_ij u_j`` for scalar unknowns u (N,)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         s = diag[i] * u[i]
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            s -= m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim) * u[j]
+            s -= m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim) * u[j]
         out[i] = s
 
 
@@ -123,19 +97,13 @@ def target_gradient_rhs(x, m, off, idx, T, h, kid, dim, L, out):
     """``out[:, i] = sum_j m_j (T_i + T_j) / 2 x_ij W_ij`` with gradients T (dim * dim, N),
     row-major like :func:`velocity_gradient`; out (dim, N)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         for a in range(dim):
             out[a, i] = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = 0.5 * m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            f = 0.5 * m[j] * kernel_w(kid, r, h, dim)
             d = (d0, d1, d2)
             for a in range(dim):
                 s = 0.0
@@ -172,24 +140,19 @@ def decompose_target(G, rho, rho0, xi, dim, spin, T):
 def wall_friction(x, v, rho, bx, bv, bV, boff, bidx, c, rho0, h, kid, dim, L, inv_dt, a):
     """``a_i -= (c / dt) sum_b (rho0 V_b / rho_i) (v_i - v_b) W_ib`` (Akinci 2012 particles)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        vi0, vi1, vi2 = point(v, i, dim)
         f0 = 0.0
         f1 = 0.0
         f2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
             s = (c * inv_dt * rho0 * bV[b] / rho[i]
-                 * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim))
-            f0 += s * (v[0, i] - bv[0, b])
-            f1 += s * (v[1, i] - bv[1, b]) if dim > 1 else 0.0
-            f2 += s * (v[2, i] - bv[2, b]) if dim > 2 else 0.0
+                 * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim))
+            w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
+            f0 += s * w0
+            f1 += s * w1
+            f2 += s * w2
         a[0, i] -= f0
         if dim > 1:
             a[1, i] -= f1
