@@ -32,6 +32,7 @@ import math
 import numba
 
 from sphkit.core.kernels import kernel_dw
+from sphkit.core.pairs import add_vector, delta, dot, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
@@ -53,31 +54,15 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, b
         acc0 = 0.0
         acc1 = 0.0
         acc2 = 0.0
-        xi0 = x[0, i]
-        vi0 = v[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        vi1 = v[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        vi2 = v[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        vi0, vi1, vi2 = point(v, i, dim)
         ri = rho[i]
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            w0 = vi0 - v[0, j]
-            d1 = 0.0
-            d2 = 0.0
-            w1 = 0.0
-            w2 = 0.0
-            if dim > 1:
-                d1 = xi1 - x[1, j]
-                w1 = vi1 - v[1, j]
-            if dim > 2:
-                d2 = xi2 - x[2, j]
-                w2 = vi2 - v[2, j]
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
-            vx = w0 * d0 + w1 * d1 + w2 * d2
+            d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
+            w0, w1, w2 = delta(vi0, vi1, vi2, v, j, dim, 0.0)
+            r2 = dot(d0, d1, d2, d0, d1, d2)
+            vx = dot(w0, w1, w2, d0, d1, d2)
             s = (c * nu * (2.0 * m[j] / (ri + rho[j])) * vx / (r2 + eps)
                  * kernel_dw(kid, math.sqrt(r2), h, dim))
             acc0 += s * d0
@@ -86,34 +71,18 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, b
         if nub > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0 = xi0 - bx[0, b]
-                if L > 0.0:
-                    d0 -= L * math.floor(d0 / L + 0.5)
-                w0 = vi0 - bv[0, b]
-                d1 = 0.0
-                d2 = 0.0
-                w1 = 0.0
-                w2 = 0.0
-                if dim > 1:
-                    d1 = xi1 - bx[1, b]
-                    w1 = vi1 - bv[1, b]
-                if dim > 2:
-                    d2 = xi2 - bx[2, b]
-                    w2 = vi2 - bv[2, b]
-                r2 = d0 * d0 + d1 * d1 + d2 * d2
-                beta = morris_beta(d0, d1, d2, bn[0, b], bn[1, b] if dim > 1 else 0.0,
-                                   bn[2, b] if dim > 2 else 0.0, bd[b], beta_max)
-                vx = beta * (w0 * d0 + w1 * d1 + w2 * d2)
+                d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
+                w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
+                r2 = dot(d0, d1, d2, d0, d1, d2)
+                n0, n1, n2 = point(bn, b, dim)
+                beta = morris_beta(d0, d1, d2, n0, n1, n2, bd[b], beta_max)
+                vx = beta * dot(w0, w1, w2, d0, d1, d2)
                 s = (c * nub * (rho0 * bV[b] / ri) * vx / (r2 + eps)
                      * kernel_dw(kid, math.sqrt(r2), h, dim))
                 acc0 += s * d0
                 acc1 += s * d1
                 acc2 += s * d2
-        a[0, i] += acc0
-        if dim > 1:
-            a[1, i] += acc1
-        if dim > 2:
-            a[2, i] += acc2
+        add_vector(a, i, dim, acc0, acc1, acc2)
 
 
 class StandardViscosity:
