@@ -19,8 +19,10 @@ Notation: ``x_ij = x_i - x_j``, ``A_ij = A_i - A_j``, ``grad W_ij = grad_i W(x_i
                  ``2 sum_j V_j A_ij (x_ij . grad W_ij) / (|x_ij|^2 + 0.01 h^2)``
 
 The per-particle *body* functions (``density_body``, ``pressure_accel_body``) hold the physics of
-one particle and are compiled for the CPU (called in ``prange`` drivers here) and for CUDA
-(wrapped as device functions in :mod:`sphkit.backend.cuda`), as DESIGN.md prescribes.
+one particle; :func:`sphkit.backend.launch` runs them as a CPU ``prange`` loop
+(:func:`density_cpu`, :func:`pressure_accel_cpu`) or as CUDA kernels (``device="cuda"``), as
+DESIGN.md prescribes. The other passes here are ``prange`` loops written with the same inline
+pair helpers (:mod:`sphkit.core.pairs`).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sphkit.backend import launch
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.pairs import add_vector, delta, distance, point, separation, set_vector
@@ -36,30 +39,31 @@ _JIT = dict(cache=True, fastmath=True)
 
 
 # ---------------------------------------------------------------------------------------------
-# per-particle bodies (CPU + CUDA)
+# per-particle bodies (CPU + CUDA, :mod:`sphkit.backend.launch`)
 
 
-@numba.njit(**_JIT)
-def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, L=0.0):
-    """Density of fluid particle i: self + fluid neighbours + boundary (psi_b = rho0 V_b).
+@numba.njit(**_JIT, inline="always")
+def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, L):
+    """``rho[i]`` = density of fluid particle i: self + fluid neighbours + boundary
+    (psi_b = rho0 V_b).
 
     ``L`` > 0: periodic along x with period L [m] (minimum-image distances)."""
     # the coordinates of i are hoisted into scalars and the dim branches are loop invariant
     # (twice as fast as d-loops); the scalar pair helpers also compile for CUDA
     xi0, xi1, xi2 = point(x, i, dim)
-    rho = m[i] * kernel_w(kid, 0.0, h, dim)
+    s = m[i] * kernel_w(kid, 0.0, h, dim)
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        rho += m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
+        s += m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        rho += rho0 * bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
-    return rho
+        s += rho0 * bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
+    rho[i] = s
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_JIT, inline="always")
 def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
-                        L=0.0):
+                        L):
     """Add the symmetric pressure acceleration of fluid particle i to ``a[:, i]``.
 
     ``a_i = -sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad W_ij
@@ -91,24 +95,26 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
 
 
 # ---------------------------------------------------------------------------------------------
-# CPU drivers
+# the bodies on the CPU
 
 
-@numba.njit(parallel=True, **_JIT)
-def density_cpu(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, L=0.0):
-    """rho[i] = density_body(i) for all fluid particles (``L``: period along x, 0 = none)."""
-    for i in numba.prange(x.shape[1]):
-        rho[i] = density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, L)
+def density_cpu(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: np.ndarray, bx: np.ndarray,
+                bV: np.ndarray, boff: np.ndarray, bidx: np.ndarray, rho0: float, h: float,
+                kid: int, dim: int, rho: np.ndarray, L: float = 0.0) -> None:
+    """``rho[i]`` = :func:`density_body` for all fluid particles, a ``prange`` loop
+    (:func:`sphkit.backend.launch`); ``L``: period along x [m], 0 = none."""
+    launch(density_body, x.shape[1], x, m, off, idx, bx, bV, boff, bidx, float(rho0), float(h),
+           int(kid), int(dim), rho, float(L))
 
 
-@numba.njit(parallel=True, **_JIT)
-def pressure_accel_cpu(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
-                       L=0.0):
-    """a[:, i] += pressure acceleration of particle i, for all fluid particles (``L``: period
-    along x, 0 = none)."""
-    for i in numba.prange(x.shape[1]):
-        pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
-                            L)
+def pressure_accel_cpu(x: np.ndarray, m: np.ndarray, rho: np.ndarray, p: np.ndarray,
+                       off: np.ndarray, idx: np.ndarray, bx: np.ndarray, bV: np.ndarray,
+                       boff: np.ndarray, bidx: np.ndarray, rho0: float, h: float, kid: int,
+                       dim: int, a: np.ndarray, L: float = 0.0) -> None:
+    """``a[:, i] +=`` :func:`pressure_accel_body` for all fluid particles, a ``prange`` loop
+    (:func:`sphkit.backend.launch`); ``L``: period along x [m], 0 = none."""
+    launch(pressure_accel_body, x.shape[1], x, m, rho, p, off, idx, bx, bV, boff, bidx,
+           float(rho0), float(h), int(kid), int(dim), a, float(L))
 
 
 # ---------------------------------------------------------------------------------------------

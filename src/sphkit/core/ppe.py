@@ -40,6 +40,11 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
   ``q_i <- max(q_i - omega * scale_i * (s_i - f Ap_i), 0)`` in one pass, with the error of the
   residual before the update;
 * :func:`density_at` -- PCISPH's / PBF's density at predicted positions.
+
+:func:`density_pair_gradients`, :func:`kappa_accel_cached` and :func:`jacobi_sweep` are per-particle
+bodies (``density_pair_gradients_body``, ``kappa_accel_body``, ``jacobi_body``) run through
+:func:`sphkit.backend.launch` / :func:`sphkit.backend.launch_reduce`: a ``prange`` loop on the
+CPU, a CUDA kernel with ``device="cuda"``; the bodies carry their fast-math flags.
 """
 
 from __future__ import annotations
@@ -47,6 +52,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sphkit.backend import launch, launch_reduce
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.pairs import (
     displaced_delta,
@@ -74,9 +80,25 @@ GATHER_FASTMATH = frozenset({"nnan", "ninf", "nsz", "arcp", "contract", "afn"})
 _JIT_GATHER = dict(cache=True, fastmath=set(GATHER_FASTMATH))
 
 
-@numba.njit(parallel=True, **_JIT_GATHER)
-def jacobi_sweep(a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, scale, omega, active,
-                 w, k):
+@numba.njit(**_JIT_GATHER, inline="always")
+def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, scale, omega,
+                active, w, k):
+    """Particle i of :func:`jacobi_sweep`: updates ``q[i]``, ``k[i]`` and returns the compressive
+    residual ``max(-r_i, 0)`` before the update if i is active, else 0 (the value
+    :func:`sphkit.backend.launch_reduce` sums and maximizes)."""
+    r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim)
+    qi = max(q[i] - omega * scale[i] * r, 0.0)
+    q[i] = qi
+    k[i] = w[i] * qi
+    if active[i]:
+        return max(-r, 0.0)
+    return 0.0
+
+
+def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray,
+                 boff: np.ndarray, bidx: np.ndarray, gw: np.ndarray, gwb: np.ndarray, dim: int,
+                 q: np.ndarray, s: np.ndarray, ap_factor: float, scale: np.ndarray, omega: float,
+                 active: np.ndarray, w: np.ndarray, k: np.ndarray) -> tuple[float, float]:
     """The second half of one Jacobi iteration, in one pass: for every particle the product
     ``Ap_i`` = :func:`pair_divergence_cached` of the pressure accelerations a (boundary
     accelerations ab), the residual ``r_i = s_i - f Ap_i`` (f = ap_factor), the update of q and
@@ -88,20 +110,13 @@ def jacobi_sweep(a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, sca
 
     Returns (mean over all particles, max) of the compressive residual ``max(-r_i, 0)`` of active
     particles, before the update. (One pass instead of a divergence pass, an update pass and a
-    multiplication: 3-4 % of a DFSPH step on the benchmark scene.)
+    multiplication: 3-4 % of a DFSPH step on the benchmark scene.) The pass is
+    :func:`jacobi_body` through :func:`sphkit.backend.launch_reduce`, which reduces the residuals
+    in the same ``prange`` loop.
     """
     n = q.shape[0]
-    tot = 0.0
-    mx = 0.0
-    for i in numba.prange(n):
-        r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim)
-        qi = max(q[i] - omega * scale[i] * r, 0.0)
-        q[i] = qi
-        k[i] = w[i] * qi
-        if active[i]:
-            e = max(-r, 0.0)
-            tot += e
-            mx = max(mx, e)
+    tot, mx = launch_reduce(jacobi_body, n, a, ab, off, idx, boff, bidx, gw, gwb, int(dim), q, s,
+                            float(ap_factor), scale, float(omega), active, w, k)
     return tot / max(n, 1), mx
 
 
@@ -145,70 +160,85 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb, L=0
             set_vector(gwb, k, dim, f * d0, f * d1, f * d2)
 
 
-@numba.njit(parallel=True, **_JIT)
-def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, gw, gwb,
-                           L=0.0):
+@numba.njit(**_JIT, inline="always")
+def density_pair_gradients_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho,
+                                gw, gwb, L):
+    """Particle i of :func:`density_pair_gradients`: ``rho[i]`` and the pair gradients of its
+    fluid pairs ``gw[:, off[i]:off[i + 1]]`` and boundary pairs ``gwb[:, boff[i]:boff[i + 1]]``
+    (its own CSR rows)."""
+    inv_rho0 = 1.0 / rho0
+    xi0, xi1, xi2 = point(x, i, dim)
+    s = m[i] * kernel_w(kid, 0.0, h, dim)
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+        s += m[j] * kernel_w(kid, r, h, dim)
+        f = m[j] * inv_rho0 * kernel_dw(kid, r, h, dim)
+        set_vector(gw, k, dim, f * d0, f * d1, f * d2)
+    sb = 0.0
+    for k in range(boff[i], boff[i + 1]):
+        b = bidx[k]
+        d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+        sb += bV[b] * kernel_w(kid, r, h, dim)
+        f = bV[b] * kernel_dw(kid, r, h, dim)
+        set_vector(gwb, k, dim, f * d0, f * d1, f * d2)
+    rho[i] = s + rho0 * sb
+
+
+def density_pair_gradients(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: np.ndarray,
+                           bx: np.ndarray, bV: np.ndarray, boff: np.ndarray, bidx: np.ndarray,
+                           rho0: float, h: float, kid: int, dim: int, rho: np.ndarray,
+                           gw: np.ndarray, gwb: np.ndarray, L: float = 0.0) -> None:
     """:func:`sphkit.core.operators.density_body` and :func:`pair_gradients` in one pass over
     the pairs (one distance per pair for both): ``rho_i = m_i W_0 + sum_j m_j W_ij + sum_b rho0
     V_b W_ib``, ``gw[:, k] = V_j grad W_ij`` with ``V_j = m_j / rho0``, ``gwb[:, k] = V_b grad
-    W_ib``; ``L`` > 0: periodic along x with period L."""
-    inv_rho0 = 1.0 / rho0
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = point(x, i, dim)
-        s = m[i] * kernel_w(kid, 0.0, h, dim)
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
-            s += m[j] * kernel_w(kid, r, h, dim)
-            f = m[j] * inv_rho0 * kernel_dw(kid, r, h, dim)
-            set_vector(gw, k, dim, f * d0, f * d1, f * d2)
-        sb = 0.0
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-            sb += bV[b] * kernel_w(kid, r, h, dim)
-            f = bV[b] * kernel_dw(kid, r, h, dim)
-            set_vector(gwb, k, dim, f * d0, f * d1, f * d2)
-        rho[i] = s + rho0 * sb
+    W_ib``; ``L`` > 0: periodic along x with period L. The pass is
+    :func:`density_pair_gradients_body` through :func:`sphkit.backend.launch`."""
+    launch(density_pair_gradients_body, x.shape[1], x, m, off, idx, bx, bV, boff, bidx,
+           float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, float(L))
 
 
-@numba.njit(parallel=True, **_JIT_GATHER)
-def kappa_accel_cached(k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
+@numba.njit(**_JIT_GATHER, inline="always")
+def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
+    """Particle i of :func:`kappa_accel_cached`: ``a[:, i]``."""
+    with_kb = kb.shape[0] > 0
+    ki = k[i]
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
+    for kk in range(off[i], off[i + 1]):
+        s = ki + k[idx[kk]]
+        a0 -= s * gw[0, kk]
+        if dim > 1:
+            a1 -= s * gw[1, kk]
+        if dim > 2:
+            a2 -= s * gw[2, kk]
+    for kk in range(boff[i], boff[i + 1]):
+        b = bidx[kk]
+        sb = ki * (1.0 + bmirror[b])
+        if with_kb:
+            sb += kb[b]
+        a0 -= sb * gwb[0, kk]
+        if dim > 1:
+            a1 -= sb * gwb[1, kk]
+        if dim > 2:
+            a2 -= sb * gwb[2, kk]
+    set_vector(a, i, dim, a0, a1, a2)
+
+
+def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.ndarray,
+                       boff: np.ndarray, bidx: np.ndarray, bmirror: np.ndarray, gw: np.ndarray,
+                       gwb: np.ndarray, dim: int, a: np.ndarray) -> None:
     """a[:, i] = pressure acceleration of the field k (overwrites a); the boundary term is
     ``-sum_b V_b (k_i (1 + bmirror[b]) + kb[b]) grad W_ib`` (see the module docstring): kb is
     the extrapolated boundary value ``p_b / rho0`` where a boundary model sets one (Band et al.
     2018, :mod:`sphkit.boundary.band2018`); an empty kb means 0 (no gather).
 
     A solver whose variable is q with weights w passes ``k = w * q`` (one gather per pair
-    instead of two: a fifth faster)."""
-    with_kb = kb.shape[0] > 0
-    for i in numba.prange(k.shape[0]):
-        ki = k[i]
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        for kk in range(off[i], off[i + 1]):
-            s = ki + k[idx[kk]]
-            a0 -= s * gw[0, kk]
-            if dim > 1:
-                a1 -= s * gw[1, kk]
-            if dim > 2:
-                a2 -= s * gw[2, kk]
-        for kk in range(boff[i], boff[i + 1]):
-            b = bidx[kk]
-            sb = ki * (1.0 + bmirror[b])
-            if with_kb:
-                sb += kb[b]
-            a0 -= sb * gwb[0, kk]
-            if dim > 1:
-                a1 -= sb * gwb[1, kk]
-            if dim > 2:
-                a2 -= sb * gwb[2, kk]
-        a[0, i] = a0
-        if dim > 1:
-            a[1, i] = a1
-        if dim > 2:
-            a[2, i] = a2
+    instead of two: a fifth faster). The pass is :func:`kappa_accel_body` through
+    :func:`sphkit.backend.launch`."""
+    launch(kappa_accel_body, k.shape[0], k, kb, off, idx, boff, bidx, bmirror, gw, gwb, int(dim),
+           a)
 
 
 @numba.njit(parallel=True, **_JIT_GATHER)
