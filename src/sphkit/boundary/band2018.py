@@ -178,9 +178,7 @@ def replace_mirrored(x, p, rho0, bx, bV, boff, bidx, use, kb, h, kid, dim, L, a)
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         ki = p[i] / rho0
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
+        a0 = a1 = a2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             if not use[b]:

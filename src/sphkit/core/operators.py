@@ -73,9 +73,7 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
     """
     xi0, xi1, xi2 = point(x, i, dim)
     dpi = p[i] / (rho[i] * rho[i])
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
+    a0 = a1 = a2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
@@ -197,9 +195,7 @@ def curl_sum(i, x, m, A, off, idx, h, kid, dim, L):
     Shared by :func:`curl` and the vorticity of :mod:`sphkit.vorticity.confinement`."""
     xi0, xi1, xi2 = point(x, i, dim)
     ai0, ai1, ai2 = point(A, i, dim)
-    c0 = 0.0
-    c1 = 0.0
-    c2 = 0.0
+    c0 = c1 = c2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
@@ -327,9 +323,7 @@ def color_gradient_sum(i, x, m, rho, c, off, idx, h, kid, dim, L):
     period L [m]."""
     weighted = c.shape[0] > 0
     xi0, xi1, xi2 = point(x, i, dim)
-    n0 = 0.0
-    n1 = 0.0
-    n2 = 0.0
+    n0 = n1 = n2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)

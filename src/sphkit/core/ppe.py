@@ -55,6 +55,7 @@ import numpy as np
 from sphkit.backend import launch, launch_reduce
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.pairs import (
+    delta,
     displaced_delta,
     displaced_point,
     distance,
@@ -203,9 +204,7 @@ def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
     """Particle i of :func:`kappa_accel_cached`: ``a[:, i]``."""
     with_kb = kb.shape[0] > 0
     ki = k[i]
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
+    a0 = a1 = a2 = 0.0
     for kk in range(off[i], off[i + 1]):
         s = ki + k[idx[kk]]
         a0 -= s * gw[0, kk]
@@ -246,9 +245,7 @@ def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
     """out[i] = (G + B) . (G + M) + sum_j V_j^2 |grad W_ij|^2, G = sum_j V_j grad W_ij,
     B = sum_b V_b grad W_ib, M = sum_b (1 + bmirror[b]) V_b grad W_ib."""
     for i in numba.prange(off.shape[0] - 1):
-        g0 = 0.0
-        g1 = 0.0
-        g2 = 0.0
+        g0 = g1 = g2 = 0.0
         sq = 0.0
         for k in range(off[i], off[i + 1]):
             t0 = gw[0, k]
@@ -258,12 +255,8 @@ def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
             g1 += t1
             g2 += t2
             sq += t0 * t0 + t1 * t1 + t2 * t2
-        b0 = 0.0
-        b1 = 0.0
-        b2 = 0.0
-        m0 = 0.0
-        m1 = 0.0
-        m2 = 0.0
+        b0 = b1 = b2 = 0.0
+        m0 = m1 = m2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             f = 1.0 + bmirror[bidx[k]]
             b0 += gwb[0, k]
@@ -278,28 +271,27 @@ def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
 
 
 @numba.njit(inline="always", **_JIT_GATHER)
+def _dot_column(w0, w1, w2, g, k, dim):
+    """``w . g[:, k]`` over the first dim components (a cached pair gradient)."""
+    t = w0 * g[0, k]
+    if dim > 1:
+        t += w1 * g[1, k]
+    if dim > 2:
+        t += w2 * g[2, k]
+    return t
+
+
+@numba.njit(inline="always", **_JIT_GATHER)
 def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
     """``sum_j (v_i - v_j) . gw_ij + sum_b (v_i - v_b) . gwb_ib`` of particle i."""
-    vi0 = v[0, i]
-    vi1 = v[1, i] if dim > 1 else 0.0
-    vi2 = v[2, i] if dim > 2 else 0.0
+    vi0, vi1, vi2 = point(v, i, dim)
     s = 0.0
     for k in range(off[i], off[i + 1]):
-        j = idx[k]
-        t = (vi0 - v[0, j]) * gw[0, k]
-        if dim > 1:
-            t += (vi1 - v[1, j]) * gw[1, k]
-        if dim > 2:
-            t += (vi2 - v[2, j]) * gw[2, k]
-        s += t
+        w0, w1, w2 = delta(vi0, vi1, vi2, v, idx[k], dim, 0.0)
+        s += _dot_column(w0, w1, w2, gw, k, dim)
     for k in range(boff[i], boff[i + 1]):
-        b = bidx[k]
-        t = (vi0 - bv[0, b]) * gwb[0, k]
-        if dim > 1:
-            t += (vi1 - bv[1, b]) * gwb[1, k]
-        if dim > 2:
-            t += (vi2 - bv[2, b]) * gwb[2, k]
-        s += t
+        w0, w1, w2 = delta(vi0, vi1, vi2, bv, bidx[k], dim, 0.0)
+        s += _dot_column(w0, w1, w2, gwb, k, dim)
     return s
 
 

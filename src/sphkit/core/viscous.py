@@ -24,20 +24,24 @@ Methods never import each other, so what two of them share lives here:
   acceleration), optionally keeping ``v_new - v`` for the next warm start.
 * :func:`morris_beta` -- the no-slip wall of Morris, Fox & Zhu 1997 for the Laplacian
   viscosities' boundary term (``standard``, ``weiler2018``): the factor ``beta`` in
-  ``v_i - v_b = beta (v_i - v_wall)`` (see its docstring); :func:`register_wall_fields` adds the
-  boundary fields it reads (``wall_normal``, ``wall_distance``).
+  ``v_i - v_b = beta (v_i - v_wall)`` (see its docstring); :func:`wall_pair` is the preamble of
+  their boundary pair loops (difference, squared distance, beta) and :func:`laplacian_pair` the
+  pair factor of their Laplacian; :func:`register_wall_fields` adds the boundary fields it reads
+  (``wall_normal``, ``wall_distance``).
 
 All loops take ``L`` > 0 for periodic x (minimum-image differences, ``configuration.periodic_x``).
 """
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.krylov import JacobiPreconditioner, KrylovStats, cg
-from sphkit.core.pairs import delta, distance, point, separation
+from sphkit.core.pairs import delta, distance, dot, point, separation
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -142,9 +146,7 @@ def wall_friction(x, v, rho, bx, bv, bV, boff, bidx, c, rho0, h, kid, dim, L, in
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         vi0, vi1, vi2 = point(v, i, dim)
-        f0 = 0.0
-        f1 = 0.0
-        f2 = 0.0
+        f0 = f1 = f2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             s = (c * inv_dt * rho0 * bV[b] / rho[i]
@@ -293,3 +295,26 @@ def morris_beta(d0, d1, d2, n0, n1, n2, db, beta_max):
         return beta_max
     beta = 1.0 + db / di
     return beta if beta < beta_max else beta_max
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L):
+    """``(d0, d1, d2, r2, beta)`` of a fluid particle at ``xi`` and boundary particle b: the
+    difference ``x_i - x_b`` (minimum image along x with period ``L`` > 0), its squared length
+    and the Morris factor :func:`morris_beta` from b's wall normal ``bn[:, b]`` and wall distance
+    ``bd[b]`` (1 unless ``beta_max`` > 0). The preamble of the boundary loops of the Laplacian
+    viscosities (:mod:`sphkit.viscosity.standard`, :mod:`sphkit.viscosity.weiler2018`)."""
+    d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
+    n0, n1, n2 = point(bn, b, dim)
+    beta = morris_beta(d0, d1, d2, n0, n1, n2, bd[b], beta_max)
+    return d0, d1, d2, dot(d0, d1, d2, d0, d1, d2), beta
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim):
+    """``(w . x_ij) / (|x_ij|^2 + eps) W'(r) / r`` with ``r^2 = |x_ij|^2 = r2``: the pair factor
+    of the Monaghan 2005 projected Laplacian that the Laplacian viscosities share
+    (:mod:`sphkit.viscosity.standard`, :mod:`sphkit.viscosity.weiler2018`); times the pair's
+    coefficient and ``x_ij`` it is the pair's term (``w = v_i - v_j``; ``eps`` = the
+    regularisation times h^2, :data:`LAPLACIAN_EPS`)."""
+    return dot(w0, w1, w2, d0, d1, d2) / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim)

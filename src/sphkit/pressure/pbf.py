@@ -92,9 +92,7 @@ def pbf_lambda(x, dx, V, off, idx, bx, bV, boff, bidx, h, kid, dim, eps, lam, rh
     for i in numba.prange(n):
         xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
         rho = V[i] * w0
-        g0 = 0.0
-        g1 = 0.0
-        g2 = 0.0
+        g0 = g1 = g2 = 0.0
         sq = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
@@ -132,9 +130,7 @@ def pbf_correction(x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, s_c
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
         li = lam[i]
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
+        c0 = c1 = c2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)

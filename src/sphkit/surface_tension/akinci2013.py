@@ -87,17 +87,13 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
     xi0, xi1, xi2 = point(x, i, dim)
     ni0, ni1, ni2 = point(nrm, i, dim)
     rhoi = rho[i]
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
+    a0 = a1 = a2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)
         kij = 2.0 * rho0 / (rhoi + rho[j])
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
+        c0 = c1 = c2 = 0.0
         if r2 > 1.0e-18:
             r = math.sqrt(r2)
             s = -gamma * m[j] * cohesion_kernel(r, h) / r

@@ -53,9 +53,7 @@ def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho
     """Add the cohesion and boundary adhesion acceleration of fluid particle i to ``a[:, i]``."""
     xi0, xi1, xi2 = point(x, i, dim)
     w_diam = kernel_w(kid, diam, h, dim)
-    s0 = 0.0
-    s1 = 0.0
-    s2 = 0.0
+    s0 = s1 = s2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
@@ -64,9 +62,7 @@ def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho
         s0 += c * d0
         s1 += c * d1
         s2 += c * d2
-    b0 = 0.0
-    b1 = 0.0
-    b2 = 0.0
+    b0 = b1 = b2 = 0.0
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)

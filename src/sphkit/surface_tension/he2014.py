@@ -60,9 +60,7 @@ def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, k
     """Add the colour-field surface tension acceleration of fluid particle i to ``a[:, i]``."""
     xi0, xi1, xi2 = point(x, i, dim)
     gi = g2[i]
-    s0 = 0.0
-    s1 = 0.0
-    s2 = 0.0
+    s0 = s1 = s2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
@@ -70,9 +68,7 @@ def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, k
         s0 += w * d0
         s1 += w * d1
         s2 += w * d2
-    b0 = 0.0
-    b1 = 0.0
-    b2 = 0.0
+    b0 = b1 = b2 = 0.0
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)

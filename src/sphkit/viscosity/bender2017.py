@@ -112,12 +112,8 @@ def _strain_sums(i, x, v, m, off, idx, h, kid, dim, L):
     ``0.5 / rho_i``), shared by :func:`strain_rate` and :func:`_constraint`."""
     xi0, xi1, xi2 = point(x, i, dim)
     vi0, vi1, vi2 = point(v, i, dim)
-    e0 = 0.0
-    e1 = 0.0
-    e2 = 0.0
-    e3 = 0.0
-    e4 = 0.0
-    e5 = 0.0
+    e0 = e1 = e2 = 0.0
+    e3 = e4 = e5 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
@@ -206,9 +202,7 @@ def viscosity_factor(x, m, rho, off, idx, h, kid, dim, L, comp, max_relax, K, di
                 K[a, b, i] = 0.0
         c = 0.5 / rho[i]
         inv_rho = 1.0 / rho[i]
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
+        s0 = s1 = s2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
@@ -282,9 +276,7 @@ def _impulse(x, m, rho, off, idx, h, kid, dim, L, lam, v):
         xi0, xi1, xi2 = point(x, i, dim)
         li = _load6(lam, i, dim)
         ri2 = 1.0 / (rho[i] * rho[i])
-        dv0 = 0.0
-        dv1 = 0.0
-        dv2 = 0.0
+        dv0 = dv1 = dv2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)

@@ -27,19 +27,17 @@ beta = 1).
 
 from __future__ import annotations
 
-import math
-
 import numba
 
-from sphkit.core.kernels import kernel_dw
 from sphkit.core.pairs import add_vector, delta, dot, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
     MORRIS_BETA_MAX,
     check_wall_options,
-    morris_beta,
+    laplacian_pair,
     register_wall_fields,
+    wall_pair,
 )
 
 
@@ -51,9 +49,7 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, b
     eps = epsf * h * h
     c = 2.0 * (dim + 2)
     for i in numba.prange(x.shape[1]):
-        acc0 = 0.0
-        acc1 = 0.0
-        acc2 = 0.0
+        acc0 = acc1 = acc2 = 0.0
         xi0, xi1, xi2 = point(x, i, dim)
         vi0, vi1, vi2 = point(v, i, dim)
         ri = rho[i]
@@ -62,23 +58,18 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, b
             d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
             w0, w1, w2 = delta(vi0, vi1, vi2, v, j, dim, 0.0)
             r2 = dot(d0, d1, d2, d0, d1, d2)
-            vx = dot(w0, w1, w2, d0, d1, d2)
-            s = (c * nu * (2.0 * m[j] / (ri + rho[j])) * vx / (r2 + eps)
-                 * kernel_dw(kid, math.sqrt(r2), h, dim))
+            s = (c * nu * (2.0 * m[j] / (ri + rho[j]))
+                 * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim))
             acc0 += s * d0
             acc1 += s * d1
             acc2 += s * d2
         if nub > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
+                d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
                 w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
-                r2 = dot(d0, d1, d2, d0, d1, d2)
-                n0, n1, n2 = point(bn, b, dim)
-                beta = morris_beta(d0, d1, d2, n0, n1, n2, bd[b], beta_max)
-                vx = beta * dot(w0, w1, w2, d0, d1, d2)
-                s = (c * nub * (rho0 * bV[b] / ri) * vx / (r2 + eps)
-                     * kernel_dw(kid, math.sqrt(r2), h, dim))
+                s = (c * nub * (rho0 * bV[b] / ri) * beta
+                     * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim))
                 acc0 += s * d0
                 acc1 += s * d1
                 acc2 += s * d2

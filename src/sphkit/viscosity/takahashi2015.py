@@ -73,15 +73,9 @@ def _stress(x, u, m, rho, off, idx, h, kid, dim, L, mu, S):
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         ui0, ui1, ui2 = point(u, i, dim)
-        g00 = 0.0
-        g01 = 0.0
-        g02 = 0.0
-        g10 = 0.0
-        g11 = 0.0
-        g12 = 0.0
-        g20 = 0.0
-        g21 = 0.0
-        g22 = 0.0
+        g00 = g01 = g02 = 0.0
+        g10 = g11 = g12 = 0.0
+        g20 = g21 = g22 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
@@ -123,9 +117,7 @@ def _operator(x, u, m, rho, off, idx, h, kid, dim, L, S, dt, out):
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         ri2 = 1.0 / (rho[i] * rho[i])
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
+        a0 = a1 = a2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
@@ -155,18 +147,10 @@ def _diagonal_blocks(x, m, rho, off, idx, h, kid, dim, L, mu, dt, blocks):
     """The dim x dim diagonal blocks D_i of I - dt a (see the module), (dim, dim, N)."""
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        q = 0.0
-        q00 = 0.0
-        q01 = 0.0
-        q02 = 0.0
-        q11 = 0.0
-        q12 = 0.0
+        c0 = c1 = c2 = 0.0
+        s0 = s1 = s2 = 0.0
+        q = q00 = q01 = 0.0
+        q02 = q11 = q12 = 0.0
         q22 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]

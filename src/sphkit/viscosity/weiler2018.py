@@ -60,8 +60,9 @@ from sphkit.core.viscous import (
     MORRIS_BETA_MAX,
     add_velocity_change,
     check_wall_options,
-    morris_beta,
+    laplacian_pair,
     register_wall_fields,
+    wall_pair,
 )
 
 _JIT = dict(cache=True, fastmath=True)
@@ -75,28 +76,22 @@ def _matvec(x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, beta_max
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         ui0, ui1, ui2 = point(u, i, dim)
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
+        a0 = a1 = a2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
             w0, w1, w2 = delta(ui0, ui1, ui2, u, j, dim, 0.0)
             r2 = dot(d0, d1, d2, d0, d1, d2)
-            s = (cf * m[j] / rho[j] * dot(w0, w1, w2, d0, d1, d2) / (r2 + eps)
-                 * kernel_dw(kid, math.sqrt(r2), h, dim))
+            s = cf * m[j] / rho[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim)
             a0 += s * d0
             a1 += s * d1
             a2 += s * d2
         if cb > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
-                r2 = dot(d0, d1, d2, d0, d1, d2)
-                n0, n1, n2 = point(bn, b, dim)
-                beta = morris_beta(d0, d1, d2, n0, n1, n2, bd[b], beta_max)
-                s = (beta * cb * rho0 * bV[b] / rho[i] * dot(ui0, ui1, ui2, d0, d1, d2)
-                     / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim))
+                d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
+                s = (beta * cb * rho0 * bV[b] / rho[i]
+                     * laplacian_pair(kid, ui0, ui1, ui2, d0, d1, d2, r2, eps, h, dim))
                 a0 += s * d0
                 a1 += s * d1
                 a2 += s * d2
@@ -115,15 +110,9 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, 
     eps = epsf * h * h
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
-        g00 = 0.0
-        g01 = 0.0
-        g02 = 0.0
-        g11 = 0.0
-        g12 = 0.0
-        g22 = 0.0
-        b0 = 0.0
-        b1 = 0.0
-        b2 = 0.0
+        g00 = g01 = g02 = 0.0
+        g11 = g12 = g22 = 0.0
+        b0 = b1 = b2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
@@ -138,10 +127,7 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, 
         if cb > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
-                r2 = dot(d0, d1, d2, d0, d1, d2)
-                n0, n1, n2 = point(bn, b, dim)
-                beta = morris_beta(d0, d1, d2, n0, n1, n2, bd[b], beta_max)
+                d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
                 s = (beta * cb * rho0 * bV[b] / rho[i] / (r2 + eps)
                      * kernel_dw(kid, math.sqrt(r2), h, dim))
                 g00 += s * d0 * d0

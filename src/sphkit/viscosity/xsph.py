@@ -23,9 +23,7 @@ def _xsph(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, c, cb, rho0, h, kid, d
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         vi0, vi1, vi2 = point(v, i, dim)
-        acc0 = 0.0
-        acc1 = 0.0
-        acc2 = 0.0
+        acc0 = acc1 = acc2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             s = (c * inv_dt * (m[j] / rho[j])

@@ -60,9 +60,7 @@ def _vorticity_cpu(x, v, m, rho, off, idx, h, kid, dim, omega, norm):
 def confinement_body(i, x, m, rho, omega, norm, off, idx, eps, h, kid, dim, a):
     """Add ``eps N_i x omega_i`` to ``a[:, i]`` (``N_i`` = unit gradient of ``|omega|``)."""
     xi0, xi1, xi2 = point(x, i, dim)
-    e0 = 0.0
-    e1 = 0.0
-    e2 = 0.0
+    e0 = e1 = e2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)

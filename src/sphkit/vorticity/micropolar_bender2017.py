@@ -88,15 +88,9 @@ def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu
     wi1 = omega[1, i] if dim == 3 else 0.0
     wi2 = omega[2, i]
     # sums of m_j omega_ij x gradW, m_j v_ij x gradW, (m_j/rho_j) omega_ij W
-    cw0 = 0.0
-    cw1 = 0.0
-    cw2 = 0.0
-    cv0 = 0.0
-    cv1 = 0.0
-    cv2 = 0.0
-    xs0 = 0.0
-    xs1 = 0.0
-    xs2 = 0.0
+    cw0 = cw1 = cw2 = 0.0
+    cv0 = cv1 = cv2 = 0.0
+    xs0 = xs1 = xs2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
