@@ -65,6 +65,24 @@ def delta(xi0, xi1, xi2, y, j, dim, L):
 
 
 @numba.njit(**_INLINE)
+def delta2(xi0, xi1, xi2, y, ui0, ui1, ui2, u, j, dim, L):
+    """``(x_i - y_j, u_i - u_j)`` as six scalars: :func:`delta` of the positions and the
+    difference of a vector field (velocities, no minimum image) to neighbour j, loaded under one
+    dim branch per component for both (two calls of :func:`delta` branch twice as often, which
+    made the standard viscosity's pair loop about 5 % slower)."""
+    d0 = min_image(xi0 - y[0, j], L)
+    w0 = ui0 - u[0, j]
+    d1 = d2 = w1 = w2 = 0.0
+    if dim > 1:
+        d1 = xi1 - y[1, j]
+        w1 = ui1 - u[1, j]
+    if dim > 2:
+        d2 = xi2 - y[2, j]
+        w2 = ui2 - u[2, j]
+    return d0, d1, d2, w0, w1, w2
+
+
+@numba.njit(**_INLINE)
 def norm(d0, d1, d2):
     """``|d|`` of a vector given as three scalars."""
     return math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)

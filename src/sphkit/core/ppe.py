@@ -55,7 +55,6 @@ import numpy as np
 from sphkit.backend import launch, launch_reduce
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.pairs import (
-    delta,
     displaced_delta,
     displaced_point,
     distance,
@@ -271,27 +270,29 @@ def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
 
 
 @numba.njit(inline="always", **_JIT_GATHER)
-def _dot_column(w0, w1, w2, g, k, dim):
-    """``w . g[:, k]`` over the first dim components (a cached pair gradient)."""
-    t = w0 * g[0, k]
-    if dim > 1:
-        t += w1 * g[1, k]
-    if dim > 2:
-        t += w2 * g[2, k]
-    return t
-
-
-@numba.njit(inline="always", **_JIT_GATHER)
 def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
-    """``sum_j (v_i - v_j) . gw_ij + sum_b (v_i - v_b) . gwb_ib`` of particle i."""
+    """``sum_j (v_i - v_j) . gw_ij + sum_b (v_i - v_b) . gwb_ib`` of particle i.
+
+    Written out (one dim branch per component): through the pair helpers (a difference, then a
+    product with its own branches) :func:`jacobi_sweep` ran 5-13 % slower."""
     vi0, vi1, vi2 = point(v, i, dim)
     s = 0.0
     for k in range(off[i], off[i + 1]):
-        w0, w1, w2 = delta(vi0, vi1, vi2, v, idx[k], dim, 0.0)
-        s += _dot_column(w0, w1, w2, gw, k, dim)
+        j = idx[k]
+        t = (vi0 - v[0, j]) * gw[0, k]
+        if dim > 1:
+            t += (vi1 - v[1, j]) * gw[1, k]
+        if dim > 2:
+            t += (vi2 - v[2, j]) * gw[2, k]
+        s += t
     for k in range(boff[i], boff[i + 1]):
-        w0, w1, w2 = delta(vi0, vi1, vi2, bv, bidx[k], dim, 0.0)
-        s += _dot_column(w0, w1, w2, gwb, k, dim)
+        b = bidx[k]
+        t = (vi0 - bv[0, b]) * gwb[0, k]
+        if dim > 1:
+            t += (vi1 - bv[1, b]) * gwb[1, k]
+        if dim > 2:
+            t += (vi2 - bv[2, b]) * gwb[2, k]
+        s += t
     return s
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numba
 
-from sphkit.core.pairs import add_vector, delta, dot, point
+from sphkit.core.pairs import add_vector, delta, delta2, dot, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
@@ -55,8 +55,7 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, b
         ri = rho[i]
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
-            w0, w1, w2 = delta(vi0, vi1, vi2, v, j, dim, 0.0)
+            d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
             r2 = dot(d0, d1, d2, d0, d1, d2)
             s = (c * nu * (2.0 * m[j] / (ri + rho[j]))
                  * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim))

@@ -53,7 +53,7 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
-from sphkit.core.pairs import delta, dot, point
+from sphkit.core.pairs import delta, delta2, dot, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
@@ -79,8 +79,7 @@ def _matvec(x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, beta_max
         a0 = a1 = a2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
-            w0, w1, w2 = delta(ui0, ui1, ui2, u, j, dim, 0.0)
+            d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, ui0, ui1, ui2, u, j, dim, L)
             r2 = dot(d0, d1, d2, d0, d1, d2)
             s = cf * m[j] / rho[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim)
             a0 += s * d0
