@@ -1,8 +1,12 @@
-"""The GPU path: the density and pressure-force bodies compiled as CUDA kernels.
+"""The GPU path: kernel bodies run through ``sphkit.backend.launch(..., device="cuda")``.
 
 Runs in a subprocess with NUMBA_ENABLE_CUDASIM=1 (the simulator must be chosen before numba.cuda
-is imported), on a small 2D and 3D case, and compares with the CPU prange drivers; where a CUDA
-GPU is present the same script also runs on it (skipped otherwise, e.g. in CI).
+is imported), on a small 2D and 3D case (a jittered block over a wall shell), and compares the
+density, the pressure acceleration, the fused density and pair gradients and one Jacobi pass of
+the iterative solvers (kappa acceleration, then the sweep with its (sum, max) reduction) with
+the same bodies launched on the CPU; where a CUDA GPU is present the same script also runs on it
+(skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
+the CPU does not import numba.cuda.
 """
 
 from __future__ import annotations
@@ -16,47 +20,95 @@ import pytest
 
 SCRIPT = textwrap.dedent(
     """
+    import sys
     import numpy as np
-    from sphkit.backend import cuda as bc
+    from sphkit.backend import launch, launch_reduce
     from sphkit.core.kernels import lattice_volume
     from sphkit.core.neighbors import Grid, neighbor_lists
-    from sphkit.core.operators import density_cpu, pressure_accel_cpu
-    assert bc.available()
+    from sphkit.core.operators import density_body, pressure_accel_body
+    from sphkit.core.ppe import density_pair_gradients_body, jacobi_body, kappa_accel_body
+
+    def rel(a, b):
+        return np.abs(np.asarray(a) - np.asarray(b)).max() / max(np.abs(b).max(), 1e-300)
+
     rng = np.random.default_rng(3)
+    cpu = {}
     for dim in (2, 3):
         r = 0.05
         h = 4 * r
-        n = 6
+        n = 6 if dim == 2 else 5
         g = np.stack(np.meshgrid(*[np.arange(n) * 2 * r + r] * dim, indexing="ij"))
         x = g.reshape(dim, -1) + rng.uniform(-0.2 * r, 0.2 * r, (dim, n ** dim))
         bx = np.stack(np.meshgrid(*[np.arange(-1, n + 1) * 2 * r + r] * dim, indexing="ij"))
         bx = bx.reshape(dim, -1)
         bx = np.ascontiguousarray(bx[:, (bx < 0).any(axis=0)])  # a floor/wall shell below 0
         bV = rng.uniform(0.5, 1.5, bx.shape[1]) * (2 * r) ** dim
-        m = np.full(x.shape[1], 1000.0 * lattice_volume(2 * r, 0, h, dim))
+        N = x.shape[1]
+        m = np.full(N, 1000.0 * lattice_volume(2 * r, 0, h, dim))
         nl = neighbor_lists(x, h)
         nb = Grid(bx, h).query(x)
-        args = (x, m, nl.offsets, nl.indices, bx, bV, nb.offsets, nb.indices, 1000.0, h, 0, dim)
-        rho = np.empty(x.shape[1])
-        density_cpu(*args, rho)
-        rho_gpu = bc.density_cuda(*args)
-        assert np.abs(rho_gpu - rho).max() <= 1e-12 * rho.max(), np.abs(rho_gpu - rho).max()
-        p = rng.uniform(0, 1e4, x.shape[1])
-        a = np.zeros_like(x)
-        pargs = (x, m, rho, p, nl.offsets, nl.indices, bx, bV, nb.offsets, nb.indices,
-                 1000.0, h, 0, dim)
-        pressure_accel_cpu(*pargs, a)
-        a_gpu = bc.pressure_accel_cuda(*pargs, np.zeros_like(x))
-        err = np.abs(a_gpu - a).max() / np.abs(a).max()
-        assert err <= 1e-12, err
-        print("dim", dim, "ok", x.shape[1], "particles")
+        off, idx, boff, bidx = nl.offsets, nl.indices, nb.offsets, nb.indices
+        p = rng.uniform(0, 1e4, N)
+        mirror = rng.uniform(0.0, 1.0, bx.shape[1])
+        kb = rng.uniform(0.0, 5.0, bx.shape[1])
+        s = rng.uniform(-0.01, 0.01, N)
+        active = rng.uniform(size=N) > 0.2
+        wq = rng.uniform(0.5, 1.5, N)
+
+        def run(device):
+            on = (lambda v: v) if device == "cpu" else cuda.to_device
+            back = (lambda v: v) if device == "cpu" else (lambda v: v.copy_to_host())
+            out = {}
+            rho = on(np.empty(N))
+            launch(density_body, N, *map(on, (x, m, off, idx, bx, bV, boff, bidx)), 1000.0, h,
+                   0, dim, rho, 0.0, device=device)
+            out["rho"] = back(rho)
+            a = on(np.zeros((dim, N)))
+            launch(pressure_accel_body, N, *map(on, (x, m, out["rho"], p, off, idx, bx, bV,
+                   boff, bidx)), 1000.0, h, 0, dim, a, 0.0, device=device)
+            out["a"] = back(a)
+            rho2 = on(np.empty(N))
+            gw = on(np.empty((dim, idx.shape[0])))
+            gwb = on(np.empty((dim, bidx.shape[0])))
+            launch(density_pair_gradients_body, N, *map(on, (x, m, off, idx, bx, bV, boff,
+                   bidx)), 1000.0, h, 0, dim, rho2, gw, gwb, 0.0, device=device)
+            out["rho2"], out["gw"], out["gwb"] = back(rho2), back(gw), back(gwb)
+            # one Jacobi pass: a = kappa_accel(k), then the sweep (q, k updated in place)
+            q = on(p / 1e7)
+            k = on(wq * p / 1e7)
+            ak = on(np.empty((dim, N)))
+            launch(kappa_accel_body, N, k, on(kb), *map(on, (off, idx, boff, bidx, mirror)),
+                   gw, gwb, dim, ak, device=device)
+            out["ak"] = back(ak)
+            out["err"] = launch_reduce(jacobi_body, N, ak, on(np.zeros_like(bx)),
+                                       *map(on, (off, idx, boff, bidx)), gw, gwb, dim, q, on(s),
+                                       1.0, on(np.full(N, 0.8)), 0.5, on(active), on(wq), k,
+                                       device=device)
+            out["q"], out["k"] = back(q), back(k)
+            return out
+
+        cpu = run("cpu")
+        if dim == 2:
+            assert "numba.cuda" not in sys.modules, "the CPU path imported numba.cuda"
+        from numba import cuda
+        assert cuda.is_available()
+        gpu = run("cuda")
+        assert cpu["err"][0] > 0.0 and cpu["err"][1] > 0.0, cpu["err"]
+        for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k"):
+            e = rel(gpu[key], cpu[key])
+            assert e <= 1e-12, (dim, key, e)
+        assert rel(gpu["err"], cpu["err"]) <= 1e-12, (dim, gpu["err"], cpu["err"])
+        print("dim", dim, "ok", N, "particles")
     """
 )
 
 
 def test_bodies_match_cpu_under_cuda_simulator() -> None:
-    """Tolerance 1e-12 relative: same formulas and summation order, only rounding differs
-    (fastmath on the CPU may reassociate)."""
+    """Tolerance 1e-12 relative (float64): the CPU and the CUDA kernel run the same body, so the
+    formulas and the order of each particle's pair sums are the same and only rounding differs
+    (fast math on the CPU may contract and reassociate); the Jacobi pass's (sum, max) of the
+    residuals is reduced in a different order (per block in shared memory, then atomically),
+    which also changes the sum only by rounding."""
     _run_script(dict(os.environ, NUMBA_ENABLE_CUDASIM="1"))
 
 
@@ -86,6 +138,7 @@ def _cuda_gpu() -> bool:
 
 @pytest.mark.skipif(not _cuda_gpu(), reason="no CUDA GPU")
 def test_bodies_match_cpu_on_gpu() -> None:
-    """The same kernels on a real GPU. Tolerance 1e-12 relative: the GPU contracts a * b + c
-    into fused multiply-adds, which changes only the last bits of each term."""
+    """The same launches on a real GPU. Tolerance 1e-12 relative: the GPU contracts a * b + c
+    into fused multiply-adds, which changes only the last bits of each term, and reduces in a
+    different order."""
     _run_script(_without_simulator())

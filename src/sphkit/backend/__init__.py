@@ -1,2 +1,7 @@
-"""Compute backends: the CPU drivers live next to the physics bodies (``prange`` loops);
-:mod:`sphkit.backend.cuda` wraps the same bodies as CUDA device functions."""
+"""Compute backend: :func:`launch` runs a per-particle kernel body as a CPU ``prange`` loop or as
+a CUDA kernel (:mod:`sphkit.backend.launch`; the CUDA side, :mod:`sphkit.backend.cuda`, is
+imported only when a launch asks for it)."""
+
+from sphkit.backend.launch import DEVICES, launch, launch_reduce
+
+__all__ = ["DEVICES", "launch", "launch_reduce"]

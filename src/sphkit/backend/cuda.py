@@ -1,23 +1,37 @@
-"""CUDA drivers for the per-particle bodies (numba.cuda; runs under NUMBA_ENABLE_CUDASIM=1).
+"""The CUDA side of :func:`sphkit.backend.launch` (numba-cuda; runs under
+``NUMBA_ENABLE_CUDASIM=1`` too).
 
-Each body of :mod:`sphkit.core.operators` is wrapped once as a device function,
-``cuda.jit(device=True)(body.py_func)``, and called from a ``cuda.jit`` kernel with one thread per
-particle. The scalar ``@njit`` helpers inside the bodies (kernel value and gradient) are compiled
-as device functions by numba-cuda (and called directly by the simulator), so CPU and GPU share
-one source of physics (DESIGN.md, "Compute backend").
+A body (:mod:`sphkit.backend.launch`) is compiled once as a device function,
+``cuda.jit(device=True)`` of its Python source: the same source as on the CPU. The ``@njit``
+helpers it calls (:mod:`sphkit.core.pairs`, :mod:`sphkit.core.kernels`, and the helpers those
+call) are compiled the same way, each once, and the copy of the body that is compiled refers to
+them instead of the CPU functions (:func:`device_function`): a CPU function cannot take device
+arrays, and under the simulator, where device functions run as Python, the helpers then run as
+Python too. A kernel with one thread per particle is generated for each body and number of
+arguments (explicit parameters, no ``*args``) and kept for the process. The
+reducing kernel (:func:`launch_reduce`) sums and maximizes the body's values over each block in
+shared memory (a tree over :data:`THREADS` threads) and adds one partial result per block to the
+output with ``cuda.atomic.add`` / ``cuda.atomic.max``.
 
-The kernels are built on first use; only importing this module imports numba.cuda (importing
-sphkit itself never does).
+Only this module imports numba.cuda; :mod:`sphkit.backend.launch` imports it when a launch asks
+for ``device="cuda"``.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
+import types
+from typing import Any
 
+import numba
 import numpy as np
 from numba import cuda
+from numba.core.registry import CPUDispatcher
 
-from sphkit.core.operators import density_body, pressure_accel_body
+#: threads per block (a power of two: the block reduction halves it)
+THREADS = 128
+
+_device_functions: dict[Any, Any] = {}
+_kernels: dict[tuple[Any, int, bool], Any] = {}
 
 
 def available() -> bool:
@@ -28,47 +42,90 @@ def available() -> bool:
         return False
 
 
-@lru_cache(maxsize=1)
-def _kernels():
-    density_dev = cuda.jit(device=True)(density_body.py_func)
-    pressure_dev = cuda.jit(device=True)(pressure_accel_body.py_func)
-
-    @cuda.jit
-    def density_kernel(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho):
-        i = cuda.grid(1)
-        if i < x.shape[1]:
-            rho[i] = density_dev(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim)
-
-    @cuda.jit
-    def pressure_kernel(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a):
-        i = cuda.grid(1)
-        if i < x.shape[1]:
-            pressure_dev(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a)
-
-    return density_kernel, pressure_kernel
-
-
-def _launch(n: int, threads: int = 128) -> tuple[int, int]:
-    return (n + threads - 1) // threads, threads
+def device_function(fn: Any) -> Any:
+    """The CUDA device function of the ``@njit`` function ``fn`` (a body or a helper), built once
+    per function: ``cuda.jit(device=True)`` of a copy of its Python function whose global names
+    that are ``@njit`` functions refer to their device functions."""
+    dev = _device_functions.get(fn)
+    if dev is None:
+        py = fn.py_func
+        scope = dict(py.__globals__)
+        for name in py.__code__.co_names:
+            obj = scope.get(name)
+            if isinstance(obj, CPUDispatcher):
+                scope[name] = device_function(obj)
+        copy = types.FunctionType(py.__code__, scope, py.__name__, py.__defaults__,
+                                  py.__closure__)
+        copy.__qualname__ = py.__qualname__
+        copy.__doc__ = py.__doc__
+        dev = cuda.jit(device=True)(copy)
+        _device_functions[fn] = dev
+    return dev
 
 
-def density_cuda(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim) -> np.ndarray:
-    """Densities of all fluid particles on the GPU (host arrays in, host array out)."""
-    kern, _ = _kernels()
-    d = [cuda.to_device(np.ascontiguousarray(a)) for a in (x, m, off, idx, bx, bV, boff, bidx)]
-    rho = cuda.device_array(x.shape[1], dtype=x.dtype)
-    blocks, threads = _launch(x.shape[1])
-    kern[blocks, threads](*d, rho0, h, kid, dim, rho)
-    return rho.copy_to_host()
+_EACH = """
+def kernel(n, {params}):
+    i = cuda.grid(1)
+    if i < n:
+        dev(i, {params})
+"""
+
+_SUM_MAX = """
+def kernel(n, out, {params}):
+    tot = cuda.shared.array(THREADS, float64)
+    mx = cuda.shared.array(THREADS, float64)
+    t = cuda.threadIdx.x
+    i = cuda.grid(1)
+    e = 0.0
+    if i < n:
+        e = dev(i, {params})
+    tot[t] = e
+    mx[t] = e
+    cuda.syncthreads()
+    w = THREADS // 2
+    while w > 0:
+        if t < w:
+            tot[t] += tot[t + w]
+            mx[t] = max(mx[t], mx[t + w])
+        cuda.syncthreads()
+        w //= 2
+    if t == 0:
+        cuda.atomic.add(out, 0, tot[0])
+        cuda.atomic.max(out, 1, mx[0])
+"""
 
 
-def pressure_accel_cuda(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim,
-                        a) -> np.ndarray:
-    """``a`` plus the symmetric pressure acceleration, computed on the GPU; returns the result."""
-    _, kern = _kernels()
-    d = [cuda.to_device(np.ascontiguousarray(v))
-         for v in (x, m, rho, p, off, idx, bx, bV, boff, bidx)]
-    da = cuda.to_device(np.ascontiguousarray(a))
-    blocks, threads = _launch(x.shape[1])
-    kern[blocks, threads](*d, rho0, h, kid, dim, da)
-    return da.copy_to_host()
+def kernel_for(body: Any, nargs: int, reduce: bool = False) -> Any:
+    """The ``cuda.jit`` kernel that calls ``body``'s device function for one particle per
+    thread, for ``nargs`` arguments after i (``reduce``: the (sum, max) kernel)."""
+    key = (body, nargs, reduce)
+    kern = _kernels.get(key)
+    if kern is None:
+        params = ", ".join(f"a{k}" for k in range(nargs))
+        src = (_SUM_MAX if reduce else _EACH).format(params=params)
+        scope = {"cuda": cuda, "dev": device_function(body), "THREADS": THREADS,
+                 "float64": numba.float64, "max": max}
+        exec(compile(src, f"<sphkit.backend.cuda kernel of {body.py_func.__qualname__}>",
+                     "exec"), scope)
+        kern = cuda.jit(scope["kernel"])
+        _kernels[key] = kern
+    return kern
+
+
+def _blocks(n: int) -> int:
+    return (n + THREADS - 1) // THREADS
+
+
+def launch(body: Any, n: int, args: tuple) -> None:
+    """``body(i, *args)`` for ``i < n``, one GPU thread each."""
+    if n > 0:
+        kernel_for(body, len(args))[_blocks(n), THREADS](n, *args)
+
+
+def launch_reduce(body: Any, n: int, args: tuple) -> tuple[float, float]:
+    """``(sum, max)`` of ``body(i, *args)`` over ``i < n`` (max 0 when n = 0)."""
+    out = cuda.to_device(np.zeros(2))
+    if n > 0:
+        kernel_for(body, len(args), True)[_blocks(n), THREADS](n, out, *args)
+    tot, mx = out.copy_to_host()
+    return float(tot), float(mx)

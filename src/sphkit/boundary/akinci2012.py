@@ -20,22 +20,17 @@ import numpy as np
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryModel
 from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists
+from sphkit.core.pairs import distance, point
 from sphkit.core.state import SimState
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _volumes(x, off, idx, h, kid, dim, L, V):
     for b in numba.prange(x.shape[1]):
+        xb0, xb1, xb2 = point(x, b, dim)
         s = kernel_w(kid, 0.0, h, dim)
         for k in range(off[b], off[b + 1]):
-            j = idx[k]
-            r2 = 0.0
-            for d in range(dim):
-                t = x[d, b] - x[d, j]
-                if d == 0 and L > 0.0:  # periodic along x: minimum image
-                    t -= L * np.floor(t / L + 0.5)
-                r2 += t * t
-            s += kernel_w(kid, np.sqrt(r2), h, dim)
+            s += kernel_w(kid, distance(xb0, xb1, xb2, x, idx[k], dim, L), h, dim)
         V[b] = 1.0 / s
 
 

@@ -45,13 +45,12 @@ correct_mirrored`); PBF has no boundary pressure.
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.methods import BoundaryPressure
+from sphkit.core.pairs import add_vector, point, separation
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -102,15 +101,12 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, ridge, c
         e = np.zeros(4)
         e[0] = 1.0
         for t in range(t0, t1):
-            f = tfluid[t]
-            r2 = 0.0
+            xf0, xf1, xf2 = point(x, tfluid[t], dim)
+            d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
+            dd = (d0, d1, d2)
             for d in range(dim):
-                dd = x[d, f] - bx[d, b]
-                if d == 0 and L > 0.0:
-                    dd -= L * math.floor(dd / L + 0.5)
-                e[d + 1] = dd / h
-                r2 += dd * dd
-            w = kernel_w(kid, math.sqrt(r2), h, dim)
+                e[d + 1] = dd[d] / h
+            w = kernel_w(kid, r, h, dim)
             wsum += w
             for p in range(n):
                 for q in range(n):
@@ -152,15 +148,13 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, ridge, c
                             m[r_, q] -= fac * m[c, q]
         for t in range(t0, t1):
             f = tfluid[t]
-            r2 = 0.0
+            xf0, xf1, xf2 = point(x, f, dim)
+            d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
+            dd = (d0, d1, d2)
             lin = m[0, n]
             for d in range(dim):
-                dd = x[d, f] - bx[d, b]
-                if d == 0 and L > 0.0:
-                    dd -= L * math.floor(dd / L + 0.5)
-                r2 += dd * dd
-                lin += m[d + 1, n] * dd / h
-            w = kernel_w(kid, math.sqrt(r2), h, dim)
+                lin += m[d + 1, n] * dd[d] / h
+            w = kernel_w(kid, r, h, dim)
             c_bf = w * lin if ok else (w / wsum if wsum > 0.0 else 0.0)
             coef[t] = c_bf * rho_hat[f] * rho_hat[f]
 
@@ -183,29 +177,19 @@ def replace_mirrored(x, p, rho0, bx, bV, boff, bidx, use, kb, h, kid, dim, L, a)
     ``a_i -= sum_b V_b (k_b - p_i / rho0) grad W_ib`` over the samples with ``use[b]``
     (``k_b = p_b / rho0``)."""
     for i in numba.prange(x.shape[1]):
+        xi0, xi1, xi2 = point(x, i, dim)
         ki = p[i] / rho0
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
+        a0 = a1 = a2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             if not use[b]:
                 continue
-            d0 = x[0, i] - bx[0, b]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = x[1, i] - bx[1, b] if dim > 1 else 0.0
-            d2 = x[2, i] - bx[2, b] if dim > 2 else 0.0
-            s = -bV[b] * (kb[b] - ki) * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2),
-                                                  h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+            s = -bV[b] * (kb[b] - ki) * kernel_dw(kid, r, h, dim)
             a0 += s * d0
             a1 += s * d1
             a2 += s * d2
-        a[0, i] += a0
-        if dim > 1:
-            a[1, i] += a1
-        if dim > 2:
-            a[2, i] += a2
+        add_vector(a, i, dim, a0, a1, a2)
 
 
 class MLSPressureExtrapolation(BoundaryPressure):

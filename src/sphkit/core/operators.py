@@ -19,72 +19,51 @@ Notation: ``x_ij = x_i - x_j``, ``A_ij = A_i - A_j``, ``grad W_ij = grad_i W(x_i
                  ``2 sum_j V_j A_ij (x_ij . grad W_ij) / (|x_ij|^2 + 0.01 h^2)``
 
 The per-particle *body* functions (``density_body``, ``pressure_accel_body``) hold the physics of
-one particle and are compiled for the CPU (called in ``prange`` drivers here) and for CUDA
-(wrapped as device functions in :mod:`sphkit.backend.cuda`), as DESIGN.md prescribes.
+one particle; :func:`sphkit.backend.launch` runs them as a CPU ``prange`` loop
+(:func:`density_cpu`, :func:`pressure_accel_cpu`) or as CUDA kernels (``device="cuda"``), as
+DESIGN.md prescribes. The other passes here are ``prange`` loops written with the same inline
+pair helpers (:mod:`sphkit.core.pairs`).
 """
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
+from sphkit.backend import launch
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import NeighborList
+from sphkit.core.pairs import add_vector, delta, distance, point, separation, set_vector
 
 _JIT = dict(cache=True, fastmath=True)
 
 
-@numba.njit(**_JIT, inline="always")
-def _dist(x, i, y, j, dim, L=0.0):
-    """|x_i - y_j|; ``L`` > 0: minimum image along x (period L)."""
-    r2 = 0.0
-    for d in range(dim):
-        t = x[d, i] - y[d, j]
-        if d == 0 and L > 0.0:
-            t -= L * math.floor(t / L + 0.5)
-        r2 += t * t
-    return np.sqrt(r2)
-
-
 # ---------------------------------------------------------------------------------------------
-# per-particle bodies (CPU + CUDA)
+# per-particle bodies (CPU + CUDA, :mod:`sphkit.backend.launch`)
 
 
-@numba.njit(**_JIT)
-def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, L=0.0):
-    """Density of fluid particle i: self + fluid neighbours + boundary (psi_b = rho0 V_b).
+@numba.njit(**_JIT, inline="always")
+def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, L):
+    """``rho[i]`` = density of fluid particle i: self + fluid neighbours + boundary
+    (psi_b = rho0 V_b).
 
     ``L`` > 0: periodic along x with period L [m] (minimum-image distances)."""
-    # distances are computed inline (a helper taking arrays would not compile for CUDA), with
-    # the coordinates of i hoisted and loop-invariant dim branches (twice as fast as d-loops)
-    xi0 = x[0, i]
-    xi1 = x[1, i] if dim > 1 else 0.0
-    xi2 = x[2, i] if dim > 2 else 0.0
-    rho = m[i] * kernel_w(kid, 0.0, h, dim)
+    # the coordinates of i are hoisted into scalars and the dim branches are loop invariant
+    # (twice as fast as d-loops); the scalar pair helpers also compile for CUDA
+    xi0, xi1, xi2 = point(x, i, dim)
+    s = m[i] * kernel_w(kid, 0.0, h, dim)
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        d0 = xi0 - x[0, j]
-        if L > 0.0:
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - x[1, j] if dim > 1 else 0.0
-        d2 = xi2 - x[2, j] if dim > 2 else 0.0
-        rho += m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+        s += m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        d0 = xi0 - bx[0, b]
-        if L > 0.0:
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-        d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-        rho += rho0 * bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-    return rho
+        s += rho0 * bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
+    rho[i] = s
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_JIT, inline="always")
 def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
-                        L=0.0):
+                        L):
     """Add the symmetric pressure acceleration of fluid particle i to ``a[:, i]``.
 
     ``a_i = -sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad W_ij
@@ -92,21 +71,12 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
     (boundary pressure mirrored, p_b = p_i, rho_b = rho0; Akinci et al. 2012). ``L`` > 0:
     periodic along x with period L [m].
     """
-    xi0 = x[0, i]
-    xi1 = x[1, i] if dim > 1 else 0.0
-    xi2 = x[2, i] if dim > 2 else 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
     dpi = p[i] / (rho[i] * rho[i])
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
+    a0 = a1 = a2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        d0 = xi0 - x[0, j]
-        if L > 0.0:
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - x[1, j] if dim > 1 else 0.0
-        d2 = xi2 - x[2, j] if dim > 2 else 0.0
-        r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         s = -m[j] * (dpi + p[j] / (rho[j] * rho[j])) * kernel_dw(kid, r, h, dim)
         a0 += s * d0
         a1 += s * d1
@@ -114,42 +84,35 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
     dpb = dpi + p[i] / (rho0 * rho0)
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        d0 = xi0 - bx[0, b]
-        if L > 0.0:
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-        d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-        r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
         s = -rho0 * bV[b] * dpb * kernel_dw(kid, r, h, dim)
         a0 += s * d0
         a1 += s * d1
         a2 += s * d2
-    a[0, i] += a0
-    if dim > 1:
-        a[1, i] += a1
-    if dim > 2:
-        a[2, i] += a2
+    add_vector(a, i, dim, a0, a1, a2)
 
 
 # ---------------------------------------------------------------------------------------------
-# CPU drivers
+# the bodies on the CPU
 
 
-@numba.njit(parallel=True, **_JIT)
-def density_cpu(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, L=0.0):
-    """rho[i] = density_body(i) for all fluid particles (``L``: period along x, 0 = none)."""
-    for i in numba.prange(x.shape[1]):
-        rho[i] = density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, L)
+def density_cpu(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: np.ndarray, bx: np.ndarray,
+                bV: np.ndarray, boff: np.ndarray, bidx: np.ndarray, rho0: float, h: float,
+                kid: int, dim: int, rho: np.ndarray, L: float = 0.0) -> None:
+    """``rho[i]`` = :func:`density_body` for all fluid particles, a ``prange`` loop
+    (:func:`sphkit.backend.launch`); ``L``: period along x [m], 0 = none."""
+    launch(density_body, x.shape[1], x, m, off, idx, bx, bV, boff, bidx, float(rho0), float(h),
+           int(kid), int(dim), rho, float(L))
 
 
-@numba.njit(parallel=True, **_JIT)
-def pressure_accel_cpu(x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
-                       L=0.0):
-    """a[:, i] += pressure acceleration of particle i, for all fluid particles (``L``: period
-    along x, 0 = none)."""
-    for i in numba.prange(x.shape[1]):
-        pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
-                            L)
+def pressure_accel_cpu(x: np.ndarray, m: np.ndarray, rho: np.ndarray, p: np.ndarray,
+                       off: np.ndarray, idx: np.ndarray, bx: np.ndarray, bV: np.ndarray,
+                       boff: np.ndarray, bidx: np.ndarray, rho0: float, h: float, kid: int,
+                       dim: int, a: np.ndarray, L: float = 0.0) -> None:
+    """``a[:, i] +=`` :func:`pressure_accel_body` for all fluid particles, a ``prange`` loop
+    (:func:`sphkit.backend.launch`); ``L``: period along x [m], 0 = none."""
+    launch(pressure_accel_body, x.shape[1], x, m, rho, p, off, idx, bx, bV, boff, bidx,
+           float(rho0), float(h), int(kid), int(dim), a, float(L))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -162,12 +125,13 @@ def _interpolate(x, V, A, off, idx, h, kid, dim, out, L=0.0):
     pair for all rows)."""
     nc = A.shape[0]
     for i in numba.prange(x.shape[1]):
+        xi0, xi1, xi2 = point(x, i, dim)
         w = V[i] * kernel_w(kid, 0.0, h, dim)
         for c in range(nc):
             out[c, i] = w * A[c, i]
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            w = V[j] * kernel_w(kid, _dist(x, i, x, j, dim, L), h, dim)
+            w = V[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
             for c in range(nc):
                 out[c, i] += w * A[c, j]
 
@@ -175,11 +139,14 @@ def _interpolate(x, V, A, off, idx, h, kid, dim, out, L=0.0):
 @numba.njit(parallel=True, **_JIT)
 def _gradient(x, V, m, rho, A, off, idx, h, kid, dim, mode, renorm, out):
     for i in numba.prange(x.shape[1]):
+        xi0, xi1, xi2 = point(x, i, dim)
         g = np.zeros(3)
         L = np.zeros((3, 3))
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            f = kernel_dw(kid, _dist(x, i, x, j, dim), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
+            dd = (d0, d1, d2)
+            f = kernel_dw(kid, r, h, dim)
             if mode == 0:
                 s = V[j] * A[j] * f
             elif mode == 1:
@@ -187,11 +154,11 @@ def _gradient(x, V, m, rho, A, off, idx, h, kid, dim, mode, renorm, out):
             else:
                 s = rho[i] * m[j] * (A[i] / (rho[i] * rho[i]) + A[j] / (rho[j] * rho[j])) * f
             for d in range(dim):
-                g[d] += s * (x[d, i] - x[d, j])
+                g[d] += s * dd[d]
             if renorm:
                 for d in range(dim):
                     for e in range(dim):
-                        L[d, e] += V[j] * f * (x[d, i] - x[d, j]) * (x[e, j] - x[e, i])
+                        L[d, e] += V[j] * f * dd[d] * -dd[e]
         if renorm:
             Li = np.linalg.inv(L[:dim, :dim])
             for d in range(dim):
@@ -207,33 +174,47 @@ def _gradient(x, V, m, rho, A, off, idx, h, kid, dim, mode, renorm, out):
 @numba.njit(parallel=True, **_JIT)
 def _divergence(x, m, rho, A, off, idx, h, kid, dim, out):
     for i in numba.prange(x.shape[1]):
+        xi0, xi1, xi2 = point(x, i, dim)
         s = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            f = kernel_dw(kid, _dist(x, i, x, j, dim), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
+            dd = (d0, d1, d2)
+            f = kernel_dw(kid, r, h, dim)
             for d in range(dim):
-                s += m[j] * (A[d, i] - A[d, j]) * f * (x[d, i] - x[d, j])
+                s += m[j] * (A[d, i] - A[d, j]) * f * dd[d]
         out[i] = -s / rho[i]
+
+
+@numba.njit(inline="always", **_JIT)
+def curl_sum(i, x, m, A, off, idx, h, kid, dim, L):
+    """``sum_j m_j A_ij x grad W_ij`` of particle i (``A_ij = A_i - A_j``, fluid neighbours) as
+    three scalars: the SPH curl times ``rho_i``. In 2D (dim 2, A in the plane) only the z
+    component is set, the others are 0. ``L`` > 0: periodic along x with period L [m].
+
+    Shared by :func:`curl` and the vorticity of :mod:`sphkit.vorticity.confinement`."""
+    xi0, xi1, xi2 = point(x, i, dim)
+    ai0, ai1, ai2 = point(A, i, dim)
+    c0 = c1 = c2 = 0.0
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+        f = m[j] * kernel_dw(kid, r, h, dim)
+        g0 = f * d0
+        g1 = f * d1
+        u0, u1, u2 = delta(ai0, ai1, ai2, A, j, dim, 0.0)
+        if dim == 3:
+            g2 = f * d2
+            c0 += u1 * g2 - u2 * g1
+            c1 += u2 * g0 - u0 * g2
+        c2 += u0 * g1 - u1 * g0
+    return c0, c1, c2
 
 
 @numba.njit(parallel=True, **_JIT)
 def _curl(x, m, rho, A, off, idx, h, kid, out):
     for i in numba.prange(x.shape[1]):
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            f = kernel_dw(kid, _dist(x, i, x, j, 3), h, 3)
-            a0 = A[0, i] - A[0, j]
-            a1 = A[1, i] - A[1, j]
-            a2 = A[2, i] - A[2, j]
-            g0 = f * (x[0, i] - x[0, j])
-            g1 = f * (x[1, i] - x[1, j])
-            g2 = f * (x[2, i] - x[2, j])
-            c0 += m[j] * (a1 * g2 - a2 * g1)
-            c1 += m[j] * (a2 * g0 - a0 * g2)
-            c2 += m[j] * (a0 * g1 - a1 * g0)
+        c0, c1, c2 = curl_sum(i, x, m, A, off, idx, h, kid, 3, 0.0)
         out[0, i] = c0 / rho[i]
         out[1, i] = c1 / rho[i]
         out[2, i] = c2 / rho[i]
@@ -243,10 +224,11 @@ def _curl(x, m, rho, A, off, idx, h, kid, out):
 def _laplacian(x, V, A, off, idx, h, kid, dim, out):
     eps = 0.01 * h * h
     for i in numba.prange(x.shape[1]):
+        xi0, xi1, xi2 = point(x, i, dim)
         s = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            r = _dist(x, i, x, j, dim)
+            r = distance(xi0, xi1, xi2, x, j, dim, 0.0)
             f = kernel_dw(kid, r, h, dim)
             # x_ij . grad W_ij = f r^2
             s += V[j] * (A[i] - A[j]) * f * r * r / (r * r + eps)
@@ -321,27 +303,38 @@ def color_field_cpu(x, m, rho, off, idx, bx, bV, boff, bidx, h, kid, dim, c, L=0
     periodic along x with period L [m] (minimum-image distances).
     """
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         s = m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            s += m[j] / rho[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            s += m[j] / rho[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            s += bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            s += bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
         c[i] = s
+
+
+@numba.njit(inline="always", **_JIT)
+def color_gradient_sum(i, x, m, rho, c, off, idx, h, kid, dim, L):
+    """``sum_j (m_j/rho_j) c_j grad W_ij`` of particle i over its fluid neighbours, as three
+    scalars; an empty ``c`` means ``c_j = 1``, the gradient of the colour field (the
+    unnormalized surface normal of :func:`surface_normals_cpu`). He et al. 2014 weight it with
+    the colour itself (:mod:`sphkit.surface_tension.he2014`). ``L`` > 0: periodic along x with
+    period L [m]."""
+    weighted = c.shape[0] > 0
+    xi0, xi1, xi2 = point(x, i, dim)
+    n0 = n1 = n2 = 0.0
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+        s = m[j] / rho[j]
+        if weighted:
+            s *= c[j]
+        s *= kernel_dw(kid, r, h, dim)
+        n0 += s * d0
+        n1 += s * d1
+        n2 += s * d2
+    return n0, n1, n2
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -353,26 +346,7 @@ def surface_normals_cpu(x, m, rho, off, idx, scale, h, kid, dim, n, L=0.0):
     constant. Akinci et al. 2013 use ``scale = h`` so that ``n`` is dimensionless. ``L`` > 0:
     periodic along x with period L [m].
     """
+    ones = np.empty(0, dtype=rho.dtype)
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        n0 = 0.0
-        n1 = 0.0
-        n2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            s = m[j] / rho[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            n0 += s * d0
-            n1 += s * d1
-            n2 += s * d2
-        n[0, i] = scale * n0
-        if dim > 1:
-            n[1, i] = scale * n1
-        if dim > 2:
-            n[2, i] = scale * n2
+        n0, n1, n2 = color_gradient_sum(i, x, m, rho, ones, off, idx, h, kid, dim, L)
+        set_vector(n, i, dim, scale * n0, scale * n1, scale * n2)

@@ -40,16 +40,29 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
   ``q_i <- max(q_i - omega * scale_i * (s_i - f Ap_i), 0)`` in one pass, with the error of the
   residual before the update;
 * :func:`density_at` -- PCISPH's / PBF's density at predicted positions.
+
+:func:`density_pair_gradients`, :func:`kappa_accel_cached` and :func:`jacobi_sweep` are per-particle
+bodies (``density_pair_gradients_body``, ``kappa_accel_body``, ``jacobi_body``) run through
+:func:`sphkit.backend.launch` / :func:`sphkit.backend.launch_reduce`: a ``prange`` loop on the
+CPU, a CUDA kernel with ``device="cuda"``; the bodies carry their fast-math flags.
 """
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
+from sphkit.backend import launch, launch_reduce
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.pairs import (
+    displaced_delta,
+    displaced_point,
+    distance,
+    norm,
+    point,
+    separation,
+    set_vector,
+)
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -67,9 +80,25 @@ GATHER_FASTMATH = frozenset({"nnan", "ninf", "nsz", "arcp", "contract", "afn"})
 _JIT_GATHER = dict(cache=True, fastmath=set(GATHER_FASTMATH))
 
 
-@numba.njit(parallel=True, **_JIT_GATHER)
-def jacobi_sweep(a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, scale, omega, active,
-                 w, k):
+@numba.njit(**_JIT_GATHER, inline="always")
+def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, scale, omega,
+                active, w, k):
+    """Particle i of :func:`jacobi_sweep`: updates ``q[i]``, ``k[i]`` and returns the compressive
+    residual ``max(-r_i, 0)`` before the update if i is active, else 0 (the value
+    :func:`sphkit.backend.launch_reduce` sums and maximizes)."""
+    r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim)
+    qi = max(q[i] - omega * scale[i] * r, 0.0)
+    q[i] = qi
+    k[i] = w[i] * qi
+    if active[i]:
+        return max(-r, 0.0)
+    return 0.0
+
+
+def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray,
+                 boff: np.ndarray, bidx: np.ndarray, gw: np.ndarray, gwb: np.ndarray, dim: int,
+                 q: np.ndarray, s: np.ndarray, ap_factor: float, scale: np.ndarray, omega: float,
+                 active: np.ndarray, w: np.ndarray, k: np.ndarray) -> tuple[float, float]:
     """The second half of one Jacobi iteration, in one pass: for every particle the product
     ``Ap_i`` = :func:`pair_divergence_cached` of the pressure accelerations a (boundary
     accelerations ab), the residual ``r_i = s_i - f Ap_i`` (f = ap_factor), the update of q and
@@ -81,20 +110,13 @@ def jacobi_sweep(a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, sca
 
     Returns (mean over all particles, max) of the compressive residual ``max(-r_i, 0)`` of active
     particles, before the update. (One pass instead of a divergence pass, an update pass and a
-    multiplication: 3-4 % of a DFSPH step on the benchmark scene.)
+    multiplication: 3-4 % of a DFSPH step on the benchmark scene.) The pass is
+    :func:`jacobi_body` through :func:`sphkit.backend.launch_reduce`, which reduces the residuals
+    in the same ``prange`` loop.
     """
     n = q.shape[0]
-    tot = 0.0
-    mx = 0.0
-    for i in numba.prange(n):
-        r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim)
-        qi = max(q[i] - omega * scale[i] * r, 0.0)
-        q[i] = qi
-        k[i] = w[i] * qi
-        if active[i]:
-            e = max(-r, 0.0)
-            tot += e
-            mx = max(mx, e)
+    tot, mx = launch_reduce(jacobi_body, n, a, ab, off, idx, boff, bidx, gw, gwb, int(dim), q, s,
+                            float(ap_factor), scale, float(omega), active, w, k)
     return tot / max(n, 1), mx
 
 
@@ -103,22 +125,15 @@ def density_at(x, dx, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, out):
     """Normalized density at displaced positions ``x + dx`` with the neighbour lists of x
     (PCISPH's prediction): ``sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x_b)``, self included."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i] + dx[0, i]
-        xi1 = x[1, i] + dx[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] + dx[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
         s = m[i] / rho0 * kernel_w(kid, 0.0, h, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j] - dx[0, j]
-            d1 = xi1 - x[1, j] - dx[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] - dx[2, j] if dim > 2 else 0.0
-            s += m[j] / rho0 * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
+            s += m[j] / rho0 * kernel_w(kid, norm(d0, d1, d2), h, dim)
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            s += bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            s += bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, 0.0), h, dim)
         out[i] = s
 
 
@@ -132,121 +147,96 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb, L=0
     """gw[:, k] = V_j grad W_ij for the k-th fluid pair, gwb[:, k] = V_b grad W_ib (``L`` > 0:
     periodic along x with period L, minimum-image differences)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = V[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            gw[0, k] = f * d0
-            if dim > 1:
-                gw[1, k] = f * d1
-            if dim > 2:
-                gw[2, k] = f * d2
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            f = V[j] * kernel_dw(kid, r, h, dim)
+            set_vector(gw, k, dim, f * d0, f * d1, f * d2)
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            f = bV[b] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            gwb[0, k] = f * d0
-            if dim > 1:
-                gwb[1, k] = f * d1
-            if dim > 2:
-                gwb[2, k] = f * d2
+            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+            f = bV[b] * kernel_dw(kid, r, h, dim)
+            set_vector(gwb, k, dim, f * d0, f * d1, f * d2)
 
 
-@numba.njit(parallel=True, **_JIT)
-def density_pair_gradients(x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, gw, gwb,
-                           L=0.0):
+@numba.njit(**_JIT, inline="always")
+def density_pair_gradients_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho,
+                                gw, gwb, L):
+    """Particle i of :func:`density_pair_gradients`: ``rho[i]`` and the pair gradients of its
+    fluid pairs ``gw[:, off[i]:off[i + 1]]`` and boundary pairs ``gwb[:, boff[i]:boff[i + 1]]``
+    (its own CSR rows)."""
+    inv_rho0 = 1.0 / rho0
+    xi0, xi1, xi2 = point(x, i, dim)
+    s = m[i] * kernel_w(kid, 0.0, h, dim)
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+        s += m[j] * kernel_w(kid, r, h, dim)
+        f = m[j] * inv_rho0 * kernel_dw(kid, r, h, dim)
+        set_vector(gw, k, dim, f * d0, f * d1, f * d2)
+    sb = 0.0
+    for k in range(boff[i], boff[i + 1]):
+        b = bidx[k]
+        d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+        sb += bV[b] * kernel_w(kid, r, h, dim)
+        f = bV[b] * kernel_dw(kid, r, h, dim)
+        set_vector(gwb, k, dim, f * d0, f * d1, f * d2)
+    rho[i] = s + rho0 * sb
+
+
+def density_pair_gradients(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: np.ndarray,
+                           bx: np.ndarray, bV: np.ndarray, boff: np.ndarray, bidx: np.ndarray,
+                           rho0: float, h: float, kid: int, dim: int, rho: np.ndarray,
+                           gw: np.ndarray, gwb: np.ndarray, L: float = 0.0) -> None:
     """:func:`sphkit.core.operators.density_body` and :func:`pair_gradients` in one pass over
     the pairs (one distance per pair for both): ``rho_i = m_i W_0 + sum_j m_j W_ij + sum_b rho0
     V_b W_ib``, ``gw[:, k] = V_j grad W_ij`` with ``V_j = m_j / rho0``, ``gwb[:, k] = V_b grad
-    W_ib``; ``L`` > 0: periodic along x with period L."""
-    inv_rho0 = 1.0 / rho0
-    for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        s = m[i] * kernel_w(kid, 0.0, h, dim)
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            s += m[j] * kernel_w(kid, r, h, dim)
-            f = m[j] * inv_rho0 * kernel_dw(kid, r, h, dim)
-            gw[0, k] = f * d0
-            if dim > 1:
-                gw[1, k] = f * d1
-            if dim > 2:
-                gw[2, k] = f * d2
-        sb = 0.0
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            sb += bV[b] * kernel_w(kid, r, h, dim)
-            f = bV[b] * kernel_dw(kid, r, h, dim)
-            gwb[0, k] = f * d0
-            if dim > 1:
-                gwb[1, k] = f * d1
-            if dim > 2:
-                gwb[2, k] = f * d2
-        rho[i] = s + rho0 * sb
+    W_ib``; ``L`` > 0: periodic along x with period L. The pass is
+    :func:`density_pair_gradients_body` through :func:`sphkit.backend.launch`."""
+    launch(density_pair_gradients_body, x.shape[1], x, m, off, idx, bx, bV, boff, bidx,
+           float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, float(L))
 
 
-@numba.njit(parallel=True, **_JIT_GATHER)
-def kappa_accel_cached(k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
+@numba.njit(**_JIT_GATHER, inline="always")
+def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
+    """Particle i of :func:`kappa_accel_cached`: ``a[:, i]``."""
+    with_kb = kb.shape[0] > 0
+    ki = k[i]
+    a0 = a1 = a2 = 0.0
+    for kk in range(off[i], off[i + 1]):
+        s = ki + k[idx[kk]]
+        a0 -= s * gw[0, kk]
+        if dim > 1:
+            a1 -= s * gw[1, kk]
+        if dim > 2:
+            a2 -= s * gw[2, kk]
+    for kk in range(boff[i], boff[i + 1]):
+        b = bidx[kk]
+        sb = ki * (1.0 + bmirror[b])
+        if with_kb:
+            sb += kb[b]
+        a0 -= sb * gwb[0, kk]
+        if dim > 1:
+            a1 -= sb * gwb[1, kk]
+        if dim > 2:
+            a2 -= sb * gwb[2, kk]
+    set_vector(a, i, dim, a0, a1, a2)
+
+
+def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.ndarray,
+                       boff: np.ndarray, bidx: np.ndarray, bmirror: np.ndarray, gw: np.ndarray,
+                       gwb: np.ndarray, dim: int, a: np.ndarray) -> None:
     """a[:, i] = pressure acceleration of the field k (overwrites a); the boundary term is
     ``-sum_b V_b (k_i (1 + bmirror[b]) + kb[b]) grad W_ib`` (see the module docstring): kb is
     the extrapolated boundary value ``p_b / rho0`` where a boundary model sets one (Band et al.
     2018, :mod:`sphkit.boundary.band2018`); an empty kb means 0 (no gather).
 
     A solver whose variable is q with weights w passes ``k = w * q`` (one gather per pair
-    instead of two: a fifth faster)."""
-    with_kb = kb.shape[0] > 0
-    for i in numba.prange(k.shape[0]):
-        ki = k[i]
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        for kk in range(off[i], off[i + 1]):
-            s = ki + k[idx[kk]]
-            a0 -= s * gw[0, kk]
-            if dim > 1:
-                a1 -= s * gw[1, kk]
-            if dim > 2:
-                a2 -= s * gw[2, kk]
-        for kk in range(boff[i], boff[i + 1]):
-            b = bidx[kk]
-            sb = ki * (1.0 + bmirror[b])
-            if with_kb:
-                sb += kb[b]
-            a0 -= sb * gwb[0, kk]
-            if dim > 1:
-                a1 -= sb * gwb[1, kk]
-            if dim > 2:
-                a2 -= sb * gwb[2, kk]
-        a[0, i] = a0
-        if dim > 1:
-            a[1, i] = a1
-        if dim > 2:
-            a[2, i] = a2
+    instead of two: a fifth faster). The pass is :func:`kappa_accel_body` through
+    :func:`sphkit.backend.launch`."""
+    launch(kappa_accel_body, k.shape[0], k, kb, off, idx, boff, bidx, bmirror, gw, gwb, int(dim),
+           a)
 
 
 @numba.njit(parallel=True, **_JIT_GATHER)
@@ -254,9 +244,7 @@ def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
     """out[i] = (G + B) . (G + M) + sum_j V_j^2 |grad W_ij|^2, G = sum_j V_j grad W_ij,
     B = sum_b V_b grad W_ib, M = sum_b (1 + bmirror[b]) V_b grad W_ib."""
     for i in numba.prange(off.shape[0] - 1):
-        g0 = 0.0
-        g1 = 0.0
-        g2 = 0.0
+        g0 = g1 = g2 = 0.0
         sq = 0.0
         for k in range(off[i], off[i + 1]):
             t0 = gw[0, k]
@@ -266,12 +254,8 @@ def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
             g1 += t1
             g2 += t2
             sq += t0 * t0 + t1 * t1 + t2 * t2
-        b0 = 0.0
-        b1 = 0.0
-        b2 = 0.0
-        m0 = 0.0
-        m1 = 0.0
-        m2 = 0.0
+        b0 = b1 = b2 = 0.0
+        m0 = m1 = m2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             f = 1.0 + bmirror[bidx[k]]
             b0 += gwb[0, k]
@@ -287,10 +271,11 @@ def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
 
 @numba.njit(inline="always", **_JIT_GATHER)
 def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
-    """``sum_j (v_i - v_j) . gw_ij + sum_b (v_i - v_b) . gwb_ib`` of particle i."""
-    vi0 = v[0, i]
-    vi1 = v[1, i] if dim > 1 else 0.0
-    vi2 = v[2, i] if dim > 2 else 0.0
+    """``sum_j (v_i - v_j) . gw_ij + sum_b (v_i - v_b) . gwb_ib`` of particle i.
+
+    Written out (one dim branch per component): through the pair helpers (a difference, then a
+    product with its own branches) :func:`jacobi_sweep` ran 5-13 % slower."""
+    vi0, vi1, vi2 = point(v, i, dim)
     s = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]

@@ -24,8 +24,10 @@ Methods never import each other, so what two of them share lives here:
   acceleration), optionally keeping ``v_new - v`` for the next warm start.
 * :func:`morris_beta` -- the no-slip wall of Morris, Fox & Zhu 1997 for the Laplacian
   viscosities' boundary term (``standard``, ``weiler2018``): the factor ``beta`` in
-  ``v_i - v_b = beta (v_i - v_wall)`` (see its docstring); :func:`register_wall_fields` adds the
-  boundary fields it reads (``wall_normal``, ``wall_distance``).
+  ``v_i - v_b = beta (v_i - v_wall)`` (see its docstring); :func:`wall_pair` is the preamble of
+  their boundary pair loops (difference, squared distance, beta) and :func:`laplacian_pair` the
+  pair factor of their Laplacian; :func:`register_wall_fields` adds the boundary fields it reads
+  (``wall_normal``, ``wall_distance``).
 
 All loops take ``L`` > 0 for periodic x (minimum-image differences, ``configuration.periodic_x``).
 """
@@ -39,6 +41,7 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.krylov import JacobiPreconditioner, KrylovStats, cg
+from sphkit.core.pairs import delta, distance, dot, point, separation
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -51,18 +54,12 @@ def velocity_gradient(x, v, m, rho, off, idx, h, kid, dim, L, own_density, out):
     for i in numba.prange(x.shape[1]):
         for c in range(dim * dim):
             out[c, i] = 0.0
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             w = m[j] / (rho[i] if own_density else rho[j])
-            f = w * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            f = w * kernel_dw(kid, r, h, dim)
             g = (f * d0, f * d1, f * d2)
             for a in range(dim):
                 dva = v[a, j] - v[a, i]
@@ -75,27 +72,15 @@ def kernel_sum_diagonal(x, m, off, idx, bx, bV, boff, bidx, rho0, with_boundary,
                         L, out):
     """``out_i = sum_j m_j W_ij (+ rho0 sum_b V_b W_ib)``: the density without the self term."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         s = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            s += m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            s += m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
         if with_boundary:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0 = xi0 - bx[0, b]
-                if L > 0.0:
-                    d0 -= L * math.floor(d0 / L + 0.5)
-                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-                s += rho0 * bV[b] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+                s += rho0 * bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
         out[i] = s
 
 
@@ -103,18 +88,11 @@ def kernel_sum_diagonal(x, m, off, idx, bx, bV, boff, bidx, rho0, with_boundary,
 def kernel_sum_matvec(x, m, off, idx, diag, h, kid, dim, L, u, out):
     """``out_i = diag_i u_i - sum_j m_j W_ij u_j`` for scalar unknowns u (N,)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         s = diag[i] * u[i]
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            s -= m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim) * u[j]
+            s -= m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim) * u[j]
         out[i] = s
 
 
@@ -123,19 +101,13 @@ def target_gradient_rhs(x, m, off, idx, T, h, kid, dim, L, out):
     """``out[:, i] = sum_j m_j (T_i + T_j) / 2 x_ij W_ij`` with gradients T (dim * dim, N),
     row-major like :func:`velocity_gradient`; out (dim, N)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         for a in range(dim):
             out[a, i] = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = 0.5 * m[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            f = 0.5 * m[j] * kernel_w(kid, r, h, dim)
             d = (d0, d1, d2)
             for a in range(dim):
                 s = 0.0
@@ -172,24 +144,17 @@ def decompose_target(G, rho, rho0, xi, dim, spin, T):
 def wall_friction(x, v, rho, bx, bv, bV, boff, bidx, c, rho0, h, kid, dim, L, inv_dt, a):
     """``a_i -= (c / dt) sum_b (rho0 V_b / rho_i) (v_i - v_b) W_ib`` (Akinci 2012 particles)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        f0 = 0.0
-        f1 = 0.0
-        f2 = 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        vi0, vi1, vi2 = point(v, i, dim)
+        f0 = f1 = f2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
             s = (c * inv_dt * rho0 * bV[b] / rho[i]
-                 * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim))
-            f0 += s * (v[0, i] - bv[0, b])
-            f1 += s * (v[1, i] - bv[1, b]) if dim > 1 else 0.0
-            f2 += s * (v[2, i] - bv[2, b]) if dim > 2 else 0.0
+                 * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim))
+            w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
+            f0 += s * w0
+            f1 += s * w1
+            f2 += s * w2
         a[0, i] -= f0
         if dim > 1:
             a[1, i] -= f1
@@ -330,3 +295,26 @@ def morris_beta(d0, d1, d2, n0, n1, n2, db, beta_max):
         return beta_max
     beta = 1.0 + db / di
     return beta if beta < beta_max else beta_max
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L):
+    """``(d0, d1, d2, r2, beta)`` of a fluid particle at ``xi`` and boundary particle b: the
+    difference ``x_i - x_b`` (minimum image along x with period ``L`` > 0), its squared length
+    and the Morris factor :func:`morris_beta` from b's wall normal ``bn[:, b]`` and wall distance
+    ``bd[b]`` (1 unless ``beta_max`` > 0). The preamble of the boundary loops of the Laplacian
+    viscosities (:mod:`sphkit.viscosity.standard`, :mod:`sphkit.viscosity.weiler2018`)."""
+    d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
+    n0, n1, n2 = point(bn, b, dim)
+    beta = morris_beta(d0, d1, d2, n0, n1, n2, bd[b], beta_max)
+    return d0, d1, d2, dot(d0, d1, d2, d0, d1, d2), beta
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim):
+    """``(w . x_ij) / (|x_ij|^2 + eps) W'(r) / r`` with ``r^2 = |x_ij|^2 = r2``: the pair factor
+    of the Monaghan 2005 projected Laplacian that the Laplacian viscosities share
+    (:mod:`sphkit.viscosity.standard`, :mod:`sphkit.viscosity.weiler2018`); times the pair's
+    coefficient and ``x_ij`` it is the pair's term (``w = v_i - v_j``; ``eps`` = the
+    regularisation times h^2, :data:`LAPLACIAN_EPS`)."""
+    return dot(w0, w1, w2, d0, d1, d2) / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim)

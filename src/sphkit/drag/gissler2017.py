@@ -54,6 +54,7 @@ import numba
 import numpy as np
 
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.pairs import dot, point, separation
 from sphkit.core.state import SimState
 
 RHO_AIR = 1.2041  #: air density [kg/m^3]
@@ -92,18 +93,12 @@ def gissler_body(i, x, v, m, off, idx, boff, va, coeff, y_coeff, L, diam, n_full
     h1 = L + C_B * L * y_max
     a_drop = math.pi * h1 * h1
     a_unocc = (1.0 - fn) * a_drop + fn * diam * diam
-    xi0 = x[0, i]
-    xi1 = x[1, i]
-    xi2 = x[2, i] if dim == 3 else 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
     max_vx = 0.0
     for k in range(off[i], off[i + 1]):
-        j = idx[k]
-        d0 = xi0 - x[0, j]
-        d1 = xi1 - x[1, j]
-        d2 = xi2 - x[2, j] if dim == 3 else 0.0
-        r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, idx[k], dim, 0.0)
         if r > 0.0:
-            max_vx = max(max_vx, (e0 * d0 + e1 * d1 + e2 * d2) / r)
+            max_vx = max(max_vx, dot(e0, e1, e2, d0, d1, d2) / r)
     w = max(0.0, min(1.0, 1.0 - max_vx))
     c = coeff * 0.5 / m[i] * RHO_AIR * un * cd * w * a_unocc
     a[0, i] += c * u0

@@ -68,6 +68,14 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.methods import PressureSolver
+from sphkit.core.pairs import (
+    displaced_delta,
+    displaced_point,
+    dot,
+    norm,
+    separation,
+    set_vector,
+)
 from sphkit.core.ppe import lattice_diagonal
 from sphkit.core.solver import IterationControl, SolverStats
 from sphkit.core.state import SimState
@@ -84,20 +92,14 @@ def pbf_lambda(x, dx, V, off, idx, bx, bV, boff, bidx, h, kid, dim, eps, lam, rh
     mx = 0.0
     w0 = kernel_w(kid, 0.0, h, dim)
     for i in numba.prange(n):
-        xi0 = x[0, i] + dx[0, i]
-        xi1 = x[1, i] + dx[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] + dx[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
         rho = V[i] * w0
-        g0 = 0.0
-        g1 = 0.0
-        g2 = 0.0
+        g0 = g1 = g2 = 0.0
         sq = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j] - dx[0, j]
-            d1 = xi1 - x[1, j] - dx[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] - dx[2, j] if dim > 2 else 0.0
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
+            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
+            r2 = dot(d0, d1, d2, d0, d1, d2)
             rr = math.sqrt(r2)
             rho += V[j] * kernel_w(kid, rr, h, dim)
             f = V[j] * kernel_dw(kid, rr, h, dim)
@@ -107,10 +109,7 @@ def pbf_lambda(x, dx, V, off, idx, bx, bV, boff, bidx, h, kid, dim, eps, lam, rh
             sq += f * f * r2
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0 = xi0 - bx[0, b]
-            d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-            d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-            rr = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2, rr = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
             rho += bV[b] * kernel_w(kid, rr, h, dim)
             f = bV[b] * kernel_dw(kid, rr, h, dim)
             g0 += f * d0
@@ -131,19 +130,13 @@ def pbf_correction(x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, s_c
     grad W_ib`` at the positions ``x + dx``; ``s_corr,ij = -k_corr (W_ij / w_dq)^n_corr d0_inv``
     when ``s_corr``."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i] + dx[0, i]
-        xi1 = x[1, i] + dx[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] + dx[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
         li = lam[i]
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
+        c0 = c1 = c2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j] - dx[0, j]
-            d1 = xi1 - x[1, j] - dx[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] - dx[2, j] if dim > 2 else 0.0
-            rr = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
+            rr = norm(d0, d1, d2)
             s = li + lam[j]
             if s_corr:
                 s -= k_corr * (kernel_w(kid, rr, h, dim) / w_dq) ** n_corr * d0_inv
@@ -154,18 +147,12 @@ def pbf_correction(x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, s_c
         if li != 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0 = xi0 - bx[0, b]
-                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-                f = li * bV[b] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+                d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
+                f = li * bV[b] * kernel_dw(kid, r, h, dim)
                 c0 += f * d0
                 c1 += f * d1
                 c2 += f * d2
-        out[0, i] = c0
-        if dim > 1:
-            out[1, i] = c1
-        if dim > 2:
-            out[2, i] = c2
+        set_vector(out, i, dim, c0, c1, c2)
 
 
 class PBF(PressureSolver):

@@ -52,6 +52,7 @@ from scipy.integrate import quad
 
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import surface_normals_cpu
+from sphkit.core.pairs import delta, dot, point
 from sphkit.core.state import SimState
 
 _PI = math.pi
@@ -85,28 +86,16 @@ def adhesion_kernel(r: float, h: float) -> float:
 def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a,
                 L=0.0):
     """Add the cohesion, curvature and adhesion acceleration of fluid particle i to ``a[:, i]``."""
-    xi0 = x[0, i]
-    xi1 = x[1, i]
-    xi2 = x[2, i] if dim == 3 else 0.0
-    ni0 = nrm[0, i]
-    ni1 = nrm[1, i]
-    ni2 = nrm[2, i] if dim == 3 else 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
+    ni0, ni1, ni2 = point(nrm, i, dim)
     rhoi = rho[i]
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
+    a0 = a1 = a2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        d0 = xi0 - x[0, j]
-        if L > 0.0:  # periodic along x: minimum image
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - x[1, j]
-        d2 = xi2 - x[2, j] if dim == 3 else 0.0
-        r2 = d0 * d0 + d1 * d1 + d2 * d2
+        d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
+        r2 = dot(d0, d1, d2, d0, d1, d2)
         kij = 2.0 * rho0 / (rhoi + rho[j])
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
+        c0 = c1 = c2 = 0.0
         if r2 > 1.0e-18:
             r = math.sqrt(r2)
             s = -gamma * m[j] * cohesion_kernel(r, h) / r
@@ -122,12 +111,8 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
         a2 += kij * c2
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        d0 = xi0 - bx[0, b]
-        if L > 0.0:  # periodic along x: minimum image
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - bx[1, b]
-        d2 = xi2 - bx[2, b] if dim == 3 else 0.0
-        r2 = d0 * d0 + d1 * d1 + d2 * d2
+        d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
+        r2 = dot(d0, d1, d2, d0, d1, d2)
         if r2 > 1.0e-18:
             r = math.sqrt(r2)
             s = beta * rho0 * bV[b] * adhesion_kernel(r, h) / r

@@ -45,6 +45,7 @@ from scipy.integrate import quad
 
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
 
@@ -52,37 +53,21 @@ from sphkit.core.state import SimState
 def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho0, h, kid, dim,
                 a, L=0.0):
     """Add the cohesion and boundary adhesion acceleration of fluid particle i to ``a[:, i]``."""
-    xi0 = x[0, i]
-    xi1 = x[1, i]
-    xi2 = x[2, i] if dim == 3 else 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
     w_diam = kernel_w(kid, diam, h, dim)
-    s0 = 0.0
-    s1 = 0.0
-    s2 = 0.0
+    s0 = s1 = s2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        d0 = xi0 - x[0, j]
-        if L > 0.0:  # periodic along x: minimum image
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - x[1, j]
-        d2 = xi2 - x[2, j] if dim == 3 else 0.0
-        r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         w = kernel_w(kid, r, h, dim) if r > diam else w_diam
         c = m[j] * w
         s0 += c * d0
         s1 += c * d1
         s2 += c * d2
-    b0 = 0.0
-    b1 = 0.0
-    b2 = 0.0
+    b0 = b1 = b2 = 0.0
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        d0 = xi0 - bx[0, b]
-        if L > 0.0:  # periodic along x: minimum image
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - bx[1, b]
-        d2 = xi2 - bx[2, b] if dim == 3 else 0.0
-        r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
         w = kernel_w(kid, r, h, dim) if r > diam else w_diam
         c = rho0 * bV[b] * w
         b0 += c * d0

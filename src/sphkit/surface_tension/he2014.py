@@ -41,32 +41,17 @@ import numba
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.operators import color_field_cpu
+from sphkit.core.operators import color_field_cpu, color_gradient_sum
+from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _grad_c2_cpu(x, m, rho, c, off, idx, h, kid, dim, g2, L=0.0):
-    """``g2[i] = |(1/c_i) sum_j (m_j/rho_j) c_j grad W_ij|^2``."""
+    """``g2[i] = |(1/c_i) sum_j (m_j/rho_j) c_j grad W_ij|^2``
+    (:func:`sphkit.core.operators.color_gradient_sum` weighted with the colour)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i]
-        xi2 = x[2, i] if dim == 3 else 0.0
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j]
-            d2 = xi2 - x[2, j] if dim == 3 else 0.0
-            w = m[j] / rho[j] * c[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2),
-                                                   h, dim)
-            s0 += w * d0
-            s1 += w * d1
-            s2 += w * d2
+        s0, s1, s2 = color_gradient_sum(i, x, m, rho, c, off, idx, h, kid, dim, L)
         inv = 1.0 / c[i]
         g2[i] = (s0 * s0 + s1 * s1 + s2 * s2) * inv * inv
 
@@ -75,36 +60,21 @@ def _grad_c2_cpu(x, m, rho, c, off, idx, h, kid, dim, g2, L=0.0):
 def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a,
             L=0.0):
     """Add the colour-field surface tension acceleration of fluid particle i to ``a[:, i]``."""
-    xi0 = x[0, i]
-    xi1 = x[1, i]
-    xi2 = x[2, i] if dim == 3 else 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
     gi = g2[i]
-    s0 = 0.0
-    s1 = 0.0
-    s2 = 0.0
+    s0 = s1 = s2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        d0 = xi0 - x[0, j]
-        if L > 0.0:  # periodic along x: minimum image
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - x[1, j]
-        d2 = xi2 - x[2, j] if dim == 3 else 0.0
-        w = m[j] / rho[j] * (gi + g2[j]) * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2),
-                                                     h, dim)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+        w = m[j] / rho[j] * (gi + g2[j]) * kernel_dw(kid, r, h, dim)
         s0 += w * d0
         s1 += w * d1
         s2 += w * d2
-    b0 = 0.0
-    b1 = 0.0
-    b2 = 0.0
+    b0 = b1 = b2 = 0.0
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        d0 = xi0 - bx[0, b]
-        if L > 0.0:  # periodic along x: minimum image
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - bx[1, b]
-        d2 = xi2 - bx[2, b] if dim == 3 else 0.0
-        w = bV[b] * gi * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+        w = bV[b] * gi * kernel_dw(kid, r, h, dim)
         b0 += w * d0
         b1 += w * d1
         b2 += w * d2

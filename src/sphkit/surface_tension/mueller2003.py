@@ -115,6 +115,7 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import interpolate, surface_normals_cpu
+from sphkit.core.pairs import distance, point, separation
 from sphkit.core.state import SimState
 
 #: Müller's threshold l, made dimensionless: a particle carries a force where
@@ -144,9 +145,7 @@ def curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L=0.0):
     """``kappa_i = -div(n/|n|)`` at fluid particle i from the tangential derivatives of the unit
     normal over the neighbours with ``|n_j| >= thr`` (0 where ``|n_i| < thr`` or the neighbours
     do not span the tangent plane); see the module docstring."""
-    ni0 = n[0, i]
-    ni1 = n[1, i]
-    ni2 = n[2, i] if dim == 3 else 0.0
+    ni0, ni1, ni2 = point(n, i, dim)
     li = math.sqrt(ni0 * ni0 + ni1 * ni1 + ni2 * ni2)
     if li < thr_i:
         return 0.0
@@ -174,27 +173,20 @@ def curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L=0.0):
     q0 = u1 * t2 - u2 * t1  # q = u x t
     q1 = u2 * t0 - u0 * t2
     q2 = u0 * t1 - u1 * t0
-    xi0 = x[0, i]
-    xi1 = x[1, i]
-    xi2 = x[2, i] if dim == 3 else 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
     # weighted least squares of the tangential unit-normal components over the tangential
     # offsets: M = sum w s s^T, B = sum w s e^T (s = (t, q) . (x_j - x_i), e = (t, q) . (u_j - u_i))
     mtt = mtq = mqq = 0.0
     btt = btq = bqt = bqq = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        nj0 = n[0, j]
-        nj1 = n[1, j]
-        nj2 = n[2, j] if dim == 3 else 0.0
+        nj0, nj1, nj2 = point(n, j, dim)
         lj = math.sqrt(nj0 * nj0 + nj1 * nj1 + nj2 * nj2)
         if lj < thr or nj0 * u0 + nj1 * u1 + nj2 * u2 < COS_MAX * lj:
             continue
-        d0 = x[0, j] - xi0
-        if L > 0.0:  # periodic along x: minimum image
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = x[1, j] - xi1
-        d2 = x[2, j] - xi2 if dim == 3 else 0.0
-        w = -m[j] / rho[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+        d0, d1, d2 = -d0, -d1, -d2  # the offsets of the fit are x_j - x_i
+        w = -m[j] / rho[j] * kernel_dw(kid, r, h, dim)
         e0 = nj0 / lj - u0
         e1 = nj1 / lj - u1
         e2 = nj2 / lj - u2
@@ -237,9 +229,7 @@ def extend_curvature_cpu(x, m, rho, k_src, w_src, off, idx, h, kid, dim, k_out, 
     included) of the curvatures ``k_src`` known where ``w_src`` = 1; ``w_out`` = 1 where the sum
     has a term (one pass reaches one support radius further into the fluid)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i]
-        xi2 = x[2, i] if dim == 3 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         w = w_src[i] * m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
         num = w * k_src[i]
         den = w
@@ -247,12 +237,7 @@ def extend_curvature_cpu(x, m, rho, k_src, w_src, off, idx, h, kid, dim, k_out, 
             j = idx[k]
             if w_src[j] == 0.0:
                 continue
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j]
-            d2 = xi2 - x[2, j] if dim == 3 else 0.0
-            w = m[j] / rho[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            w = m[j] / rho[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
             num += w * k_src[j]
             den += w
         if den > 0.0:
@@ -272,9 +257,7 @@ def extend_band_cpu(x, m, rho, k_src, e_src, u_src, w_src, off, idx, h, kid, dim
     further into the fluid: ``k_out_i = <k_j>``, ``e_out_i = <(x_j - x_i) + e_j>`` (minimum image
     along x when L > 0), ``u_out_i = <u_j> / |<u_j>|``; ``w_out`` = 1 where the sum has a term."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i]
-        xi2 = x[2, i] if dim == 3 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         w = w_src[i] * m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
         den = w
         nk = w * k_src[i]
@@ -288,12 +271,9 @@ def extend_band_cpu(x, m, rho, k_src, e_src, u_src, w_src, off, idx, h, kid, dim
             j = idx[k]
             if w_src[j] == 0.0:
                 continue
-            d0 = x[0, j] - xi0
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = x[1, j] - xi1
-            d2 = x[2, j] - xi2 if dim == 3 else 0.0
-            w = m[j] / rho[j] * kernel_w(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            d0, d1, d2 = -d0, -d1, -d2  # x_j - x_i
+            w = m[j] / rho[j] * kernel_w(kid, r, h, dim)
             den += w
             nk += w * k_src[j]
             ne0 += w * (d0 + e_src[0, j])

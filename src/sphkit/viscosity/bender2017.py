@@ -66,7 +66,6 @@ Notes on the implementation as shipped by SPlisHSPlasH, kept here so that its sc
 from __future__ import annotations
 
 import logging
-import math
 from typing import Any
 
 import numba
@@ -75,6 +74,7 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import KrylovStats
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.pairs import add_vector, point, separation
 from sphkit.core.state import SimState
 from sphkit.core.viscous import add_velocity_change, wall_friction
 
@@ -112,26 +112,14 @@ def _load6(a, i, dim):
 def _strain_sums(i, x, v, m, off, idx, h, kid, dim, L):
     """The six sums ``sum_j m_j sym((v_j - v_i) grad W_ij)`` of particle i (before the factor
     ``0.5 / rho_i``), shared by :func:`strain_rate` and :func:`_constraint`."""
-    xi0 = x[0, i]
-    xi1 = x[1, i] if dim > 1 else 0.0
-    xi2 = x[2, i] if dim > 2 else 0.0
-    vi0 = v[0, i]
-    vi1 = v[1, i] if dim > 1 else 0.0
-    vi2 = v[2, i] if dim > 2 else 0.0
-    e0 = 0.0
-    e1 = 0.0
-    e2 = 0.0
-    e3 = 0.0
-    e4 = 0.0
-    e5 = 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
+    vi0, vi1, vi2 = point(v, i, dim)
+    e0 = e1 = e2 = 0.0
+    e3 = e4 = e5 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        d0 = xi0 - x[0, j]
-        if L > 0.0:
-            d0 -= L * math.floor(d0 / L + 0.5)
-        d1 = xi1 - x[1, j] if dim > 1 else 0.0
-        d2 = xi2 - x[2, j] if dim > 2 else 0.0
-        f = m[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+        f = m[j] * kernel_dw(kid, r, h, dim)
         w0 = v[0, j] - vi0
         w1 = v[1, j] - vi1 if dim > 1 else 0.0
         w2 = v[2, j] - vi2 if dim > 2 else 0.0
@@ -210,25 +198,17 @@ def viscosity_factor(x, m, rho, off, idx, h, kid, dim, L, comp, max_relax, K, di
     singular); K (nc, nc, N) and dinv (nc, N) are work arrays."""
     nc = comp.shape[0]
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         for a in range(nc):
             for b in range(nc):
                 K[a, b, i] = 0.0
         c = 0.5 / rho[i]
         inv_rho = 1.0 / rho[i]
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
+        s0 = s1 = s2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = c * m[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            f = c * m[j] * kernel_dw(kid, r, h, dim)
             g0 = f * d0  # B_ij = G(g), g = m_j / (2 rho_i) grad W_ij
             g1 = f * d1
             g2 = f * d2
@@ -295,22 +275,14 @@ def _constraint(x, v, m, rho, off, idx, h, kid, dim, L, target, Kinv, lam):
 def _impulse(x, m, rho, off, idx, h, kid, dim, L, lam, v):
     """v_i -= sum_j (m_j / 2) G(grad W_ij)^T ((m_j / rho_i^2) lam_i + (m_j / rho_j^2) lam_j)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         li = _load6(lam, i, dim)
         ri2 = 1.0 / (rho[i] * rho[i])
-        dv0 = 0.0
-        dv1 = 0.0
-        dv2 = 0.0
+        dv0 = dv1 = dv2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = 0.5 * m[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            f = 0.5 * m[j] * kernel_dw(kid, r, h, dim)
             g0 = f * d0
             g1 = f * d1
             g2 = f * d2
@@ -326,11 +298,7 @@ def _impulse(x, m, rho, off, idx, h, kid, dim, L, lam, v):
             dv0 += 2.0 * g0 * u0 + g1 * u3 + g2 * u4
             dv1 += 2.0 * g1 * u1 + g0 * u3 + g2 * u5
             dv2 += 2.0 * g2 * u2 + g0 * u4 + g1 * u5
-        v[0, i] -= dv0
-        if dim > 1:
-            v[1, i] -= dv1
-        if dim > 2:
-            v[2, i] -= dv2
+        add_vector(v, i, dim, -dv0, -dv1, -dv2)
 
 
 class Bender2017(NonPressureForce):

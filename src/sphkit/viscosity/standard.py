@@ -27,20 +27,20 @@ beta = 1).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numba
 
-from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.pairs import add_vector, delta, delta2, dot, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
     MORRIS_BETA_MAX,
     check_wall_options,
-    morris_beta,
+    laplacian_pair,
     register_wall_fields,
+    wall_pair,
 )
 
 
@@ -52,70 +52,30 @@ def _standard(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, b
     eps = epsf * h * h
     c = 2.0 * (dim + 2)
     for i in numba.prange(x.shape[1]):
-        acc0 = 0.0
-        acc1 = 0.0
-        acc2 = 0.0
-        xi0 = x[0, i]
-        vi0 = v[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        vi1 = v[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        vi2 = v[2, i] if dim > 2 else 0.0
+        acc0 = acc1 = acc2 = 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        vi0, vi1, vi2 = point(v, i, dim)
         ri = rho[i]
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:  # periodic along x: minimum image
-                d0 -= L * math.floor(d0 / L + 0.5)
-            w0 = vi0 - v[0, j]
-            d1 = 0.0
-            d2 = 0.0
-            w1 = 0.0
-            w2 = 0.0
-            if dim > 1:
-                d1 = xi1 - x[1, j]
-                w1 = vi1 - v[1, j]
-            if dim > 2:
-                d2 = xi2 - x[2, j]
-                w2 = vi2 - v[2, j]
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
-            vx = w0 * d0 + w1 * d1 + w2 * d2
-            s = (c * nu * (2.0 * m[j] / (ri + rho[j])) * vx / (r2 + eps)
-                 * kernel_dw(kid, math.sqrt(r2), h, dim))
+            d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
+            r2 = dot(d0, d1, d2, d0, d1, d2)
+            s = (c * nu * (2.0 * m[j] / (ri + rho[j]))
+                 * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim))
             acc0 += s * d0
             acc1 += s * d1
             acc2 += s * d2
         if nub > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0 = xi0 - bx[0, b]
-                if L > 0.0:
-                    d0 -= L * math.floor(d0 / L + 0.5)
-                w0 = vi0 - bv[0, b]
-                d1 = 0.0
-                d2 = 0.0
-                w1 = 0.0
-                w2 = 0.0
-                if dim > 1:
-                    d1 = xi1 - bx[1, b]
-                    w1 = vi1 - bv[1, b]
-                if dim > 2:
-                    d2 = xi2 - bx[2, b]
-                    w2 = vi2 - bv[2, b]
-                r2 = d0 * d0 + d1 * d1 + d2 * d2
-                beta = morris_beta(d0, d1, d2, bn[0, b], bn[1, b] if dim > 1 else 0.0,
-                                   bn[2, b] if dim > 2 else 0.0, bd[b], beta_max)
-                vx = beta * (w0 * d0 + w1 * d1 + w2 * d2)
-                s = (c * nub * (rho0 * bV[b] / ri) * vx / (r2 + eps)
-                     * kernel_dw(kid, math.sqrt(r2), h, dim))
+                d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
+                w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
+                s = (c * nub * (rho0 * bV[b] / ri) * beta
+                     * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim))
                 acc0 += s * d0
                 acc1 += s * d1
                 acc2 += s * d2
-        a[0, i] += acc0
-        if dim > 1:
-            a[1, i] += acc1
-        if dim > 2:
-            a[2, i] += acc2
+        add_vector(a, i, dim, acc0, acc1, acc2)
 
 
 class StandardViscosity(NonPressureForce):

@@ -55,7 +55,6 @@ the free-surface particles; a shear wave decays like backward Euler of ``dv/dt =
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numba
@@ -64,6 +63,7 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.pairs import grad_w, point, separation
 from sphkit.core.state import SimState
 from sphkit.core.viscous import add_velocity_change, wall_friction
 
@@ -74,29 +74,15 @@ _JIT = dict(cache=True, fastmath=True)
 def _stress(x, u, m, rho, off, idx, h, kid, dim, L, mu, S):
     """S_i = mu (grad u_i + grad u_i^T), symmetric, stored row-major (dim * dim, N)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        ui0 = u[0, i]
-        ui1 = u[1, i] if dim > 1 else 0.0
-        ui2 = u[2, i] if dim > 2 else 0.0
-        g00 = 0.0
-        g01 = 0.0
-        g02 = 0.0
-        g10 = 0.0
-        g11 = 0.0
-        g12 = 0.0
-        g20 = 0.0
-        g21 = 0.0
-        g22 = 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        ui0, ui1, ui2 = point(u, i, dim)
+        g00 = g01 = g02 = 0.0
+        g10 = g11 = g12 = 0.0
+        g20 = g21 = g22 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = m[j] / rho[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            f = m[j] / rho[j] * kernel_dw(kid, r, h, dim)
             w0 = u[0, j] - ui0
             w1 = u[1, j] - ui1 if dim > 1 else 0.0
             w2 = u[2, j] - ui2 if dim > 2 else 0.0
@@ -132,21 +118,13 @@ def _stress(x, u, m, rho, off, idx, h, kid, dim, L, mu, S):
 def _operator(x, u, m, rho, off, idx, h, kid, dim, L, S, dt, out):
     """out_i = u_i - dt sum_j m_j (S_i / rho_i^2 + S_j / rho_j^2) grad W_ij."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
         ri2 = 1.0 / (rho[i] * rho[i])
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
+        a0 = a1 = a2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = m[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            f = m[j] * kernel_dw(kid, r, h, dim)
             ci = f * ri2
             cj = f / (rho[j] * rho[j])
             d = (d0, d1, d2)
@@ -171,33 +149,16 @@ def _operator(x, u, m, rho, off, idx, h, kid, dim, L, S, dt, out):
 def _diagonal_blocks(x, m, rho, off, idx, h, kid, dim, L, mu, dt, blocks):
     """The dim x dim diagonal blocks D_i of I - dt a (see the module), (dim, dim, N)."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        q = 0.0
-        q00 = 0.0
-        q01 = 0.0
-        q02 = 0.0
-        q11 = 0.0
-        q12 = 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        c0 = c1 = c2 = 0.0
+        s0 = s1 = s2 = 0.0
+        q = q00 = q01 = 0.0
+        q02 = q11 = q12 = 0.0
         q22 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            f = kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            g0 = f * d0
-            g1 = f * d1
-            g2 = f * d2
+            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
+            g0, g1, g2 = grad_w(kid, d0, d1, d2, r, h, dim)
             vj = m[j] / rho[j]
             c0 += vj * g0
             c1 += vj * g1

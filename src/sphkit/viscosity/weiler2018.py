@@ -55,13 +55,16 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.pairs import delta, delta2, dot, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
     MORRIS_BETA_MAX,
+    add_velocity_change,
     check_wall_options,
-    morris_beta,
+    laplacian_pair,
     register_wall_fields,
+    wall_pair,
 )
 
 _JIT = dict(cache=True, fastmath=True)
@@ -73,44 +76,23 @@ def _matvec(x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, beta_max
     """out = (I - dt/rho_i L) u for flat (dim, N) vectors u, out (as 2D views)."""
     eps = epsf * h * h
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        ui0 = u[0, i]
-        ui1 = u[1, i] if dim > 1 else 0.0
-        ui2 = u[2, i] if dim > 2 else 0.0
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        ui0, ui1, ui2 = point(u, i, dim)
+        a0 = a1 = a2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            w0 = ui0 - u[0, j]
-            w1 = ui1 - u[1, j] if dim > 1 else 0.0
-            w2 = ui2 - u[2, j] if dim > 2 else 0.0
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
-            s = (cf * m[j] / rho[j] * (w0 * d0 + w1 * d1 + w2 * d2) / (r2 + eps)
-                 * kernel_dw(kid, math.sqrt(r2), h, dim))
+            d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, ui0, ui1, ui2, u, j, dim, L)
+            r2 = dot(d0, d1, d2, d0, d1, d2)
+            s = cf * m[j] / rho[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim)
             a0 += s * d0
             a1 += s * d1
             a2 += s * d2
         if cb > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0 = xi0 - bx[0, b]
-                if L > 0.0:
-                    d0 -= L * math.floor(d0 / L + 0.5)
-                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-                r2 = d0 * d0 + d1 * d1 + d2 * d2
-                beta = morris_beta(d0, d1, d2, bn[0, b], bn[1, b] if dim > 1 else 0.0,
-                                   bn[2, b] if dim > 2 else 0.0, bd[b], beta_max)
-                s = (beta * cb * rho0 * bV[b] / rho[i] * (ui0 * d0 + ui1 * d1 + ui2 * d2)
-                     / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim))
+                d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
+                s = (beta * cb * rho0 * bV[b] / rho[i]
+                     * laplacian_pair(kid, ui0, ui1, ui2, d0, d1, d2, r2, eps, h, dim))
                 a0 += s * d0
                 a1 += s * d1
                 a2 += s * d2
@@ -128,26 +110,14 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, 
     """rhs_i = v_i - dt/rho_i B_i v_b and the diagonal blocks of the system matrix."""
     eps = epsf * h * h
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i] if dim > 1 else 0.0
-        xi2 = x[2, i] if dim > 2 else 0.0
-        g00 = 0.0
-        g01 = 0.0
-        g02 = 0.0
-        g11 = 0.0
-        g12 = 0.0
-        g22 = 0.0
-        b0 = 0.0
-        b1 = 0.0
-        b2 = 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        g00 = g01 = g02 = 0.0
+        g11 = g12 = g22 = 0.0
+        b0 = b1 = b2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0 = xi0 - x[0, j]
-            if L > 0.0:
-                d0 -= L * math.floor(d0 / L + 0.5)
-            d1 = xi1 - x[1, j] if dim > 1 else 0.0
-            d2 = xi2 - x[2, j] if dim > 2 else 0.0
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
+            d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
+            r2 = dot(d0, d1, d2, d0, d1, d2)
             s = cf * m[j] / rho[j] / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim)
             g00 += s * d0 * d0
             g01 += s * d0 * d1
@@ -158,14 +128,7 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, 
         if cb > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                d0 = xi0 - bx[0, b]
-                if L > 0.0:
-                    d0 -= L * math.floor(d0 / L + 0.5)
-                d1 = xi1 - bx[1, b] if dim > 1 else 0.0
-                d2 = xi2 - bx[2, b] if dim > 2 else 0.0
-                r2 = d0 * d0 + d1 * d1 + d2 * d2
-                beta = morris_beta(d0, d1, d2, bn[0, b], bn[1, b] if dim > 1 else 0.0,
-                                   bn[2, b] if dim > 2 else 0.0, bd[b], beta_max)
+                d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
                 s = (beta * cb * rho0 * bV[b] / rho[i] / (r2 + eps)
                      * kernel_dw(kid, math.sqrt(r2), h, dim))
                 g00 += s * d0 * d0
@@ -174,10 +137,8 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, 
                 g11 += s * d1 * d1
                 g12 += s * d1 * d2
                 g22 += s * d2 * d2
-                vb0 = bv[0, b]
-                vb1 = bv[1, b] if dim > 1 else 0.0
-                vb2 = bv[2, b] if dim > 2 else 0.0
-                t = s * (vb0 * d0 + vb1 * d1 + vb2 * d2)
+                vb0, vb1, vb2 = point(bv, b, dim)
+                t = s * dot(vb0, vb1, vb2, d0, d1, d2)
                 b0 += t * d0
                 b1 += t * d1
                 b2 += t * d2
@@ -196,17 +157,6 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, 
             blocks[1, 2, i] = -f * g12
             blocks[2, 1, i] = -f * g12
             blocks[2, 2, i] = 1.0 - f * g22
-
-
-@numba.njit(parallel=True, **_JIT)
-def _apply(v, vnew, inv_dt, a, dv):
-    """a += (v_new - v) / dt; dv = v_new - v (the next warm start)."""
-    dim = v.shape[0]
-    for i in numba.prange(v.shape[1]):
-        for d in range(dim):
-            t = vnew[d, i] - v[d, i]
-            a[d, i] += t * inv_dt
-            dv[d, i] = t
 
 
 class Weiler2018(NonPressureForce):
@@ -279,4 +229,4 @@ class Weiler2018(NonPressureForce):
                              tol=self.max_error, max_iter=self.max_iterations,
                              name="Weiler 2018 viscosity", step=state.step)
         vnew = sol.reshape(dim, n).astype(v.dtype, copy=False)
-        _apply(v, vnew, 1.0 / dt, f["a"], dv)
+        add_velocity_change(v, vnew, 1.0 / dt, f["a"], dv, True)

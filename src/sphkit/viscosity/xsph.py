@@ -17,41 +17,34 @@ import numba
 
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.pairs import add_vector, delta, distance, point
 from sphkit.core.state import SimState
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _xsph(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, c, cb, rho0, h, kid, dim, inv_dt, a):
     for i in numba.prange(x.shape[1]):
-        acc0 = 0.0
-        acc1 = 0.0
-        acc2 = 0.0
+        xi0, xi1, xi2 = point(x, i, dim)
+        vi0, vi1, vi2 = point(v, i, dim)
+        acc0 = acc1 = acc2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            r2 = 0.0
-            for d in range(dim):
-                t = x[d, i] - x[d, j]
-                r2 += t * t
-            s = c * inv_dt * (m[j] / rho[j]) * kernel_w(kid, r2 ** 0.5, h, dim)
-            acc0 += s * (v[0, j] - v[0, i])
-            acc1 += s * (v[1, j] - v[1, i]) if dim > 1 else 0.0
-            acc2 += s * (v[2, j] - v[2, i]) if dim > 2 else 0.0
+            s = (c * inv_dt * (m[j] / rho[j])
+                 * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, 0.0), h, dim))
+            w0, w1, w2 = delta(vi0, vi1, vi2, v, j, dim, 0.0)  # v_i - v_j
+            acc0 -= s * w0
+            acc1 -= s * w1
+            acc2 -= s * w2
         if cb > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
-                r2 = 0.0
-                for d in range(dim):
-                    t = x[d, i] - bx[d, b]
-                    r2 += t * t
-                s = cb * inv_dt * (rho0 * bV[b] / rho[i]) * kernel_w(kid, r2 ** 0.5, h, dim)
-                acc0 += s * (bv[0, b] - v[0, i])
-                acc1 += s * (bv[1, b] - v[1, i]) if dim > 1 else 0.0
-                acc2 += s * (bv[2, b] - v[2, i]) if dim > 2 else 0.0
-        a[0, i] += acc0
-        if dim > 1:
-            a[1, i] += acc1
-        if dim > 2:
-            a[2, i] += acc2
+                s = (cb * inv_dt * (rho0 * bV[b] / rho[i])
+                     * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, 0.0), h, dim))
+                w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
+                acc0 -= s * w0
+                acc1 -= s * w1
+                acc2 -= s * w2
+        add_vector(a, i, dim, acc0, acc1, acc2)
 
 
 class XSPH(NonPressureForce):

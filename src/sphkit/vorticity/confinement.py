@@ -40,37 +40,17 @@ import numba
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.operators import curl_sum
+from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _vorticity_cpu(x, v, m, rho, off, idx, h, kid, dim, omega, norm):
+    """``omega_i = curl(v)_i`` (:func:`sphkit.core.operators.curl_sum`) and ``norm_i =
+    |omega_i|``."""
     for i in numba.prange(x.shape[1]):
-        xi0 = x[0, i]
-        xi1 = x[1, i]
-        xi2 = x[2, i] if dim == 3 else 0.0
-        vi0 = v[0, i]
-        vi1 = v[1, i]
-        vi2 = v[2, i] if dim == 3 else 0.0
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0 = xi0 - x[0, j]
-            d1 = xi1 - x[1, j]
-            d2 = xi2 - x[2, j] if dim == 3 else 0.0
-            f = m[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
-            g0 = f * d0
-            g1 = f * d1
-            u0 = vi0 - v[0, j]
-            u1 = vi1 - v[1, j]
-            if dim == 3:
-                g2 = f * d2
-                u2 = vi2 - v[2, j]
-                c0 += u1 * g2 - u2 * g1
-                c1 += u2 * g0 - u0 * g2
-            c2 += u0 * g1 - u1 * g0
+        c0, c1, c2 = curl_sum(i, x, m, v, off, idx, h, kid, dim, 0.0)
         inv = 1.0 / rho[i]
         omega[0, i] = c0 * inv
         omega[1, i] = c1 * inv
@@ -81,18 +61,12 @@ def _vorticity_cpu(x, v, m, rho, off, idx, h, kid, dim, omega, norm):
 @numba.njit(cache=True, fastmath=True)
 def confinement_body(i, x, m, rho, omega, norm, off, idx, eps, h, kid, dim, a):
     """Add ``eps N_i x omega_i`` to ``a[:, i]`` (``N_i`` = unit gradient of ``|omega|``)."""
-    xi0 = x[0, i]
-    xi1 = x[1, i]
-    xi2 = x[2, i] if dim == 3 else 0.0
-    e0 = 0.0
-    e1 = 0.0
-    e2 = 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
+    e0 = e1 = e2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        d0 = xi0 - x[0, j]
-        d1 = xi1 - x[1, j]
-        d2 = xi2 - x[2, j] if dim == 3 else 0.0
-        f = m[j] * norm[j] * kernel_dw(kid, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), h, dim)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
+        f = m[j] * norm[j] * kernel_dw(kid, r, h, dim)
         e0 += f * d0
         e1 += f * d1
         e2 += f * d2

@@ -76,6 +76,7 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
 
@@ -83,31 +84,18 @@ from sphkit.core.state import SimState
 def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu_t, zeta,
                     inv_theta, inv_dt, rho0, h, kid, dim, a, alpha):
     """Particle i: add ``nu_t curl(omega)`` to ``a[:, i]`` and write ``alpha[:, i]``."""
-    xi0 = x[0, i]
-    xi1 = x[1, i]
-    xi2 = x[2, i] if dim == 3 else 0.0
-    vi0 = v[0, i]
-    vi1 = v[1, i]
-    vi2 = v[2, i] if dim == 3 else 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
+    vi0, vi1, vi2 = point(v, i, dim)
     wi0 = omega[0, i] if dim == 3 else 0.0
     wi1 = omega[1, i] if dim == 3 else 0.0
     wi2 = omega[2, i]
     # sums of m_j omega_ij x gradW, m_j v_ij x gradW, (m_j/rho_j) omega_ij W
-    cw0 = 0.0
-    cw1 = 0.0
-    cw2 = 0.0
-    cv0 = 0.0
-    cv1 = 0.0
-    cv2 = 0.0
-    xs0 = 0.0
-    xs1 = 0.0
-    xs2 = 0.0
+    cw0 = cw1 = cw2 = 0.0
+    cv0 = cv1 = cv2 = 0.0
+    xs0 = xs1 = xs2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        d0 = xi0 - x[0, j]
-        d1 = xi1 - x[1, j]
-        d2 = xi2 - x[2, j] if dim == 3 else 0.0
-        r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
         f = kernel_dw(kid, r, h, dim)
         g0 = f * d0
         g1 = f * d1
@@ -135,10 +123,7 @@ def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu
         xs2 += sw * e2
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
-        d0 = xi0 - bx[0, b]
-        d1 = xi1 - bx[1, b]
-        d2 = xi2 - bx[2, b] if dim == 3 else 0.0
-        r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
         f = kernel_dw(kid, r, h, dim)
         psi = rho0 * bV[b]
         g0 = f * d0

@@ -1,0 +1,57 @@
+"""sphkit.backend.launch on the CPU: a body runs once per particle, the (sum, max) reduction,
+argument checks. The CUDA side is tested against it in tests/test_cuda_simulator.py."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pytest
+
+from sphkit.backend import launch, launch_reduce
+from sphkit.backend.launch import cpu_driver
+
+
+@numba.njit(cache=True, inline="always")
+def _scale_body(i, x, c, out):
+    out[i] = c * x[i]
+
+
+@numba.njit(cache=True, inline="always")
+def _error_body(i, x, active):
+    if active[i]:
+        return abs(x[i])
+    return 0.0
+
+
+def test_launch_runs_the_body_for_every_particle() -> None:
+    x = np.arange(1000.0)
+    out = np.full(1000, -1.0)
+    launch(_scale_body, x.shape[0], x, 2.0, out)
+    assert np.array_equal(out, 2.0 * x)
+    launch(_scale_body, 0, x, 3.0, out)  # no particles: nothing written
+    assert np.array_equal(out, 2.0 * x)
+
+
+def test_launch_reduce_returns_sum_and_max_of_the_values() -> None:
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=777)
+    active = rng.uniform(size=777) > 0.3
+    tot, mx = launch_reduce(_error_body, x.shape[0], x, active)
+    e = np.where(active, np.abs(x), 0.0)
+    assert tot == pytest.approx(e.sum(), rel=1e-14)
+    assert mx == e.max()
+    assert launch_reduce(_error_body, 0, x, active) == (0.0, 0.0)
+
+
+def test_the_driver_is_built_once_per_body_and_arity() -> None:
+    x = np.arange(3.0)
+    launch(_scale_body, 3, x, 1.0, np.empty(3))
+    assert cpu_driver(_scale_body, 3) is cpu_driver(_scale_body, 3)
+    assert cpu_driver(_scale_body, 3) is not cpu_driver(_scale_body, 3, "sum_max")
+
+
+def test_unknown_device_is_an_error() -> None:
+    with pytest.raises(ValueError, match="device: 'gpu'; expected one of cpu, cuda"):
+        launch(_scale_body, 1, np.zeros(1), 1.0, np.zeros(1), device="gpu")
+    with pytest.raises(ValueError, match="device"):
+        launch_reduce(_error_body, 1, np.zeros(1), np.ones(1, dtype=np.bool_), device="tpu")
