@@ -121,9 +121,13 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
 
 
 @numba.njit(parallel=True, **_JIT)
-def density_at(x, dx, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, out):
+def density_at(x, dx, m, off, idx, bx, bdx, bV, boff, bidx, rho0, h, kid, dim, out):
     """Normalized density at displaced positions ``x + dx`` with the neighbour lists of x
-    (PCISPH's prediction): ``sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x_b)``, self included."""
+    (PCISPH's prediction): ``sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x*_b)``, self
+    included, with the boundary displaced by ``bdx`` (boundary particles that yield to the
+    pressure, :meth:`sphkit.core.methods.BoundaryCoupling.displacement`); an empty bdx (dim, 0)
+    leaves the boundary where it is."""
+    moving = bdx.shape[1] > 0
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
         s = m[i] / rho0 * kernel_w(kid, 0.0, h, dim)
@@ -133,7 +137,12 @@ def density_at(x, dx, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, out):
             s += m[j] / rho0 * kernel_w(kid, norm(d0, d1, d2), h, dim)
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            s += bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, 0.0), h, dim)
+            if moving:
+                d0, d1, d2 = displaced_delta(xi0, xi1, xi2, bx, bdx, b, dim, 0.0)
+                rb = norm(d0, d1, d2)
+            else:
+                rb = distance(xi0, xi1, xi2, bx, b, dim, 0.0)
+            s += bV[b] * kernel_w(kid, rb, h, dim)
         out[i] = s
 
 

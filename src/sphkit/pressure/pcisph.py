@@ -139,17 +139,22 @@ class PCISPH(PressureSolver):
         dx = np.empty_like(x)
         rho_hat = np.empty(n, dtype=f.dtype)
         factor = self.delta / (dt * dt)
-        mirror = state.coupling.mirror(state)
-        kb = state.coupling.boundary_kappa(state)
+        coupling = state.coupling
+        mirror = coupling.mirror(state)
+        kb = coupling.boundary_kappa(state)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
+        # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
+        bdx = [coupling.displacement(state, p, g.gwb, dt)]
 
         def sweep(_k: int) -> tuple[float, float]:
             _predict(v, a, ap, dt, dx)
-            density_at(x, dx, f["m"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                       nb.indices, state.rho0, state.h, state.kid, state.dim, rho_hat)
+            density_at(x, dx, f["m"], nl.offsets, nl.indices, b["x"], bdx[0], b["V"],
+                       nb.offsets, nb.indices, state.rho0, state.h, state.kid, state.dim,
+                       rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
             kappa_accel_cached(p, kb(p), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror,
                                g.gw, g.gwb, state.dim, ap)
+            bdx[0] = coupling.displacement(state, p, g.gwb, dt)
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
