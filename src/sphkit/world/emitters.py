@@ -153,7 +153,7 @@ class FluidEmitter:
             take = int(min(len(x), max(budget - added, 0)))
             if take:
                 fluid.add(x[:take, : self.dim], name=self.name, m=mass, V0=volume, rho=rho0,
-                          v=vel[: self.dim])
+                          rho0=rho0, v=vel[: self.dim])
             self.count += 1
             self.emitted += take
             added += take

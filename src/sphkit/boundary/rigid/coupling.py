@@ -115,6 +115,21 @@ if TYPE_CHECKING:
 _JIT = dict(cache=True, fastmath=True)
 
 
+@numba.njit(inline="always", **_JIT)
+def _add_force(out, ch, k, bx, b, c, dim, f0, f1, f2):
+    """Add the force (f0, f1, f2) on boundary particle b of body k, and its torque about the
+    body's centre ``c[k]``, to ``out[ch, k]`` (force 0:3, torque 3:6)."""
+    out[ch, k, 0] += f0
+    out[ch, k, 1] += f1
+    out[ch, k, 2] += f2
+    q0 = bx[0, b] - c[k, 0]
+    q1 = bx[1, b] - c[k, 1]
+    q2 = bx[2, b] - c[k, 2] if dim == 3 else 0.0
+    out[ch, k, 3] += q1 * f2 - q2 * f1
+    out[ch, k, 4] += q2 * f0 - q0 * f2
+    out[ch, k, 5] += q0 * f1 - q1 * f0
+
+
 @numba.njit(parallel=True, **_JIT)
 def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid, nchunk, out):
     """Per body: force and torque (about c) of the fluid on its boundary particles,
@@ -136,18 +151,7 @@ def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid
                     continue
                 d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
                 s = fi * (1.0 + use_mirror * bmirror[b]) * bV[b] * kernel_dw(kid, r, h, dim)
-                f0 = s * d0
-                f1 = s * d1
-                f2 = s * d2
-                out[ch, k, 0] += f0
-                out[ch, k, 1] += f1
-                out[ch, k, 2] += f2
-                q0 = bx[0, b] - c[k, 0]
-                q1 = bx[1, b] - c[k, 1]
-                q2 = bx[2, b] - c[k, 2] if dim == 3 else 0.0
-                out[ch, k, 3] += q1 * f2 - q2 * f1
-                out[ch, k, 4] += q2 * f0 - q0 * f2
-                out[ch, k, 5] += q0 * f1 - q1 * f0
+                _add_force(out, ch, k, bx, b, c, dim, s * d0, s * d1, s * d2)
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -169,18 +173,8 @@ def _reaction_cached(m, k, boff, bidx, gwb, bmirror, bx, body, c, nchunk, out):
                 if bk < 0:
                     continue
                 s = fi * (1.0 + bmirror[b])
-                f0 = s * gwb[0, kk]
-                f1 = s * gwb[1, kk]
-                f2 = s * gwb[2, kk] if dim == 3 else 0.0
-                out[ch, bk, 0] += f0
-                out[ch, bk, 1] += f1
-                out[ch, bk, 2] += f2
-                q0 = bx[0, b] - c[bk, 0]
-                q1 = bx[1, b] - c[bk, 1]
-                q2 = bx[2, b] - c[bk, 2] if dim == 3 else 0.0
-                out[ch, bk, 3] += q1 * f2 - q2 * f1
-                out[ch, bk, 4] += q2 * f0 - q0 * f2
-                out[ch, bk, 5] += q0 * f1 - q1 * f0
+                _add_force(out, ch, bk, bx, b, c, dim, s * gwb[0, kk], s * gwb[1, kk],
+                           s * gwb[2, kk] if dim == 3 else 0.0)
 
 
 @numba.njit(parallel=True, **_JIT)
