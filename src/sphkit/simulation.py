@@ -1,21 +1,25 @@
-"""The time-step loop: builds the methods a scene names and advances them in the survey's order.
+"""The time-step loop: advances a :class:`~sphkit.world.World` in the survey's order.
 
-One step (DESIGN.md, "Data flow of one time step"):
+The world (particles, walls, bodies, emitters and the methods a scene names) is built once by
+:func:`sphkit.world.build_world`; one step (DESIGN.md, "One time step"; docs/architecture.md):
 
-1. every ``zsort_every`` steps, reorder the fluid along a z-order curve;
-2. neighbour search (fluid-fluid CSR lists; fluid-boundary lists from the boundary model);
-3. density ``rho_i = sum_j m_j W_ij + sum_b rho0 V_b W_ib`` (:func:`core.operators.density_cpu`);
-4. time step: CFL ``cfl_factor * 0.4 * 2r / max|v|`` clamped to [dt_min, dt_max], and the pressure
-   solver's own limit (acoustic limit of WCSPH);
-5. the pressure solver's pre-force hook where it has one (DFSPH: factors and the divergence-free
-   solve on the current velocities);
-6. accelerations: gravity, then the non-pressure forces (viscosity, vorticity, surface tension,
-   drag), then the pressure
-   solver, which adds the pressure acceleration (PBF: the acceleration that lands on its
-   corrected positions);
-7. symplectic Euler;
-8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it, then the
-   layers due by the new time are added;
+1. neighbour search: every ``zsort_every`` steps the fluid is reordered along a z-order curve;
+   fluid-fluid CSR lists, fluid-boundary lists from the boundary model;
+2. densities ``rho_i = sum_j m_j W_ij + sum_b rho0 V_b W_ib`` (with the solver's cached pair
+   gradients in the same pass where it uses them), and the boundary pressure model's view of
+   the step (``state.coupling``);
+3. time step: CFL ``cfl_factor * 0.4 * 2r / max|v|`` (fluid and moving boundary) clamped to
+   [dt_min, dt_max], and the pressure solver's own limit (acoustic limit of WCSPH);
+4. the pressure solver's ``pre_forces`` (DFSPH: factors and the divergence-free solve on the
+   current velocities; a no-op for the others);
+5. accelerations: gravity, then the non-pressure forces (viscosity, vorticity, surface tension,
+   drag, the boundary model's own), then the pressure solver, which adds the pressure
+   acceleration (PBF: the acceleration that lands on its corrected positions); bodies that yield
+   to the pressure take their non-pressure velocity change before the solve (strong coupling);
+6. the fluid's force on the rigid bodies from the solver's boundary share of its pressure;
+7. symplectic Euler, then the bodies move (the boundary model follows them);
+8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it, then
+   the layers due by the new time are added;
 9. stability guard: NaN/inf velocities or a speed above ``configuration.max_velocity`` raise
    :class:`InstabilityError` with a diagnosis (step, time, max velocity, CFL number, density error).
 """
@@ -106,7 +110,6 @@ class Simulation:
         self.forces = world.forces
         self.rigid = world.rigid
         self.emitters = world.emitters
-        self._maps = world.maps  # walls as maps, not particles
         self._lattice_volume = world.lattice_volume
         self._empty_at_init = self.state.fluid.n == 0  # methods reading the fluid: at emission
         self.time = 0.0

@@ -306,7 +306,6 @@ class MapBoundaryModel(BoundaryModel):
     #: depth [r] by which a moving body's map surface is moved into its mesh (a negative
     #: ``MapGeometry.thickness``), so that the fluid rests about r outside the mesh
     moving_inset_in_radii = 0.0
-    uses_maps = True
     #: the wall's share of the tangential pressure gradient with a hydrostatic boundary
     #: pressure (configuration.boundary.pressure "hydrostatic"; see
     #: :mod:`sphkit.boundary.maps_hydrostatic`); set before :meth:`init`

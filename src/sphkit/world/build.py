@@ -56,11 +56,6 @@ class World:
     forces: list[NonPressureForce] = field(default_factory=list)
     force_roles: list[str] = field(default_factory=list)
 
-    @property
-    def maps(self) -> bool:
-        """Whether the walls are maps (density / volume maps) rather than particles."""
-        return registry.get("boundary", self.scene.configuration.boundary.method).kind == "maps"
-
 
 def _state(scene: Scene, mat: Material) -> SimState:
     """Empty particle sets with the fields every method reads, and the constants."""
