@@ -41,8 +41,15 @@ log = get_logger("cli")
 
 
 # -- messages ------------------------------------------------------------------------------------
+#: the longest error message printed (characters; the rest is cut)
+MAX_MESSAGE = 4000
+
+
 def error(text: str) -> None:
-    """``sphkit: error: <text>`` on stderr, and an error record in the log file."""
+    """``sphkit: error: <text>`` on stderr, and an error record in the log file (cut after
+    :data:`MAX_MESSAGE` characters)."""
+    if len(text) > MAX_MESSAGE:
+        text = text[:MAX_MESSAGE] + f"... ({len(text) - MAX_MESSAGE} more characters)"
     print(f"sphkit: error: {text}", file=sys.stderr, flush=True)
     log.error(text, extra={"console": False})
 
@@ -81,8 +88,15 @@ def guarded(command: Callable[[argparse.Namespace], int], args: argparse.Namespa
 
 
 # -- argument types: each names the value and what was expected ---------------------------------
-def positive_float(what: str, example: str) -> Callable[[str], float]:
-    """A positive finite number; the message names ``what`` and gives ``example``."""
+def _shown(text: str) -> str:
+    """An argument as a message repeats it (cut after 60 characters)."""
+    return repr(text) if len(text) <= 60 else repr(text[:60]) + f"... ({len(text)} characters)"
+
+
+def positive_float(what: str, example: str,
+                   upper: float | None = None) -> Callable[[str], float]:
+    """A positive finite number (at most ``upper``); the message names ``what`` and gives
+    ``example``."""
 
     def parse(text: str) -> float:
         try:
@@ -91,7 +105,12 @@ def positive_float(what: str, example: str) -> Callable[[str], float]:
             value = math.nan
         if not (math.isfinite(value) and value > 0):
             raise argparse.ArgumentTypeError(
-                f"got {text!r}; expected a positive number: {what}, e.g. {example}"
+                f"got {_shown(text)}; expected a positive number: {what}, e.g. {example}"
+            )
+        if upper is not None and value > upper:
+            raise argparse.ArgumentTypeError(
+                f"got {_shown(text)}; expected a positive number of at most {upper:g}: {what}, "
+                f"e.g. {example}"
             )
         return value
 
@@ -100,13 +119,18 @@ def positive_float(what: str, example: str) -> Callable[[str], float]:
 
 
 def positive_int(text: str) -> int:
-    """A positive integer."""
+    """A positive integer (``20000000`` or ``2e7``)."""
     try:
         value = int(text)
     except ValueError:
-        value = 0
+        try:
+            f = float(text)
+            value = int(f) if math.isfinite(f) and f == int(f) else 0
+        except (ValueError, OverflowError):
+            value = 0
     if value < 1:
-        raise argparse.ArgumentTypeError(f"got {text!r}; expected a positive integer, e.g. 2")
+        raise argparse.ArgumentTypeError(
+            f"got {_shown(text)}; expected a positive integer, e.g. 2")
     return value
 
 
@@ -125,7 +149,7 @@ def positive(what: str, integer: bool = False, allow_zero: bool = False) -> Call
         if not ok:
             kind = "an integer" if integer else "a number"
             raise argparse.ArgumentTypeError(
-                f"got {text!r}; expected {kind} {'>= 0' if allow_zero else '> 0'}: {what}"
+                f"got {_shown(text)}; expected {kind} {'>= 0' if allow_zero else '> 0'}: {what}"
             )
         return value
 
@@ -173,7 +197,7 @@ def parse_frames(text: str) -> list[tuple[int, int | None, int]]:
                 raise ValueError
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"got {text!r}; expected frame numbers like 7, 0:50, 0:50:5 or 0,10,20"
+                f"got {_shown(text)}; expected frame numbers like 7, 0:50, 0:50:5 or 0,10,20"
             ) from None
         out.append((start, stop, step))
     return out

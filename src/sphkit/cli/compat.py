@@ -30,7 +30,7 @@ from datetime import date
 from pathlib import Path
 from typing import Any
 
-from sphkit.cli.common import EXIT_OK, EXIT_USAGE
+from sphkit.cli.common import EXIT_OK, EXIT_USAGE, positive
 from sphkit.io.atomic import atomic_write_text
 
 WHEEL = "pysplishsplash"
@@ -195,11 +195,14 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "compat", help="check which SPlisHSPlasH scenes load and run",
         description="Load every scene of the pysplishsplash wheel unchanged, run a few steps "
                     "and report which load and run, naming the missing feature otherwise.")
-    p.add_argument("--steps", type=int, default=5, metavar="N",
+    p.add_argument("--steps", type=positive("time steps per scene", integer=True), default=5,
+                   metavar="N",
                    help="time steps to run per scene (default 5)")
-    p.add_argument("--radius-scale", type=float, default=1.0, metavar="F",
+    p.add_argument("--radius-scale", type=positive("scale of particleRadius"), default=1.0,
+                   metavar="F",
                    help="multiply each scene's particleRadius by F (coarser: faster; default 1)")
-    p.add_argument("--max-particles", type=int, default=200_000, metavar="N",
+    p.add_argument("--max-particles", type=positive("particles", integer=True),
+                   default=200_000, metavar="N",
                    help="run only scenes with at most N particles (default 200000)")
     p.add_argument("--markdown", type=Path, metavar="FILE",
                    help="also write the table as Markdown (e.g. docs/compatibility.md)")

@@ -5,8 +5,12 @@
 SPlisHSPlasH's JSON scenes (:func:`~sphkit.scene.splishsplash.from_splishsplash`, chosen by
 :func:`~sphkit.scene.splishsplash.is_splishsplash`). Every error is a
 :class:`~sphkit.scene.schema.SceneError` whose message names the field path, the value and what
-was expected. Files are read as UTF-8 JSON or YAML (``yaml.safe_load``: no tags that run code);
-a malformed file is reported with its line and column. Paths written in a scene (meshes,
+was expected. Files are read as UTF-8 JSON or YAML (PyYAML's safe loader: no tags that run
+code; anchors and aliases are allowed as long as the document they expand to has at most
+:data:`~sphkit.scene.limits.MAX_YAML_NODES` nodes, so a "billion laughs" file is refused before
+it is expanded); files larger than :data:`~sphkit.scene.limits.MAX_SCENE_BYTES` are refused
+unread; a malformed file is reported with
+its line and column. Paths written in a scene (meshes,
 particle files) are relative to the scene file's folder
 (:func:`sphkit.scene.paths.resolve_scene_path`).
 """
@@ -22,8 +26,9 @@ from typing import Any
 import yaml
 from pydantic import ValidationError
 
+from sphkit.scene.limits import MAX_SCENE_BYTES, MAX_YAML_NODES
 from sphkit.scene.paths import check_particle_file, resolve_scene_path
-from sphkit.scene.schema import Scene, SceneError, format_validation_error
+from sphkit.scene.schema import Scene, SceneError, clip, format_validation_error
 from sphkit.scene.splishsplash import from_splishsplash, is_splishsplash
 
 __all__ = [
@@ -35,6 +40,7 @@ __all__ = [
 ]
 
 SCENE_SUFFIXES = (".json", ".yaml", ".yml")
+
 _SCENES_DIR = Path(__file__).resolve().parent.parent / "scenes"
 
 
@@ -88,11 +94,66 @@ def _parse_json(text: str, path: Path) -> Any:
             f"scene file {str(path)!r}: invalid JSON at line {err.lineno}, column {err.colno}: "
             f"{err.msg}"
         ) from None
+    except RecursionError:
+        raise SceneError(f"scene file {str(path)!r}: JSON nested too deeply; expected a scene "
+                         "of a few levels of fields") from None
+    except ValueError as err:  # e.g. an integer of more digits than Python converts
+        raise SceneError(f"scene file {str(path)!r}: invalid JSON: {clip(str(err), 200)}"
+                         ) from None
+
+
+def _expanded_size(node: yaml.Node, path: Path) -> int:
+    """The number of nodes of a composed YAML document with every alias expanded; refuses
+    more than :data:`MAX_YAML_NODES` and recursive aliases (a node containing itself)."""
+    sizes: dict[int, int] = {}
+    busy: set[int] = set()
+
+    def size(n: yaml.Node) -> int:
+        key = id(n)
+        if key in sizes:
+            return sizes[key]
+        if key in busy:
+            raise SceneError(f"scene file {str(path)!r}: a YAML alias refers to a node that "
+                             "contains it (a recursive structure); expected a tree of fields")
+        busy.add(key)
+        total = 1
+        if isinstance(n, yaml.SequenceNode):
+            for child in n.value:
+                total += size(child)
+                if total > MAX_YAML_NODES:
+                    break
+        elif isinstance(n, yaml.MappingNode):
+            for k, v in n.value:
+                total += size(k) + size(v)
+                if total > MAX_YAML_NODES:
+                    break
+        busy.discard(key)
+        if total > MAX_YAML_NODES:
+            raise SceneError(
+                f"scene file {str(path)!r}: its YAML anchors and aliases expand to more than "
+                f"{MAX_YAML_NODES:,} fields and values (nested aliases, a 'billion laughs' "
+                "file); expected a scene without deeply nested aliases")
+        sizes[key] = total
+        return total
+
+    size(node)
+    return sizes[id(node)]
 
 
 def _parse_yaml(text: str, path: Path) -> Any:
     try:
-        return yaml.safe_load(text)
+        loader = yaml.SafeLoader(text)
+        try:
+            node = loader.get_single_node()  # the document's nodes, aliases not expanded
+            if node is None:
+                return None
+            _expanded_size(node, path)
+            return loader.construct_document(node)
+        finally:
+            loader.dispose()
+    except RecursionError:
+        raise SceneError(f"scene file {str(path)!r}: YAML nested too deeply; expected a scene "
+                         "of a few levels of fields") from None
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None) or getattr(err, "context_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -103,6 +164,11 @@ def _parse_yaml(text: str, path: Path) -> Any:
 def _read_mapping(path: Path) -> dict[str, Any]:
     """Read a JSON or YAML file whose top level is a mapping."""
     try:
+        size = path.stat().st_size
+        if size > MAX_SCENE_BYTES:
+            raise SceneError(f"scene file {str(path)!r}: {size:,} bytes; expected a scene file "
+                             f"of at most {MAX_SCENE_BYTES:,} bytes (particles belong in "
+                             "particle files, fluid_files)")
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise SceneError(f"scene file {str(path)!r}: not found") from None

@@ -14,6 +14,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from sphkit import registry
+from sphkit.scene.limits import CLIP, MAX_FPS, MAX_PARTICLES
 
 Vec = list[float]
 
@@ -38,7 +39,8 @@ BoundaryPressureMethod = _choices("boundary_pressure")
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # every number of every scene field is finite: NaN and Infinity are refused naming the field
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 class TimeConfig(_Model):
@@ -531,7 +533,8 @@ class BoundaryConfig(_Model):
 class OutputConfig(_Model):
     """Frame output."""
 
-    fps: float = Field(25.0, gt=0, description="frames per simulated second [1/s]")
+    fps: float = Field(25.0, gt=0, le=MAX_FPS, description="frames per simulated second [1/s] "
+                       "(at most one frame is written per time step)")
     formats: list[Literal["vtk", "ply", "bgeo", "bgeo.gz"]] = ["vtk"]
     attributes: list[str] | None = Field(
         None, description="particle attributes written besides position and id, e.g. "
@@ -558,6 +561,23 @@ class Configuration(_Model):
     max_velocity: float = Field(
         100.0, gt=0,
         description="a particle faster than this [m/s] stops the run as unstable",
+    )
+    max_cfl: float = Field(
+        1.0, gt=0,
+        description="with time.cfl off: a step whose CFL number max|v| dt / (2r) exceeds this "
+        "(dimensionless) stops the run as unstable (the fixed time.dt is too large)",
+    )
+    domain_margin: float | None = Field(
+        10.0, ge=0,
+        description="fluid farther than this many kernel supports h outside the bounding box of "
+        "the static boundaries (boxes, meshes, map geometries, emitter housings) stops the run "
+        "as unstable (it leaked through a wall); not checked above the walls (against gravity), "
+        "nor in a scene without static walls; null: never checked",
+    )
+    max_particles: int = Field(
+        MAX_PARTICLES, ge=1,
+        description="particle budget: a scene whose fluid, walls and emitters would need more "
+        "particles is refused before anything is allocated (sphkit run --max-particles)",
     )
     periodic_x: list[float] | None = Field(
         None,
@@ -678,22 +698,46 @@ class SceneError(ValueError):
     """A scene that cannot be read or is invalid; the message names field, value and expectation."""
 
 
+def clip(value: Any, limit: int = CLIP) -> str:
+    """``repr(value)``, cut to about ``limit`` characters (error messages never echo much of
+    the input)."""
+    if isinstance(value, (dict, list, tuple)) and len(value) > limit:
+        text = f"<{type(value).__name__} of {len(value)} items>"
+        return text
+    try:
+        text = repr(value)
+    except Exception:  # a value whose repr fails (an int of more digits than Python prints)
+        text = f"<{type(value).__name__}>"
+    if len(text) > limit:
+        text = f"{text[:limit]}... ({len(text)} characters)"
+    return text
+
+
+#: how many problems of one validation error are listed
+MAX_ERRORS = 12
+
+
 def format_validation_error(err: ValidationError, prefix: str = "") -> str:
-    """Render a pydantic error as lines 'path: value -> problem'."""
+    """Render a pydantic error as lines 'path: got value: problem' (values clipped, at most
+    :data:`MAX_ERRORS` lines)."""
     lines = []
-    for e in err.errors():
+    errors = err.errors(include_url=False, include_context=False)
+    for e in errors[:MAX_ERRORS]:
         parts = []
         for p in e["loc"]:
             if isinstance(p, int):
                 parts.append(f"[{p}]")
             else:
-                parts.append(("." if parts else "") + str(p))
+                parts.append(("." if parts else "") + str(p)[:40])
         path = prefix + "".join(parts)
         val = e.get("input")
         msg = e["msg"]
         if e["type"] == "extra_forbidden":
             msg = "unknown field"
-        if isinstance(val, dict):
-            val = "{...}"
-        lines.append(f"{path or '<scene>'}: got {val!r}: {msg}")
+        got = "{...}" if isinstance(val, dict) else clip(val)
+        if len(msg) > 4 * CLIP:
+            msg = msg[:4 * CLIP] + "..."
+        lines.append(f"{path or '<scene>'}: got {got}: {msg}")
+    if len(errors) > MAX_ERRORS:
+        lines.append(f"... and {len(errors) - MAX_ERRORS} more problem(s)")
     return "\n".join(lines)

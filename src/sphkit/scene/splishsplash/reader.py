@@ -16,7 +16,19 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from sphkit.scene.schema import SceneError
+from sphkit.scene.schema import SceneError, clip
+
+
+def _finite(v: Any) -> float | None:
+    """``v`` as a finite float, or None (not a number, a boolean, NaN, +-Infinity, or an
+    integer too large for a float)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return None
+    try:
+        x = float(v)
+    except OverflowError:
+        return None
+    return x if math.isfinite(x) else None
 
 
 class Reader:
@@ -35,7 +47,7 @@ class Reader:
     # -- errors and value readers --------------------------------------------------------------
     def error(self, where: str, value: Any, expected: str) -> SceneError:
         """The error for ``value`` at field path ``where``, which should be ``expected``."""
-        return SceneError(f"{self.label}: {where}: got {value!r}: expected {expected}")
+        return SceneError(f"{self.label}: {where}: got {clip(value)}: expected {expected}")
 
     def unsupported(self, where: str, message: str) -> SceneError:
         """The error for a feature sphkit does not have (``message`` names it)."""
@@ -76,22 +88,24 @@ class Reader:
         v = obj.get(key)
         if v is None:
             return default
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        x = _finite(v)
+        if x is None:
             raise self.error(f"{where}.{key}", v, "a finite number")
-        if positive and not v > 0:
+        if positive and not x > 0:
             raise self.error(f"{where}.{key}", v, "a number > 0")
-        if nonneg and not v >= 0:
+        if nonneg and not x >= 0:
             raise self.error(f"{where}.{key}", v, "a number >= 0")
-        return float(v)
+        return x
 
     def integer(self, obj: Mapping[str, Any], key: str, where: str, default: int) -> int:
         """The integer ``obj[key]`` (``default`` when absent; 2.0 is read as 2)."""
         v = obj.get(key)
         if v is None:
             return default
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
+        x = _finite(v)
+        if x is None or x != int(x) or abs(x) > 2**53:
             raise self.error(f"{where}.{key}", v, "an integer")
-        return int(v)
+        return int(x)
 
     def flag(self, obj: Mapping[str, Any], key: str, where: str, default: bool) -> bool:
         """The boolean ``obj[key]`` (``default`` when absent; non-zero integers are true)."""
@@ -111,14 +125,10 @@ class Reader:
         v = obj.get(key)
         if v is None:
             return list(default)
-        if (
-            not isinstance(v, (list, tuple))
-            or len(v) != 3
-            or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in v)
-            or not all(math.isfinite(c) for c in v)
-        ):
+        xs = [_finite(c) for c in v] if isinstance(v, (list, tuple)) and len(v) == 3 else None
+        if xs is None or any(c is None for c in xs):
             raise self.error(f"{where}.{key}", v, "a list of 3 finite numbers")
-        return [float(c) for c in v]
+        return [float(c) for c in xs]
 
     def text(self, obj: Mapping[str, Any], key: str, where: str, default: str) -> str:
         """The string ``obj[key]`` (``default`` when absent)."""
@@ -136,7 +146,8 @@ class Reader:
         ``quiet`` as unknown fields."""
         for key in obj:
             if key not in known and key not in quiet:
-                self.unknown.append(f"{where}.{key}" if where else key)
+                name = str(key) if len(str(key)) <= 60 else clip(str(key), 60)
+                self.unknown.append(f"{where}.{name}" if where else name)
 
     # -- field paths ---------------------------------------------------------------------------
     def origin_of(self, path: str) -> str | None:

@@ -78,9 +78,11 @@ def from_splishsplash(data: Mapping[str, Any], path: str | Path | None = None) -
     tr = Reader(data, path)
     scene = validate(tr, translate(tr))
     if tr.unknown:
+        names = ", ".join(tr.unknown[:20]) + (f", ... ({len(tr.unknown) - 20} more)"
+                                              if len(tr.unknown) > 20 else "")
         warnings.warn(
             f"{tr.label}: ignored {len(tr.unknown)} field(s) that sphkit does not know or "
-            f"support yet: {', '.join(tr.unknown)}",
+            f"support yet: {names}",
             UserWarning,
             stacklevel=2,
         )
