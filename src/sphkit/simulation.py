@@ -20,8 +20,12 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 7. symplectic Euler, then the bodies move (the boundary model follows them);
 8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it, then
    the layers due by the new time are added;
-9. stability guard: NaN/inf velocities or a speed above ``configuration.max_velocity`` raise
-   :class:`InstabilityError` with a diagnosis (step, time, max velocity, CFL number, density error).
+9. stability guard: NaN/inf velocities, a speed above ``configuration.max_velocity``, fluid
+   outside the domain (the static walls' bounding box plus ``configuration.domain_margin`` h,
+   computed once by the world builder: fluid that leaked through a wall) or, with a fixed time
+   step (``time.cfl`` off), a CFL number above ``configuration.max_cfl`` raise
+   :class:`InstabilityError` with a diagnosis (which of them, step, time, max velocity, CFL
+   number, density error).
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from sphkit.core.solver import PairGradients, SolverStats
 from sphkit.core.timestep import (
     cfl_time_step,
     max_speed,
+    outside_count,
     speed_check,
     symplectic_euler,
     wrap_periodic,
@@ -111,6 +116,7 @@ class Simulation:
         self.rigid = world.rigid
         self.emitters = world.emitters
         self._lattice_volume = world.lattice_volume
+        self._domain = world.domain
         self._empty_at_init = self.state.fluid.n == 0  # methods reading the fluid: at emission
         self.time = 0.0
         self.step_count = 0
@@ -316,9 +322,7 @@ class Simulation:
         if ks is not None:
             stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
         self.last, self.last_solver = stats, ps
-        limit = self.scene.configuration.max_velocity
-        if bad or vmax > limit or not np.all(np.isfinite(f["x"])):
-            raise InstabilityError(self._diagnosis(stats, bad, limit), stats)
+        self._stability_guard(stats, bad)
         return stats
 
     def _viscosity_stats(self) -> KrylovStats | None:
@@ -358,15 +362,41 @@ class Simulation:
         self.last, self.last_solver = stats, None
         return stats
 
-    def _diagnosis(self, s: StepStats, bad: int, limit: float) -> str:
-        what = (f"{bad} particle(s) with NaN/inf velocity" if bad
-                else f"max velocity {s.max_velocity:.4g} m/s exceeds the limit {limit:.4g} m/s")
+    def _stability_guard(self, s: StepStats, bad: int) -> None:
+        """Raise :class:`InstabilityError` when the step shows the run blowing up or leaking."""
+        cfg = self.scene.configuration
+        x = self.state.fluid["x"]
+        what = advice = ""
+        if bad or not np.all(np.isfinite(x)):
+            what = f"{bad} particle(s) with NaN/inf velocity or position"
+        elif s.max_velocity > cfg.max_velocity:
+            what = (f"max velocity {s.max_velocity:.4g} m/s exceeds the limit "
+                    f"configuration.max_velocity = {cfg.max_velocity:.4g} m/s")
+        elif not cfg.time.cfl and s.cfl > cfg.max_cfl:
+            what = (f"CFL number {s.cfl:.3g} exceeds configuration.max_cfl = {cfg.max_cfl:g} "
+                    f"with the fixed time step time.dt = {s.dt:g} s (time.cfl off)")
+            advice = ("Switch time.cfl on, or make time.dt smaller (the fixed step moves the "
+                      "fastest particle more than the limit's share of a particle diameter).")
+        elif self._domain is not None and (n := outside_count(x, *self._domain)):
+            lo, hi = self._domain
+            box = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(lo, hi, strict=True))
+            what = (f"{n} fluid particle(s) left the domain {box} m (the static walls' bounding "
+                    f"box plus configuration.domain_margin = {cfg.domain_margin:g} h): the fluid "
+                    "leaked through a wall")
+            advice = ("Make the pressure stiffer or use an iterative pressure solver, a smaller "
+                      "time step (time.dt_max, time.cfl_factor), thicker walls (boxes[].layers), "
+                      "or set configuration.domain_margin to null if fluid may leave the walls.")
+        if what:
+            raise InstabilityError(self._diagnosis(s, what, advice), s)
+
+    def _diagnosis(self, s: StepStats, what: str, advice: str = "") -> str:
         return (
             f"simulation unstable at step {s.step}, time {s.time:.6g} s: {what}; "
             f"max velocity {s.max_velocity:.4g} m/s, dt {s.dt:.4g} s, CFL number {s.cfl:.3g}, "
             f"density error avg {100 * s.density_error_avg:.3g}% max "
-            f"{100 * s.density_error_max:.3g}%. Try a smaller time step (time.dt_max, "
-            f"time.cfl_factor) or a stiffer/iterative pressure solver."
+            f"{100 * s.density_error_max:.3g}%. "
+            + (advice or "Try a smaller time step (time.dt_max, time.cfl_factor) or a "
+               "stiffer/iterative pressure solver.")
         )
 
     def run(self, until: float | None = None, fps: float | None = None,
@@ -374,9 +404,11 @@ class Simulation:
             on_step: Callable[[Simulation, StepStats], None] | None = None,
             after_step: Callable[[Simulation], bool] | None = None) -> bool:
         """Step until simulated time ``until`` (default: the scene's), calling ``on_frame(sim, k)``
-        at t = 0 and every ``1/fps`` (default: the scene's output fps) and ``on_step`` after each
-        step. ``after_step(sim)`` is called once the step's frames are written (checkpoints);
-        when it returns True the run stops there. Returns True when ``until`` was reached."""
+        at t = 0 and after the first step at or after each ``k / fps`` (default: the scene's
+        output fps; at most once per step: when a step is longer than ``1 / fps`` the frames it
+        passes over are skipped and ``k`` jumps) and ``on_step`` after each step.
+        ``after_step(sim)`` is called once the step's frame is written (checkpoints); when it
+        returns True the run stops there. Returns True when ``until`` was reached."""
         until = self.scene.configuration.time.until if until is None else float(until)
         fps = self.scene.output.fps if fps is None else float(fps)
         if self._frame < 0:
@@ -390,10 +422,10 @@ class Simulation:
             stats = self.step()
             if on_step:
                 on_step(self, stats)
-            if on_frame is None:  # no callback: jump to the frame count (a large fps spun here)
-                self._frame = max(self._frame, math.floor((self.time + 1e-9) * fps))
-            while self.time >= (self._frame + 1) / fps - 1e-9:
-                self._frame += 1
+            if self.time >= (self._frame + 1) / fps - 1e-9:
+                # at most one frame per step: frame k is the first step at or after k / fps, so
+                # the frames a long step passes over are skipped, not written all at once
+                self._frame = max(self._frame + 1, math.floor((self.time + 1e-9) * fps))
                 if on_frame:
                     on_frame(self, self._frame)
             if after_step is not None and after_step(self):

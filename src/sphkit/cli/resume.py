@@ -26,9 +26,11 @@ from typing import Any
 
 from sphkit.cli.common import EXIT_USAGE, error
 from sphkit.io.checkpoint import (
+    CHECKPOINT_DIR,
     Checkpoint,
     CheckpointError,
     checkpoint_path,
+    list_checkpoints,
     read_checkpoint,
     version_differences,
 )
@@ -74,14 +76,17 @@ def _relative(path: Path, folder: Path) -> str:
 
 
 def prepare_resume(args: argparse.Namespace, argv: Sequence[str]) -> Resume | int:
-    """Restore the run in ``args.resume`` from its newest checkpoint, or print why not and return
-    the exit code (2)."""
+    """Restore the run in ``args.resume`` from its newest checkpoint that reads and restores (a
+    warning names each newer one that does not), or print why not and return the exit code
+    (2)."""
     from sphkit.scene.schema import SceneError
     from sphkit.simulation import Simulation
 
     out_dir = Path(args.resume)
     given = [name for name, value in (("SCENE", args.scene), ("--fps", args.fps),
-                                      ("--format", args.formats)) if value is not None]
+                                      ("--format", args.formats),
+                                      ("--max-particles", args.max_particles))
+             if value is not None]
     if given:
         error(f"--resume {str(out_dir)!r}: got {', '.join(given)} too; expected only --until "
                "(the run continues with the scene, frame rate and formats stored in its folder)")
@@ -99,15 +104,29 @@ def prepare_resume(args: argparse.Namespace, argv: Sequence[str]) -> Resume | in
         error(f"--resume {str(out_dir)!r}: no readable manifest.json ({e}); expected the output "
                "folder of a sphkit run")
         return EXIT_USAGE
-    try:
-        ck = read_checkpoint(out_dir)
-        sim = Simulation.from_checkpoint(ck)
-    except CheckpointError as e:
-        error(f"--resume {str(out_dir)!r}: {e}; runs write checkpoints with --checkpoint-every "
-               "and when Ctrl-C or SIGTERM stops them")
+    found = list_checkpoints(out_dir)
+    if not found:
+        error(f"--resume {str(out_dir)!r}: no checkpoint found (expected files "
+              f"{CHECKPOINT_DIR}/checkpoint_<step>.npz); runs write checkpoints with "
+              "--checkpoint-every and when Ctrl-C or SIGTERM stops them")
         return EXIT_USAGE
-    except (SceneError, OSError) as e:
-        error(f"--resume {str(out_dir)!r}: the checkpoint's scene cannot be rebuilt:\n{e}")
+    ck = sim = None
+    skipped = []
+    for path in reversed(found):  # the newest that reads and restores
+        try:
+            ck = read_checkpoint(path)
+            sim = Simulation.from_checkpoint(ck)
+            break
+        except CheckpointError as e:
+            skipped.append(str(e))
+            get_logger("cli").warning("--resume: checkpoint skipped: %s", e)
+        except (SceneError, OSError) as e:
+            error(f"--resume {str(out_dir)!r}: the scene of checkpoint {str(path)!r} cannot be "
+                  f"rebuilt:\n{e}")
+            return EXIT_USAGE
+    if sim is None or ck is None:
+        error(f"--resume {str(out_dir)!r}: none of its {len(found)} checkpoint(s) can be "
+              f"restored: {'; '.join(skipped[:3])}{'; ...' if len(skipped) > 3 else ''}")
         return EXIT_USAGE
     scene = sim.scene
     if args.checkpoint_every is None:  # keep the interval of the run being continued
@@ -116,7 +135,9 @@ def prepare_resume(args: argparse.Namespace, argv: Sequence[str]) -> Resume | in
         scene.configuration.time.until = args.until
     output = old.get("output") or {}
     messages = [f"resuming {str(out_dir)!r} from {_relative(ck.path, out_dir)}: t = "
-                f"{ck.time:.6g} s, step {ck.step_count}, frame {ck.frame}"]
+                f"{ck.time:.6g} s, step {ck.step_count}, frame {ck.frame}"
+                + (f" (the {len(skipped)} newer checkpoint(s) could not be restored)"
+                   if skipped else "")]
     diffs = version_differences(ck.meta)
     if diffs:
         text = (f"the checkpoint was written with other versions or thread counts "

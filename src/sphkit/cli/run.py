@@ -49,6 +49,7 @@ from sphkit.cli.resume import CheckpointSchedule, prepare_resume
 from sphkit.io.frames import FORMATS, FrameWriter, resolve_attributes
 from sphkit.io.log import get_logger
 from sphkit.io.manifest import MANIFEST_NAME, Manifest, read_manifest, sphkit_version
+from sphkit.scene.limits import MAX_FPS, MAX_PARTICLES
 
 DEFAULT_SCENE = "dambreak-3d"
 
@@ -72,8 +73,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     run.add_argument("--out", type=Path, metavar="DIR",
                      help="output folder (default: the scene's output.directory, "
                           "else out/<scene name>)")
-    run.add_argument("--fps", type=positive_float("frames per simulated second", "25"),
-                     metavar="F", help="frames per simulated second [1/s] (default: the scene's)")
+    run.add_argument("--fps", type=positive_float("frames per simulated second", "25", MAX_FPS),
+                     metavar="F", help="frames per simulated second [1/s] (default: the scene's; "
+                                       "at most one frame is written per time step)")
     run.add_argument("--format", type=_FORMAT_LIST, dest="formats", metavar="LIST",
                      help=f"comma-separated frame formats out of {', '.join(FORMATS)} "
                           "(default: the scene's)")
@@ -83,6 +85,10 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                           "DIR/checkpoints (one is always written when a signal stops the run)")
     run.add_argument("--keep-checkpoints", type=positive_int, default=2, metavar="N",
                      help="keep the newest N checkpoints (default 2)")
+    run.add_argument("--max-particles", type=positive_int, metavar="N",
+                     help="particle budget: refuse a scene that needs more particles, estimated "
+                          "before anything is allocated (default: the scene's "
+                          f"configuration.max_particles, {MAX_PARTICLES:,})")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="continue the run in output folder DIR from its newest checkpoint, "
                           "appending frames (only --until may change the scene)")
@@ -176,6 +182,8 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
             scene.output.fps = args.fps
         if args.formats is not None:
             scene.output.formats = args.formats
+        if args.max_particles is not None:
+            scene.configuration.max_particles = args.max_particles
         sim = Simulation.from_scene(scene)
     except SceneError as e:
         error(f"scene {name!r}:\n{e}")

@@ -86,6 +86,28 @@ def speed_check(v: np.ndarray) -> tuple[float, int]:
     return float(m), int(bad)
 
 
+@numba.njit(parallel=True, cache=True)
+def _outside(x, lo, hi):
+    n = x.shape[1]
+    dim = x.shape[0]
+    count = 0
+    for i in numba.prange(n):
+        out = 0
+        for d in range(dim):
+            if x[d, i] < lo[d] or x[d, i] > hi[d]:
+                out = 1
+        count += out
+    return count
+
+
+def outside_count(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
+    """The number of points of ``x`` ((dim, N)) outside the box ``[lo, hi]`` (bounds may be
+    infinite)."""
+    if x.shape[1] == 0:
+        return 0
+    return int(_outside(x, np.asarray(lo, np.float64), np.asarray(hi, np.float64)))
+
+
 def cfl_time_step(vmax: float, r: float, factor: float, dt_min: float, dt_max: float) -> float:
     """``factor * 0.4 * 2r / vmax`` clamped to ``[dt_min, dt_max]`` (dt_max when at rest)."""
     if vmax <= 1e-12:

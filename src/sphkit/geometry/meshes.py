@@ -47,6 +47,27 @@ def _read_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(vertices), np.concatenate(faces)
 
 
+def _check_stl(p: Path) -> None:
+    """An ``.stl`` file is ASCII (``solid ...``) or binary: 80 header bytes, a triangle count n
+    and 50 bytes per triangle; anything else is refused naming the file."""
+    if p.suffix.lower() != ".stl":
+        return
+    try:
+        size = p.stat().st_size
+        with open(p, "rb") as f:
+            head = f.read(84)
+    except OSError as err:
+        raise GeometryError(f"mesh file {str(p)!r}: cannot be read ({err.strerror})") from None
+    if head.lstrip()[:5].lower() == b"solid" and size != 84 + 50 * int.from_bytes(
+            head[80:84], "little"):
+        return  # ASCII STL (binary files may start with "solid" too: their size tells)
+    n = int.from_bytes(head[80:84], "little") if len(head) == 84 else -1
+    if n < 0 or size != 84 + 50 * n:
+        raise GeometryError(
+            f"mesh file {str(p)!r}: not an STL file: neither ASCII ('solid ...') nor binary "
+            f"({size} bytes; a binary STL of {max(n, 0)} triangles has {84 + 50 * max(n, 0)})")
+
+
 def load_mesh(
     path: str | Path,
     translation: ArrayLike = (0.0, 0.0, 0.0),
@@ -77,12 +98,17 @@ def load_mesh(
     p = Path(path)
     if not p.is_file():
         raise GeometryError(f"mesh file {str(p)!r}: not found")
+    _check_stl(p)
     try:
         vertices, faces = _read_triangles(p)
+    except ImportError:  # trimesh guesses the text encoding of undecodable files with an extra
+        raise GeometryError(f"mesh file {str(p)!r}: cannot be read as a triangle mesh: it is "
+                            "neither a binary mesh nor UTF-8 text (a damaged or foreign file?)"
+                            ) from None
     except Exception as err:  # trimesh raises many exception types for bad files
         raise GeometryError(
-            f"mesh file {str(p)!r}: cannot be read as a triangle mesh ({err})"
-        ) from err
+            f"mesh file {str(p)!r}: cannot be read as a triangle mesh ({str(err)[:200]})"
+        ) from None
     if len(faces) == 0:
         raise GeometryError(f"mesh file {str(p)!r}: contains no triangles (not a triangle mesh)")
     s = np.broadcast_to(np.asarray(scale, dtype=np.float64).ravel(), (3,)).copy()

@@ -19,6 +19,11 @@ the micropolar ``omega``); the solvers' other attributes are parameters from the
 quantities they recompute from the fields (PCISPH's and PBF's template factors). The z-sort
 phase follows from ``step_count``. Files are named ``checkpoint_<step>.npz`` in the folder
 ``checkpoints/`` of the output folder; :func:`newest_checkpoint` finds the latest.
+
+Reading never unpickles (``allow_pickle=False``; a file that is not a zip archive is refused
+before NumPy looks at it) and refuses a checkpoint whose positions or velocities are not finite.
+Reading a folder takes the newest checkpoint that reads, with a warning naming each newer one
+that does not (:func:`read_checkpoint`, :func:`readable_checkpoints`).
 """
 
 from __future__ import annotations
@@ -26,6 +31,8 @@ from __future__ import annotations
 import json
 import os
 import re
+import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -139,21 +146,21 @@ def write_checkpoint(path: str | os.PathLike[str], sets: dict[str, Any], state: 
     return p
 
 
-def read_checkpoint(path: str | os.PathLike[str]) -> Checkpoint:
-    """Read a checkpoint file (or the newest in an output folder).
+#: the first bytes of a zip archive (an ``.npz``): anything else is refused unread
+_ZIP_MAGIC = b"PK\x03\x04"
 
-    Raises:
-        CheckpointError: no checkpoint there, or a file that is not one (naming the path).
-    """
-    p = Path(path)
-    if p.is_dir():
-        found = newest_checkpoint(p)
-        if found is None and p.name == CHECKPOINT_DIR:
-            found = newest_checkpoint(p.parent)
-        if found is None:
-            raise CheckpointError(f"{str(p)!r}: no checkpoint found (expected files "
-                                  f"{CHECKPOINT_DIR}/checkpoint_<step>.npz)")
-        p = found
+
+def _load(p: Path) -> Checkpoint:
+    """Read one checkpoint file (CheckpointError naming it when it is not one)."""
+    try:
+        with open(p, "rb") as f:
+            head = f.read(4)
+    except OSError as e:
+        raise CheckpointError(f"{str(p)!r}: cannot be read ({e.strerror or e})") from None
+    if head != _ZIP_MAGIC:
+        what = "an empty file" if not head else "not an .npz archive"
+        raise CheckpointError(f"{str(p)!r}: not a sphkit checkpoint ({what}; a truncated or "
+                              "foreign file)")
     try:
         with np.load(p, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
@@ -163,14 +170,72 @@ def read_checkpoint(path: str | os.PathLike[str]) -> Checkpoint:
                     continue
                 sname, _, fname = key.partition("/")
                 arrays.setdefault(sname, {})[fname] = z[key]
-    except (OSError, ValueError, KeyError) as e:
+    except ValueError as e:
+        if "pickle" in str(e):  # an object array: sphkit never writes one, and never unpickles
+            raise CheckpointError(f"{str(p)!r}: holds pickled data, which sphkit checkpoints "
+                                  "never contain and sphkit does not load") from None
         raise CheckpointError(f"{str(p)!r}: not a readable sphkit checkpoint ({e})") from None
-    if meta.get("format") != FORMAT:
-        raise CheckpointError(f"{str(p)!r}: format {meta.get('format')!r}; expected {FORMAT!r}")
-    if int(meta.get("format_version", 0)) > FORMAT_VERSION:
-        raise CheckpointError(f"{str(p)!r}: format version {meta.get('format_version')}; this "
-                              f"sphkit reads up to {FORMAT_VERSION}")
+    except Exception as e:  # zipfile, zlib and NumPy raise many types for a damaged archive
+        raise CheckpointError(f"{str(p)!r}: not a readable sphkit checkpoint (damaged or "
+                              f"truncated: {type(e).__name__}: {str(e)[:200]})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        got = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
+        raise CheckpointError(f"{str(p)!r}: format {got!r}; expected {FORMAT!r}")
+    try:
+        version = int(meta.get("format_version", 0))
+    except (TypeError, ValueError):
+        version = FORMAT_VERSION + 1
+    if version > FORMAT_VERSION:
+        raise CheckpointError(f"{str(p)!r}: format version {meta.get('format_version')!r}; "
+                              f"this sphkit reads up to {FORMAT_VERSION}")
+    for key in ("state", "scene", "sets"):
+        if not isinstance(meta.get(key), dict):
+            raise CheckpointError(f"{str(p)!r}: its meta data has no {key!r}; not a complete "
+                                  "sphkit checkpoint")
+    for sname, fields in arrays.items():
+        for fname in ("x", "v"):
+            a = fields.get(fname)
+            if a is not None and a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+                bad = int(np.count_nonzero(~np.isfinite(a)))
+                what = "positions" if fname == "x" else "velocities"
+                raise CheckpointError(f"{str(p)!r}: {sname} {what} hold {bad} NaN/inf value(s); "
+                                      "expected the finite state of a stable run")
     return Checkpoint(p, meta, arrays)
+
+
+def readable_checkpoints(out_dir: str | os.PathLike[str]) -> Iterator[Checkpoint]:
+    """The checkpoints of an output folder that read, newest first; a UserWarning names each
+    one that does not (the next older one is tried)."""
+    for p in reversed(list_checkpoints(out_dir)):
+        try:
+            ck = _load(p)
+        except CheckpointError as e:
+            warnings.warn(f"checkpoint skipped: {e}", UserWarning, stacklevel=2)
+            continue
+        yield ck
+
+
+def read_checkpoint(path: str | os.PathLike[str]) -> Checkpoint:
+    """Read a checkpoint file, or the newest readable one in an output folder (or its
+    ``checkpoints/`` folder; a UserWarning names each newer one that does not read).
+
+    Raises:
+        CheckpointError: no checkpoint there, none that reads, or a file that is not one (naming
+            the path).
+    """
+    p = Path(path)
+    if not p.is_dir():
+        return _load(p)
+    folder = p if list_checkpoints(p) or p.name != CHECKPOINT_DIR else p.parent
+    found = list_checkpoints(folder)
+    if not found:
+        raise CheckpointError(f"{str(p)!r}: no checkpoint found (expected files "
+                              f"{CHECKPOINT_DIR}/checkpoint_<step>.npz)")
+    for ck in readable_checkpoints(folder):
+        return ck
+    names = ", ".join(repr(str(f)) for f in found[-3:])
+    raise CheckpointError(f"{str(p)!r}: none of its {len(found)} checkpoint(s) can be read "
+                          f"({names}{', ...' if len(found) > 3 else ''})")
 
 
 def version_differences(meta: dict[str, Any]) -> list[str]:

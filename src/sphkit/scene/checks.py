@@ -6,12 +6,22 @@ must satisfy across fields -- that every method it names can do what the scene a
 that 2D bodies move in the plane -- is checked here, against the capabilities of the methods in
 :mod:`sphkit.registry`. Every check raises :class:`~sphkit.scene.schema.SceneError` naming the
 field, the value and what was expected (``sphkit run`` exits with code 2).
+
+Also here: the particle budget (:func:`check_budget`: the particles a scene needs, estimated from
+the extents of its blocks, boxes, meshes and emitters and the particle radius before anything is
+sampled, against ``configuration.max_particles``) and the warnings about fluid that is probably
+not where the user meant it (:func:`scene_warnings`: a block outside every box, overlapping
+blocks).
 """
 
 from __future__ import annotations
 
+import math
+import warnings
+from collections.abc import Sequence
+
 from sphkit import registry
-from sphkit.scene.schema import Material, Scene, SceneError
+from sphkit.scene.schema import Box, Material, Scene, SceneError
 
 #: the roles whose methods must support ``configuration.periodic_x``
 PERIODIC_ROLES = ("pressure", "viscosity", "vorticity", "surface_tension", "drag")
@@ -92,6 +102,126 @@ def _lattices(scene: Scene) -> None:
                              "expected 'square' (the hexagonal lattice is 2D only)")
 
 
+# -- the particle budget --------------------------------------------------------------------------
+def _cells(extent: Sequence[float], r: float) -> list[float]:
+    """Lattice sites of spacing 2r along each axis of an extent (at least one, as floats so
+    that absurd scenes give a large number instead of an overflow)."""
+    return [max(1.0, float(e) / (2.0 * r)) for e in extent]
+
+
+def _box_walls(box: Box, r: float) -> float:
+    """The wall particles of a box: ``layers`` lattice layers around its inside."""
+    n = [c + 2.0 * box.layers for c in _cells([b - a for a, b in zip(box.min, box.max,
+                                                                       strict=True)], r)]
+    return 2.0 * box.layers * sum(math.prod(n[:i] + n[i + 1:]) for i in range(len(n)))
+
+
+def _emitted(scene: Scene, k: int, r: float) -> float:
+    """Particles emitter ``k`` adds until ``time.until`` (or its ``max_particles``)."""
+    e = scene.emitters[k]
+    dim = scene.configuration.dim
+    per_layer = max(1.0, e.width / (2.0 * r))
+    if dim == 3:
+        per_layer *= max(1.0, (e.width if e.height is None else e.height) / (2.0 * r))
+    end = scene.configuration.time.until if e.end_time is None else e.end_time
+    end = min(end, scene.configuration.time.until)
+    layers = 1.0 + max(0.0, end - e.start_time) * e.velocity / (2.0 * r)
+    total = per_layer * layers
+    if e.max_particles is not None:
+        total = min(total, float(e.max_particles))
+    return total + 4.0 * per_layer  # the first layer and the housing around it
+
+
+def particle_estimate(scene: Scene,
+                      extra: Sequence[tuple[str, float]] = ()) -> list[tuple[str, float]]:
+    """The particles (and map grid points) each part of a scene needs, estimated from its
+    extent and the particle radius without sampling anything: ``(field, count)`` pairs.
+
+    ``extra`` adds the parts only a loaded mesh can tell (:mod:`sphkit.world`: mesh walls and
+    fluid meshes, from their areas and bounding boxes). Particle files are not counted (their
+    size bounds them).
+    """
+    cfg = scene.configuration
+    r = cfg.particle_radius
+    out: list[tuple[str, float]] = []
+    for k, blk in enumerate(scene.fluid_blocks):
+        extent = [b - a for a, b in zip(blk.start, blk.end, strict=True)]
+        out.append((f"fluid_blocks[{k}]", math.prod(_cells(extent, r))))
+    maps = registry.get("boundary", cfg.boundary.method).kind == "maps"
+    for k, box in enumerate(scene.boxes):
+        if not maps:
+            out.append((f"boxes[{k}]", _box_walls(box, r)))
+    for k in range(len(scene.emitters)):
+        out.append((f"emitters[{k}]", _emitted(scene, k, r)))
+    if maps:  # a grid given by the scene (the automatic one is bounded by the map module)
+        for k, mb in enumerate(scene.meshes):
+            res = mb.map_resolution or cfg.boundary.map_resolution
+            if res:
+                where = (f"meshes[{k}].map_resolution" if mb.map_resolution
+                         else "configuration.boundary.map_resolution")
+                out.append((where, math.prod(float(n) + 1.0 for n in res)))
+    out.extend(extra)
+    return out
+
+
+def check_budget(scene: Scene, extra: Sequence[tuple[str, float]] = ()) -> None:
+    """Refuse a scene that needs more than ``configuration.max_particles`` particles (see
+    :func:`particle_estimate`), naming the count, the radius and the largest part."""
+    cfg = scene.configuration
+    parts = particle_estimate(scene, extra)
+    total = sum(n for _, n in parts)
+    if not total > cfg.max_particles:
+        return
+    where, n = max(parts, key=lambda p: p[1])
+    what = "grid points" if "map_resolution" in where else "particles"
+    raise SceneError(
+        f"{where}: needs about {n:.3g} {what} of radius configuration.particle_radius = "
+        f"{cfg.particle_radius:g} m (the scene about {total:.3g} in all), more than the budget "
+        f"of {cfg.max_particles:,} (configuration.max_particles, sphkit run --max-particles); "
+        "expected a larger particle radius or a smaller extent")
+
+
+# -- warnings ------------------------------------------------------------------------------------
+def _inside(lo: Sequence[float], hi: Sequence[float], box: Box, up: int | None,
+            tol: float) -> bool:
+    """Whether [lo, hi] lies inside the box (an open box reaches up forever)."""
+    for i, (a, b) in enumerate(zip(lo, hi, strict=True)):
+        top = math.inf if (box.open_top and i == up) else box.max[i] + tol
+        if a < box.min[i] - tol or b > top:
+            return False
+    return True
+
+
+def scene_warnings(scene: Scene) -> list[str]:
+    """What is probably not what the user meant, as warnings (``UserWarning``, one each; also
+    returned): a fluid block not inside any box (when the scene has boxes and no container
+    mesh), and fluid blocks that overlap (their particles are sampled twice there)."""
+    cfg = scene.configuration
+    r, dim = cfg.particle_radius, cfg.dim
+    g = cfg.gravity[:dim]
+    up = max(range(dim), key=lambda i: abs(g[i])) if any(g) else None
+    notes = []
+    if scene.boxes and not any(m.invert for m in scene.meshes):
+        for k, blk in enumerate(scene.fluid_blocks):
+            if not any(_inside(blk.start, blk.end, box, up, 0.5 * r) for box in scene.boxes):
+                notes.append(
+                    f"fluid_blocks[{k}] (start {blk.start}, end {blk.end}) is not inside any of "
+                    f"the {len(scene.boxes)} box(es): fluid outside them falls freely")
+    blocks = scene.fluid_blocks
+    for i in range(len(blocks)):
+        for j in range(i + 1, len(blocks)):
+            a, b = blocks[i], blocks[j]
+            lo = [max(x, y) for x, y in zip(a.start, b.start, strict=True)]
+            hi = [min(x, y) for x, y in zip(a.end, b.end, strict=True)]
+            if all(h - l_ > 1e-6 * r for l_, h in zip(lo, hi, strict=True)):
+                notes.append(
+                    f"fluid_blocks[{i}] and fluid_blocks[{j}] overlap (from {lo} to {hi}): both "
+                    "are sampled there, at twice the rest density; expected separate blocks")
+    for note in notes:
+        warnings.warn(note, UserWarning, stacklevel=3)
+    return notes
+
+
 def check_scene(scene: Scene) -> Material:
     """Check the scene across its fields; returns the material of its fluid."""
     mat = fluid_material(scene)
@@ -100,4 +230,5 @@ def check_scene(scene: Scene) -> Material:
     _boundary_pressure(scene)
     _lattices(scene)
     _bodies(scene)
+    scene_warnings(scene)
     return mat

@@ -26,13 +26,13 @@ from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.geometry import GeometryError
-from sphkit.scene.checks import check_scene
+from sphkit.scene.checks import check_budget, check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.bodies import rigid_bodies
 from sphkit.world.emitters import FluidEmitter
 from sphkit.world.fluid import add_fluid
 from sphkit.world.meshes import SceneMeshes
-from sphkit.world.walls import add_wall_particles, map_geometries
+from sphkit.world.walls import add_wall_particles, domain_box, map_geometries
 
 
 @dataclass
@@ -55,6 +55,9 @@ class World:
     lattice_volume: float
     forces: list[NonPressureForce] = field(default_factory=list)
     force_roles: list[str] = field(default_factory=list)
+    #: the box (lo, hi) [m] the fluid must stay in (the static walls' bounding box plus
+    #: ``configuration.domain_margin`` h; infinite bounds are open); None: not checked
+    domain: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def _state(scene: Scene, mat: Material) -> SimState:
@@ -111,9 +114,11 @@ def _build(scene: Scene) -> World:
     r, h, dim = state.r, state.h, state.dim
     boundary_info = registry.get("boundary", cfg.boundary.method)
     maps = boundary_info.kind == "maps"
+    meshes = SceneMeshes(scene)
+    # the particle budget, before anything is sampled (the meshes are loaded, not sampled)
+    check_budget(scene, meshes.particle_estimates(r, dim, walls=not maps))
     emitters = [FluidEmitter(e, dim, r, h, name=f"emitters[{k}]")
                 for k, e in enumerate(scene.emitters)]
-    meshes = SceneMeshes(scene)
     add_fluid(state, scene, meshes)
     if not maps:  # maps: boxes and meshes become signed distances (map_geometries)
         add_wall_particles(state, scene, meshes, emitters)
@@ -157,4 +162,4 @@ def _build(scene: Scene) -> World:
     return World(scene=scene, state=state, material=mat, pressure=pressure,
                  boundary_model=model, rigid=rigid, emitters=emitters,
                  lattice_volume=lattice_volume(2.0 * r, state.kid, h, dim), forces=forces,
-                 force_roles=roles)
+                 force_roles=roles, domain=domain_box(state, scene, meshes, emitters))

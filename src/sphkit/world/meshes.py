@@ -8,8 +8,10 @@ the paths resolved against the scene file's folder as the scene loader resolves 
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
+import numpy as np
 import trimesh
 
 from sphkit.geometry.meshes import load_mesh
@@ -43,3 +45,26 @@ class SceneMeshes:
     def fluid_mesh(self, k: int) -> trimesh.Trimesh:
         """``scene.fluid_meshes[k]`` placed in the scene."""
         return self._load("fluid_meshes", k, self.scene.fluid_meshes[k])
+
+    def particle_estimates(self, r: float, dim: int,
+                           walls: bool) -> list[tuple[str, float]]:
+        """The particles the scene's meshes will need, from their areas and bounding boxes
+        (for :func:`sphkit.scene.checks.check_budget`, before anything is sampled): wall
+        samples of ``meshes`` (with ``walls``, a particle boundary model) about ``2r`` apart
+        on the surface (2D: along the section, at most the bounding box's perimeter), and the
+        lattice of ``fluid_meshes`` over their bounding boxes."""
+        d = 2.0 * r
+        out = []
+        if walls:
+            for k in range(len(self.scene.meshes)):
+                mesh = self.mesh(k)
+                if dim == 3:
+                    n = float(mesh.area) / (d * d)
+                else:
+                    ext = np.ptp(mesh.bounds[:, :2], axis=0)
+                    n = 2.0 * float(ext.sum()) / d
+                out.append((f"meshes[{k}]", max(n, 1.0)))
+        for k in range(len(self.scene.fluid_meshes)):
+            ext = np.ptp(self.fluid_mesh(k).bounds[:, :dim], axis=0)
+            out.append((f"fluid_meshes[{k}]", math.prod(max(1.0, float(e) / d) for e in ext)))
+        return out

@@ -115,3 +115,43 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
         out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
                                thickness=thick, resolution=mres, body=body))
     return out
+
+
+def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
+               emitters: list) -> tuple[np.ndarray, np.ndarray] | None:
+    """The region the fluid must stay in, for the step's stability guard: the bounding box of
+    the static boundaries (boxes, static meshes, map geometries, emitter housings) widened by
+    ``configuration.domain_margin`` kernel supports h, unbounded above the walls (against
+    gravity: fluid thrown up comes back) and along a periodic x. None: no check (the margin is
+    null, or the scene has no static wall: only moving bodies or emitter housings)."""
+    margin = scene.configuration.domain_margin
+    dim = state.dim
+    bodies = moving_meshes(scene)
+    lo, hi = [], []
+    for box in scene.boxes:
+        lo.append(np.asarray(box.min, float))
+        hi.append(np.asarray(box.max, float))
+    for k in range(len(scene.meshes)):
+        if k not in bodies:
+            b = meshes.mesh(k).bounds
+            lo.append(b[0, :dim])
+            hi.append(b[1, :dim])
+    if margin is None or not lo:
+        return None
+    for em, cfg in zip(emitters, scene.emitters, strict=True):
+        if cfg.housing:
+            b = em.housing_mesh().bounds
+            lo.append(b[0, :dim])
+            hi.append(b[1, :dim])
+    pad = margin * state.h
+    box_lo, box_hi = np.min(lo, axis=0) - pad, np.max(hi, axis=0) + pad
+    g = state.gravity
+    if np.any(g):
+        up = int(np.argmax(np.abs(g)))
+        if g[up] < 0:
+            box_hi[up] = np.inf
+        else:
+            box_lo[up] = -np.inf
+    if state.period > 0.0:
+        box_lo[0], box_hi[0] = -np.inf, np.inf
+    return box_lo, box_hi
