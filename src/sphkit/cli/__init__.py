@@ -40,14 +40,33 @@ subcommand module has ``add_parser(sub)``, which adds its parser and sets its ha
 
 from __future__ import annotations
 
-import argparse
+import os
+import signal
 import sys
-from collections.abc import Sequence
+import threading
 
-from sphkit.cli import compat, methods, render, run, scenes, surface
-from sphkit.cli.common import EXIT_USAGE
-from sphkit.io.log import command_logging
-from sphkit.io.manifest import sphkit_version
+
+def _interrupted_at_start(signum: int, frame: object) -> None:
+    """Ctrl-C while the command's modules are imported: exit 130 at once, no traceback."""
+    os.write(2, b"sphkit: error: interrupted\n")
+    os._exit(130)
+
+
+# Installed before the heavy imports below (NumPy, meshio, ...: the first half second of every
+# command), restored once they are done; from then on main() turns Ctrl-C into exit code 130.
+_MAIN = threading.current_thread() is threading.main_thread()
+_previous = signal.signal(signal.SIGINT, _interrupted_at_start) if _MAIN else None
+
+import argparse  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
+
+from sphkit.cli import compat, methods, render, run, scenes, surface  # noqa: E402
+from sphkit.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USAGE  # noqa: E402
+from sphkit.io.log import command_logging  # noqa: E402
+from sphkit.io.manifest import sphkit_version  # noqa: E402
+
+if _MAIN:
+    signal.signal(signal.SIGINT, _previous if _previous is not None else signal.SIG_DFL)
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
@@ -70,7 +89,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``sphkit`` command with ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    """Run the ``sphkit`` command with ``argv`` (default ``sys.argv[1:]``); return the exit code.
+
+    Ctrl-C at any point (also while a command imports its modules or builds its simulation)
+    ends the command with exit code 130 (SIGTERM in a run: 143) and one line, no traceback."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt as e:  # outside the command's own handling: no log to write to
+        terminated = isinstance(e, run.Terminated)
+        print(f"sphkit: error: {'terminated' if terminated else 'interrupted'}", file=sys.stderr,
+              flush=True)
+        return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+
+
+def _main(argv: Sequence[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     try:

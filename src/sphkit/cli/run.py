@@ -98,8 +98,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     run.set_defaults(handler=cmd_run)
 
 
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM, handled like Ctrl-C."""
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a second one while a run stops), handled like Ctrl-C."""
 
 
 class _StopRequest:
@@ -112,10 +112,10 @@ class _StopRequest:
 @contextmanager
 def _graceful_stop(stop: _StopRequest) -> Iterator[None]:
     """While the block runs, SIGINT and SIGTERM ask the run to stop after the current step
-    (``stop.signum``); a second signal stops at once (KeyboardInterrupt, or _Terminated)."""
+    (``stop.signum``); a second signal stops at once (KeyboardInterrupt, or Terminated)."""
     def handler(signum: int, frame: object) -> None:
         if stop.signum is not None:
-            raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+            raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
         stop.signum = signum
 
     previous = {}
@@ -314,7 +314,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         error(f"{e}\nThe {len(manifest.frames)} frame(s) written so far are kept in {out_dir}.")
         return EXIT_UNSTABLE
     except KeyboardInterrupt as e:  # a second signal, or one outside the step loop
-        terminated = isinstance(e, _Terminated)
+        terminated = isinstance(e, Terminated)
         why = "terminated (SIGTERM)" if terminated else "interrupted (Ctrl-C)"
         _finish(manifest, "interrupted",
                 f"{why} at step {sim.step_count}, t = {sim.time:.6g} s", sim.last)
