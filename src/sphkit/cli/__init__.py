@@ -54,14 +54,21 @@ def _interrupted_at_start(signum: int, frame: object) -> None:
 
 # Installed before the heavy imports below (NumPy, meshio, ...: the first half second of every
 # command), restored once they are done; from then on main() turns Ctrl-C into exit code 130.
-_MAIN = threading.current_thread() is threading.main_thread()
+# A process started with SIGINT ignored (nohup, a background job) keeps ignoring it.
+_MAIN = (threading.current_thread() is threading.main_thread()
+         and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
 _previous = signal.signal(signal.SIGINT, _interrupted_at_start) if _MAIN else None
 
 import argparse  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
 
 from sphkit.cli import compat, methods, render, run, scenes, surface  # noqa: E402
-from sphkit.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USAGE  # noqa: E402
+from sphkit.cli.common import (  # noqa: E402
+    EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
+    EXIT_USAGE,
+    Interrupts,
+)
 from sphkit.io.log import command_logging  # noqa: E402
 from sphkit.io.manifest import sphkit_version  # noqa: E402
 
@@ -93,13 +100,25 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Ctrl-C at any point (also while a command imports its modules or builds its simulation)
     ends the command with exit code 130 (SIGTERM in a run: 143) and one line, no traceback."""
+    Interrupts.received = None
+    own = (threading.current_thread() is threading.main_thread()
+           and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    if own:
+        signal.signal(signal.SIGINT, Interrupts.handler)
     try:
         return _main(argv)
-    except KeyboardInterrupt as e:  # outside the command's own handling: no log to write to
+    except BaseException as e:  # outside the command's own handling: no log to write to
+        interrupt = isinstance(e, KeyboardInterrupt)
+        if not interrupt and (Interrupts.received is None or not isinstance(e, Exception)):
+            raise
+        # a KeyboardInterrupt, or an error that followed a Ctrl-C a library swallowed
         terminated = isinstance(e, run.Terminated)
         print(f"sphkit: error: {'terminated' if terminated else 'interrupted'}", file=sys.stderr,
               flush=True)
         return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+    finally:
+        if own:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def _main(argv: Sequence[str] | None) -> int:

@@ -71,6 +71,28 @@ def open_log(args: argparse.Namespace, folder: Path) -> None:
             raise UsageError(f"cannot write the log file in {str(folder)!r}: {e}") from None
 
 
+class Interrupts:
+    """Ctrl-C while a command starts (imports, building the simulation): the handler records
+    the signal and raises KeyboardInterrupt as Python's own does. Some libraries catch every
+    exception around their optional imports (trimesh: ``except BaseException``), which swallows
+    the KeyboardInterrupt or turns it into a later, unrelated error; the record tells the command
+    that it was interrupted all the same (:meth:`check`)."""
+
+    received: int | None = None
+
+    @classmethod
+    def handler(cls, signum: int, frame: object) -> None:
+        """The SIGINT handler: record, then raise KeyboardInterrupt."""
+        cls.received = signum
+        raise KeyboardInterrupt
+
+    @classmethod
+    def check(cls) -> None:
+        """Raise KeyboardInterrupt if a SIGINT arrived (even one a library swallowed)."""
+        if cls.received is not None:
+            raise KeyboardInterrupt
+
+
 class UsageError(Exception):
     """A problem with the arguments or the run folder (exit code 2)."""
 

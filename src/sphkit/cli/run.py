@@ -38,6 +38,7 @@ from sphkit.cli.common import (
     EXIT_TERMINATED,
     EXIT_UNSTABLE,
     EXIT_USAGE,
+    Interrupts,
     add_verbosity,
     choices_list,
     error,
@@ -185,6 +186,7 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
         if args.max_particles is not None:
             scene.configuration.max_particles = args.max_particles
         sim = Simulation.from_scene(scene)
+        Interrupts.check()  # a Ctrl-C that a library swallowed while the world was built
     except SceneError as e:
         error(f"scene {name!r}:\n{e}")
         return EXIT_USAGE
@@ -214,6 +216,9 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         scene, sim = built
         out_dir = args.out or Path(scene.output.directory or Path("out") / scene.name)
 
+    if Interrupts.received is not None:  # a Ctrl-C that a library swallowed while starting
+        error("interrupted while building the simulation")
+        return EXIT_INTERRUPTED
     until = scene.configuration.time.until
     fps = resume.fps if resume else scene.output.fps
     formats = resume.formats if resume else list(scene.output.formats)

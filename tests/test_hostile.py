@@ -1,0 +1,418 @@
+"""Hostile input never crashes: each probe of issue 15's list exits with its code (2, or 3 for the
+unstable fixed-step run) within seconds, names the field or file, prints no traceback and
+allocates little (checked with tracemalloc where the probe used to exhaust memory)."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sphkit.cli import main
+from sphkit.io.checkpoint import list_checkpoints
+from sphkit.io.frames import FrameWriter
+from sphkit.io.manifest import read_manifest
+from sphkit.scene.checks import scene_warnings
+from sphkit.scene.files import load_scene
+
+#: 2D, 5 x 5 = 25 fluid particles in a box: builds and steps in milliseconds
+TINY = {
+    "name": "tiny",
+    "configuration": {"dim": 2, "particle_radius": 0.02, "time": {"until": 0.01}},
+    "fluid_blocks": [{"start": [0.1, 0.1], "end": [0.3, 0.3]}],
+    "boxes": [{"min": [0.0, 0.0], "max": [0.6, 0.5]}],
+    "output": {"fps": 40},
+}
+
+#: the issue's bound on each probe (s); the probes themselves take well under a second here
+SECONDS = 10.0
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _imported() -> None:
+    """The command's modules imported before the probes are timed (and traced: tracemalloc
+    slows imports down many times)."""
+    import sphkit.simulation  # noqa: F401
+    import sphkit.world  # noqa: F401
+
+
+def _scene(folder: Path, data: dict | str, name: str = "scene.json") -> Path:
+    path = folder / name
+    path.write_text(data if isinstance(data, str) else json.dumps(data))
+    return path
+
+
+def _run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, float]:
+    """``sphkit ARGS`` in-process: exit code, everything printed, wall seconds."""
+    t0 = time.perf_counter()
+    code = main(list(args))
+    seconds = time.perf_counter() - t0
+    out = capsys.readouterr()
+    return code, out.out + out.err, seconds
+
+
+def _refused(code: int, text: str, seconds: float, *named: str, expect: int = 2) -> None:
+    assert code == expect, text
+    assert "Traceback" not in text
+    assert seconds < SECONDS
+    for word in named:
+        assert word in text, (word, text)
+
+
+def _with(path: str, value: object) -> dict:
+    """TINY with the field at dotted ``path`` set to ``value``."""
+    scene = copy.deepcopy(TINY)
+    *head, last = path.split(".")
+    node = scene
+    for key in head:
+        node = node[int(key)] if isinstance(node, list) else node.setdefault(key, {})
+    if isinstance(node, list):
+        node[int(last)] = value
+    else:
+        node[last] = value
+    return scene
+
+
+# -- 1. YAML aliases -----------------------------------------------------------------------------
+def _laughs(levels: int) -> str:
+    lines = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+    for k in range(1, levels + 1):
+        lines.append(f"a{k}: &a{k} [" + ", ".join([f"*a{k - 1}"] * 9) + "]")
+    lines.append(f"name: *a{levels}")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("levels", [7, 9])
+def test_billion_laughs_yaml_is_refused_unexpanded(tmp_path: Path, levels: int,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    # 9 levels of 9 aliases: 9^9 = 387 million strings once expanded (the issue's 56 s and out
+    # of memory); 7 levels printed a 39 MB error
+    path = _scene(tmp_path, _laughs(levels), "laughs.yaml")
+    assert path.stat().st_size < 700
+    tracemalloc.start()
+    try:
+        code, text, seconds = _run(capsys, "run", str(path), "--out", str(tmp_path / "o"))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    _refused(code, text, seconds, "laughs.yaml", "aliases")
+    assert len(text) < 1000  # the error does not repeat the expanded input
+    assert peak < 100 * 2**20  # bytes: nothing was expanded (the bound of 1 GB with room)
+
+
+def test_yaml_aliases_of_an_ordinary_scene_still_load(tmp_path: Path) -> None:
+    text = ("configuration: &c {dim: 2, particle_radius: 0.02}\n"
+            "fluid_blocks:\n  - &b {start: [0.1, 0.1], end: [0.3, 0.3]}\n"
+            "  - {<<: *b, start: [0.4, 0.1], end: [0.5, 0.3]}\n")
+    scene = load_scene(_scene(tmp_path, text, "ok.yaml"))
+    assert scene.configuration.particle_radius == 0.02
+    assert [b.start for b in scene.fluid_blocks] == [[0.1, 0.1], [0.4, 0.1]]
+
+
+def test_error_messages_do_not_echo_huge_input(tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    scene = _with("configuration.dim", "x" * 100_000)
+    scene["configuration"]["gravity"] = [0.0] * 100_000
+    scene["fluid_blocks"] = [{"start": [0.1, 0.1], "end": [0.3, 0.3], f"k{i}": i}
+                             for i in range(1000)]
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "configuration.dim")
+    assert len(text) < 3000
+
+
+# -- 2. frame rates ------------------------------------------------------------------------------
+def test_infinite_fps_in_the_scene_is_refused(tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    path = _scene(tmp_path, json.dumps(_with("output.fps", math.inf)))
+    assert "Infinity" in path.read_text()
+    code, text, seconds = _run(capsys, "run", str(path), "--out", str(tmp_path / "o"))
+    _refused(code, text, seconds, "output.fps", "finite")
+    assert not (tmp_path / "o").exists()
+
+
+def test_huge_fps_on_the_command_line_is_refused(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, TINY)), "--out",
+                               str(tmp_path / "o"), "--fps", "1e12")
+    _refused(code, text, seconds, "--fps", "1e12", "at most")
+
+
+def test_at_most_one_frame_per_step(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # 1e5 frames/s with steps of about 4e-4 s: 40 frames due per step, one written
+    out = tmp_path / "o"
+    code, text, _ = _run(capsys, "run", str(_scene(tmp_path, TINY)), "--out", str(out),
+                         "--fps", "1e5", "--until", "0.002", "--quiet")
+    assert code == 0, text
+    m = read_manifest(out)
+    frames = m["frames"]
+    steps = m["run_stats"]["steps"]
+    times = [f["time"] for f in frames]
+    assert len(set(times)) == len(times)  # never two frames of one step
+    assert frames[0]["frame"] == 0 and len(frames) == steps + 1  # frame 0, then one per step
+    for f in frames[1:]:  # frame k is the first step at or after k / fps
+        assert f["frame"] / 1e5 - 1e-9 <= f["time"] < (f["frame"] + 1) / 1e5 + 1e-9
+
+
+def test_sigterm_while_frames_are_written_stops_the_run(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch,
+                                                        capsys: pytest.CaptureFixture[str]
+                                                        ) -> None:
+    original = FrameWriter.write
+
+    def write(self: FrameWriter, sim: object, frame: int) -> list[Path]:
+        if frame > 0:
+            os.kill(os.getpid(), signal.SIGTERM)  # handled by the run: stop after this step
+        return original(self, sim, frame)
+
+    monkeypatch.setattr(FrameWriter, "write", write)
+    out = tmp_path / "o"
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, TINY)), "--out", str(out),
+                               "--fps", "1e5", "--until", "0.05", "--quiet")
+    _refused(code, text, seconds, "terminated", expect=143)
+    m = read_manifest(out)
+    assert m["status"] == "interrupted" and m["frames"][0]["frame"] == 0
+    assert len(m["frames"]) == 2  # the frame being written was completed, none after it
+
+
+# -- 3. the particle budget ----------------------------------------------------------------------
+def test_tiny_radius_in_a_big_box_is_refused_before_allocating(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scene = copy.deepcopy(TINY)
+    scene["configuration"]["particle_radius"] = 1e-9
+    scene["fluid_blocks"] = [{"start": [0.0, 0.0], "end": [1.0, 1.0]}]
+    scene["boxes"] = [{"min": [0.0, 0.0], "max": [1.0, 1.0]}]
+    tracemalloc.start()
+    try:
+        code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                                   str(tmp_path / "o"))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    # (1 m / 2e-9 m)^2 = 2.5e17 particles (the issue's 50 TiB MemoryError)
+    _refused(code, text, seconds, "fluid_blocks[0]", "2.5e+17", "1e-09", "max-particles")
+    assert peak < 100 * 2**20
+
+
+def test_max_particles_flag_lowers_the_budget(tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    path = _scene(tmp_path, TINY)
+    code, text, seconds = _run(capsys, "run", str(path), "--out", str(tmp_path / "o"),
+                               "--max-particles", "20")
+    # 25 fluid particles alone exceed 20; the box walls are the biggest part (about 220)
+    _refused(code, text, seconds, "boxes[0]", "20", "particle_radius")
+    code, text, _ = _run(capsys, "run", str(path), "--out", str(tmp_path / "o"),
+                         "--max-particles", "nan")
+    _refused(code, text, 0.0, "--max-particles", "'nan'")
+
+
+# -- 4. checkpoints ------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def checkpointed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A tiny run with two checkpoints (t = 0.005 s and 0.01 s)."""
+    folder = tmp_path_factory.mktemp("ck")
+    out = folder / "o"
+    code = main(["run", str(_scene(folder, TINY)), "--out", str(out), "--checkpoint-every",
+                 "0.005", "--until", "0.008", "--quiet"])
+    assert code == 0
+    assert len(list_checkpoints(out)) == 2
+    return out
+
+
+def _copy(src: Path, dst: Path) -> tuple[Path, list[Path]]:
+    shutil.copytree(src, dst)
+    return dst, list_checkpoints(dst)
+
+
+@pytest.mark.parametrize("damage", ["truncated", "empty"])
+def test_resume_falls_back_to_the_older_checkpoint(checkpointed: Path, tmp_path: Path,
+                                                   damage: str,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    out, (old, new) = _copy(checkpointed, tmp_path / "o")
+    data = new.read_bytes()
+    new.write_bytes(data[: len(data) // 2] if damage == "truncated" else b"")
+    code, text, seconds = _run(capsys, "run", "--resume", str(out), "--until", "0.012")
+    assert code == 0, text
+    assert "Traceback" not in text and seconds < SECONDS
+    assert new.name in text and "skipped" in text  # the warning names the bad one
+    assert read_manifest(out)["resumed"][-1]["checkpoint"].endswith(old.name)
+
+
+@pytest.mark.parametrize("content", ["random", "nan"])
+def test_resume_without_a_readable_checkpoint_exits_2(checkpointed: Path, tmp_path: Path,
+                                                      content: str,
+                                                      capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    out, found = _copy(checkpointed, tmp_path / "o")
+    for path in found:
+        if content == "random":
+            path.write_bytes(np.random.default_rng(1).bytes(4000))
+        else:  # a well-formed checkpoint whose positions are NaN
+            with np.load(path, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+            arrays["fluid/x"] = np.full_like(arrays["fluid/x"], np.nan)
+            with open(path, "wb") as f:
+                np.savez(f, **arrays)
+    code, text, seconds = _run(capsys, "run", "--resume", str(out))
+    _refused(code, text, seconds, found[-1].name)
+    assert "allow_pickle" not in text
+    assert ("NaN" in text) if content == "nan" else ("not an .npz" in text)
+
+
+# -- 5. a fixed step far too large ---------------------------------------------------------------
+def _stiffness_1(max_cfl: float | None = None) -> dict:
+    scene = {
+        "name": "wcsph-k1",
+        "configuration": {"dim": 2, "particle_radius": 0.02,
+                          "time": {"until": 2.0, "dt": 0.02, "cfl": False},
+                          "pressure": {"method": "wcsph", "stiffness": 1.0,
+                                       "acoustic_cfl": False}},
+        "fluid_blocks": [{"start": [0.04, 0.04], "end": [0.44, 0.44]}],
+        "boxes": [{"min": [0.0, 0.0], "max": [1.0, 1.0]}],
+        "output": {"fps": 25},
+    }
+    if max_cfl is not None:
+        scene["configuration"]["max_cfl"] = max_cfl
+    return scene
+
+
+def test_fixed_step_beyond_the_cfl_limit_exits_3(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "o"
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, _stiffness_1())), "--out",
+                               str(out), "--quiet")
+    _refused(code, text, seconds, "CFL number", "configuration.max_cfl", "time.cfl",
+             expect=3)
+    m = read_manifest(out)
+    assert m["status"] == "unstable" and m["frames"][0]["frame"] == 0  # frames are kept
+
+
+def test_fluid_through_the_floor_exits_3(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    # the CFL limit out of the way, stiffness 1 cannot hold the column: it falls through the
+    # floor (the issue's y = -1.27 m at exit 0) and leaves the walls' box plus 10 h = 0.8 m
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, _stiffness_1(1e9))),
+                               "--out", str(tmp_path / "o"), "--quiet")
+    _refused(code, text, seconds, "left the domain", "domain_margin", expect=3)
+
+
+# -- 6. non-finite numbers -----------------------------------------------------------------------
+@pytest.mark.parametrize(("path", "value", "named"), [
+    ("configuration.particle_radius", math.inf, "configuration.particle_radius"),
+    ("fluid_blocks.0", {"start": [0.1, 0.1], "end": [math.inf, 0.3]}, "fluid_blocks[0].end[0]"),
+    ("configuration.gravity", [math.nan, -9.81], "configuration.gravity[0]"),
+    ("fluid_blocks.0", {"start": [0.1, 0.1], "end": [0.3, 0.3], "velocity": [math.nan, 0.0]},
+     "fluid_blocks[0].velocity[0]"),
+    ("configuration.pressure", {"stiffness": math.inf}, "configuration.pressure.stiffness"),
+    ("configuration.time", {"dt": -math.inf}, "configuration.time.dt"),
+])
+def test_non_finite_numbers_are_refused_naming_the_field(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], path: str, value: object,
+        named: str) -> None:
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, _with(path, value))),
+                               "--out", str(tmp_path / "o"))
+    _refused(code, text, seconds, named)
+
+
+@pytest.mark.parametrize(("where", "key", "value"), [
+    ("Configuration", "particleRadius", math.inf),
+    ("Configuration", "gravitation", [0.0, math.nan, 0.0]),
+    ("Configuration", "stiffness", math.inf),
+    ("Configuration", "timeStepSize", 10 ** 400),
+    ("FluidBlocks", "end", [math.inf, 1.0, 1.0]),
+])
+def test_non_finite_numbers_in_splishsplash_scenes(tmp_path: Path, where: str, key: str,
+                                                   value: object,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    scene = {"Configuration": {"particleRadius": 0.025, "simulationMethod": 0},
+             "FluidBlocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}]}
+    if where == "FluidBlocks":
+        scene[where][0][key] = value
+    else:
+        scene[where][key] = value
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, f"{key}")
+
+
+# -- 7. Ctrl-C while the command starts ----------------------------------------------------------
+@pytest.mark.parametrize("delay", [0.25, 0.8, 1.5])
+def test_ctrl_c_during_the_imports_exits_130(tmp_path: Path, delay: float) -> None:
+    # the child says "ready" once Python itself has started (a Ctrl-C before that is Python's
+    # own start-up, before any of sphkit's code), then imports the command as the sphkit
+    # script does: the SIGINT handler is installed a few milliseconds later; here the imports
+    # took about 0.6 s and building the world up to 2 s: the signal lands in the imports or
+    # while the world is built (where trimesh's optional imports catch every exception, and
+    # with it the KeyboardInterrupt: the command notices all the same)
+    code = ("import sys; print('ready', flush=True); from sphkit.cli import main; "
+            f"sys.exit(main(['run', {str(_scene(tmp_path, TINY))!r}, '--out', "
+            f"{str(tmp_path / 'o')!r}, '--until', '100']))")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            # as from a terminal: SIGINT not ignored (it is in background jobs)
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert proc.stdout is not None and proc.stdout.readline().strip() == "ready"
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:  # the signal was lost: the run goes on for 100 s
+        proc.kill()
+        _, err = proc.communicate()
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted" in err
+
+
+# -- 8. unreadable meshes, warnings --------------------------------------------------------------
+def test_random_bytes_stl_names_the_file(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "junk.stl").write_bytes(np.random.default_rng(2).bytes(2000))
+    scene = _with("meshes", [{"geometry_file": "junk.stl"}])
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "junk.stl", "not an STL file")
+
+
+def test_undecodable_mesh_names_the_file_not_a_module(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch,
+                                                      capsys: pytest.CaptureFixture[str]
+                                                      ) -> None:
+    # without trimesh's optional encoding guessers (the issue's machine), a binary file with a
+    # text mesh suffix used to report the missing module
+    monkeypatch.setitem(sys.modules, "charset_normalizer", None)
+    monkeypatch.setitem(sys.modules, "chardet", None)
+    (tmp_path / "junk.obj").write_bytes(np.random.default_rng(3).bytes(2000))
+    scene = _with("meshes", [{"geometry_file": "junk.obj"}])
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "junk.obj", "cannot be read")
+    assert "charset" not in text and "module" not in text
+
+
+def test_fluid_outside_every_box_and_overlapping_blocks_warn(tmp_path: Path) -> None:
+    scene = copy.deepcopy(TINY)
+    scene["fluid_blocks"] = [{"start": [0.1, 0.1], "end": [0.3, 0.3]},
+                             {"start": [0.2, 0.2], "end": [0.4, 0.4]},  # overlaps [0]
+                             {"start": [0.8, 0.1], "end": [0.9, 0.2]}]  # right of the box
+    with pytest.warns(UserWarning) as caught:
+        notes = scene_warnings(load_scene(scene))
+    assert len(notes) == 2 and len(caught) == 2
+    assert "fluid_blocks[2]" in notes[0] and "not inside any" in notes[0]
+    assert "fluid_blocks[0] and fluid_blocks[1] overlap" in notes[1]
+    # fluid above an open box falls into it: no warning; touching blocks do not overlap
+    scene["boxes"][0]["open_top"] = True
+    scene["fluid_blocks"] = [{"start": [0.1, 0.1], "end": [0.3, 0.3]},
+                             {"start": [0.3, 0.1], "end": [0.5, 0.3]},
+                             {"start": [0.1, 0.6], "end": [0.3, 0.8]}]
+    assert scene_warnings(load_scene(scene)) == []
