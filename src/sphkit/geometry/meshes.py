@@ -20,6 +20,8 @@ from sphkit.geometry import GeometryError
 from sphkit.geometry.rotations import rotation_matrix
 
 ArrayLike = Sequence[float] | np.ndarray
+#: the farthest a placed mesh vertex may lie from the origin [m]
+MAX_COORDINATE = 1e9
 
 
 def _read_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -134,6 +136,12 @@ def load_mesh(
     transform[:3, :3] = rot @ np.diag(s)
     transform[:3, 3] = t
     mesh.apply_transform(transform)
+    reach = float(np.max(np.abs(mesh.vertices))) if len(mesh.vertices) else 0.0
+    if not reach <= MAX_COORDINATE:  # trimesh's geometry fails on overflowing coordinates
+        raise GeometryError(
+            f"mesh file {str(p)!r}: placed with scale {s.tolist()} and translation "
+            f"{t.tolist()}, its vertices reach {reach:.3g} m; expected a mesh within "
+            f"{MAX_COORDINATE:g} m of the origin")
     return mesh
 
 

@@ -175,7 +175,8 @@ def check_budget(scene: Scene, extra: Sequence[tuple[str, float]] = ()) -> None:
     where, n = max(parts, key=lambda p: p[1])
     what = "grid points" if "map_resolution" in where else "particles"
     raise SceneError(
-        f"{where}: needs about {n:.3g} {what} of radius configuration.particle_radius = "
+        f"{scene.field(where)}: needs about {n:.3g} {what} of radius "
+        f"{scene.field('configuration.particle_radius')} = "
         f"{cfg.particle_radius:g} m (the scene about {total:.3g} in all), more than the budget "
         f"of {cfg.max_particles:,} (configuration.max_particles, sphkit run --max-particles); "
         "expected a larger particle radius or a smaller extent")
@@ -205,7 +206,8 @@ def scene_warnings(scene: Scene) -> list[str]:
         for k, blk in enumerate(scene.fluid_blocks):
             if not any(_inside(blk.start, blk.end, box, up, 0.5 * r) for box in scene.boxes):
                 notes.append(
-                    f"fluid_blocks[{k}] (start {blk.start}, end {blk.end}) is not inside any of "
+                    f"{scene.field(f'fluid_blocks[{k}]')} (start {blk.start}, end {blk.end}) is "
+                    "not inside any of "
                     f"the {len(scene.boxes)} box(es): fluid outside them falls freely")
     blocks = scene.fluid_blocks
     for i in range(len(blocks)):
@@ -215,7 +217,8 @@ def scene_warnings(scene: Scene) -> list[str]:
             hi = [min(x, y) for x, y in zip(a.end, b.end, strict=True)]
             if all(h - l_ > 1e-6 * r for l_, h in zip(lo, hi, strict=True)):
                 notes.append(
-                    f"fluid_blocks[{i}] and fluid_blocks[{j}] overlap (from {lo} to {hi}): both "
+                    f"{scene.field(f'fluid_blocks[{i}]')} and {scene.field(f'fluid_blocks[{j}]')} "
+                    f"overlap (from {lo} to {hi}): both "
                     "are sampled there, at twice the rest density; expected separate blocks")
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=3)

@@ -11,7 +11,15 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from sphkit import registry
 from sphkit.scene.limits import CLIP, MAX_FPS, MAX_PARTICLES
@@ -621,6 +629,23 @@ class Scene(_Model):
     emitters: list[Emitter] = Field(default_factory=list)
     output: OutputConfig = OutputConfig()
     source: str | None = Field(None, description="path of the file the scene was read from")
+    #: a translated scene's field paths -> the paths the user wrote (SPlisHSPlasH's), for
+    #: messages about the scene after validation (:meth:`field`)
+    _origins: dict[str, str] = PrivateAttr(default_factory=dict)
+
+    def field(self, path: str) -> str:
+        """A field path as messages name it: sphkit's, with the translated scene's own
+        (``RigidBodies[0] (sphkit meshes[0])``) when the scene was translated."""
+        p = path
+        while p:
+            if p in self._origins:
+                tail = path[len(p):]
+                return f"{self._origins[p]}{tail} (sphkit {path})"
+            cut = max(p.rfind("."), p.rfind("["))
+            if cut <= 0:
+                break
+            p = p[:cut]
+        return path
 
     @field_validator("materials")
     @classmethod
@@ -635,47 +660,52 @@ class Scene(_Model):
     @model_validator(mode="after")
     def _consistent(self) -> Scene:
         dim = self.configuration.dim
+        dims = f"{dim} components (configuration.dim = {dim})"
         ids = {m.id for m in self.materials}
         if len(self.configuration.gravity) not in (dim, 3):
             raise ValueError(
-                f"configuration.gravity {self.configuration.gravity} must have {dim} components"
+                f"configuration.gravity {self.configuration.gravity} must have {dims}"
             )
         for k, b in enumerate(self.fluid_blocks):
             if len(b.start) != dim:
-                raise ValueError(f"fluid_blocks[{k}].start {b.start} must have {dim} components")
+                raise ValueError(f"fluid_blocks[{k}].start {b.start} must have {dims}")
             if b.material not in ids:
                 raise ValueError(
-                    f"fluid_blocks[{k}].material {b.material!r} is not one of {sorted(ids)}"
+                    f"fluid_blocks[{k}].material {b.material!r} is not one of the "
+                    f"ids of materials {sorted(ids)}"
                 )
             if b.velocity is not None and len(b.velocity) != dim:
                 raise ValueError(
-                    f"fluid_blocks[{k}].velocity {b.velocity} must have {dim} components"
+                    f"fluid_blocks[{k}].velocity {b.velocity} must have {dims}"
                 )
         for k, f in enumerate(self.fluid_files):
             if f.material not in ids:
                 raise ValueError(
-                    f"fluid_files[{k}].material {f.material!r} is not one of {sorted(ids)}"
+                    f"fluid_files[{k}].material {f.material!r} is not one of the "
+                    f"ids of materials {sorted(ids)}"
                 )
         for k, b in enumerate(self.fluid_meshes):
             if b.material not in ids:
                 raise ValueError(
-                    f"fluid_meshes[{k}].material {b.material!r} is not one of {sorted(ids)}"
+                    f"fluid_meshes[{k}].material {b.material!r} is not one of the "
+                    f"ids of materials {sorted(ids)}"
                 )
             if b.velocity is not None and len(b.velocity) != dim:
                 raise ValueError(
-                    f"fluid_meshes[{k}].velocity {b.velocity} must have {dim} components"
+                    f"fluid_meshes[{k}].velocity {b.velocity} must have {dims}"
                 )
         for k, m in enumerate(self.materials):
             va = m.drag.air_velocity
             if va is not None and len(va) != dim:
                 raise ValueError(
-                    f"materials[{k}].drag.air_velocity {va} must have {dim} components")
+                    f"materials[{k}].drag.air_velocity {va} must have {dims}")
         for k, e in enumerate(self.emitters):
             if len(e.position) not in (dim, 3):
-                raise ValueError(f"emitters[{k}].position {e.position} must have {dim} components")
+                raise ValueError(f"emitters[{k}].position {e.position} must have {dims}")
             if e.material not in ids:
                 raise ValueError(
-                    f"emitters[{k}].material {e.material!r} is not one of {sorted(ids)}"
+                    f"emitters[{k}].material {e.material!r} is not one of the "
+                    f"ids of materials {sorted(ids)}"
                 )
             if dim == 2 and e.rotation_angle != 0.0 and (e.rotation_axis[0] != 0.0
                                                          or e.rotation_axis[1] != 0.0):
@@ -683,7 +713,7 @@ class Scene(_Model):
                                  "emitters rotate about z; expected [0, 0, 1]")
         for k, b in enumerate(self.boxes):
             if len(b.min) != dim:
-                raise ValueError(f"boxes[{k}].min {b.min} must have {dim} components")
+                raise ValueError(f"boxes[{k}].min {b.min} must have {dims}")
         return self
 
     def material(self, mid: str) -> Material:

@@ -9,6 +9,7 @@ registry, checking the scene across its fields -- happens here, never in the ste
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -104,7 +105,21 @@ def build_world(scene: Scene) -> World:
     try:
         return _build(scene)
     except GeometryError as e:  # a mesh that cannot be loaded or sampled: the user's input
-        raise SceneError(str(e)) from None
+        raise SceneError(_as_written(scene, str(e))) from None
+    except SceneError as e:
+        raise SceneError(_as_written(scene, str(e))) from None
+
+
+_FIELD = re.compile(r"^([a-z_]+(?:\[\d+\])?(?:\.[a-z_]+(?:\[\d+\])?)*)(?=[:, ])")
+
+
+def _as_written(scene: Scene, message: str) -> str:
+    """A message that starts with a field path, with the path the user wrote in front (a
+    translated SPlisHSPlasH scene's, :meth:`Scene.field`)."""
+    m = _FIELD.match(message)
+    if m is None or scene.field(m.group(1)) == m.group(1):
+        return message
+    return scene.field(m.group(1)) + message[m.end():]
 
 
 def _build(scene: Scene) -> World:

@@ -77,6 +77,7 @@ def from_splishsplash(data: Mapping[str, Any], path: str | Path | None = None) -
         raise SceneError(f"SPlisHSPlasH scene: got {type(data).__name__}; expected an object")
     tr = Reader(data, path)
     scene = validate(tr, translate(tr))
+    scene._origins = dict(tr.origin)
     if tr.unknown:
         names = ", ".join(tr.unknown[:20]) + (f", ... ({len(tr.unknown) - 20} more)"
                                               if len(tr.unknown) > 20 else "")
