@@ -7,12 +7,14 @@ by SIGINT or SIGTERM writes one after its current step whatever the flags. The m
 the newest as ``checkpoint``.
 
 ``sphkit run --resume DIR [--until T]`` continues the run in output folder DIR from its newest
-checkpoint: the scene, frame rate, formats, attributes and checkpoint interval are the stored
-ones (only the end time and the interval may change), frames after the checkpoint's last frame
-are dropped and written again, new frames and manifest records are appended, ``sphkit.log`` is
-appended to, and the manifest lists the resume under ``resumed``. On the CPU the continued run
-equals the uninterrupted one bit for bit when sphkit, its libraries and the thread count
-(``NUMBA_NUM_THREADS``) are the same; the command warns when they differ.
+checkpoint that can be read and restored (a warning names each newer one that cannot; none:
+exit 2 naming the files): the scene, frame rate, formats, attributes and checkpoint interval
+are the stored ones (only the end time and the interval may change), frames after the
+checkpoint's last frame are dropped and written again, new frames and manifest records are
+appended, ``sphkit.log`` is appended to, and the manifest lists the resume under ``resumed``.
+On the CPU the continued run equals the uninterrupted one bit for bit when sphkit, its
+libraries and the thread count (``NUMBA_NUM_THREADS``) are the same; the command warns when
+they differ.
 """
 
 from __future__ import annotations

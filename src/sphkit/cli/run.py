@@ -3,6 +3,7 @@
 ::
 
     sphkit run [SCENE] [--until T] [--out DIR] [--fps F] [--format vtk,ply,bgeo] [--quiet|--verbose]
+    sphkit run SCENE --max-particles N
     sphkit run SCENE --checkpoint-every T [--keep-checkpoints N]
     sphkit run --resume DIR [--until T]
 
@@ -12,8 +13,11 @@ folder (``--out``, else the scene's ``output.directory``, else ``out/<scene name
 paths are relative to the current folder). Frames of an earlier run that its manifest lists are
 removed first, so that the folder holds one run. Progress goes to stderr
 (:mod:`sphkit.cli.progress`); the manifest records the statistics per frame and as run means.
-SIGINT and SIGTERM stop the run after the current step with a checkpoint (a second signal stops
-at once); checkpoints and ``--resume`` are in :mod:`sphkit.cli.resume`. Exit codes: 0 finished,
+At most one frame is written per time step (``--fps`` is at most 1e6). ``--max-particles`` sets
+the particle budget the scene is checked against before anything is allocated
+(``configuration.max_particles``, 20 million). SIGINT and SIGTERM stop the run after the current
+step with a checkpoint (a second signal stops at once); checkpoints and ``--resume`` are in
+:mod:`sphkit.cli.resume`. Exit codes: 0 finished,
 1 failed (e.g. an output file could not be written), 2 bad command line or scene, 3 the
 simulation became unstable (frames so far are kept, the diagnosis is printed and recorded in the
 manifest), 130 interrupted by Ctrl-C (143 by SIGTERM).
