@@ -199,6 +199,7 @@ def _parent(scene: Any, path: tuple) -> tuple[Any, Any] | None:
 
 
 def _set(scene: Any, path: tuple, value: Any) -> None:
+    value = copy.deepcopy(value)  # the strategies hand out shared objects: never mutate them
     found = _parent(scene, path)
     if found is None:
         return

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import shutil
 import sys
 import tempfile
 import time
@@ -24,7 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from _fuzz import check, examples, run_example  # noqa: E402
-from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import HealthCheck, given, seed, settings  # noqa: E402
 
 
 def main() -> int:
@@ -39,6 +40,7 @@ def main() -> int:
     folder = Path(tempfile.mkdtemp(prefix="sphkit-fuzz-"))
     t0 = time.perf_counter()
 
+    @seed(args.seed)
     @settings(max_examples=args.examples, deadline=None, database=None, derandomize=False,
               phases=["generate"], suppress_health_check=list(HealthCheck))
     @given(ex=examples())
@@ -50,12 +52,12 @@ def main() -> int:
         except AssertionError as e:
             failures.append(str(e))
 
-    import random
-
-    random.seed(args.seed)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the scenes' own warnings (unknown fields, ...)
-        one()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the scenes' own warnings (unknown fields, ...)
+            one()
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
     wall = time.perf_counter() - t0
     total = sum(codes.values())
     print(f"{total} examples in {wall:.0f} s ({1e3 * wall / max(total, 1):.0f} ms each), "
