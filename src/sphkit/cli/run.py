@@ -232,7 +232,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         try:
             resolve_attributes(attributes, sim.fluid)
         except ValueError as e:
-            error(f"scene {label!r}: {e}")
+            error(f"scene {label!r}: {scene.as_written(str(e))}")
             return EXIT_USAGE
     session = getattr(args, "log_session", None)
     log = get_logger("cli")

@@ -9,6 +9,7 @@ what was expected (see :func:`format_validation_error`).
 
 from __future__ import annotations
 
+import re
 from typing import Any, Literal
 
 from pydantic import (
@@ -35,6 +36,9 @@ def _choices(role: str) -> Any:
         names = ("none", *names)
     return Literal[names]  # type: ignore[valid-type]
 
+
+#: a field path at the start of a message (``meshes[0].scale: ...``)
+_FIELD = re.compile(r"^([a-z_]+(?:\[\d+\])?(?:\.[a-z_]+(?:\[\d+\])?)*)(?=[:, ])")
 
 #: the methods a scene may name, read from the registry (one place names them)
 PressureMethod = _choices("pressure")
@@ -646,6 +650,14 @@ class Scene(_Model):
                 break
             p = p[:cut]
         return path
+
+    def as_written(self, message: str) -> str:
+        """A message that starts with a field path, with the path the user wrote in front (a
+        translated scene's, :meth:`field`)."""
+        m = _FIELD.match(message)
+        if m is None or self.field(m.group(1)) == m.group(1):
+            return message
+        return self.field(m.group(1)) + message[m.end():]
 
     @field_validator("materials")
     @classmethod

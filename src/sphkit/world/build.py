@@ -9,7 +9,6 @@ registry, checking the scene across its fields -- happens here, never in the ste
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -105,21 +104,9 @@ def build_world(scene: Scene) -> World:
     try:
         return _build(scene)
     except GeometryError as e:  # a mesh that cannot be loaded or sampled: the user's input
-        raise SceneError(_as_written(scene, str(e))) from None
+        raise SceneError(scene.as_written(str(e))) from None
     except SceneError as e:
-        raise SceneError(_as_written(scene, str(e))) from None
-
-
-_FIELD = re.compile(r"^([a-z_]+(?:\[\d+\])?(?:\.[a-z_]+(?:\[\d+\])?)*)(?=[:, ])")
-
-
-def _as_written(scene: Scene, message: str) -> str:
-    """A message that starts with a field path, with the path the user wrote in front (a
-    translated SPlisHSPlasH scene's, :meth:`Scene.field`)."""
-    m = _FIELD.match(message)
-    if m is None or scene.field(m.group(1)) == m.group(1):
-        return message
-    return scene.field(m.group(1)) + message[m.end():]
+        raise SceneError(scene.as_written(str(e))) from None
 
 
 def _build(scene: Scene) -> World:
@@ -139,8 +126,9 @@ def _build(scene: Scene) -> World:
         add_wall_particles(state, scene, meshes, emitters)
     if state.fluid.n == 0 and not emitters:
         raise SceneError(
-            "fluid_blocks, fluid_files: the scene has no fluid particles; expected at least one"
-            " (or an emitter)"
+            f"fluid_blocks, fluid_files: the scene has no fluid particles of radius "
+            f"{scene.field('configuration.particle_radius')} = {r:g} m; expected at least one "
+            "(or an emitter)"
         )
     pressure = registry.get("pressure", cfg.pressure.method).load().from_config(cfg.pressure)
     model_cls = boundary_info.load()

@@ -43,7 +43,8 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
         if len(pts) == 0:
             raise SceneError(
                 f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
-                f"radius {r}; expected a block at least 2r = {2 * r} wide on every axis"
+                f"radius configuration.particle_radius = {r}; expected a block at least 2r = "
+                f"{2 * r} wide on every axis"
             )
         mat = scene.material(blk.material)
         vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
@@ -55,7 +56,8 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
         pts = sample_mesh_volume(meshes.fluid_mesh(k), r, dim, invert=fm.invert)
         if len(pts) == 0:
             raise SceneError(
-                f"fluid_meshes[{k}]: {fm.geometry_file!r} holds no particle of radius {r}; "
+                f"fluid_meshes[{k}]: {fm.geometry_file!r} holds no particle of radius "
+                f"configuration.particle_radius = {r}; "
                 "expected a closed mesh at least 2r wide" + (" that crosses z = 0" if dim == 2
                                                              else "")
             )
