@@ -411,6 +411,8 @@ class Simulation:
         returns True the run stops there. Returns True when ``until`` was reached."""
         until = self.scene.configuration.time.until if until is None else float(until)
         fps = self.scene.output.fps if fps is None else float(fps)
+        if not 0.0 < fps < math.inf:
+            raise ValueError(f"fps {fps}: expected a positive finite frame rate [1/s]")
         if self._frame < 0:
             if self.step_count == 0 and self.state.fluid.n:
                 self._neighbors()
