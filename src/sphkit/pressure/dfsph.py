@@ -132,6 +132,13 @@ class DFSPH(PressureSolver):
         """No limit of its own beyond the CFL step."""
         return float("inf")
 
+    def warm_start(self, state: SimState, dt: float) -> None:
+        """The start pressure p as the stored density-solver kappa of a previous step of
+        length dt: ``kappa dt^2`` with ``kappa = p rho0 / rho^2`` (the module docstring's
+        normalisation), from which the first solve starts with its usual halved warm start."""
+        f = state.fluid
+        f["dfsph_kappa"] = f["p"] * state.rho0 / f["rho"] ** 2 * (dt * dt)
+
     def pre_forces(self, state: SimState, dt: float) -> None:
         """Factors alpha, then the divergence-free solve on the current velocities."""
         f = state.fluid
