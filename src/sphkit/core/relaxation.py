@@ -137,9 +137,9 @@ def _masses(m, cap, target_rho, rho, tol):
     err = 0.0
     for i in numba.prange(m.shape[0]):
         e = rho[i] / target_rho[i] - 1.0
-        if m[i] < cap[i] or e > tol:  # on the fixed point: at the target, or capped below it
+        if m[i] < cap[i] or e > tol:  # off the fixed point: at the target, or capped below it
             err = max(err, abs(e))
-        m[i] = min(cap[i], m[i] * target_rho[i] / rho[i])
+            m[i] = min(cap[i], m[i] * target_rho[i] / rho[i])
     return err
 
 

@@ -133,11 +133,12 @@ class DFSPH(PressureSolver):
         return float("inf")
 
     def warm_start(self, state: SimState, dt: float) -> None:
-        """The start pressure p as the stored density-solver kappa of a previous step of
-        length dt: ``kappa dt^2`` with ``kappa = p rho0 / rho^2`` (the module docstring's
-        normalisation), from which the first solve starts with its usual halved warm start."""
+        """The start pressure p (the hydrostatic start) as the density solver's stored kappa,
+        so that the first solve of length dt starts from it: ``kappa = p rho0 / rho^2`` (the
+        module docstring's normalisation), stored as ``2 kappa dt^2`` because the warm start
+        halves what is stored (validation/README.md, "Start-up")."""
         f = state.fluid
-        f["dfsph_kappa"] = f["p"] * state.rho0 / f["rho"] ** 2 * (dt * dt)
+        f["dfsph_kappa"] = 2.0 * f["p"] * state.rho0 / f["rho"] ** 2 * (dt * dt)
 
     def pre_forces(self, state: SimState, dt: float) -> None:
         """Factors alpha, then the divergence-free solve on the current velocities."""

@@ -28,7 +28,9 @@ and bounces ("breathes") for seconds. The start-up, in this order
    its Tait or linear state equation, so that its first pressure is p; rho0 for PCISPH, PBF,
    IISPH and DFSPH, which take p as their warm start,
    :meth:`~sphkit.core.methods.PressureSolver.warm_start`). Fluid under a body starts with the
-   pressure of its own column below the body.
+   pressure of its own column below the body; a column that does not rest on a wall (its
+   lowest particle has no boundary neighbour below it: fluid in the air) starts at p = 0, and
+   so does all fluid when gravity has a component along a periodic x axis (a driven flow).
 3. **Relaxation** (``start.relax``, default on): Jacobi sweeps of the position projection of
    the clamped density constraint (:func:`sphkit.core.relaxation.relax_pass`, PBF's, without
    gravity or time; bodies held still) move the particles that sit in a wall's range out of it,
@@ -125,8 +127,11 @@ def _mesh_distance(mesh, dim: int, pts: np.ndarray, r: float) -> np.ndarray:
         if len(a) == 0:
             return np.full(len(pts), np.inf)
         d = polygon_sdf_lattice(a, b, lo, [sp] * 2, shape)
+    # a lattice that misses the surface's band has distances +-inf, of the right sign: keep
+    # the sign, interpolate finite numbers
+    d = np.where(np.isfinite(d), d, np.copysign(1e30, d))
     axes = [lo[k] + sp * np.arange(shape[k]) for k in range(dim)]
-    return RegularGridInterpolator(axes, d, bounds_error=False, fill_value=np.inf)(pts)
+    return RegularGridInterpolator(axes, d, bounds_error=False, fill_value=1e30)(pts)
 
 
 def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes
@@ -217,10 +222,13 @@ def remove_inside(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bou
 # 2. hydrostatic depth
 
 
-def column_depth(x: np.ndarray, gravity: np.ndarray, r: float, h: float) -> np.ndarray:
+def column_depth(x: np.ndarray, gravity: np.ndarray, r: float, h: float,
+                 supported: np.ndarray | None = None) -> np.ndarray:
     """Depth [m] of each point of x (N, dim) below the free surface of its connected column
     (module docstring, item 2): columns 2r wide across gravity, split where the vertical gap
-    exceeds h, the surface r above the column's highest point. Zero without gravity."""
+    exceeds h, the surface r above the column's highest point. ``supported`` (N,) bool: the
+    points that rest on a wall below them; a column whose lowest point does not (fluid in the
+    air, falling) has depth 0 throughout. Zero without gravity."""
     n, dim = x.shape
     g = np.asarray(gravity, float)[:dim]
     gn = float(np.linalg.norm(g))
@@ -241,20 +249,43 @@ def column_depth(x: np.ndarray, gravity: np.ndarray, r: float, h: float) -> np.n
     new[1:] = (cs[1:] != cs[:-1]) | (hs[1:] - hs[:-1] > h)
     run = np.cumsum(new) - 1
     last = np.flatnonzero(np.append(new[1:], True))  # the highest point of each run
-    top = hs[last][run]
+    depth_sorted = hs[last][run] + r - hs
+    if supported is not None:  # a run rests on what its lowest point rests on
+        depth_sorted[~supported[order][np.flatnonzero(new)][run]] = 0.0
     depth = np.empty(n)
-    depth[order] = top + r - hs
+    depth[order] = depth_sorted
     return depth
 
 
-def start_density(state: SimState, pressure: PressureSolver, hydrostatic: bool
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def resting_on_walls(state: SimState) -> np.ndarray:
+    """Fluid particles with a boundary neighbour below them (within 60 degrees of straight
+    down, from this state's fluid-boundary lists): what a column of fluid can rest on."""
+    f, b = state.fluid, state.boundary
+    nl = state.nl_fb
+    counts = np.diff(nl.offsets)
+    out = np.zeros(f.n, dtype=bool)
+    if len(nl.indices) == 0 or not np.any(state.gravity):
+        return out
+    up = -np.asarray(state.gravity, float) / float(np.linalg.norm(state.gravity))
+    rows = np.repeat(np.arange(f.n), counts)
+    d = f["x"][:, rows] - b["x"][:, nl.indices]
+    if state.period > 0.0:
+        d[0] -= state.period * np.round(d[0] / state.period)
+    below = (up @ d) > 0.5 * np.sqrt((d * d).sum(axis=0))
+    out[rows[below]] = True
+    return out
+
+
+def start_density(state: SimState, model: BoundaryModel, pressure: PressureSolver,
+                  hydrostatic: bool) -> tuple[np.ndarray, np.ndarray]:
     """The start pressure p [Pa] and density [kg/m^3] of every fluid particle."""
     f = state.fluid
     rho0 = f["rho0"]
-    if not hydrostatic or not np.any(state.gravity):
+    along_period = state.period > 0.0 and state.gravity[0] != 0.0  # a flow, not a column
+    if not hydrostatic or not np.any(state.gravity) or along_period:
         return np.zeros(f.n), rho0.astype(float).copy()
-    depth = column_depth(f.view("x"), state.gravity, state.r, state.h)
+    _neighbors(state, model)
+    depth = column_depth(f.view("x"), state.gravity, state.r, state.h, resting_on_walls(state))
     p = rho0 * float(np.linalg.norm(state.gravity)) * depth
     return p, np.asarray(pressure.compressed_density(p, rho0), dtype=float)
 
@@ -315,9 +346,9 @@ def consistent_masses(state: SimState, model: BoundaryModel, rho_start: np.ndarr
     was given it kept."""
     f = state.fluid
     kept = np.ones(f.n, dtype=bool)
-    for _round in range(3):
+    for last in (False, False, True):
         _neighbors(state, model)
-        cap = f["m"] * rho_start / f["rho0"]  # lattice mass times the start compression
+        cap = f["m"] * (rho_start / f["rho0"])  # lattice mass times the start compression
         m = cap.copy()
         rho = np.empty(f.n, dtype=f.dtype)
         for k in range(MASS_ITERATIONS):
@@ -327,15 +358,15 @@ def consistent_masses(state: SimState, model: BoundaryModel, rho_start: np.ndarr
                 break
         share = m / cap
         close = share < MIN_MASS_SHARE
-        if not close.any():
+        if last or not close.any():  # (the third round keeps what is left)
             break
         _remove(state, np.where(close, 0, -1), ["the boundary model"],
                 "start so close to the walls that most of their volume belongs to",
                 report.removed_close)
         kept[np.flatnonzero(kept)[close]] = False
         rho_start = rho_start[~close]
+    f["V0"] = f["V0"] * (m / f["m"])  # unchanged to the last bit where the mass is
     f["m"] = m
-    f["V0"] = m / f["rho0"]
     report.min_mass_share = float(share.min()) if f.n else 1.0
     rho = _density(state, f["m"], np.empty(f.n, dtype=f.dtype))
     f["rho"] = rho
@@ -354,14 +385,15 @@ def start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bound
     if f.n == 0:
         return report
     remove_inside(state, scene, meshes, model, report)
-    p, rho_start = start_density(state, pressure, cfg.hydrostatic)
+    p, rho_start = start_density(state, model, pressure, cfg.hydrostatic)
     if cfg.relax:
         relax(state, model, rho_start / f["rho0"], cfg.relax_iterations, report)
-        p, rho_start = start_density(state, pressure, cfg.hydrostatic)  # after the moves
+        p, rho_start = start_density(state, model, pressure, cfg.hydrostatic)  # after the moves
         p = p[consistent_masses(state, model, rho_start, report)]
     else:
-        f["m"] = f["m"] * rho_start / f["rho0"]
-        f["V0"] = f["m"] / f["rho0"]
+        c = rho_start / f["rho0"]
+        f["m"] = f["m"] * c
+        f["V0"] = f["V0"] * c
         _neighbors(state, model)
         f["rho"] = _density(state, f["m"], np.empty(f.n, dtype=f.dtype))
         report.sampled_error = report.relaxed_error = _compression(f["rho"], rho_start)
