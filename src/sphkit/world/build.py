@@ -23,9 +23,9 @@ from sphkit.core.methods import (
     PressureSolver,
 )
 from sphkit.core.neighbors import zorder_permutation
-from sphkit.core.timestep import cfl_time_step, max_speed
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
+from sphkit.core.timestep import cfl_time_step, max_speed
 from sphkit.geometry import GeometryError
 from sphkit.scene.checks import check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
