@@ -15,11 +15,13 @@ with the summation density :func:`sphkit.core.operators.density_body` that every
   (sum_k |grad_k C_i|^2 + eps)``, ``dx_i = sum_j (lambda_i + lambda_j) V_j grad W_ij + lambda_i
   sum_b V_b grad W_ib``, each displacement capped. There is no time and no velocity: it moves
   the particles that sit in a wall's range out of it, into the space the boundary model leaves
-  for the fluid; particles at or below their target are not pulled (free surface).
+  for the fluid; particles at or below their target are not pulled (a free surface, and the
+  thin spots the sweeps leave, which the masses fill). A two-sided constraint, which would
+  pull them, makes these Jacobi sweeps oscillate.
 * :func:`mass_pass` -- one fixed-point sweep ``m_i <- min(m_cap_i, m_i t_i rho0_i / rho_i)`` of
-  the masses whose summation density is the target where the fluid is dense enough, and which
-  never exceed their cap (the lattice mass times the target compression), so a kernel-truncated
-  free surface keeps its lattice mass.
+  the masses whose summation density is the target, below a cap per particle: the lattice mass
+  times the target compression for a kernel-truncated free surface (which keeps that mass and
+  its density deficit), a few per cent above it where the kernel is filled.
 
 The pair loops are written with :mod:`sphkit.core.pairs` (minimum-image x differences with a
 period L > 0).
@@ -118,8 +120,8 @@ def relax_pass(x: np.ndarray, V: np.ndarray, target: np.ndarray, nl_ff, nl_fb,
     rest volumes V = m / rho0 (N,), targets (N,) and this state's neighbour lists; the
     boundary (bx, bV) does not move. Returns (mean, max) of the clamped constraint ``C``
     before the sweep (as fractions) and the displacement (dim, N), each at most ``cap`` [m]
-    long; constraints up to ``tol`` count as met (the interior of a lattice sits at 1 to
-    round-off)."""
+    long; constraints up to ``tol`` count as met (the interior of a lattice sits at its target
+    to round-off)."""
     n = x.shape[1]
     lam = np.empty(n, dtype=x.dtype)
     avg, mx = _lambda(x, V, target, nl_ff.offsets, nl_ff.indices, bx, bV, nl_fb.offsets,
@@ -137,7 +139,8 @@ def _masses(m, cap, target_rho, rho, tol):
     err = 0.0
     for i in numba.prange(m.shape[0]):
         e = rho[i] / target_rho[i] - 1.0
-        if m[i] < cap[i] or e > tol:  # off the fixed point: at the target, or capped below it
+        # off the fixed point: away from the target, unless capped below it
+        if e > tol or (e < -tol and m[i] < cap[i]):
             err = max(err, abs(e))
             m[i] = min(cap[i], m[i] * target_rho[i] / rho[i])
     return err
@@ -148,5 +151,5 @@ def mass_pass(m: np.ndarray, cap: np.ndarray, target_rho: np.ndarray, rho: np.nd
     """One fixed-point sweep of the masses (module docstring), in place: ``m_i <- min(cap_i,
     m_i target_i / rho_i)`` with rho the summation densities of the current masses. Returns the
     largest relative deviation ``|rho / target - 1|`` of the particles not yet on the fixed
-    point (those below their cap, or denser than the target by more than ``tol``)."""
+    point (those off their target by more than ``tol``, unless at their cap and below it)."""
     return float(_masses(m, cap, target_rho, rho, float(tol)))

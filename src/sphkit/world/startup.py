@@ -33,13 +33,16 @@ and bounces ("breathes") for seconds. The start-up, in this order
    so does all fluid when gravity has a component along a periodic x axis (a driven flow).
 3. **Relaxation** (``start.relax``, default on): Jacobi sweeps of the position projection of
    the clamped density constraint (:func:`sphkit.core.relaxation.relax_pass`, PBF's, without
-   gravity or time; bodies held still) move the particles that sit in a wall's range out of it,
-   until no particle is more than 1 % denser than its start density (or
+   gravity or time; bodies held still) move the particles that sit in a wall's range out of
+   it, until no particle is more than 1 % denser than its start density (or
    ``start.relax_iterations``).
 4. **Masses** (with ``start.relax``): each particle's mass is set so that its summation density
-   is its start density (:func:`sphkit.core.relaxation.mass_pass`, to 1e-6), never above its
-   lattice mass times the start compression: the free surface, where the kernel is truncated,
-   keeps its mass. Masses are the variable because sphkit's densities are sums of masses
+   is its start density (:func:`sphkit.core.relaxation.mass_pass`, to 1e-6). Where the kernel
+   was filled as sampled (the summation density with the lattice masses times the start
+   compression reached the start density) the mass may rise up to 5 % above that, to fill the
+   thin spots the relaxation left; at a free surface it never rises above it, so the surface
+   keeps its mass and its kernel's deficit. Masses are the
+   variable because sphkit's densities are sums of masses
    (``rho_i = sum_j m_j W_ij + sum_b rho0 V_b W_ib``): a compressed WCSPH column thus holds its
    hydrostatic density exactly on its sampling lattice, with the particles where the user put
    them. A particle whose mass would drop below half its lattice mass (the boundary claims most
@@ -75,6 +78,9 @@ MASS_TOLERANCE = 1e-6
 MASS_ITERATIONS = 200
 #: a particle whose consistent mass is below this share of its lattice mass is removed
 MIN_MASS_SHARE = 0.5
+#: how far above its lattice mass (times the start compression) the mass of a particle with a
+#: filled kernel may go, to fill what the relaxation left thin
+MASS_SLACK = 0.05
 #: most lattice points of a mesh's signed distance for the inside test (coarser above)
 MAX_SDF_POINTS = 4_000_000
 
@@ -95,8 +101,11 @@ class StartReport:
     relaxed_error: tuple[float, float] = (0.0, 0.0)
     max_displacement: float = 0.0  #: largest distance a particle was moved [m]
     mass_iterations: int = 0
-    min_mass_share: float = 1.0  #: smallest mass over lattice mass times start compression
-    #: the compression (mean, max) of the start, with its masses
+    #: smallest and largest mass over lattice mass times start compression
+    min_mass_share: float = 1.0
+    max_mass_share: float = 1.0
+    #: the density error (mean, max) of the start, with its masses: ``|rho / rho_start - 1|``
+    #: where the kernel is filled, the compression at a free surface
     start_error: tuple[float, float] = (0.0, 0.0)
 
 
@@ -312,6 +321,16 @@ def _compression(rho: np.ndarray, target: np.ndarray) -> tuple[float, float]:
     return (float(e.mean()), float(e.max())) if len(e) else (0.0, 0.0)
 
 
+def filled(state: SimState, model: BoundaryModel, rho_start: np.ndarray) -> np.ndarray:
+    """The fluid particles whose kernel is filled as sampled: their summation density with the
+    start masses (lattice mass times start compression) reaches their start density (to 1e-6).
+    The others lie at a free surface."""
+    f = state.fluid
+    _neighbors(state, model)
+    rho = _density(state, f["m"] * (rho_start / f["rho0"]), np.empty(f.n, dtype=f.dtype))
+    return rho >= rho_start * (1.0 - 1e-6)
+
+
 def relax(state: SimState, model: BoundaryModel, target: np.ndarray, iterations: int,
           report: StartReport) -> None:
     """Step 3 of the module docstring (``target``: start density over rho0)."""
@@ -340,7 +359,7 @@ def relax(state: SimState, model: BoundaryModel, target: np.ndarray, iterations:
 
 
 def consistent_masses(state: SimState, model: BoundaryModel, rho_start: np.ndarray,
-                      report: StartReport) -> np.ndarray:
+                      two_sided: np.ndarray, report: StartReport) -> np.ndarray:
     """Step 4 of the module docstring: the masses, and the removal of the particles the
     boundary claims (then the masses again, for the rest). Returns which of the particles it
     was given it kept."""
@@ -348,15 +367,16 @@ def consistent_masses(state: SimState, model: BoundaryModel, rho_start: np.ndarr
     kept = np.ones(f.n, dtype=bool)
     for last in (False, False, True):
         _neighbors(state, model)
-        cap = f["m"] * (rho_start / f["rho0"])  # lattice mass times the start compression
-        m = cap.copy()
+        m0 = f["m"] * (rho_start / f["rho0"])  # lattice mass times the start compression
+        m = m0.copy()
+        cap = np.where(two_sided, m0 * (1.0 + MASS_SLACK), m0)
         rho = np.empty(f.n, dtype=f.dtype)
         for k in range(MASS_ITERATIONS):
             err = mass_pass(m, cap, rho_start, _density(state, m, rho))
             report.mass_iterations = k + 1
             if err <= MASS_TOLERANCE:
                 break
-        share = m / cap
+        share = m / m0
         close = share < MIN_MASS_SHARE
         if last or not close.any():  # (the third round keeps what is left)
             break
@@ -365,12 +385,16 @@ def consistent_masses(state: SimState, model: BoundaryModel, rho_start: np.ndarr
                 report.removed_close)
         kept[np.flatnonzero(kept)[close]] = False
         rho_start = rho_start[~close]
+        two_sided = two_sided[~close]
     f["V0"] = f["V0"] * (m / f["m"])  # unchanged to the last bit where the mass is
     f["m"] = m
     report.min_mass_share = float(share.min()) if f.n else 1.0
+    report.max_mass_share = float(share.max()) if f.n else 1.0
     rho = _density(state, f["m"], np.empty(f.n, dtype=f.dtype))
     f["rho"] = rho
-    report.start_error = _compression(rho, rho_start)
+    e = rho / rho_start - 1.0
+    e = np.where(two_sided, np.abs(e), np.maximum(e, 0.0))
+    report.start_error = (float(e.mean()), float(e.max())) if f.n else (0.0, 0.0)
     return kept
 
 
@@ -387,9 +411,10 @@ def start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bound
     remove_inside(state, scene, meshes, model, report)
     p, rho_start = start_density(state, model, pressure, cfg.hydrostatic)
     if cfg.relax:
+        two_sided = filled(state, model, rho_start)
         relax(state, model, rho_start / f["rho0"], cfg.relax_iterations, report)
         p, rho_start = start_density(state, model, pressure, cfg.hydrostatic)  # after the moves
-        p = p[consistent_masses(state, model, rho_start, report)]
+        p = p[consistent_masses(state, model, rho_start, two_sided, report)]
     else:
         c = rho_start / f["rho0"]
         f["m"] = f["m"] * c
