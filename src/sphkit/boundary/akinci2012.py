@@ -34,6 +34,24 @@ def _volumes(x, off, idx, h, kid, dim, L, V):
         V[b] = 1.0 / s
 
 
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def _nearest(x, off, idx, bx, dim, L, dist, near):
+    """Distance to the nearest boundary neighbour of each fluid particle (inf: none) and its
+    index (-1: none)."""
+    for i in numba.prange(x.shape[1]):
+        xi0, xi1, xi2 = point(x, i, dim)
+        best = np.inf
+        b_best = -1
+        for k in range(off[i], off[i + 1]):
+            b = idx[k]
+            d = distance(xi0, xi1, xi2, bx, b, dim, L)
+            if d < best:
+                best = d
+                b_best = b
+        dist[i] = best
+        near[i] = b_best
+
+
 def boundary_volumes(x: np.ndarray, h: float, kid: int, dim: int,
                      period: tuple[float, float] | None = None,
                      out: np.ndarray | None = None) -> np.ndarray:
@@ -79,6 +97,26 @@ class Akinci2012(BoundaryModel):
         """Rebuild the boundary grid after boundary particles moved (rigid bodies)."""
         bd = state.boundary
         self.grid = Grid(bd["x"], state.h) if bd.n else None
+
+    def inside(self, state: SimState) -> tuple[np.ndarray, list[str]]:
+        """Fluid particles closer than r to a boundary particle (their discs or spheres of
+        radius r overlap by more than a radius: the particle sits in the wall), indexed by the
+        boundary particle's object (``boxes[k]``, ``meshes[k]``, ``emitters[k].housing``)."""
+        f, bd = state.fluid, state.boundary
+        out = np.full(f.n, -1, dtype=np.int64)
+        if self.grid is None or f.n == 0:
+            return out, []
+        nl = self.grid.query(f["x"], period=state.periodic)
+        dist = np.empty(f.n, dtype=f.dtype)
+        near = np.empty(f.n, dtype=np.int64)
+        _nearest(f["x"], nl.offsets, nl.indices, bd["x"], state.dim, state.period, dist, near)
+        hit = dist < state.r
+        names = [o.name for o in bd.objects]
+        starts = np.array([o.start for o in bd.objects], dtype=np.int64)
+        if hit.any() and names:
+            obj = np.searchsorted(starts, bd["id"][near[hit]], side="right") - 1
+            out[hit] = np.maximum(obj, 0)
+        return out, names
 
     def update(self, state: SimState) -> None:
         """Fluid-boundary neighbour lists for the current fluid positions."""

@@ -69,7 +69,13 @@ from sphkit.core.methods import BoundaryModel
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.state import SimState
 from sphkit.geometry.cache import cache_folder, cached_arrays
-from sphkit.geometry.grids import _eval_many, ball_quadrature, serendipity_mask
+from sphkit.geometry.grids import (
+    _eval_many,
+    ball_quadrature,
+    grid_eval,
+    map_query_point,
+    serendipity_mask,
+)
 from sphkit.geometry.rotations import rotate, rotate_t
 from sphkit.geometry.sdf import SignedDistance, sdf_lattice_cached
 
@@ -233,6 +239,16 @@ def _pack(xb, Vb, vb, mbody, fid, off, bx, bV, bv, bbody, bid, idx):
 
 
 @numba.njit(parallel=True, **_JIT)
+def _inside(x, phi, lo, cell, res, dim, extend_axis, top, m, out):
+    """``out[i] = m`` where point i of x lies on the grid with map distance ``phi <= 0``."""
+    for i in numba.prange(x.shape[1]):
+        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
+        d, _g0, _g1, _g2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
+        if ok and d <= 0.0 and out[i] < 0:
+            out[i] = m
+
+
+@numba.njit(parallel=True, **_JIT)
 def to_body_frame(x, v, c, R, vc, w, c0, xl, ul):
     """Fluid positions and velocities in a body's frame (module docstring):
     ``x_l = c_0 + R^T (x - c)``, ``u_l = R^T (v - v_c - omega x (x - c))``. Vectors are 3D
@@ -377,6 +393,19 @@ class MapBoundaryModel(BoundaryModel):
         (:class:`~sphkit.boundary.maps_hydrostatic.WallMomentForce`), run with the other
         non-pressure forces."""
         return [WallMomentForce(self)] if self.hydrostatic else []
+
+    def inside(self, state: SimState) -> tuple[np.ndarray, list[str]]:
+        """Fluid particles inside a map's solid at t = 0: map distance ``phi <= 0``, i.e.
+        behind the surface the model moves into the fluid by its offset and the wall's
+        thickness (the particles the query would push out). Moving bodies' maps are read
+        directly: at t = 0 their frames are the world's."""
+        f = state.fluid
+        out = np.full(f.n, -1, dtype=np.int64)
+        for m, bmap in enumerate(self.maps):
+            ax = bmap.geometry.extend_axis
+            top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
+            _inside(f["x"], bmap.phi, bmap.lo, bmap.cell, bmap.res, state.dim, ax, top, m, out)
+        return out, [bmap.geometry.name for bmap in self.maps]
 
     def rebuild(self, state: SimState) -> None:
         """After the rigid bodies moved: nothing to rebuild, :meth:`update` reads their poses

@@ -7,11 +7,14 @@ Simulation.step`) calls every entry point of every method without asking ``hasat
 
 * :class:`PressureSolver` -- ``init``, ``max_time_step``, ``pre_forces`` (DFSPH's factors and
   divergence-free solve), ``solve -> SolverStats``, ``boundary_reaction`` (the boundary share
-  of its pressure acceleration, which moving bodies feel as the fluid force);
+  of its pressure acceleration, which moving bodies feel as the fluid force), and for the
+  hydrostatic start ``compressed_density`` (the density that carries a pressure) and
+  ``warm_start`` (the start pressure into the solver's warm start);
 * :class:`NonPressureForce` -- ``init``, ``apply`` (adds to ``state.fluid["a"]``), ``stats``
   (an implicit solver's last solve);
 * :class:`BoundaryModel` -- ``init``, ``update`` (this step's fluid-boundary neighbours),
-  ``rebuild`` (after boundary particles moved), ``bind_bodies``, ``forces``;
+  ``rebuild`` (after boundary particles moved), ``bind_bodies``, ``forces``, ``inside`` (the
+  fluid that starts inside the model's solid);
 * :class:`Elasticity` -- ``init``, ``apply``, for the elastic solids to come.
 
 Each method builds itself from its part of the scene with ``from_config`` (the scene model's
@@ -87,6 +90,19 @@ class PressureSolver(Protocol):
         that could take a force (PBF moves positions)."""
         return None
 
+    def compressed_density(self, p: np.ndarray, rho0: np.ndarray) -> np.ndarray:
+        """The density [kg/m^3] at which the fluid carries the pressure p [Pa] at rest (the
+        hydrostatic start, :mod:`sphkit.world.startup`): rho0 for the incompressible solvers,
+        the inverse of the state equation for WCSPH."""
+        return np.broadcast_to(np.asarray(rho0, dtype=float), np.shape(p)).copy()
+
+    def warm_start(self, state: SimState, dt: float) -> None:
+        """The fluid starts with the pressure ``state.fluid["p"]`` [Pa] (the hydrostatic
+        start): carry it into the solver's own warm start for a first step of length dt [s].
+        By default nothing more (IISPH warm-starts from ``p`` itself; WCSPH, PCISPH and PBF
+        keep no pressure between steps)."""
+        return None
+
 
 @runtime_checkable
 class NonPressureForce(Protocol):
@@ -139,6 +155,13 @@ class BoundaryModel(Protocol):
     def forces(self) -> list[NonPressureForce]:
         """Non-pressure forces the model adds to the fluid (the walls' hydrostatic moment)."""
         return []
+
+    def inside(self, state: SimState) -> tuple[np.ndarray, list[str]]:
+        """Which fluid particles start inside the model's own solid (called once the world is
+        built, before the first step; :mod:`sphkit.world.startup` removes them): an index
+        (N,) into the returned geometry names, -1 where the particle is free. By default no
+        particle is inside."""
+        return np.full(state.fluid.n, -1, dtype=np.int64), []
 
 
 @runtime_checkable

@@ -189,6 +189,41 @@ class ParticleSet:
         self.n = n
         self.objects = []
 
+    def compact(self, keep: np.ndarray) -> None:
+        """Keep only the particles where ``keep`` (N,) is True, in their order, and number them
+        afresh: ids ``0 .. n-1`` in the order of the old ids, each object's range shrunk to the
+        particles it keeps (empty objects dropped). For a world being built (fluid removed from
+        inside walls, :mod:`sphkit.world.startup`): ids are renumbered, so do not use it on a
+        set whose ids have been written out."""
+        keep = np.asarray(keep, dtype=bool)
+        if keep.shape != (self.n,):
+            raise ValueError(f"compact: mask of shape {keep.shape}; expected ({self.n},)")
+        old_ids = self.fields["id"][keep].copy()
+        kept = {name: (self.fields[name][keep] if s.kind == "scalar"
+                       else self.fields[name][:, keep]).copy()
+                for name, s in self.specs.items()}
+        m = int(keep.sum())
+        self.n = 0
+        self.capacity = 0
+        for name in self.specs:
+            self._buffers[name] = np.zeros(0, dtype=self.specs[name].dtype)
+            self._view(name)
+        self._grow(m)
+        for name, a in kept.items():
+            self.fields[name][...] = a
+        rank = np.empty(m, dtype=np.int64)  # new id = rank of the old id
+        rank[np.argsort(old_ids, kind="stable")] = np.arange(m)
+        self.fields["id"][...] = rank
+        objects, start = [], 0
+        sorted_ids = np.sort(old_ids)
+        for o in self.objects:
+            count = int(np.searchsorted(sorted_ids, o.end) - np.searchsorted(sorted_ids, o.start))
+            if count:
+                objects.append(ObjectRange(o.name, start, start + count))
+                start += count
+        self.objects = objects
+        self.next_id = m
+
     def permute(self, perm: np.ndarray) -> None:
         """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles."""
         for fname, spec in self.specs.items():

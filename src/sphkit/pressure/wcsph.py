@@ -103,6 +103,14 @@ class WCSPH(PressureSolver):
         state.coupling.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
 
+    def compressed_density(self, p: np.ndarray, rho0: np.ndarray) -> np.ndarray:
+        """The density of the state equation at pressure p >= 0 [Pa]: Tait
+        ``rho0 (1 + p / B)^(1 / gamma)``, linear ``rho0 + p / k`` (the hydrostatic start)."""
+        p = np.maximum(np.asarray(p, dtype=float), 0.0)
+        if self.equation == TAIT:
+            return rho0 * (1.0 + p / self.stiffness) ** (1.0 / self.exponent)
+        return rho0 + p / self.stiffness
+
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.operators.pressure_accel_body`:
         ``k_i = rho0 (p_i / rho_i^2 + p_i / rho0^2)``, without the mirror share."""

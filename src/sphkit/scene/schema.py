@@ -542,6 +542,25 @@ class BoundaryConfig(_Model):
         return v
 
 
+class StartConfig(_Model):
+    """How the fluid starts (:mod:`sphkit.world.startup`). Fluid particles that start inside a
+    wall or body are always removed, with a warning naming the block and the count."""
+
+    hydrostatic: bool = Field(
+        True, description="start every fluid object with the density and pressure of its "
+        "hydrostatic column: p = rho0 |g| depth below the top of the connected column of fluid "
+        "along gravity (plus r), the density through the state equation (WCSPH) or rho0 (the "
+        "incompressible solvers, which warm-start from p); false: at rest density, p = 0")
+    relax: bool = Field(
+        True, description="move fluid sampled too close to walls and bodies out of the boundary "
+        "model's range (a density relaxation before t = 0, without gravity or time) and set "
+        "each particle's mass so that its summation density is its start density; false: the "
+        "particles and lattice masses as sampled")
+    relax_iterations: int = Field(
+        100, ge=0, le=10000, description="largest number of relaxation sweeps (it stops once "
+        "no particle is more than 1 % too dense)")
+
+
 class OutputConfig(_Model):
     """Frame output."""
 
@@ -567,6 +586,7 @@ class Configuration(_Model):
     time: TimeConfig = TimeConfig()
     pressure: PressureConfig = PressureConfig()
     boundary: BoundaryConfig = BoundaryConfig()
+    start: StartConfig = StartConfig()
     zsort_every: int = Field(
         50, ge=0, description="reorder particles along a z-curve every this many steps (0: never)"
     )

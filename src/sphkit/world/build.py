@@ -25,6 +25,7 @@ from sphkit.core.methods import (
 from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
+from sphkit.core.timestep import cfl_time_step, max_speed
 from sphkit.geometry import GeometryError
 from sphkit.scene.checks import check_budget, check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
@@ -32,6 +33,7 @@ from sphkit.world.bodies import rigid_bodies
 from sphkit.world.emitters import FluidEmitter
 from sphkit.world.fluid import add_fluid
 from sphkit.world.meshes import SceneMeshes
+from sphkit.world.startup import StartReport, start_fluid
 from sphkit.world.walls import add_wall_particles, domain_box, map_geometries
 
 
@@ -58,6 +60,9 @@ class World:
     #: the box (lo, hi) [m] the fluid must stay in (the static walls' bounding box plus
     #: ``configuration.domain_margin`` h; infinite bounds are open); None: not checked
     domain: tuple[np.ndarray, np.ndarray] | None = None
+    #: what the start-up did (:mod:`sphkit.world.startup`): removed particles, relaxation,
+    #: masses, the start density error
+    start: StartReport = field(default_factory=StartReport)
 
 
 def _state(scene: Scene, mat: Material) -> SimState:
@@ -159,10 +164,27 @@ def _build(scene: Scene) -> World:
     # the one way the solvers meet the boundary: mirror weights, the boundary pressure model,
     # the bodies that yield to the pressure (strong coupling)
     state.coupling = BoundaryCoupling(pressure=pressure_model, moving=rigid)
+    # the fluid's start: out of the walls, consistent next to them, hydrostatic
+    start = start_fluid(state, scene, meshes, model, pressure)
     for force in forces:
         force.init(state)
     pressure.init(state)
+    if state.fluid.n:
+        pressure.warm_start(state, _first_time_step(scene, state, pressure, rigid))
     return World(scene=scene, state=state, material=mat, pressure=pressure,
                  boundary_model=model, rigid=rigid, emitters=emitters,
                  lattice_volume=lattice_volume(2.0 * r, state.kid, h, dim), forces=forces,
-                 force_roles=roles, domain=domain_box(state, scene, meshes, emitters))
+                 force_roles=roles, domain=domain_box(state, scene, meshes, emitters),
+                 start=start)
+
+
+def _first_time_step(scene: Scene, state: SimState, pressure: PressureSolver,
+                     rigid: RigidBodies) -> float:
+    """The length of the first step as :meth:`sphkit.simulation.Simulation.step` will choose
+    it from the start velocities (the CFL step and the solver's bound, or the fixed step)."""
+    tc = scene.configuration.time
+    if not tc.cfl:
+        return tc.dt
+    vmax = max(max_speed(state.fluid["v"], None), rigid.max_speed(state))
+    dt = cfl_time_step(vmax, state.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
+    return float(min(dt, pressure.max_time_step(state)))
