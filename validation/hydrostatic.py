@@ -3,11 +3,12 @@ mirrored and the accurate boundary pressure; a dam break as sanity check of the 
 
     python validation/hydrostatic.py [--dim 2|3] [--scenes splishsplash boxes]
         [--solvers wcsph pcisph pbf iisph dfsph] [--boundaries akinci2012 koschier2017 bender2019]
-        [--boundary-pressure mirror accurate] [--until 2.5] [--average 1.0] [--gap 3]
+        [--boundary-pressure mirror accurate] [--until 2.5] [--average 1.0] [--gap 3] [--radius R]
         [--widths 0.6] [--eta E] [--dt-max T] [--lattice square hexagonal] [--dambreak]
 
-Each row is one water column at rest, 0.5 m high in 2D (r = 1 cm), 0.4 m in 3D (r = 2 cm), in a
-tank W wide (``--widths``, default 0.6 m), written two ways (``--scenes``):
+Each row is one water column at rest, 0.5 m high in 2D (r = 1 cm), 0.4 m in 3D (r = 2 cm;
+``--radius`` changes r, not the sizes), in a tank W wide (``--widths``, default 0.6 m), written
+two ways (``--scenes``):
 
 * ``splishsplash``: a SPlisHSPlasH JSON scene translated by sphkit, with SPlisHSPlasH's default
   settings (no solver block: maxError 0.01 %, 100 iterations, CFL factor 0.5, dt at most
@@ -33,7 +34,10 @@ and heights averaged per particle over the last ``--average`` (1.0) s; the same 
 particles at least 3r from the side walls ("inner"); the slope of every step in that window fitted
 to that step's pressures (mean, standard deviation, range: the per-step value swings where a
 solver stops at its iteration limit or the column still moves); the range of the slope frame by
-frame (25 frames/s) from 1 s on; iterations and wall time per step; mean speed at the end.
+frame (25 frames/s) from 1 s on; "wall": how much more pressure the particles within 3r of a
+side wall carry than the inner ones at the same height, in % of rho0 g H (the mean deviation
+from rho0 g (top + r - y) over the middle 80 %; a wall that carries none of the weight of the
+fluid beside it shows up here); iterations and wall time per step; mean speed at the end.
 
 ``--dambreak``: SPlisHSPlasH's ``DamBreakModel_2D.json`` (2D) or ``DamBreakModel.json`` (3D, r =
 0.04 m to keep it short) from the pysplishsplash wheel, with the solver, boundary model and
@@ -97,9 +101,9 @@ def _set_pressure(scene: Scene, bp: str, cache: str, eta: float | None,
 
 
 def splishsplash_column(method: str, boundary: str, dim: int, width: float,
-                        gap: float = 3.0) -> dict:
+                        gap: float = 3.0, radius: float | None = None) -> dict:
     """The column as a SPlisHSPlasH scene (dict), default settings, UnitBox.obj walls."""
-    r = 0.01 if dim == 2 else 0.02
+    r = radius or (0.01 if dim == 2 else 0.02)
     hgt = 0.5 if dim == 2 else 0.4
     cfg: dict = {"sim2D": dim == 2, "particleRadius": r, "simulationMethod": SIM_NUMBER[method],
                  "boundaryHandlingMethod": BHM_NUMBER[boundary], "gravitation": [0, -G, 0]}
@@ -122,9 +126,9 @@ def splishsplash_column(method: str, boundary: str, dim: int, width: float,
 
 
 def boxes_column(method: str, boundary: str, dim: int, width: float,
-                 lattice: str = "square") -> Scene:
+                 lattice: str = "square", radius: float | None = None) -> Scene:
     """The column in sphkit's format: block 2r off the side walls, ``boxes`` walls."""
-    r = 0.01 if dim == 2 else 0.02
+    r = radius or (0.01 if dim == 2 else 0.02)
     hgt = 0.5 if dim == 2 else 0.4
     gap = 2 * r
     return Scene.model_validate({
@@ -139,14 +143,15 @@ def boxes_column(method: str, boundary: str, dim: int, width: float,
 
 def column(kind: str, method: str, boundary: str, bp: str, dim: int, width: float, cache: str,
            eta: float | None = None, dt_max: float | None = None, lattice: str = "square",
-           gap: float = 3.0) -> Scene:
+           gap: float = 3.0, radius: float | None = None) -> Scene:
     """One column scene (see the module docstring)."""
     if kind == "splishsplash":
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            scene = from_splishsplash(splishsplash_column(method, boundary, dim, width, gap))
+            scene = from_splishsplash(splishsplash_column(method, boundary, dim, width, gap,
+                                                          radius))
     else:
-        scene = boxes_column(method, boundary, dim, width, lattice)
+        scene = boxes_column(method, boundary, dim, width, lattice, radius)
     return _set_pressure(scene, bp, cache, eta, dt_max)
 
 
@@ -205,8 +210,12 @@ def measure(scene: Scene, until: float = 2.5, average: float = 1.0,
     inner = np.all((x[:, hor] > lo + 3 * r) & (x[:, hor] < hi - 3 * r), axis=1)
     st = np.array(steps)
     fr = np.array(frame_slopes) if frame_slopes else np.array([np.nan])
+    top = y.max()
+    mid = (y > y.min() + 0.1 * (top - y.min())) & (y < y.min() + 0.9 * (top - y.min()))
+    dev = (p - RHO0 * G * (top + r - y)) / (RHO0 * G * (top - y.min() + 2 * r))
     out.update({
         "slope": slope(y, p), "inner": slope(y, p, inner),
+        "wall": 100 * float(dev[mid & ~inner].mean() - dev[mid & inner].mean()),
         "step_mean": float(st.mean()), "step_std": float(st.std()),
         "step_min": float(st.min()), "step_max": float(st.max()),
         "frame_min": float(fr.min()), "frame_max": float(fr.max()),
@@ -257,7 +266,7 @@ def dambreak(method: str, boundary: str, bp: str, dim: int, cache: str,
     try:
         sim.run(until=until, fps=10, on_frame=on_frame, on_step=on_step)
     except Exception as e:
-        status = "unstable at t = %.3f s" % sim.time
+        status = f"unstable at t = {sim.time:.3f} s"
         logging.getLogger(__name__).debug("%s", e)
     wall = time.perf_counter() - t0
     return {"n": sim.fluid.n, "status": status, "front": front, "vmax": vmax[0],
@@ -280,6 +289,8 @@ def main() -> None:
     ap.add_argument("--until", type=float, default=2.5, help="simulated time [s]")
     ap.add_argument("--average", type=float, default=1.0,
                     help="averaging window at the end [s]")
+    ap.add_argument("--radius", type=float, default=None,
+                    help="particle radius r [m] (default 0.01 in 2D, 0.02 in 3D)")
     ap.add_argument("--gap", type=float, default=3.0,
                     help="splishsplash: distance of the first particle from the walls [r]")
     ap.add_argument("--eta", type=float, default=None,
@@ -306,9 +317,9 @@ def _columns(args: argparse.Namespace, rows: list[tuple[str, str]], cache: str) 
     print(f"Hydrostatic columns, {args.dim}D, {args.until} s, averages over the last "
           f"{args.average} s; slope / rho0 g")
     print("| scene | solver | boundary | pressure | width | n | slope | inner | per step: mean "
-          "+- std [min, max] | per frame from 1 s [min, max] | iterations | ms/step | "
-          "mean speed [m/s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "+- std [min, max] | per frame from 1 s [min, max] | wall [%] | iterations | ms/step "
+          "| mean speed [m/s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     curves = []
     lattices = [lat for lat in args.lattice if lat == "square" or args.dim == 2]
     for kind, (b, bp), method, w, lat in itertools.product(
@@ -316,18 +327,19 @@ def _columns(args: argparse.Namespace, rows: list[tuple[str, str]], cache: str) 
         if kind == "splishsplash" and lat != "square":
             continue  # SPlisHSPlasH samples blocks on the square lattice (denseMode 0)
         scene = column(kind, method, b, bp, args.dim, w, cache, args.eta, args.dt_max, lat,
-                       args.gap)
+                       args.gap, args.radius)
         used = scene.configuration.boundary.pressure
         res = measure(scene, args.until, args.average)
         name = f"{kind}" + (f" ({lat})" if lat != "square" else "")
         if res["status"] != "ok":
             print(f"| {name} | {method} | {b} | {used} | {w:.2f} | {res['n']} | "
-                  f"{res['status']} | | | | | | |", flush=True)
+                  f"{res['status']} | | | | | | | |", flush=True)
             continue
         print(f"| {name} | {method} | {b} | {used} | {w:.2f} | {res['n']} | "
               f"{res['slope']:.4f} | {res['inner']:.4f} | {res['step_mean']:.3f} +- "
               f"{res['step_std']:.3f} [{res['step_min']:.3f}, {res['step_max']:.3f}] | "
-              f"[{res['frame_min']:.3f}, {res['frame_max']:.3f}] | {res['iterations']:.1f} | "
+              f"[{res['frame_min']:.3f}, {res['frame_max']:.3f}] | {res['wall']:+.1f} | "
+              f"{res['iterations']:.1f} | "
               f"{res['ms_per_step']:.1f} | {res['vmean']:.4f} |", flush=True)
         curves.append((f"{kind} {method} {b} {used}", res))
     _plot(curves)
