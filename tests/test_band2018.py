@@ -99,8 +99,9 @@ def test_mls_option_is_validated() -> None:
         Simulation(_tank(2, method="bender2019"))
 
 
-def test_mls_leaves_moving_bodies_and_mirror_default_alone() -> None:
-    """Mirroring stays the default; with 'mls' the extrapolated samples stop mirroring."""
+def test_mls_leaves_moving_bodies_and_mirror_alone() -> None:
+    """'mirror' builds no extrapolation; with 'mls' (akinci2012's default) the extrapolated
+    samples stop mirroring."""
     sim = Simulation(_tank(2, bp="mirror"))
     assert sim.state.coupling.pressure is None
     sim = Simulation(_tank(2))

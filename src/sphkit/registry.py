@@ -22,6 +22,14 @@ Capabilities (keyword flags of :func:`register`):
 * ``gpu``: runs on ``--device cuda`` (none yet: the time step runs on the CPU);
 * ``boundary`` (boundary-pressure models): the boundary kinds it acts on (``particles`` or
   ``maps``, the ``kind`` of the boundary model).
+
+A boundary model also names its default boundary pressure (``boundary_pressure``): the one a
+scene gets when ``configuration.boundary.pressure`` is left out, resolved once, when the scene
+is validated (:func:`default_boundary_pressure`), so the validated scene -- and the run
+manifest that records it -- says which one ran. The defaults are the more accurate pressure
+of each model, measured in ``validation/hydrostatic.py`` (``validation/README.md``, "Boundary
+pressure defaults"): MLS extrapolation (Band et al. 2018) for boundary particles, the
+hydrostatic wall pressure for density and volume maps; ``mirror`` stays selectable.
 """
 
 from __future__ import annotations
@@ -56,6 +64,8 @@ class Method:
     boundary: tuple[str, ...] = ()
     #: boundary models: ``particles`` (boundary particles) or ``maps`` (density/volume maps)
     kind: str = ""
+    #: boundary models: the boundary pressure a scene that names none gets
+    boundary_pressure: str = ""
 
     def has(self, capability: str) -> bool:
         """Whether the method has ``capability`` (one of :data:`CAPABILITIES`)."""
@@ -73,7 +83,8 @@ class Method:
         return {"role": self.role, "name": self.name, "paper": self.paper,
                 "summary": self.summary, "splishsplash": self.splishsplash,
                 "capabilities": sorted(self.capabilities), "boundary": list(self.boundary),
-                "kind": self.kind, "implementation": self.target}
+                "kind": self.kind, "default_boundary_pressure": self.boundary_pressure or None,
+                "implementation": self.target}
 
 
 _METHODS: dict[str, dict[str, Method]] = {role: {} for role in ROLES}
@@ -82,7 +93,8 @@ _METHODS: dict[str, dict[str, Method]] = {role: {} for role in ROLES}
 def register(role: str, name: str, target: str | None, *, paper: str, summary: str,
              splishsplash: int | None = None, periodic: bool = False,
              dynamic_bodies: bool = False, multiphase: bool = False, gpu: bool = False,
-             boundary: tuple[str, ...] = (), kind: str = "") -> Method:
+             boundary: tuple[str, ...] = (), kind: str = "",
+             boundary_pressure: str = "") -> Method:
     """Register a method (see the module docstring); returns its entry."""
     if role not in _METHODS:
         raise ValueError(f"registry: role {role!r}; expected one of {list(ROLES)}")
@@ -93,7 +105,10 @@ def register(role: str, name: str, target: str | None, *, paper: str, summary: s
         raise ValueError(f"registry: {role} number {splishsplash} registered twice")
     caps = frozenset(c for c, on in (("periodic", periodic), ("dynamic_bodies", dynamic_bodies),
                                      ("multiphase", multiphase), ("gpu", gpu)) if on)
-    m = Method(role, name, target, paper, summary, splishsplash, caps, tuple(boundary), kind)
+    if role == "boundary" and not boundary_pressure:
+        raise ValueError(f"registry: boundary model {name!r} names no default boundary_pressure")
+    m = Method(role, name, target, paper, summary, splishsplash, caps, tuple(boundary), kind,
+               boundary_pressure)
     _METHODS[role][name] = m
     return m
 
@@ -123,6 +138,13 @@ def methods(role: str | None = None) -> list[Method]:
     """Every registered method (of one role), roles in :data:`ROLES` order."""
     roles = ROLES if role is None else (role,)
     return [m for r in roles for m in _METHODS[r].values()]
+
+
+def default_boundary_pressure(boundary: str) -> str:
+    """The boundary pressure (a ``boundary_pressure`` method) that the boundary model
+    ``boundary`` uses when the scene names none; KeyError naming the choices for an unknown
+    model."""
+    return get("boundary", boundary).boundary_pressure
 
 
 def with_capability(role: str, capability: str) -> tuple[str, ...]:
@@ -155,13 +177,16 @@ register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
 # boundary models: SPlisHSPlasH boundaryHandlingMethod
 register("boundary", "akinci2012", "sphkit.boundary.akinci2012:Akinci2012", splishsplash=0,
          paper="Akinci et al. 2012, Versatile rigid-fluid coupling for incompressible SPH",
-         summary="boundary particles with volumes 1 / sum W", kind="particles")
+         summary="boundary particles with volumes 1 / sum W", kind="particles",
+         boundary_pressure="mls")
 register("boundary", "koschier2017", "sphkit.boundary.koschier2017:Koschier2017",
          splishsplash=1, paper="Koschier & Bender 2017, Density maps for improved SPH "
-         "boundary handling", summary="density maps on signed distance fields", kind="maps")
+         "boundary handling", summary="density maps on signed distance fields", kind="maps",
+         boundary_pressure="hydrostatic")
 register("boundary", "bender2019", "sphkit.boundary.bender2019:Bender2019", splishsplash=2,
          paper="Bender et al. 2019, Volume maps: an implicit boundary representation for SPH",
-         summary="volume maps on signed distance fields", kind="maps")
+         summary="volume maps on signed distance fields", kind="maps",
+         boundary_pressure="hydrostatic")
 
 # boundary pressure: what p_b the pressure terms of the boundary use
 register("boundary_pressure", "mirror", None,

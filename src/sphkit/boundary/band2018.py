@@ -36,11 +36,12 @@ into ``c_bf``). The Jacobi diagonals keep the mirrored form (``1 + 1`` per bound
 extrapolated ``k_b`` moves with ``k_i`` about as the mirrored one does, and the diagonal only sets
 the step size of the iteration.
 
-Scene option ``configuration.boundary.pressure: "mls"`` (default ``"mirror"``), for the static
-boundary particles of ``akinci2012`` (boxes, static meshes); moving rigid bodies keep their
-mirrored / one-sided term. All pressure solvers with a boundary pressure use it: DFSPH, IISPH and
-PCISPH inside every iteration, WCSPH once per step (:meth:`MLSPressureExtrapolation.
-correct_mirrored`); PBF has no boundary pressure.
+Scene option ``configuration.boundary.pressure: "mls"``, the default of ``akinci2012`` (the
+registry's ``boundary_pressure``; ``"mirror"`` selects mirroring), for its static boundary
+particles (boxes, static meshes); moving rigid bodies keep their mirrored / one-sided term. All
+pressure solvers with a boundary pressure use it: DFSPH, IISPH and PCISPH inside every
+iteration, WCSPH once per step (:meth:`MLSPressureExtrapolation.correct_mirrored`); PBF has no
+boundary pressure and gets no extrapolation.
 """
 
 from __future__ import annotations

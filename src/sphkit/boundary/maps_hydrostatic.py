@@ -1,6 +1,6 @@
 """Hydrostatic boundary pressure for density and volume maps (scene
-``configuration.boundary.pressure: "hydrostatic"``, static maps only): the wall's share of the
-tangential pressure gradient.
+``configuration.boundary.pressure: "hydrostatic"``, the maps' default; static maps only): the
+wall's share of the tangential pressure gradient.
 
 SPlisHSPlasH's boundary term for maps, ``-k_i grad rho_B`` (``pressure_mirror`` 0,
 see :mod:`sphkit.core.ppe`), is half of the mirrored pressure, and it acts along the map normal

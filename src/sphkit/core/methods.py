@@ -61,6 +61,9 @@ class PressureSolver(Protocol):
     #: the step computes the cached pair gradients ``V_j grad W_ij`` in the density pass
     #: (:class:`sphkit.core.solver.PairGradients`) for this solver
     uses_pair_gradients: ClassVar[bool] = False
+    #: the solver's pressure terms read a boundary pressure model (:class:`BoundaryPressure`,
+    #: MLS); False (PBF, which has no boundary pressure): the world builds none for it
+    uses_boundary_pressure: ClassVar[bool] = True
 
     @classmethod
     def from_config(cls, config: Any) -> PressureSolver:

@@ -159,6 +159,7 @@ class PBF(PressureSolver):
     """Position based fluids: Jacobi sweeps over clamped density constraints."""
 
     name = "pbf"
+    uses_boundary_pressure = False  #: density constraints on positions: no boundary pressure
 
     @classmethod
     def from_config(cls, p: Any) -> PBF:

@@ -515,15 +515,22 @@ class Emitter(_Model):
 
 class BoundaryConfig(_Model):
     """Boundary model: ``akinci2012`` boundary particles (Akinci et al. 2012), ``koschier2017``
-    density maps (Koschier & Bender 2017) or ``bender2019`` volume maps (Bender et al. 2019)."""
+    density maps (Koschier & Bender 2017) or ``bender2019`` volume maps (Bender et al. 2019).
+
+    ``pressure`` left out (or null) takes the boundary model's default from the registry
+    (:func:`sphkit.registry.default_boundary_pressure`: ``mls`` for akinci2012,
+    ``hydrostatic`` for the maps), resolved here, so the validated scene names the pressure
+    that runs."""
 
     method: BoundaryMethod = "akinci2012"
     pressure: BoundaryPressureMethod = Field(
-        "mirror", description="akinci2012: pressure of the static boundary particles in the "
-        "pressure force: 'mirror' (p_b = p_i, Akinci et al. 2012) or 'mls' (moving least squares "
-        "extrapolation from the fluid, Band et al. 2018); koschier2017 / bender2019: 'mirror' "
-        "(SPlisHSPlasH's boundary term) or 'hydrostatic' (adds the static walls' share of the "
-        "tangential pressure gradient for p_b = p_i + rho_i g . (x_b - x_i), Adami et al. 2012)",
+        None,  # type: ignore[assignment]  # None: the model's default (_default_pressure)
+        description="akinci2012: pressure of the static boundary particles in the "
+        "pressure force: 'mls' (moving least squares extrapolation from the fluid, Band et al. "
+        "2018; the default) or 'mirror' (p_b = p_i, Akinci et al. 2012); koschier2017 / "
+        "bender2019: 'hydrostatic' (the default: adds the static walls' share of the "
+        "tangential pressure gradient for p_b = p_i + rho_i g . (x_b - x_i), Adami et al. 2012) "
+        "or 'mirror' (SPlisHSPlasH's boundary term); null or absent: the model's default",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
@@ -540,6 +547,16 @@ class BoundaryConfig(_Model):
         if v is not None and (len(v) not in (2, 3) or min(v) < 1):
             raise ValueError(f"map_resolution {v}: expected 2 or 3 positive cell counts")
         return v
+
+    @model_validator(mode="before")
+    @classmethod
+    def _default_pressure(cls, data: Any) -> Any:
+        """``pressure`` absent or null: the boundary model's default (registry)."""
+        if isinstance(data, dict) and data.get("pressure") is None:
+            method = data.get("method", cls.model_fields["method"].default)
+            if isinstance(method, str) and method in registry.names("boundary"):
+                data = {**data, "pressure": registry.default_boundary_pressure(method)}
+        return data
 
 
 class StartConfig(_Model):

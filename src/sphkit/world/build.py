@@ -153,7 +153,7 @@ def _build(scene: Scene) -> World:
     roles += ["boundary"] * len(extra)
     bp = registry.get("boundary_pressure", cfg.boundary.pressure)
     pressure_model = None
-    if bp.target is not None:  # a boundary pressure model of its own (MLS)
+    if bp.target is not None and pressure.uses_boundary_pressure:  # a model of its own (MLS)
         # static boundary particles only: rigid bodies keep their own boundary term
         pressure_model = bp.load()(bd["rigid_body"] == 0)
         pressure_model.init(state)

@@ -27,6 +27,14 @@ objects):
                             ``boundary.method`` akinci2012/koschier2017/bender2019; 3 (Nogina
                             and Sellan 2026) is not supported (checked only when the scene has
                             rigid bodies)
+(boundary pressure)         no SPlisHSPlasH field (it mirrors the fluid pressure: Akinci's
+                            one-sided term, the maps' ``-k_i grad rho_B``); a translated scene
+                            takes sphkit's default of its boundary model, the more accurate
+                            MLS extrapolation (akinci2012) or hydrostatic wall pressure (maps),
+                            with which a side wall carries the weight of the fluid beside it
+                            (``validation/README.md``, "Boundary pressure defaults");
+                            ``configuration.boundary.pressure: mirror`` in sphkit's format is
+                            SPlisHSPlasH's term
 ``particleRadius``          0.025 m
 ``gravitation``             (0, -9.81, 0) m/s^2
 ``timeStepSize``            0.001 s (initial step; the fixed step when ``cflMethod`` is 0)
