@@ -30,7 +30,8 @@ only after too large steps) is moved ``min(2r - phi, 0.1 r)`` along n and stoppe
 SPlisHSPlasH; :attr:`pushed` counts these events.
 
 Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrostatic"``, the
-default for maps; not in the paper nor in SPlisHSPlasH, see :mod:`sphkit.boundary.maps_hydrostatic`): the virtual neighbour
+default for maps; not in the paper nor in SPlisHSPlasH, see
+:mod:`sphkit.boundary.maps_hydrostatic`): the virtual neighbour
 mirrors the pressure (``-2 k_i V_b grad W_ib``) and the wall adds the kernel moment of Adami et
 al.'s (2012, Eq. 27) extrapolated pressure ``p_b = p_i + rho_i g . (x_b - x_i)``: along the wall
 the virtual neighbour's density ``V_b W_ib``, across it the normal moment integrated with the

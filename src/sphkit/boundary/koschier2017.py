@@ -34,7 +34,8 @@ velocity is replaced by 0.05 m/s outwards (SPlisHSPlasH; its step cap ``50 r dt`
 ``0.1 r`` because the boundary model does not see dt); :attr:`pushed` counts these events.
 
 Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrostatic"``, the
-default for maps; not in the paper nor in SPlisHSPlasH, see :mod:`sphkit.boundary.maps_hydrostatic`): the virtual neighbour
+default for maps; not in the paper nor in SPlisHSPlasH, see
+:mod:`sphkit.boundary.maps_hydrostatic`): the virtual neighbour
 mirrors the pressure (``-2 k_i grad rho_B`` instead of ``-k_i grad rho_B``) and the wall adds
 the kernel moment of Adami et al.'s (2012, Eq. 27) extrapolated pressure ``p_b = p_i + rho_i g .
 (x_b - x_i)``: along the wall the density rho_B itself (the plane-wall identity), across it the
