@@ -35,6 +35,26 @@ def test_every_boundary_model_names_a_default_that_acts_on_it() -> None:
     assert registry.default_boundary_pressure("bender2019") == "hydrostatic"
 
 
+def test_moving_bodies_change_the_density_maps_default_only() -> None:
+    """With a dynamic or kinematic body in the scene, density maps mirror (their hydrostatic
+    wall pressure is not stable next to moving maps, tests/test_rigid_maps.py's paddle); the
+    other models keep their default, and a choice the scene makes is kept."""
+    body = {"geometry_file": "body.obj", "angular_velocity": [0.0, 1.0, 0.0]}
+    for meshes, method, expected in (([body], "koschier2017", "mirror"),
+                                     ([{**body, "angular_velocity": None, "dynamic": True}],
+                                      "koschier2017", "mirror"),
+                                     ([{"geometry_file": "wall.obj"}], "koschier2017",
+                                      "hydrostatic"),
+                                     ([body], "bender2019", "hydrostatic"),
+                                     ([body], "akinci2012", "mls")):
+        scene = Scene.model_validate({"configuration": {"boundary": {"method": method}},
+                                      "meshes": meshes})
+        assert scene.configuration.boundary.pressure == expected, (method, meshes)
+    scene = Scene.model_validate({"configuration": {"boundary": {
+        "method": "koschier2017", "pressure": "hydrostatic"}}, "meshes": [body]})
+    assert scene.configuration.boundary.pressure == "hydrostatic"
+
+
 def _scene(boundary: dict) -> Scene:
     return Scene.model_validate({"configuration": {"dim": 2, "boundary": boundary}})
 

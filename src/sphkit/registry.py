@@ -29,7 +29,10 @@ is validated (:func:`default_boundary_pressure`), so the validated scene -- and 
 manifest that records it -- says which one ran. The defaults are the more accurate pressure
 of each model, measured in ``validation/hydrostatic.py`` (``validation/README.md``, "Boundary
 pressure defaults"): MLS extrapolation (Band et al. 2018) for boundary particles, the
-hydrostatic wall pressure for density and volume maps; ``mirror`` stays selectable.
+hydrostatic wall pressure for density and volume maps; ``mirror`` stays selectable. A model
+may name another default for scenes with moving (dynamic or kinematic) bodies
+(``boundary_pressure_moving``): density maps mirror there, because their hydrostatic wall
+pressure threw fluid squeezed between a turning paddle and a wall at 48 m/s.
 """
 
 from __future__ import annotations
@@ -66,6 +69,8 @@ class Method:
     kind: str = ""
     #: boundary models: the boundary pressure a scene that names none gets
     boundary_pressure: str = ""
+    #: boundary models: the default in scenes with moving bodies (empty: the same)
+    boundary_pressure_moving: str = ""
 
     def has(self, capability: str) -> bool:
         """Whether the method has ``capability`` (one of :data:`CAPABILITIES`)."""
@@ -84,6 +89,8 @@ class Method:
                 "summary": self.summary, "splishsplash": self.splishsplash,
                 "capabilities": sorted(self.capabilities), "boundary": list(self.boundary),
                 "kind": self.kind, "default_boundary_pressure": self.boundary_pressure or None,
+                "default_boundary_pressure_moving_bodies":
+                    self.boundary_pressure_moving or self.boundary_pressure or None,
                 "implementation": self.target}
 
 
@@ -94,7 +101,7 @@ def register(role: str, name: str, target: str | None, *, paper: str, summary: s
              splishsplash: int | None = None, periodic: bool = False,
              dynamic_bodies: bool = False, multiphase: bool = False, gpu: bool = False,
              boundary: tuple[str, ...] = (), kind: str = "",
-             boundary_pressure: str = "") -> Method:
+             boundary_pressure: str = "", boundary_pressure_moving: str = "") -> Method:
     """Register a method (see the module docstring); returns its entry."""
     if role not in _METHODS:
         raise ValueError(f"registry: role {role!r}; expected one of {list(ROLES)}")
@@ -108,7 +115,7 @@ def register(role: str, name: str, target: str | None, *, paper: str, summary: s
     if role == "boundary" and not boundary_pressure:
         raise ValueError(f"registry: boundary model {name!r} names no default boundary_pressure")
     m = Method(role, name, target, paper, summary, splishsplash, caps, tuple(boundary), kind,
-               boundary_pressure)
+               boundary_pressure, boundary_pressure_moving)
     _METHODS[role][name] = m
     return m
 
@@ -140,11 +147,12 @@ def methods(role: str | None = None) -> list[Method]:
     return [m for r in roles for m in _METHODS[r].values()]
 
 
-def default_boundary_pressure(boundary: str) -> str:
+def default_boundary_pressure(boundary: str, moving_bodies: bool = False) -> str:
     """The boundary pressure (a ``boundary_pressure`` method) that the boundary model
-    ``boundary`` uses when the scene names none; KeyError naming the choices for an unknown
-    model."""
-    return get("boundary", boundary).boundary_pressure
+    ``boundary`` uses when the scene names none (``moving_bodies``: the scene has dynamic or
+    kinematic bodies); KeyError naming the choices for an unknown model."""
+    m = get("boundary", boundary)
+    return (m.boundary_pressure_moving if moving_bodies else "") or m.boundary_pressure
 
 
 def with_capability(role: str, capability: str) -> tuple[str, ...]:
@@ -182,7 +190,7 @@ register("boundary", "akinci2012", "sphkit.boundary.akinci2012:Akinci2012", spli
 register("boundary", "koschier2017", "sphkit.boundary.koschier2017:Koschier2017",
          splishsplash=1, paper="Koschier & Bender 2017, Density maps for improved SPH "
          "boundary handling", summary="density maps on signed distance fields", kind="maps",
-         boundary_pressure="hydrostatic")
+         boundary_pressure="hydrostatic", boundary_pressure_moving="mirror")
 register("boundary", "bender2019", "sphkit.boundary.bender2019:Bender2019", splishsplash=2,
          paper="Bender et al. 2019, Volume maps: an implicit boundary representation for SPH",
          summary="volume maps on signed distance fields", kind="maps",

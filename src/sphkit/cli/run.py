@@ -253,6 +253,8 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
                         "dim": sim.dim, "attributes": attributes,
                         "series": writer.series_path.name if "vtk" in formats else None},
             )
+            manifest.data["start"] = sim.world.start.to_dict()
+            manifest.write()
     except OSError as e:
         error(f"cannot write to the output folder {str(out_dir)!r}: {e}")
         return EXIT_FAILED

@@ -8,8 +8,7 @@ Simulation.step`) calls every entry point of every method without asking ``hasat
 * :class:`PressureSolver` -- ``init``, ``max_time_step``, ``pre_forces`` (DFSPH's factors and
   divergence-free solve), ``solve -> SolverStats``, ``boundary_reaction`` (the boundary share
   of its pressure acceleration, which moving bodies feel as the fluid force), and for the
-  hydrostatic start ``compressed_density`` (the density that carries a pressure) and
-  ``warm_start`` (the start pressure into the solver's warm start);
+  hydrostatic start ``compressed_density`` (the density that carries a pressure);
 * :class:`NonPressureForce` -- ``init``, ``apply`` (adds to ``state.fluid["a"]``), ``stats``
   (an implicit solver's last solve);
 * :class:`BoundaryModel` -- ``init``, ``update`` (this step's fluid-boundary neighbours),
@@ -98,13 +97,6 @@ class PressureSolver(Protocol):
         hydrostatic start, :mod:`sphkit.world.startup`): rho0 for the incompressible solvers,
         the inverse of the state equation for WCSPH."""
         return np.broadcast_to(np.asarray(rho0, dtype=float), np.shape(p)).copy()
-
-    def warm_start(self, state: SimState, dt: float) -> None:
-        """The fluid starts with the pressure ``state.fluid["p"]`` [Pa] (the hydrostatic
-        start): carry it into the solver's own warm start for a first step of length dt [s].
-        By default nothing more (IISPH warm-starts from ``p`` itself; WCSPH, PCISPH and PBF
-        keep no pressure between steps)."""
-        return None
 
 
 @runtime_checkable

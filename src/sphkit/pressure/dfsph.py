@@ -132,14 +132,6 @@ class DFSPH(PressureSolver):
         """No limit of its own beyond the CFL step."""
         return float("inf")
 
-    def warm_start(self, state: SimState, dt: float) -> None:
-        """The start pressure p (the hydrostatic start) as the density solver's stored kappa,
-        so that the first solve of length dt starts from it: ``kappa = p rho0 / rho^2`` (the
-        module docstring's normalisation), stored as ``2 kappa dt^2`` because the warm start
-        halves what is stored (validation/README.md, "Start-up")."""
-        f = state.fluid
-        f["dfsph_kappa"] = 2.0 * f["p"] * state.rho0 / f["rho"] ** 2 * (dt * dt)
-
     def pre_forces(self, state: SimState, dt: float) -> None:
         """Factors alpha, then the divergence-free solve on the current velocities."""
         f = state.fluid

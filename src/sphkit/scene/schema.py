@@ -548,15 +548,24 @@ class BoundaryConfig(_Model):
             raise ValueError(f"map_resolution {v}: expected 2 or 3 positive cell counts")
         return v
 
-    @model_validator(mode="before")
+    #: ``pressure`` was left out and is the model's default (the scene may change it to the
+    #: default for moving bodies, :meth:`Scene._moving_bodies_pressure`)
+    _pressure_default: bool = PrivateAttr(False)
+
+    @model_validator(mode="wrap")
     @classmethod
-    def _default_pressure(cls, data: Any) -> Any:
+    def _default_pressure(cls, data: Any, handler: Any) -> Any:
         """``pressure`` absent or null: the boundary model's default (registry)."""
+        defaulted = False
         if isinstance(data, dict) and data.get("pressure") is None:
             method = data.get("method", cls.model_fields["method"].default)
             if isinstance(method, str) and method in registry.names("boundary"):
                 data = {**data, "pressure": registry.default_boundary_pressure(method)}
-        return data
+                defaulted = True
+        out = handler(data)
+        if defaulted and isinstance(out, BoundaryConfig):
+            out._pressure_default = True
+        return out
 
 
 class StartConfig(_Model):
@@ -705,6 +714,15 @@ class Scene(_Model):
         if not v:
             raise ValueError("at least one material is needed")
         return v
+
+    @model_validator(mode="after")
+    def _moving_bodies_pressure(self) -> Scene:
+        """A boundary pressure left out, in a scene with moving (dynamic or kinematic) bodies:
+        the boundary model's default for moving bodies (registry)."""
+        b = self.configuration.boundary
+        if b._pressure_default and any(m.dynamic or m.kinematic for m in self.meshes):
+            b.pressure = registry.default_boundary_pressure(b.method, moving_bodies=True)
+        return self
 
     @model_validator(mode="after")
     def _consistent(self) -> Scene:

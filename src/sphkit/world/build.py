@@ -25,7 +25,6 @@ from sphkit.core.methods import (
 from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
-from sphkit.core.timestep import cfl_time_step, max_speed
 from sphkit.geometry import GeometryError
 from sphkit.scene.checks import check_budget, check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
@@ -169,22 +168,9 @@ def _build(scene: Scene) -> World:
     for force in forces:
         force.init(state)
     pressure.init(state)
-    if state.fluid.n:
-        pressure.warm_start(state, _first_time_step(scene, state, pressure, rigid))
     return World(scene=scene, state=state, material=mat, pressure=pressure,
                  boundary_model=model, rigid=rigid, emitters=emitters,
                  lattice_volume=lattice_volume(2.0 * r, state.kid, h, dim), forces=forces,
                  force_roles=roles, domain=domain_box(state, scene, meshes, emitters),
                  start=start)
 
-
-def _first_time_step(scene: Scene, state: SimState, pressure: PressureSolver,
-                     rigid: RigidBodies) -> float:
-    """The length of the first step as :meth:`sphkit.simulation.Simulation.step` will choose
-    it from the start velocities (the CFL step and the solver's bound, or the fixed step)."""
-    tc = scene.configuration.time
-    if not tc.cfl:
-        return tc.dt
-    vmax = max(max_speed(state.fluid["v"], None), rigid.max_speed(state))
-    dt = cfl_time_step(vmax, state.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
-    return float(min(dt, pressure.max_time_step(state)))

@@ -26,8 +26,10 @@ and bounces ("breathes") for seconds. The start-up, in this order
    ``p = rho0 |g| depth``. The start density is the solver's
    :meth:`~sphkit.core.methods.PressureSolver.compressed_density` of p (WCSPH: the inverse of
    its Tait or linear state equation, so that its first pressure is p; rho0 for PCISPH, PBF,
-   IISPH and DFSPH, which take p as their warm start,
-   :meth:`~sphkit.core.methods.PressureSolver.warm_start`). Fluid under a body starts with the
+   IISPH and DFSPH; IISPH takes p as the warm start of its first solve; DFSPH's first solve
+   starts from zero, because a hydrostatic kappa given to fluid that is not yet in contact
+   with the floor (a block 3r above a density-map floor falls 2r first) stayed in its warm
+   starts and left the 2D column's slope 5 % steep for seconds). Fluid under a body starts with the
    pressure of its own column below the body; a column that does not rest on a wall (its
    lowest particle has no boundary neighbour below it: fluid in the air) starts at p = 0, and
    so does all fluid when gravity has a component along a periodic x axis (a driven flow).
@@ -55,7 +57,7 @@ volume is ``V0 = m / rho0``. :class:`StartReport` records what was done.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -107,6 +109,17 @@ class StartReport:
     #: the density error (mean, max) of the start, with its masses: ``|rho / rho_start - 1|``
     #: where the kernel is filled, the compression at a free surface
     start_error: tuple[float, float] = (0.0, 0.0)
+
+    def to_dict(self) -> dict[str, object]:
+        """Plain-dict form (``manifest.json``'s ``start``)."""
+        def plain(v: object) -> object:
+            if isinstance(v, dict):
+                return {str(k): plain(x) for k, x in v.items()}
+            if isinstance(v, (tuple, list)):
+                return [plain(x) for x in v]
+            return v.item() if isinstance(v, np.generic) else v
+
+        return {k: plain(v) for k, v in asdict(self).items()}
 
 
 # ---------------------------------------------------------------------------------------------
