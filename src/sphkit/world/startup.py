@@ -317,8 +317,19 @@ def start_density(state: SimState, model: BoundaryModel, pressure: PressureSolve
 
 
 def _neighbors(state: SimState, model: BoundaryModel) -> None:
-    state.nl_ff = neighbor_lists(state.fluid["x"], state.h, state.periodic)
+    """This state's fluid-fluid and fluid-boundary lists, rebuilt only when the fluid moved or
+    changed since the last call (the start-up's steps ask for them at unchanged positions)."""
+    x = state.fluid["x"]
+    last = _LISTED.get(id(state))
+    if last is not None and last.shape == x.shape and np.array_equal(last, x):
+        return
+    state.nl_ff = neighbor_lists(x, state.h, state.periodic)
     model.update(state)
+    _LISTED[id(state)] = x.copy()
+
+
+#: the fluid positions each state's lists were last built for (cleared by :func:`start_fluid`)
+_LISTED: dict[int, np.ndarray] = {}
 
 
 def _density(state: SimState, m: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -416,6 +427,14 @@ def start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bound
     """Steps 1-4 of the module docstring on the built state (walls, maps and bodies in place,
     the methods not yet initialised); ``state.fluid`` ends with its start masses, volumes,
     positions, densities and pressures."""
+    try:
+        return _start_fluid(state, scene, meshes, model, pressure)
+    finally:
+        _LISTED.pop(id(state), None)
+
+
+def _start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
+                 pressure: PressureSolver) -> StartReport:
     cfg = scene.configuration.start
     report = StartReport(hydrostatic=cfg.hydrostatic and bool(np.any(state.gravity)))
     f = state.fluid
