@@ -174,11 +174,12 @@ def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes
         dist = np.linalg.norm(excess, axis=1)
         hit = (dist > 0.0) & (dist < h) & (out < 0)
         out[hit] = len(names)
-        names.append(f"boxes[{k}]")
+        names.append(scene.field(f"boxes[{k}]"))
     for k, mb in enumerate(scene.meshes):
         mesh = meshes.mesh(k)
         name = len(names)
-        names.append(f"meshes[{k}]")
+        names.append(scene.field(f"meshes[{k}]") + ("" if mb.invert else (
+            f" (a solid body: {scene.field(f'meshes[{k}].invert')} false)")))
         if not mesh.is_watertight:  # no inside: only the model's own test applies
             continue
         blo = np.asarray(mesh.bounds[0], float)[:dim] - h
@@ -210,6 +211,7 @@ def _remove(state: SimState, where: np.ndarray, walls: list[str], what: str,
     if not hit.any():
         return
     obj, names = _object_of(state)
+    involved = ", ".join(walls[w] for w in np.unique(where[hit]))
     for o in np.unique(obj[hit]):
         sel = hit & (obj == o)
         by_wall = np.bincount(where[sel], minlength=len(walls))
@@ -218,12 +220,13 @@ def _remove(state: SimState, where: np.ndarray, walls: list[str], what: str,
         count = int(sel.sum())
         counts[name] = counts.get(name, 0) + count
         warnings.warn(f"{name}: {count} particle(s) {what} {parts}; removed", UserWarning,
-                      stacklevel=4)
+                      stacklevel=5)
     state.fluid.compact(~hit)
     if state.fluid.n == 0:
         raise SceneError(
-            f"{', '.join(sorted(counts))}: every fluid particle starts {what} a wall or body; "
-            "expected fluid inside the walls (move the fluid blocks off the walls)")
+            f"{', '.join(sorted(counts))}: every fluid particle was removed, they all "
+            f"{what} {involved}; expected fluid inside the walls (move the fluid off the "
+            "walls, or make a container mesh a container)")
 
 
 def remove_inside(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,

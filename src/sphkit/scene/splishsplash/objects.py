@@ -264,6 +264,8 @@ def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]]) -> list[dict[str, Any
             raise rd.error(f"{w}.rotationAxis", axis, "a non-zero axis")
         n = len(out)
         rd.origin[f"meshes[{n}]"] = w
+        rd.origin[f"meshes[{n}].invert"] = f"{w}.mapInvert"
+        rd.origin[f"meshes[{n}].geometry_file"] = f"{w}.geometryFile"
         out.append({
             "geometry_file": geometry,
             "translation": rd.vec3(rb, "translation", w, [0.0, 0.0, 0.0]),
