@@ -18,8 +18,9 @@ import pytest
 
 from sphkit import registry
 from sphkit.core.ppe import density_at
+from sphkit.core.projection import constraint_lambda
 from sphkit.core.solver import PairGradients
-from sphkit.pressure.pbf import PBF, pbf_lambda
+from sphkit.pressure.pbf import PBF
 from sphkit.pressure.pcisph import PCISPH
 from sphkit.scene.schema import PressureConfig, Scene
 from sphkit.simulation import Simulation
@@ -121,8 +122,9 @@ def test_pbf_lambda_pass_matches_density_at_and_a_numpy_reference() -> None:
     lam = np.empty(f.n)
     rho = np.empty(f.n)
     eps = 1e-6
-    avg, mx = pbf_lambda(f["x"], dx, f["V0"], nl.offsets, nl.indices, b["x"], b["V"],
-                         nb.offsets, nb.indices, st.h, st.kid, st.dim, eps, lam, rho)
+    avg, mx = constraint_lambda(f["x"], dx, f["V0"], np.ones(f.n), nl.offsets, nl.indices,
+                                b["x"], b["V"], nb.offsets, nb.indices, st.h, st.kid, st.dim,
+                                0.0, eps, 0.0, lam, rho)
     assert np.allclose(rho, ref, rtol=1e-12)
     c = np.maximum(ref - 1.0, 0.0)
     assert avg == pytest.approx(c.mean()) and mx == pytest.approx(c.max())

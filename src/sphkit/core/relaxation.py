@@ -23,94 +23,20 @@ with the summation density :func:`sphkit.core.operators.density_body` that every
   times the target compression for a kernel-truncated free surface (which keeps that mass and
   its density deficit), a few per cent above it where the kernel is filled.
 
-The pair loops are written with :mod:`sphkit.core.pairs` (minimum-image x differences with a
-period L > 0).
+The sweeps are :mod:`sphkit.core.projection`'s pair loops, PBF's own (with the target and a
+period L > 0 along x).
 """
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
-from sphkit.core.kernels import kernel_dw, kernel_w
-from sphkit.core.pairs import point, separation
+from sphkit.core.projection import constraint_correction, constraint_lambda
 
 _JIT = dict(cache=True, fastmath=True)
 #: constraint-force mixing of the projection [1/m^2] (PBF's epsilon, SPlisHSPlasH's 1e-6)
 EPSILON = 1e-6
-
-
-@numba.njit(parallel=True, **_JIT)
-def _lambda(x, V, t, off, idx, bx, bV, boff, bidx, h, kid, dim, L, eps, tol, lam):
-    n = x.shape[1]
-    w0 = kernel_w(kid, 0.0, h, dim)
-    tot = 0.0
-    mx = 0.0
-    for i in numba.prange(n):
-        xi0, xi1, xi2 = point(x, i, dim)
-        rho = V[i] * w0
-        g0 = g1 = g2 = 0.0
-        sq = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
-            rho += V[j] * kernel_w(kid, r, h, dim)
-            f = V[j] * kernel_dw(kid, r, h, dim)
-            g0 += f * d0
-            g1 += f * d1
-            g2 += f * d2
-            sq += f * f * r * r
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-            rho += bV[b] * kernel_w(kid, r, h, dim)
-            f = bV[b] * kernel_dw(kid, r, h, dim)
-            g0 += f * d0
-            g1 += f * d1
-            g2 += f * d2
-        c = rho / t[i] - 1.0
-        if c > tol:
-            lam[i] = -c / (sq + g0 * g0 + g1 * g1 + g2 * g2 + eps)
-        else:
-            lam[i] = 0.0
-            c = 0.0
-        tot += c
-        mx = max(mx, c)
-    return tot / max(n, 1), mx
-
-
-@numba.njit(parallel=True, **_JIT)
-def _displace(x, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, L, cap, dx):
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = point(x, i, dim)
-        li = lam[i]
-        c0 = c1 = c2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            s = li + lam[j]
-            if s == 0.0:
-                continue
-            d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
-            f = s * V[j] * kernel_dw(kid, r, h, dim)
-            c0 += f * d0
-            c1 += f * d1
-            c2 += f * d2
-        if li != 0.0:
-            for k in range(boff[i], boff[i + 1]):
-                b = bidx[k]
-                d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-                f = li * bV[b] * kernel_dw(kid, r, h, dim)
-                c0 += f * d0
-                c1 += f * d1
-                c2 += f * d2
-        a = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-        s = cap / a if a > cap else 1.0
-        dx[0, i] = s * c0
-        dx[1, i] = s * c1
-        if dim == 3:
-            dx[2, i] = s * c2
 
 
 def relax_pass(x: np.ndarray, V: np.ndarray, target: np.ndarray, nl_ff, nl_fb,
@@ -124,13 +50,18 @@ def relax_pass(x: np.ndarray, V: np.ndarray, target: np.ndarray, nl_ff, nl_fb,
     to round-off)."""
     n = x.shape[1]
     lam = np.empty(n, dtype=x.dtype)
-    avg, mx = _lambda(x, V, target, nl_ff.offsets, nl_ff.indices, bx, bV, nl_fb.offsets,
-                      nl_fb.indices, float(h), int(kid), int(dim), float(L), EPSILON,
-                      float(tol), lam)
+    rho_hat = np.empty(n, dtype=x.dtype)
     dx = np.zeros_like(x)
+    avg, mx = constraint_lambda(x, dx, V, target, nl_ff.offsets, nl_ff.indices, bx, bV,
+                                nl_fb.offsets, nl_fb.indices, float(h), int(kid), int(dim),
+                                float(L), EPSILON, float(tol), lam, rho_hat)
     if mx > 0.0:
-        _displace(x, V, lam, nl_ff.offsets, nl_ff.indices, bx, bV, nl_fb.offsets,
-                  nl_fb.indices, float(h), int(kid), int(dim), float(L), float(cap), dx)
+        out = np.empty_like(x)
+        constraint_correction(x, dx, V, lam, nl_ff.offsets, nl_ff.indices, bx, bV,
+                              nl_fb.offsets, nl_fb.indices, float(h), int(kid), int(dim),
+                              float(L), False, 0.0, 0.0, 1.0, 0.0, out)
+        a = np.sqrt((out * out).sum(axis=0))
+        dx = out * np.where(a > cap, cap / np.where(a > 0.0, a, 1.0), 1.0)
     return float(avg), float(mx), dx
 
 

@@ -23,6 +23,9 @@ Per step, with ``a_ext`` = gravity + non-pressure accelerations already in ``sta
    * the error of a sweep is the average compression ``mean(C)`` before its correction
      (SPlisHSPlasH's ``avg_density_err``); the reported error is that of the last sweep.
 
+   The two pair loops are :mod:`sphkit.core.projection`'s (target 1), which the start-up's
+   density relaxation shares.
+
    ``grad W_ij`` is evaluated at the predicted positions x*. **The neighbour lists are those of
    the step start** (built at x by the simulation), unlike SPlisHSPlasH, which searches again at
    x*: a pair that moves into the support radius within one step is missed for that step (its
@@ -60,99 +63,16 @@ velocity update; gravity enters the prediction in both.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
-import numba
 import numpy as np
 
-from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import PressureSolver
-from sphkit.core.pairs import (
-    displaced_delta,
-    displaced_point,
-    dot,
-    norm,
-    separation,
-    set_vector,
-)
 from sphkit.core.ppe import lattice_diagonal
+from sphkit.core.projection import constraint_correction, constraint_lambda
 from sphkit.core.solver import IterationControl, SolverStats
 from sphkit.core.state import SimState
-
-_JIT = dict(cache=True, fastmath=True)
-
-
-@numba.njit(parallel=True, **_JIT)
-def pbf_lambda(x, dx, V, off, idx, bx, bV, boff, bidx, h, kid, dim, eps, lam, rho_hat):
-    """Density ``rho_hat`` at ``x + dx`` and ``lambda_i = -C_i / (sum_k |grad_k C_i|^2 + eps)``
-    with ``C_i = max(rho_hat_i - 1, 0)``; returns (mean, max) of C."""
-    n = x.shape[1]
-    tot = 0.0
-    mx = 0.0
-    w0 = kernel_w(kid, 0.0, h, dim)
-    for i in numba.prange(n):
-        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
-        rho = V[i] * w0
-        g0 = g1 = g2 = 0.0
-        sq = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
-            r2 = dot(d0, d1, d2, d0, d1, d2)
-            rr = math.sqrt(r2)
-            rho += V[j] * kernel_w(kid, rr, h, dim)
-            f = V[j] * kernel_dw(kid, rr, h, dim)
-            g0 += f * d0
-            g1 += f * d1
-            g2 += f * d2
-            sq += f * f * r2
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            d0, d1, d2, rr = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
-            rho += bV[b] * kernel_w(kid, rr, h, dim)
-            f = bV[b] * kernel_dw(kid, rr, h, dim)
-            g0 += f * d0
-            g1 += f * d1
-            g2 += f * d2
-        rho_hat[i] = rho
-        c = max(rho - 1.0, 0.0)
-        lam[i] = -c / (sq + g0 * g0 + g1 * g1 + g2 * g2 + eps) if c > 0.0 else 0.0
-        tot += c
-        mx = max(mx, c)
-    return tot / max(n, 1), mx
-
-
-@numba.njit(parallel=True, **_JIT)
-def pbf_correction(x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, s_corr, k_corr,
-                   n_corr, w_dq, d0_inv, out):
-    """``out_i = sum_j (lambda_i + lambda_j + s_corr,ij) V_j grad W_ij + sum_b lambda_i V_b
-    grad W_ib`` at the positions ``x + dx``; ``s_corr,ij = -k_corr (W_ij / w_dq)^n_corr d0_inv``
-    when ``s_corr``."""
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
-        li = lam[i]
-        c0 = c1 = c2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
-            rr = norm(d0, d1, d2)
-            s = li + lam[j]
-            if s_corr:
-                s -= k_corr * (kernel_w(kid, rr, h, dim) / w_dq) ** n_corr * d0_inv
-            f = s * V[j] * kernel_dw(kid, rr, h, dim)
-            c0 += f * d0
-            c1 += f * d1
-            c2 += f * d2
-        if li != 0.0:
-            for k in range(boff[i], boff[i + 1]):
-                b = bidx[k]
-                d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
-                f = li * bV[b] * kernel_dw(kid, r, h, dim)
-                c0 += f * d0
-                c1 += f * d1
-                c2 += f * d2
-        set_vector(out, i, dim, c0, c1, c2)
 
 
 class PBF(PressureSolver):
@@ -216,13 +136,16 @@ class PBF(PressureSolver):
         corr = np.empty_like(x)
         w_dq = float(kernel_w(state.kid, self.s_corr_dq * state.h, state.h, state.dim))
 
+        target = np.ones(n, dtype=f.dtype)  # C_i = rho_hat_i - 1
+
         def sweep(_k: int) -> tuple[float, float]:
-            avg, mx = pbf_lambda(x, dx, V, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                                 nb.indices, state.h, state.kid, state.dim, self.epsilon, lam,
-                                 rho_hat)
-            pbf_correction(x, dx, V, lam, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
-                           nb.indices, state.h, state.kid, state.dim, self.s_corr, self.s_corr_k,
-                           self.s_corr_n, w_dq, self._d0_inv, corr)
+            avg, mx = constraint_lambda(x, dx, V, target, nl.offsets, nl.indices, b["x"],
+                                        b["V"], nb.offsets, nb.indices, state.h, state.kid,
+                                        state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat)
+            constraint_correction(x, dx, V, lam, nl.offsets, nl.indices, b["x"], b["V"],
+                                  nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
+                                  self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
+                                  self._d0_inv, corr)
             dx[...] += corr
             lam_sum[...] += lam
             return avg, mx
