@@ -112,10 +112,8 @@ class Akinci2012(BoundaryModel):
         _nearest(f["x"], nl.offsets, nl.indices, bd["x"], state.dim, state.period, dist, near)
         hit = dist < state.r
         names = [o.name for o in bd.objects]
-        starts = np.array([o.start for o in bd.objects], dtype=np.int64)
         if hit.any() and names:
-            obj = np.searchsorted(starts, bd["id"][near[hit]], side="right") - 1
-            out[hit] = np.maximum(obj, 0)
+            out[hit] = np.maximum(bd.object_index(bd["id"][near[hit]]), 0)
         return out, names
 
     def update(self, state: SimState) -> None:

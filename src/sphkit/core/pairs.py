@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from sphkit.core.kernels import kernel_dw
 
@@ -43,6 +44,14 @@ def min_image(d: float, L: float) -> float:
     """``d - L round(d / L)`` for a periodic axis of length ``L`` > 0; ``d`` when L <= 0."""
     if L > 0.0:
         return d - L * math.floor(d / L + 0.5)
+    return d
+
+
+def min_image_rows(d: np.ndarray, L: float) -> np.ndarray:
+    """:func:`min_image` of the x row of an array of differences ``d`` (dim, M), in place, for
+    NumPy code outside the pair loops (start-up); ``d`` unchanged when L <= 0."""
+    if L > 0.0:
+        d[0] -= L * np.floor(d[0] / L + 0.5)
     return d
 
 

@@ -224,6 +224,12 @@ class ParticleSet:
         self.objects = objects
         self.next_id = m
 
+    def object_index(self, ids: np.ndarray) -> np.ndarray:
+        """The index into :attr:`objects` of the particles with ``ids`` (-1 for an id before
+        the first object)."""
+        starts = np.array([o.start for o in self.objects], dtype=np.int64)
+        return np.searchsorted(starts, ids, side="right") - 1
+
     def permute(self, perm: np.ndarray) -> None:
         """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles."""
         for fname, spec in self.specs.items():

@@ -23,7 +23,7 @@ phase follows from ``step_count``. Files are named ``checkpoint_<step>.npz`` in 
 Reading never unpickles (``allow_pickle=False``; a file that is not a zip archive is refused
 before NumPy looks at it) and refuses a checkpoint whose positions or velocities are not finite.
 Reading a folder takes the newest checkpoint that reads, with a warning naming each newer one
-that does not (:func:`read_checkpoint`, :func:`readable_checkpoints`).
+that does not (:func:`read_checkpoint`).
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ import json
 import os
 import re
 import warnings
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -203,18 +202,6 @@ def _load(p: Path) -> Checkpoint:
     return Checkpoint(p, meta, arrays)
 
 
-def readable_checkpoints(out_dir: str | os.PathLike[str]) -> Iterator[Checkpoint]:
-    """The checkpoints of an output folder that read, newest first; a UserWarning names each
-    one that does not (the next older one is tried)."""
-    for p in reversed(list_checkpoints(out_dir)):
-        try:
-            ck = _load(p)
-        except CheckpointError as e:
-            warnings.warn(f"checkpoint skipped: {e}", UserWarning, stacklevel=2)
-            continue
-        yield ck
-
-
 def read_checkpoint(path: str | os.PathLike[str]) -> Checkpoint:
     """Read a checkpoint file, or the newest readable one in an output folder (or its
     ``checkpoints/`` folder; a UserWarning names each newer one that does not read).
@@ -231,8 +218,11 @@ def read_checkpoint(path: str | os.PathLike[str]) -> Checkpoint:
     if not found:
         raise CheckpointError(f"{str(p)!r}: no checkpoint found (expected files "
                               f"{CHECKPOINT_DIR}/checkpoint_<step>.npz)")
-    for ck in readable_checkpoints(folder):
-        return ck
+    for f in reversed(found):  # the newest that reads
+        try:
+            return _load(f)
+        except CheckpointError as e:
+            warnings.warn(f"checkpoint skipped: {e}", UserWarning, stacklevel=2)
     names = ", ".join(repr(str(f)) for f in found[-3:])
     raise CheckpointError(f"{str(p)!r}: none of its {len(found)} checkpoint(s) can be read "
                           f"({names}{', ...' if len(found) > 3 else ''})")

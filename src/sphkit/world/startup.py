@@ -64,6 +64,7 @@ import numpy as np
 from sphkit.core.methods import BoundaryModel, PressureSolver
 from sphkit.core.neighbors import neighbor_lists
 from sphkit.core.operators import density_cpu
+from sphkit.core.pairs import min_image_rows
 from sphkit.core.relaxation import mass_pass, relax_pass
 from sphkit.core.state import SimState
 from sphkit.core.timestep import wrap_periodic
@@ -174,12 +175,11 @@ def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes
         dist = np.linalg.norm(excess, axis=1)
         hit = (dist > 0.0) & (dist < h) & (out < 0)
         out[hit] = len(names)
-        names.append(scene.field(f"boxes[{k}]"))
+        names.append(f"boxes[{k}]")
     for k, mb in enumerate(scene.meshes):
         mesh = meshes.mesh(k)
         name = len(names)
-        names.append(scene.field(f"meshes[{k}]") + ("" if mb.invert else (
-            f" (a solid body: {scene.field(f'meshes[{k}].invert')} false)")))
+        names.append(f"meshes[{k}]")
         if not mesh.is_watertight:  # no inside: only the model's own test applies
             continue
         blo = np.asarray(mesh.bounds[0], float)[:dim] - h
@@ -198,8 +198,7 @@ def _object_of(state: SimState) -> tuple[np.ndarray, list[str]]:
     """Each fluid particle's object (index into the names ``fluid_blocks[k]``, ...)."""
     f = state.fluid
     names = [o.name for o in f.objects]
-    starts = np.array([o.start for o in f.objects], dtype=np.int64)
-    obj = np.searchsorted(starts, f["id"], side="right") - 1 if names else np.zeros(f.n, int)
+    obj = f.object_index(f["id"]) if names else np.zeros(f.n, int)
     return obj, names
 
 
@@ -220,7 +219,7 @@ def _remove(state: SimState, where: np.ndarray, walls: list[str], what: str,
         count = int(sel.sum())
         counts[name] = counts.get(name, 0) + count
         warnings.warn(f"{name}: {count} particle(s) {what} {parts}; removed", UserWarning,
-                      stacklevel=5)
+                      stacklevel=4)
     state.fluid.compact(~hit)
     if state.fluid.n == 0:
         raise SceneError(
@@ -240,7 +239,17 @@ def remove_inside(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bou
     if own_names:
         remap = np.array([names.index(n) for n in own_names], dtype=np.int64)
         where[free & (own >= 0)] = remap[own[free & (own >= 0)]]
-    _remove(state, where, names, "start inside", report.removed_inside)
+    _remove(state, where, [_wall_label(scene, n) for n in names], "start inside",
+            report.removed_inside)
+
+
+def _wall_label(scene: Scene, name: str) -> str:
+    """A wall (``boxes[k]``, ``meshes[k]``, ...) as messages name it: the field the user wrote,
+    and for a mesh that is a solid (not ``invert``) the field that would make it a container."""
+    label = scene.field(name)
+    if name.startswith("meshes[") and not scene.meshes[int(name[7:name.index("]")])].invert:
+        label += f" (a solid body: {scene.field(name + '.invert')} false)"
+    return label
 
 
 # ---------------------------------------------------------------------------------------------
@@ -293,15 +302,13 @@ def resting_on_walls(state: SimState) -> np.ndarray:
         return out
     up = -np.asarray(state.gravity, float) / float(np.linalg.norm(state.gravity))
     rows = np.repeat(np.arange(f.n), counts)
-    d = f["x"][:, rows] - b["x"][:, nl.indices]
-    if state.period > 0.0:
-        d[0] -= state.period * np.round(d[0] / state.period)
+    d = min_image_rows(f["x"][:, rows] - b["x"][:, nl.indices], state.period)
     below = (up @ d) > 0.5 * np.sqrt((d * d).sum(axis=0))
     out[rows[below]] = True
     return out
 
 
-def start_density(state: SimState, model: BoundaryModel, pressure: PressureSolver,
+def start_density(state: SimState, lists: _Lists, pressure: PressureSolver,
                   hydrostatic: bool) -> tuple[np.ndarray, np.ndarray]:
     """The start pressure p [Pa] and density [kg/m^3] of every fluid particle."""
     f = state.fluid
@@ -309,7 +316,7 @@ def start_density(state: SimState, model: BoundaryModel, pressure: PressureSolve
     along_period = state.period > 0.0 and state.gravity[0] != 0.0  # a flow, not a column
     if not hydrostatic or not np.any(state.gravity) or along_period:
         return np.zeros(f.n), rho0.astype(float).copy()
-    _neighbors(state, model)
+    lists.update(state)
     depth = column_depth(f.view("x"), state.gravity, state.r, state.h, resting_on_walls(state))
     p = rho0 * float(np.linalg.norm(state.gravity)) * depth
     return p, np.asarray(pressure.compressed_density(p, rho0), dtype=float)
@@ -319,20 +326,23 @@ def start_density(state: SimState, model: BoundaryModel, pressure: PressureSolve
 # 3.-4. relaxation and masses
 
 
-def _neighbors(state: SimState, model: BoundaryModel) -> None:
-    """This state's fluid-fluid and fluid-boundary lists, rebuilt only when the fluid moved or
-    changed since the last call (the start-up's steps ask for them at unchanged positions)."""
-    x = state.fluid["x"]
-    last = _LISTED.get(id(state))
-    if last is not None and last.shape == x.shape and np.array_equal(last, x):
-        return
-    state.nl_ff = neighbor_lists(x, state.h, state.periodic)
-    model.update(state)
-    _LISTED[id(state)] = x.copy()
+class _Lists:
+    """The fluid-fluid and fluid-boundary lists of the state being started, rebuilt only when
+    the fluid moved or changed since they were built (the start-up's steps ask for them at
+    unchanged positions)."""
 
+    def __init__(self, model: BoundaryModel) -> None:
+        self.model = model
+        self._x: np.ndarray | None = None  # the fluid positions they were built for
 
-#: the fluid positions each state's lists were last built for (cleared by :func:`start_fluid`)
-_LISTED: dict[int, np.ndarray] = {}
+    def update(self, state: SimState) -> None:
+        """Make ``state.nl_ff`` and ``state.nl_fb`` those of the current fluid positions."""
+        x = state.fluid["x"]
+        if self._x is not None and self._x.shape == x.shape and np.array_equal(self._x, x):
+            return
+        state.nl_ff = neighbor_lists(x, state.h, state.periodic)
+        self.model.update(state)
+        self._x = x.copy()
 
 
 def _density(state: SimState, m: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -348,24 +358,24 @@ def _compression(rho: np.ndarray, target: np.ndarray) -> tuple[float, float]:
     return (float(e.mean()), float(e.max())) if len(e) else (0.0, 0.0)
 
 
-def filled(state: SimState, model: BoundaryModel, rho_start: np.ndarray) -> np.ndarray:
+def filled(state: SimState, lists: _Lists, rho_start: np.ndarray) -> np.ndarray:
     """The fluid particles whose kernel is filled as sampled: their summation density with the
     start masses (lattice mass times start compression) reaches their start density (to 1e-6).
     The others lie at a free surface."""
     f = state.fluid
-    _neighbors(state, model)
+    lists.update(state)
     rho = _density(state, f["m"] * (rho_start / f["rho0"]), np.empty(f.n, dtype=f.dtype))
     return rho >= rho_start * (1.0 - 1e-6)
 
 
-def relax(state: SimState, model: BoundaryModel, target: np.ndarray, iterations: int,
+def relax(state: SimState, lists: _Lists, target: np.ndarray, iterations: int,
           report: StartReport) -> None:
     """Step 3 of the module docstring (``target``: start density over rho0)."""
     f = state.fluid
     x0 = f["x"].copy()
     V = f["V0"] * target  # the start masses: lattice mass times the start compression
     for k in range(iterations + 1):
-        _neighbors(state, model)
+        lists.update(state)
         b = state.boundary
         avg, mx, dx = relax_pass(f["x"], V, target, state.nl_ff, state.nl_fb, b["x"], b["V"],
                                  state.h, state.kid, state.dim, state.period,
@@ -379,13 +389,11 @@ def relax(state: SimState, model: BoundaryModel, target: np.ndarray, iterations:
         f["x"] += dx
         if state.period > 0.0:
             wrap_periodic(f["x"], state.period_lo, state.period)
-    d = f["x"] - x0
-    if state.period > 0.0:
-        d[0] -= state.period * np.round(d[0] / state.period)
+    d = min_image_rows(f["x"] - x0, state.period)
     report.max_displacement = float(np.sqrt((d * d).sum(axis=0)).max()) if f.n else 0.0
 
 
-def consistent_masses(state: SimState, model: BoundaryModel, rho_start: np.ndarray,
+def consistent_masses(state: SimState, lists: _Lists, rho_start: np.ndarray,
                       two_sided: np.ndarray, report: StartReport) -> np.ndarray:
     """Step 4 of the module docstring: the masses, and the removal of the particles the
     boundary claims (then the masses again, for the rest). Returns which of the particles it
@@ -393,7 +401,7 @@ def consistent_masses(state: SimState, model: BoundaryModel, rho_start: np.ndarr
     f = state.fluid
     kept = np.ones(f.n, dtype=bool)
     for last in (False, False, True):
-        _neighbors(state, model)
+        lists.update(state)
         m0 = f["m"] * (rho_start / f["rho0"])  # lattice mass times the start compression
         m = m0.copy()
         cap = np.where(two_sided, m0 * (1.0 + MASS_SLACK), m0)
@@ -430,31 +438,24 @@ def start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bound
     """Steps 1-4 of the module docstring on the built state (walls, maps and bodies in place,
     the methods not yet initialised); ``state.fluid`` ends with its start masses, volumes,
     positions, densities and pressures."""
-    try:
-        return _start_fluid(state, scene, meshes, model, pressure)
-    finally:
-        _LISTED.pop(id(state), None)
-
-
-def _start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
-                 pressure: PressureSolver) -> StartReport:
     cfg = scene.configuration.start
     report = StartReport(hydrostatic=cfg.hydrostatic and bool(np.any(state.gravity)))
     f = state.fluid
     if f.n == 0:
         return report
     remove_inside(state, scene, meshes, model, report)
-    p, rho_start = start_density(state, model, pressure, cfg.hydrostatic)
+    lists = _Lists(model)
+    p, rho_start = start_density(state, lists, pressure, cfg.hydrostatic)
     if cfg.relax:
-        two_sided = filled(state, model, rho_start)
-        relax(state, model, rho_start / f["rho0"], cfg.relax_iterations, report)
-        p, rho_start = start_density(state, model, pressure, cfg.hydrostatic)  # after the moves
-        p = p[consistent_masses(state, model, rho_start, two_sided, report)]
+        two_sided = filled(state, lists, rho_start)
+        relax(state, lists, rho_start / f["rho0"], cfg.relax_iterations, report)
+        p, rho_start = start_density(state, lists, pressure, cfg.hydrostatic)  # after the moves
+        p = p[consistent_masses(state, lists, rho_start, two_sided, report)]
     else:
         c = rho_start / f["rho0"]
         f["m"] = f["m"] * c
         f["V0"] = f["V0"] * c
-        _neighbors(state, model)
+        lists.update(state)
         f["rho"] = _density(state, f["m"], np.empty(f.n, dtype=f.dtype))
         report.sampled_error = report.relaxed_error = _compression(f["rho"], rho_start)
     f["p"] = p

@@ -147,7 +147,7 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     box_lo, box_hi = np.min(lo, axis=0) - pad, np.max(hi, axis=0) + pad
     g = state.gravity
     if np.any(g):
-        up = int(np.argmax(np.abs(g)))
+        up = gravity_axis(state)
         if g[up] < 0:
             box_hi[up] = np.inf
         else:
