@@ -53,8 +53,8 @@ def _periodic(scene: Scene, mat: Material) -> None:
             expected = sorted(ok) if role == "pressure" else sorted(("none", *ok))
             raise SceneError(f"{where}: {name!r} does not support configuration.periodic_x yet; "
                              f"expected one of {expected}")
-    if any(mb.dynamic or mb.kinematic for mb in scene.meshes):
-        k = next(k for k, mb in enumerate(scene.meshes) if mb.dynamic or mb.kinematic)
+    if any(mb.moving for mb in scene.meshes):
+        k = next(k for k, mb in enumerate(scene.meshes) if mb.moving)
         raise SceneError(f"meshes[{k}]: moving rigid bodies do not support "
                          "configuration.periodic_x yet")
 
@@ -78,7 +78,7 @@ def _boundary_pressure(scene: Scene) -> None:
 def _bodies(scene: Scene) -> None:
     solver = scene.configuration.pressure.method
     for k, mb in enumerate(scene.meshes):
-        if not (mb.dynamic or mb.kinematic):
+        if not mb.moving:
             continue
         if scene.configuration.dim == 2:  # the body moves in the xy-plane
             for fname, ok in (("velocity", lambda u: u[2] == 0.0),

@@ -455,6 +455,11 @@ class MeshBoundary(_Model):
         """A prescribed motion (velocity or angular velocity given, not dynamic)."""
         return not self.dynamic and (any(self.velocity or []) or any(self.angular_velocity or []))
 
+    @property
+    def moving(self) -> bool:
+        """A rigid body that moves (dynamic or kinematic), not a static wall."""
+        return self.dynamic or self.kinematic
+
 
 class FluidMesh(_Model):
     """Fluid filling a closed triangle mesh (OBJ/PLY/STL; 2D: its section with z = 0), sampled on
@@ -576,7 +581,7 @@ class StartConfig(_Model):
         True, description="start every fluid object with the density and pressure of its "
         "hydrostatic column: p = rho0 |g| depth below the top of the connected column of fluid "
         "along gravity (plus r), the density through the state equation (WCSPH) or rho0 (the "
-        "incompressible solvers, which warm-start from p); false: at rest density, p = 0")
+        "incompressible solvers; IISPH warm-starts from p); false: at rest density, p = 0")
     relax: bool = Field(
         True, description="move fluid sampled too close to walls and bodies out of the boundary "
         "model's range (a density relaxation before t = 0, without gravity or time) and set "
@@ -720,7 +725,7 @@ class Scene(_Model):
         """A boundary pressure left out, in a scene with moving (dynamic or kinematic) bodies:
         the boundary model's default for moving bodies (registry)."""
         b = self.configuration.boundary
-        if b._pressure_default and any(m.dynamic or m.kinematic for m in self.meshes):
+        if b._pressure_default and any(m.moving for m in self.meshes):
             b.pressure = registry.default_boundary_pressure(b.method, moving_bodies=True)
         return self
 

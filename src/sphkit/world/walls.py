@@ -32,7 +32,7 @@ def gravity_axis(state: SimState) -> int:
 def moving_meshes(scene: Scene) -> list[int]:
     """Indices of the scene's moving meshes (kinematic or dynamic rigid bodies), in body
     order: body k + 1 is ``scene.meshes[moving_meshes(scene)[k]]``."""
-    return [k for k, mb in enumerate(scene.meshes) if mb.dynamic or mb.kinematic]
+    return [k for k, mb in enumerate(scene.meshes) if mb.moving]
 
 
 def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
