@@ -374,6 +374,26 @@ def test_ctrl_c_during_the_imports_exits_130(tmp_path: Path, delay: float) -> No
     assert "Traceback" not in err and "interrupted" in err
 
 
+def test_ctrl_c_in_a_compiler_callback_is_delivered_again() -> None:
+    # while Numba compiles, LLVM calls back into Python (llvmlite, through ctypes), and an
+    # exception raised in a ctypes callback is printed with its traceback and dropped (a CI run
+    # printed one): the handler defers a signal that lands in llvmlite's code and sends it again
+    # 50 ms later, where it raises as usual
+    from sphkit.cli.common import Interrupts
+
+    callback = compile("handler(signal.SIGINT, sys._getframe())",
+                       "/site-packages/llvmlite/binding/executionengine.py", "exec")
+    old = signal.signal(signal.SIGINT, Interrupts.handler)
+    try:
+        exec(callback, {"handler": Interrupts.handler, "signal": signal, "sys": sys})
+        assert Interrupts.received == signal.SIGINT  # recorded, not raised in the callback
+        with pytest.raises(KeyboardInterrupt):
+            time.sleep(2.0)  # the signal comes again and raises here
+    finally:
+        signal.signal(signal.SIGINT, old)
+        Interrupts.received = None
+
+
 # -- 8. unreadable meshes, warnings --------------------------------------------------------------
 def test_random_bytes_stl_names_the_file(tmp_path: Path,
                                          capsys: pytest.CaptureFixture[str]) -> None:

@@ -145,7 +145,11 @@ class Bender2019(MapBoundaryModel):
 
     name = "bender2019"
     offset_in_radii = 0.5  # phi = s d - thickness - 0.5 r
-    moving_inset_in_radii = MOVING_INSET
+
+    @classmethod
+    def moving_inset(cls, dim: int) -> float:
+        """:data:`MOVING_INSET`, in 2D and 3D."""
+        return MOVING_INSET
 
     def _integrate(self, state: SimState):
         qp, qw = ball_quadrature(state.h, state.dim)

@@ -319,9 +319,8 @@ class MapBoundaryModel(BoundaryModel):
 
     name = "map"
     offset_in_radii = 0.0
-    #: depth [r] by which a moving body's map surface is moved into its mesh (a negative
-    #: ``MapGeometry.thickness``), so that the fluid rests about r outside the mesh
-    moving_inset_in_radii = 0.0
+    # a moving body's map surface is moved moving_inset(dim) r into its mesh (a negative
+    # MapGeometry.thickness), so that the fluid rests about r outside the mesh
     #: the wall's share of the tangential pressure gradient with a hydrostatic boundary
     #: pressure (configuration.boundary.pressure "hydrostatic"; see
     #: :mod:`sphkit.boundary.maps_hydrostatic`); set before :meth:`init`

@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
+import threading
+import types
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -81,9 +84,20 @@ class Interrupts:
     received: int | None = None
 
     @classmethod
-    def handler(cls, signum: int, frame: object) -> None:
-        """The SIGINT handler: record, then raise KeyboardInterrupt."""
+    def handler(cls, signum: int, frame: types.FrameType | None) -> None:
+        """The SIGINT handler: record, then raise KeyboardInterrupt -- unless the signal arrived
+        in llvmlite's code (Numba compiling), which LLVM may have called back through ctypes:
+        an exception raised in a ctypes callback is printed with its traceback and dropped.
+        There the signal is sent again 50 ms later, until it lands in ordinary Python code."""
         cls.received = signum
+        f = frame
+        while f is not None:
+            if "llvmlite" in f.f_code.co_filename:
+                timer = threading.Timer(0.05, os.kill, (os.getpid(), signum))
+                timer.daemon = True
+                timer.start()
+                return
+            f = f.f_back
         raise KeyboardInterrupt
 
     @classmethod

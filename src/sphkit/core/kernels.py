@@ -52,14 +52,19 @@ _PI = math.pi
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
+def _cubic_sigma(h: float, dim: int) -> float:
+    if dim == 3:
+        return 8.0 / (_PI * h * h * h)
+    if dim == 2:
+        return 40.0 / (7.0 * _PI * h * h)
+    return 4.0 / (3.0 * h)
+
+
+@numba.njit(cache=True, fastmath=True)
 def kernel_sigma(kid: int, h: float, dim: int) -> float:
     """Normalization constant s_d of kernel ``kid`` in ``dim`` dimensions."""
     if kid == CUBIC:
-        if dim == 3:
-            return 8.0 / (_PI * h * h * h)
-        if dim == 2:
-            return 40.0 / (7.0 * _PI * h * h)
-        return 4.0 / (3.0 * h)
+        return _cubic_sigma(h, dim)
     if kid == WENDLAND:
         if dim == 3:
             return 21.0 / (2.0 * _PI * h * h * h)
@@ -90,22 +95,30 @@ def kernel_sigma(kid: int, h: float, dim: int) -> float:
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
-def kernel_w(kid: int, r: float, h: float, dim: int) -> float:
-    """Kernel value W(r) for support radius h (zero for r >= h).
+def _cubic_w(r: float, h: float, dim: int) -> float:
+    q = r * (1.0 / h)
+    t = 1.0 - q if r < h else 0.0  # exactly 0 from r = h on, whatever r * (1/h) rounds to
+    near = 6.0 * (q * q * q - q * q) + 1.0
+    far = 2.0 * t * t * t
+    return _cubic_sigma(h, dim) * (near if q <= 0.5 else far)
 
-    Written without data-dependent branches (the cubic spline's two pieces are both evaluated
-    and one is selected; ``1 - q`` is clamped at 0 beyond the support) and inlined, so that in a
-    pair loop the constants are hoisted and no branch mispredicts: this made the pair loops
-    several times faster than the branching form.
-    """
-    s = kernel_sigma(kid, h, dim)
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _cubic_dw(r: float, h: float, dim: int) -> float:
     inv_h = 1.0 / h
     q = r * inv_h
-    t = 1.0 - q if r < h else 0.0  # exactly 0 from r = h on, whatever r * (1/h) rounds to
-    if kid == CUBIC:
-        near = 6.0 * (q * q * q - q * q) + 1.0
-        far = 2.0 * t * t * t
-        return s * (near if q <= 0.5 else far)
+    t = 1.0 - q if r < h else 0.0
+    near = (18.0 * q - 12.0) * inv_h * inv_h
+    far = -6.0 * t * t * inv_h / max(r, 1e-9 * h)
+    return _cubic_sigma(h, dim) * (near if q <= 0.5 else far)
+
+
+@numba.njit(cache=True, fastmath=True)
+def _other_w(kid: int, r: float, h: float, dim: int) -> float:
+    """W(r) of the kernels other than the cubic spline (a call, not inlined)."""
+    s = kernel_sigma(kid, h, dim)
+    q = r * (1.0 / h)
+    t = 1.0 - q if r < h else 0.0
     if kid == WENDLAND:
         t2 = t * t
         return s * t2 * t2 * (4.0 * q + 1.0)
@@ -124,22 +137,13 @@ def kernel_w(kid: int, r: float, h: float, dim: int) -> float:
     return s * d * d * d
 
 
-@numba.njit(cache=True, fastmath=True, inline="always")
-def kernel_dw(kid: int, r: float, h: float, dim: int) -> float:
-    """``W'(r) / r``: multiply by ``x_i - x_j`` to get ``grad_i W_ij``. Zero for r >= h.
-
-    At ``r -> 0`` the factor stays finite for cubic, Wendland and poly6 (the gradient itself is 0
-    there because the distance vector is 0); spiky's factor is singular, so it is set to 0 for
-    ``r < 1e-9 h``. Branch-free and inlined like :func:`kernel_w`.
-    """
+@numba.njit(cache=True, fastmath=True)
+def _other_dw(kid: int, r: float, h: float, dim: int) -> float:
+    """W'(r) / r of the kernels other than the cubic spline (a call, not inlined)."""
     s = kernel_sigma(kid, h, dim)
     inv_h = 1.0 / h
     q = r * inv_h
-    t = 1.0 - q if r < h else 0.0  # exactly 0 from r = h on, whatever r * (1/h) rounds to
-    if kid == CUBIC:
-        near = (18.0 * q - 12.0) * inv_h * inv_h
-        far = -6.0 * t * t * inv_h / max(r, 1e-9 * h)
-        return s * (near if q <= 0.5 else far)
+    t = 1.0 - q if r < h else 0.0
     if kid == WENDLAND:
         return -20.0 * s * t * t * t * inv_h * inv_h
     if kid == POLY6:
@@ -157,6 +161,35 @@ def kernel_dw(kid: int, r: float, h: float, dim: int) -> float:
     d = t * h
     v = -3.0 * s * d * d / max(r, 1e-9 * h)
     return v if r >= 1e-9 * h else 0.0
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def kernel_w(kid: int, r: float, h: float, dim: int) -> float:
+    """Kernel value W(r) for support radius h (zero for r >= h).
+
+    Written without data-dependent branches (the cubic spline's two pieces are both evaluated
+    and one is selected; ``1 - q`` is clamped at 0 beyond the support). The cubic spline (the
+    default of sphkit and SPlisHSPlasH) is inlined into every pair loop, so that its constants
+    are hoisted and no branch mispredicts (several times faster than the branching form); the
+    other kernels are one call away (:func:`_other_w`): inlining all five at every call site
+    made Numba's compilation of a pair loop with four kernel calls take 30 s instead of 8 s.
+    """
+    if kid == CUBIC:
+        return _cubic_w(r, h, dim)
+    return _other_w(kid, r, h, dim)
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def kernel_dw(kid: int, r: float, h: float, dim: int) -> float:
+    """``W'(r) / r``: multiply by ``x_i - x_j`` to get ``grad_i W_ij``. Zero for r >= h.
+
+    At ``r -> 0`` the factor stays finite for cubic, Wendland and poly6 (the gradient itself is 0
+    there because the distance vector is 0); spiky's factor is singular, so it is set to 0 for
+    ``r < 1e-9 h``. Branch-free, the cubic spline inlined, like :func:`kernel_w`.
+    """
+    if kid == CUBIC:
+        return _cubic_dw(r, h, dim)
+    return _other_dw(kid, r, h, dim)
 
 
 @numba.njit(cache=True, parallel=True, fastmath=True)

@@ -127,8 +127,12 @@ class BoundaryModel(Protocol):
     """A boundary model (survey Sec. 6): boundary particles or density / volume maps."""
 
     name: ClassVar[str] = ""
-    #: depth [r] by which a moving body's map surface lies inside its mesh (maps only)
-    moving_inset_in_radii: ClassVar[float] = 0.0
+
+    @classmethod
+    def moving_inset(cls, dim: int) -> float:
+        """Depth [r] by which a moving body's map surface lies inside its mesh in ``dim``
+        dimensions (maps only), so that the fluid rests about r outside the mesh."""
+        return 0.0
 
     def init(self, state: SimState) -> None:
         """Register boundary fields and build the model's structures."""

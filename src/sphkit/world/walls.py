@@ -73,14 +73,14 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
 
 
 def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
-                   moving_inset_in_radii: float) -> list[MapGeometry]:
+                   moving_inset: float) -> list[MapGeometry]:
     """Boxes and meshes as signed distances for density and volume maps.
 
     Boxes are containers (the fluid inside, ``invert``), analytic; an open box extends to
     infinity along the gravity axis. Meshes: 3D triangle meshes, in 2D the section of the
     mesh with the plane z = 0 (as for boundary particles). A moving mesh's map lives in its
     body's frame (:mod:`sphkit.boundary.maps`, "Moving rigid bodies"), its surface moved
-    ``moving_inset_in_radii`` r into the mesh.
+    ``moving_inset`` r into the mesh.
     """
     from sphkit.geometry.sdf import BoxDistance, MeshDistance, PolygonDistance
 
@@ -111,7 +111,7 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
         body, thick = 0, mb.map_thickness
         if k in bodies:  # a moving body: its map lives in its frame
             body = bodies.index(k) + 1
-            thick -= moving_inset_in_radii * state.r
+            thick -= moving_inset * state.r
         out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
                                thickness=thick, resolution=mres, body=body))
     return out
