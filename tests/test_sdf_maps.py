@@ -236,6 +236,21 @@ def test_density_map_virtual_particle_reproduces_density_and_gradient(dim: int) 
                                    atol=1e-9 * np.abs(g).max())
     # the density grows towards the wall
     assert np.all(np.diff(rho[inband]) < 0)
+    # at predicted positions x + dx (PBF's and PCISPH's iterations): the virtual particles of
+    # the displaced fluid, the state's own left as they are
+    before = (bx.copy(), bV.copy(), st.nl_fb.offsets.copy())
+    dx = np.zeros((dim, len(ys)))
+    dx[-1] = 0.3 * r
+    bx2, bV2, nl2 = model.boundary_at(st, dx)
+    rho2 = bmap.eval_values(x.T + dx)
+    inband2 = (ys + 0.3 * r > 0.1 * r) & (ys + 0.3 * r < h)
+    assert np.diff(nl2.offsets).tolist() == inband2.astype(int).tolist()
+    for k, i in enumerate(np.flatnonzero(inband2)):
+        rr = np.linalg.norm(x[i] + dx[:, i] - bx2[:, k])
+        assert abs(bV2[k] * kernel_w(0, rr, h, dim) - rho2[i]) < 1e-9 * max(rho2[i], 1e-3)
+    assert np.array_equal(st.boundary["x"], before[0]) and np.array_equal(st.boundary["V"],
+                                                                          before[1])
+    assert np.array_equal(st.nl_fb.offsets, before[2])
 
 
 # -- sampling -------------------------------------------------------------------------------------

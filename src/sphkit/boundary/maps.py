@@ -412,9 +412,45 @@ class MapBoundaryModel(BoundaryModel):
         return None
 
     def update(self, state: SimState) -> None:
-        """Virtual boundary particles and fluid-boundary lists for the current fluid positions."""
+        """Virtual boundary particles and fluid-boundary lists for the current fluid positions
+        (fluid found inside a solid is pushed out, :attr:`pushed`)."""
         f = state.fluid
-        n, dim = f.n, state.dim
+        xb, Vb, vb, mbody, pushed = self._virtual_particles(state, f["x"], f["v"])
+        self.pushed += pushed
+        if self.hydrostatic:  # the wall moment reads this step's virtual particles
+            self._virtual = (xb, Vb)
+        nl, bx, bV, bv, bbody, bid = self._packed(state, xb, Vb, vb, mbody)
+        bd = state.boundary
+        bd.resize(bV.shape[0])
+        if bV.shape[0]:
+            bd.fields["x"][...] = bx
+            bd.fields["V"][...] = bV
+            bd.fields["id"][...] = bid
+            bd.fields["v"][...] = bv
+            if "rigid_body" in bd.fields:
+                bd.fields["rigid_body"][...] = bbody
+            if self.hydrostatic and "pressure_mirror" in bd.fields:
+                bd.fields["pressure_mirror"][...] = np.where(bbody == 0, 1.0, 0.0)
+        state.nl_fb = nl
+
+    def boundary_at(self, state: SimState, dx: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, NeighborList] | None:
+        """The virtual particles ``(x_b, V_b)`` and their lists for the fluid at ``x + dx`` (a
+        solve's predicted positions; SPlisHSPlasH's PBF queries its maps there in every
+        iteration), leaving the state as it is and pushing nothing: a predicted position
+        inside a solid gets no virtual particle."""
+        f = state.fluid
+        xb, Vb, vb, mbody, _ = self._virtual_particles(state, f["x"] + dx, f["v"].copy())
+        nl, bx, bV, _, _, _ = self._packed(state, xb, Vb, vb, mbody)
+        return bx, bV, nl
+
+    def _virtual_particles(self, state: SimState, x: np.ndarray, v: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+        """Per map and fluid particle the virtual particle (xb (k, dim, N), Vb (k, N), its
+        surface velocity vb (k, dim, N)), each map's body number and the pushed count, for
+        fluid positions and velocities x, v (dim, N), which the queries' push-out changes."""
+        n, dim = state.fluid.n, state.dim
+        pushed = 0
         k = len(self.maps)
         xb = np.zeros((k, dim, n))
         Vb = np.zeros((k, n))
@@ -423,7 +459,7 @@ class MapBoundaryModel(BoundaryModel):
         for m, bmap in enumerate(self.maps):
             kb = bmap.geometry.body
             if kb == 0:
-                self.pushed += int(self._query(bmap, state, f["x"], f["v"], xb[m], Vb[m]))
+                pushed += int(self._query(bmap, state, x, v, xb[m], Vb[m]))
                 continue
             body = getattr(self, "bodies", [])
             if kb > len(body):
@@ -434,37 +470,34 @@ class MapBoundaryModel(BoundaryModel):
             vc, w = np.asarray(b.v, np.float64), np.asarray(b.omega, np.float64)
             xl = np.empty((dim, n))
             ul = np.empty((dim, n))
-            to_body_frame(f["x"], f["v"], c, R, vc, w, c0, xl, ul)
+            to_body_frame(x, v, c, R, vc, w, c0, xl, ul)
             xl0 = xl.copy()
-            self.pushed += int(self._query(bmap, state, xl, ul, xb[m], Vb[m]))
-            from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb[m], xb[m], vb[m], f["x"], f["v"])
+            pushed += int(self._query(bmap, state, xl, ul, xb[m], Vb[m]))
+            from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb[m], xb[m], vb[m], x, v)
             mbody[m] = kb
-        if self.hydrostatic:  # the wall moment reads this step's virtual particles
-            self._virtual = (xb, Vb)
+        return xb, Vb, vb, mbody, pushed
+
+    @staticmethod
+    def _packed(state: SimState, xb: np.ndarray, Vb: np.ndarray, vb: np.ndarray,
+              mbody: np.ndarray) -> tuple[NeighborList, np.ndarray, np.ndarray, np.ndarray,
+                                          np.ndarray, np.ndarray]:
+        """The virtual particles with V_b > 0 packed per fluid particle: the lists and the
+        boundary arrays x, V, v, rigid_body, id (the fluid particle's id)."""
+        n, dim = state.fluid.n, state.dim
         counts = np.zeros(n + 1, np.int64)
-        if k:
+        if len(Vb):
             _count(Vb, counts)
         off = np.cumsum(counts)
         total = int(off[-1])
-        bd = state.boundary
-        bd.resize(total)
         idx = np.empty(total, np.int32)
+        bid = np.empty(total, np.int64)
+        bx = np.empty((dim, total))
+        bV = np.empty(total)
+        bv = np.empty((dim, total))
+        bbody = np.empty(total, np.int64)
         if total:
-            bid = np.empty(total, np.int64)
-            bx = np.empty((dim, total))
-            bV = np.empty(total)
-            bv = np.empty((dim, total))
-            bbody = np.empty(total, np.int64)
-            _pack(xb, Vb, vb, mbody, f["id"], off, bx, bV, bv, bbody, bid, idx)
-            bd.fields["x"][...] = bx
-            bd.fields["V"][...] = bV
-            bd.fields["id"][...] = bid
-            bd.fields["v"][...] = bv
-            if "rigid_body" in bd.fields:
-                bd.fields["rigid_body"][...] = bbody
-            if self.hydrostatic and "pressure_mirror" in bd.fields:
-                bd.fields["pressure_mirror"][...] = np.where(bbody == 0, 1.0, 0.0)
-        state.nl_fb = NeighborList(off, idx)
+            _pack(xb, Vb, vb, mbody, state.fluid["id"], off, bx, bV, bv, bbody, bid, idx)
+        return NeighborList(off, idx), bx, bV, bv, bbody, bid
 
     def wall_moment(self, state: SimState) -> int:
         """Add the static maps' share of the tangential pressure gradient (hydrostatic

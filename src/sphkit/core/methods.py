@@ -38,6 +38,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from sphkit.core.krylov import KrylovStats
+    from sphkit.core.neighbors import NeighborList
     from sphkit.core.solver import SolverStats
     from sphkit.core.state import SimState
 
@@ -147,6 +148,15 @@ class BoundaryModel(Protocol):
         """Rebuild what depends on the boundary positions after boundary particles moved."""
         return None
 
+    def boundary_at(self, state: SimState, dx: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, NeighborList] | None:
+        """The boundary neighbours ``(x_b, V_b, lists)`` of :meth:`update` for the fluid at
+        the positions ``x + dx`` (dim, N) instead of ``x = state.fluid["x"]`` (a solve's
+        predicted positions), leaving the state as it is. None: they do not depend on the
+        fluid positions beyond the step-start lists (boundary particles); maps place their
+        virtual particles anew."""
+        return None
+
     def bind_bodies(self, bodies: list) -> None:
         """The moving rigid bodies whose geometry this model queries in their own frames."""
         return None
@@ -250,14 +260,28 @@ class BoundaryCoupling:
       (mirrored pressure, the default);
     * **moving boundaries** (:meth:`predict`, :meth:`response`, :meth:`take_impulse`,
       :meth:`displacement`): how boundary particles of bodies that yield to the pressure move
-      inside the solves (strong coupling, Gissler et al. 2019); static walls by default.
+      inside the solves (strong coupling, Gissler et al. 2019); static walls by default;
+    * **the boundary at predicted positions** (:meth:`boundary_at`): the boundary model's
+      neighbours for fluid positions inside a solve (maps' virtual particles).
     """
 
     def __init__(self, pressure: BoundaryPressure | None = None,
-                 moving: MovingBoundary | None = None) -> None:
+                 moving: MovingBoundary | None = None,
+                 model: BoundaryModel | None = None) -> None:
         self.pressure = pressure
         self.moving = moving
+        self.model = model
         self._still = np.zeros((0, 0))
+
+    def boundary_at(self, state: SimState, dx: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, NeighborList]:
+        """The boundary neighbours ``(x_b, V_b, lists)`` for the fluid displaced by ``dx`` (the
+        boundary model's :meth:`BoundaryModel.boundary_at`; the step's own where they do not
+        depend on the fluid positions)."""
+        at = self.model.boundary_at(state, dx) if self.model is not None else None
+        if at is None:
+            return state.boundary["x"], state.boundary["V"], state.nl_fb
+        return at
 
     # -- boundary pressure ----------------------------------------------------------------------
     def mirror(self, state: SimState, diagonal: bool = False) -> np.ndarray:

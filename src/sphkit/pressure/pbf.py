@@ -125,8 +125,8 @@ class PBF(PressureSolver):
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Positional solve; writes the effective acceleration into ``a`` (see module doc)."""
-        f, b = state.fluid, state.boundary
-        nl, nb = state.nl_ff, state.nl_fb
+        f = state.fluid
+        nl = state.nl_ff
         x, v, a, V = f["x"], f["v"], f["a"], f["V0"]
         n = f.n
         dx = dt * (v + dt * a)  # x* - x_old
@@ -139,10 +139,11 @@ class PBF(PressureSolver):
         target = np.ones(n, dtype=f.dtype)  # C_i = rho_hat_i - 1
 
         def sweep(_k: int) -> tuple[float, float]:
-            avg, mx = constraint_lambda(x, dx, V, target, nl.offsets, nl.indices, b["x"],
-                                        b["V"], nb.offsets, nb.indices, state.h, state.kid,
+            bx, bV, nb = state.coupling.boundary_at(state, dx)  # maps: queried at x*
+            avg, mx = constraint_lambda(x, dx, V, target, nl.offsets, nl.indices, bx, bV,
+                                        nb.offsets, nb.indices, state.h, state.kid,
                                         state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat)
-            constraint_correction(x, dx, V, lam, nl.offsets, nl.indices, b["x"], b["V"],
+            constraint_correction(x, dx, V, lam, nl.offsets, nl.indices, bx, bV,
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
                                   self._d0_inv, corr)

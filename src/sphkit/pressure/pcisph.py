@@ -148,8 +148,11 @@ class PCISPH(PressureSolver):
 
         def sweep(_k: int) -> tuple[float, float]:
             _predict(v, a, ap, dt, dx)
-            density_at(x, dx, f["m"], nl.offsets, nl.indices, b["x"], bdx[0], b["V"],
-                       nb.offsets, nb.indices, state.rho0, state.h, state.kid, state.dim,
+            bx, bV, nbp = b["x"], b["V"], nb
+            if bdx[0].shape[1] == 0:  # a static boundary: maps are queried at x* (its lists)
+                bx, bV, nbp = coupling.boundary_at(state, dx)
+            density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bdx[0], bV,
+                       nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
             kappa_accel_cached(p, kb(p), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror,
