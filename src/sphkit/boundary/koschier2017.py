@@ -28,7 +28,10 @@ i.e. ``x_b = x_i + s g / |g|`` (``g = grad rho_B``, pointing into the wall) with
 solving ``|W'(s)| / W(s) = |g| / rho_B`` (increasing in s from 0 to infinity for the cubic,
 Wendland and poly6 kernels, solved by bisection), and ``V_b = rho_B / W(s)``. The density and
 gradient terms of every solver are then exactly the paper's; PCISPH and PBF, which evaluate the
-density at predicted positions, see the first-order (tangent) extrapolation of rho_B. A particle
+density at predicted positions, query the map there in every iteration
+(:meth:`~sphkit.boundary.maps.MapBoundaryModel.boundary_at`, as SPlisHSPlasH's PBF; the
+step-start virtual particle, extrapolated to the predicted position, let a particle in a
+corner of a 2D tank pass through the wall with PBF at 0.5 s of a dam break). A particle
 found inside (``phi < 0``) is moved ``min(-phi, 0.1 r)`` along the normal and its inward normal
 velocity is replaced by 0.05 m/s outwards (SPlisHSPlasH; its step cap ``50 r dt`` is replaced by
 ``0.1 r`` because the boundary model does not see dt); :attr:`pushed` counts these events.

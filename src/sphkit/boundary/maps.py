@@ -25,6 +25,9 @@ particle ``(x_b, V_b)`` (V_b = 0: none); :meth:`MapBoundaryModel.update` packs t
 ``state.boundary`` (fields ``x``, ``V``, ``v`` = 0, ``id`` = the fluid particle's id) and the CSR
 lists ``state.nl_fb`` (at most one entry per map and fluid particle), so every pressure solver
 uses them through its usual boundary terms ``rho0 V_b W(x_i - x_b)`` and ``V_b grad W(x_i - x_b)``.
+Solvers that evaluate the density at predicted positions x* (PBF, PCISPH) get the virtual
+particles of x* in every iteration (:meth:`MapBoundaryModel.boundary_at`, through
+``state.coupling.boundary_at``), leaving the step's own as they are.
 
 Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrostatic"``, static
 maps only): the virtual neighbour mirrors the pressure and the walls add the kernel moment of the
