@@ -209,3 +209,39 @@ def test_section_2d_of_placed_cylinder(tmp_path: Path) -> None:
     assert nn.min() >= 1.5 * r and nn.max() <= 2.5 * r
     empty = sample_mesh_surface(load_mesh(path, translation=[0.0, 0.0, 5.0]), r, dim=2)
     assert empty.shape == (0, 2)
+
+
+@pytest.mark.parametrize("lattice", ["layered", "close_packed"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_splishsplash_dense_modes_count_place_and_rest(lattice: str, dim: int) -> None:
+    """SPlisHSPlasH's denseMode 1 / 2 (``SimulatorBase::createFluidBlocks``) on the block of
+    its ReadWriteStateTest scene (box [-0.25, 0.25] x [0, 1] x [-0.25, 0.25], r = 0.025):
+    per axis round(d / s) - 1 particles for the extent d (x and z less one diameter, mode 2's x
+    less its spacing) and spacing s (layers sqrt(3) r apart; mode 2: sqrt(6) 2r / 3 along x),
+    counted here from the rule: mode 1: x round(0.45 / 0.05) - 1 = 8, y round(1 / 0.0433) - 1
+    = 22, z 8 -> 1408 in 3D (176 in 2D); mode 2: x round(0.4592 / 0.04082) - 1 = 10, y 22,
+    z 8 -> 1760 (220). No two particles closer than their diameter less 20 % (mode 2's columns
+    are 1.63 r apart in x but shifted by r in z or y), and with the block's volume
+    (kernels.block_volume) the interior is at rest density within 0.5 % (lattice sums)."""
+    from sphkit.core.kernels import Kernel, block_volume
+    from sphkit.geometry.sampling import dense_block
+
+    r = 0.025
+    lo, hi = np.array([-0.25, 0.0, -0.25])[:dim], np.array([0.25, 1.0, 0.25])[:dim]
+    pts = dense_block(lo + r, hi - r, r, lattice)
+    per_plane = {"layered": 8 * 22, "close_packed": 10 * 22}[lattice]
+    assert len(pts) == per_plane * (8 if dim == 3 else 1)
+    assert np.isclose(pts[:, 1].min(), lo[1] + 2 * r)  # SPlisHSPlasH's first layer: lo + 2r
+    ys = np.unique(np.round(pts[:, 1], 12))
+    np.testing.assert_allclose(np.diff(ys), np.sqrt(3.0) * r + 1e-9, rtol=1e-12, atol=1e-12)
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(pts).query(pts, k=2)
+    assert d[:, 1].min() > 0.8 * 2 * r, d[:, 1].min()
+    h = 4 * r
+    V = block_volume(pts, "cubic", h)
+    k = Kernel("cubic", h, dim)
+    inner = pts[np.all((pts >= pts.min(0) + h) & (pts <= pts.max(0) - h), axis=1)]
+    rho = np.array([V * k.w(np.linalg.norm(pts - q, axis=1)).sum() for q in inner])
+    assert abs(rho.mean() - 1.0) < 1e-12  # the volume's definition
+    assert np.abs(rho - 1.0).max() < 5e-3, np.abs(rho - 1.0).max()

@@ -15,7 +15,7 @@ import trimesh
 import yaml
 from _wheel import wheel_scene
 
-from sphkit.geometry.sampling import lattice_block
+from sphkit.geometry.sampling import dense_block, lattice_block
 from sphkit.scene.files import builtin_scenes, load_scene
 from sphkit.scene.paths import resolve_scene_path
 from sphkit.scene.schema import Scene, SceneError
@@ -250,6 +250,63 @@ def test_splishsplash_translation(sph_dir: Path) -> None:
     np.testing.assert_allclose(_sorted(ours), _sorted(theirs), atol=1e-12)
 
 
+def _splishsplash_dense_positions(lo: np.ndarray, hi: np.ndarray, r: float, mode: int,
+                                  dim: int) -> np.ndarray:
+    """SPlisHSPlasH's createFluidBlocks for denseMode 1 and 2, its loops written out."""
+    diam, eps = 2 * r, 1e-9
+    xshift, yshift = diam, diam
+    if mode == 1:
+        yshift = math.sqrt(3.0) * r + eps
+    else:
+        xshift = math.sqrt(6.0) * diam / 3.0 + eps
+        yshift = math.sqrt(3.0) * r + eps
+    diff = hi - lo
+    diff[0] -= diam if mode == 1 else xshift
+    diff[2] -= diam
+    sx = math.floor(diff[0] / xshift + 0.5) - 1
+    sy = math.floor(diff[1] / yshift + 0.5) - 1
+    sz = math.floor(diff[2] / diam + 0.5) - 1
+    start = lo + diam
+    if dim == 2:
+        sz, start[2] = 1, 0.0
+    pts = []
+    for j in range(sx):
+        for k in range(sy):
+            for m in range(sz):
+                p = np.array([j * xshift, k * yshift, m * diam]) + start
+                if mode == 1:
+                    p += [0, 0, r] if k % 2 == 0 else [r, 0, 0]
+                else:
+                    p += [0, 0, r]
+                    shift = np.zeros(3)
+                    if j % 2 and dim == 3:
+                        shift[2] += diam / (2.0 * (-1 if k % 2 else 1))
+                    if k % 2 == 0:
+                        shift[0] += xshift / 2.0
+                    p += shift
+                pts.append(p)
+    return np.array(pts)[:, :dim]
+
+
+@pytest.mark.parametrize("mode", [1, 2])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_splishsplash_dense_modes_place_splishsplash_particles(sph_dir: Path, mode: int,
+                                                               dim: int) -> None:
+    data = _sph_scene(sim2D=dim == 2)
+    block = {"denseMode": mode, "start": [-0.5, 0.0, -0.5], "end": [0.5, 1.0, 0.5],
+             "translation": [-1.45, 0.05, 0.0]}
+    data["FluidBlocks"] = [block]
+    scene = from_splishsplash(data, sph_dir / "dense.json")
+    (b,) = scene.fluid_blocks
+    assert b.lattice == {1: "layered", 2: "close_packed"}[mode]
+    ours = dense_block(b.start, b.end, 0.025, b.lattice)
+    lo = np.array(block["start"], float) + block["translation"]
+    hi = np.array(block["end"], float) + block["translation"]
+    theirs = _splishsplash_dense_positions(lo, hi, 0.025, mode, dim)
+    assert len(ours) == len(theirs) > 0
+    np.testing.assert_allclose(_sorted(ours), _sorted(theirs), atol=1e-12)
+
+
 def test_splishsplash_2d_uses_first_two_components(sph_dir: Path) -> None:
     data = _sph_scene(sim2D=True, kernel=4, gradKernel=4)
     block = {"start": [-2.0, 0.0, -1.0], "end": [-0.5, 1.5, 1.0], "translation": [0.025, 0.025, 0]}
@@ -453,7 +510,8 @@ def test_benchmark_scenes_share_their_settings() -> None:
          r"RigidBodies\[0\]\.density: got -5: expected a number > 0"),
         ({"RigidBodies": {"geometryFile": "../models/Missing.obj"}},
          r"RigidBodies\[0\]\.geometryFile: got '\.\./models/Missing\.obj'"),
-        ({"FluidBlocks": {"denseMode": 1}}, r"FluidBlocks\[0\]\.denseMode: 1"),
+        ({"FluidBlocks": {"denseMode": 3}},
+         r"FluidBlocks\[0\]\.denseMode: got 3: expected 0 \(regular lattice\), 1"),
         ({"FluidBlocks": {"end": [-0.6, 1.0, 0.5]}}, r"FluidBlocks\[0\]\.end.*exceed start"),
         ({"FluidBlocks": {"initialAngularVelocity": [0, 1, 0]}}, r"initialAngularVelocity"),
         ({"Emitters": [{"type": 2}]}, r"Emitters\[0\]\.type: got 2: expected 0 \(box\)"),

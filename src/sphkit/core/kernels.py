@@ -287,6 +287,21 @@ def _hexagonal_points(spacing: float, h: float) -> np.ndarray:
     return pts.reshape(-1, 2)
 
 
+def block_volume(points: np.ndarray, name: str | int, h: float) -> float:
+    """The rule of :func:`lattice_volume` for a sampled block of particles (M, dim) whose
+    points are not all alike (SPlisHSPlasH's denser lattices): ``V = 1 / mean_i sum_j W_ij``
+    over the points i at least h inside the block's bounding box (all points j counted)."""
+    pts = np.asarray(points, dtype=np.float64)
+    dim = pts.shape[1]
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    inner = pts[np.all((pts >= lo + h) & (pts <= hi - h), axis=1)]
+    if len(inner) == 0:
+        raise ValueError(f"block_volume: no point of the block is {h} m inside it")
+    k = Kernel(name, h, dim)
+    sums = [k.w(np.linalg.norm(pts - q, axis=1)).sum() for q in inner]
+    return 1.0 / float(np.mean(sums))
+
+
 def hexagonal_volume(spacing: float, name: str | int, h: float) -> float:
     """Particle volume that reproduces the rest density on the 2D hexagonal lattice.
 

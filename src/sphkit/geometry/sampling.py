@@ -125,6 +125,69 @@ def hexagonal_block(start: ArrayLike, end: ArrayLike, r: float) -> np.ndarray:
     return np.concatenate(rows)
 
 
+#: sphkit's names of SPlisHSPlasH's ``denseMode`` 1 and 2 of fluid blocks
+DENSE_LATTICES = {"layered": 1, "close_packed": 2}
+
+
+def dense_block(start: ArrayLike, end: ArrayLike, r: float, lattice: str) -> np.ndarray:
+    """Fluid particles of the block ``[start, end]`` on SPlisHSPlasH's denser lattices
+    (``SimulatorBase::createFluidBlocks``, ``denseMode`` 1 ``"layered"`` and 2
+    ``"close_packed"``), 2D or 3D, for SPlisHSPlasH's box ``[start - r, end + r]`` (so that, as
+    for :func:`lattice_block`, the first particle is at ``start + r`` on x and y):
+
+    * layered (1): layers ``sqrt(3) r`` apart along y, particles ``2r`` apart along x and z;
+      even layers shifted by r along z, odd ones by r along x;
+    * close_packed (2): ``sqrt(6) 2r / 3`` apart along x, layers ``sqrt(3) r`` apart along y,
+      ``2r`` along z, everything shifted by r along z, even layers by half the x spacing along
+      x, and in 3D odd columns by +r (even layers) or -r (odd layers) along z.
+
+    Per axis ``round(d / s) - 1`` particles for the box's extent d (less one diameter along x
+    and z in mode 1, less the x spacing along x and one diameter along z in mode 2) and the
+    spacing s, from ``start + r`` on, as SPlisHSPlasH counts them; in 2D one layer at z = 0
+    (the z shifts are dropped). Returns ``(M, dim)`` float64 positions.
+    """
+    r = check_radius(r)
+    a = _as_vector(start, "start")
+    b = _as_vector(end, "end")
+    dim = a.shape[0]
+    if a.shape != b.shape or dim not in (2, 3):
+        raise ValueError(f"dense_block: start {a.tolist()} and end {b.tolist()}; expected 2 "
+                         "or 3 components each")
+    mode = DENSE_LATTICES.get(lattice)
+    if mode is None:
+        raise ValueError(f"dense_block: lattice {lattice!r}; expected one of "
+                         f"{', '.join(DENSE_LATTICES)}")
+    eps = 1e-9  # SPlisHSPlasH's, in metres
+    diam = 2.0 * r
+    xs = np.sqrt(6.0) * diam / 3.0 + eps if mode == 2 else diam
+    ys = np.sqrt(3.0) * r + eps
+    lo = np.zeros(3)
+    hi = np.zeros(3)
+    lo[:dim], hi[:dim] = a - r, b + r
+    diff = hi - lo
+    diff[0] -= diam if mode == 1 else xs
+    diff[2] -= diam
+    nx = int(np.floor(diff[0] / xs + 0.5)) - 1
+    ny = int(np.floor(diff[1] / ys + 0.5)) - 1
+    nz = int(np.floor(diff[2] / diam + 0.5)) - 1 if dim == 3 else 1
+    if min(nx, ny, nz) < 1:
+        return np.empty((0, dim), dtype=np.float64)
+    j, k, m = (g.ravel() for g in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz),
+                                              indexing="ij"))
+    p = np.stack([lo[0] + diam + j * xs, lo[1] + diam + k * ys,
+                  (lo[2] + diam if dim == 3 else 0.0) + m * diam], axis=1)
+    even = k % 2 == 0
+    if mode == 1:
+        p[:, 2] += np.where(even, r, 0.0)
+        p[:, 0] += np.where(even, 0.0, r)
+    else:
+        p[:, 2] += r
+        if dim == 3:
+            p[:, 2] += np.where(j % 2 == 1, np.where(even, r, -r), 0.0)
+        p[:, 0] += np.where(even, 0.5 * xs, 0.0)
+    return np.ascontiguousarray(p[:, :dim])
+
+
 def box_walls(
     lo: ArrayLike,
     hi: ArrayLike,

@@ -333,10 +333,11 @@ class FluidBlock(_Model):
     end: Vec = Field(description="upper corner [m]")
     material: str = "fluid"
     velocity: Vec | None = Field(None, description="initial velocity [m/s]")
-    lattice: Literal["square", "hexagonal"] = Field(
+    lattice: Literal["square", "hexagonal", "layered", "close_packed"] = Field(
         "square", description="'square': spacing 2r (SPlisHSPlasH's denseMode 0); 'hexagonal' "
         "(2D only): touching discs (spacing 2r, rows along x), the packing a 2D fluid at rest "
-        "settles into; particle volume 1 / sum_k W over the lattice as for 'square'")
+        "settles into; 'layered' and 'close_packed': SPlisHSPlasH's denseMode 1 and 2 "
+        "(sphkit.geometry.sampling.dense_block); particle volume 1 / sum_k W over the lattice")
 
     @model_validator(mode="after")
     def _ordered(self) -> FluidBlock:

@@ -12,10 +12,10 @@ import warnings
 
 import numpy as np
 
-from sphkit.core.kernels import hexagonal_volume, lattice_volume
+from sphkit.core.kernels import block_volume, hexagonal_volume, lattice_volume
 from sphkit.core.state import SimState
 from sphkit.geometry.mesh_sampling import sample_mesh_volume
-from sphkit.geometry.sampling import hexagonal_block, lattice_block
+from sphkit.geometry.sampling import DENSE_LATTICES, dense_block, hexagonal_block, lattice_block
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.meshes import SceneMeshes
 
@@ -38,6 +38,11 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
         if blk.lattice == "hexagonal":  # spacing 2r, V = 1 / sum_k W over that lattice
             pts = periodic_clip(state, hexagonal_block(blk.start, blk.end, r))
             bvol = hexagonal_volume(2.0 * r, state.kid, state.h)
+        elif blk.lattice in DENSE_LATTICES:  # V from a block of that lattice 3h deep
+            pts = periodic_clip(state, dense_block(blk.start, blk.end, r, blk.lattice))
+            side = [6.0 * state.h] * dim
+            bvol = block_volume(dense_block([0.0] * dim, side, r, blk.lattice), state.kid,
+                                state.h)
         else:
             pts = periodic_clip(state, lattice_block(blk.start, blk.end, r))
         if len(pts) == 0:

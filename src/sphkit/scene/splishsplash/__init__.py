@@ -113,7 +113,11 @@ into the box ``lo = scale * start + translation``, ``hi = scale * end + translat
 one particle diameter inside the box on both sides (in 2D only x and y, at z = 0). sphkit's
 lattice (first particle at ``start + r``, last at or below ``end - r``) reproduces exactly these
 positions with the block ``start' = lo + r``, ``end' = lo + r + 2r n``. A block with n < 1 on an
-axis holds no particle in SPlisHSPlasH either; it is left out with a warning.
+axis holds no particle in SPlisHSPlasH either; it is left out with a warning. ``denseMode`` 1
+and 2 become the lattices ``"layered"`` and ``"close_packed"`` of the block ``[lo + r, hi - r]``
+(:func:`sphkit.geometry.sampling.dense_block` places SPlisHSPlasH's particles for its box
+``[lo, hi]``; their volume is :func:`sphkit.core.kernels.block_volume` of that lattice, where
+SPlisHSPlasH keeps ``0.8 (2r)^3`` for every mode).
 
 Rigid bodies. Static walls become :class:`~sphkit.scene.schema.MeshBoundary` entries; the mesh
 is scaled, then rotated (``rotationAngle`` in radians about ``rotationAxis``), then translated,

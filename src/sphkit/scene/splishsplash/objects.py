@@ -20,7 +20,8 @@ from sphkit.scene.splishsplash.reader import Reader
 
 #: a FluidModels particleFile with these suffixes is a mesh to fill (``.ply`` is a particle file)
 _FILL_SUFFIXES = (".obj", ".stl", ".off")
-_DENSE_MODES = {1: "more dense (hexagonal layers)", 2: "dense (hexagonal close packing)"}
+#: sphkit's lattices (scene ``fluid_blocks[].lattice``) of SPlisHSPlasH's denseMode 1 and 2
+_DENSE_MODES = {1: "layered", 2: "close_packed"}
 _RIGID_QUIET = {
     "color", "isWall", "samplingMode", "tubeMapOrder",
     # PositionBasedDynamics settings, only used by dynamic bodies
@@ -49,12 +50,9 @@ def fluid_blocks(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
         translation = rd.vec3(b, "translation", w, [0.0, 0.0, 0.0])
         scale = rd.vec3(b, "scale", w, [1.0, 1.0, 1.0])
         mode = rd.integer(b, "denseMode", w, 0)
-        if mode != 0:
-            raise rd.unsupported(
-                f"{w}.denseMode",
-                f"{mode} ({_DENSE_MODES.get(mode, 'unknown mode')}) is not supported yet; "
-                "supported: 0 (regular lattice)",
-            )
+        if mode not in (0, 1, 2):
+            raise rd.error(f"{w}.denseMode", mode,
+                           "0 (regular lattice), 1 (layered) or 2 (close packed)")
         velocity = rd.vec3(b, "initialVelocity", w, [0.0, 0.0, 0.0])
         omega = rd.vec3(b, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
         if any(omega):
@@ -71,6 +69,18 @@ def fluid_blocks(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
                 f"to exceed start {start} on every axis after scale and translation "
                 f"(block {lo} .. {hi})",
             )
+        if mode:  # SPlisHSPlasH's denser lattices, sampled for its box [lo, hi]
+            n = len(out)
+            rd.origin[f"fluid_blocks[{n}]"] = w
+            rd.origin[f"fluid_blocks[{n}].material"] = f"{w}.id"
+            rd.origin[f"fluid_blocks[{n}].velocity"] = f"{w}.initialVelocity"
+            rd.origin[f"fluid_blocks[{n}].lattice"] = f"{w}.denseMode"
+            block = {"start": [l + r for l in lo], "end": [h - r for h in hi],
+                     "material": rd.text(b, "id", w, "Fluid"), "lattice": _DENSE_MODES[mode]}
+            if any(velocity[:dim]):
+                block["velocity"] = velocity[:dim]
+            out.append(block)
+            continue
         # SPlisHSPlasH: round((hi - lo) / 2r) - 1 particles per axis, the first at lo + 2r
         counts = [
             math.floor((h - l) / (2.0 * r) + 0.5) - 1 for l, h in zip(lo, hi, strict=True)
