@@ -621,3 +621,16 @@ def test_wheel_dambreak_2d() -> None:
     theirs = _splishsplash_block_positions(data["FluidBlocks"][0], 0.025, 2)
     assert len(ours) == len(theirs) == 29 * 29
     np.testing.assert_allclose(_sorted(ours), _sorted(theirs), atol=1e-12)
+
+
+def test_empty_splishsplash_scene_runs_with_no_particles() -> None:
+    # SPlisHSPlasH's Empty.json is a Configuration alone; its GUI opens it. sphkit warns and
+    # runs it with 0 particles (a scene whose blocks hold no particle stays an error)
+    from sphkit.simulation import Simulation
+
+    scene = from_splishsplash({"Configuration": {"simulationMethod": 4}})
+    with pytest.warns(UserWarning, match="runs with 0 particles"):
+        sim = Simulation(scene)
+    for _ in range(3):
+        st = sim.step()
+    assert sim.fluid.n == 0 and st.step == 3 and sim.time > 0.0

@@ -9,6 +9,7 @@ registry, checking the scene across its fields -- happens here, never in the ste
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -129,11 +130,16 @@ def _build(scene: Scene) -> World:
     if not maps:  # maps: boxes and meshes become signed distances (map_geometries)
         add_wall_particles(state, scene, meshes, emitters)
     if state.fluid.n == 0 and not emitters:
-        raise SceneError(
-            f"fluid_blocks, fluid_files: the scene has no fluid particles of radius "
-            f"{scene.field('configuration.particle_radius')} = {r:g} m; expected at least one "
-            "(or an emitter)"
-        )
+        if scene.fluid_blocks or scene.fluid_files or scene.fluid_meshes:
+            raise SceneError(
+                f"fluid_blocks, fluid_files: the scene has no fluid particles of radius "
+                f"{scene.field('configuration.particle_radius')} = {r:g} m; expected at least "
+                "one (or an emitter)"
+            )
+        # an empty scene (SPlisHSPlasH's Empty.json: its GUI opens it): nothing to simulate
+        warnings.warn(f"{scene.field('fluid_blocks')}: the scene has no fluid (no fluid "
+                      "blocks, files, meshes or emitters); it runs with 0 particles",
+                      UserWarning, stacklevel=2)
     pressure = registry.get("pressure", cfg.pressure.method).load().from_config(cfg.pressure)
     model_cls = boundary_info.load()
     if maps:
