@@ -18,8 +18,9 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
    to the pressure take their non-pressure velocity change before the solve (strong coupling);
 6. the fluid's force on the rigid bodies from the solver's boundary share of its pressure;
 7. symplectic Euler, then the bodies move (the boundary model follows them);
-8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it, then
-   the layers due by the new time are added;
+8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it;
+   animation fields (:mod:`sphkit.world.animation`) set their particle field inside their
+   regions; then the emitters' layers due by the new time are added;
 9. stability guard: NaN/inf velocities, a speed above ``configuration.max_velocity``, fluid
    outside the domain (the static walls' bounding box plus ``configuration.domain_margin`` h,
    computed once by the world builder: fluid that leaked through a wall) or, with a fixed time
@@ -305,6 +306,8 @@ class Simulation:
             wrap_periodic(f["x"], st.period_lo, st.period)
         for em in self.emitters:
             em.animate(f, self.time + dt, dt)
+        for an in self.world.animation_fields:  # regions imposing a field (SPlisHSPlasH's)
+            an.apply(f, self.time + dt, dt)
         self.dt = dt
         self.time += dt
         self.step_count += 1

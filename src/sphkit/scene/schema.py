@@ -23,6 +23,7 @@ from pydantic import (
 )
 
 from sphkit import registry
+from sphkit.scene.expressions import ExpressionError, compile_expression
 from sphkit.scene.limits import CLIP, MAX_FPS, MAX_PARTICLES
 
 Vec = list[float]
@@ -670,6 +671,45 @@ class Configuration(_Model):
         return self
 
 
+class AnimationFieldConfig(_Model):
+    """A region that imposes a particle field on the fluid inside it (SPlisHSPlasH's
+    ``AnimationFields``; :mod:`sphkit.world.animation`), after every step from ``start_time``
+    to ``end_time``."""
+
+    field: Literal["velocity", "angular_velocity", "position"] = Field(
+        "velocity", description="the particle field it sets: velocity [m/s], angular velocity "
+        "[1/s] (micropolar vorticity's field; without it the region does nothing) or position [m]")
+    shape: Literal["box", "sphere", "cylinder"] = Field(
+        "box", description="box: scale = side lengths; sphere: scale[0] = radius; cylinder "
+        "along its local x: scale[0] = length, scale[1] = radius [m]")
+    translation: Vec = Field([0.0, 0.0, 0.0], description="centre [m]")
+    rotation_axis: Vec = Field([0.0, 0.0, 1.0], description="rotation axis (3 components)")
+    rotation_angle: float = Field(0.0, description="rotation about rotation_axis [rad]")
+    scale: Vec = Field([1.0, 1.0, 1.0], description="size, see shape [m] (3 components)")
+    expression: list[str] = Field(
+        ["", "", ""], description="the x, y, z components as expressions over t, dt, x, y, z, "
+        "vx, vy, vz, valuex, valuey, valuez (sphkit.scene.expressions); '' leaves a component")
+    start_time: float = Field(0.0, description="first time it acts [s]")
+    end_time: float | None = Field(None, description="last time it acts [s] (None: never stops)")
+
+    @model_validator(mode="after")
+    def _valid(self) -> AnimationFieldConfig:
+        if len(self.rotation_axis) != 3 or len(self.scale) != 3:
+            raise ValueError("rotation_axis and scale must have 3 components")
+        if len(self.expression) != 3:
+            raise ValueError(f"expression {self.expression!r} must have 3 entries (x, y, z)")
+        for k, e in enumerate(self.expression):
+            if e.strip():
+                try:
+                    compile_expression(e)
+                except ExpressionError as err:
+                    raise ValueError(f"expression[{k}] {e[:200]!r}: {err}") from None
+        if self.end_time is not None and not self.end_time >= self.start_time:
+            raise ValueError(f"end_time {self.end_time} must not precede start_time "
+                             f"{self.start_time}")
+        return self
+
+
 class Scene(_Model):
     """A whole scene."""
 
@@ -683,6 +723,7 @@ class Scene(_Model):
     meshes: list[MeshBoundary] = Field(default_factory=list)
     fluid_meshes: list[FluidMesh] = Field(default_factory=list)
     emitters: list[Emitter] = Field(default_factory=list)
+    animation_fields: list[AnimationFieldConfig] = Field(default_factory=list)
     output: OutputConfig = OutputConfig()
     source: str | None = Field(None, description="path of the file the scene was read from")
     #: a translated scene's field paths -> the paths the user wrote (SPlisHSPlasH's), for

@@ -29,6 +29,7 @@ from sphkit.core.state import SimState
 from sphkit.geometry import GeometryError
 from sphkit.scene.checks import check_budget, check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
+from sphkit.world.animation import AnimationField
 from sphkit.world.bodies import rigid_bodies
 from sphkit.world.emitters import FluidEmitter
 from sphkit.world.fluid import add_fluid
@@ -63,6 +64,8 @@ class World:
     #: what the start-up did (:mod:`sphkit.world.startup`): removed particles, relaxation,
     #: masses, the start density error
     start: StartReport = field(default_factory=StartReport)
+    #: regions imposing a particle field after every step (:mod:`sphkit.world.animation`)
+    animation_fields: list[AnimationField] = field(default_factory=list)
 
 
 def _state(scene: Scene, mat: Material) -> SimState:
@@ -174,9 +177,17 @@ def _build(scene: Scene) -> World:
     for force in forces:
         force.init(state)
     pressure.init(state)
+    animations = [AnimationField(a, dim, name=f"animation_fields[{k}]")
+                  for k, a in enumerate(scene.animation_fields)]
+    for k, an in enumerate(animations):
+        if an.field not in state.fluid.fields:
+            warnings.warn(f"{scene.field(f'animation_fields[{k}].field')}: "
+                          f"{scene.animation_fields[k].field!r}: the fluid has no such field "
+                          "(angular velocity: micropolar vorticity only); the region does nothing",
+                          UserWarning, stacklevel=2)
     return World(scene=scene, state=state, material=mat, pressure=pressure,
                  boundary_model=model, rigid=rigid, emitters=emitters,
                  lattice_volume=lattice_volume(2.0 * r, state.kid, h, dim), forces=forces,
                  force_roles=roles, domain=domain_box(state, scene, meshes, emitters),
-                 start=start)
+                 start=start, animation_fields=animations)
 

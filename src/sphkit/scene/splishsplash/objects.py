@@ -221,6 +221,51 @@ def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
     return out
 
 
+_ANIMATED_FIELDS = {"velocity": "velocity", "angular velocity": "angular_velocity",
+                    "position": "position"}
+
+
+def animation_fields(rd: Reader) -> list[dict[str, Any]]:
+    """``AnimationFields`` -> ``animation_fields`` (``SceneLoader``, ``AnimationField``):
+    ``particleField`` velocity, angular velocity or position; ``shapeType`` 0 box, 1 sphere,
+    2 cylinder; the expressions and the time window as they are."""
+    out = []
+    for k, a in enumerate(rd.array("AnimationFields")):
+        w = f"AnimationFields[{k}]"
+        known = {"particleField", "translation", "rotationAxis", "rotationAngle", "scale",
+                 "shapeType", "expression_x", "expression_y", "expression_z", "startTime",
+                 "endTime"}
+        rd.collect_unknown(a, w, known, set())
+        name = rd.text(a, "particleField", w, "velocity")
+        if name not in _ANIMATED_FIELDS:
+            raise rd.unsupported(f"{w}.particleField",
+                                 f"{name!r} is not supported yet; supported: "
+                                 f"{', '.join(map(repr, _ANIMATED_FIELDS))}")
+        shape = rd.integer(a, "shapeType", w, 0)
+        if shape not in (0, 1, 2):
+            raise rd.error(f"{w}.shapeType", shape, "0 (box), 1 (sphere) or 2 (cylinder)")
+        end = None if a.get("endTime") is None else rd.num(a, "endTime", w, 0.0)
+        entry: dict[str, Any] = {
+            "field": _ANIMATED_FIELDS[name],
+            "shape": ("box", "sphere", "cylinder")[shape],
+            "translation": rd.vec3(a, "translation", w, [0.0, 0.0, 0.0]),
+            "rotation_axis": rd.vec3(a, "rotationAxis", w, [1.0, 0.0, 0.0]),
+            "rotation_angle": rd.num(a, "rotationAngle", w, 0.0),
+            "scale": rd.vec3(a, "scale", w, [1.0, 1.0, 1.0]),
+            "expression": [rd.text(a, f"expression_{c}", w, "") for c in "xyz"],
+            "start_time": rd.num(a, "startTime", w, 0.0),
+            "end_time": end,
+        }
+        n = len(out)
+        rd.origin[f"animation_fields[{n}]"] = w
+        for c, key in zip("xyz", ("expression[0]", "expression[1]", "expression[2]"),
+                          strict=True):
+            rd.origin[f"animation_fields[{n}].{key}"] = f"{w}.expression_{c}"
+        out.append(entry)
+    rd.origin["animation_fields"] = "AnimationFields"
+    return out
+
+
 def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """``RigidBodies`` -> ``meshes``: static walls, or dynamic bodies (``isDynamic``) with
     PositionBasedDynamics' ``density`` and ``friction``."""

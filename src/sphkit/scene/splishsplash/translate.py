@@ -22,6 +22,7 @@ from sphkit.scene.schema import Scene, SceneError, format_validation_error
 from sphkit.scene.splishsplash.configuration import configuration
 from sphkit.scene.splishsplash.materials import materials
 from sphkit.scene.splishsplash.objects import (
+    animation_fields,
     emitters,
     fluid_blocks,
     fluid_mesh_models,
@@ -30,9 +31,9 @@ from sphkit.scene.splishsplash.objects import (
 )
 from sphkit.scene.splishsplash.reader import Reader
 
-_SPH_ARRAYS = ("Materials", "FluidBlocks", "RigidBodies", "FluidModels", "Emitters")
+_SPH_ARRAYS = ("Materials", "FluidBlocks", "RigidBodies", "FluidModels", "Emitters",
+               "AnimationFields")
 _SPH_UNSUPPORTED_ARRAYS = {
-    "AnimationFields": "animation fields",
     # joints of PositionBasedDynamics, which only connect dynamic rigid bodies
     "BallJoints": "joints between dynamic rigid bodies",
     "BallOnLineJoints": "joints between dynamic rigid bodies",
@@ -148,6 +149,9 @@ def translate(rd: Reader) -> dict[str, Any]:
         scene["fluid_meshes"] = fluid_meshes
     if emits:
         scene["emitters"] = emits
+    anims = animation_fields(rd)
+    if anims:
+        scene["animation_fields"] = anims
     if output:
         scene["output"] = output
     if rd.path is not None:
