@@ -634,3 +634,19 @@ def test_empty_splishsplash_scene_runs_with_no_particles() -> None:
     for _ in range(3):
         st = sim.step()
     assert sim.fluid.n == 0 and st.step == 3 and sim.time > 0.0
+
+
+def test_animated_body_without_its_script_stays_in_place(sph_dir: Path) -> None:
+    # SPlisHSPlasH animates an isAnimated body only from the scene's Python script; sphkit
+    # does not run it: the body loads as a boundary in place, with a warning that says so
+    data = _sph_scene()
+    data["RigidBodies"].append({"geometryFile": "../models/UnitBox.obj", "isAnimated": True,
+                                "translation": [0.5, 0.5, 0.0], "scale": [0.2, 0.2, 0.2]})
+    with pytest.warns(UserWarning, match=r"RigidBodies\[1\]\.isAnimated: true.*scriptFile"):
+        scene = from_splishsplash(data, sph_dir / "animated.json")
+    body = scene.meshes[1]
+    assert not body.dynamic and body.velocity is None and body.angular_velocity is None
+    data["RigidBodies"][1]["isDynamic"] = True
+    with pytest.raises(SceneError, match=r"RigidBodies\[1\]\.isAnimated: got True: expected "
+                                         r"false for a dynamic body"):
+        from_splishsplash(data, sph_dir / "animated.json")

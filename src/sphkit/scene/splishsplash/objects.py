@@ -281,9 +281,15 @@ def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]]) -> list[dict[str, Any
         rd.collect_unknown(rb, w, known, _RIGID_QUIET)
         dynamic = rd.flag(rb, "isDynamic", w, False)
         if rd.flag(rb, "isAnimated", w, False):
-            raise rd.unsupported(
-                f"{w}.isAnimated", "true: animated rigid bodies are not supported yet"
-            )
+            if dynamic:
+                raise rd.error(f"{w}.isAnimated", True, "false for a dynamic body (isDynamic)")
+            # SPlisHSPlasH moves an animated body only from a Python script (its scriptFile
+            # calls setVelocity / animate); without the script it stays where it is
+            rd.notes.append(
+                f"{w}.isAnimated: true: the body moves only as the scene's "
+                "Configuration.scriptFile (SPlisHSPlasH's Python API) animates it, which sphkit "
+                "does not run; it stays in place (sphkit's format prescribes a motion with "
+                "meshes[].velocity and angular_velocity)")
         geometry = rd.text(rb, "geometryFile", w, "")
         if not geometry:
             if rb.get("particleFile"):
