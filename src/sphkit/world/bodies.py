@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sphkit.boundary.rigid import INSET, RigidBodies, body_from_mesh, box_wall, mesh_wall
+from sphkit.boundary.rigid import RigidBodies, body_from_mesh, box_wall, inset_depth, mesh_wall
 from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.meshes import SceneMeshes
@@ -36,5 +36,5 @@ def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes) -> RigidBod
         for k, mb in enumerate(scene.meshes):
             if k not in moving:
                 walls.append((mesh_wall(meshes.mesh(k), mb.invert, state.r), f"meshes[{k}]"))
-    return RigidBodies(bodies, walls, margin=INSET * state.r,
+    return RigidBodies(bodies, walls, margin=inset_depth(state.dim) * state.r,
                        meshes=[meshes.mesh(k) for k in moving])

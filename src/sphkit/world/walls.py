@@ -3,8 +3,8 @@
 With a particle boundary model, scene ``boxes`` become lattice walls (two-layer lattices whose
 Akinci volumes stand for the missing fluid, so the boundary pressure is mirrored fully:
 boundary field ``pressure_mirror`` 1), static ``meshes`` their surface samples, moving meshes
-(rigid bodies) their surface samples moved ``INSET`` r into the mesh, and emitter housings
-their surface samples. With a map model (density or volume maps) boxes and meshes become
+(rigid bodies) their surface samples moved ``inset_depth(dim)`` r into the mesh, and emitter
+housings their surface samples. With a map model (density or volume maps) boxes and meshes become
 signed distances instead (:func:`map_geometries`).
 """
 
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from sphkit.boundary.maps import MapGeometry
-from sphkit.boundary.rigid import INSET, inset_samples
+from sphkit.boundary.rigid import inset_depth, inset_samples
 from sphkit.core.state import SimState
 from sphkit.geometry.mesh_sampling import sample_mesh_surface
 from sphkit.geometry.meshes import section_segments
@@ -59,7 +59,7 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
             # samples (z = 0) move along the side faces' normals, which lie in the plane
             p3 = np.zeros((len(pts), 3))
             p3[:, :dim] = pts
-            pts = inset_samples(mesh, p3, INSET * r)[:, :dim]
+            pts = inset_samples(mesh, p3, inset_depth(dim) * r)[:, :dim]
             # pressure mirrored fully as at the box walls, so that fluid squeezed between a
             # body and a box wall is pushed as the gradient of its density (see RigidBodies)
             bd.add(pts, name=f"meshes[{k}]", rigid_body=bodies.index(k) + 1,

@@ -49,8 +49,13 @@ The package, one concern a module:
 from __future__ import annotations
 
 from sphkit.boundary.rigid.bodies import RigidBodies, RigidBody
-from sphkit.boundary.rigid.construction import INSET, body_from_mesh, inset_samples
+from sphkit.boundary.rigid.construction import (
+    INSET,
+    body_from_mesh,
+    inset_depth,
+    inset_samples,
+)
 from sphkit.boundary.rigid.contacts import body_sdf, box_wall, mesh_wall
 
 __all__ = ["INSET", "RigidBodies", "RigidBody", "body_from_mesh", "body_sdf", "box_wall",
-           "inset_samples", "mesh_wall"]
+           "inset_depth", "inset_samples", "mesh_wall"]

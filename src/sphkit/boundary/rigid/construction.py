@@ -32,6 +32,16 @@ _JIT = dict(cache=True, fastmath=True)
 #: 2.2r, 972 at 2.3r for rho0 = 1000), so a layer 1.2r inside the mesh lets the fluid rest r
 #: outside the surface, as on the lattice (the scene's fluid blocks) and at scene boxes.
 INSET = 1.2
+#: the depth in 2D. Measured (DFSPH, a 2D tank 0.4 m wide and 0.2 m deep, r = 1 cm, at rest
+#: after 1.5 s): the fluid's bottom layer rests 2.36 r above an Akinci floor sampled on the
+#: mesh (2.39 r off the side walls), 1.36 r more than on the lattice; with 1.2 r a floating
+#: square of density 500 and side 12 r sat 43-45 % submerged instead of 50 %.
+INSET_2D = 1.3
+
+
+def inset_depth(dim: int) -> float:
+    """The depth [r] of a moving body's particles below its mesh in ``dim`` dimensions."""
+    return INSET_2D if dim == 2 else INSET
 
 
 @numba.njit(parallel=True, **_JIT)

@@ -3,8 +3,8 @@ a base class of :class:`sphkit.boundary.rigid.RigidBodies`.
 
 Contacts, all solved together by a projected Gauss-Seidel on velocity impulses
 (:func:`_contacts`): the contact points of a body are its boundary particles, which keep a
-distance ``1.2 r`` (they lie that deep in the mesh, see
-:data:`sphkit.boundary.rigid.construction.INSET`), and its mesh vertices, which keep 0 (the
+distance ``1.2 r`` in 3D, 1.3 r in 2D (they lie that deep in the mesh, see
+:func:`sphkit.boundary.rigid.construction.inset_depth`), and its mesh vertices, which keep 0 (the
 extreme points of a tilted body, which the particles' margin does not cover). They meet
 
 * the static walls (scene ``boxes``, analytic distance; static ``meshes``, their signed distance
