@@ -27,7 +27,8 @@ lists ``state.nl_fb`` (at most one entry per map and fluid particle), so every p
 uses them through its usual boundary terms ``rho0 V_b W(x_i - x_b)`` and ``V_b grad W(x_i - x_b)``.
 Solvers that evaluate the density at predicted positions x* (PBF, PCISPH) get the virtual
 particles of x* in every iteration (:meth:`MapBoundaryModel.boundary_at`, through
-``state.coupling.boundary_at``), leaving the step's own as they are.
+``state.coupling.boundary_at``), leaving the step's own as they are -- density maps; volume
+maps keep the step's (``Bender2019.boundary_at``).
 
 Hydrostatic boundary pressure (scene ``configuration.boundary.pressure: "hydrostatic"``, static
 maps only): the virtual neighbour mirrors the pressure and the walls add the kernel moment of the

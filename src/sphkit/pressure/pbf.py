@@ -11,9 +11,10 @@ Per step, with ``a_ext`` = gravity + non-pressure accelerations already in ``sta
    SPlisHSPlasH), each a Jacobi sweep over all density constraints:
 
    * ``rho_hat_i(x*) = V_i W(0) + sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x_b)`` -- the same
-     sum as :func:`sphkit.core.ppe.density_at`, fused here with the gradients; density and
-     volume maps place their virtual particles x_b for x* in every sweep, as SPlisHSPlasH's
-     ``TimeStepPBF::pressureSolveIteration`` queries its maps (``state.coupling.boundary_at``);
+     sum as :func:`sphkit.core.ppe.density_at`, fused here with the gradients; density maps
+     place their virtual particles x_b for x* in every sweep, as SPlisHSPlasH's
+     ``TimeStepPBF::pressureSolveIteration`` queries its maps (``state.coupling.boundary_at``;
+     volume maps keep the step's, see ``Bender2019.boundary_at``);
    * ``C_i = max(rho_hat_i - 1, 0)`` (clamped, as SPlisHSPlasH: no attraction at the free
      surface, so no clumping there; the paper's Eq. 1 is unclamped);
    * ``lambda_i = -C_i / (sum_k |grad_k C_i|^2 + epsilon)`` (Eq. 11) with

@@ -20,8 +20,8 @@ same neighbourhood.)
 1. predicts ``v* = v + dt (a_nonp + a_p)`` and ``x* = x + dt v*``;
 2. predicts the normalized density ``rho_hat*_i = V_i W(0) + sum_j V_j W(x*_i - x*_j)
    + sum_b V_b W(x*_i - x_b)`` (boundary included; :func:`sphkit.core.ppe.density_at` with
-   ``dx = x* - x``; density and volume maps place their virtual particles for x* in every
-   iteration, ``state.coupling.boundary_at``);
+   ``dx = x* - x``; density maps place their virtual particles for x* in every iteration,
+   ``state.coupling.boundary_at``; volume maps keep the step's);
 3. updates the pressure ``p~_i <- p~_i + (delta / dt^2) (max(rho_hat*_i, 1) - 1)``: the predicted
    density is clamped to ``>= 1`` as in SPlisHSPlasH, so the increments are never negative and
    ``p~ >= 0`` holds without a further clamp (free-surface particles with a particle deficiency
