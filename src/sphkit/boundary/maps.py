@@ -323,8 +323,6 @@ class MapBoundaryModel(BoundaryModel):
 
     name = "map"
     offset_in_radii = 0.0
-    # a moving body's map surface is moved moving_inset(dim) r into its mesh (a negative
-    # MapGeometry.thickness), so that the fluid rests about r outside the mesh
     #: the wall's share of the tangential pressure gradient with a hydrostatic boundary
     #: pressure (configuration.boundary.pressure "hydrostatic"; see
     #: :mod:`sphkit.boundary.maps_hydrostatic`); set before :meth:`init`
@@ -483,8 +481,9 @@ class MapBoundaryModel(BoundaryModel):
 
     @staticmethod
     def _packed(state: SimState, xb: np.ndarray, Vb: np.ndarray, vb: np.ndarray,
-              mbody: np.ndarray) -> tuple[NeighborList, np.ndarray, np.ndarray, np.ndarray,
-                                          np.ndarray, np.ndarray]:
+                mbody: np.ndarray
+                ) -> tuple[NeighborList, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                           np.ndarray]:
         """The virtual particles with V_b > 0 packed per fluid particle: the lists and the
         boundary arrays x, V, v, rigid_body, id (the fluid particle's id)."""
         n, dim = state.fluid.n, state.dim

@@ -27,6 +27,7 @@ _BINARY = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply,
            ast.Div: np.divide, ast.Pow: np.power, ast.Mod: np.mod}
 _UNARY = {ast.USub: np.negative, ast.UAdd: np.positive}
 
+
 class ExpressionError(ValueError):
     """An expression that is not one of the accepted form (the message says why)."""
 

@@ -32,8 +32,7 @@ FIELDS = {"velocity": "v", "angular_velocity": "omega", "position": "x"}
 class AnimationField:
     """One animation field of a scene (``scene.animation_fields[k]``; the module docstring)."""
 
-    def __init__(self, cfg: Any, dim: int, name: str = "animation field") -> None:
-        self.name = name
+    def __init__(self, cfg: Any, dim: int) -> None:
         self.field = FIELDS[cfg.field]
         self.shape = cfg.shape
         self.dim = dim

@@ -177,8 +177,7 @@ def _build(scene: Scene) -> World:
     for force in forces:
         force.init(state)
     pressure.init(state)
-    animations = [AnimationField(a, dim, name=f"animation_fields[{k}]")
-                  for k, a in enumerate(scene.animation_fields)]
+    animations = [AnimationField(a, dim) for a in scene.animation_fields]
     for k, an in enumerate(animations):
         if an.field not in state.fluid.fields:
             warnings.warn(f"{scene.field(f'animation_fields[{k}].field')}: "

@@ -38,7 +38,7 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
         if blk.lattice == "hexagonal":  # spacing 2r, V = 1 / sum_k W over that lattice
             pts = periodic_clip(state, hexagonal_block(blk.start, blk.end, r))
             bvol = hexagonal_volume(2.0 * r, state.kid, state.h)
-        elif blk.lattice in DENSE_LATTICES:  # V from a block of that lattice 3h deep
+        elif blk.lattice in DENSE_LATTICES:  # V from a block of that lattice 6h wide
             pts = periodic_clip(state, dense_block(blk.start, blk.end, r, blk.lattice))
             side = [6.0 * state.h] * dim
             bvol = block_volume(dense_block([0.0] * dim, side, r, blk.lattice), state.kid,

@@ -69,37 +69,27 @@ def fluid_blocks(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
                 f"to exceed start {start} on every axis after scale and translation "
                 f"(block {lo} .. {hi})",
             )
-        if mode:  # SPlisHSPlasH's denser lattices, sampled for its box [lo, hi]
-            n = len(out)
-            rd.origin[f"fluid_blocks[{n}]"] = w
-            rd.origin[f"fluid_blocks[{n}].material"] = f"{w}.id"
-            rd.origin[f"fluid_blocks[{n}].velocity"] = f"{w}.initialVelocity"
-            rd.origin[f"fluid_blocks[{n}].lattice"] = f"{w}.denseMode"
-            block = {"start": [l + r for l in lo], "end": [h - r for h in hi],
-                     "material": rd.text(b, "id", w, "Fluid"), "lattice": _DENSE_MODES[mode]}
-            if any(velocity[:dim]):
-                block["velocity"] = velocity[:dim]
-            out.append(block)
-            continue
-        # SPlisHSPlasH: round((hi - lo) / 2r) - 1 particles per axis, the first at lo + 2r
-        counts = [
-            math.floor((h - l) / (2.0 * r) + 0.5) - 1 for l, h in zip(lo, hi, strict=True)
-        ]
-        if min(counts) < 1:
-            rd.notes.append(
-                f"{w}: the block {lo} .. {hi} holds no particle of radius {r} in SPlisHSPlasH "
-                "(less than 2 particle diameters on an axis); it is left out"
-            )
-            continue
         n = len(out)
+        block: dict[str, Any] = {"start": [l + r for l in lo]}
+        if mode:  # SPlisHSPlasH's denser lattices, sampled for its box [lo, hi]
+            block.update(end=[h - r for h in hi], lattice=_DENSE_MODES[mode])
+            rd.origin[f"fluid_blocks[{n}].lattice"] = f"{w}.denseMode"
+        else:
+            # SPlisHSPlasH: round((hi - lo) / 2r) - 1 particles per axis, the first at lo + 2r
+            counts = [
+                math.floor((h - l) / (2.0 * r) + 0.5) - 1 for l, h in zip(lo, hi, strict=True)
+            ]
+            if min(counts) < 1:
+                rd.notes.append(
+                    f"{w}: the block {lo} .. {hi} holds no particle of radius {r} in "
+                    "SPlisHSPlasH (less than 2 particle diameters on an axis); it is left out"
+                )
+                continue
+            block["end"] = [l + r + 2.0 * r * c for l, c in zip(lo, counts, strict=True)]
+        block["material"] = rd.text(b, "id", w, "Fluid")
         rd.origin[f"fluid_blocks[{n}]"] = w
         rd.origin[f"fluid_blocks[{n}].material"] = f"{w}.id"
         rd.origin[f"fluid_blocks[{n}].velocity"] = f"{w}.initialVelocity"
-        block: dict[str, Any] = {
-            "start": [l + r for l in lo],
-            "end": [l + r + 2.0 * r * c for l, c in zip(lo, counts, strict=True)],
-            "material": rd.text(b, "id", w, "Fluid"),
-        }
         if any(velocity[:dim]):
             block["velocity"] = velocity[:dim]
         out.append(block)
