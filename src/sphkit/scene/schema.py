@@ -692,18 +692,23 @@ class AnimationFieldConfig(_Model):
     start_time: float = Field(0.0, description="first time it acts [s]")
     end_time: float | None = Field(None, description="last time it acts [s] (None: never stops)")
 
-    @model_validator(mode="after")
-    def _valid(self) -> AnimationFieldConfig:
-        if len(self.rotation_axis) != 3 or len(self.scale) != 3:
-            raise ValueError("rotation_axis and scale must have 3 components")
-        if len(self.expression) != 3:
-            raise ValueError(f"expression {self.expression!r} must have 3 entries (x, y, z)")
-        for k, e in enumerate(self.expression):
+    @field_validator("expression")
+    @classmethod
+    def _expressions(cls, v: list[str]) -> list[str]:
+        if len(v) != 3:
+            raise ValueError("expected 3 entries (x, y, z)")
+        for k, e in enumerate(v):
             if e.strip():
                 try:
                     compile_expression(e)
                 except ExpressionError as err:
-                    raise ValueError(f"expression[{k}] {e[:200]!r}: {err}") from None
+                    raise ValueError(f"entry {k} ({'xyz'[k]}) {e[:200]!r}: {err}") from None
+        return v
+
+    @model_validator(mode="after")
+    def _valid(self) -> AnimationFieldConfig:
+        if len(self.rotation_axis) != 3 or len(self.scale) != 3:
+            raise ValueError("rotation_axis and scale must have 3 components")
         if self.end_time is not None and not self.end_time >= self.start_time:
             raise ValueError(f"end_time {self.end_time} must not precede start_time "
                              f"{self.start_time}")

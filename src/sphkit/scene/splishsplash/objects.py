@@ -248,9 +248,7 @@ def animation_fields(rd: Reader) -> list[dict[str, Any]]:
         }
         n = len(out)
         rd.origin[f"animation_fields[{n}]"] = w
-        for c, key in zip("xyz", ("expression[0]", "expression[1]", "expression[2]"),
-                          strict=True):
-            rd.origin[f"animation_fields[{n}].{key}"] = f"{w}.expression_{c}"
+        rd.origin[f"animation_fields[{n}].expression"] = f"{w}.expression_x/_y/_z"
         out.append(entry)
     rd.origin["animation_fields"] = "AnimationFields"
     return out
