@@ -168,13 +168,16 @@ def _run_sweep(job: Job) -> dict[str, Any]:
         status = {"finished": "done"}.get(m.get("status"), m.get("status") or "failed")
         message = m.get("message")
         frames = len(m.get("frames") or [])
+        steps = (m.get("run_stats") or {}).get("steps", "?")
     except (OSError, ValueError):
-        status, message, frames = "failed", f"exit code {code}, no manifest", 0
+        status, message, frames, steps = "failed", f"exit code {code}, no manifest", 0, "?"
+
     record = {"variant": job.k, "values": job.values, "fingerprint": job.fingerprint,
               "status": "finished" if status == "done" else status, "message": message,
               "exit_code": code}
     atomic_write_text(sweep_marker(out), json.dumps(record, indent=1) + "\n")
-    return {"status": status, "message": message, "frames": frames, "exit_code": code}
+    return {"status": status, "message": message, "frames": frames, "steps": steps,
+            "exit_code": code}
 
 
 # -- the runner -----------------------------------------------------------------------------------
