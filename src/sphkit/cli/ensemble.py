@@ -4,8 +4,9 @@ One task per variant (:func:`run_job`): it builds the variant's scene, simulates
 its result atomically (``dataset``: ``DIR/variants/variant-00007.h5``; ``sweep``: the run folder
 ``DIR/variant-00007/`` with frames and manifest, committed by ``variant.json`` written last),
 then returns a small summary. :func:`run_jobs` runs the tasks on a ``LocalCluster`` of
-``workers`` processes (one thread each; Numba gets ``cpu_count // workers`` threads per process)
-or on a running scheduler (``--scheduler ADDRESS``), or in this process with ``workers = 0``.
+``workers`` processes (one task at a time each; a task's Numba kernels get
+``cpu_count // workers`` threads), on a running scheduler (``--scheduler ADDRESS``), or in this
+process with ``workers = 0``.
 
 * A rerun skips the variants whose result is complete and was made from the same variant scene,
   end time and frame rate (the *fingerprint* stored in the result); it computes only the others.
@@ -52,6 +53,10 @@ class Job:
     #: test-only: (marker file, k): the task of variant k kills its own worker process the
     #: first time it runs (the marker file records that it did)
     kill_once: tuple[str, int] | None = None
+    #: Numba threads of the task (``numba.set_num_threads``; None: all). Set at run time, not
+    #: through NUMBA_NUM_THREADS: a process started with another thread count compiles anew
+    #: and replaces the cached machine code of the parallel kernels
+    threads: int | None = None
 
     @property
     def key(self) -> str:
@@ -103,6 +108,10 @@ def run_job(job: Job) -> dict[str, Any]:
     ``status`` ("done", "unstable"), ``message``, ``wall_s`` and what the kind adds."""
     t0 = time.perf_counter()
     _maybe_kill(job)
+    if job.threads is not None:
+        import numba
+
+        numba.set_num_threads(max(1, min(job.threads, numba.config.NUMBA_NUM_THREADS)))
     summary = _run_dataset(job) if job.kind == "dataset" else _run_sweep(job)
     summary.update(k=job.k, values=job.values, wall_s=round(time.perf_counter() - t0, 3),
                    pid=os.getpid())
@@ -213,10 +222,11 @@ def run_jobs(jobs: Sequence[Job], *, workers: int = 2, scheduler: str | None = N
 
     cluster = None
     if scheduler is None:
-        threads = str(max(1, (os.cpu_count() or 1) // max(workers, 1)))
+        threads = max(1, (os.cpu_count() or 1) // max(workers, 1))
+        for job in jobs:  # the local workers share this machine's cores
+            job.threads = threads
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40,
-                               env={"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads})
+                               dashboard_address=None, silence_logs=40)
     try:
         client = Client(cluster if cluster is not None else scheduler)
         try:
