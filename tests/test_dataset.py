@@ -295,3 +295,32 @@ def test_killed_worker_task_is_redone(scene_file: Path, tmp_path: Path) -> None:
     md, keys = read_dataset(out)
     assert sum(len(v) for v in keys.values()) == 4
     assert sorted(t["variant"] for t in md["sphkit"]["trajectories"]) == [0, 1, 2, 3]
+
+
+def test_recorder_orders_fluid_walls_and_bodies() -> None:
+    """Fluid by id, then static walls (1), then each moving body's particles with its type
+    (kinematic 2, dynamic 3), the same order in every frame although the sets get permuted."""
+    from sphkit.core.particles import ParticleSet
+    from sphkit.io.datasets import MOVING_WALL, RIGID_BODY, TrajectoryRecorder
+
+    fluid = ParticleSet(2)
+    fluid.add(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]))
+    bd = ParticleSet(2)
+    bd.register("rigid_body", "scalar", np.int64)
+    bd.add(np.array([[5.0, 0], [6, 0], [7, 0], [8, 0], [9, 0]]), rigid_body=0)
+    bd["rigid_body"][:] = [2, 0, 1, 0, 2]
+    rec = TrajectoryRecorder(fluid, bd, {1: MOVING_WALL, 2: RIGID_BODY})
+    assert rec.particle_type.tolist() == [0, 0, 0, 1, 1, 2, 3, 3]
+    rec.record(fluid, bd, 0)
+    fluid.permute(np.array([2, 0, 1]))
+    fluid.view("x")[:] += 0.5
+    bd.view("x")[:] += 0.25
+    rec.record(fluid, bd, 1)
+    x = rec.array()
+    assert x.dtype == np.float32 and x.shape == (2, 8, 2)
+    assert x[0, :, 0].tolist() == [0, 1, 2, 6, 8, 7, 5, 9]
+    assert x[1, :, 0].tolist() == [0.5, 1.5, 2.5, 6.25, 8.25, 7.25, 5.25, 9.25]
+    assert rec.extent["walls"] == [[5.0, 0.0], [9.25, 0.25]]
+    fluid.add(np.array([[3.0, 0.0]]))
+    with pytest.raises(ValueError, match="fixed count"):
+        rec.record(fluid, bd, 2)

@@ -14,7 +14,8 @@ DIR (default ``out/<scene name>-dataset``; :mod:`sphkit.io.datasets`): ``train.h
 ``valid.h5``, ``test.h5`` and ``metadata.json``. Frames are stored at the scene's output rate
 (``--fps``) up to its end time (``--until``). Each variant's trajectory is first written to
 ``DIR/variants/``; a rerun computes only the missing ones (a variant of another scene, end time
-or frame rate counts as missing) and assembles the dataset again.
+or frame rate counts as missing, and so does an unstable one: the rerun tries it again) and
+assembles the dataset again.
 
 The splits take the successful variants in index order: the first ``round(0.8 n)`` to train,
 then valid, then test (``--split``; valid and test get at least one each from 3 variants on).
@@ -117,7 +118,8 @@ def make_dataset(args: argparse.Namespace, argv: Sequence[str] = (),
     if p.defaulted:
         say(args, "no --vary given: varying the first fluid block's end on each axis between "
                   "its middle and its end: " + " ".join(s.text() for s in p.specs))
-    jobs = [Job("dataset", k, values, scene, str(out), fingerprint("dataset", scene))
+    # absolute: the workers (on other machines with --scheduler) write there
+    jobs = [Job("dataset", k, values, scene, str(out.resolve()), fingerprint("dataset", scene))
             for k, values, scene in p.variants]
     results = execute(args, "dataset", jobs, len(jobs), kill_once)
     status = {r["k"]: r for r in results}
@@ -174,5 +176,5 @@ def _assemble(args: argparse.Namespace, p: Any, out: Path, good: list[int],
                      "numba": versions.get("numba"), "h5py": h5,
                      "python": versions.get("python")},
     }
-    return assemble_dataset(out, good, args.split, metadata, provenance, dx=2.0 * r,
-                            periodic_x=cfg.periodic_x, radius=r)
+    return assemble_dataset(out, good, args.split, metadata, provenance, radius=r,
+                            periodic_x=cfg.periodic_x)

@@ -119,6 +119,7 @@ def run_job(job: Job) -> dict[str, Any]:
 
 
 def _run_dataset(job: Job) -> dict[str, Any]:
+    from sphkit import registry
     from sphkit.io.atomic import atomic_write_text
     from sphkit.io.datasets import MOVING_WALL, RIGID_BODY, TrajectoryRecorder, variant_path
     from sphkit.scene.files import scene_from_dict
@@ -128,7 +129,10 @@ def _run_dataset(job: Job) -> dict[str, Any]:
     sim = Simulation(scene)
     body_types = {b + 1: (RIGID_BODY if body.dynamic else MOVING_WALL)
                   for b, body in enumerate(sim.rigid.bodies)}
-    rec = TrajectoryRecorder(sim.fluid, sim.boundary, body_types)
+    # density and volume maps fill the boundary set with each step's virtual particles (their
+    # number changes): such walls have no particles to store
+    walls = registry.get("boundary", scene.configuration.boundary.method).kind == "particles"
+    rec = TrajectoryRecorder(sim.fluid, sim.boundary, body_types, walls=walls)
     until, fps = scene.configuration.time.until, scene.output.fps
     failed = variant_path(job.out, job.k, failed=True)
     try:
@@ -147,7 +151,8 @@ def _run_dataset(job: Job) -> dict[str, Any]:
     write_variant(variant_path(job.out, job.k), position, rec.particle_type,
                   {"variant": job.k, "values": job.values, "fingerprint": job.fingerprint,
                    "steps": sim.step_count, "extent": rec.extent, "host": socket.gethostname(),
-                   "pid": os.getpid(), **job.extra})
+                   "pid": os.getpid(), "particle_radius": scene.configuration.particle_radius,
+                   **job.extra})
     try:
         failed.unlink()
     except FileNotFoundError:

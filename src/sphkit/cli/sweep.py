@@ -84,7 +84,8 @@ def run_sweep(args: argparse.Namespace, kill_once: tuple[str, int] | None = None
     except OSError as e:
         raise UsageError(f"cannot create the output folder {str(out)!r}: {e}") from None
     open_log(args, out)
-    jobs = [Job("sweep", k, values, scene, str(out / f"variant-{k:05d}"),
+    # absolute: the workers (on other machines with --scheduler) write there
+    jobs = [Job("sweep", k, values, scene, str(out.resolve() / f"variant-{k:05d}"),
                 fingerprint("sweep", scene)) for k, values, scene in p.variants]
     execute(args, "sweep", jobs, len(jobs), kill_once)
     rows = []

@@ -34,7 +34,8 @@ LagrangeBench's loader handles with its ``matscipy`` neighbour backend (it pads 
 
 ``metadata.json``, the keys LagrangeBench reads (file where it reads them):
 
-* ``dim`` (runner.py, metrics.py), ``dx`` (metrics.py: the particle spacing 2r [m]),
+* ``dim`` (runner.py, metrics.py), ``dx`` (metrics.py: the particle spacing 2r [m]; the
+  largest of the dataset when a variation changes the particle radius),
 * ``dt`` and ``write_every`` (runner.py, metrics.py use ``dt * write_every`` as the time
   between two stored frames): sphkit writes ``dt`` = the frame interval 1/fps [s] and
   ``write_every`` = 1 (LagrangeBench's own files give the solver step and the steps per frame),
@@ -112,11 +113,15 @@ class TrajectoryRecorder:
 
     ``fluid`` and ``boundary`` are the particle sets (fields ``x``, ``id``; the boundary's
     ``rigid_body``: 0 static, else the 1-based moving body); ``body_types[b]`` is the
-    particle type of moving body b (MOVING_WALL or RIGID_BODY)."""
+    particle type of moving body b (MOVING_WALL or RIGID_BODY). ``walls=False``: the boundary set
+    holds no wall particles (density and volume maps put each step's virtual particles there),
+    only the fluid is stored."""
 
-    def __init__(self, fluid: Any, boundary: Any, body_types: Mapping[int, int]) -> None:
+    def __init__(self, fluid: Any, boundary: Any, body_types: Mapping[int, int],
+                 walls: bool = True) -> None:
         self.n_fluid = int(fluid.n)
-        nb = int(boundary.n)
+        self.walls = walls
+        nb = int(boundary.n) if walls else 0
         if nb:
             body = (np.asarray(boundary["rigid_body"], dtype=np.int64) if "rigid_body" in
                     boundary.fields else np.zeros(nb, np.int64))
@@ -146,8 +151,11 @@ class TrajectoryRecorder:
             raise ValueError(f"the fluid has {fluid.n} particles at frame {frame}, "
                              f"{self.n_fluid} at the start: a dataset needs a fixed count")
         xf = np.asarray(fluid.view("x"))[np.argsort(fluid["id"], kind="stable")]
-        xb = np.asarray(boundary.view("x"))[self.boundary_order] if boundary.n else \
-            np.zeros((0, xf.shape[1]))
+        if self.walls and boundary.n != len(self.boundary_order):
+            raise ValueError(f"the boundary has {boundary.n} particles at frame {frame}, "
+                             f"{len(self.boundary_order)} at the start")
+        xb = (np.asarray(boundary.view("x"))[self.boundary_order] if len(self.boundary_order)
+              else np.zeros((0, xf.shape[1])))
         x = np.concatenate([xf, xb])
         for name, part in (("all", x), ("walls", xb)):
             if len(part):
@@ -266,20 +274,21 @@ def split_counts(n: int, fractions: Sequence[float]) -> tuple[int, int, int]:
 # -- assembling the dataset -----------------------------------------------------------------------
 def assemble_dataset(folder: str | os.PathLike[str], variants: Sequence[int],
                      fractions: Sequence[float], metadata: Mapping[str, Any],
-                     provenance: Mapping[str, Any], *, dx: float,
-                     periodic_x: Sequence[float] | None = None,
-                     radius: float) -> dict[str, Any]:
+                     provenance: Mapping[str, Any], *, radius: float,
+                     periodic_x: Sequence[float] | None = None) -> dict[str, Any]:
     """Write ``train.h5``, ``valid.h5``, ``test.h5`` and ``metadata.json`` (each atomically)
     from the complete variant files of ``variants`` (in this order: the first go to train, then
     valid, then test). ``metadata`` holds the scene's keys (dim, dt, ...), ``provenance`` the
-    ``sphkit`` block; ``dx`` the particle spacing, ``radius`` r [m]. Returns the metadata."""
+    ``sphkit`` block; ``radius`` the particle radius r [m] of the base scene, which a variant's
+    own (``particle_radius`` in its file, when a variation changed it) replaces: ``dx`` is
+    twice the largest radius of the dataset. Returns the metadata."""
     import h5py
 
     folder = Path(folder)
     counts = split_counts(len(variants), fractions)
     bounds_lo: np.ndarray | None = None
     bounds_hi: np.ndarray | None = None
-    n_max, n_frames = 0, None
+    n_max, n_frames, r_max = 0, None, 0.0
     records: list[dict[str, Any]] = []
     split_of: list[tuple[str, int, int]] = []  # (split, index in split, variant)
     start = 0
@@ -309,7 +318,9 @@ def assemble_dataset(folder: str | os.PathLike[str], variants: Sequence[int],
                     if periodic_x is not None:
                         lo = np.minimum(lo, extent["all"][0])
                         hi = np.maximum(hi, extent["all"][1])
-                    lo, hi = lo - radius, hi + radius
+                    r = float(meta.get("particle_radius", radius))
+                    r_max = max(r_max, r)
+                    lo, hi = lo - r, hi + r
                 bounds_lo = lo if bounds_lo is None else np.minimum(bounds_lo, lo)
                 bounds_hi = hi if bounds_hi is None else np.maximum(bounds_hi, hi)
                 n_max = max(n_max, n)
@@ -317,7 +328,7 @@ def assemble_dataset(folder: str | os.PathLike[str], variants: Sequence[int],
                     raise ValueError(f"variant {k} has {t} frames, others {n_frames}")
                 n_frames = t
                 records.append({"split": split, "key": key, "variant": int(k),
-                                "values": meta.get("values", {}),
+                                "values": meta.get("values", {}), "particle_radius": r,
                                 "n_particles": int(n), "n_fluid": int((ptype == FLUID).sum())})
     if bounds_lo is None or bounds_hi is None or n_frames is None:
         raise ValueError("no complete variants to assemble")
@@ -335,6 +346,7 @@ def assemble_dataset(folder: str | os.PathLike[str], variants: Sequence[int],
             train.append((f[key]["position"][:], f[key]["particle_type"][:]))
     stats = frame_statistics(train, box)
     seq = n_frames - 1
+    dx = 2.0 * r_max
     md: dict[str, Any] = dict(metadata)
     md.update({
         "dx": float(dx), "write_every": 1,
