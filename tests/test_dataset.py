@@ -324,3 +324,17 @@ def test_recorder_orders_fluid_walls_and_bodies() -> None:
     fluid.add(np.array([[3.0, 0.0]]))
     with pytest.raises(ValueError, match="fixed count"):
         rec.record(fluid, bd, 2)
+
+
+def test_without_the_extra_exits_2(scene_file: Path, tmp_path: Path,
+                                   monkeypatch: pytest.MonkeyPatch,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name in ("h5py", "distributed")
+                        else real(name, *a))
+    assert main(["dataset", str(scene_file), "--count", "2", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "install sphkit[dataset]" in err and "h5py" in err and "Traceback" not in err

@@ -231,7 +231,8 @@ def run_jobs(jobs: Sequence[Job], *, workers: int = 2, scheduler: str | None = N
         for job in jobs:  # the local workers share this machine's cores
             job.threads = threads
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40)
+                               dashboard_address=None, silence_logs=40,
+                               preload=["sphkit.cli.ensemble_worker"])
     try:
         client = Client(cluster if cluster is not None else scheduler)
         try:
