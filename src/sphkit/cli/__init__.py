@@ -8,6 +8,9 @@
     sphkit run --resume DIR [--until T]
     sphkit compat [--markdown docs/compatibility.md] [--radius-scale F] [--steps N]
     sphkit scenes
+    sphkit dataset SCENE --count N [--vary PATH=LO:HI ...] [--seed S] [--out DIR] [--split F,F,F]
+                   [--until T] [--fps F] [--workers W] [--scheduler ADDRESS]
+    sphkit sweep SCENE --count N --vary PATH=LO:HI [...] [--out DIR] [--workers W] ...
     sphkit --version
 
 ``sphkit run`` simulates a scene (a built-in name, see ``sphkit scenes``, or a scene file: sphkit
@@ -24,6 +27,12 @@ Exit codes: 0 finished; 1 failed (e.g. an output file could not be written); 2 b
 or scene; 3 the simulation became unstable (frames so far are kept, the diagnosis is printed and
 recorded in the manifest); 130 interrupted by Ctrl-C (143 by SIGTERM).
 
+``sphkit dataset`` writes randomised variants of a scene in LagrangeBench's HDF5 layout (train,
+valid and test files, ``metadata.json``) for learned simulators; ``sphkit sweep`` runs them like
+``sphkit run``, one folder each. Both run one Dask task per variant (a local cluster, or
+``--scheduler``), redo a variant whose worker died, and on a rerun compute only the missing
+variants (the ``dataset`` extra: h5py, dask[distributed]).
+
 Logging: the library logs to the logger ``"sphkit"``; a command writes it, with its progress
 lines, to ``sphkit.log`` in the output folder (``run`` starts the file, ``surface`` and
 ``render`` append). ``--quiet`` prints only errors, ``--verbose`` also the library's info and
@@ -31,11 +40,13 @@ debug records (per-step statistics) on the console and in the log file.
 
 One module per subcommand: :mod:`sphkit.cli.run` (with :mod:`sphkit.cli.progress` and
 :mod:`sphkit.cli.resume`), :mod:`sphkit.cli.scenes`, :mod:`sphkit.cli.surface`,
-:mod:`sphkit.cli.render`, :mod:`sphkit.cli.compat`; what they share (exit codes, the error
-printer, argument types, verbosity flags, run folders) is in :mod:`sphkit.cli.common`. A
-subcommand module has ``add_parser(sub)``, which adds its parser and sets its handler
-(``parser.set_defaults(handler=cmd)``, a :data:`~sphkit.cli.common.Handler`: ``cmd(args, argv)
--> exit code``); adding a subcommand is a new module and its line in :data:`COMMANDS`.
+:mod:`sphkit.cli.render`, :mod:`sphkit.cli.compat`, :mod:`sphkit.cli.dataset` and
+:mod:`sphkit.cli.sweep` (variants of a scene as Dask tasks, :mod:`sphkit.cli.ensemble`); what
+they share (exit codes, the error printer, argument types, verbosity flags, run folders) is in
+:mod:`sphkit.cli.common`. A subcommand module has ``add_parser(sub)``, which adds its parser
+and sets its handler (``parser.set_defaults(handler=cmd)``, a
+:data:`~sphkit.cli.common.Handler`: ``cmd(args, argv) -> exit code``); adding a subcommand is
+a new module and its line in :data:`COMMANDS`.
 """
 
 from __future__ import annotations
@@ -62,7 +73,16 @@ _previous = signal.signal(signal.SIGINT, _interrupted_at_start) if _MAIN else No
 import argparse  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
 
-from sphkit.cli import compat, methods, render, run, scenes, surface  # noqa: E402
+from sphkit.cli import (  # noqa: E402
+    compat,
+    dataset,
+    methods,
+    render,
+    run,
+    scenes,
+    surface,
+    sweep,
+)
 from sphkit.cli.common import (  # noqa: E402
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
@@ -78,7 +98,7 @@ if _MAIN:
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: the subcommand modules, in the order ``sphkit --help`` lists them
-COMMANDS = (run, scenes, methods, surface, render, compat)
+COMMANDS = (run, scenes, methods, surface, render, compat, dataset, sweep)
 
 
 def build_parser() -> argparse.ArgumentParser:

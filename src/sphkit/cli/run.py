@@ -180,7 +180,8 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
 
     name = args.scene or DEFAULT_SCENE
     try:
-        scene = load_scene(name)
+        # a scene given ready-made (``sphkit sweep``'s variants), else the name or file
+        scene = load_scene(getattr(args, "scene_object", None) or name)
         if args.until is not None:
             scene.configuration.time.until = args.until
         if args.fps is not None:
