@@ -8,6 +8,7 @@
     sphkit run --resume DIR [--until T]
     sphkit compat [--markdown docs/compatibility.md] [--radius-scale F] [--steps N]
     sphkit scenes
+    sphkit learn train DATASET | rollout MODEL SCENE | eval MODEL DATASET   (sphkit[learn])
     sphkit --version
 
 ``sphkit run`` simulates a scene (a built-in name, see ``sphkit scenes``, or a scene file: sphkit
@@ -31,7 +32,8 @@ debug records (per-step statistics) on the console and in the log file.
 
 One module per subcommand: :mod:`sphkit.cli.run` (with :mod:`sphkit.cli.progress` and
 :mod:`sphkit.cli.resume`), :mod:`sphkit.cli.scenes`, :mod:`sphkit.cli.surface`,
-:mod:`sphkit.cli.render`, :mod:`sphkit.cli.compat`; what they share (exit codes, the error
+:mod:`sphkit.cli.render`, :mod:`sphkit.cli.compat`, :mod:`sphkit.cli.learn` (the learned
+simulators; PyTorch is imported only when one of its commands runs); what they share (exit codes, the error
 printer, argument types, verbosity flags, run folders) is in :mod:`sphkit.cli.common`. A
 subcommand module has ``add_parser(sub)``, which adds its parser and sets its handler
 (``parser.set_defaults(handler=cmd)``, a :data:`~sphkit.cli.common.Handler`: ``cmd(args, argv)
@@ -62,7 +64,7 @@ _previous = signal.signal(signal.SIGINT, _interrupted_at_start) if _MAIN else No
 import argparse  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
 
-from sphkit.cli import compat, methods, render, run, scenes, surface  # noqa: E402
+from sphkit.cli import compat, learn, methods, render, run, scenes, surface  # noqa: E402
 from sphkit.cli.common import (  # noqa: E402
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
@@ -78,7 +80,7 @@ if _MAIN:
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: the subcommand modules, in the order ``sphkit --help`` lists them
-COMMANDS = (run, scenes, methods, surface, render, compat)
+COMMANDS = (run, scenes, methods, surface, render, compat, learn)
 
 
 def build_parser() -> argparse.ArgumentParser:
