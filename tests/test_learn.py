@@ -27,9 +27,8 @@ from sphkit.learn.data import (  # noqa: E402
 from sphkit.learn.graph import brute_force_graph, radius_graph  # noqa: E402
 from sphkit.learn.sanchez_gonzalez2020 import GNSConfig  # noqa: E402
 from sphkit.learn.train import (  # noqa: E402
-    Trainer,
     TrainConfig,
-    load_simulator,
+    Trainer,
     noisy_window,
     random_walk_noise,
 )

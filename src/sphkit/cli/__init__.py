@@ -32,12 +32,13 @@ debug records (per-step statistics) on the console and in the log file.
 
 One module per subcommand: :mod:`sphkit.cli.run` (with :mod:`sphkit.cli.progress` and
 :mod:`sphkit.cli.resume`), :mod:`sphkit.cli.scenes`, :mod:`sphkit.cli.surface`,
-:mod:`sphkit.cli.render`, :mod:`sphkit.cli.compat`, :mod:`sphkit.cli.learn` (the learned
-simulators; PyTorch is imported only when one of its commands runs); what they share (exit codes, the error
-printer, argument types, verbosity flags, run folders) is in :mod:`sphkit.cli.common`. A
-subcommand module has ``add_parser(sub)``, which adds its parser and sets its handler
-(``parser.set_defaults(handler=cmd)``, a :data:`~sphkit.cli.common.Handler`: ``cmd(args, argv)
--> exit code``); adding a subcommand is a new module and its line in :data:`COMMANDS`.
+:mod:`sphkit.cli.render`, :mod:`sphkit.cli.compat`, :mod:`sphkit.cli.learn` (learned
+simulators; PyTorch is imported only when one of its commands runs); what they share (exit
+codes, the error printer, argument types, verbosity flags, run folders) is in
+:mod:`sphkit.cli.common`. A subcommand module has ``add_parser(sub)``, which adds its parser
+and sets its handler (``parser.set_defaults(handler=cmd)``, a
+:data:`~sphkit.cli.common.Handler`: ``cmd(args, argv) -> exit code``); adding a subcommand is a
+new module and its line in :data:`COMMANDS`.
 """
 
 from __future__ import annotations

@@ -166,7 +166,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     from sphkit.learn.data import DatasetError
     from sphkit.learn.sanchez_gonzalez2020 import GNSConfig
-    from sphkit.learn.train import Trainer, TrainConfig, TrainingError
+    from sphkit.learn.train import TrainConfig, Trainer, TrainingError
 
     if not args.dataset.is_dir():
         raise UsageError(f"DATASET {str(args.dataset)!r}: not a folder; expected a dataset "
