@@ -79,20 +79,20 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="cpu (default) or cuda (when PyTorch sees a GPU)")
     t.add_argument("--threads", type=positive_int, metavar="N",
                    help="PyTorch CPU threads (default: PyTorch's)")
-    t.add_argument("--latent", type=positive_int, metavar="L", help="latent size (default 64)")
+    t.add_argument("--latent", type=positive_int, metavar="L", help="latent size (default 32)")
     t.add_argument("--layers", type=positive_int, metavar="M",
-                   help="message-passing layers (default 5)")
+                   help="message-passing layers (default 3)")
     t.add_argument("--batch", type=positive_int, metavar="B",
                    help="trajectory windows per step (default 2)")
     t.add_argument("--lr", type=positive_float("learning rate", "1e-3"), metavar="LR",
-                   help="initial learning rate (default 1e-3)")
+                   help="initial learning rate (default 2e-3)")
     t.add_argument("--lr-final", type=positive_float("final learning rate", "1e-5"),
                    metavar="LR", help="final learning rate (default 1e-5)")
     t.add_argument("--lr-decay-steps", type=positive_int, metavar="N",
-                   help="steps per tenfold decay of the learning rate (default 2000)")
+                   help="steps per tenfold decay of the learning rate (default 5000)")
     t.add_argument("--noise", type=positive("training noise std [m/frame]", allow_zero=True),
                    metavar="STD", help="random-walk noise std of the last input velocity "
-                                       "[m per frame] (default: see sphkit.learn.train)")
+                                       "[m per frame] (default 1e-4 x dx / 0.02 m)")
     t.add_argument("--radius", type=positive_float("connectivity radius [m]", "0.045"),
                    metavar="R", help="connectivity radius [m] (default: the dataset's)")
     t.add_argument("--seed", type=positive("random seed", integer=True, allow_zero=True),

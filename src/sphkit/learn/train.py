@@ -14,8 +14,9 @@ acceleration asks the network to undo the last velocity's noise. ``noise_std`` i
 frame, like the velocities; the normalisation's standard deviations are widened by it.
 
 **Learning rate**: ``lr(k) = lr_final + (lr - lr_final) * 0.1 ** (k / lr_decay_steps)``
-(LagrangeBench's exponential decay, 1e-4 -> 1e-6 over 1e5 steps; :class:`TrainConfig` has the
-CPU defaults and why).
+(LagrangeBench's exponential decay, 1e-4 -> 1e-6 over 1e5 steps; the CPU default is 2e-3
+decaying tenfold every 5,000 steps, for a run of a few thousand steps: README, "Learned
+simulators").
 
 **Checkpoints**: ``OUT/model.pt`` (model, optimiser, step, random states, the dataset's metadata,
 the configurations and the normalisation) written atomically every ``checkpoint_every`` steps,
@@ -61,11 +62,11 @@ class TrainConfig:
     steps: int = 100_000  #: train up to this step count (total, across resumes)
     time_limit: float | None = None  #: stop after this many seconds of this invocation
     batch: int = 2  #: windows (graphs) per step
-    lr: float = 1e-3  #: initial learning rate
+    lr: float = 2e-3  #: initial learning rate
     lr_final: float = 1e-5
-    lr_decay_steps: int = 2_000  #: steps per decade of the learning rate's decay
-    #: std of the random-walk noise on the last input velocity [m / frame]; None: 3e-4 x
-    #: (dx / 0.02 m) x (10 ms / dt)^... see :func:`default_noise`
+    lr_decay_steps: int = 5_000  #: steps per decade of the learning rate's decay
+    #: std of the random-walk noise on the last input velocity [m / frame]; None:
+    #: :func:`default_noise`
     noise_std: float | None = None
     radius: float | None = None  #: connectivity radius [m]; None: the dataset's default
     seed: int = 0
@@ -80,12 +81,14 @@ class TrainConfig:
 
 
 def default_noise(meta: dict[str, Any]) -> float:
-    """The default training noise [m / frame]: a tenth of the acceleration statistics' std
-    (the typical change of the frame velocity per frame), at most LagrangeBench's 3e-4 for its
-    2D datasets (dx = 0.02 m, like sphkit's 2D dam break). An error of one step's acceleration
-    scale is what an autoregressive rollout makes; GNS's noise is of that size."""
+    """The default training noise [m / frame]: 1e-4 x (dx / 0.02 m), at most a tenth of the
+    acceleration statistics' norm. LagrangeBench uses 3e-4 on its 2D datasets (dx = 0.02 m);
+    on sphkit's 2D dam break at 100 frames/s (acceleration std about 1e-3 m per frame^2, of
+    which gravity is 9.8e-4) 3e-4 made the short rollouts worse in ten minutes of training
+    (README, "Learned simulators")."""
     acc = float(np.linalg.norm(meta["acc_std"]))
-    return float(min(3e-4 * float(meta.get("dx", 0.02)) / 0.02, 0.1 * acc)) if acc > 0 else 3e-4
+    base = 1e-4 * float(meta.get("dx", 0.02)) / 0.02
+    return float(min(base, 0.1 * acc)) if acc > 0 else base
 
 
 class TrainingError(RuntimeError):
@@ -154,7 +157,8 @@ class Trainer:
         self.normalizer = (Normalizer.from_state(ckpt["normalization"]) if ckpt else
                            Normalizer(self.meta, config.noise_std))
         self.features = FeatureBuilder(self.normalizer, self.meta["bounds"], config.radius,
-                                       self.meta.get("periodic_boundary_conditions"))
+                                       self.meta.get("periodic_boundary_conditions"),
+                                       config.gns.history)
         self.train_set = WindowDataset(load_split(self.dataset, "train"))
         try:
             self.valid = load_split(self.dataset, "valid", limit=2)
@@ -324,5 +328,6 @@ def load_simulator(path: str | os.PathLike[str], device: str = "cpu") -> tuple[A
     meta = ckpt["metadata"]
     tc = ckpt["train_config"]
     features = FeatureBuilder(Normalizer.from_state(ckpt["normalization"]), meta["bounds"],
-                              float(tc["radius"]), meta.get("periodic_boundary_conditions"))
+                              float(tc["radius"]), meta.get("periodic_boundary_conditions"),
+                              ckpt["gns_config"].get("history", "velocities"))
     return LearnedSimulator(model, features, device), ckpt
