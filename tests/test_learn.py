@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -88,8 +89,17 @@ def _config(**kw: object) -> TrainConfig:
 
 
 @pytest.fixture(autouse=True)
-def _one_thread() -> None:
+def _one_thread() -> Iterator[None]:
+    """One thread for PyTorch and Numba: on graphs of 22 nodes the parallel loops' start-up
+    (5-8 ms per neighbour search on two busy cores) was nine tenths of the training test."""
+    import numba
+
+    threads = torch.get_num_threads(), numba.get_num_threads()
     torch.set_num_threads(1)
+    numba.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads[0])
+    numba.set_num_threads(threads[1])
 
 
 def test_windows_and_targets(dataset: Path) -> None:
@@ -149,19 +159,20 @@ def test_random_walk_noise() -> None:
 
 def test_training_learns_the_acceleration(dataset: Path, tmp_path: Path) -> None:
     """Falling with drag: the acceleration is a linear function of the last velocity. After
-    300 steps the one-step error of the normalised acceleration must be under 0.05 (the
-    acceleration within about 20 % of its spread; an untrained network is near 1), and a
-    20-step rollout must beat the constant-velocity baseline (which misses gravity, about
-    2.5 cm per frame^2) tenfold."""
-    tr = Trainer(dataset, tmp_path / "m", _config(steps=300))
+    150 steps the one-step error of the normalised acceleration must be under 0.05 (the
+    acceleration within about 20 % of its spread; the untrained network is at about 0.26) and
+    a tenth of the untrained one, and the 10-step rollouts must beat the constant-velocity
+    baseline (which misses gravity, 2.5 cm per frame^2, and the drag) tenfold in MSE (measured:
+    0.001 and about 800 times)."""
+    tr = Trainer(dataset, tmp_path / "m", _config(steps=150, lr=5e-3))
     before = tr.validation_loss()
     tr.run()
     after = tr.validation_loss()
     assert before is not None and after is not None
-    assert after < 0.05 < before, (before, after)
+    assert after < min(0.05, before / 10), (before, after)
     from sphkit.learn.evaluate import evaluate
 
-    res = evaluate(tmp_path / "m", dataset, "test", say=lambda s: None)
+    res = evaluate(tmp_path / "m", dataset, "test", say=lambda s: None, starts=2)
     assert res["mse_ratio_cv_over_model"]["full"] > 10, res["mse"]
 
 

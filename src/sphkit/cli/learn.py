@@ -128,6 +128,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="folder for eval.json and the plots (default MODEL/eval-<split>)")
     e.add_argument("--limit", type=positive_int, metavar="N",
                    help="evaluate the first N trajectories only")
+    e.add_argument("--starts", type=positive_int, default=8, metavar="K",
+                   help="also measure 20-step rollouts from K evenly spaced frames of each "
+                        "trajectory (default 8)")
     e.add_argument("--device", choices=("cpu", "cuda"), default="cpu", help="cpu or cuda")
     add_verbosity(e)
     e.set_defaults(handler=lambda a, argv: _run(cmd_eval, a))
@@ -254,7 +257,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     out = args.out or model_dir / f"eval-{args.split}"
     try:
         evaluate(args.model, args.dataset, args.split, out, limit=args.limit,
-                 device=args.device, say=lambda text: print(text, flush=True),
+                 device=args.device, starts=args.starts, say=lambda text: print(text, flush=True),
                  check_interrupt=Interrupts.check)
     except TrainingError as e:
         raise UsageError(f"MODEL: {e}") from None
