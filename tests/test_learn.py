@@ -240,6 +240,7 @@ def test_eval_prints_the_table(model: Path, dataset: Path, tmp_path: Path,
     (["learn", "rollout", "{model}", "no-such-scene"], "SCENE"),
     (["learn", "rollout", "{model}", "dambreak-2d", "--steps", "0"], "positive integer"),
     (["learn", "train", "{ds}", "--resume", "--out", "{tmp}/none"], "--resume"),
+    (["learn", "train", "{ds}", "--out", "{model}"], "--resume"),
 ])
 def test_cli_errors_exit_2(argv: list[str], words: str, dataset: Path, model: Path,
                            tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -169,12 +169,16 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     from sphkit.learn.data import DatasetError
     from sphkit.learn.sanchez_gonzalez2020 import GNSConfig
-    from sphkit.learn.train import TrainConfig, Trainer, TrainingError
+    from sphkit.learn.train import CHECKPOINT_NAME, TrainConfig, Trainer, TrainingError
 
     if not args.dataset.is_dir():
         raise UsageError(f"DATASET {str(args.dataset)!r}: not a folder; expected a dataset "
                          "folder (metadata.json, train.h5, ...)")
-    out = _out_folder(args.out or Path("out") / f"gns-{args.dataset.resolve().name}", "--out")
+    out = args.out or Path("out") / f"gns-{args.dataset.resolve().name}"
+    if not args.resume and (out / CHECKPOINT_NAME).exists():
+        raise UsageError(f"--out {str(out)!r} already holds a model ({CHECKPOINT_NAME}); "
+                         "continue it with --resume, or choose another --out")
+    out = _out_folder(out, "--out")
     open_log(args, out)
     if args.threads:
         torch.set_num_threads(args.threads)
