@@ -92,7 +92,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="steps per tenfold decay of the learning rate (default 5000)")
     t.add_argument("--noise", type=positive("training noise std [m/frame]", allow_zero=True),
                    metavar="STD", help="random-walk noise std of the last input velocity "
-                                       "[m per frame] (default 1e-4 x dx / 0.02 m)")
+                                       "[m per frame] (default 3e-4 x dx / 0.02 m)")
     t.add_argument("--radius", type=positive_float("connectivity radius [m]", "0.045"),
                    metavar="R", help="connectivity radius [m] (default: the dataset's)")
     t.add_argument("--seed", type=positive("random seed", integer=True, allow_zero=True),

@@ -81,14 +81,12 @@ class TrainConfig:
 
 
 def default_noise(meta: dict[str, Any]) -> float:
-    """The default training noise [m / frame]: 1e-4 x (dx / 0.02 m), at most a tenth of the
-    acceleration statistics' norm. LagrangeBench uses 3e-4 on its 2D datasets (dx = 0.02 m);
-    on sphkit's 2D dam break at 100 frames/s (acceleration std about 1e-3 m per frame^2, of
-    which gravity is 9.8e-4) 3e-4 made the short rollouts worse in ten minutes of training
-    (README, "Learned simulators")."""
-    acc = float(np.linalg.norm(meta["acc_std"]))
-    base = 1e-4 * float(meta.get("dx", 0.02)) / 0.02
-    return float(min(base, 0.1 * acc)) if acc > 0 else base
+    """The default training noise [m / frame]: LagrangeBench's 3e-4 for its 2D datasets
+    (dx = 0.02 m, like sphkit's 2D dam break), scaled with the particle spacing. On the dam
+    break at 100 frames/s (acceleration std about 1e-3 m per frame^2) ten minutes of training
+    with 3e-4 gave a 20-step MSE 4.8 times below the constant-velocity baseline's, with 1e-4
+    2.7 times, and left fewer particles outside the tank (README, "Learned simulators")."""
+    return 3e-4 * float(meta.get("dx") or 0.02) / 0.02
 
 
 class TrainingError(RuntimeError):
