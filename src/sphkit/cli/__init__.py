@@ -11,6 +11,7 @@
     sphkit dataset SCENE --count N [--vary PATH=LO:HI ...] [--seed S] [--out DIR] [--split F,F,F]
                    [--until T] [--fps F] [--workers W] [--scheduler ADDRESS]
     sphkit sweep SCENE --count N --vary PATH=LO:HI [...] [--out DIR] [--workers W] ...
+    sphkit learn train DATASET | rollout MODEL SCENE | eval MODEL DATASET   (sphkit[learn])
     sphkit --version
 
 ``sphkit run`` simulates a scene (a built-in name, see ``sphkit scenes``, or a scene file: sphkit
@@ -41,10 +42,11 @@ debug records (per-step statistics) on the console and in the log file.
 One module per subcommand: :mod:`sphkit.cli.run` (with :mod:`sphkit.cli.progress` and
 :mod:`sphkit.cli.resume`), :mod:`sphkit.cli.scenes`, :mod:`sphkit.cli.surface`,
 :mod:`sphkit.cli.render`, :mod:`sphkit.cli.compat`, :mod:`sphkit.cli.dataset` and
-:mod:`sphkit.cli.sweep` (variants of a scene as Dask tasks, :mod:`sphkit.cli.ensemble`); what
-they share (exit codes, the error printer, argument types, verbosity flags, run folders) is in
-:mod:`sphkit.cli.common`. A subcommand module has ``add_parser(sub)``, which adds its parser
-and sets its handler (``parser.set_defaults(handler=cmd)``, a
+:mod:`sphkit.cli.sweep` (variants of a scene as Dask tasks, :mod:`sphkit.cli.ensemble`),
+:mod:`sphkit.cli.learn` (learned simulators; PyTorch is imported only when one of its commands
+runs); what they share (exit codes, the error printer, argument types, verbosity flags, run
+folders) is in :mod:`sphkit.cli.common`. A subcommand module has ``add_parser(sub)``, which adds
+its parser and sets its handler (``parser.set_defaults(handler=cmd)``, a
 :data:`~sphkit.cli.common.Handler`: ``cmd(args, argv) -> exit code``); adding a subcommand is
 a new module and its line in :data:`COMMANDS`.
 """
@@ -76,6 +78,7 @@ from collections.abc import Sequence  # noqa: E402
 from sphkit.cli import (  # noqa: E402
     compat,
     dataset,
+    learn,
     methods,
     render,
     run,
@@ -98,7 +101,7 @@ if _MAIN:
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: the subcommand modules, in the order ``sphkit --help`` lists them
-COMMANDS = (run, scenes, methods, surface, render, compat, dataset, sweep)
+COMMANDS = (run, scenes, methods, surface, render, compat, dataset, sweep, learn)
 
 
 def build_parser() -> argparse.ArgumentParser:
