@@ -288,8 +288,10 @@ def _perpendiculars(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 class BodyJoints:
     """The joints of the moving bodies, a base class of
-    :class:`sphkit.boundary.rigid.RigidBodies`: their rows of the step (:meth:`_joint_rows`)
-    and the solve of joints and contacts together (:meth:`_constrain`). It reads the attributes
+    :class:`sphkit.boundary.rigid.RigidBodies`: their rows of the step (:meth:`_joint_rows`),
+    the solve of joints and contacts together (:meth:`_constrain`) and the bodies'
+    accelerations as the joints let them be, for the fluid's pressure solves
+    (:meth:`_joint_accel`). It reads the attributes
     ``bodies``, ``joints`` and ``contact_iterations``."""
 
     bodies: list[RigidBody]
@@ -348,6 +350,45 @@ class BodyJoints:
             jt.force = imp[j, :3] / dt
             jt.torque = float(imp[j, 3] / dt)
             jt.last_target = float(rows[11][j])
+
+    def _joint_accel(self, acc: np.ndarray, dt: float, time: float, dim: int,
+                     homogeneous: bool) -> np.ndarray:
+        """The accelerations ``acc`` (bodies, 6: linear, angular) of the bodies as the joints
+        let them be, for the fluid's pressure solves (:class:`~sphkit.boundary.rigid.coupling.
+        FluidCoupling`): the step's velocities ``v + dt a`` go through the joints' solve
+        (:func:`solve` without contacts) and ``(v' - v) / dt`` comes back; ``homogeneous``: the
+        response to a pressure field, a linear map, solved with zero drift and zero motor
+        targets (a motor holds its relative angular velocity, so it takes any torque). Without
+        joints ``acc`` itself."""
+        if not self.joints:
+            return acc
+        nb = len(self.bodies)
+        inv_m = np.array([1.0 / b.mass if b.dynamic else 0.0 for b in self.bodies])
+        Iinv = np.array([np.linalg.inv(b.world_inertia()) if b.dynamic else np.zeros((3, 3))
+                         for b in self.bodies]).reshape(nb, 3, 3)
+        rows = list(self._joint_rows(dt, time, dim))
+        if homogeneous:
+            v, w = acc[:, :3].copy(), acc[:, 3:].copy()
+            rows[4] = np.zeros_like(rows[4])  # drift
+            rows[9] = np.zeros_like(rows[9])  # misalignment
+            rows[11] = np.zeros_like(rows[11])  # motor targets
+        else:
+            v0 = np.array([b.v for b in self.bodies], dtype=np.float64).reshape(nb, 3)
+            w0 = np.array([b.omega for b in self.bodies], dtype=np.float64).reshape(nb, 3)
+            v, w = v0 + dt * acc[:, :3], w0 + dt * acc[:, 3:]
+        z = np.zeros((3, 0))
+        imp = np.zeros((len(self.joints), 4))
+        solve(np.zeros(0, np.int64), np.zeros(0, np.int64), z, z, z, np.zeros(0), np.zeros(0),
+              *rows, inv_m, Iinv, v, w, self.contact_iterations, imp)
+        out = np.empty_like(acc)
+        if homogeneous:
+            out[:, :3], out[:, 3:] = v, w
+        else:
+            out[:, :3], out[:, 3:] = (v - v0) / dt, (w - w0) / dt
+        for k, b in enumerate(self.bodies):  # kinematic bodies keep theirs
+            if not b.dynamic:
+                out[k] = acc[k]
+        return out
 
     def joint_stats(self, k: int) -> list[dict]:
         """The statistics of the joints body k takes part in."""
