@@ -755,7 +755,8 @@ class JointConfig(_Model):
 
     type: Literal["hinge"] = Field("hinge", description="joint type")
     bodies: list[int] = Field(description="the two joined bodies A, B: indices into meshes")
-    position: Vec = Field(description="a point on the hinge axis at t = 0 [m] (3 components)")
+    position: Vec = Field(description="a point on the hinge axis at t = 0 [m] (3 components; 2D: "
+                          "z is taken as 0, the plane of the bodies)")
     axis: Vec = Field(description="hinge axis at t = 0 (3 components, non-zero; 2D: z)")
     motor: MotorConfig | None = Field(None, description="target-velocity motor")
 

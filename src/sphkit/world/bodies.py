@@ -42,7 +42,8 @@ def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes) -> RigidBod
     for k, jc in enumerate(scene.joints):  # a static mesh is fixed in space: body -1
         a, b = (moving.index(i) if i in moving else -1 for i in jc.bodies)
         m = jc.motor
-        joints.append(hinge(f"joints[{k}]", bodies, a, b, jc.position, jc.axis,
+        pos = list(jc.position[:2]) + [0.0] if state.dim == 2 else jc.position  # the plane
+        joints.append(hinge(f"joints[{k}]", bodies, a, b, pos, jc.axis,
                             None if m is None else m.target_velocity,
                             None if m is None else m.target_sequence,
                             False if m is None else m.repeat))
