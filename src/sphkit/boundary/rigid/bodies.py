@@ -127,7 +127,6 @@ class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
                  meshes: list | None = None, joints: list[Joint] | None = None) -> None:
         self.bodies = bodies
         self.joints = joints or []
-        self.joined = {frozenset((j.a, j.b)) for j in self.joints}
         self.meshes = meshes or []
         self.margin = margin
         self.walls = walls or []

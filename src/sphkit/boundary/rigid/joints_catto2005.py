@@ -302,6 +302,11 @@ class BodyJoints:
     joints: list[Joint]
     contact_iterations: int
 
+    @property
+    def joined(self) -> set[frozenset[int]]:
+        """The pairs of bodies joined by a joint (they do not collide)."""
+        return {frozenset((j.a, j.b)) for j in self.joints}
+
     def _frame(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Centre and rotation of body k (a static wall, k < 0: the world frame)."""
         if k < 0:
