@@ -715,6 +715,73 @@ class AnimationFieldConfig(_Model):
         return self
 
 
+class MotorConfig(_Model):
+    """A target-velocity motor of a hinge: it drives the relative angular velocity of the
+    joint's first body to its second about the axis, ``(w_A - w_B) . axis``, to the target
+    (:mod:`sphkit.boundary.rigid.joints_catto2005`). Give ``target_velocity`` or
+    ``target_sequence``."""
+
+    target_velocity: float | None = Field(
+        None, description="constant target of (w_A - w_B) . axis [rad/s]")
+    target_sequence: list[float] | None = Field(
+        None, description="time / target pairs [t0, v0, t1, v1, ...] ([s], [rad/s]), times "
+        "increasing: linear between the times, the first value before t0, the last after the "
+        "last time (SPlisHSPlasH targetSequence)")
+    repeat: bool = Field(False, description="target_sequence: repeat it with period "
+                         "t_last - t0 (SPlisHSPlasH repeatSequence)")
+
+    @model_validator(mode="after")
+    def _one_target(self) -> MotorConfig:
+        if (self.target_velocity is None) == (self.target_sequence is None):
+            raise ValueError("expected exactly one of target_velocity and target_sequence")
+        seq = self.target_sequence
+        if seq is not None:
+            if len(seq) < 2 or len(seq) % 2:
+                raise ValueError(f"target_sequence {clip(seq)}: expected time / value pairs "
+                                 "(an even number >= 2 of numbers)")
+            ts = seq[0::2]
+            if any(b <= a for a, b in zip(ts, ts[1:], strict=False)):
+                raise ValueError(f"target_sequence {clip(seq)}: expected increasing times "
+                                 f"(got {ts})")
+        return self
+
+
+class JointConfig(_Model):
+    """A joint between two of the scene's meshes (``bodies``: indices into ``meshes``; a
+    static mesh is fixed in space, a kinematic one moves as prescribed, at least one must be
+    dynamic): ``hinge``, the bodies turn about the axis through ``position`` relative to each
+    other, with an optional target-velocity ``motor`` (sequential impulses,
+    :mod:`sphkit.boundary.rigid.joints_catto2005`). Placement at t = 0."""
+
+    type: Literal["hinge"] = Field("hinge", description="joint type")
+    bodies: list[int] = Field(description="the two joined bodies A, B: indices into meshes")
+    position: Vec = Field(description="a point on the hinge axis at t = 0 [m] (3 components; 2D: "
+                          "z is taken as 0, the plane of the bodies)")
+    axis: Vec = Field(description="hinge axis at t = 0 (3 components, non-zero; 2D: z)")
+    motor: MotorConfig | None = Field(None, description="target-velocity motor")
+
+    @field_validator("bodies")
+    @classmethod
+    def _two(cls, v: list[int]) -> list[int]:
+        if len(v) != 2 or v[0] == v[1] or min(v) < 0:
+            raise ValueError(f"{v}: expected two different mesh indices >= 0")
+        return v
+
+    @field_validator("position", "axis")
+    @classmethod
+    def _vec3(cls, v: Vec) -> Vec:
+        if len(v) != 3:
+            raise ValueError(f"{v}: expected 3 components")
+        return v
+
+    @field_validator("axis")
+    @classmethod
+    def _nonzero(cls, v: Vec) -> Vec:
+        if not sum(c * c for c in v) > 0.0:
+            raise ValueError(f"{v}: expected a non-zero axis")
+        return v
+
+
 class Scene(_Model):
     """A whole scene."""
 
@@ -729,6 +796,7 @@ class Scene(_Model):
     fluid_meshes: list[FluidMesh] = Field(default_factory=list)
     emitters: list[Emitter] = Field(default_factory=list)
     animation_fields: list[AnimationFieldConfig] = Field(default_factory=list)
+    joints: list[JointConfig] = Field(default_factory=list)
     output: OutputConfig = OutputConfig()
     source: str | None = Field(None, description="path of the file the scene was read from")
     #: a translated scene's field paths -> the paths the user wrote (SPlisHSPlasH's), for
@@ -833,6 +901,16 @@ class Scene(_Model):
         for k, b in enumerate(self.boxes):
             if len(b.min) != dim:
                 raise ValueError(f"boxes[{k}].min {b.min} must have {dims}")
+        for k, j in enumerate(self.joints):
+            if max(j.bodies) >= len(self.meshes):
+                raise ValueError(f"joints[{k}].bodies {j.bodies}: expected indices into meshes "
+                                 f"(0 .. {len(self.meshes) - 1})")
+            if not any(self.meshes[i].dynamic for i in j.bodies):
+                raise ValueError(f"joints[{k}].bodies {j.bodies}: expected at least one "
+                                 "dynamic mesh (meshes[].dynamic)")
+            if dim == 2 and (j.axis[0] != 0.0 or j.axis[1] != 0.0):
+                raise ValueError(f"joints[{k}].axis {j.axis}: in 2D bodies turn about z; "
+                                 "expected [0, 0, 1]")
         return self
 
     def material(self, mid: str) -> Material:

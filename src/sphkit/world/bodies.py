@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from sphkit.boundary.rigid import RigidBodies, body_from_mesh, box_wall, inset_depth, mesh_wall
+from sphkit.boundary.rigid.joints_catto2005 import hinge
 from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.meshes import SceneMeshes
@@ -14,7 +15,8 @@ from sphkit.world.walls import gravity_axis, moving_meshes
 
 def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes) -> RigidBodies:
     """The moving bodies of the scene (boundary field ``rigid_body`` numbers them from 1 in
-    the order of :func:`sphkit.world.walls.moving_meshes`), not yet initialised."""
+    the order of :func:`sphkit.world.walls.moving_meshes`) and their joints, not yet
+    initialised."""
     bodies = []
     moving = moving_meshes(scene)
     for k in moving:
@@ -36,5 +38,14 @@ def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes) -> RigidBod
         for k, mb in enumerate(scene.meshes):
             if k not in moving:
                 walls.append((mesh_wall(meshes.mesh(k), mb.invert, state.r), f"meshes[{k}]"))
+    joints = []
+    for k, jc in enumerate(scene.joints):  # a static mesh is fixed in space: body -1
+        a, b = (moving.index(i) if i in moving else -1 for i in jc.bodies)
+        m = jc.motor
+        pos = list(jc.position[:2]) + [0.0] if state.dim == 2 else jc.position  # the plane
+        joints.append(hinge(f"joints[{k}]", bodies, a, b, pos, jc.axis,
+                            None if m is None else m.target_velocity,
+                            None if m is None else m.target_sequence,
+                            False if m is None else m.repeat))
     return RigidBodies(bodies, walls, margin=inset_depth(state.dim) * state.r,
-                       meshes=[meshes.mesh(k) for k in moving])
+                       meshes=[meshes.mesh(k) for k in moving], joints=joints)

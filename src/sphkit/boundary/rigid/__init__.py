@@ -42,6 +42,9 @@ The package, one concern a module:
   :class:`~sphkit.boundary.rigid.coupling.FluidCoupling` of :class:`RigidBodies`);
 * :mod:`sphkit.boundary.rigid.contacts` -- contacts with walls and between bodies (projected
   Gauss-Seidel; the base class :class:`~sphkit.boundary.rigid.contacts.BodyContacts`);
+* :mod:`sphkit.boundary.rigid.joints_catto2005` -- hinge joints with target-velocity motors,
+  solved with the contacts by sequential impulses (Catto 2005; the base class
+  :class:`~sphkit.boundary.rigid.joints_catto2005.BodyJoints`);
 * :mod:`sphkit.boundary.rigid.construction` -- bodies from meshes (mass properties) and their
   particles moved into the mesh (:data:`INSET`, :func:`inset_samples`).
 """
@@ -56,6 +59,7 @@ from sphkit.boundary.rigid.construction import (
     inset_samples,
 )
 from sphkit.boundary.rigid.contacts import body_sdf, box_wall, mesh_wall
+from sphkit.boundary.rigid.joints_catto2005 import Joint, hinge
 
-__all__ = ["INSET", "RigidBodies", "RigidBody", "body_from_mesh", "body_sdf", "box_wall",
-           "inset_depth", "inset_samples", "mesh_wall"]
+__all__ = ["INSET", "Joint", "RigidBodies", "RigidBody", "body_from_mesh", "body_sdf", "box_wall",
+           "hinge", "inset_depth", "inset_samples", "mesh_wall"]

@@ -23,6 +23,7 @@ import numpy as np
 from sphkit.boundary.akinci2012 import boundary_volumes
 from sphkit.boundary.rigid.contacts import BodyContacts
 from sphkit.boundary.rigid.coupling import FluidCoupling
+from sphkit.boundary.rigid.joints_catto2005 import BodyJoints, Joint
 from sphkit.core.methods import BoundaryModel
 from sphkit.core.state import SimState
 from sphkit.core.timestep import max_speed
@@ -74,6 +75,8 @@ class RigidBody:
     c0: np.ndarray | None = None  #: kinematic: pivot at t = 0
     force: np.ndarray = field(default_factory=lambda: np.zeros(3))
     torque: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    #: the last step's statistics of the joints the body takes part in (:class:`Joint.stats`)
+    joints: list[dict] = field(default_factory=list)
 
     def world_inertia(self) -> np.ndarray:
         """``I_w = R I R^T`` [kg m^2]."""
@@ -83,18 +86,26 @@ class RigidBody:
         """Plain-dict state for step statistics (lists of floats): the pose is ``position`` (c)
         and ``rotation`` (R, row-major 3x3), so that a point of the body is at
         ``x = R x_body + c`` (``x_body``: its position in the body frame, which is the scene
-        placement at t = 0 minus the t = 0 position)."""
-        return {"name": self.name, "force": self.force.tolist(), "torque": self.torque.tolist(),
-                "position": self.c.tolist(), "rotation": self.R.tolist(),
-                "velocity": self.v.tolist(), "angular_velocity": self.omega.tolist()}
+        placement at t = 0 minus the t = 0 position). A body with joints lists them in
+        ``joints``: each joint's ``relative_angular_velocity`` about its axis (``(w_A - w_B) .
+        a`` [rad/s]), its point ``force`` on its first body [N] and, with a motor, its
+        ``target_velocity`` and ``motor_torque`` [N m]
+        (:meth:`sphkit.boundary.rigid.joints_catto2005.Joint.stats`)."""
+        out = {"name": self.name, "force": self.force.tolist(), "torque": self.torque.tolist(),
+               "position": self.c.tolist(), "rotation": self.R.tolist(),
+               "velocity": self.v.tolist(), "angular_velocity": self.omega.tolist()}
+        if self.joints:
+            out["joints"] = self.joints
+        return out
 
 
-class RigidBodies(FluidCoupling, BodyContacts):
+class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
     """The moving bodies of a scene, their boundary particles (boundary fields ``rigid_body``:
     1-based body number, 0 for static walls; ``x_body``: position in the body frame) and the
     walls they collide with. The coupling to the fluid comes from the base class
     :class:`~sphkit.boundary.rigid.coupling.FluidCoupling`, the contacts from
-    :class:`~sphkit.boundary.rigid.contacts.BodyContacts`.
+    :class:`~sphkit.boundary.rigid.contacts.BodyContacts`, the joints from
+    :class:`~sphkit.boundary.rigid.joints_catto2005.BodyJoints`.
 
     Args:
         bodies: the bodies, numbered 1.. in this order in the boundary field ``rigid_body``.
@@ -106,13 +117,16 @@ class RigidBodies(FluidCoupling, BodyContacts):
         margin: distance [m] the particles keep from the walls: the depth they were moved into
             the mesh (:func:`sphkit.boundary.rigid.construction.inset_samples`), so that the
             mesh surface stops at the wall.
-        contact_iterations: Gauss-Seidel sweeps over the contact points per step.
+        contact_iterations: Gauss-Seidel sweeps over the contact points and joints per step.
+        joints: hinges between the bodies (:func:`sphkit.boundary.rigid.joints_catto2005.hinge`;
+            body index -1: a static wall); two moving bodies joined by one do not collide.
     """
 
     def __init__(self, bodies: list[RigidBody], walls: list | None = None,
                  margin: float = 0.0, contact_iterations: int = 20,
-                 meshes: list | None = None) -> None:
+                 meshes: list | None = None, joints: list[Joint] | None = None) -> None:
         self.bodies = bodies
+        self.joints = joints or []
         self.meshes = meshes or []
         self.margin = margin
         self.walls = walls or []
@@ -196,7 +210,8 @@ class RigidBodies(FluidCoupling, BodyContacts):
     # -- time integration -----------------------------------------------------------------------
     def advance(self, state: SimState, dt: float, time: float) -> None:
         """Move the bodies from ``time`` to ``time + dt`` and place their particles: forces,
-        then the contacts of all bodies at once (:meth:`_contact`), then the poses; then the
+        then the contacts and joints of all bodies at once (:meth:`_contact_rows`,
+        :meth:`_constrain`), then the poses; then the
         bound boundary model is rebuilt (nothing happens without bodies)."""
         g = np.zeros(3)
         g[: state.dim] = state.gravity
@@ -207,8 +222,17 @@ class RigidBodies(FluidCoupling, BodyContacts):
                 Iinv[k] = np.linalg.inv(Iw)
                 b.v = b.v + dt * (b.force / b.mass + g)
                 b.omega = b.omega + dt * (Iinv[k] @ (b.torque - np.cross(b.omega, Iw @ b.omega)))
-        if self.any_dynamic:
-            self._contact(state, Iinv, dt)
+        if self.any_dynamic:  # contacts and joints
+            v = np.array([b.v for b in self.bodies], dtype=np.float64)
+            w = np.array([b.omega for b in self.bodies], dtype=np.float64)
+            inv_m = np.array([1.0 / b.mass if b.dynamic else 0.0 for b in self.bodies])
+            rows = self._contact_rows(state, v, w, dt)
+            self._constrain(rows, inv_m, Iinv, v, w, dt, time, state.dim)
+            for k, b in enumerate(self.bodies):
+                if b.dynamic:
+                    b.v, b.omega = v[k].copy(), w[k].copy()
+                if self.joints:
+                    b.joints = self.joint_stats(k)
         for b in self.bodies:
             if not b.dynamic:
                 b.R = rotation_exp(b.omega, time + dt)

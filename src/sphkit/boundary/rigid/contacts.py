@@ -1,8 +1,9 @@
 """Contacts of rigid bodies with the static walls and with each other; :class:`BodyContacts` is
 a base class of :class:`sphkit.boundary.rigid.RigidBodies`.
 
-Contacts, all solved together by a projected Gauss-Seidel on velocity impulses
-(:func:`_contacts`): the contact points of a body are its boundary particles, which keep a
+Contacts, all solved together (and with the joints,
+:mod:`sphkit.boundary.rigid.joints_catto2005`) by a projected Gauss-Seidel on velocity impulses
+(:func:`_contact_sweep`): the contact points of a body are its boundary particles, which keep a
 distance ``1.2 r`` in 3D, 1.3 r in 2D (they lie that deep in the mesh, see
 :func:`sphkit.boundary.rigid.construction.inset_depth`), and its mesh vertices, which keep 0 (the
 extreme points of a tilted body, which the particles' margin does not cover). They meet
@@ -84,66 +85,65 @@ def _inv_mass_along(k, q0, q1, q2, n0, n1, n2, inv_m, Iinv):
 
 
 @numba.njit(**_JIT)
-def _contacts(ia, ib, qa, qb, n, bias, mu, inv_m, Iinv, v, w, iterations):
-    """Projected Gauss-Seidel on the velocities of the bodies: contact p pushes body ``ia[p]``
-    along the unit normal ``n[:, p]`` and body ``ib[p]`` (-1: a static wall) the other way, at
-    offsets ``qa``, ``qb`` (3, K) from their centres. Constraints: relative normal velocity
-    ``(u_a - u_b) . n >= bias`` (``u = v + w x q``) with accumulated normal impulses >= 0, and
-    Coulomb friction ``|lambda_t| <= mu lambda_n``. ``v``, ``w`` (bodies, 3) are updated in place
-    (kinematic bodies carry inv_m = 0, Iinv = 0 and keep their velocities)."""
+def _contact_sweep(ia, ib, qa, qb, n, bias, mu, inv_m, Iinv, v, w, lam, lt):
+    """One projected Gauss-Seidel sweep over the contacts, on the velocities of the bodies:
+    contact p pushes body ``ia[p]`` along the unit normal ``n[:, p]`` and body ``ib[p]`` (-1: a
+    static wall) the other way, at offsets ``qa``, ``qb`` (3, K) from their centres.
+    Constraints: relative normal velocity ``(u_a - u_b) . n >= bias`` (``u = v + w x q``) with
+    accumulated normal impulses ``lam`` >= 0, and Coulomb friction ``|lambda_t| <= mu lambda_n``
+    (accumulated tangential impulses ``lt`` (3, K)). ``v``, ``w`` (bodies, 3) are updated in
+    place (kinematic bodies carry inv_m = 0, Iinv = 0 and keep their velocities); the sweeps
+    of all constraints are run by :func:`sphkit.boundary.rigid.joints_catto2005.solve`."""
     K = ia.shape[0]
-    lam = np.zeros(K)
-    lt = np.zeros((3, K))
-    for _it in range(iterations):
-        for p in range(K):
-            a, b = ia[p], ib[p]
-            qa0, qa1, qa2 = qa[0, p], qa[1, p], qa[2, p]
-            qb0, qb1, qb2 = qb[0, p], qb[1, p], qb[2, p]
-            n0, n1, n2 = n[0, p], n[1, p], n[2, p]
-            ua0, ua1, ua2 = _point_velocity(a, qa0, qa1, qa2, v, w)
-            ub0, ub1, ub2 = _point_velocity(b, qb0, qb1, qb2, v, w)
-            u0, u1, u2 = ua0 - ub0, ua1 - ub1, ua2 - ub2
-            un = u0 * n0 + u1 * n1 + u2 * n2
-            kn = (_inv_mass_along(a, qa0, qa1, qa2, n0, n1, n2, inv_m, Iinv)
-                  + _inv_mass_along(b, qb0, qb1, qb2, n0, n1, n2, inv_m, Iinv))
-            if kn <= 0.0:
-                continue
-            dl = (bias[p] - un) / kn
-            new = max(lam[p] + dl, 0.0)
-            dl = new - lam[p]
-            lam[p] = new
-            j0 = dl * n0
-            j1 = dl * n1
-            j2 = dl * n2
-            # friction: cancel the tangential relative velocity, |lambda_t| <= mu lambda_n
-            t0 = u0 - un * n0
-            t1 = u1 - un * n1
-            t2 = u2 - un * n2
-            ut = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-            if ut > 1e-12:
-                t0 /= ut
-                t1 /= ut
-                t2 /= ut
-                kt = (_inv_mass_along(a, qa0, qa1, qa2, t0, t1, t2, inv_m, Iinv)
-                      + _inv_mass_along(b, qb0, qb1, qb2, t0, t1, t2, inv_m, Iinv))
-                d = -ut / kt
-                o0 = lt[0, p] + d * t0
-                o1 = lt[1, p] + d * t1
-                o2 = lt[2, p] + d * t2
-                mag = math.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
-                lim = mu[p] * lam[p]
-                if mag > lim:
-                    o0 *= lim / mag
-                    o1 *= lim / mag
-                    o2 *= lim / mag
-                j0 += o0 - lt[0, p]
-                j1 += o1 - lt[1, p]
-                j2 += o2 - lt[2, p]
-                lt[0, p] = o0
-                lt[1, p] = o1
-                lt[2, p] = o2
-            _apply(a, qa0, qa1, qa2, j0, j1, j2, inv_m, Iinv, v, w)
-            _apply(b, qb0, qb1, qb2, -j0, -j1, -j2, inv_m, Iinv, v, w)
+    for p in range(K):
+        a, b = ia[p], ib[p]
+        qa0, qa1, qa2 = qa[0, p], qa[1, p], qa[2, p]
+        qb0, qb1, qb2 = qb[0, p], qb[1, p], qb[2, p]
+        n0, n1, n2 = n[0, p], n[1, p], n[2, p]
+        ua0, ua1, ua2 = _point_velocity(a, qa0, qa1, qa2, v, w)
+        ub0, ub1, ub2 = _point_velocity(b, qb0, qb1, qb2, v, w)
+        u0, u1, u2 = ua0 - ub0, ua1 - ub1, ua2 - ub2
+        un = u0 * n0 + u1 * n1 + u2 * n2
+        kn = (_inv_mass_along(a, qa0, qa1, qa2, n0, n1, n2, inv_m, Iinv)
+              + _inv_mass_along(b, qb0, qb1, qb2, n0, n1, n2, inv_m, Iinv))
+        if kn <= 0.0:
+            continue
+        dl = (bias[p] - un) / kn
+        new = max(lam[p] + dl, 0.0)
+        dl = new - lam[p]
+        lam[p] = new
+        j0 = dl * n0
+        j1 = dl * n1
+        j2 = dl * n2
+        # friction: cancel the tangential relative velocity, |lambda_t| <= mu lambda_n
+        t0 = u0 - un * n0
+        t1 = u1 - un * n1
+        t2 = u2 - un * n2
+        ut = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        if ut > 1e-12:
+            t0 /= ut
+            t1 /= ut
+            t2 /= ut
+            kt = (_inv_mass_along(a, qa0, qa1, qa2, t0, t1, t2, inv_m, Iinv)
+                  + _inv_mass_along(b, qb0, qb1, qb2, t0, t1, t2, inv_m, Iinv))
+            d = -ut / kt
+            o0 = lt[0, p] + d * t0
+            o1 = lt[1, p] + d * t1
+            o2 = lt[2, p] + d * t2
+            mag = math.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
+            lim = mu[p] * lam[p]
+            if mag > lim:
+                o0 *= lim / mag
+                o1 *= lim / mag
+                o2 *= lim / mag
+            j0 += o0 - lt[0, p]
+            j1 += o1 - lt[1, p]
+            j2 += o2 - lt[2, p]
+            lt[0, p] = o0
+            lt[1, p] = o1
+            lt[2, p] = o2
+        _apply(a, qa0, qa1, qa2, j0, j1, j2, inv_m, Iinv, v, w)
+        _apply(b, qb0, qb1, qb2, -j0, -j1, -j2, inv_m, Iinv, v, w)
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -186,8 +186,10 @@ class BodyContacts:
     """The contacts of the moving bodies, a base class of
     :class:`sphkit.boundary.rigid.RigidBodies`: every dynamic body's contact points against the
     static walls and against the signed distance of every other body near it (module
-    docstring), solved together by :func:`_contacts` (:meth:`_contact`). It reads the
-    attributes ``bodies``, ``meshes``, ``walls``, ``margin`` and ``contact_iterations`` and the
+    docstring), solved with the joints by :func:`sphkit.boundary.rigid.joints_catto2005.solve`
+    (:meth:`_contact_rows`, :func:`_contact_sweep`). It reads the
+    attributes ``bodies``, ``meshes``, ``walls``, ``margin``, ``contact_iterations`` and
+    ``joined`` and the
     particle selections ``_sel`` that :meth:`~sphkit.boundary.rigid.RigidBodies.init` sets."""
 
     bodies: list[RigidBody]
@@ -195,6 +197,7 @@ class BodyContacts:
     walls: list
     margin: float
     contact_iterations: int
+    joined: set[frozenset[int]]  #: pairs of bodies joined by a joint (they do not collide)
     _sel: list[np.ndarray]
 
     def _init_contacts(self, state: SimState) -> None:
@@ -227,15 +230,15 @@ class BodyContacts:
         marg = np.concatenate([np.full(xp.shape[1], self.margin), np.zeros(xv.shape[1])])
         return np.concatenate([xp, xv], axis=1), marg
 
-    def _contact(self, state: SimState, Iinv: np.ndarray, dt: float) -> None:
-        """Velocity impulses of all contacts (module docstring): every dynamic body's points
-        against the static walls, and the points of each body against the signed distance of
-        every other body near it (both directions for two dynamic bodies), solved together by
-        :func:`_contacts`."""
+    def _contact_rows(self, state: SimState, v: np.ndarray, w: np.ndarray, dt: float
+                      ) -> tuple[np.ndarray, ...]:
+        """The contacts of this step (module docstring) for :func:`_contact_sweep`: every
+        dynamic body's points against the static walls, and the points of each body against
+        the signed distance of every other body near it (both directions for two dynamic
+        bodies), as ``(ia, ib, qa, qb, n, bias, mu)`` (no contact: K = 0 rows); ``v``, ``w``
+        (bodies, 3) are the bodies' velocities before the contacts."""
         nb = len(self.bodies)
-        v = np.array([b.v for b in self.bodies], dtype=np.float64)
-        w = np.array([b.omega for b in self.bodies], dtype=np.float64)
-        inv_m = np.array([1.0 / b.mass if b.dynamic else 0.0 for b in self.bodies])
+        joined = self.joined
         pts = [self._points(state, k) for k in range(nb)]
         speed = []  # fastest point of each body [m/s]
         for k, b in enumerate(self.bodies):
@@ -263,8 +266,8 @@ class BodyContacts:
                     if near.size:
                         add(a, -1, near, x[:, near], _normals(dist, x[:, near]), phi[near])
             for bk, bb in enumerate(self.bodies):
-                if bk == a or not (ba.dynamic or bb.dynamic):
-                    continue
+                if bk == a or not (ba.dynamic or bb.dynamic) or frozenset((a, bk)) in joined:
+                    continue  # joined bodies do not collide
                 reach = dt * (speed[a] + speed[bk]) + 1e-9
                 if np.linalg.norm(ba.c - bb.c) > self._radius[a] + self._radius[bk] + reach:
                     continue  # bounding spheres apart
@@ -280,20 +283,19 @@ class BodyContacts:
                     n = bb.R @ (gn / np.maximum(np.linalg.norm(gn, axis=0), 1e-12))
                     add(a, bk, near, x[:, near], n, phi[near])
         if not ia:
-            return
+            z = np.zeros((3, 0))
+            return (np.zeros(0, np.int64), np.zeros(0, np.int64), z, z.copy(), z.copy(),
+                    np.zeros(0), np.zeros(0))
         phi = np.concatenate(phis)
         # speculative: phi + dt u.n >= 0; penetration pushed out at half its depth per step
         bias = np.where(phi >= 0.0, -phi / dt, -0.5 * phi / dt)
         ia_, ib_ = np.concatenate(ia), np.concatenate(ib)
         fr = np.array([b.friction for b in self.bodies])
         mu = np.where(ib_ >= 0, np.sqrt(fr[ia_] * fr[np.maximum(ib_, 0)]), fr[ia_])
-        _contacts(ia_, ib_, np.ascontiguousarray(np.concatenate(qa, axis=1)),
-                  np.ascontiguousarray(np.concatenate(qb, axis=1)),
-                  np.ascontiguousarray(np.concatenate(nn, axis=1)), bias, mu, inv_m, Iinv, v, w,
-                  self.contact_iterations)
-        for k, b in enumerate(self.bodies):
-            if b.dynamic:
-                b.v, b.omega = v[k].copy(), w[k].copy()
+        return (ia_.astype(np.int64), ib_.astype(np.int64),
+                np.ascontiguousarray(np.concatenate(qa, axis=1)),
+                np.ascontiguousarray(np.concatenate(qb, axis=1)),
+                np.ascontiguousarray(np.concatenate(nn, axis=1)), bias, mu)
 
 
 def _normals(dist, p: np.ndarray, eps: float = 1e-5) -> np.ndarray:

@@ -202,7 +202,9 @@ class FluidCoupling(MovingBoundary):
     :class:`sphkit.boundary.rigid.RigidBodies`: the reaction of the boundary pressure terms on
     the bodies (:meth:`fluid_forces`), their response inside the pressure solves
     (:meth:`response`, the :class:`~sphkit.core.methods.MovingBoundary` of the state's
-    coupling) and their predicted velocities (:meth:`predict`). It reads the attribute
+    coupling) and their predicted velocities (:meth:`predict`), both as the joints let the
+    bodies move (``_joint_accel``, from the base class
+    :class:`~sphkit.boundary.rigid.joints_catto2005.BodyJoints`). It reads the attribute
     ``bodies`` and caches this step's centres and inverse world inertias (:meth:`begin_step`)."""
 
     bodies: list[RigidBody]
@@ -262,6 +264,7 @@ class FluidCoupling(MovingBoundary):
             if b.dynamic:
                 acc[j, :3] = tot[j, :3] / b.mass
                 acc[j, 3:] = self._Iinv[j] @ tot[j, 3:]
+        acc = self._joint_accel(acc, 1.0, st.time, st.dim, homogeneous=True)
         return self._boundary_accel(bd, acc)
 
     def _boundary_accel(self, bd: ParticleSet, acc: np.ndarray) -> np.ndarray:
@@ -296,6 +299,7 @@ class FluidCoupling(MovingBoundary):
                 Iw = b.world_inertia()
                 acc[k, :3] = g
                 acc[k, 3:] = -(self._Iinv[k] @ np.cross(b.omega, Iw @ b.omega))
+        acc = self._joint_accel(acc, dt, state.time, state.dim, homogeneous=False)
         bd = state.boundary
         bd["v"] += dt * self._boundary_accel(bd, acc)
 

@@ -126,12 +126,19 @@ as in ``StaticBoundarySimulator``. ``geometryFile`` stays relative to the scene 
 (in-plane) rotation and translation; sphkit intersects the placed mesh, which is the same for
 rotations about z and translations in the xy-plane.
 
+Joints. ``HingeJoints`` and ``TargetVelocityMotorHingeJoints`` (PositionBasedDynamics' blocks:
+``bodyID1``, ``bodyID2`` naming ``RigidBodies[].id``, ``position``, ``axis``; the motor's
+``target`` or ``targetSequence`` with ``repeatSequence``) become ``joints``
+(:mod:`~sphkit.scene.splishsplash.joints`; the motor's target changes sign, see there); the other
+joint blocks are refused by name.
+
 Modules: :mod:`~sphkit.scene.splishsplash.translate` (the top level, :func:`from_splishsplash`,
 :func:`is_splishsplash`), :mod:`~sphkit.scene.splishsplash.reader` (field readers, unknown
 fields, field paths), :mod:`~sphkit.scene.splishsplash.configuration` (``Configuration``: solvers,
 time step, export), :mod:`~sphkit.scene.splishsplash.materials` (viscosity, vorticity, surface
 tension, drag), :mod:`~sphkit.scene.splishsplash.objects` (fluid blocks, fluid models, emitters,
-rigid bodies) and :mod:`~sphkit.scene.splishsplash.methods` (every table of SPlisHSPlasH's method
+rigid bodies), :mod:`~sphkit.scene.splishsplash.joints` (hinge joints and motors) and
+:mod:`~sphkit.scene.splishsplash.methods` (every table of SPlisHSPlasH's method
 numbers). Scene files are read by :mod:`sphkit.scene.files`, which calls the translator for a
 scene in this format.
 """

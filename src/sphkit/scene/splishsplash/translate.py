@@ -1,10 +1,11 @@
 """A SPlisHSPlasH scene -> sphkit's scene model: the top level of the translation.
 
 :func:`from_splishsplash` reads the top-level blocks (``Configuration``, ``Materials``,
-``FluidBlocks``, ``FluidModels``, ``Emitters``, ``RigidBodies``) with
-:mod:`~sphkit.scene.splishsplash.configuration`, :mod:`~sphkit.scene.splishsplash.materials` and
-:mod:`~sphkit.scene.splishsplash.objects`, rejects the blocks sphkit does not have (joints,
-motors, animation fields), validates the result as a :class:`~sphkit.scene.schema.Scene` (an
+``FluidBlocks``, ``FluidModels``, ``Emitters``, ``RigidBodies``, ``AnimationFields``, the hinge
+joints) with :mod:`~sphkit.scene.splishsplash.configuration`,
+:mod:`~sphkit.scene.splishsplash.materials`, :mod:`~sphkit.scene.splishsplash.objects` and
+:mod:`~sphkit.scene.splishsplash.joints`, rejects the blocks sphkit does not have (the other
+joints and motors), validates the result as a :class:`~sphkit.scene.schema.Scene` (an
 error names SPlisHSPlasH's field next to sphkit's) and reports the ignored fields and notes as
 ``UserWarning``. The format and its defaults are described in :mod:`sphkit.scene.splishsplash`.
 """
@@ -20,6 +21,7 @@ from pydantic import ValidationError
 
 from sphkit.scene.schema import Scene, SceneError, format_validation_error
 from sphkit.scene.splishsplash.configuration import configuration
+from sphkit.scene.splishsplash.joints import JOINT_ARRAYS, joints
 from sphkit.scene.splishsplash.materials import materials
 from sphkit.scene.splishsplash.objects import (
     animation_fields,
@@ -32,16 +34,15 @@ from sphkit.scene.splishsplash.objects import (
 from sphkit.scene.splishsplash.reader import Reader
 
 _SPH_ARRAYS = ("Materials", "FluidBlocks", "RigidBodies", "FluidModels", "Emitters",
-               "AnimationFields")
+               "AnimationFields", *JOINT_ARRAYS)
 _SPH_UNSUPPORTED_ARRAYS = {
-    # joints of PositionBasedDynamics, which only connect dynamic rigid bodies
+    # joints of PositionBasedDynamics; HingeJoints and TargetVelocityMotorHingeJoints are
+    # translated (sphkit.scene.splishsplash.joints)
     "BallJoints": "joints between dynamic rigid bodies",
     "BallOnLineJoints": "joints between dynamic rigid bodies",
-    "HingeJoints": "joints between dynamic rigid bodies",
     "UniversalJoints": "joints between dynamic rigid bodies",
     "SliderJoints": "joints between dynamic rigid bodies",
     "TargetAngleMotorHingeJoints": "motors on dynamic rigid bodies",
-    "TargetVelocityMotorHingeJoints": "motors on dynamic rigid bodies",
     "TargetPositionMotorSliderJoints": "motors on dynamic rigid bodies",
     "TargetVelocityMotorSliderJoints": "motors on dynamic rigid bodies",
     "DamperJoints": "joints between dynamic rigid bodies",
@@ -149,6 +150,9 @@ def translate(rd: Reader) -> dict[str, Any]:
         scene["fluid_meshes"] = fluid_meshes
     if emits:
         scene["emitters"] = emits
+    jts = joints(rd, rigid)
+    if jts:
+        scene["joints"] = jts
     anims = animation_fields(rd)
     if anims:
         scene["animation_fields"] = anims
