@@ -338,3 +338,24 @@ def test_without_the_extra_exits_2(scene_file: Path, tmp_path: Path,
     assert main(["dataset", str(scene_file), "--count", "2", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "install sphkit[dataset]" in err and "h5py" in err and "Traceback" not in err
+
+
+def test_exact_frames_land_on_frame_times(scene_file: Path) -> None:
+    """Simulation.run(exact_frames=True), as the dataset runs its variants: every frame is the
+    state at k / fps itself (a frame written at the first step after k / fps would be up to a
+    step late, which at high frame rates is as large as a frame's change of velocity), and
+    landing only shortens steps: the CFL number max|v| dt / 2r never exceeds the CFL step's
+    0.4 * cfl_factor (round-off allowance 1e-9)."""
+    from sphkit.simulation import Simulation
+
+    sim = Simulation(load_scene(scene_file))
+    fps = 50.0
+    times: list[tuple[int, float]] = []
+    cfl: list[float] = []
+    sim.run(until=0.1, fps=fps, exact_frames=True,
+            on_frame=lambda s, k: times.append((k, s.time)),
+            on_step=lambda s, st: cfl.append(st.cfl))
+    assert [k for k, _ in times] == list(range(6))
+    assert all(t == k / fps for k, t in times)  # bit-exact: the landing step sets the time
+    tc = sim.scene.configuration.time
+    assert max(cfl) <= 0.4 * tc.cfl_factor + 1e-9

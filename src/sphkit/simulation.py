@@ -281,8 +281,13 @@ class Simulation:
         dt = cfl_time_step(vmax, st.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
         return float(min(dt, self.pressure.max_time_step(st)))
 
-    def step(self) -> StepStats:
-        """Advance one time step; raises :class:`InstabilityError` when the state blows up."""
+    def step(self, land_at: float | None = None) -> StepStats:
+        """Advance one time step; raises :class:`InstabilityError` when the state blows up.
+
+        ``land_at``: a time ahead that the steps must land on exactly (a frame time). The
+        interval left to it is split into equal steps no longer than the step the CFL condition
+        and the solver allow (so no sliver step is left before it), and the step that reaches it
+        ends at ``land_at`` itself."""
         st = self.state
         f = st.fluid
         st.step = self.step_count + 1  # the step being computed (named in solver warnings)
@@ -291,6 +296,10 @@ class Simulation:
         self._neighbors()  # neighbour search (and the boundary's neighbours)
         self.compute_density()  # densities
         dt = self._time_step()  # CFL step and the solver's own bound
+        lands = False
+        if land_at is not None and land_at > self.time:
+            parts = math.ceil((land_at - self.time) / dt * (1.0 - 1e-12))
+            dt, lands = (land_at - self.time) / parts, parts == 1
         self.rigid.begin_step(st)  # this step's body frames
         self.pressure.pre_forces(st, dt)  # DFSPH: factors and the divergence-free solve
         f["a"][:] = st.gravity[:, None]  # non-pressure forces
@@ -309,7 +318,7 @@ class Simulation:
         for an in self.world.animation_fields:  # regions imposing a field (SPlisHSPlasH's)
             an.apply(f, self.time + dt, dt)
         self.dt = dt
-        self.time += dt
+        self.time = land_at if lands else self.time + dt
         self.step_count += 1
         st.time, st.step = self.time, self.step_count
         self._emit()
@@ -405,13 +414,20 @@ class Simulation:
     def run(self, until: float | None = None, fps: float | None = None,
             on_frame: Callable[[Simulation, int], None] | None = None,
             on_step: Callable[[Simulation, StepStats], None] | None = None,
-            after_step: Callable[[Simulation], bool] | None = None) -> bool:
+            after_step: Callable[[Simulation], bool] | None = None,
+            exact_frames: bool = False) -> bool:
         """Step until simulated time ``until`` (default: the scene's), calling ``on_frame(sim, k)``
         at t = 0 and after the first step at or after each ``k / fps`` (default: the scene's
         output fps; at most once per step: when a step is longer than ``1 / fps`` the frames it
         passes over are skipped and ``k`` jumps) and ``on_step`` after each step.
         ``after_step(sim)`` is called once the step's frame is written (checkpoints); when it
-        returns True the run stops there. Returns True when ``until`` was reached."""
+        returns True the run stops there. Returns True when ``until`` was reached.
+
+        ``exact_frames``: the steps land exactly on every frame time ``k / fps`` and on
+        ``until`` (:meth:`step`'s ``land_at``; the steps before a frame are shortened evenly), so
+        that frame ``k`` is the state at ``k / fps`` itself rather than at the first step after
+        it: datasets of frame differences (:mod:`sphkit.io.datasets`) need it, since at a high
+        frame rate that lag is as large as a frame's change of velocity."""
         until = self.scene.configuration.time.until if until is None else float(until)
         fps = self.scene.output.fps if fps is None else float(fps)
         if not 0.0 < fps < math.inf:
@@ -424,7 +440,8 @@ class Simulation:
             if on_frame:
                 on_frame(self, 0)
         while self.time < until - 1e-12:
-            stats = self.step()
+            land_at = min((self._frame + 1) / fps, until) if exact_frames else None
+            stats = self.step(land_at)
             if on_step:
                 on_step(self, stats)
             if self.time >= (self._frame + 1) / fps - 1e-9:

@@ -136,7 +136,8 @@ def _run_dataset(job: Job) -> dict[str, Any]:
     until, fps = scene.configuration.time.until, scene.output.fps
     failed = variant_path(job.out, job.k, failed=True)
     try:
-        sim.run(until=until, fps=fps,
+        # frames at exactly k / fps: the learners difference them (Simulation.run)
+        sim.run(until=until, fps=fps, exact_frames=True,
                 on_frame=lambda s, k: rec.record(s.fluid, s.boundary, k))
         position = rec.array()
     except (InstabilityError, ValueError) as e:

@@ -38,7 +38,10 @@ LagrangeBench's loader handles with its ``matscipy`` neighbour backend (it pads 
   largest of the dataset when a variation changes the particle radius),
 * ``dt`` and ``write_every`` (runner.py, metrics.py use ``dt * write_every`` as the time
   between two stored frames): sphkit writes ``dt`` = the frame interval 1/fps [s] and
-  ``write_every`` = 1 (LagrangeBench's own files give the solver step and the steps per frame),
+  ``write_every`` = 1 (LagrangeBench's own files give the solver step and the steps per frame);
+  the solver's steps land exactly on every frame time k/fps (``Simulation.run(...,
+  exact_frames=True)``: the steps before a frame are shortened evenly), so the frame interval
+  is exact and frame differences are velocities and accelerations without timing jitter,
 * ``bounds`` [[lo, hi] per axis] (runner.py: the box ``hi - lo``, periodic space; features.py:
   distances to the bounds): the box holding every particle of every trajectory (the outer faces
   of the walls: centres +- r; along a periodic axis exactly ``configuration.periodic_x``),
