@@ -440,8 +440,8 @@ class Simulation:
             if on_frame:
                 on_frame(self, 0)
         while self.time < until - 1e-12:
-            land_at = min((self._frame + 1) / fps, until) if exact_frames else None
-            stats = self.step(land_at)
+            stats = (self.step(min((self._frame + 1) / fps, until)) if exact_frames
+                     else self.step())
             if on_step:
                 on_step(self, stats)
             if self.time >= (self._frame + 1) / fps - 1e-9:
