@@ -17,11 +17,11 @@ torch = pytest.importorskip("torch")
 h5py = pytest.importorskip("h5py")
 
 from sphkit.cli import main  # noqa: E402
+from sphkit.io.datasets import frame_statistics  # noqa: E402
 from sphkit.learn.data import (  # noqa: E402
     INPUT_SEQ_LENGTH,
     Normalizer,
     WindowDataset,
-    frame_statistics,
     load_split,
     read_metadata,
 )
@@ -71,7 +71,7 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
                 g = f.create_group(f"{j:05d}")
                 g["position"], g["particle_type"] = pos, pt
         trajs[split] = load_split(root, split)
-    stats = frame_statistics(trajs["train"])
+    stats = frame_statistics([(t.position, t.particle_type) for t in trajs["train"]])
     meta = {"dt": DT, "write_every": 1, "dim": 2, "bounds": [[0.0, 3.0], [-10.0, 6.0]],
             "periodic_boundary_conditions": [False, False], "default_connectivity_radius": 0.15,
             "dx": DX, **stats, "sequence_length_train": FRAMES, "num_particles_max": 22,

@@ -36,13 +36,14 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-#: particle types (LagrangeBench's NodeType)
-FLUID, WALL, MOVING_WALL, RIGID = 0, 1, 2, 3
+from sphkit.io.datasets import FLUID, SOLID_WALL
+
+#: the static walls' particle type (LagrangeBench's NodeType SOLID_WALL)
+WALL = SOLID_WALL
 #: number of particle types the model embeds (LagrangeBench reserves 9)
 NUM_TYPES = 9
 #: positions per input window: 6 positions, 5 velocities (GNS, LagrangeBench)
 INPUT_SEQ_LENGTH = 6
-SPLITS = ("train", "valid", "test")
 _REQUIRED = ("dt", "dim", "bounds", "default_connectivity_radius", "vel_mean", "vel_std",
              "acc_mean", "acc_std")
 
@@ -165,19 +166,6 @@ def _like(stat: np.ndarray, x: Any) -> Any:
     if isinstance(x, np.ndarray):
         return stat.astype(x.dtype)
     return torch.as_tensor(stat, dtype=x.dtype, device=x.device)
-
-
-def frame_statistics(trajectories: list[Trajectory]) -> dict[str, list[float]]:
-    """Mean and std of the frame-difference velocities and accelerations of the fluid (the
-    ``metadata.json`` statistics, for checks and synthetic datasets)."""
-    vs, acs = [], []
-    for tr in trajectories:
-        x = tr.position[:, tr.fluid].astype(np.float64)
-        vs.append((x[1:] - x[:-1]).reshape(-1, x.shape[-1]))
-        acs.append((x[2:] - 2 * x[1:-1] + x[:-2]).reshape(-1, x.shape[-1]))
-    v, a = np.concatenate(vs), np.concatenate(acs)
-    return {"vel_mean": v.mean(0).tolist(), "vel_std": v.std(0).tolist(),
-            "acc_mean": a.mean(0).tolist(), "acc_std": a.std(0).tolist()}
 
 
 class WindowDataset(Dataset):
