@@ -39,21 +39,17 @@ from sphkit.cli.common import (
     EXIT_FAILED,
     EXIT_OK,
     EXIT_UNSTABLE,
-    EXIT_USAGE,
-    UsageError,
     error,
     guarded,
-    open_log,
     say,
 )
 from sphkit.cli.ensemble import (
     Job,
     add_ensemble_arguments,
-    check_extra,
     execute,
     fingerprint,
     is_complete,
-    plan,
+    start,
 )
 
 
@@ -97,24 +93,7 @@ def make_dataset(args: argparse.Namespace, argv: Sequence[str] = (),
                  kill_once: tuple[str, int] | None = None) -> int:
     """The command's work (``kill_once``: the test-only hook of :class:`~sphkit.cli.ensemble.Job`,
     a variant whose task kills its worker the first time)."""
-    from sphkit.scene.schema import SceneError
-
-    missing = check_extra(args, need_h5py=True)
-    if missing:
-        error(missing)
-        return EXIT_USAGE
-    try:
-        p = plan(args, "dataset")
-    except (SceneError, OSError) as e:
-        error(str(e))
-        return EXIT_USAGE
-    base = p.base
-    out: Path = args.out or Path("out") / f"{base.name}-dataset"
-    try:
-        (out / "variants").mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UsageError(f"cannot create the output folder {str(out)!r}: {e}") from None
-    open_log(args, out)
+    p, out = start(args, "dataset")
     if p.defaulted:
         say(args, "no --vary given: varying the first fluid block's end on each axis between "
                   "its middle and its end: " + " ".join(s.text() for s in p.specs))

@@ -77,6 +77,17 @@ def sweep_marker(folder: str | os.PathLike[str]) -> Path:
     return Path(folder) / "variant.json"
 
 
+def sweep_record(job: Job) -> dict[str, Any] | None:
+    """The committed record of a sweep variant's run folder when it was made from the same
+    fingerprint, else None."""
+    try:
+        with open(sweep_marker(job.out), encoding="utf-8") as f:
+            rec = json.load(f)
+    except (OSError, ValueError):
+        return None
+    return rec if isinstance(rec, dict) and rec.get("fingerprint") == job.fingerprint else None
+
+
 def is_complete(job: Job) -> bool:
     """Whether the result of ``job`` is on disk, complete and of the same fingerprint."""
     if job.kind == "dataset":
@@ -84,12 +95,8 @@ def is_complete(job: Job) -> bool:
 
         meta = read_variant(variant_path(job.out, job.k))
         return meta is not None and meta.get("fingerprint") == job.fingerprint
-    try:
-        with open(sweep_marker(job.out), encoding="utf-8") as f:
-            rec = json.load(f)
-        return rec.get("fingerprint") == job.fingerprint and rec.get("status") == "finished"
-    except (OSError, ValueError):
-        return False
+    rec = sweep_record(job)
+    return rec is not None and rec.get("status") == "finished"
 
 
 # -- the task -------------------------------------------------------------------------------------
@@ -340,6 +347,30 @@ def plan(args: Any, kind: str) -> Plan:
         scene = variant_scene(base, values)
         variants.append((k, values, scene.model_dump(mode="json")))
     return Plan(base, specs, variants, defaulted)
+
+
+def start(args: Any, kind: str) -> tuple[Plan, Path]:
+    """What ``dataset`` and ``sweep`` do first: check the extra's modules, :func:`plan` the
+    variants and create the output folder (``--out``, else ``out/<scene>-<kind>``; a dataset's
+    with its ``variants/``) with the command's log in it. A problem raises
+    :class:`~sphkit.cli.common.UsageError` (exit 2) naming it."""
+    from sphkit.cli.common import UsageError, open_log
+    from sphkit.scene.schema import SceneError
+
+    missing = check_extra(args, need_h5py=kind == "dataset")
+    if missing:
+        raise UsageError(missing)
+    try:
+        p = plan(args, kind)
+    except (SceneError, OSError) as e:
+        raise UsageError(str(e)) from None
+    out: Path = args.out or Path("out") / f"{p.base.name}-{kind}"
+    try:
+        (out / "variants" if kind == "dataset" else out).mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"cannot create the output folder {str(out)!r}: {e}") from None
+    open_log(args, out)
+    return p, out
 
 
 def progress_printer(args: Any, total: int, already: int) -> Callable[[dict[str, Any]], None]:

@@ -27,21 +27,17 @@ from sphkit.cli.common import (
     EXIT_FAILED,
     EXIT_OK,
     EXIT_UNSTABLE,
-    EXIT_USAGE,
-    UsageError,
     error,
     guarded,
-    open_log,
     say,
 )
 from sphkit.cli.ensemble import (
     Job,
     add_ensemble_arguments,
-    check_extra,
     execute,
     fingerprint,
-    plan,
-    sweep_marker,
+    start,
+    sweep_record,
 )
 
 SWEEP_NAME = "sweep.json"
@@ -67,35 +63,15 @@ def cmd_sweep(args: argparse.Namespace, argv: Sequence[str]) -> int:
 def run_sweep(args: argparse.Namespace, kill_once: tuple[str, int] | None = None) -> int:
     """The command's work (``kill_once``: see :class:`~sphkit.cli.ensemble.Job`)."""
     from sphkit.io.atomic import atomic_write_text
-    from sphkit.scene.schema import SceneError
 
-    missing = check_extra(args, need_h5py=False)
-    if missing:
-        error(missing)
-        return EXIT_USAGE
-    try:
-        p = plan(args, "sweep")
-    except (SceneError, OSError) as e:
-        error(str(e))
-        return EXIT_USAGE
-    out: Path = args.out or Path("out") / f"{p.base.name}-sweep"
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UsageError(f"cannot create the output folder {str(out)!r}: {e}") from None
-    open_log(args, out)
+    p, out = start(args, "sweep")
     # absolute: the workers (on other machines with --scheduler) write there
     jobs = [Job("sweep", k, values, scene, str(out.resolve() / f"variant-{k:05d}"),
                 fingerprint("sweep", scene)) for k, values, scene in p.variants]
     execute(args, "sweep", jobs, len(jobs), kill_once)
     rows = []
     for j in jobs:
-        try:
-            rec = json.loads(sweep_marker(j.out).read_text(encoding="utf-8"))
-            if rec.get("fingerprint") != j.fingerprint:
-                rec = {}
-        except (OSError, ValueError):
-            rec = {}
+        rec = sweep_record(j) or {}
         rows.append({"variant": j.k, "values": j.values, "folder": Path(j.out).name,
                      "status": rec.get("status", "pending"), "message": rec.get("message")})
     doc = {"format": "sphkit-sweep", "format_version": 1, "seed": args.seed,
