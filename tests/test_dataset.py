@@ -213,6 +213,40 @@ def test_bad_vary_exits_2_naming_the_path(spec: str, words: list[str], scene_fil
     assert not (tmp_path / "bad" / "train.h5").exists()
 
 
+@pytest.mark.parametrize("flags, words", [
+    (["--split", "nan,0.1,0.1"], ["--split", "'nan,0.1,0.1'", "three fractions"]),
+    (["--split", "0.8,0.2"], ["--split", "three fractions"]),
+    (["--fps", "inf"], ["--fps", "'inf'", "positive number"]),
+    (["--until", "nan"], ["--until", "'nan'", "positive number"]),
+    (["--count", "0"], ["--count", "'0'"]),
+    (["--workers", "-1"], ["--workers -1", "0 or more"]),
+    (["--seed", "x"], ["--seed", "'x'"]),
+])
+def test_bad_flags_exit_2_naming_the_flag(flags: list[str], words: list[str], scene_file: Path,
+                                          tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                          ) -> None:
+    """Garbage in a flag of ``dataset`` and ``sweep`` (NaN, Infinity, wrong count or type):
+    exit 2, the flag and the value named, no traceback."""
+    for cmd in ("dataset", "sweep"):
+        if cmd == "sweep" and flags[0] == "--split":
+            continue  # a dataset's flag only
+        rc = main([cmd, str(scene_file), "--count", "2", "--workers", "0", "--vary",
+                   "materials.0.viscosity.coefficient=0.001:0.01", "--out",
+                   str(tmp_path / cmd), *flags])
+        err = capsys.readouterr().err
+        assert rc == 2, (cmd, err)
+        assert "Traceback" not in err
+        for w in words:
+            assert w in err, (cmd, w, err)
+
+
+def test_missing_scene_file_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["dataset", str(tmp_path / "none.json"), "--count", "2", "--workers", "0",
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "none.json" in err and "Traceback" not in err
+
+
 def test_scene_with_emitters_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]
                                         ) -> None:
     scene = dict(TINY, emitters=[{"position": [0.5, 0.5], "width": 0.1,

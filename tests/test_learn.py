@@ -241,6 +241,11 @@ def test_eval_prints_the_table(model: Path, dataset: Path, tmp_path: Path,
     (["learn", "rollout", "{model}", "dambreak-2d", "--steps", "0"], "positive integer"),
     (["learn", "train", "{ds}", "--resume", "--out", "{tmp}/none"], "--resume"),
     (["learn", "train", "{ds}", "--out", "{model}"], "--resume"),
+    (["learn", "train", "{ds}", "--lr", "nan"], "--lr"),
+    (["learn", "train", "{ds}", "--radius", "inf"], "--radius"),
+    (["learn", "train", "{ds}", "--noise", "-1"], "--noise"),
+    (["learn", "rollout", "{model}", "dambreak-2d", "--until", "inf"], "--until"),
+    (["learn", "eval", "{model}", "{ds}", "--starts", "x"], "--starts"),
 ])
 def test_cli_errors_exit_2(argv: list[str], words: str, dataset: Path, model: Path,
                            tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
