@@ -101,7 +101,8 @@ class PairGradients:
                                    nb.offsets, nb.indices, state.rho0, state.h, state.kid,
                                    state.dim, f["rho"], self.gw, self.gwb, state.period)
         else:
-            pair_gradients(f["x"], f["V0"] if volumes is None else volumes, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
+            V = f["V0"] if volumes is None else volumes
+            pair_gradients(f["x"], V, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
                            nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb,
                            state.period)
         self.state = state
