@@ -9,8 +9,8 @@ volumes of the other solvers) and ``v* = v + dt a_nonp``:
 * advected density (Eq. 6): ``rho_adv,i = rho_i + dt rho_i (sum_j V_j (v*_i - v*_j) . grad W_ij
   + sum_b V_b (v*_i - v_b) . grad W_ib)``;
 * pressure gradient (Eq. 7): ``grad p_i = sum_j V_j (p_i + p_j) grad W_ij
-  + psi sum_b V_b p_i grad W_ib``, with the boundary factor psi = 1.5 (SPlisHSPlasH's
-  ``m_psi``);
+  + psi sum_b V_b p_i grad W_ib``, with a boundary factor psi (SPlisHSPlasH's ``m_psi`` = 1.5;
+  see "Boundary factor" below for sphkit's default 1);
 * the compressible pressure Poisson equation (Eq. 5), with the Lame parameter lambda [Pa]:
   ``-(rho0 / lambda) p_i + dt^2 lap p_i = rho0 - rho_adv,i``, where
   ``lap p_i = sum_j V_j (grad p_j - grad p_i) . grad W_ij - sum_b V_b grad p_i . grad W_ib``
@@ -25,8 +25,8 @@ volumes of the other solvers) and ``v* = v + dt a_nonp``:
   pressure of the last step is the start of the next (SPlisHSPlasH keeps it);
 * after the solve, SPlisHSPlasH's pressure acceleration
   ``a_i = -sum_j V_j (p_i rho0 / rho_i^2 + p_j rho0 / rho_j^2) grad W_ij
-  - sum_b V_b p_i rho0 / rho_i^2 grad W_ib`` (no psi; the mirrored share m_b of the boundary
-  coupling where a boundary model sets one).
+  - sum_b V_b p_i rho0 / rho_i^2 grad W_ib`` (SPlisHSPlasH: no psi; sphkit: the same psi as
+  the solve, plus the mirrored share m_b of the boundary coupling where a model sets one).
 
 **On sphkit's engine.** The loop is :func:`sphkit.core.solver.jacobi_ppe` in normalized units
 ``q = p / rho0`` [m^2/s^2], ``k = q``: the engine's pressure acceleration of k is
@@ -44,10 +44,23 @@ of the compressible equation: the fluid is *meant* to be compressed by ``p / lam
 8 % at the bottom of a 0.8 m column with SPlisHSPlasH's scene value lambda = 1e5 Pa), and the
 density error measures the departure from that.
 
-**Boundary factor.** SPlisHSPlasH uses psi = 1.5 with boundary particles (Akinci 2012) and 1
-with volume maps; sphkit's solvers do not branch on the boundary model, so psi (``psi``, default
-1.5 as the paper and SPlisHSPlasH's particle boundaries) applies to every boundary, added to the
-boundary's mirror weights. Like SPlisHSPlasH, the final acceleration does not use it.
+**Boundary factor.** Eq. 7's psi multiplies the boundary share of the gradient. SPlisHSPlasH
+uses psi = 1.5 with boundary particles (Akinci 2012) and 1 with volume maps, and only in the
+solve: its final acceleration has no psi, so its solve expects a boundary push half again as
+large as the one it applies. sphkit's solvers do not branch on the boundary model; the boundary
+model's mirror weights ``m_b`` already carry its share of the pressure (0 for single surface
+layers and maps, 1 for the boxes' lattice walls, :mod:`sphkit.core.ppe`), so sphkit's default is
+psi = 1 (the coupling's boundary term, as the other solvers), and a psi set in the scene
+(``icsph_psi``) enters the solve *and* the acceleration: the boundary weight ``1 + m_b``
+becomes ``psi + m_b``. Measured on a 2D column with lambda = 1e12 Pa
+(incompressible limit, max_error 0.05 %, ``validation/README.md``): psi = 1.5 in the solve only
+(SPlisHSPlasH) let the compression reach 0.098 %, psi = 1.5 in both 0.061 %, psi = 1 0.052 %.
+
+**Warm start.** As SPlisHSPlasH, each solve starts from the last step's pressure, in full. In the
+incompressible limit that makes the column bounce (steps where it lifts off and every pressure
+is 0, then 2-9 iterations to catch it); IISPH's half warm start keeps the same column calm at
+13-16 iterations (measured, ``validation/README.md``). For a compressible lambda the last
+pressure is the state of the fluid and the full warm start is the better guess.
 """
 
 from __future__ import annotations
@@ -82,10 +95,11 @@ class ICSPH(PressureSolver):
 
     def __init__(self, max_error: float = 0.01, min_iterations: int | None = None,
                  max_iterations: int = 100, lame_lambda: float = 200000.0,
-                 clamping: bool = True, psi: float = 1.5, omega: float = 0.5) -> None:
+                 clamping: bool = True, psi: float = 1.0, omega: float = 0.5) -> None:
         """``max_error`` in percent of rho0 (SPlisHSPlasH maxError); ``lame_lambda`` [Pa] the
         stiffness lambda (SPlisHSPlasH ``lambda``, default 200000); ``clamping``: p >= 0
-        (``pressureClamping``); ``psi``: the boundary factor of Eq. 7 (dimensionless)."""
+        (``pressureClamping``); ``psi``: the boundary factor of Eq. 7 (dimensionless; 1: the
+        boundary coupling's own term)."""
         if not lame_lambda > 0:
             raise ValueError(f"pressure.icsph_lambda: {lame_lambda!r}; expected a stiffness "
                              "lambda > 0 [Pa]")
@@ -129,12 +143,14 @@ class ICSPH(PressureSolver):
             mirror=mirror + (self.psi - 1.0))
         p = q * rho0
         f["p"] = p
-        # SPlisHSPlasH's computePressureAccels: k_i = p_i rho0 / rho_i^2, no psi
+        # SPlisHSPlasH's computePressureAccels, k_i = p_i rho0 / rho_i^2, with the same
+        # boundary factor as the solve (module docstring)
         k = self._kappa(state)
         a = np.empty_like(f["a"])
         nl, nb = state.nl_ff, state.nl_fb
         kappa_accel_cached(k, state.coupling.boundary_kappa(state)(k), nl.offsets, nl.indices,
-                           nb.offsets, nb.indices, mirror, grads.gw, grads.gwb, state.dim, a)
+                           nb.offsets, nb.indices, mirror + (self.psi - 1.0), grads.gw,
+                           grads.gwb, state.dim, a)
         f["a"] += a
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
@@ -144,6 +160,7 @@ class ICSPH(PressureSolver):
         return f["p"] * rest_density(state) / f["rho"] ** 2
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
-        """The boundary term of the final acceleration: ``k_i = p_i rho0 / rho_i^2``, mirrored
-        share included."""
-        return BoundaryReaction(self._kappa(state), 1.0)
+        """The boundary term of the final acceleration: ``k_i = p_i rho0 / rho_i^2`` times
+        psi, mirrored share included (``psi (1 + m_b)`` instead of the solve's ``psi + m_b``:
+        the same where m_b = 0)."""
+        return BoundaryReaction(self._kappa(state) * self.psi, 1.0)

@@ -144,9 +144,10 @@ class PressureConfig(_Model):
         True, description="icsph: clamp the pressure to p >= 0 (SPlisHSPlasH pressureClamping)"
     )
     icsph_psi: float = Field(
-        1.5, gt=0,
-        description="icsph: boundary factor psi of the pressure gradient in the solve "
-        "(dimensionless; Gissler et al. 2020 and SPlisHSPlasH's boundary particles: 1.5)",
+        1.0, gt=0,
+        description="icsph: boundary factor psi of the pressure gradient, in the solve and the "
+        "acceleration (dimensionless; 1: the boundary model's own term; SPlisHSPlasH uses 1.5 "
+        "with boundary particles in the solve only, see sphkit.pressure.icsph)",
     )
     pf_stiffness: float = Field(
         50000.0, gt=0,
