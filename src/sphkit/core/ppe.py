@@ -87,7 +87,7 @@ def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, s
     residual ``max(-r_i, 0)`` before the update if i is active, else 0 (the value
     :func:`sphkit.backend.launch_reduce` sums and maximizes). ``shift``: the diagonal term
     ``+ shift q_i`` of a compressible PPE (0: incompressible); ``lo``: the clamp ``q >= lo`` (0:
-    pressure clamping, -inf: none)."""
+    pressure clamping; -1e300: none, finite because of fast math's no-infinities flag)."""
     r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim) \
         + shift * q[i]
     qi = max(q[i] - omega * scale[i] * r, lo)
@@ -112,7 +112,7 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
     SPlisHSPlasH's ``TimeStepDFSPH``; the one-sided update DFSPH used before 2026-11-26 is
     described in :mod:`sphkit.pressure.dfsph`). A compressible PPE (ICSPH,
     :mod:`sphkit.pressure.icsph`) adds the diagonal term ``shift q_i`` to the residual,
-    ``r_i = s_i - f Ap_i + shift q_i``, and may clamp at ``lo`` = -inf (no clamping) instead of 0.
+    ``r_i = s_i - f Ap_i + shift q_i``, and may clamp at ``lo`` = -1e300 (no clamping) instead of 0.
 
     Returns (mean over all particles, max) of the compressive residual ``max(-r_i, 0)`` of active
     particles, before the update. (One pass instead of a divergence pass, an update pass and a

@@ -170,7 +170,8 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     if mirror is None:
         mirror = coupling.mirror(state)
     kb = coupling.boundary_kappa(state)
-    lo = 0.0 if clamp else -np.inf
+    # no clamping: a finite bound (the passes are compiled with fast math's no-infinities flag)
+    lo = 0.0 if clamp else -1e300
 
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
