@@ -83,7 +83,7 @@ SCRIPT = textwrap.dedent(
             out["err"] = launch_reduce(jacobi_body, N, ak, on(np.zeros_like(bx)),
                                        *map(on, (off, idx, boff, bidx)), gw, gwb, dim, q, on(s),
                                        1.0, on(np.full(N, 0.8)), 0.5, on(active), on(wq), k,
-                                       device=device)
+                                       0.0, 0.0, device=device)
             out["q"], out["k"] = back(q), back(k)
             return out
 

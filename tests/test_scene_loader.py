@@ -470,11 +470,14 @@ def test_benchmark_scenes_share_their_settings() -> None:
 @pytest.mark.parametrize(
     ("edit", "expected"),
     [
-        ({"Configuration": {"simulationMethod": 5}},
-         r"Configuration\.simulationMethod: 5 \(Projective Fluids\) is not supported yet; "
-         r"supported: 0 \(WCSPH\), 1 \(PCISPH\), 2 \(PBF\), 3 \(IISPH\), 4 \(DFSPH\)"),
-        ({"Configuration": {"simulationMethod": 6}}, r"6 \(ICSPH\) is not supported yet"),
-        ({"Configuration": {"simulationMethod": 9}}, r"9 \(unknown method\) is not supported"),
+        ({"Configuration": {"simulationMethod": 9}},
+         r"Configuration\.simulationMethod: 9 \(unknown method\) is not supported yet; "
+         r"supported: 0 \(WCSPH\), 1 \(PCISPH\), 2 \(PBF\), 3 \(IISPH\), 4 \(DFSPH\), "
+         r"5 \(Projective Fluids\), 6 \(ICSPH\)"),
+        ({"Configuration": {"simulationMethod": 6, "ICSPH": {"lambda": 0}}},
+         r"Configuration\.ICSPH\.lambda: got 0: expected a number > 0"),
+        ({"Configuration": {"simulationMethod": 5, "Projective Fluids": {"stiffness": -1}}},
+         r"Configuration\.Projective Fluids\.stiffness: got -1: expected a number > 0"),
         ({"Configuration": {"simulationMethod": 2, "PBF": {"velocityUpdateMethod": 2}}},
          r"Configuration\.PBF\.velocityUpdateMethod: got 2: expected 0 \(first order\) or 1"),
         ({"Configuration": {"simulationMethod": 4, "DFSPH": {"maxError": -0.05}}},

@@ -181,6 +181,13 @@ register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
          paper="Bender & Koschier 2015/2017, Divergence-free SPH",
          summary="constant-density and divergence-free solvers with warm starts",
          periodic=True, dynamic_bodies=True)
+register("pressure", "pf", "sphkit.pressure.pf:PF", splishsplash=5,
+         paper="Weiler, Koschier & Bender 2016, Projective fluids",
+         summary="projective dynamics: local density-constraint projections, global CG; "
+         "no dynamic bodies (as SPlisHSPlasH)")
+register("pressure", "icsph", "sphkit.pressure.icsph:ICSPH", splishsplash=6,
+         paper="Gissler et al. 2020, An implicit compressible SPH solver for snow simulation",
+         summary="compressible PPE with Lame lambda, current volumes, relaxed Jacobi")
 
 # boundary models: SPlisHSPlasH boundaryHandlingMethod
 register("boundary", "akinci2012", "sphkit.boundary.akinci2012:Akinci2012", splishsplash=0,

@@ -82,12 +82,15 @@ _JIT_GATHER = dict(cache=True, fastmath=set(GATHER_FASTMATH))
 
 @numba.njit(**_JIT_GATHER, inline="always")
 def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, scale, omega,
-                active, w, k):
+                active, w, k, shift, lo):
     """Particle i of :func:`jacobi_sweep`: updates ``q[i]``, ``k[i]`` and returns the compressive
     residual ``max(-r_i, 0)`` before the update if i is active, else 0 (the value
-    :func:`sphkit.backend.launch_reduce` sums and maximizes)."""
-    r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim)
-    qi = max(q[i] - omega * scale[i] * r, 0.0)
+    :func:`sphkit.backend.launch_reduce` sums and maximizes). ``shift``: the diagonal term
+    ``+ shift q_i`` of a compressible PPE (0: incompressible); ``lo``: the clamp ``q >= lo`` (0:
+    pressure clamping; -1e300: none, finite because of fast math's no-infinities flag)."""
+    r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim) \
+        + shift * q[i]
+    qi = max(q[i] - omega * scale[i] * r, lo)
     q[i] = qi
     k[i] = w[i] * qi
     if active[i]:
@@ -98,7 +101,8 @@ def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, s
 def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray,
                  boff: np.ndarray, bidx: np.ndarray, gw: np.ndarray, gwb: np.ndarray, dim: int,
                  q: np.ndarray, s: np.ndarray, ap_factor: float, scale: np.ndarray, omega: float,
-                 active: np.ndarray, w: np.ndarray, k: np.ndarray) -> tuple[float, float]:
+                 active: np.ndarray, w: np.ndarray, k: np.ndarray, shift: float = 0.0,
+                 lo: float = 0.0) -> tuple[float, float]:
     """The second half of one Jacobi iteration, in one pass: for every particle the product
     ``Ap_i`` = :func:`pair_divergence_cached` of the pressure accelerations a (boundary
     accelerations ab), the residual ``r_i = s_i - f Ap_i`` (f = ap_factor), the update of q and
@@ -106,7 +110,9 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
     pass reads only a, so writing q and k in place keeps it a Jacobi sweep). The update is
     ``q_i <- max(q_i - omega scale_i r_i, 0)`` (IISPH, and DFSPH with omega 0.5 as
     SPlisHSPlasH's ``TimeStepDFSPH``; the one-sided update DFSPH used before 2026-11-26 is
-    described in :mod:`sphkit.pressure.dfsph`).
+    described in :mod:`sphkit.pressure.dfsph`). A compressible PPE (ICSPH,
+    :mod:`sphkit.pressure.icsph`) adds the diagonal term ``shift q_i`` to the residual,
+    ``r_i = s_i - f Ap_i + shift q_i``, and may clamp at ``lo`` = -1e300 (no clamping) instead of 0.
 
     Returns (mean over all particles, max) of the compressive residual ``max(-r_i, 0)`` of active
     particles, before the update. (One pass instead of a divergence pass, an update pass and a
@@ -116,7 +122,8 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
     """
     n = q.shape[0]
     tot, mx = launch_reduce(jacobi_body, n, a, ab, off, idx, boff, bidx, gw, gwb, int(dim), q, s,
-                            float(ap_factor), scale, float(omega), active, w, k)
+                            float(ap_factor), scale, float(omega), active, w, k, float(shift),
+                            float(lo))
     return tot / max(n, 1), mx
 
 

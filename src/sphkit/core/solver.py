@@ -88,7 +88,10 @@ class PairGradients:
     ``state.pair_grads``; :meth:`of` returns it, or computes the gradients when it is absent).
     """
 
-    def __init__(self, state: SimState, with_density: bool = False) -> None:
+    def __init__(self, state: SimState, with_density: bool = False,
+                 volumes: np.ndarray | None = None) -> None:
+        """``volumes``: the fluid volumes V_j of the gradients (N,) [m^dim] instead of the rest
+        volumes ``V0`` (ICSPH's current volumes ``m_j / rho_j``); not with ``with_density``."""
         f, b = state.fluid, state.boundary
         nl, nb = state.nl_ff, state.nl_fb
         self.gw = np.empty((state.dim, nl.indices.shape[0]), dtype=f.dtype)
@@ -98,7 +101,8 @@ class PairGradients:
                                    nb.offsets, nb.indices, state.rho0, state.h, state.kid,
                                    state.dim, f["rho"], self.gw, self.gwb, state.period)
         else:
-            pair_gradients(f["x"], f["V0"], nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
+            V = f["V0"] if volumes is None else volumes
+            pair_gradients(f["x"], V, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
                            nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb,
                            state.period)
         self.state = state
@@ -109,13 +113,16 @@ class PairGradients:
         g = state.pair_grads
         return g if g is not None else PairGradients(state)
 
-    def diagonal(self) -> np.ndarray:
+    def diagonal(self, mirror_shift: float = 0.0) -> np.ndarray:
         """``D_i`` of :func:`sphkit.core.ppe.diagonal_cached` (DFSPH's 1/alpha, IISPH's
-        -a_ii rho^2)."""
+        -a_ii rho^2); ``mirror_shift`` is added to the mirror weights (ICSPH's psi - 1)."""
         st = self.state
         out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
+        mirror = st.coupling.mirror(st, diagonal=True)
+        if mirror_shift:
+            mirror = mirror + mirror_shift
         diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
-                        st.coupling.mirror(st, diagonal=True), self.gw, self.gwb, st.dim, out)
+                        mirror, self.gw, self.gwb, st.dim, out)
         return out
 
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
@@ -131,9 +138,16 @@ class PairGradients:
 def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray,
                s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
                active: np.ndarray, error_factor: float = 1.0,
-               grads: PairGradients | None = None
+               grads: PairGradients | None = None, shift: float = 0.0, clamp: bool = True,
+               mirror: np.ndarray | None = None
                ) -> tuple[np.ndarray, int, float, float, bool]:
     """Relaxed Jacobi on ``A q = s``; q is updated in place and clamped to q >= 0.
+
+    A compressible PPE (ICSPH) passes ``shift`` > 0: the residual becomes
+    ``s - A q + shift q`` (the equation ``(A - shift) q = s``); ``clamp=False`` lets q go
+    negative; ``mirror`` replaces the coupling's mirror weights ``m_b`` in the boundary term of
+    the iterations (ICSPH's boundary factor psi = 1 + m_b; the returned acceleration uses them
+    too).
 
     One iteration: ``a = kappa_accel_cached(w q)``; ``Ap = ap_factor * pair_divergence_cached(a)``;
     ``q <- max(q - omega scale (s - Ap), 0)`` (:func:`sphkit.core.ppe.jacobi_sweep` computes Ap
@@ -153,8 +167,11 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     coupling = state.coupling
 
     k = w * q  # the weighted variable; jacobi_sweep keeps it up to date
-    mirror = coupling.mirror(state)
+    if mirror is None:
+        mirror = coupling.mirror(state)
     kb = coupling.boundary_kappa(state)
+    # no clamping: a finite bound (the passes are compiled with fast math's no-infinities flag)
+    lo = 0.0 if clamp else -1e300
 
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
@@ -162,7 +179,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         # boundary particles take no pressure acceleration unless they yield (dynamic bodies)
         ab = coupling.response(state, k, g.gwb)
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
-                               dim, q, s, ap_factor, scale, omega, active, w, k)
+                               dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo)
         return avg * error_factor, mx * error_factor
 
     its, avg, mx, ok = control.run(sweep, state.step)

@@ -81,9 +81,12 @@ class PressureConfig(_Model):
 
     ``method``: ``wcsph`` (state equation), ``pcisph`` (Solenthaler & Pajarola 2009), ``pbf``
     (Macklin & Mueller 2013), ``iisph`` (Ihmsen et al. 2014), ``dfsph`` (Bender & Koschier 2015,
-    2017). The iterative solvers share one iteration control: they stop when the average density
-    error is at most ``max_error`` percent of rho0 after at least ``min_iterations``; fields left
-    at None take the solver's SPlisHSPlasH default.
+    2017), ``pf`` (projective fluids, Weiler et al. 2016), ``icsph`` (Gissler et al. 2020). The
+    iterative solvers share one iteration control: they stop when the average density error is
+    at most ``max_error`` percent of rho0 after at least ``min_iterations`` (icsph: the error of
+    its compressible equation; pf: when its global step's relative residual is at most
+    ``pf_tolerance``, its density error set by ``pf_stiffness``); fields left at None take the
+    solver's SPlisHSPlasH default.
     """
 
     method: PressureMethod = "wcsph"
@@ -131,6 +134,30 @@ class PressureConfig(_Model):
     )
     pbf_velocity_update: Literal["first_order", "second_order"] = Field(
         "first_order", description="pbf: v = (x - x_old)/dt, or the 2nd-order BDF form"
+    )
+    icsph_lambda: float = Field(
+        200000.0, gt=0,
+        description="icsph: Lame parameter lambda [Pa] of the compressible pressure equation, "
+        "rho = rho0 (1 + p / lambda) at rest (SPlisHSPlasH lambda, default 200000)",
+    )
+    icsph_clamping: bool = Field(
+        True, description="icsph: clamp the pressure to p >= 0 (SPlisHSPlasH pressureClamping)"
+    )
+    icsph_psi: float = Field(
+        1.0, gt=0,
+        description="icsph: boundary factor psi of the pressure gradient, in the solve and the "
+        "acceleration (dimensionless; 1: the boundary model's own term; SPlisHSPlasH uses 1.5 "
+        "with boundary particles in the solve only, see sphkit.pressure.icsph)",
+    )
+    pf_stiffness: float = Field(
+        50000.0, gt=0,
+        description="pf: stiffness k [N/m] of the density constraints (SPlisHSPlasH stiffness, "
+        "default 50000); larger k, smaller compression",
+    )
+    pf_tolerance: float = Field(
+        1e-10, gt=0, lt=1,
+        description="pf: relative residual |b - A x| / |b| of the global step that ends the "
+        "local/global iterations (SPlisHSPlasH 1e-10)",
     )
 
 

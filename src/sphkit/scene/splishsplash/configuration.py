@@ -21,6 +21,9 @@ from sphkit.scene.splishsplash.methods import (
     DEFAULT_BOUNDARY_METHOD,
     DEFAULT_SIMULATION_METHOD,
     FALLBACK_BOUNDARY_MODEL,
+    ICSPH_CLAMPING,
+    ICSPH_LAMBDA,
+    PF_STIFFNESS,
     PRESSURE_METHODS,
     SIMULATION_METHODS,
     SOLVER_KEYS,
@@ -238,7 +241,9 @@ def iterative_solver(rd: Reader, cfg: dict[str, Any], method: int) -> dict[str, 
     ours = {"minIterations": "min_iterations", "maxIterations": "max_iterations",
             "maxError": "max_error", "maxIterationsV": "max_iterations_v",
             "maxErrorV": "max_error_v", "enableDivergenceSolver": "divergence_solver",
-            "velocityUpdateMethod": "pbf_velocity_update"}
+            "velocityUpdateMethod": "pbf_velocity_update", "stiffness": "pf_stiffness",
+            "stiffnessPF": "pf_stiffness", "lambda": "icsph_lambda",
+            "pressureClamping": "icsph_clamping"}
     for key in keys:
         rd.origin[f"configuration.pressure.{ours[key]}"] = f"{where(key)}.{key}"
     if pressure["method"] == "dfsph":
@@ -253,5 +258,21 @@ def iterative_solver(rd: Reader, cfg: dict[str, Any], method: int) -> dict[str, 
             raise rd.error(f"{where('velocityUpdateMethod')}.velocityUpdateMethod", vum,
                            "0 (first order) or 1 (second order)")
         pressure["pbf_velocity_update"] = _PBF_VELOCITY_UPDATES[vum]
+    elif pressure["method"] == "pf":
+        key = "stiffnessPF" if "stiffnessPF" in ns else "stiffness"
+        pressure["pf_stiffness"] = rd.num(ns, key, nsw, num("stiffness", PF_STIFFNESS),
+                                          positive=True)
+        rd.origin["configuration.pressure.pf_stiffness"] = f"{where(key)}.{key}"
+        if "maxError" in ns or "maxError" in cfg:
+            rd.notes.append(
+                f"{where('maxError')}.maxError: {pressure['max_error']} is not used by "
+                "projective fluids (nor by SPlisHSPlasH's: its local/global iterations stop "
+                "when the global step's relative residual is at most 1e-10, "
+                "configuration.pressure.pf_tolerance; the density error follows from the "
+                "stiffness)")
+    elif pressure["method"] == "icsph":
+        pressure["icsph_lambda"] = num("lambda", ICSPH_LAMBDA)
+        pressure["icsph_clamping"] = rd.flag(
+            ns, "pressureClamping", nsw, rd.flag(cfg, "pressureClamping", w, ICSPH_CLAMPING))
     return pressure
 

@@ -49,7 +49,7 @@ DEFAULT_SIMULATION_METHOD = 4
 PRESSURE_METHODS = implemented("pressure")
 #: SPlisHSPlasH's default ``minIterations`` per iterative solver: 2 from ``TimeStep``'s
 #: constructor, raised to 3 by ``TimeStepPCISPH``'s
-SOLVER_MIN_ITERATIONS = {1: 3, 2: 2, 3: 2, 4: 2}
+SOLVER_MIN_ITERATIONS = {1: 3, 2: 2, 3: 2, 4: 2, 5: 2, 6: 2}
 #: the parameters of each iterative solver's block (the block is named as the method)
 SOLVER_KEYS = {
     1: ("minIterations", "maxIterations", "maxError"),
@@ -57,7 +57,15 @@ SOLVER_KEYS = {
     3: ("minIterations", "maxIterations", "maxError"),
     4: ("minIterations", "maxIterations", "maxError", "maxIterationsV", "maxErrorV",
         "enableDivergenceSolver"),
+    # projective fluids: "stiffness" in 2.x scenes, "stiffnessPF" in SPlisHSPlasH's newer source
+    5: ("minIterations", "maxIterations", "maxError", "stiffness", "stiffnessPF"),
+    6: ("minIterations", "maxIterations", "maxError", "lambda", "pressureClamping"),
 }
+#: SPlisHSPlasH's defaults of projective fluids' stiffness [N/m] (``TimeStepPF``'s constructor)
+#: and ICSPH's lambda [Pa] and pressure clamping (``TimeStepICSPH``'s)
+PF_STIFFNESS = 50000.0
+ICSPH_LAMBDA = 200000.0
+ICSPH_CLAMPING = True
 
 # -- boundary handling (Configuration.boundaryHandlingMethod) -----------------------------------
 
