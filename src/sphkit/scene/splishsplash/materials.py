@@ -234,7 +234,8 @@ def _origin_of_block(rd: Reader, m: Mapping[str, Any], w: str, k: int, model: st
 
 def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
     """The material's surface tension model (``surfaceTensionMethod`` 1-3 with the
-    ``surfaceTension``/``surfaceTensionBoundary`` numbers of the method's block)."""
+    ``surfaceTension``/``surfaceTensionBoundary`` numbers of the method's block; 5 with
+    :func:`zorilla2020`)."""
     sm = rd.integer(m, "surfaceTensionMethod", w, 0)
     if sm == 0:
         return {"method": "none"}
@@ -246,6 +247,8 @@ def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[st
             "(none), " + supported_list(names, SURFACE_TENSION_SUPPORTED),
         )
     method, ns_key = SURFACE_TENSION_SUPPORTED[sm]
+    if method == "zorilla2020":
+        return zorilla2020(rd, m, w, k, ns_key)
     v = _namespaced(rd, m, w, ns_key, {"surfaceTension": 0.05,
                                        "surfaceTensionBoundary": 0.01})
     _origin_of_block(rd, m, w, k, "surface_tension", ns_key,
@@ -253,6 +256,59 @@ def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[st
                       "boundary_coefficient": "surfaceTensionBoundary"})
     return {"method": method, "coefficient": v["surfaceTension"],
             "boundary_coefficient": v["surfaceTensionBoundary"]}
+
+
+#: Zorilla, Ritter et al. 2020: SPlisHSPlasH key -> (sphkit field, default); enums by number
+_ZR2020_NUMBERS = {
+    "surfTZRCsd": ("samples_per_second", 10000.0), "surfTZRr-ratio": ("r_ratio", 0.8),
+    "surfTZRtau": ("tau", 0.5), "surfTZRd": ("classifier_d", 12.0),
+    "surfTZRd-offset": ("d_offset", 2.0), "surfTZRPcaMixNrm": ("pca_mix_normal", 0.75),
+    "surfTZRPcaMixCur": ("pca_mix_curvature", 0.5),
+}
+_ZR2020_INTEGERS = {
+    "surfTZRMCSamples": ("samples", -1), "surfTZRNeighLimit": ("neighbour_limit", 13),
+    "surfTZRsmoothPasses": ("smooth_passes", 0),
+}
+_ZR2020_ENUMS = {
+    "surfTZRversion": ("version", 1, ("v2019", "v2020")),
+    "surfTZRsampling": ("sampling", 0, ("halton", "random")),
+    "surfTZRnormal-mode": ("normal_mode", 1, ("pca", "mc", "mix")),
+}
+
+
+def zorilla2020(rd: Reader, m: Mapping[str, Any], w: str, k: int,
+                ns_key: str) -> dict[str, Any]:
+    """Zorilla, Ritter et al. 2020 (``surfaceTensionMethod`` 5): ``surfaceTension`` and the
+    ``surfTZR*`` parameters of its block (defaults: ``reference/methods.md`` K4)."""
+    nsw = f"{w}.{ns_key}"
+    ns = rd.obj(m, ns_key, nsw)
+    known = {"surfaceTension", "surfaceTensionBoundary", "surfTZRtemporalSmooth",
+             *_ZR2020_NUMBERS, *_ZR2020_INTEGERS, *_ZR2020_ENUMS}
+    rd.collect_unknown(ns, nsw, known, set())
+    src = nsw if ns else w
+    coef = rd.num(ns, "surfaceTension", nsw, rd.num(m, "surfaceTension", w, 0.05, nonneg=True),
+                  nonneg=True)
+    rd.origin[f"materials[{k}].surface_tension.coefficient"] = f"{src}.surfaceTension"
+    zr: dict[str, Any] = {}
+    for key, (ours, default) in _ZR2020_NUMBERS.items():
+        zr[ours] = rd.num(ns, key, nsw, default)
+    for key, (ours, default) in _ZR2020_INTEGERS.items():
+        zr[ours] = rd.integer(ns, key, nsw, default)
+    for key, (ours, default, names) in _ZR2020_ENUMS.items():
+        v = rd.integer(ns, key, nsw, default)
+        if not 0 <= v < len(names):
+            raise rd.error(f"{nsw}.{key}", v, "one of " + ", ".join(
+                f"{n} ({nm})" for n, nm in enumerate(names)))
+        zr[ours] = names[v]
+    zr["temporal_smoothing"] = rd.flag(ns, "surfTZRtemporalSmooth", nsw, False)
+    for key, (ours, _) in {**_ZR2020_NUMBERS, **_ZR2020_INTEGERS}.items():
+        rd.origin[f"materials[{k}].surface_tension.zorilla2020.{ours}"] = f"{nsw}.{key}"
+    for key, (ours, _, _) in _ZR2020_ENUMS.items():
+        rd.origin[f"materials[{k}].surface_tension.zorilla2020.{ours}"] = f"{nsw}.{key}"
+    rd.origin[f"materials[{k}].surface_tension.zorilla2020.temporal_smoothing"] = (
+        f"{nsw}.surfTZRtemporalSmooth")
+    return {"method": "zorilla2020", "coefficient": coef, "boundary_coefficient": 0.0,
+            "zorilla2020": zr}
 
 
 def drag(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
