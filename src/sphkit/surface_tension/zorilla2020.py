@@ -97,6 +97,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from sphkit.core.eigen import smallest_eigen
 from sphkit.core.kernels import CUBIC, kernel_w
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import delta, point
@@ -241,71 +242,6 @@ def _is_surface(mc_n, j, dim):
     return z
 
 
-@numba.njit(cache=True, fastmath=True)
-def _smallest_eigen(a00, a01, a02, a11, a12, a22, dim):
-    """(lambda_min, trace, v0, v1, v2) of a symmetric positive semi-definite matrix (2x2 from
-    the a00, a01, a11 entries when dim == 2): the smallest eigenvalue (set to 0 below 1e-6 of
-    the trace) and a unit eigenvector of it (zero when it is not unique enough to find)."""
-    if dim == 2:
-        tr = a00 + a11
-        mean = 0.5 * tr
-        rad = math.sqrt(0.25 * (a00 - a11) * (a00 - a11) + a01 * a01)
-        lam = mean - rad
-        x0, x1 = a01, lam - a00
-        y0, y1 = lam - a11, a01
-        if x0 * x0 + x1 * x1 >= y0 * y0 + y1 * y1:
-            v0, v1 = x0, x1
-        else:
-            v0, v1 = y0, y1
-        ln = math.sqrt(v0 * v0 + v1 * v1)
-        if ln <= 1e-12 * max(tr, 1e-300):
-            return lam, tr, 0.0, 0.0, 0.0
-        if abs(lam) < 1e-6 * tr:
-            lam = 0.0
-        return lam, tr, v0 / ln, v1 / ln, 0.0
-    tr = a00 + a11 + a22
-    q = tr / 3.0
-    p1 = a01 * a01 + a02 * a02 + a12 * a12
-    b00, b11, b22 = a00 - q, a11 - q, a22 - q
-    p2 = b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * p1
-    p = math.sqrt(p2 / 6.0)
-    if p <= 1e-300:
-        return q, tr, 0.0, 0.0, 0.0
-    c00, c11, c22 = b00 / p, b11 / p, b22 / p
-    c01, c02, c12 = a01 / p, a02 / p, a12 / p
-    detb = (c00 * (c11 * c22 - c12 * c12) - c01 * (c01 * c22 - c12 * c02)
-            + c02 * (c01 * c12 - c11 * c02))
-    r = min(max(0.5 * detb, -1.0), 1.0)
-    phi = math.acos(r) / 3.0
-    lam = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)  # the smallest root
-    # eigenvector: the largest cross product of two rows of (A - lam I)
-    r00, r11, r22 = a00 - lam, a11 - lam, a22 - lam
-    x0 = a01 * a12 - a02 * r11
-    x1 = a02 * a01 - r00 * a12
-    x2 = r00 * r11 - a01 * a01
-    y0 = a01 * r22 - a02 * a12
-    y1 = a02 * a02 - r00 * r22
-    y2 = r00 * a12 - a01 * a02
-    z0 = r11 * r22 - a12 * a12
-    z1 = a12 * a02 - a01 * r22
-    z2 = a01 * a12 - r11 * a02
-    nx = x0 * x0 + x1 * x1 + x2 * x2
-    ny = y0 * y0 + y1 * y1 + y2 * y2
-    nz = z0 * z0 + z1 * z1 + z2 * z2
-    if nx >= ny and nx >= nz:
-        v0, v1, v2, ln2 = x0, x1, x2, nx
-    elif ny >= nz:
-        v0, v1, v2, ln2 = y0, y1, y2, ny
-    else:
-        v0, v1, v2, ln2 = z0, z1, z2, nz
-    if ln2 <= 1e-24 * tr * tr * tr * tr or ln2 <= 0.0:
-        return lam, tr, 0.0, 0.0, 0.0
-    ln = math.sqrt(ln2)
-    if abs(lam) < 1e-6 * tr:
-        lam = 0.0
-    return lam, tr, v0 / ln, v1 / ln, v2 / ln
-
-
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _smooth_pass(x, off, idx, mc_n, mc_k, com, tau, h, k_class, d_pca, do_pca, limit, dim,
                  L, n_s, k_s, pca_n, pca_k):
@@ -402,7 +338,7 @@ def _smooth_pass(x, off, idx, mc_n, mc_k, com, tau, h, k_class, d_pca, do_pca, l
             a11 += w * e1 * e1
             a12 += w * e1 * e2
             a22 += w * e2 * e2
-        lam, tr, v0, v1, v2 = _smallest_eigen(a00, a01, a02, a11, a12, a22, dim)
+        lam, tr, v0, v1, v2 = smallest_eigen(a00, a01, a02, a11, a12, a22, dim)
         if tr <= 0.0 or (v0 == 0.0 and v1 == 0.0 and v2 == 0.0):
             continue
         if v0 * mc_n[0, i] + v1 * mc_n[1, i] + (v2 * mc_n[2, i] if dim == 3 else 0.0) < 0.0:
