@@ -254,6 +254,10 @@ register("surface_tension", "he2014", "sphkit.surface_tension.he2014:He2014", sp
          paper="He et al. 2014, Robust simulation of sparsely sampled thin features in SPH-based "
          "free surface flows", summary="surface energy of the colour field gradient",
          periodic=True)
+register("surface_tension", "jeske2023", "sphkit.surface_tension.jeske2023:Jeske2023",
+         splishsplash=4, paper="Jeske et al. 2023, Implicit surface tension for SPH fluid "
+         "simulation", summary="implicit cohesion, adhesion and viscosity (one CG solve)",
+         periodic=True)
 register("surface_tension", "zorilla2020", "sphkit.surface_tension.zorilla2020:"
          "ZorillaRitter2020", splishsplash=5,
          paper="Zorilla, Ritter et al. 2020, Accelerating surface tension calculation in SPH "

@@ -304,6 +304,22 @@ class Zorilla2020Config(_Model):
                                      "the previous step's (surfTZRtemporalSmooth)")
 
 
+class Jeske2023Config(_Model):
+    """The solver parameters of ``jeske2023`` (Jeske et al. 2023; SPlisHSPlasH's names in
+    brackets, defaults SPlisHSPlasH's); see :mod:`sphkit.surface_tension.jeske2023`."""
+
+    viscosity: float = Field(0.0, ge=0, le=1e6, description="kinematic viscosity nu of the "
+                             "implicit solve [m^2/s] (surfaceTensionViscosity)")
+    boundary_viscosity: float = Field(0.0, ge=0, le=1e6, description="wall viscosity nu_b "
+                                      "[m^2/s] (surfaceTensionViscosityBoundary)")
+    xsph: float = Field(0.0, ge=0, le=1, description="XSPH factor of the implicit solve "
+                        "(surfaceTensionXSPH)")
+    max_iterations: int = Field(100, ge=1, le=100000, description="CG iterations at most "
+                                "(surfaceTensionMaxIter)")
+    max_error: float = Field(1e-3, gt=0, le=1, description="CG tolerance on the relative "
+                             "residual (surfaceTensionMaxError)")
+
+
 class SurfaceTensionConfig(_Model):
     """Surface tension and adhesion: ``becker2007`` (Becker & Teschner 2007, SPlisHSPlasH
     surfaceTensionMethod 1), ``akinci2013`` (Akinci et al. 2013, 2), ``he2014`` (He et al. 2014,
@@ -312,7 +328,8 @@ class SurfaceTensionConfig(_Model):
     defaults are SPlisHSPlasH's. ``mueller2003`` (Müller et al. 2003 continuum surface force, no
     SPlisHSPlasH number): ``coefficient`` is the physical sigma, no adhesion. ``zorilla2020``
     (Zorilla, Ritter et al. 2020, 5): Monte Carlo normals and curvature, parameters in the
-    ``zorilla2020`` block."""
+    ``zorilla2020`` block. ``jeske2023`` (Jeske et al. 2023, 4): implicit cohesion, adhesion
+    and viscosity, solver parameters in the ``jeske2023`` block."""
 
     method: SurfaceTensionMethod = "none"
     coefficient: float = Field(
@@ -322,7 +339,8 @@ class SurfaceTensionConfig(_Model):
         "energy kappa [N in 3D, J in 2D] (SPlisHSPlasH surfaceTension, default 0.05); "
         "mueller2003: the surface tension sigma [N/m in 3D, N in 2D]; zorilla2020: gamma "
         "[N m in 3D, N in 2D], the force per curvature of one surface particle "
-        "(SPlisHSPlasH surfaceTension, default 0.05)",
+        "(SPlisHSPlasH surfaceTension, default 0.05); jeske2023: cohesion gamma [N/m in 3D] "
+        "(surfaceTension, default 0.05)",
     )
     boundary_coefficient: float = Field(
         0.01, ge=0, le=1e6, allow_inf_nan=False,
@@ -333,12 +351,18 @@ class SurfaceTensionConfig(_Model):
     zorilla2020: Zorilla2020Config = Field(
         default_factory=Zorilla2020Config,
         description="zorilla2020 only: the Monte Carlo / PCA parameters")
+    jeske2023: Jeske2023Config = Field(
+        default_factory=Jeske2023Config,
+        description="jeske2023 only: viscosity and solver parameters of the implicit solve")
 
     @model_validator(mode="after")
     def _mueller_no_adhesion(self) -> SurfaceTensionConfig:
         if "zorilla2020" in self.model_fields_set and self.method != "zorilla2020":
             raise ValueError(f"zorilla2020: parameters given for method {self.method!r}; "
                              "expected them only with method zorilla2020")
+        if "jeske2023" in self.model_fields_set and self.method != "jeske2023":
+            raise ValueError(f"jeske2023: parameters given for method {self.method!r}; "
+                             "expected them only with method jeske2023")
         if self.method == "zorilla2020" and "boundary_coefficient" not in self.model_fields_set:
             self.boundary_coefficient = 0.0
         if self.method == "mueller2003":

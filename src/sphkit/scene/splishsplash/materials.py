@@ -210,12 +210,13 @@ def vorticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any
 
 
 def _namespaced(rd: Reader, m: Mapping[str, Any], w: str, ns_key: str,
-                keys: dict[str, float]) -> dict[str, float]:
+                keys: dict[str, float], extra: set[str] | None = None) -> dict[str, float]:
     """Non-negative numbers ``keys`` (name -> SPlisHSPlasH default) of a method, read from its
-    namespace block ``ns_key`` or, for scenes before 2.16, flat from the material."""
+    namespace block ``ns_key`` or, for scenes before 2.16, flat from the material; ``extra``:
+    further keys of the block that the caller reads itself."""
     nsw = f"{w}.{ns_key}"
     ns = rd.obj(m, ns_key, nsw)
-    rd.collect_unknown(ns, nsw, set(keys), set())
+    rd.collect_unknown(ns, nsw, set(keys) | (extra or set()), set())
     values = {}
     for key, default in keys.items():
         val = rd.num(m, key, w, default, nonneg=True)
@@ -249,6 +250,8 @@ def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[st
     method, ns_key = SURFACE_TENSION_SUPPORTED[sm]
     if method == "zorilla2020":
         return zorilla2020(rd, m, w, k, ns_key)
+    if method == "jeske2023":
+        return jeske2023(rd, m, w, k, ns_key)
     v = _namespaced(rd, m, w, ns_key, {"surfaceTension": 0.05,
                                        "surfaceTensionBoundary": 0.01})
     _origin_of_block(rd, m, w, k, "surface_tension", ns_key,
@@ -309,6 +312,37 @@ def zorilla2020(rd: Reader, m: Mapping[str, Any], w: str, k: int,
         f"{nsw}.surfTZRtemporalSmooth")
     return {"method": "zorilla2020", "coefficient": coef, "boundary_coefficient": 0.0,
             "zorilla2020": zr}
+
+
+#: Jeske et al. 2023: SPlisHSPlasH key -> (sphkit field of the jeske2023 block, default)
+_JESKE_KEYS = {
+    "surfaceTensionViscosity": ("viscosity", 0.0),
+    "surfaceTensionViscosityBoundary": ("boundary_viscosity", 0.0),
+    "surfaceTensionXSPH": ("xsph", 0.0), "surfaceTensionMaxError": ("max_error", 1e-3),
+}
+
+
+def jeske2023(rd: Reader, m: Mapping[str, Any], w: str, k: int,
+              ns_key: str) -> dict[str, Any]:
+    """Jeske et al. 2023 (``surfaceTensionMethod`` 4): ``surfaceTension``,
+    ``surfaceTensionBoundary`` and the solver keys of its block (defaults:
+    ``reference/methods.md`` K5)."""
+    v = _namespaced(rd, m, w, ns_key, {"surfaceTension": 0.05, "surfaceTensionBoundary": 0.01,
+                                       **{key: d for key, (_, d) in _JESKE_KEYS.items()}},
+                    extra={"surfaceTensionMaxIter"})
+    nsw = f"{w}.{ns_key}"
+    ns = rd.obj(m, ns_key, nsw)
+    it = rd.integer(ns, "surfaceTensionMaxIter", nsw, rd.integer(m, "surfaceTensionMaxIter", w,
+                                                                 100))
+    _origin_of_block(rd, m, w, k, "surface_tension", ns_key,
+                     {"coefficient": "surfaceTension",
+                      "boundary_coefficient": "surfaceTensionBoundary",
+                      "jeske2023.max_iterations": "surfaceTensionMaxIter",
+                      **{f"jeske2023.{ours}": key for key, (ours, _) in _JESKE_KEYS.items()}})
+    return {"method": "jeske2023", "coefficient": v["surfaceTension"],
+            "boundary_coefficient": v["surfaceTensionBoundary"],
+            "jeske2023": {"max_iterations": it,
+                          **{ours: v[key] for key, (ours, _) in _JESKE_KEYS.items()}}}
 
 
 def drag(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
