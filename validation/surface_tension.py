@@ -94,6 +94,7 @@ from sphkit.surface_tension import (
     Akinci2013,
     BeckerTeschner2007,
     He2014,
+    Jeske2023,
     Mueller2003,
     ZorillaRitter2020,
 )
@@ -104,7 +105,7 @@ from sphkit.surface_tension.he2014 import _grad_c2_cpu, _he_cpu
 RHO0 = 1000.0
 #: name -> coefficient (2D, r = 5 mm): strengths that give sigma of order 1 N, so that a drop of
 #: R ~ 0.1 m rounds off within about a second
-MODELS = {"becker2007": 5.0, "akinci2013": 0.02, "he2014": 1.0}
+MODELS = {"becker2007": 5.0, "akinci2013": 0.02, "he2014": 1.0, "jeske2023": 5000.0}
 #: Müller et al. 2003 CSF: its coefficient is sigma itself [N in 2D, N/m in 3D]
 CSF_SIGMA_2D = 1.0
 STIFFNESS = 200.0  #: linear state equation k [m^2/s^2]: about 0.3 % compression at p ~ 600 Pa
@@ -181,8 +182,10 @@ def cut_tension(sim: Simulation, planes: np.ndarray) -> tuple[float, float]:
     press = sim.pressure
     state_equation(rho, st.rho0, LINEAR, press.stiffness, press.exponent, p)
     model = next(fo for fo in sim.forces if isinstance(fo, (BeckerTeschner2007, Akinci2013,
-                                                             He2014)))
+                                                             He2014, Jeske2023)))
     coef = model.coefficient
+    if isinstance(model, Jeske2023):  # at rest: Becker's cohesion with kappa = gamma / rho0
+        coef = coef / st.rho0
     if isinstance(model, Akinci2013):
         nrm = np.empty((dim, n))
         surface_normals_cpu(x, m, rho, nl.offsets, nl.indices, h, h, kid, dim, nrm, L)
@@ -199,7 +202,7 @@ def cut_tension(sim: Simulation, planes: np.ndarray) -> tuple[float, float]:
         pressure_accel_cpu(x, m, rho, p, cl.offsets, cl.indices, bx, bV, nb.offsets, nb.indices,
                            st.rho0, h, kid, dim, ap, L)
         a = np.zeros((dim, n))
-        if isinstance(model, BeckerTeschner2007):
+        if isinstance(model, (BeckerTeschner2007, Jeske2023)):
             _becker_cpu(x, m, cl.offsets, cl.indices, bx, bV, nb.offsets, nb.indices, coef, 0.0,
                         2.0 * st.r, st.rho0, h, kid, dim, a, L)
         elif isinstance(model, Akinci2013):
@@ -400,6 +403,8 @@ def kb_sigma(name: str, coef: float, m: float, r: float, dim: int) -> tuple[floa
         return BeckerTeschner2007(coef).equivalent_sigma(RHO0, m, r, 4 * r, 0, dim)
     if name == "akinci2013":
         return Akinci2013(coef).cohesion_sigma(RHO0, m, 4 * r, dim)
+    if name == "jeske2023":
+        return Jeske2023(coef).equivalent_sigma(RHO0, m, r, 4 * r, 0, dim)
     return float("nan"), float("nan")
 
 
@@ -585,7 +590,7 @@ def zorilla_study(quick: bool, skip_2d: bool, skip_3d: bool, r: float, until: fl
     the nominal sigma, with the fit ``p = p0 + sigma_fit / R``; (ii) a 3D ball at rest: p and
     p_jump against 2 sigma / R; (iii) the 3D mode-2 drop (as mueller2003's: DFSPH, jittered
     ball relaxed 0.4 s, +-A kicks) against Rayleigh's period with the nominal sigma and with
-    the sigma the 3D drop's p_jump implies."""
+    the balls' sigma_fit."""
     out: dict = {"d2": [], "d3": None, "ray": None}
     s2 = 1.0
     if not skip_2d:
@@ -618,22 +623,34 @@ def zorilla_study(quick: bool, skip_2d: bool, skip_3d: bool, r: float, until: fl
     if skip_3d:
         return out
     s3, r3 = 5.0, 0.0025
-    R3 = 0.03 if quick else 0.04
-    t0 = time.perf_counter()
-    d3 = drop_3d_csf(s3, R3, r3, 0.2 if quick else 0.4, name="zorilla2020")
-    out["d3"] = d3
-    print(f"  zorilla2020 3D drop at rest: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
-    q = d3["R"] / (2 * s3)
+    d3s = []
+    for R3 in ((0.03,) if quick else (0.03, 0.04, 0.05)):
+        t0 = time.perf_counter()
+        d3s.append(drop_3d_csf(s3, R3, r3, 0.2 if quick else 0.4, name="zorilla2020"))
+        print(f"  zorilla2020 3D drop at rest R = {R3}: {time.perf_counter() - t0:.0f} s",
+              file=sys.stderr)
+    out["d3"] = d3s
     print()
-    print(f"3D ball at rest (zorilla2020, nominal sigma = {s3:g} N/m, gamma = "
+    print(f"3D balls at rest (zorilla2020, nominal sigma = {s3:g} N/m, gamma = "
           f"{zr_coefficient(s3, r3, 3):g} N m, r = {r3:g} m, WCSPH linear k = 200, nu = 1e-3 "
           "m^2/s, last half of the run):")
     print("| N | R [m] | R/h | particles deeper than 2h | p R / (2 sigma) (std) | "
-          "p_jump R / (2 sigma) | p / p_jump |")
-    print("|---|---|---|---|---|---|---|")
-    print(f"| {d3['N']} | {d3['R']:.4f} | {d3['R'] / (4 * r3):.2f} | {d3['n_inner']} | "
-          f"{d3['p'] * q:.3f} ({d3['p_std'] * q:.3f}) | {d3['pJ'] * q:.3f} | "
-          f"{d3['p'] / d3['pJ']:.3f} |")
+          "p_jump R / (2 sigma) | p / p_jump | p within 5 % of p_jump |")
+    print("|---|---|---|---|---|---|---|---|")
+    for d3 in d3s:
+        q = d3["R"] / (2 * s3)
+        ratio = d3["p"] / d3["pJ"]
+        print(f"| {d3['N']} | {d3['R']:.4f} | {d3['R'] / (4 * r3):.2f} | {d3['n_inner']} | "
+              f"{d3['p'] * q:.3f} ({d3['p_std'] * q:.3f}) | {d3['pJ'] * q:.3f} | "
+              f"{ratio:.3f} | {'yes' if abs(ratio - 1) <= 0.05 else 'no'} |")
+    s_eff = float("nan")
+    if len(d3s) > 1:
+        inv = np.array([2.0 / e["R"] for e in d3s])
+        s_eff, p0 = np.polyfit(inv, [e["pJ"] for e in d3s], 1)
+        sp, pp0 = np.polyfit(inv, [e["p"] for e in d3s], 1)
+        print(f"fit p_jump = p0 + 2 sigma_fit / R: p0 = {p0:.4g} Pa, sigma_fit = {s_eff:.4g} N/m "
+              f"({s_eff / s3:.3f} of nominal); p: {pp0:.4g} Pa + 2 ({sp:.4g} N/m) / R")
+        out["fit3"] = (float(s_eff), float(p0), float(sp), float(pp0))
     t0 = time.perf_counter()
     gamma = zr_coefficient(s3, r3, 3)
     kw = {"R": 0.03, "until": 0.5, "amp": 1.0, "relax": 0.2} if quick else \
@@ -644,11 +661,13 @@ def zorilla_study(quick: bool, skip_2d: bool, skip_3d: bool, r: float, until: fl
     ray["h"] = 4.0 * r3
     out["ray"] = ray
     print(f"  zorilla2020 rayleigh: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
-    s_eff = d3["pJ"] * d3["R"] / 2.0
+    if not np.isfinite(s_eff):
+        s_eff = d3s[-1]["pJ"] * d3s[-1]["R"] / 2.0
     T_eff = ray["T_rayleigh"] * np.sqrt(ray["sigma"] / s_eff)
     print()
     print("3D drop, mode 2 (zorilla2020, DFSPH, nu = 1e-3 m^2/s, jittered ball relaxed, +-A "
-          "kicks; sigma_eff = p_jump R / 2 of the ball at rest):")
+          "kicks; sigma_eff = the balls' sigma_fit, or p_jump R / 2 of one ball with "
+          "--quick):")
     print("| N | R [m] | R/h | period, extrema [s] | period, fit [s] | Rayleigh, nominal sigma "
           "[s] (omega ratio) | sigma_eff [N/m] | Rayleigh, sigma_eff [s] (omega ratio) | "
           "within 10 % (sigma_eff) |")
@@ -796,30 +815,34 @@ def main(argv: list[str] | None = None) -> int:
                       f"({e['p_std'] * e['R']:.3f}) | {e['pJ'] * e['R']:.3f} | "
                       f"{e['pF'] * e['R']:.3f} |")
     rays = []
-    for name in ([] if args.skip_3d else [nm for nm in ("becker2007", "mueller2003")
-                                          if nm in chosen]):
+    for name in ([] if args.skip_3d else [nm for nm in ("becker2007", "mueller2003",
+                                                        "jeske2023") if nm in chosen]):
         t0 = time.perf_counter()
         # becker2007: kappa [m^3/s^2]; mueller2003: sigma [N/m] and more viscosity (with
         # nu = 2e-4 m^2/s particles at the corners of the sampled ball are ejected)
-        coef, nu = (0.3, 2e-4) if name == "becker2007" else (5.0, 1e-3)
+        # jeske2023: gamma = 300 kg/s^2 is Becker's kappa 0.3 m^3/s^2 at rest (sigma_KB 8.67
+        # N/m), nu = 1e-3 m^2/s, relaxed and kicked as mueller2003's drop
+        coef, nu = {"becker2007": (0.3, 2e-4), "mueller2003": (5.0, 1e-3),
+                    "jeske2023": (300.0, 1e-3)}[name]
         # mueller2003: the sampled ball relaxes at rest for 0.4 s before the kick (without it
         # the lattice rearranges during the first periods and the period reads 1.18-1.21 times
         # Rayleigh's instead of 1.14; validation/README.md)
         relax = 0.0 if name == "becker2007" else (0.2 if args.quick else 0.4)
-        radii = ([0.0025] if name == "becker2007" or args.quick
+        radii = ([0.0025] if name != "mueller2003" or args.quick
                  else [float(v) for v in args.rayleigh_radii.split(",")])
         csf_opts: dict = {}
         seeds = [0]
-        if name == "mueller2003":
+        if name in ("mueller2003", "jeske2023"):
             csf_opts = {"jitter": args.rayleigh_jitter, "solver": args.rayleigh_solver,
                         "antisym": args.rayleigh_antisym}
-            if args.rayleigh_jitter > 0.0:
+            if args.rayleigh_jitter > 0.0 and name == "mueller2003":
                 seeds = [int(v) for v in args.rayleigh_seeds.split(",")]
         for rr in radii:
             for seed in seeds:
                 opts = dict(csf_opts, seed=seed)
                 if opts.get("solver") in ("dfsph", "iisph"):
-                    opts["dt_max"] = 0.7 * capillary_dt(coef, rr)
+                    sig = 8.67 if name == "jeske2023" else coef  # jeske: sigma_KB, a bound
+                    opts["dt_max"] = 0.7 * capillary_dt(sig, rr)
                 if args.quick:
                     ray = rayleigh_3d(kappa=coef, R=0.03, r=rr, until=0.5, amp=1.0,
                                       stiffness=200.0, nu=nu, name=name, relax=relax, **opts)
