@@ -71,6 +71,11 @@ def test_at_rest_it_is_becker_cohesion(dim: int) -> None:
     scale = np.abs(a_b).max()
     assert scale > 0
     assert np.abs(a_j - a_b).max() < 1e-4 * scale
+    # hence the same Kirkwood-Buff tension and internal pressure (quadrature to 1e-9)
+    m = 1000.0 * (2 * r) ** dim
+    sj = model.equivalent_sigma(1000.0, m, r, 4 * r, kernel_id("cubic"), dim)
+    sb = bt.equivalent_sigma(1000.0, m, r, 4 * r, kernel_id("cubic"), dim)
+    assert sj == pytest.approx(sb, rel=1e-9)
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -329,9 +329,9 @@ class Jeske2023(NonPressureForce):
         diam = 2.0 * r
         wmin = float(kernel_w(kid, diam, h, dim))
 
-        def f(s: float) -> float:
-            return self.coefficient / rho0 * mass * mass * min(float(kernel_w(kid, s, h, dim)),
-                                                               wmin) * s
+        def f(s: float) -> float:  # attractive pair force magnitude [N]: m gamma W_c s / rho0
+            return self.coefficient / rho0 * mass * min(float(kernel_w(kid, s, h, dim)),
+                                                        wmin) * s
 
         brk = [diam, 0.5 * h]
         if dim == 3:
