@@ -235,8 +235,8 @@ def _origin_of_block(rd: Reader, m: Mapping[str, Any], w: str, k: int, model: st
 
 def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
     """The material's surface tension model (``surfaceTensionMethod`` 1-3 with the
-    ``surfaceTension``/``surfaceTensionBoundary`` numbers of the method's block; 5 with
-    :func:`zorilla2020`)."""
+    ``surfaceTension``/``surfaceTensionBoundary`` numbers of the method's block; 4 with
+    :func:`jeske2023`, 5 with :func:`zorilla2020`)."""
     sm = rd.integer(m, "surfaceTensionMethod", w, 0)
     if sm == 0:
         return {"method": "none"}
