@@ -356,7 +356,8 @@ def test_loader_maps_methods_numbers_and_defaults() -> None:
 @pytest.mark.parametrize(
     ("mat", "expected"),
     [
-        ({"surfaceTensionMethod": 5}, r"Materials\[0\]\.surfaceTensionMethod: 5 \(Zorilla"),
+        ({"surfaceTensionMethod": 5, "Zorilla, Ritter, et al. 2020": {"surfTZRnormal-mode": 7}},
+         r"Materials\[0\]\.Zorilla, Ritter, et al\. 2020\.surfTZRnormal-mode: got 7"),
         ({"surfaceTensionMethod": 9}, r"surfaceTensionMethod: 9 \(unknown method\)"),
         ({"dragMethod": 3}, r"Materials\[0\]\.dragMethod: 3 \(unknown method\)"),
         ({"surfaceTensionMethod": 2, "Akinci et al. 2013": {"surfaceTension": -1}},

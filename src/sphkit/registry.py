@@ -261,6 +261,16 @@ register("surface_tension", "he2014", "sphkit.surface_tension.he2014:He2014", sp
          paper="He et al. 2014, Robust simulation of sparsely sampled thin features in SPH-based "
          "free surface flows", summary="surface energy of the colour field gradient",
          periodic=True)
+register("surface_tension", "jeske2023", "sphkit.surface_tension.jeske2023:Jeske2023",
+         splishsplash=4, paper="Jeske et al. 2023, Implicit surface tension for SPH fluid "
+         "simulation", summary="implicit cohesion, adhesion and viscosity (one CG solve)",
+         periodic=True)
+register("surface_tension", "zorilla2020", "sphkit.surface_tension.zorilla2020:"
+         "ZorillaRitter2020", splishsplash=5,
+         paper="Zorilla, Ritter et al. 2020, Accelerating surface tension calculation in SPH "
+         "via particle classification and Monte Carlo integration",
+         summary="Monte Carlo (and PCA) normals and curvature, force on surface particles",
+         periodic=True)
 register("surface_tension", "mueller2003", "sphkit.surface_tension.mueller2003:Mueller2003",
          paper="Müller et al. 2003, Particle-based fluid simulation for interactive "
          "applications (CSF)", summary="continuum surface force, physical sigma",

@@ -291,13 +291,72 @@ class VorticityConfig(_Model):
     )
 
 
+class Zorilla2020Config(_Model):
+    """The Monte Carlo parameters of ``zorilla2020`` (Zorilla, Ritter et al. 2020; SPlisHSPlasH's
+    ``surfTZR*`` names in brackets, defaults SPlisHSPlasH's); see
+    :mod:`sphkit.surface_tension.zorilla2020`."""
+
+    version: Literal["v2019", "v2020"] = Field(
+        "v2020", description="v2019: Monte Carlo only, random samples (surfTZRversion 0); "
+        "v2020: classification, Halton samples, optional PCA (surfTZRversion 1)")
+    samples_per_second: float = Field(
+        10000.0, ge=0, le=1e9, description="Monte Carlo samples per particle per second of "
+        "simulated time, used as int(value * dt) per step when samples is -1 (surfTZRCsd) "
+        "[1/s]")
+    samples: int = Field(
+        -1, ge=-1, le=100000, description="fixed Monte Carlo samples per particle and step; -1: "
+        "samples_per_second * dt (surfTZRMCSamples; v2020 only)")
+    r_ratio: float = Field(0.8, gt=0, lt=1, description="r2 / r1: radius of the neighbours' "
+                           "covering spheres over the sampled sphere's h (surfTZRr-ratio)")
+    tau: float = Field(0.5, ge=0, lt=1, description="weight of the neighbours in the smoothed "
+                       "normal and curvature (surfTZRtau)")
+    classifier_d: float = Field(12.0, ge=-1e6, le=1e6, description="constant d of the linear "
+                                "surface classifier n <= 74.69 c + d (surfTZRd)")
+    d_offset: float = Field(2.0, ge=-1e6, le=1e6, description="added to d when neighbours are "
+                            "chosen for the PCA (surfTZRd-offset)")
+    sampling: Literal["halton", "random"] = Field(
+        "halton", description="v2020 sample directions (surfTZRsampling 0, 1)")
+    normal_mode: Literal["pca", "mc", "mix"] = Field(
+        "mc", description="v2020 normal and curvature: PCA, Monte Carlo or their mix "
+        "(surfTZRnormal-mode 0, 1, 2)")
+    pca_mix_normal: float = Field(0.75, ge=0, le=1, description="mix: weight of the PCA normal "
+                                  "(surfTZRPcaMixNrm)")
+    pca_mix_curvature: float = Field(0.5, ge=0, le=1, description="mix: weight of the PCA "
+                                     "curvature (surfTZRPcaMixCur)")
+    neighbour_limit: int = Field(13, ge=1, le=10000, description="nearest neighbours in the "
+                                 "PCA (surfTZRNeighLimit)")
+    smooth_passes: int = Field(0, ge=0, le=100, description="averaging passes of the PCA "
+                               "curvature; 0 runs one (surfTZRsmoothPasses)")
+    temporal_smoothing: bool = Field(False, description="v2020: blend the curvature with 0.95 of "
+                                     "the previous step's (surfTZRtemporalSmooth)")
+
+
+class Jeske2023Config(_Model):
+    """The solver parameters of ``jeske2023`` (Jeske et al. 2023; SPlisHSPlasH's names in
+    brackets, defaults SPlisHSPlasH's); see :mod:`sphkit.surface_tension.jeske2023`."""
+
+    viscosity: float = Field(0.0, ge=0, le=1e6, description="kinematic viscosity nu of the "
+                             "implicit solve [m^2/s] (surfaceTensionViscosity)")
+    boundary_viscosity: float = Field(0.0, ge=0, le=1e6, description="wall viscosity nu_b "
+                                      "[m^2/s] (surfaceTensionViscosityBoundary)")
+    xsph: float = Field(0.0, ge=0, le=1, description="XSPH factor of the implicit solve "
+                        "(surfaceTensionXSPH)")
+    max_iterations: int = Field(100, ge=1, le=100000, description="CG iterations at most "
+                                "(surfaceTensionMaxIter)")
+    max_error: float = Field(1e-3, gt=0, le=1, description="CG tolerance on the relative "
+                             "residual (surfaceTensionMaxError)")
+
+
 class SurfaceTensionConfig(_Model):
     """Surface tension and adhesion: ``becker2007`` (Becker & Teschner 2007, SPlisHSPlasH
     surfaceTensionMethod 1), ``akinci2013`` (Akinci et al. 2013, 2), ``he2014`` (He et al. 2014,
     3); see :mod:`sphkit.surface_tension`. The coefficients are the models' own, not the physical
     surface tension sigma [N/m] (validation/surface_tension.py measures what they give);
     defaults are SPlisHSPlasH's. ``mueller2003`` (Müller et al. 2003 continuum surface force, no
-    SPlisHSPlasH number): ``coefficient`` is the physical sigma, no adhesion."""
+    SPlisHSPlasH number): ``coefficient`` is the physical sigma, no adhesion. ``zorilla2020``
+    (Zorilla, Ritter et al. 2020, 5): Monte Carlo normals and curvature, parameters in the
+    ``zorilla2020`` block. ``jeske2023`` (Jeske et al. 2023, 4): implicit cohesion, adhesion
+    and viscosity, solver parameters in the ``jeske2023`` block."""
 
     method: SurfaceTensionMethod = "none"
     coefficient: float = Field(
@@ -305,17 +364,34 @@ class SurfaceTensionConfig(_Model):
         description="becker2007: cohesion kappa [m^d/s^2]; akinci2013: gamma (cohesion "
         "m^4/(kg s^2), curvature m/s^2: one number for both, as in the paper); he2014: surface "
         "energy kappa [N in 3D, J in 2D] (SPlisHSPlasH surfaceTension, default 0.05); "
-        "mueller2003: the surface tension sigma [N/m in 3D, N in 2D]",
+        "mueller2003: the surface tension sigma [N/m in 3D, N in 2D]; zorilla2020: gamma "
+        "[N m in 3D, N in 2D], the force per curvature of one surface particle "
+        "(SPlisHSPlasH surfaceTension, default 0.05); jeske2023: cohesion gamma [N/m in 3D] "
+        "(surfaceTension, default 0.05)",
     )
     boundary_coefficient: float = Field(
         0.01, ge=0, le=1e6, allow_inf_nan=False,
         description="fluid-boundary term, same units as coefficient: becker2007 and he2014 "
         "adhesion kappa_b, akinci2013 adhesion beta (SPlisHSPlasH surfaceTensionBoundary, "
-        "default 0.01); mueller2003: none (0, its default)",
+        "default 0.01); mueller2003: none (0, its default); zorilla2020: none (unused)",
     )
+    zorilla2020: Zorilla2020Config = Field(
+        default_factory=Zorilla2020Config,
+        description="zorilla2020 only: the Monte Carlo / PCA parameters")
+    jeske2023: Jeske2023Config = Field(
+        default_factory=Jeske2023Config,
+        description="jeske2023 only: viscosity and solver parameters of the implicit solve")
 
     @model_validator(mode="after")
     def _mueller_no_adhesion(self) -> SurfaceTensionConfig:
+        if "zorilla2020" in self.model_fields_set and self.method != "zorilla2020":
+            raise ValueError(f"zorilla2020: parameters given for method {self.method!r}; "
+                             "expected them only with method zorilla2020")
+        if "jeske2023" in self.model_fields_set and self.method != "jeske2023":
+            raise ValueError(f"jeske2023: parameters given for method {self.method!r}; "
+                             "expected them only with method jeske2023")
+        if self.method == "zorilla2020" and "boundary_coefficient" not in self.model_fields_set:
+            self.boundary_coefficient = 0.0
         if self.method == "mueller2003":
             if "boundary_coefficient" not in self.model_fields_set:
                 self.boundary_coefficient = 0.0

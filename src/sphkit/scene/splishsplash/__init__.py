@@ -74,8 +74,13 @@ objects):
 ``surfaceTensionMethod``    0 (none); 1 Becker & Teschner 2007, 2 Akinci et al. 2013, 3 He et
                             al. 2014, each with its block ``{"surfaceTension": c,
                             "surfaceTensionBoundary": c_b}`` (defaults 0.05, 0.01; units in
-                            :mod:`sphkit.surface_tension`); 4 Jeske et al. 2023 and 5 Zorilla,
-                            Ritter et al. 2020 are not supported
+                            :mod:`sphkit.surface_tension`); 5 Zorilla, Ritter et al. 2020
+                            with ``surfaceTension`` (0.05) and the ``surfTZR*`` keys of its
+                            block (``zorilla2020`` in the scene model; defaults in
+                            :mod:`sphkit.surface_tension.zorilla2020`); 4 Jeske et al. 2023
+                            with ``surfaceTension`` (0.05), ``surfaceTensionBoundary`` (0.01)
+                            and ``surfaceTensionViscosity``/``ViscosityBoundary``/``XSPH``/
+                            ``MaxIter``/``MaxError`` (``jeske2023`` block; 0, 0, 0, 100, 1e-3)
 ``dragMethod``              0 (none); 1 Macklin et al. 2014, 2 Gissler et al. 2017, with the
                             block ``{"drag": c}`` (default 0.01)
 ``stopAt``                  -1 (no end); mapped to ``time.until`` when > 0

@@ -210,12 +210,13 @@ def vorticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any
 
 
 def _namespaced(rd: Reader, m: Mapping[str, Any], w: str, ns_key: str,
-                keys: dict[str, float]) -> dict[str, float]:
+                keys: dict[str, float], extra: set[str] | None = None) -> dict[str, float]:
     """Non-negative numbers ``keys`` (name -> SPlisHSPlasH default) of a method, read from its
-    namespace block ``ns_key`` or, for scenes before 2.16, flat from the material."""
+    namespace block ``ns_key`` or, for scenes before 2.16, flat from the material; ``extra``:
+    further keys of the block that the caller reads itself."""
     nsw = f"{w}.{ns_key}"
     ns = rd.obj(m, ns_key, nsw)
-    rd.collect_unknown(ns, nsw, set(keys), set())
+    rd.collect_unknown(ns, nsw, set(keys) | (extra or set()), set())
     values = {}
     for key, default in keys.items():
         val = rd.num(m, key, w, default, nonneg=True)
@@ -234,7 +235,8 @@ def _origin_of_block(rd: Reader, m: Mapping[str, Any], w: str, k: int, model: st
 
 def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
     """The material's surface tension model (``surfaceTensionMethod`` 1-3 with the
-    ``surfaceTension``/``surfaceTensionBoundary`` numbers of the method's block)."""
+    ``surfaceTension``/``surfaceTensionBoundary`` numbers of the method's block; 4 with
+    :func:`jeske2023`, 5 with :func:`zorilla2020`)."""
     sm = rd.integer(m, "surfaceTensionMethod", w, 0)
     if sm == 0:
         return {"method": "none"}
@@ -246,6 +248,10 @@ def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[st
             "(none), " + supported_list(names, SURFACE_TENSION_SUPPORTED),
         )
     method, ns_key = SURFACE_TENSION_SUPPORTED[sm]
+    if method == "zorilla2020":
+        return zorilla2020(rd, m, w, k, ns_key)
+    if method == "jeske2023":
+        return jeske2023(rd, m, w, k, ns_key)
     v = _namespaced(rd, m, w, ns_key, {"surfaceTension": 0.05,
                                        "surfaceTensionBoundary": 0.01})
     _origin_of_block(rd, m, w, k, "surface_tension", ns_key,
@@ -253,6 +259,90 @@ def surface_tension(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[st
                       "boundary_coefficient": "surfaceTensionBoundary"})
     return {"method": method, "coefficient": v["surfaceTension"],
             "boundary_coefficient": v["surfaceTensionBoundary"]}
+
+
+#: Zorilla, Ritter et al. 2020: SPlisHSPlasH key -> (sphkit field, default); enums by number
+_ZR2020_NUMBERS = {
+    "surfTZRCsd": ("samples_per_second", 10000.0), "surfTZRr-ratio": ("r_ratio", 0.8),
+    "surfTZRtau": ("tau", 0.5), "surfTZRd": ("classifier_d", 12.0),
+    "surfTZRd-offset": ("d_offset", 2.0), "surfTZRPcaMixNrm": ("pca_mix_normal", 0.75),
+    "surfTZRPcaMixCur": ("pca_mix_curvature", 0.5),
+}
+_ZR2020_INTEGERS = {
+    "surfTZRMCSamples": ("samples", -1), "surfTZRNeighLimit": ("neighbour_limit", 13),
+    "surfTZRsmoothPasses": ("smooth_passes", 0),
+}
+_ZR2020_ENUMS = {
+    "surfTZRversion": ("version", 1, ("v2019", "v2020")),
+    "surfTZRsampling": ("sampling", 0, ("halton", "random")),
+    "surfTZRnormal-mode": ("normal_mode", 1, ("pca", "mc", "mix")),
+}
+
+
+def zorilla2020(rd: Reader, m: Mapping[str, Any], w: str, k: int,
+                ns_key: str) -> dict[str, Any]:
+    """Zorilla, Ritter et al. 2020 (``surfaceTensionMethod`` 5): ``surfaceTension`` and the
+    ``surfTZR*`` parameters of its block (defaults: ``reference/methods.md`` K4)."""
+    nsw = f"{w}.{ns_key}"
+    ns = rd.obj(m, ns_key, nsw)
+    known = {"surfaceTension", "surfaceTensionBoundary", "surfTZRtemporalSmooth",
+             *_ZR2020_NUMBERS, *_ZR2020_INTEGERS, *_ZR2020_ENUMS}
+    rd.collect_unknown(ns, nsw, known, set())
+    src = nsw if ns else w
+    coef = rd.num(ns, "surfaceTension", nsw, rd.num(m, "surfaceTension", w, 0.05, nonneg=True),
+                  nonneg=True)
+    rd.origin[f"materials[{k}].surface_tension.coefficient"] = f"{src}.surfaceTension"
+    zr: dict[str, Any] = {}
+    for key, (ours, default) in _ZR2020_NUMBERS.items():
+        zr[ours] = rd.num(ns, key, nsw, default)
+    for key, (ours, default) in _ZR2020_INTEGERS.items():
+        zr[ours] = rd.integer(ns, key, nsw, default)
+    for key, (ours, default, names) in _ZR2020_ENUMS.items():
+        v = rd.integer(ns, key, nsw, default)
+        if not 0 <= v < len(names):
+            raise rd.error(f"{nsw}.{key}", v, "one of " + ", ".join(
+                f"{n} ({nm})" for n, nm in enumerate(names)))
+        zr[ours] = names[v]
+    zr["temporal_smoothing"] = rd.flag(ns, "surfTZRtemporalSmooth", nsw, False)
+    for key, (ours, _) in {**_ZR2020_NUMBERS, **_ZR2020_INTEGERS}.items():
+        rd.origin[f"materials[{k}].surface_tension.zorilla2020.{ours}"] = f"{nsw}.{key}"
+    for key, (ours, _, _) in _ZR2020_ENUMS.items():
+        rd.origin[f"materials[{k}].surface_tension.zorilla2020.{ours}"] = f"{nsw}.{key}"
+    rd.origin[f"materials[{k}].surface_tension.zorilla2020.temporal_smoothing"] = (
+        f"{nsw}.surfTZRtemporalSmooth")
+    return {"method": "zorilla2020", "coefficient": coef, "boundary_coefficient": 0.0,
+            "zorilla2020": zr}
+
+
+#: Jeske et al. 2023: SPlisHSPlasH key -> (sphkit field of the jeske2023 block, default)
+_JESKE_KEYS = {
+    "surfaceTensionViscosity": ("viscosity", 0.0),
+    "surfaceTensionViscosityBoundary": ("boundary_viscosity", 0.0),
+    "surfaceTensionXSPH": ("xsph", 0.0), "surfaceTensionMaxError": ("max_error", 1e-3),
+}
+
+
+def jeske2023(rd: Reader, m: Mapping[str, Any], w: str, k: int,
+              ns_key: str) -> dict[str, Any]:
+    """Jeske et al. 2023 (``surfaceTensionMethod`` 4): ``surfaceTension``,
+    ``surfaceTensionBoundary`` and the solver keys of its block (defaults:
+    ``reference/methods.md`` K5)."""
+    v = _namespaced(rd, m, w, ns_key, {"surfaceTension": 0.05, "surfaceTensionBoundary": 0.01,
+                                       **{key: d for key, (_, d) in _JESKE_KEYS.items()}},
+                    extra={"surfaceTensionMaxIter"})
+    nsw = f"{w}.{ns_key}"
+    ns = rd.obj(m, ns_key, nsw)
+    it = rd.integer(ns, "surfaceTensionMaxIter", nsw, rd.integer(m, "surfaceTensionMaxIter", w,
+                                                                 100))
+    _origin_of_block(rd, m, w, k, "surface_tension", ns_key,
+                     {"coefficient": "surfaceTension",
+                      "boundary_coefficient": "surfaceTensionBoundary",
+                      "jeske2023.max_iterations": "surfaceTensionMaxIter",
+                      **{f"jeske2023.{ours}": key for key, (ours, _) in _JESKE_KEYS.items()}})
+    return {"method": "jeske2023", "coefficient": v["surfaceTension"],
+            "boundary_coefficient": v["surfaceTensionBoundary"],
+            "jeske2023": {"max_iterations": it,
+                          **{ours: v[key] for key, (ours, _) in _JESKE_KEYS.items()}}}
 
 
 def drag(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:

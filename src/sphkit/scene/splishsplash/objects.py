@@ -176,8 +176,17 @@ def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
         kind = rd.integer(e, "type", w, 0)
         if kind not in (0, 1):
             raise rd.error(f"{w}.type", kind, "0 (box) or 1 (circle)")
-        width = rd.integer(e, "width", w, 5)
-        height = rd.integer(e, "height", w, 5)
+        # SPlisHSPlasH reads width/height into unsigned ints, so a fractional count (the
+        # JWL+23 CoveredSphere scene has width 6.2575) is truncated; sphkit does the same and
+        # says so
+        size = {}
+        for key in ("width", "height"):
+            val = rd.num(e, key, w, 5.0)
+            size[key] = int(val)
+            if val != int(val):
+                rd.notes.append(f"{w}.{key}: {val!r} truncated to {int(val)} particles, as "
+                                "SPlisHSPlasH reads it into an integer")
+        width, height = size["width"], size["height"]
         for key, v in (("width", width), ("height", height)):
             if v < 1:
                 raise rd.error(f"{w}.{key}", v, "a number of particles >= 1")
