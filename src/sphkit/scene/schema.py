@@ -384,10 +384,11 @@ class SurfaceTensionConfig(_Model):
 
     @model_validator(mode="after")
     def _mueller_no_adhesion(self) -> SurfaceTensionConfig:
-        if "zorilla2020" in self.model_fields_set and self.method != "zorilla2020":
+        # a block equal to its defaults is what a dumped scene carries for every method: accepted
+        if self.method != "zorilla2020" and self.zorilla2020 != Zorilla2020Config():
             raise ValueError(f"zorilla2020: parameters given for method {self.method!r}; "
                              "expected them only with method zorilla2020")
-        if "jeske2023" in self.model_fields_set and self.method != "jeske2023":
+        if self.method != "jeske2023" and self.jeske2023 != Jeske2023Config():
             raise ValueError(f"jeske2023: parameters given for method {self.method!r}; "
                              "expected them only with method jeske2023")
         if self.method == "zorilla2020" and "boundary_coefficient" not in self.model_fields_set:
