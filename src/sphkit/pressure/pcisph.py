@@ -69,6 +69,10 @@ from sphkit.core.solver import IterationControl, PairGradients, SolverStats
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
+#: adaptive time step: factor after an unconverged solve, per-step growth after an easy one,
+#: the smallest bound [s] (sphkit's and SPlisHSPlasH's default minimum step) and the bound above
+#: which it is dropped [s]
+DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -116,6 +120,7 @@ class PCISPH(PressureSolver):
         self.control = IterationControl("PCISPH", min_iterations, max_iterations,
                                         max_error / 100.0)
         self.delta = 0.0  #: template scaling factor [m^2]
+        self.dt_bound = float("inf")  #: the adaptive time-step bound [s] (see max_time_step)
 
     def init(self, state: SimState) -> None:
         """Register the pressure field and precompute the template factor delta."""
@@ -126,8 +131,18 @@ class PCISPH(PressureSolver):
             self.delta = 0.5 / lattice_diagonal(2.0 * state.r, state.h, state.kid, state.dim, V)
 
     def max_time_step(self, state: SimState) -> float:
-        """No limit of its own beyond the CFL step."""
-        return float("inf")
+        """The adaptive bound: halved after a solve that stopped at ``max_iterations`` above the
+        tolerance, raised by 10 % per step after solves that converged within half of them (see
+        the module docstring, "Time step")."""
+        return self.dt_bound
+
+    def _adapt(self, dt: float, iterations: int, converged: bool) -> None:
+        if not converged:
+            self.dt_bound = max(DT_SHRINK * dt, DT_FLOOR)
+        elif iterations <= self.control.max_iterations // 2 and np.isfinite(self.dt_bound):
+            self.dt_bound *= DT_GROW
+            if self.dt_bound > DT_FREE:
+                self.dt_bound = float("inf")
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Predict-correct loop on the current non-pressure accelerations; adds a_p to a."""
@@ -162,6 +177,7 @@ class PCISPH(PressureSolver):
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
+        self._adapt(dt, its, ok)
         a += ap
         f["p"] = p * state.rho0
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
