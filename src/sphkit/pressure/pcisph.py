@@ -161,13 +161,15 @@ class PCISPH(PressureSolver):
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
+        still = np.empty((state.dim, 0), dtype=x.dtype)  # no boundary displacement
 
         def sweep(_k: int) -> tuple[float, float]:
             _predict(v, a, ap, dt, dx)
-            bx, bV, nbp = b["x"], b["V"], nb
-            if bdx[0].shape[1] == 0:  # a static boundary: maps are queried at x* (its lists)
-                bx, bV, nbp = coupling.boundary_at(state, dx)
-            density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bdx[0], bV,
+            # density maps are queried at x* (their lists), with or without yielding bodies;
+            # the step's boundary particles take the bodies' predicted displacement
+            bx, bV, nbp = coupling.boundary_at(state, dx)
+            bd = bdx[0] if bx is b["x"] else still
+            density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
