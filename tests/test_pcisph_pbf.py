@@ -12,6 +12,8 @@ fluid can only settle by 0.2 r, far below the one-diameter height check.
 from __future__ import annotations
 
 import logging
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +25,7 @@ from sphkit.core.solver import PairGradients
 from sphkit.pressure.pbf import PBF
 from sphkit.pressure.pcisph import PCISPH
 from sphkit.scene.schema import PressureConfig, Scene
+from sphkit.scene.splishsplash import from_splishsplash
 from sphkit.simulation import Simulation
 
 G = 9.81
@@ -382,11 +385,6 @@ def test_pcisph_splishsplash_column_lands_stably() -> None:
     step halved after each unconverged solve the column runs 0.15 s with no speed above
     2 m/s (the landing speed is sqrt(2 g r) = 0.44 m/s; the blow-up reached hundreds of m/s),
     and the solves converge again once the step is small enough."""
-    from pathlib import Path
-    import warnings
-
-    from sphkit.scene.splishsplash import from_splishsplash
-
     box = Path(__file__).resolve().parent.parent / "benchmarks" / "scenes" / "UnitBox.obj"
     r, w = 0.01, 0.2
     scene = {

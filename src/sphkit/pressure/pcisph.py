@@ -21,7 +21,9 @@ same neighbourhood.)
 2. predicts the normalized density ``rho_hat*_i = V_i W(0) + sum_j V_j W(x*_i - x*_j)
    + sum_b V_b W(x*_i - x_b)`` (boundary included; :func:`sphkit.core.ppe.density_at` with
    ``dx = x* - x``; density maps place their virtual particles for x* in every iteration,
-   ``state.coupling.boundary_at``; volume maps keep the step's);
+   ``state.coupling.boundary_at``, also in scenes whose bodies yield inside the solve (those
+   predictions then leave out the bodies' in-solve displacement); volume maps and boundary
+   particles keep the step's, displaced with the yielding bodies);
 3. updates the pressure ``p~_i <- p~_i + (delta / dt^2) (max(rho_hat*_i, 1) - 1)``: the predicted
    density is clamped to ``>= 1`` as in SPlisHSPlasH, so the increments are never negative and
    ``p~ >= 0`` holds without a further clamp (free-surface particles with a particle deficiency
@@ -54,6 +56,24 @@ resolved: fluid sampled 2r from Akinci walls starts 3-4.5 % compressed at the wa
 needed to remove that within one step moves particles by a sizeable fraction of their spacing, the
 density prediction becomes nonlinear and the iteration diverges; start such scenes a fraction of
 r (0.15-0.2 r) off the walls.
+
+**Time step** (not in the paper nor in SPlisHSPlasH; after the adaptive step of Ihmsen, Akinci,
+Gissler and Teschner 2010, "Boundary handling and adaptive time-stepping for PCISPH", VRIPHYS,
+which shrinks the step when the density error is too large): a solve that stops at
+``max_iterations`` above the tolerance halves the step bound (:meth:`PCISPH.max_time_step`,
+at least ``DT_FLOOR``); a solve that converges within half of ``max_iterations`` raises it by
+10 % (dropped above ``DT_FREE``). Why: with SPlisHSPlasH's defaults (steps up to 5 ms, 100
+iterations, 0.01 %) a 2D column 0.5 m high (r = 1 cm) landing on its floor needs more sweeps
+than 100 from p = 0 (the linearized iteration matrix ``delta A`` has eigenvalues in (0, 1.2]:
+stable, but its smallest, the column's hydrostatic mode, is about 0.001). The residual compression
+piles up at the walls (13 % predicted before the pressure at a step start), the pressure that
+removes it moves particles by 0.3-0.8 r within the iteration while the forces keep the
+step-start gradients, and the nonlinear prediction makes the error grow again (it fell to
+0.32 % after 30 sweeps and rose to 0.6 % at 95, then to 1,400 m/s in the next steps).
+SPlisHSPlasH 2.19's own PCISPH, run on the same scene through pysplishsplash, diverges the same
+way at step 12-13 (4,000 m/s) with all three boundary models. A warm start (IISPH's ``0.5 p``)
+did not prevent it; a fixed 2 ms step did (100 unconverged sweeps per step at rest); the bound
+settles where 100 sweeps suffice (about 1.1 ms for that column at rest, 62 sweeps a step).
 """
 
 from __future__ import annotations
@@ -69,9 +89,9 @@ from sphkit.core.solver import IterationControl, PairGradients, SolverStats
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
-#: adaptive time step: factor after an unconverged solve, per-step growth after an easy one,
-#: the smallest bound [s] (sphkit's and SPlisHSPlasH's default minimum step) and the bound above
-#: which it is dropped [s]
+#: adaptive time step (module docstring, "Time step"): factor after an unconverged solve,
+#: per-step growth after an easy one, the smallest bound [s] (the default time.dt_min, as
+#: SPlisHSPlasH's cflMinTimeStepSize) and the bound above which it is dropped [s]
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
 
 
