@@ -407,3 +407,24 @@ def test_pcisph_splishsplash_column_lands_stably() -> None:
     assert min(st.dt for st in steps) < 0.005 * 0.5  # the bound acted
     assert all(st.iterations < 100 for st in steps[-5:])  # converged again
     assert sim.positions[:, 1].min() > 0.0
+
+
+def test_pcisph_checkpoint_keeps_the_step_bound(tmp_path: Path) -> None:
+    """A PCISPH run continued from a checkpoint repeats the uninterrupted one bit for bit while
+    the adaptive step bound acts (sampled 2r from the walls, the column starts compressed there
+    and 5 sweeps cannot reach the tolerance: the solves halve the bound)."""
+    def make() -> Simulation:
+        return Simulation(_column("pcisph", width=0.06, height=0.1, max_error=0.001,
+                                  max_iterations=5, margin=0.0))
+
+    full = make()
+    full.run(until=0.01)
+    half = make()
+    half.run(until=0.005)
+    assert np.isfinite(half.pressure.dt_bound)
+    half.save_checkpoint(tmp_path / "checkpoints" / "checkpoint_000000001.npz")
+    resumed = Simulation.from_checkpoint(tmp_path)
+    assert resumed.pressure.dt_bound == half.pressure.dt_bound
+    resumed.run(until=0.01)
+    assert (full.time, full.step_count) == (resumed.time, resumed.step_count)
+    np.testing.assert_array_equal(full.positions, resumed.positions)

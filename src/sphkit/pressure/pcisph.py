@@ -162,6 +162,16 @@ class PCISPH(PressureSolver):
         the module docstring, "Time step")."""
         return self.dt_bound
 
+    def checkpoint_state(self) -> dict:
+        """The adaptive step bound, for checkpoints (JSON-ready; None for no bound)."""
+        return {"dt_bound": None if np.isinf(self.dt_bound) else float(self.dt_bound)}
+
+    def restore_checkpoint_state(self, state: dict) -> None:
+        """Take the bound back from :meth:`checkpoint_state` (no bound when absent: checkpoints
+        written before the bound existed)."""
+        b = state.get("dt_bound")
+        self.dt_bound = float("inf") if b is None else float(b)
+
     def _adapt(self, dt: float, iterations: int, converged: bool) -> None:
         if not converged:
             self.dt_bound = max(DT_SHRINK * dt, DT_FLOOR)
