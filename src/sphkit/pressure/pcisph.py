@@ -77,7 +77,7 @@ removes it moves particles by 0.3-0.8 r within the iteration while the forces ke
 step-start gradients, and the nonlinear prediction makes the error grow again (it fell to
 0.32 % after 30 sweeps and rose to 0.6 % at 95, then to 1,400 m/s in the next steps).
 SPlisHSPlasH 2.19's own PCISPH, run on the same scene through pysplishsplash, diverges the same
-way at step 12-13 (4,000 m/s) with all three boundary models. A warm start (IISPH's ``0.5 p``)
+way at step 11-13 (1,400-4,000 m/s) with all three boundary models. A warm start (IISPH's ``0.5 p``)
 did not prevent it; a fixed 2 ms step did (100 unconverged sweeps per step at rest); the bound
 settles where 100 sweeps suffice (about 1.1 ms for that column at rest, 62 sweeps a step).
 """
