@@ -80,6 +80,7 @@ SPlisHSPlasH 2.19's own PCISPH, run on the same scene through pysplishsplash, di
 way at step 11-13 (1,400-4,000 m/s) with all three boundary models. A warm start (IISPH's ``0.5 p``)
 did not prevent it; a fixed 2 ms step did (100 unconverged sweeps per step at rest); the bound
 settles where 100 sweeps suffice (about 1.1 ms for that column at rest, 62 sweeps a step).
+The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`).
 """
 
 from __future__ import annotations
