@@ -141,11 +141,9 @@ def _query(x, v, phi, vol, lo, cell, res, spacing, shape, dim, extend_axis, top,
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _follow(x, dx, bx, bdx, off, idx, dim, out):
-    """out[:, b] = bx[:, b] + u_b + (I - n n) (dx[:, i] - u_b) for the virtual particles b of
-    fluid particle i, n = (x_i - x_b) / |x_i - x_b|, u_b = bdx[:, b] (the body's predicted
-    displacement; 0 where bdx is empty)."""
-    moving = bdx.shape[1] > 0
+def _follow(x, dx, bx, off, idx, dim, out):
+    """out[:, b] = bx[:, b] + (I - n n) dx[:, i] for the virtual particles b of fluid particle
+    i, n = (x_i - x_b) / |x_i - x_b|."""
     for i in numba.prange(x.shape[1]):
         for k in range(off[i], off[i + 1]):
             b = idx[k]
@@ -157,9 +155,8 @@ def _follow(x, dx, bx, bdx, off, idx, dim, out):
                 continue
             dn = 0.0
             for d in range(dim):
-                u = bdx[d, b] if moving else 0.0
-                dn += (dx[d, i] - u) * (x[d, i] - bx[d, b]) / nn
-            for d in range(dim):  # = bx + u + (I - n n) (dx - u)
+                dn += dx[d, i] * (x[d, i] - bx[d, b]) / nn
+            for d in range(dim):
                 out[d, b] = bx[d, b] + dx[d, i] - dn * (x[d, i] - bx[d, b]) / nn
 
 
@@ -185,21 +182,20 @@ class Bender2019(MapBoundaryModel):
         exactly at x*); SPlisHSPlasH's PBF queries both."""
         return None
 
-    def following(self, state: SimState, dx: np.ndarray, bdx: np.ndarray
+    def following(self, state: SimState, dx: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray, object]:
         """The step's virtual particles moved with their fluid particle's displacement ``dx``
-        along the wall (the part of dx normal to ``x_i - x_b`` left out; relative to the body's
-        predicted displacement ``bdx`` (dim, N_boundary) of a yielding body, which they take as
-        well; an empty bdx: static): ``(x_b*, V_b, lists)`` for a PCISPH prediction
-        (:mod:`sphkit.pressure.pcisph`, step 2). The map's volume and distance barely change
-        along a wall, so the virtual particle that the query would place for ``x_i + dx`` sits
-        about there; across the wall the fixed particle lets the predicted density respond to
-        the approach with the gradient ``V_b grad W`` that the step's forces use."""
+        along the wall (the part of dx normal to ``x_i - x_b`` left out): ``(x_b*, V_b,
+        lists)`` for a PCISPH prediction (:mod:`sphkit.pressure.pcisph`, step 2). The map's
+        volume and distance barely change along a wall, so the virtual particle that the query
+        would place for ``x_i + dx`` sits about there; across the wall the fixed particle lets
+        the predicted density respond to the approach with the gradient ``V_b grad W`` that the
+        step's forces use."""
         nb = state.nl_fb
         bx = state.boundary["x"]
         out = bx.copy()
         if bx.shape[1]:
-            _follow(state.fluid["x"], dx, bx, bdx, nb.offsets, nb.indices, state.dim, out)
+            _follow(state.fluid["x"], dx, bx, nb.offsets, nb.indices, state.dim, out)
         return out, state.boundary["V"], nb
 
     def _integrate(self, state: SimState):

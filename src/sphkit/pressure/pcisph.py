@@ -208,8 +208,8 @@ class PCISPH(PressureSolver):
             # density maps are queried at x* (their lists), with or without yielding bodies;
             # the step's boundary particles take the bodies' predicted displacement
             bx, bV, nbp = coupling.boundary_at(state, dx)
-            if bx is b["x"] and follow is not None:  # displaced with the bodies as well
-                bx, bV, nbp = follow(state, dx, bdx[0])
+            if bx is b["x"] and follow is not None:
+                bx, bV, nbp = follow(state, dx)
             bd = bdx[0] if bx is b["x"] else still
             density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
