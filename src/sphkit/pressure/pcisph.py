@@ -29,7 +29,9 @@ same neighbourhood.)
    fifth of the wall's density when the fluid slid 0.8 r along the wall in a step; with it the
    2D dam break of validation/startup.py runs 3 s, peak 19 m/s, instead of going unstable at
    0.37 s with the adaptive step below; queried anew at x*, V_b(x*) changes by grad V_b terms
-   that the forces' ``V_b grad W`` leaves out and the 3D dam break's first solve diverged);
+   that the forces' ``V_b grad W`` leaves out and the 3D dam break's first solve diverged; a
+   yielding volume-map body's in-solve displacement is left out too: added to the sliding
+   particles, it made validation/startup.py's 3D floating cube unstable at 0.27 s);
 3. updates the pressure ``p~_i <- p~_i + (delta / dt^2) (max(rho_hat*_i, 1) - 1)``: the predicted
    density is clamped to ``>= 1`` as in SPlisHSPlasH, so the increments are never negative and
    ``p~ >= 0`` holds without a further clamp (free-surface particles with a particle deficiency
