@@ -142,7 +142,9 @@ class Simulation:
         return {"time": self.time, "step_count": self.step_count, "dt": self.dt,
                 "frame": self._frame, "last": None if self.last is None else self.last.as_dict(),
                 "emitters": [em.state() for em in self.emitters],
-                "empty_at_init": self._empty_at_init, "rigid_bodies": self.rigid.state()}
+                "empty_at_init": self._empty_at_init, "rigid_bodies": self.rigid.state(),
+                # a solver's own state across steps (PCISPH's adaptive step bound), if any
+                "pressure": getattr(self.pressure, "checkpoint_state", dict)()}
 
     def save_checkpoint(self, path: str | Path, extra: dict | None = None,
                         keep: int | None = None) -> Path:
@@ -211,6 +213,8 @@ class Simulation:
             self.boundary_model.rebuild(st)  # the grid of the stored body positions
         if st.fluid.n and not self._empty_at_init:
             self.pressure.init(st)  # re-derive what solvers compute from the fluid
+        if hasattr(self.pressure, "restore_checkpoint_state"):
+            self.pressure.restore_checkpoint_state(s.get("pressure", {}))
 
     # -- user-facing state ----------------------------------------------------------------------
     @property

@@ -140,6 +140,26 @@ def _query(x, v, phi, vol, lo, cell, res, spacing, shape, dim, extend_axis, top,
     return pushed
 
 
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def _follow(x, dx, bx, off, idx, dim, out):
+    """out[:, b] = bx[:, b] + (I - n n) dx[:, i] for the virtual particles b of fluid particle
+    i, n = (x_i - x_b) / |x_i - x_b|."""
+    for i in numba.prange(x.shape[1]):
+        for k in range(off[i], off[i + 1]):
+            b = idx[k]
+            nn = 0.0
+            for d in range(dim):
+                nn += (x[d, i] - bx[d, b]) ** 2
+            nn = math.sqrt(nn)
+            if nn <= 0.0:
+                continue
+            dn = 0.0
+            for d in range(dim):
+                dn += dx[d, i] * (x[d, i] - bx[d, b]) / nn
+            for d in range(dim):
+                out[d, b] = bx[d, b] + dx[d, i] - dn * (x[d, i] - bx[d, b]) / nn
+
+
 class Bender2019(MapBoundaryModel):
     """Volume maps: one virtual boundary particle per fluid particle near each static body."""
 
@@ -161,6 +181,22 @@ class Bender2019(MapBoundaryModel):
         Density maps are queried anew (their virtual particle gives rho_B and grad rho_B
         exactly at x*); SPlisHSPlasH's PBF queries both."""
         return None
+
+    def following(self, state: SimState, dx: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, object]:
+        """The step's virtual particles moved with their fluid particle's displacement ``dx``
+        along the wall (the part of dx normal to ``x_i - x_b`` left out): ``(x_b*, V_b,
+        lists)`` for a PCISPH prediction (:mod:`sphkit.pressure.pcisph`, step 2). The map's
+        volume and distance barely change along a wall, so the virtual particle that the query
+        would place for ``x_i + dx`` sits about there; across the wall the fixed particle lets
+        the predicted density respond to the approach with the gradient ``V_b grad W`` that the
+        step's forces use."""
+        nb = state.nl_fb
+        bx = state.boundary["x"]
+        out = bx.copy()
+        if bx.shape[1]:
+            _follow(state.fluid["x"], dx, bx, nb.offsets, nb.indices, state.dim, out)
+        return out, state.boundary["V"], nb
 
     def _integrate(self, state: SimState):
         qp, qw = ball_quadrature(state.h, state.dim)

@@ -21,7 +21,17 @@ same neighbourhood.)
 2. predicts the normalized density ``rho_hat*_i = V_i W(0) + sum_j V_j W(x*_i - x*_j)
    + sum_b V_b W(x*_i - x_b)`` (boundary included; :func:`sphkit.core.ppe.density_at` with
    ``dx = x* - x``; density maps place their virtual particles for x* in every iteration,
-   ``state.coupling.boundary_at``; volume maps keep the step's);
+   ``state.coupling.boundary_at``, also in scenes whose bodies yield inside the solve (those
+   predictions then leave out the bodies' in-solve displacement); boundary particles keep the
+   step's, displaced with the yielding bodies; volume maps keep the step's virtual particle
+   and move it with the fluid particle's displacement along the wall
+   (:meth:`sphkit.boundary.bender2019.Bender2019.following`: the fixed particle lost up to a
+   fifth of the wall's density when the fluid slid 0.8 r along the wall in a step; with it the
+   2D dam break of validation/startup.py runs 3 s, peak 19 m/s, instead of going unstable at
+   0.37 s with the adaptive step below; queried anew at x*, V_b(x*) changes by grad V_b terms
+   that the forces' ``V_b grad W`` leaves out and the 3D dam break's first solve diverged; a
+   yielding volume-map body's in-solve displacement is left out too: added to the sliding
+   particles, it made validation/startup.py's 3D floating cube unstable at 0.27 s);
 3. updates the pressure ``p~_i <- p~_i + (delta / dt^2) (max(rho_hat*_i, 1) - 1)``: the predicted
    density is clamped to ``>= 1`` as in SPlisHSPlasH, so the increments are never negative and
    ``p~ >= 0`` holds without a further clamp (free-surface particles with a particle deficiency
@@ -54,6 +64,25 @@ resolved: fluid sampled 2r from Akinci walls starts 3-4.5 % compressed at the wa
 needed to remove that within one step moves particles by a sizeable fraction of their spacing, the
 density prediction becomes nonlinear and the iteration diverges; start such scenes a fraction of
 r (0.15-0.2 r) off the walls.
+
+**Time step** (not in the paper nor in SPlisHSPlasH; after the adaptive step of Ihmsen, Akinci,
+Gissler and Teschner 2010, "Boundary handling and adaptive time-stepping for PCISPH", VRIPHYS,
+which shrinks the step when the density error is too large): a solve that stops at
+``max_iterations`` above the tolerance halves the step bound (:meth:`PCISPH.max_time_step`,
+at least ``DT_FLOOR``); a solve that converges within half of ``max_iterations`` raises it by
+10 % (dropped above ``DT_FREE``). Why: with SPlisHSPlasH's defaults (steps up to 5 ms, 100
+iterations, 0.01 %) a 2D column 0.5 m high (r = 1 cm) landing on its floor needs more sweeps
+than 100 from p = 0 (the linearized iteration matrix ``delta A`` has eigenvalues in (0, 1.2]:
+stable, but its smallest, the column's hydrostatic mode, is about 0.001). The residual compression
+piles up at the walls (13 % predicted before the pressure at a step start), the pressure that
+removes it moves particles by 0.3-0.8 r within the iteration while the forces keep the
+step-start gradients, and the nonlinear prediction makes the error grow again (it fell to
+0.32 % after 30 sweeps and rose to 0.6 % at 95, then to 1,400 m/s in the next steps).
+SPlisHSPlasH 2.19's own PCISPH, run on the same scene through pysplishsplash, diverges the same
+way at step 11-13 (1,400-4,000 m/s) with all three boundary models. A warm start (IISPH's ``0.5 p``)
+did not prevent it; a fixed 2 ms step did (100 unconverged sweeps per step at rest); the bound
+settles where 100 sweeps suffice (about 1.1 ms for that column at rest, 62 sweeps a step).
+The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`).
 """
 
 from __future__ import annotations
@@ -69,6 +98,10 @@ from sphkit.core.solver import IterationControl, PairGradients, SolverStats
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
+#: adaptive time step (module docstring, "Time step"): factor after an unconverged solve,
+#: per-step growth after an easy one, the smallest bound [s] (the default time.dt_min, as
+#: SPlisHSPlasH's cflMinTimeStepSize) and the bound above which it is dropped [s]
+DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -116,6 +149,7 @@ class PCISPH(PressureSolver):
         self.control = IterationControl("PCISPH", min_iterations, max_iterations,
                                         max_error / 100.0)
         self.delta = 0.0  #: template scaling factor [m^2]
+        self.dt_bound = float("inf")  #: the adaptive time-step bound [s] (see max_time_step)
 
     def init(self, state: SimState) -> None:
         """Register the pressure field and precompute the template factor delta."""
@@ -126,8 +160,28 @@ class PCISPH(PressureSolver):
             self.delta = 0.5 / lattice_diagonal(2.0 * state.r, state.h, state.kid, state.dim, V)
 
     def max_time_step(self, state: SimState) -> float:
-        """No limit of its own beyond the CFL step."""
-        return float("inf")
+        """The adaptive bound: halved after a solve that stopped at ``max_iterations`` above the
+        tolerance, raised by 10 % per step after solves that converged within half of them (see
+        the module docstring, "Time step")."""
+        return self.dt_bound
+
+    def checkpoint_state(self) -> dict:
+        """The adaptive step bound, for checkpoints (JSON-ready; None for no bound)."""
+        return {"dt_bound": None if np.isinf(self.dt_bound) else float(self.dt_bound)}
+
+    def restore_checkpoint_state(self, state: dict) -> None:
+        """Take the bound back from :meth:`checkpoint_state` (no bound when absent: checkpoints
+        written before the bound existed)."""
+        b = state.get("dt_bound")
+        self.dt_bound = float("inf") if b is None else float(b)
+
+    def _adapt(self, dt: float, iterations: int, converged: bool) -> None:
+        if not converged:
+            self.dt_bound = max(DT_SHRINK * dt, DT_FLOOR)
+        elif iterations <= self.control.max_iterations // 2 and np.isfinite(self.dt_bound):
+            self.dt_bound *= DT_GROW
+            if self.dt_bound > DT_FREE:
+                self.dt_bound = float("inf")
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Predict-correct loop on the current non-pressure accelerations; adds a_p to a."""
@@ -146,13 +200,20 @@ class PCISPH(PressureSolver):
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
+        still = np.empty((state.dim, 0), dtype=x.dtype)  # no boundary displacement
+        # volume maps: the step's virtual particles slide along the wall with their fluid
+        # particle (Bender2019.following)
+        follow = getattr(coupling.model, "following", None)
 
         def sweep(_k: int) -> tuple[float, float]:
             _predict(v, a, ap, dt, dx)
-            bx, bV, nbp = b["x"], b["V"], nb
-            if bdx[0].shape[1] == 0:  # a static boundary: maps are queried at x* (its lists)
-                bx, bV, nbp = coupling.boundary_at(state, dx)
-            density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bdx[0], bV,
+            # density maps are queried at x* (their lists), with or without yielding bodies;
+            # the step's boundary particles take the bodies' predicted displacement
+            bx, bV, nbp = coupling.boundary_at(state, dx)
+            if bx is b["x"] and follow is not None:
+                bx, bV, nbp = follow(state, dx)
+            bd = bdx[0] if bx is b["x"] else still
+            density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
@@ -162,6 +223,7 @@ class PCISPH(PressureSolver):
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
+        self._adapt(dt, its, ok)
         a += ap
         f["p"] = p * state.rho0
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
