@@ -144,7 +144,7 @@ class Simulation:
                 "emitters": [em.state() for em in self.emitters],
                 "empty_at_init": self._empty_at_init, "rigid_bodies": self.rigid.state(),
                 # a solver's own state across steps (PCISPH's adaptive step bound), if any
-                "pressure": getattr(self.pressure, "checkpoint_state", dict)()}
+                "pressure": self.pressure.checkpoint_state()}
 
     def save_checkpoint(self, path: str | Path, extra: dict | None = None,
                         keep: int | None = None) -> Path:
@@ -213,8 +213,7 @@ class Simulation:
             self.boundary_model.rebuild(st)  # the grid of the stored body positions
         if st.fluid.n and not self._empty_at_init:
             self.pressure.init(st)  # re-derive what solvers compute from the fluid
-        if hasattr(self.pressure, "restore_checkpoint_state"):
-            self.pressure.restore_checkpoint_state(s.get("pressure", {}))
+        self.pressure.restore_checkpoint_state(s.get("pressure", {}))
 
     # -- user-facing state ----------------------------------------------------------------------
     @property

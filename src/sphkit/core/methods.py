@@ -93,6 +93,15 @@ class PressureSolver(Protocol):
         that could take a force (PBF moves positions)."""
         return None
 
+    def checkpoint_state(self) -> dict:
+        """The solver's own state across steps, for checkpoints (JSON-ready; PCISPH's adaptive
+        step bound); empty for solvers whose state lives in particle fields."""
+        return {}
+
+    def restore_checkpoint_state(self, state: dict) -> None:
+        """Take back what :meth:`checkpoint_state` wrote (``{}`` for checkpoints without it)."""
+        return None
+
     def compressed_density(self, p: np.ndarray, rho0: np.ndarray) -> np.ndarray:
         """The density [kg/m^3] at which the fluid carries the pressure p [Pa] at rest (the
         hydrostatic start, :mod:`sphkit.world.startup`): rho0 for the incompressible solvers,
@@ -155,6 +164,13 @@ class BoundaryModel(Protocol):
         predicted positions), leaving the state as it is. None: they do not depend on the
         fluid positions beyond the step-start lists (boundary particles); maps place their
         virtual particles anew."""
+        return None
+
+    def following(self, state: SimState, dx: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, NeighborList] | None:
+        """The step's boundary neighbours ``(x_b, V_b, lists)`` moved along with the fluid's
+        displacement ``dx`` where a model's virtual particles should slide with their fluid
+        particle inside a prediction (volume maps); None: the step's own."""
         return None
 
     def bind_bodies(self, bodies: list) -> None:
@@ -279,6 +295,15 @@ class BoundaryCoupling:
         boundary model's :meth:`BoundaryModel.boundary_at`; the step's own where they do not
         depend on the fluid positions)."""
         at = self.model.boundary_at(state, dx) if self.model is not None else None
+        if at is None:
+            return state.boundary["x"], state.boundary["V"], state.nl_fb
+        return at
+
+    def following(self, state: SimState, dx: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, NeighborList]:
+        """The step's boundary neighbours moved with the fluid's displacement ``dx``
+        (:meth:`BoundaryModel.following`; the step's own where a model keeps them fixed)."""
+        at = self.model.following(state, dx) if self.model is not None else None
         if at is None:
             return state.boundary["x"], state.boundary["V"], state.nl_fb
         return at

@@ -201,17 +201,14 @@ class PCISPH(PressureSolver):
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = np.empty((state.dim, 0), dtype=x.dtype)  # no boundary displacement
-        # volume maps: the step's virtual particles slide along the wall with their fluid
-        # particle (Bender2019.following)
-        follow = getattr(coupling.model, "following", None)
 
         def sweep(_k: int) -> tuple[float, float]:
             _predict(v, a, ap, dt, dx)
             # density maps are queried at x* (their lists), with or without yielding bodies;
             # the step's boundary particles take the bodies' predicted displacement
             bx, bV, nbp = coupling.boundary_at(state, dx)
-            if bx is b["x"] and follow is not None:
-                bx, bV, nbp = follow(state, dx)
+            if bx is b["x"]:  # volume maps: the step's virtual particles slide along the wall
+                bx, bV, nbp = coupling.following(state, dx)
             bd = bdx[0] if bx is b["x"] else still
             density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
