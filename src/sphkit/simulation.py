@@ -5,7 +5,8 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 
 1. neighbour search: every ``zsort_every`` steps the fluid is reordered along a z-order curve;
    fluid-fluid CSR lists, fluid-boundary lists from the boundary model;
-2. densities ``rho_i = sum_j m_j W_ij + sum_b rho0 V_b W_ib`` (with the solver's cached pair
+2. densities ``rho_i = rho0_i (sum_j V0_j W_ij + sum_b V_b W_ib)`` (number densities of the
+   particles' own rest densities, Solenthaler & Pajarola 2008; with the solver's cached pair
    gradients in the same pass where it uses them), and the boundary pressure model's view of
    the step (``state.coupling``);
 3. time step: CFL ``cfl_factor * 0.4 * 2r / max|v|`` (fluid and moving boundary) clamped to
@@ -266,9 +267,10 @@ class Simulation:
             st.pair_grads = PairGradients(st, with_density=True)
         else:
             st.pair_grads = None
-            density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
+            rest = st.rest()
+            density_cpu(f["x"], rest.mu, st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
                         st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim,
-                        f["rho"], st.period)
+                        f["rho"], st.period, c=rest.c)
         st.coupling.prepare(st)  # a boundary pressure model's view of this step (MLS)
 
     def _time_step(self) -> float:
@@ -350,12 +352,13 @@ class Simulation:
             return
         f = self.state.fluid
         for em in self.emitters:
-            rho0 = self.scene.material(em.material).density0
+            mat = self.scene.material(em.material)
+            rho0 = mat.density0
             group = [e for e in self.emitters if e.material == em.material]
             caps = [e.max_particles for e in group if e.max_particles is not None]
             budget = min(caps) - sum(e.emitted for e in group) if caps else float("inf")
             em.emit(f, self.time, rho0 * self._lattice_volume, self._lattice_volume, rho0,
-                    budget)
+                    budget, phase=self.scene.materials.index(mat))
         if self._empty_at_init and f.n:  # e.g. PCISPH's template reads the fluid's volume
             self.pressure.init(self.state)
             self._empty_at_init = False

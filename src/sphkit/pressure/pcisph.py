@@ -144,6 +144,8 @@ class PCISPH(PressureSolver):
         mirror = coupling.mirror(state)
         kb = coupling.boundary_kappa(state)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
+        rest = state.rest()  # several fluids: the pressure sums weigh p~_j by rho0_j / rho0_i
+        pc = p if rest.uniform else np.empty_like(p)
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
 
@@ -152,22 +154,24 @@ class PCISPH(PressureSolver):
             bx, bV, nbp = b["x"], b["V"], nb
             if bdx[0].shape[1] == 0:  # a static boundary: maps are queried at x* (its lists)
                 bx, bV, nbp = coupling.boundary_at(state, dx)
-            density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bdx[0], bV,
+            density_at(x, dx, rest.mu, nl.offsets, nl.indices, bx, bdx[0], bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
-            kappa_accel_cached(p, kb(p), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror,
-                               g.gw, g.gwb, state.dim, ap)
+            if not rest.uniform:
+                np.multiply(p, rest.c, out=pc)
+            kappa_accel_cached(pc, kb(pc), nl.offsets, nl.indices, nb.offsets, nb.indices,
+                               mirror, g.gw, g.gwb, state.dim, ap, rest.inv_c)
             bdx[0] = coupling.displacement(state, p, g.gwb, dt)
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
         a += ap
-        f["p"] = p * state.rho0
+        f["p"] = p * f["rho0"]
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` with PCISPH's
         variable ``p~ = p / rho0``, mirrored share included."""
-        return BoundaryReaction(state.fluid["p"] / state.rho0, 1.0)
+        return BoundaryReaction(state.fluid["p"] / state.fluid["rho0"], 1.0)

@@ -1,7 +1,8 @@
 """The fluid of a world: blocks, particle files and filled meshes sampled into particles.
 
 Every fluid particle gets the lattice volume ``V0 = 1 / sum_k W(|k| 2r)`` of its lattice (square,
-or hexagonal in 2D), the mass ``m = rho0 V0`` and the rest density ``rho0`` of its material, so
+or hexagonal in 2D), the mass ``m = rho0 V0``, the rest density ``rho0`` and the ``phase`` (index
+in ``scene.materials``) of its material, so
 that the interior of freshly sampled fluid is at rest density (README, "mass of lattice-sampled
 fluid").
 """
@@ -54,7 +55,7 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
         mat = scene.material(blk.material)
         vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
         fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * bvol, V0=bvol, v=vel,
-                  rho=mat.density0, rho0=mat.density0)
+                  rho=mat.density0, rho0=mat.density0, phase=scene.materials.index(mat))
     for k, ff in enumerate(scene.fluid_files):
         _add_fluid_file(state, scene, meshes, k, ff, vol)
     for k, fm in enumerate(scene.fluid_meshes):
@@ -69,7 +70,7 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
         mat = scene.material(fm.material)
         vel = np.zeros(dim) if fm.velocity is None else np.asarray(fm.velocity, float)
         fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
-                  rho=mat.density0, rho0=mat.density0)
+                  rho=mat.density0, rho0=mat.density0, phase=scene.materials.index(mat))
 
 
 def _add_fluid_file(state: SimState, scene: Scene, meshes: SceneMeshes, k: int, ff,
@@ -97,4 +98,4 @@ def _add_fluid_file(state: SimState, scene: Scene, meshes: SceneMeshes, k: int, 
         warnings.warn(note, UserWarning, stacklevel=4)
     mat = scene.material(ff.material)
     state.fluid.add(x, name=f"fluid_files[{k}]", m=mat.density0 * vol, V0=vol, v=v,
-                    rho=mat.density0, rho0=mat.density0)
+                    rho=mat.density0, rho0=mat.density0, phase=scene.materials.index(mat))

@@ -346,10 +346,14 @@ class _Lists:
 
 
 def _density(state: SimState, m: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """The summation density with the masses m (number density of the particles' own rest
+    densities, :func:`sphkit.core.operators.density_body`)."""
     f, b = state.fluid, state.boundary
-    density_cpu(f["x"], m, state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["V"],
+    rest = state.rest()
+    mu = m if rest.uniform else m / rest.c
+    density_cpu(f["x"], mu, state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["V"],
                 state.nl_fb.offsets, state.nl_fb.indices, state.rho0, state.h, state.kid,
-                state.dim, out, state.period)
+                state.dim, out, state.period, c=rest.c)
     return out
 
 
