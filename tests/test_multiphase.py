@@ -6,12 +6,17 @@ that swap, a hydrostatic two-layer column) are in validation/multiphase.py.
 
 from __future__ import annotations
 
+import json
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from sphkit.cli import main
 from sphkit.core.neighbors import neighbor_lists
+from sphkit.io.frames import read_frame
+from sphkit.io.manifest import read_manifest
 from sphkit.multiphase import phase_lists
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
@@ -139,3 +144,27 @@ def test_phase_lists_keep_the_pairs_within_a_phase() -> None:
     for k, i in enumerate(where):
         full = nl.neighbors(i)
         assert np.array_equal(where[sub.neighbors(k)], full[member[full]])
+
+
+def test_run_writes_phase_and_rest_density(tmp_path: Path) -> None:
+    """``sphkit run`` of a scene with two fluids: every frame holds the phase (material index)
+    and the rest density of each particle, the manifest's frames the particles and density
+    error of each material."""
+    sc = _scene("dfsph", [{"id": "heavy", "density0": 1000.0},
+                          {"id": "light", "density0": 100.0}],
+                [(BLOCKS[0][0], BLOCKS[0][1], "heavy"), (BLOCKS[1][0], BLOCKS[1][1], "light")])
+    d = sc.model_dump(mode="json", exclude_none=True)
+    d["configuration"]["time"]["until"] = 0.02
+    d["output"] = {"fps": 50.0, "formats": ["vtk"]}
+    path = tmp_path / "two.json"
+    path.write_text(json.dumps(d))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 0
+    frame = read_frame(out / "frame_00001.vtu")
+    phase = np.asarray(frame["phase"])
+    assert set(np.unique(phase)) == {0, 1}
+    np.testing.assert_array_equal(np.asarray(frame["rest_density"]),
+                                  np.where(phase == 0, 1000.0, 100.0))
+    rec = read_manifest(out)["frames"][-1]
+    assert [p["material"] for p in rec["phases"]] == ["heavy", "light"]
+    assert sum(p["particles"] for p in rec["phases"]) == len(phase)

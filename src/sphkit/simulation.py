@@ -78,6 +78,10 @@ class StepStats:
     #: moving rigid bodies: name, force and torque of the fluid on the body [N, N m] (torque
     #: about its centre of mass or, kinematic, its pivot), position, velocity, angular velocity
     rigid_bodies: list = field(default_factory=list)
+    #: several fluid materials: per material of the fluid its id, particle count and the
+    #: average and largest compression ``max(rho / rho0 - 1, 0)`` of the step's densities
+    #: (before the pressure solve) over its particles; empty for one fluid
+    phases: list = field(default_factory=list)
 
     def as_dict(self) -> dict:
         """Plain-dict form (for manifests and logs)."""
@@ -332,12 +336,26 @@ class Simulation:
                           divergence_iterations=ps.divergence_iterations,
                           divergence_error=ps.divergence_error,
                           rigid_bodies=[b.stats() for b in self.rigid.bodies])
+        if len(self.world.materials) > 1:
+            stats.phases = self._phase_stats()
         ks = self._viscosity_stats()  # an implicit viscosity reports its solve
         if ks is not None:
             stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
         self.last, self.last_solver = stats, ps
         self._stability_guard(stats, bad)
         return stats
+
+    def _phase_stats(self) -> list[dict]:
+        """Per material of the fluid: id, particles, compression of the densities (avg, max)."""
+        f = self.state.fluid
+        out = []
+        for mat in self.world.materials:
+            sel = f["phase"] == self.scene.materials.index(mat)
+            e = np.maximum(f["rho"][sel] / f["rho0"][sel] - 1.0, 0.0)
+            out.append({"material": mat.id, "particles": int(sel.sum()),
+                        "density_error_avg": float(e.mean()) if e.size else 0.0,
+                        "density_error_max": float(e.max()) if e.size else 0.0})
+        return out
 
     def _viscosity_stats(self) -> KrylovStats | None:
         """The last solve of the material's viscosity, when it is implicit."""
