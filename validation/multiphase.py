@@ -2,12 +2,17 @@
 
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
+        [--jitter 0.1] [--viscosity 0.01]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
-the walls, sphkit's start-up), standard viscosity 0.01 m^2/s in each phase (within the phase, as
-SPlisHSPlasH), heavy rest density 1000 kg/m^3, light ``1000 / --ratio``:
+the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
+SPlisHSPlasH's multiphase scenes) in each phase (within the phase, as SPlisHSPlasH), heavy rest
+density 1000 kg/m^3, light ``1000 / --ratio``:
 
-* ``layers``: heavy over light, two layers 0.3 m each -- Rayleigh-Taylor unstable. After
+* ``layers``: heavy over light, two layers 0.3 m each -- Rayleigh-Taylor unstable; the
+  particles start moved by a random displacement of up to ``--jitter`` r along each axis (seed
+  1), the perturbation that starts the instability (on the exact lattice a column at 1:2 stayed
+  heavy on top for 3 s: its equilibrium is unstable but nothing disturbs it). After
   ``--until`` (3 s) the phases should lie in two layers, heavy below. The table counts the
   particles more than two layers (4r) inside the other phase: heavy above ``y_s + 4r`` or light
   below ``y_s - 4r``, ``y_s`` the height that would split the column into the two phases if they
@@ -38,10 +43,11 @@ WIDTH = 0.4
 LAYER = 0.3
 
 
-def scene(method: str, r: float, heavy_on_top: bool, ratio: float) -> Scene:
+def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
+          viscosity: float = 0.01) -> Scene:
     """Two layers LAYER m high in a box WIDTH m wide (module docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
-    visc = {"method": "standard", "coefficient": 0.01}
+    visc = {"method": "standard", "coefficient": viscosity}
     pressure: dict = {"method": method, "max_error": 0.05}
     if method == "wcsph":
         pressure = {"method": "wcsph", "stiffness": 1e5, "exponent": 7.0}
@@ -72,14 +78,18 @@ def mixing(sim: Simulation) -> tuple[int, int, float]:
     return int((up > 4 * r).sum()), int((down > 4 * r).sum()), deep
 
 
-def layers(methods: list[str], r: float, until: float, ratio: float) -> None:
-    print(f"\nheavy over light, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s")
+def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
+           viscosity: float) -> None:
+    print(f"\nheavy over light, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
+          f"jitter {jitter} r, viscosity {viscosity} m^2/s")
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
           f"{'vmax':>6s} {'its':>6s} {'ms/step':>8s}  note")
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sim = Simulation(scene(method, r, True, ratio))
+            sim = Simulation(scene(method, r, True, ratio, viscosity))
+        x = sim.fluid["x"]  # the perturbation (set-up, once)
+        x += jitter * r * np.random.default_rng(1).uniform(-1.0, 1.0, x.shape)
         its, steps, note = [], 0, ""
         t0 = time.perf_counter()
         try:
@@ -97,7 +107,7 @@ def layers(methods: list[str], r: float, until: float, ratio: float) -> None:
 
 
 def hydrostatic(methods: list[str], r: float, settle: float, average: float,
-                ratio: float) -> None:
+                ratio: float, viscosity: float) -> None:
     print(f"\nlight over heavy at rest, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
           f"units of the layer's rho0 g, averaged {settle}-{settle + average} s")
     print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'jump/rho_l g H_l':>17s} "
@@ -105,7 +115,7 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sim = Simulation(scene(method, r, False, ratio))
+            sim = Simulation(scene(method, r, False, ratio, viscosity))
         note = ""
         t0 = time.perf_counter()
         steps = 0
@@ -157,12 +167,15 @@ def main() -> None:
     ap.add_argument("--ratio", type=float, default=10.0)
     ap.add_argument("--settle", type=float, default=1.5)
     ap.add_argument("--average", type=float, default=0.5)
+    ap.add_argument("--jitter", type=float, default=0.1)
+    ap.add_argument("--viscosity", type=float, default=0.01)
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
-        hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio)
+        hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
+                    args.viscosity)
     if "layers" in args.study:
-        layers(args.solvers, args.radius, args.until, args.ratio)
+        layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity)
 
 
 if __name__ == "__main__":
