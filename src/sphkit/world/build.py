@@ -71,8 +71,10 @@ class World:
     materials: list[Material] = field(default_factory=list)
 
 
-def _state(scene: Scene, mat: Material) -> SimState:
-    """Empty particle sets with the fields every method reads, and the constants."""
+def _state(scene: Scene, mats: list[Material]) -> SimState:
+    """Empty particle sets with the fields every method reads, and the constants (the first
+    material's rest density is the reference, ``state.rho0``)."""
+    mat = mats[0]
     cfg = scene.configuration
     dim = cfg.dim
     dtype = np.dtype(cfg.precision)
@@ -81,7 +83,8 @@ def _state(scene: Scene, mat: Material) -> SimState:
         fluid.register(name, "vector")
     for name in ("m", "V0", "rho0", "rho", "p"):  # V0 = m / rho0, the rest volume
         fluid.register(name)
-    fluid.register("phase", "scalar", np.int64)  # the index of its material in scene.materials
+    if len(mats) > 1:  # several fluids: the index of each particle's material in materials
+        fluid.register("phase", "scalar", np.int64)
     boundary = ParticleSet(dim, dtype)
     boundary.register("pressure_mirror")
     boundary.register("rigid_body", "scalar", np.int64)  # 1-based moving body, 0 static
@@ -131,7 +134,7 @@ def _build(scene: Scene) -> World:
     mats = check_scene(scene)
     mat = mats[0]
     cfg = scene.configuration
-    state = _state(scene, mat)
+    state = _state(scene, mats)
     r, h, dim = state.r, state.h, state.dim
     boundary_info = registry.get("boundary", cfg.boundary.method)
     maps = boundary_info.kind == "maps"
