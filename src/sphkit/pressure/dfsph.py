@@ -71,8 +71,8 @@ def _alpha(D, tiny, alpha):
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _density_source(rho, inv_rho0, div, dt, kprev, s, kappa):
-    # s = 1 - max(rho_hat*, 1); warm start where the predicted density exceeds rho0 (rho0 (N,):
-    # 1 / each particle's rest density)
+    # s = 1 - max(rho_hat*, 1); warm start where the predicted density exceeds rho0 (inv_rho0
+    # (N,): 1 / each particle's rest density)
     for i in numba.prange(rho.shape[0]):
         pred = rho[i] * inv_rho0[i] + dt * div[i]
         s[i] = 1.0 - pred
