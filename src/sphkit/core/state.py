@@ -8,6 +8,7 @@ receive it, read and write fields of its particle sets, and never call each othe
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -41,9 +42,14 @@ class RestArrays:
     c: np.ndarray  #: rho0_i / rho0_ref (N,)
     inv_c: np.ndarray  #: rho0_ref / rho0_i (N,)
     mu: np.ndarray  #: m_i / c_i = rho0_ref V0_i [kg] (N,)
-    V: np.ndarray  #: m_i * (1 / rho0_i): the rest volume [m^dim] (N,)
     rho0: np.ndarray  #: the field rho0 [kg/m^3] (N,)
+    m: np.ndarray  #: the field m [kg] (N,)
     uniform: bool  #: True when every particle has the reference rest density (c == 1)
+
+    @cached_property
+    def V(self) -> np.ndarray:  # noqa: N802 - the rest volume, as the formulas name it
+        """``m_i * (1 / rho0_i)``: the rest volume [m^dim] (N,), computed when first asked."""
+        return self.m * (1.0 / self.rho0)
 
     @staticmethod
     def of(fluid: ParticleSet, rho0_ref: float) -> RestArrays:
@@ -58,8 +64,7 @@ class RestArrays:
             c = rho0 / ref
             mu = fluid["m"] / c
         inv_c = c if uniform else 1.0 / c
-        return RestArrays(c=c, inv_c=inv_c, mu=mu, V=fluid["m"] * (1.0 / rho0), rho0=rho0,
-                          uniform=uniform)
+        return RestArrays(c=c, inv_c=inv_c, mu=mu, rho0=rho0, m=fluid["m"], uniform=uniform)
 
 
 @dataclass
