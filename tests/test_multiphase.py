@@ -189,3 +189,44 @@ def test_hydrostatic_start_of_layers_carries_the_upper_layer() -> None:
     g = 9.81
     expected = g * (100.0 * 0.24 + 1000.0 * (0.24 - y[heavy]))
     assert np.abs(f["p"][heavy] - expected).max() < 0.03 * expected.max()
+
+
+def test_viscosity_acts_within_a_phase() -> None:
+    """A material's viscosity acts between its own particles only (SPlisHSPlasH's
+    forall_fluid_neighbors_in_same_phase, multiphase.PhaseForce): the acceleration it gives the
+    lower block does not depend on the velocities of the upper block of another material, and
+    it gives the upper block none; with both blocks one material it does depend on them."""
+    def accel(two: bool, shake: bool) -> tuple[np.ndarray, np.ndarray]:
+        visc = {"method": "standard", "coefficient": 0.05}
+        names = ("lower", "upper") if two else ("water", "water")
+        sc = Scene.model_validate({
+            "configuration": {"dim": 2, "particle_radius": R, "gravity": [0.0, 0.0],
+                              "pressure": {"method": "dfsph"}},
+            "materials": [{"id": k, "viscosity": visc} for k in dict.fromkeys(names)],
+            "fluid_blocks": [{"start": [0.0, 0.0], "end": [0.4, 0.2], "material": names[0]},
+                             {"start": [0.0, 0.2], "end": [0.4, 0.4], "material": names[1]}],
+        })
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sim = Simulation(sc)
+        f = sim.fluid
+        sim._neighbors()  # (reorders the particles)
+        o = f.order_by_id()
+        upper = f.view("x")[:, 1] > 0.2
+        v = np.empty_like(f["v"])  # velocities by id, so that both runs get the same
+        v[:, o] = np.random.default_rng(2).normal(0.0, 0.1, v.shape)
+        f["v"][:, ~upper] = v[:, ~upper]
+        if shake:
+            f["v"][:, upper] = np.random.default_rng(3).normal(0.0, 1.0, (2, int(upper.sum())))
+        sim.compute_density()
+        f["a"][:] = 0.0
+        sim.forces[0].apply(sim.state, 0.001)  # the lower block's viscosity
+        return f["a"][:, ~upper].copy(), f["a"][:, upper].copy()
+
+    calm, calm_up = accel(True, False)
+    shaken, shaken_up = accel(True, True)
+    assert np.array_equal(calm, shaken)
+    assert not calm_up.any() and not shaken_up.any()
+    one, _ = accel(False, False)
+    one_shaken, _ = accel(False, True)
+    assert np.abs(one - one_shaken).max() > 1.0  # one material: the upper block drags
