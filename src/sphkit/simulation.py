@@ -358,9 +358,10 @@ class Simulation:
         return out
 
     def _viscosity_stats(self) -> KrylovStats | None:
-        """The last solve of the material's viscosity, when it is implicit."""
+        """The last solve of the material's viscosity, when it is implicit (several fluids:
+        the first material's implicit one)."""
         for force, role in zip(self.forces, self.world.force_roles, strict=True):
-            if role == "viscosity":
+            if role == "viscosity" and force.stats is not None:
                 return force.stats
         return None
 
