@@ -54,31 +54,34 @@ SCRIPT = textwrap.dedent(
         s = rng.uniform(-0.01, 0.01, N)
         active = rng.uniform(size=N) > 0.2
         wq = rng.uniform(0.5, 1.5, N)
+        # two fluids of rest densities 1000 and 100 (c = rho0_i / 1000, RestArrays)
+        c = np.where(rng.uniform(size=N) > 0.5, 1.0, 0.1)
+        inv_c, mu, V = 1.0 / c, m / c, m / (1000.0 * c)
 
         def run(device):
             on = (lambda v: v) if device == "cpu" else cuda.to_device
             back = (lambda v: v) if device == "cpu" else (lambda v: v.copy_to_host())
             out = {}
             rho = on(np.empty(N))
-            launch(density_body, N, *map(on, (x, m, off, idx, bx, bV, boff, bidx)), 1000.0, h,
-                   0, dim, rho, 0.0, device=device)
+            launch(density_body, N, *map(on, (x, mu, off, idx, bx, bV, boff, bidx)), 1000.0, h,
+                   0, dim, rho, 0.0, on(c), device=device)
             out["rho"] = back(rho)
             a = on(np.zeros((dim, N)))
             launch(pressure_accel_body, N, *map(on, (x, m, out["rho"], p, off, idx, bx, bV,
-                   boff, bidx)), 1000.0, h, 0, dim, a, 0.0, device=device)
+                   boff, bidx)), 1000.0, h, 0, dim, a, 0.0, on(c), on(inv_c), device=device)
             out["a"] = back(a)
             rho2 = on(np.empty(N))
             gw = on(np.empty((dim, idx.shape[0])))
             gwb = on(np.empty((dim, bidx.shape[0])))
-            launch(density_pair_gradients_body, N, *map(on, (x, m, off, idx, bx, bV, boff,
-                   bidx)), 1000.0, h, 0, dim, rho2, gw, gwb, 0.0, device=device)
+            launch(density_pair_gradients_body, N, *map(on, (x, mu, off, idx, bx, bV, boff,
+                   bidx)), 1000.0, h, 0, dim, rho2, gw, gwb, 0.0, on(V), on(c), device=device)
             out["rho2"], out["gw"], out["gwb"] = back(rho2), back(gw), back(gwb)
             # one Jacobi pass: a = kappa_accel(k), then the sweep (q, k updated in place)
             q = on(p / 1e7)
             k = on(wq * p / 1e7)
             ak = on(np.empty((dim, N)))
             launch(kappa_accel_body, N, k, on(kb), *map(on, (off, idx, boff, bidx, mirror)),
-                   gw, gwb, dim, ak, device=device)
+                   gw, gwb, dim, ak, on(inv_c), device=device)
             out["ak"] = back(ak)
             out["err"] = launch_reduce(jacobi_body, N, ak, on(np.zeros_like(bx)),
                                        *map(on, (off, idx, boff, bidx)), gw, gwb, dim, q, on(s),

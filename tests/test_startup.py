@@ -126,7 +126,8 @@ def test_compressed_density_inverts_the_state_equation(equation: str) -> None:
     p = np.linspace(0.0, 2e4, 50)
     rho = solver.compressed_density(p, np.full(50, RHO0))
     out = np.empty(50)
-    state_equation(rho, RHO0, solver.equation, solver.stiffness, solver.exponent, out)
+    state_equation(rho, np.full(50, RHO0), solver.equation, solver.stiffness, solver.exponent,
+                   out)
     np.testing.assert_allclose(out, p, rtol=1e-9, atol=1e-7)
 
 

@@ -18,7 +18,9 @@ Capabilities (keyword flags of :func:`register`):
 
 * ``periodic``: its pair loops take minimum-image distances (``configuration.periodic_x``);
 * ``dynamic_bodies``: a pressure solver whose pressure moves dynamic rigid bodies;
-* ``multiphase``: works with several fluid materials in one scene (none yet);
+* ``multiphase``: a pressure solver or boundary model that reads each particle's own rest
+  density (several fluid materials in one scene, :mod:`sphkit.multiphase`); the non-pressure
+  forces of each material act within its phase whatever their flags;
 * ``gpu``: runs on ``--device cuda`` (none yet: the time step runs on the CPU);
 * ``boundary`` (boundary-pressure models): the boundary kinds it acts on (``particles`` or
   ``maps``, the ``kind`` of the boundary model).
@@ -167,20 +169,22 @@ def with_capability(role: str, capability: str) -> tuple[str, ...]:
 register("pressure", "wcsph", "sphkit.pressure.wcsph:WCSPH", splishsplash=0,
          paper="Becker & Teschner 2007, Weakly compressible SPH for free surface flows",
          summary="state equation (Tait or linear), symmetric pressure force",
-         periodic=True, dynamic_bodies=True)
+         periodic=True, dynamic_bodies=True, multiphase=True)
 register("pressure", "pcisph", "sphkit.pressure.pcisph:PCISPH", splishsplash=1,
          paper="Solenthaler & Pajarola 2009, Predictive-corrective incompressible SPH",
-         summary="predict-correct loop with a template scaling factor", dynamic_bodies=True)
+         summary="predict-correct loop with a template scaling factor", dynamic_bodies=True,
+         multiphase=True)
 register("pressure", "pbf", "sphkit.pressure.pbf:PBF", splishsplash=2,
          paper="Macklin & Müller 2013, Position based fluids",
-         summary="density constraints solved on positions")
+         summary="density constraints solved on positions", multiphase=True)
 register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
          paper="Ihmsen et al. 2014, Implicit incompressible SPH",
-         summary="relaxed Jacobi on the pressure Poisson equation", dynamic_bodies=True)
+         summary="relaxed Jacobi on the pressure Poisson equation", dynamic_bodies=True,
+         multiphase=True)
 register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
          paper="Bender & Koschier 2015/2017, Divergence-free SPH",
          summary="constant-density and divergence-free solvers with warm starts",
-         periodic=True, dynamic_bodies=True)
+         periodic=True, dynamic_bodies=True, multiphase=True)
 register("pressure", "pf", "sphkit.pressure.pf:PF", splishsplash=5,
          paper="Weiler, Koschier & Bender 2016, Projective fluids",
          summary="projective dynamics: local density-constraint projections, global CG; "
@@ -193,15 +197,15 @@ register("pressure", "icsph", "sphkit.pressure.icsph:ICSPH", splishsplash=6,
 register("boundary", "akinci2012", "sphkit.boundary.akinci2012:Akinci2012", splishsplash=0,
          paper="Akinci et al. 2012, Versatile rigid-fluid coupling for incompressible SPH",
          summary="boundary particles with volumes 1 / sum W", kind="particles",
-         boundary_pressure="mls")
+         boundary_pressure="mls", multiphase=True)
 register("boundary", "koschier2017", "sphkit.boundary.koschier2017:Koschier2017",
          splishsplash=1, paper="Koschier & Bender 2017, Density maps for improved SPH "
          "boundary handling", summary="density maps on signed distance fields", kind="maps",
-         boundary_pressure="hydrostatic", boundary_pressure_moving="mirror")
+         boundary_pressure="hydrostatic", boundary_pressure_moving="mirror", multiphase=True)
 register("boundary", "bender2019", "sphkit.boundary.bender2019:Bender2019", splishsplash=2,
          paper="Bender et al. 2019, Volume maps: an implicit boundary representation for SPH",
          summary="volume maps on signed distance fields", kind="maps",
-         boundary_pressure="hydrostatic")
+         boundary_pressure="hydrostatic", multiphase=True)
 
 # boundary pressure: what p_b the pressure terms of the boundary use
 register("boundary_pressure", "mirror", None,

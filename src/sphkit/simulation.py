@@ -5,7 +5,8 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 
 1. neighbour search: every ``zsort_every`` steps the fluid is reordered along a z-order curve;
    fluid-fluid CSR lists, fluid-boundary lists from the boundary model;
-2. densities ``rho_i = sum_j m_j W_ij + sum_b rho0 V_b W_ib`` (with the solver's cached pair
+2. densities ``rho_i = rho0_i (sum_j V0_j W_ij + sum_b V_b W_ib)`` (number densities of the
+   particles' own rest densities, Solenthaler & Pajarola 2008; with the solver's cached pair
    gradients in the same pass where it uses them), and the boundary pressure model's view of
    the step (``state.coupling``);
 3. time step: CFL ``cfl_factor * 0.4 * 2r / max|v|`` (fluid and moving boundary) clamped to
@@ -77,6 +78,10 @@ class StepStats:
     #: moving rigid bodies: name, force and torque of the fluid on the body [N, N m] (torque
     #: about its centre of mass or, kinematic, its pivot), position, velocity, angular velocity
     rigid_bodies: list = field(default_factory=list)
+    #: several fluid materials: per material of the fluid its id, particle count and the
+    #: average and largest compression ``max(rho / rho0 - 1, 0)`` of the step's densities
+    #: (before the pressure solve) over its particles; empty for one fluid
+    phases: list = field(default_factory=list)
 
     def as_dict(self) -> dict:
         """Plain-dict form (for manifests and logs)."""
@@ -269,9 +274,10 @@ class Simulation:
             st.pair_grads = PairGradients(st, with_density=True)
         else:
             st.pair_grads = None
-            density_cpu(f["x"], f["m"], st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
+            rest = st.rest()
+            density_cpu(f["x"], rest.mu, st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
                         st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim,
-                        f["rho"], st.period)
+                        f["rho"], st.period, c=rest.c)
         st.coupling.prepare(st)  # a boundary pressure model's view of this step (MLS)
 
     def _time_step(self) -> float:
@@ -333,6 +339,8 @@ class Simulation:
                           divergence_iterations=ps.divergence_iterations,
                           divergence_error=ps.divergence_error,
                           rigid_bodies=[b.stats() for b in self.rigid.bodies])
+        if len(self.world.materials) > 1:
+            stats.phases = self._phase_stats()
         ks = self._viscosity_stats()  # an implicit viscosity reports its solve
         if ks is not None:
             stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
@@ -340,10 +348,23 @@ class Simulation:
         self._stability_guard(stats, bad)
         return stats
 
+    def _phase_stats(self) -> list[dict]:
+        """Per material of the fluid: id, particles, compression of the densities (avg, max)."""
+        f = self.state.fluid
+        out = []
+        for mat in self.world.materials:
+            sel = f["phase"] == self.scene.materials.index(mat)
+            e = np.maximum(f["rho"][sel] / f["rho0"][sel] - 1.0, 0.0)
+            out.append({"material": mat.id, "particles": int(sel.sum()),
+                        "density_error_avg": float(e.mean()) if e.size else 0.0,
+                        "density_error_max": float(e.max()) if e.size else 0.0})
+        return out
+
     def _viscosity_stats(self) -> KrylovStats | None:
-        """The last solve of the material's viscosity, when it is implicit."""
+        """The last solve of the material's viscosity, when it is implicit (several fluids:
+        the first material's implicit one)."""
         for force, role in zip(self.forces, self.world.force_roles, strict=True):
-            if role == "viscosity":
+            if role == "viscosity" and force.stats is not None:
                 return force.stats
         return None
 
@@ -353,12 +374,13 @@ class Simulation:
             return
         f = self.state.fluid
         for em in self.emitters:
-            rho0 = self.scene.material(em.material).density0
+            mat = self.scene.material(em.material)
+            rho0 = mat.density0
             group = [e for e in self.emitters if e.material == em.material]
             caps = [e.max_particles for e in group if e.max_particles is not None]
             budget = min(caps) - sum(e.emitted for e in group) if caps else float("inf")
             em.emit(f, self.time, rho0 * self._lattice_volume, self._lattice_volume, rho0,
-                    budget)
+                    budget, phase=self.scene.materials.index(mat))
         if self._empty_at_init and f.n:  # e.g. PCISPH's template reads the fluid's volume
             self.pressure.init(self.state)
             self._empty_at_init = False

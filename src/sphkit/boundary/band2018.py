@@ -172,21 +172,23 @@ def mls_extrapolate(k, toff, tfluid, coef, out):
 
 
 @numba.njit(parallel=True, **_JIT)
-def replace_mirrored(x, p, rho0, bx, bV, boff, bidx, use, kb, h, kid, dim, L, a):
+def replace_mirrored(x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, h, kid, dim, L, a):
     """WCSPH: swap the mirrored boundary pressure ``p_b = p_i`` of the boundary term
-    ``-sum_b rho0 V_b (p_i / rho_i^2 + p_b / rho0^2) grad W_ib`` for the extrapolated one,
-    ``a_i -= sum_b V_b (k_b - p_i / rho0) grad W_ib`` over the samples with ``use[b]``
-    (``k_b = p_b / rho0``)."""
+    ``-sum_b rho0_i V_b (p_i / rho_i^2 + p_b / rho0_i^2) grad W_ib`` for the extrapolated one,
+    ``a_i -= sum_b V_b (k_b / c_i - p_i / rho0_i) grad W_ib`` over the samples with ``use[b]``
+    (``k_b = p_b / rho0_ref``; ``rho0`` (N,) each particle's rest density, ``inv_c`` =
+    ``rho0_ref / rho0_i``, :class:`sphkit.core.state.RestArrays`)."""
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
-        ki = p[i] / rho0
+        ki = p[i] / rho0[i]
+        ici = inv_c[i]
         a0 = a1 = a2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             if not use[b]:
                 continue
             d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-            s = -bV[b] * (kb[b] - ki) * kernel_dw(kid, r, h, dim)
+            s = -bV[b] * (kb[b] * ici - ki) * kernel_dw(kid, r, h, dim)
             a0 += s * d0
             a1 += s * d1
             a2 += s * d2
@@ -230,7 +232,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         nb = state.nl_fb
         self.toff, self.tfluid = _transpose(nb.offsets, nb.indices, b.n)
         self.coef = np.empty(self.tfluid.shape[0], dtype=f.dtype)
-        rho_hat = f["rho"] / state.rho0
+        rho_hat = f["rho"] / f["rho0"]
         mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.use, state.h,
                          state.kid, state.dim, state.period, self.ridge, self.coef)
 
@@ -239,8 +241,11 @@ class MLSPressureExtrapolation(BoundaryPressure):
         add to ``a`` the change to the extrapolated boundary pressure (:func:`replace_mirrored`)."""
         f, b = state.fluid, state.boundary
         kb = np.empty(b.n, dtype=f.dtype)
-        self.extrapolate(f["p"] * state.rho0 / f["rho"] ** 2, kb)
-        replace_mirrored(f["x"], f["p"], state.rho0, b["x"], b["V"], state.nl_fb.offsets,
+        rest = state.rest()
+        k = f["p"] * f["rho0"] / f["rho"] ** 2
+        self.extrapolate(k if rest.uniform else k * rest.c, kb)  # kb = p_b / rho0_ref
+        replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
+                         state.nl_fb.offsets,
                          state.nl_fb.indices, self.use, kb, state.h, state.kid, state.dim,
                          state.period, a)
 

@@ -518,7 +518,7 @@ class MapBoundaryModel(BoundaryModel):
                 continue
             ax = bmap.geometry.extend_axis
             top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
-            n += int(wall_moment_accel(f["x"], f["rho"], state.rho0, bmap.phi, nmap.values,
+            n += int(wall_moment_accel(f["x"], f["rho"], f["rho0"], bmap.phi, nmap.values,
                                        bmap.lo, bmap.cell, bmap.res, bmap.spacing, bmap.shape,
                                        state.dim, ax, top, state.h, state.kid, g[0], g[1], g[2],
                                        xb[m], Vb[m], f["a"]))

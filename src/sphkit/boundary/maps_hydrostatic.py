@@ -140,7 +140,8 @@ def wall_moment_accel(x, rho, rho0, phi, N, lo, cell, res, spacing, shape, dim, 
     pressure ``p_b(x) = p_i + rho_i g . (x - x_i)`` (Adami et al. 2012, Eq. 27, static wall),
     ``grad k_b = g / rho_hat_i`` in the kappa units of :mod:`sphkit.core.ppe`, with the
     tangential part T the neighbour's density contribution ``V_b W(|x_i - x_b|)`` and the normal
-    part N from the map (module docstring). Returns how many particles it acted on."""
+    part N from the map (module docstring); ``rho0`` (N,): each particle's rest density.
+    Returns how many particles it acted on."""
     count = 0
     for i in numba.prange(x.shape[1]):
         if Vb[i] <= 0.0:
@@ -158,7 +159,7 @@ def wall_moment_accel(x, rho, rho0, phi, N, lo, cell, res, spacing, shape, dim, 
         t = Vb[i] * kernel_w(kid, r, h, dim)
         nn = grid_eval(N, lo, cell, res, dim, p0, p1, p2)[0]
         gn = g0 * n0 + g1 * n1 + g2 * n2
-        c = rho0 / rho[i]
+        c = rho0[i] / rho[i]
         a[0, i] -= c * (t * (g0 - gn * n0) + nn * gn * n0)
         a[1, i] -= c * (t * (g1 - gn * n1) + nn * gn * n1)
         if dim == 3:

@@ -71,13 +71,21 @@ class Reporter:
             text += f"  div {div:.3g}"
         return text
 
+    @staticmethod
+    def phases_text(last: Any) -> str:
+        """Several fluids: `` (id n, id n)`` -- the particles of each material."""
+        phases = getattr(last, "phases", None)
+        if not phases:
+            return ""
+        return " (" + ", ".join(f"{p['material']} {p['particles']}" for p in phases) + ")"
+
     def stats_text(self, sim: Any) -> str:
         """Speed, size and health of the run: steps/s, particles, dt, density error, solver
         iterations, max|v|."""
         last = sim.last
         parts = [
             f"{fmt(self.rate, '.3g')} steps/s",
-            f"{sim.fluid.n} particles",
+            f"{sim.fluid.n} particles" + self.phases_text(last),
             f"dt {fmt(sim.dt, '.2e')} s",
             f"rho err avg {fmt(last and last.density_error_avg, '.2f', 100, '%')}",
         ]

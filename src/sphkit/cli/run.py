@@ -51,7 +51,7 @@ from sphkit.cli.common import (
 )
 from sphkit.cli.progress import Reporter, fmt, reporter
 from sphkit.cli.resume import CheckpointSchedule, prepare_resume
-from sphkit.io.frames import FORMATS, FrameWriter, resolve_attributes
+from sphkit.io.frames import FORMATS, MULTIPHASE_FIELDS, FrameWriter, resolve_attributes
 from sphkit.io.log import get_logger
 from sphkit.io.manifest import MANIFEST_NAME, Manifest, read_manifest, sphkit_version
 from sphkit.scene.limits import MAX_FPS, MAX_PARTICLES
@@ -243,7 +243,9 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         removed = 0 if resume else _remove_previous_run(out_dir)
         if session is not None:
             session.add_file(out_dir, append=resume is not None)
-        writer = FrameWriter(out_dir, formats, sim.dim, attributes=attributes)
+        # several fluids: every frame holds each particle's phase and rest density
+        extra = MULTIPHASE_FIELDS if len(sim.world.materials) > 1 else ()
+        writer = FrameWriter(out_dir, formats, sim.dim, extra_fields=extra, attributes=attributes)
         if resume:
             writer.resume_after(sim._frame)
             manifest = resume.manifest(["sphkit", *argv])

@@ -4,7 +4,9 @@ Notation: ``x_ij = x_i - x_j``, ``A_ij = A_i - A_j``, ``grad W_ij = grad_i W(x_i
 ``V_j = m_j / rho_j``. Neighbour lists are CSR (see :mod:`sphkit.core.neighbors`) without self.
 
 * interpolation  ``A_i = sum_j V_j A_j W_ij`` (self term included)
-* density        ``rho_i = sum_j m_j W_ij`` (+ boundary ``sum_b rho0 V_b W_ib``, Akinci 2012)
+* density        ``rho_i = rho0_i sum_j V0_j W_ij`` (+ boundary ``rho0_i sum_b V_b W_ib``,
+                 Akinci 2012; number density, Solenthaler & Pajarola 2008; one fluid:
+                 ``sum_j m_j W_ij``)
 * gradient       direct ``sum_j V_j A_j grad W_ij``;
                  difference ``sum_j V_j (A_j - A_i) grad W_ij`` (0th-order consistent), optionally
                  renormalized by ``L_i^-1``, ``L_i = sum_j V_j grad W_ij (x) x_ji``
@@ -43,49 +45,59 @@ _JIT = dict(cache=True, fastmath=True)
 
 
 @numba.njit(**_JIT, inline="always")
-def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, L):
-    """``rho[i]`` = density of fluid particle i: self + fluid neighbours + boundary
-    (psi_b = rho0 V_b).
+def density_body(i, x, mu, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, L, c):
+    """``rho[i]`` = density of fluid particle i by number density (Solenthaler & Pajarola
+    2008): ``rho_i = c_i (mu_i W_0 + sum_j mu_j W_ij + sum_b rho0 V_b W_ib)`` =
+    ``rho0_i (V0_i W_0 + sum_j V0_j W_ij + sum_b V_b W_ib)`` with ``mu = m / c`` and ``c_i =
+    rho0_i / rho0`` (:class:`sphkit.core.state.RestArrays`; ``rho0`` the reference rest
+    density). For one fluid (c = 1) this is ``sum_j m_j W_ij + sum_b rho0 V_b W_ib``.
 
     ``L`` > 0: periodic along x with period L [m] (minimum-image distances)."""
     # the coordinates of i are hoisted into scalars and the dim branches are loop invariant
     # (twice as fast as d-loops); the scalar pair helpers also compile for CUDA
     xi0, xi1, xi2 = point(x, i, dim)
-    s = m[i] * kernel_w(kid, 0.0, h, dim)
+    s = mu[i] * kernel_w(kid, 0.0, h, dim)
     for k in range(off[i], off[i + 1]):
         j = idx[k]
-        s += m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
+        s += mu[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         s += rho0 * bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
-    rho[i] = s
+    rho[i] = c[i] * s
 
 
 @numba.njit(**_JIT, inline="always")
 def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, a,
-                        L):
+                        L, c, inv_c):
     """Add the symmetric pressure acceleration of fluid particle i to ``a[:, i]``.
 
-    ``a_i = -sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad W_ij
-            - sum_b rho0 V_b (p_i/rho_i^2 + p_i/rho0^2) grad W_ib``
-    (boundary pressure mirrored, p_b = p_i, rho_b = rho0; Akinci et al. 2012). ``L`` > 0:
-    periodic along x with period L [m].
+    ``a_i = -sum_j m_j (rho0_i/rho0_j p_i/rho_i^2 + p_j/rho_j^2) grad W_ij
+            - sum_b rho0_i V_b (p_i/rho_i^2 + p_i/rho0_i^2) grad W_ib``
+    (SPlisHSPlasH's ``-rho0_i sum_j V_j (p_i/rho_i^2 + rho0_j/rho0_i p_j/rho_j^2)`` of several
+    fluids written with masses; ``rho0`` the reference rest density, ``rho0_i = c_i rho0``,
+    ``rho0_i/rho0_j = c_i inv_c_j``, :class:`sphkit.core.state.RestArrays`; boundary pressure
+    mirrored, p_b = p_i, rho_b = rho0_i; Akinci et al. 2012). ``L`` > 0: periodic along x with
+    period L [m].
     """
     xi0, xi1, xi2 = point(x, i, dim)
     dpi = p[i] / (rho[i] * rho[i])
+    ci = c[i]
+    ici = inv_c[i]
+    dpc = dpi * ci
     a0 = a1 = a2 = 0.0
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
-        s = -m[j] * (dpi + p[j] / (rho[j] * rho[j])) * kernel_dw(kid, r, h, dim)
+        s = -m[j] * (dpc * inv_c[j] + p[j] / (rho[j] * rho[j])) * kernel_dw(kid, r, h, dim)
         a0 += s * d0
         a1 += s * d1
         a2 += s * d2
-    dpb = dpi + p[i] / (rho0 * rho0)
+    dpb = dpi + p[i] / (rho0 * rho0) * (ici * ici)
+    r0 = rho0 * ci
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-        s = -rho0 * bV[b] * dpb * kernel_dw(kid, r, h, dim)
+        s = -r0 * bV[b] * dpb * kernel_dw(kid, r, h, dim)
         a0 += s * d0
         a1 += s * d1
         a2 += s * d2
@@ -96,23 +108,38 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
 # the bodies on the CPU
 
 
+def _per_particle(value: np.ndarray | None, n: int, fill: float, dtype: np.dtype) -> np.ndarray:
+    """``value``, or (n,) times ``fill`` when it is None."""
+    return np.full(n, fill, dtype=dtype) if value is None else value
+
+
 def density_cpu(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: np.ndarray, bx: np.ndarray,
                 bV: np.ndarray, boff: np.ndarray, bidx: np.ndarray, rho0: float, h: float,
-                kid: int, dim: int, rho: np.ndarray, L: float = 0.0) -> None:
+                kid: int, dim: int, rho: np.ndarray, L: float = 0.0,
+                c: np.ndarray | None = None) -> None:
     """``rho[i]`` = :func:`density_body` for all fluid particles, a ``prange`` loop
-    (:func:`sphkit.backend.launch`); ``L``: period along x [m], 0 = none."""
-    launch(density_body, x.shape[1], x, m, off, idx, bx, bV, boff, bidx, float(rho0), float(h),
-           int(kid), int(dim), rho, float(L))
+    (:func:`sphkit.backend.launch`); ``rho0``: the reference rest density; ``L``: period
+    along x [m], 0 = none. Several fluids: ``m`` is ``mu = m / c`` and ``c = rho0_i / rho0``
+    of :class:`sphkit.core.state.RestArrays` (None: one fluid, c = 1)."""
+    c = _per_particle(c, x.shape[1], 1.0, rho.dtype)
+    launch(density_body, x.shape[1], x, m, off, idx, bx, bV, boff, bidx, float(rho0),
+           float(h), int(kid), int(dim), rho, float(L), c)
 
 
 def pressure_accel_cpu(x: np.ndarray, m: np.ndarray, rho: np.ndarray, p: np.ndarray,
                        off: np.ndarray, idx: np.ndarray, bx: np.ndarray, bV: np.ndarray,
                        boff: np.ndarray, bidx: np.ndarray, rho0: float, h: float, kid: int,
-                       dim: int, a: np.ndarray, L: float = 0.0) -> None:
+                       dim: int, a: np.ndarray, L: float = 0.0, c: np.ndarray | None = None,
+                       inv_c: np.ndarray | None = None) -> None:
     """``a[:, i] +=`` :func:`pressure_accel_body` for all fluid particles, a ``prange`` loop
-    (:func:`sphkit.backend.launch`); ``L``: period along x [m], 0 = none."""
-    launch(pressure_accel_body, x.shape[1], x, m, rho, p, off, idx, bx, bV, boff, bidx,
-           float(rho0), float(h), int(kid), int(dim), a, float(L))
+    (:func:`sphkit.backend.launch`); ``rho0``: the reference rest density; ``c``, ``inv_c``:
+    the per-particle ratios to it of :class:`sphkit.core.state.RestArrays` (None: one fluid,
+    1); ``L``: period along x [m], 0 = none."""
+    n = x.shape[1]
+    c = _per_particle(c, n, 1.0, rho.dtype)
+    inv_c = _per_particle(inv_c, n, 1.0, rho.dtype)
+    launch(pressure_accel_body, n, x, m, rho, p, off, idx, bx, bV, boff, bidx, float(rho0),
+           float(h), int(kid), int(dim), a, float(L), c, inv_c)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -5,8 +5,10 @@ Poisson equation ``A q = s`` and differ in the source term s, the diagonal, the 
 quantity and boundary details. These compiled passes are the shared pieces; the solvers in
 :mod:`sphkit.pressure` combine them, and :func:`sphkit.core.solver.jacobi_ppe` runs the loop.
 
-Notation (SPlisHSPlasH's normalized units): ``V_j = m_j / rho0`` is the rest volume of fluid
-particle j, ``V_b`` the volume of boundary particle b (Akinci 2012), ``rho_hat = rho / rho0``.
+Notation (SPlisHSPlasH's normalized units): ``V_j = m_j / rho0_j`` is the rest volume of fluid
+particle j (each particle has its own rest density rho0_i: several fluids, Solenthaler & Pajarola
+2008; :class:`sphkit.core.state.RestArrays`), ``V_b`` the volume of boundary particle b
+(Akinci 2012), ``rho_hat = rho / rho0``.
 
 The iterations walk the same pairs many times per step, so :func:`pair_gradients` stores
 ``V_j grad W_ij`` (and ``V_b grad W_ib``) once per step (as SPlisHSPlasH's
@@ -131,9 +133,12 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
 def density_at(x, dx, m, off, idx, bx, bdx, bV, boff, bidx, rho0, h, kid, dim, out):
     """Normalized density at displaced positions ``x + dx`` with the neighbour lists of x
     (PCISPH's prediction): ``sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x*_b)``, self
-    included, with the boundary displaced by ``bdx`` (boundary particles that yield to the
-    pressure, :meth:`sphkit.core.methods.BoundaryCoupling.displacement`); an empty bdx (dim, 0)
-    leaves the boundary where it is."""
+    included (``V_j = m_j / rho0``; several fluids: pass ``mu = m / c`` of
+    :class:`sphkit.core.state.RestArrays` as m and the reference rest density, which gives the
+    number density ``rho_i / rho0_i`` with ``V_j = m_j / rho0_j``), with the boundary
+    displaced by ``bdx`` (boundary particles that yield to the pressure,
+    :meth:`sphkit.core.methods.BoundaryCoupling.displacement`); an empty bdx (dim, 0) leaves
+    the boundary where it is."""
     moving = bdx.shape[1] > 0
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
@@ -178,18 +183,18 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb, L=0
 
 @numba.njit(**_JIT, inline="always")
 def density_pair_gradients_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho,
-                                gw, gwb, L):
+                                gw, gwb, L, V, c):
     """Particle i of :func:`density_pair_gradients`: ``rho[i]`` and the pair gradients of its
     fluid pairs ``gw[:, off[i]:off[i + 1]]`` and boundary pairs ``gwb[:, boff[i]:boff[i + 1]]``
-    (its own CSR rows)."""
-    inv_rho0 = 1.0 / rho0
+    (its own CSR rows). ``m`` is ``mu = m / c``, ``V`` the rest volumes, ``c`` the rest-density
+    ratios of :class:`sphkit.core.state.RestArrays`."""
     xi0, xi1, xi2 = point(x, i, dim)
     s = m[i] * kernel_w(kid, 0.0, h, dim)
     for k in range(off[i], off[i + 1]):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         s += m[j] * kernel_w(kid, r, h, dim)
-        f = m[j] * inv_rho0 * kernel_dw(kid, r, h, dim)
+        f = V[j] * kernel_dw(kid, r, h, dim)
         set_vector(gw, k, dim, f * d0, f * d1, f * d2)
     sb = 0.0
     for k in range(boff[i], boff[i + 1]):
@@ -198,24 +203,33 @@ def density_pair_gradients_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, 
         sb += bV[b] * kernel_w(kid, r, h, dim)
         f = bV[b] * kernel_dw(kid, r, h, dim)
         set_vector(gwb, k, dim, f * d0, f * d1, f * d2)
-    rho[i] = s + rho0 * sb
+    rho[i] = c[i] * (s + rho0 * sb)
 
 
 def density_pair_gradients(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: np.ndarray,
                            bx: np.ndarray, bV: np.ndarray, boff: np.ndarray, bidx: np.ndarray,
                            rho0: float, h: float, kid: int, dim: int, rho: np.ndarray,
-                           gw: np.ndarray, gwb: np.ndarray, L: float = 0.0) -> None:
+                           gw: np.ndarray, gwb: np.ndarray, L: float = 0.0,
+                           V: np.ndarray | None = None, c: np.ndarray | None = None) -> None:
     """:func:`sphkit.core.operators.density_body` and :func:`pair_gradients` in one pass over
-    the pairs (one distance per pair for both): ``rho_i = m_i W_0 + sum_j m_j W_ij + sum_b rho0
-    V_b W_ib``, ``gw[:, k] = V_j grad W_ij`` with ``V_j = m_j / rho0``, ``gwb[:, k] = V_b grad
-    W_ib``; ``L`` > 0: periodic along x with period L. The pass is
-    :func:`density_pair_gradients_body` through :func:`sphkit.backend.launch`."""
-    launch(density_pair_gradients_body, x.shape[1], x, m, off, idx, bx, bV, boff, bidx,
-           float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, float(L))
+    the pairs (one distance per pair for both): ``rho_i = c_i (m_i W_0 + sum_j m_j W_ij + sum_b
+    rho0 V_b W_ib)``, ``gw[:, k] = V_j grad W_ij``, ``gwb[:, k] = V_b grad W_ib``; ``L`` > 0:
+    periodic along x with period L. Several fluids: ``m`` is ``mu``, ``V`` the rest volumes
+    ``m / rho0_j`` and ``c`` the ratios ``rho0_i / rho0`` of
+    :class:`sphkit.core.state.RestArrays` (None: one fluid, ``V = m (1 / rho0)``, c = 1;
+    ``rho0`` is the reference rest density). The pass is :func:`density_pair_gradients_body`
+    through :func:`sphkit.backend.launch`."""
+    n = x.shape[1]
+    if V is None:
+        V = m * (1.0 / float(rho0))
+    if c is None:
+        c = np.ones(n, dtype=rho.dtype)
+    launch(density_pair_gradients_body, n, x, m, off, idx, bx, bV, boff, bidx,
+           float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, float(L), V, c)
 
 
 @numba.njit(**_JIT_GATHER, inline="always")
-def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
+def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a, inv_c):
     """Particle i of :func:`kappa_accel_cached`: ``a[:, i]``."""
     with_kb = kb.shape[0] > 0
     ki = k[i]
@@ -237,31 +251,62 @@ def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a):
             a1 -= sb * gwb[1, kk]
         if dim > 2:
             a2 -= sb * gwb[2, kk]
-    set_vector(a, i, dim, a0, a1, a2)
+    ic = inv_c[i]
+    set_vector(a, i, dim, a0 * ic, a1 * ic, a2 * ic)
 
 
 def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.ndarray,
                        boff: np.ndarray, bidx: np.ndarray, bmirror: np.ndarray, gw: np.ndarray,
-                       gwb: np.ndarray, dim: int, a: np.ndarray) -> None:
+                       gwb: np.ndarray, dim: int, a: np.ndarray,
+                       inv_c: np.ndarray | None = None) -> None:
     """a[:, i] = pressure acceleration of the field k (overwrites a); the boundary term is
     ``-sum_b V_b (k_i (1 + bmirror[b]) + kb[b]) grad W_ib`` (see the module docstring): kb is
     the extrapolated boundary value ``p_b / rho0`` where a boundary model sets one (Band et al.
     2018, :mod:`sphkit.boundary.band2018`); an empty kb means 0 (no gather).
 
     A solver whose variable is q with weights w passes ``k = w * q`` (one gather per pair
-    instead of two: a fifth faster). The pass is :func:`kappa_accel_body` through
+    instead of two: a fifth faster). Several fluids (SPlisHSPlasH's neighbour weight
+    ``rho0_j / rho0_i``: ``a_i = -sum_j V_j (k_i + rho0_j / rho0_i k_j) grad W_ij - ...``):
+    pass ``k c`` and ``inv_c`` of :class:`sphkit.core.state.RestArrays` (the sums of particle
+    i are multiplied by ``1 / c_i``; then kb is ``p_b / rho0`` of the reference rest density);
+    None: one fluid. The pass is :func:`kappa_accel_body` through
     :func:`sphkit.backend.launch`."""
+    if inv_c is None:
+        inv_c = np.ones(k.shape[0], dtype=a.dtype)
     launch(kappa_accel_body, k.shape[0], k, kb, off, idx, boff, bidx, bmirror, gw, gwb, int(dim),
-           a)
+           a, inv_c)
+
+
+def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror: np.ndarray,
+                    gw: np.ndarray, gwb: np.ndarray, dim: int, out: np.ndarray,
+                    idx: np.ndarray | None = None, c: np.ndarray | None = None,
+                    inv_c: np.ndarray | None = None) -> None:
+    """out[i] = (G + B) . (G + M) + sum_j (rho0_i / rho0_j) V_j^2 |grad W_ij|^2,
+    G = sum_j V_j grad W_ij, B = sum_b V_b grad W_ib, M = sum_b (1 + bmirror[b]) V_b grad W_ib.
+
+    The ratio ``rho0_i / rho0_j = c_i inv_c_j`` (several fluids: ``idx`` the fluid neighbours,
+    c and inv_c of :class:`sphkit.core.state.RestArrays`; None: one fluid, ratio 1) is the
+    neighbour weight of the pressure sums acting back on particle i: the neighbour j feels
+    ``rho0_i / rho0_j`` times particle i's pressure variable, so the derivative of ``Ap_i``
+    with respect to it carries that factor. Without it a heavy particle next to light ones
+    has a diagonal far too small, and the Jacobi iteration overshoots (measured: DFSPH blew up
+    within 0.1 s in a 2D column of rest densities 1000 and 100)."""
+    n = off.shape[0] - 1
+    if idx is None or c is None or inv_c is None:
+        ones = np.ones(n, dtype=out.dtype)
+        idx, c, inv_c = np.zeros(0, dtype=np.int32) if idx is None else idx, ones, ones
+        weighted = False
+    else:
+        weighted = True
+    _diagonal(off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, inv_c, out)
 
 
 @numba.njit(parallel=True, **_JIT_GATHER)
-def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
-    """out[i] = (G + B) . (G + M) + sum_j V_j^2 |grad W_ij|^2, G = sum_j V_j grad W_ij,
-    B = sum_b V_b grad W_ib, M = sum_b (1 + bmirror[b]) V_b grad W_ib."""
+def _diagonal(off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, inv_c, out):
     for i in numba.prange(off.shape[0] - 1):
         g0 = g1 = g2 = 0.0
         sq = 0.0
+        ci = c[i]
         for k in range(off[i], off[i + 1]):
             t0 = gw[0, k]
             t1 = gw[1, k] if dim > 1 else 0.0
@@ -269,7 +314,10 @@ def diagonal_cached(off, boff, bidx, bmirror, gw, gwb, dim, out):
             g0 += t0
             g1 += t1
             g2 += t2
-            sq += t0 * t0 + t1 * t1 + t2 * t2
+            if weighted:
+                sq += (t0 * t0 + t1 * t1 + t2 * t2) * (ci * inv_c[idx[k]])
+            else:
+                sq += t0 * t0 + t1 * t1 + t2 * t2
         b0 = b1 = b2 = 0.0
         m0 = m1 = m2 = 0.0
         for k in range(boff[i], boff[i + 1]):

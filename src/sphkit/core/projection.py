@@ -4,12 +4,14 @@ PBF's solver (:mod:`sphkit.pressure.pbf`) and the start-up's density relaxation
 (:mod:`sphkit.core.relaxation`).
 
 With normalized densities ``rho_hat_i = V_i W(0) + sum_j V_j W_ij + sum_b V_b W_ib`` (``V = m /
-rho0``) at the displaced positions ``x + dx`` and a target ``t_i`` per particle (1 for PBF):
+rho0``, each particle's own rest density: number densities of several fluids) at the displaced
+positions ``x + dx`` and a target ``t_i`` per particle (1 for PBF):
 
 * :func:`constraint_lambda` -- ``C_i = rho_hat_i / t_i - 1``, counted where it exceeds ``tol``
   (else 0: the clamp), and ``lambda_i = -C_i / (sum_k |grad_k rho_hat_i|^2 + eps)`` (Eq. 11 with
   Eq. 8's gradients; boundary particles are not moved, so they enter only ``grad_i``);
-* :func:`constraint_correction` -- ``dx_i = sum_j (lambda_i + lambda_j + s_corr,ij) V_j grad
+* :func:`constraint_correction` -- ``dx_i = sum_j (lambda_i + (rho0_j / rho0_i) lambda_j +
+  s_corr,ij) V_j grad
   W_ij + lambda_i sum_b V_b grad W_ib`` (Eq. 12/14, Akinci boundary as SPlisHSPlasH), with the
   optional artificial pressure ``s_corr,ij = -k (W_ij / W(dq))^n d0_inv`` (Eq. 13).
 
@@ -82,16 +84,19 @@ def constraint_lambda(x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid, dim, L,
 
 @numba.njit(parallel=True, **_JIT)
 def constraint_correction(x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, L, s_corr,
-                          k_corr, n_corr, w_dq, d0_inv, out):
+                          k_corr, n_corr, w_dq, d0_inv, out, c, inv_c):
     """``out_i`` = the position correction of the module docstring at ``x + dx``
-    (``s_corr``: with the artificial pressure term)."""
+    (``s_corr``: with the artificial pressure term). Several fluids: the neighbour's lambda
+    weighs ``rho0_j / rho0_i = c_j inv_c_i`` (SPlisHSPlasH's ``TimeStepPBF``; c, inv_c of
+    :class:`sphkit.core.state.RestArrays`, ones for one fluid)."""
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
         li = lam[i]
+        ici = inv_c[i]
         c0 = c1 = c2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            s = li + lam[j]
+            s = li + lam[j] * (c[j] * ici)
             if not s_corr and s == 0.0:
                 continue
             d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, L)

@@ -97,9 +97,11 @@ class PairGradients:
         self.gw = np.empty((state.dim, nl.indices.shape[0]), dtype=f.dtype)
         self.gwb = np.empty((state.dim, nb.indices.shape[0]), dtype=f.dtype)
         if with_density:
-            density_pair_gradients(f["x"], f["m"], nl.offsets, nl.indices, b["x"], b["V"],
+            rest = state.rest()
+            density_pair_gradients(f["x"], rest.mu, nl.offsets, nl.indices, b["x"], b["V"],
                                    nb.offsets, nb.indices, state.rho0, state.h, state.kid,
-                                   state.dim, f["rho"], self.gw, self.gwb, state.period)
+                                   state.dim, f["rho"], self.gw, self.gwb, state.period,
+                                   V=rest.V, c=rest.c)
         else:
             V = f["V0"] if volumes is None else volumes
             pair_gradients(f["x"], V, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
@@ -118,11 +120,14 @@ class PairGradients:
         -a_ii rho^2); ``mirror_shift`` is added to the mirror weights (ICSPH's psi - 1)."""
         st = self.state
         out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
+        rest = st.rest()
         mirror = st.coupling.mirror(st, diagonal=True)
         if mirror_shift:
             mirror = mirror + mirror_shift
         diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
-                        mirror, self.gw, self.gwb, st.dim, out)
+                        mirror, self.gw, self.gwb, st.dim, out,
+                        *((None, None, None) if rest.uniform
+                          else (st.nl_ff.indices, rest.c, rest.inv_c)))
         return out
 
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
@@ -166,6 +171,11 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     a = np.empty_like(x)
     coupling = state.coupling
 
+    # several fluids: the weighted variable carries the rest-density ratio c (the neighbour
+    # weight rho0_j / rho0_i of the pressure sums, sphkit.core.state.RestArrays); c = 1 for one
+    rest = state.rest()
+    if not rest.uniform:
+        w = w * rest.c
     k = w * q  # the weighted variable; jacobi_sweep keeps it up to date
     if mirror is None:
         mirror = coupling.mirror(state)
@@ -173,16 +183,19 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     # no clamping: a finite bound (the passes are compiled with fast math's no-infinities flag)
     lo = 0.0 if clamp else -1e300
 
+    def own(k: np.ndarray) -> np.ndarray:  # k of each particle's own rest density
+        return k if rest.uniform else k * rest.inv_c
+
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
-                           g.gwb, dim, a)
+                           g.gwb, dim, a, rest.inv_c)
         # boundary particles take no pressure acceleration unless they yield (dynamic bodies)
-        ab = coupling.response(state, k, g.gwb)
+        ab = coupling.response(state, own(k), g.gwb)
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
                                dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo)
         return avg * error_factor, mx * error_factor
 
     its, avg, mx, ok = control.run(sweep, state.step)
     kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
-                       g.gwb, dim, a)
+                       g.gwb, dim, a, rest.inv_c)
     return a, its, avg, mx, ok

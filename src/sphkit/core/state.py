@@ -8,6 +8,7 @@ receive it, read and write fields of its particle sets, and never call each othe
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,6 +19,52 @@ from sphkit.core.particles import ParticleSet
 
 if TYPE_CHECKING:
     from sphkit.core.solver import PairGradients
+
+
+@dataclass(frozen=True)
+class RestArrays:
+    """Per-particle rest density of the fluid in the forms the compiled passes read
+    (Solenthaler & Pajarola 2008 number densities, as SPlisHSPlasH implements them).
+
+    With ``c_i = rho0_i / rho0_ref`` (``rho0_ref`` = :attr:`SimState.rho0`):
+
+    * density ``rho_i = rho0_i sum_j V0_j W_ij = c_i sum_j mu_j W_ij`` with ``mu_j = m_j /
+      c_j = rho0_ref V0_j`` (the mass in reference units), boundary ``+ c_i rho0_ref V_b W_ib``;
+    * pressure sums weigh the neighbour by ``rho0_j / rho0_i``: passes that evaluate the kernel
+      take the ratio per pair, ``c_j * inv_c[i]`` (or ``c_i * inv_c[j]``); the passes over cached
+      pair gradients take the field ``k c`` and multiply the particle's sum by ``inv_c[i]``
+      (:func:`sphkit.core.ppe.kappa_accel_cached`), one gather per pair as before.
+
+    For a single fluid ``c = 1`` exactly, so every product with c or inv_c is exact and the
+    results are those of the single-density formulas to the last bit.
+    """
+
+    c: np.ndarray  #: rho0_i / rho0_ref (N,)
+    inv_c: np.ndarray  #: rho0_ref / rho0_i (N,)
+    mu: np.ndarray  #: m_i / c_i = rho0_ref V0_i [kg] (N,)
+    rho0: np.ndarray  #: the field rho0 [kg/m^3] (N,)
+    m: np.ndarray  #: the field m [kg] (N,)
+    uniform: bool  #: True when every particle has the reference rest density (c == 1)
+
+    @cached_property
+    def V(self) -> np.ndarray:  # noqa: N802 - the rest volume, as the formulas name it
+        """``m_i * (1 / rho0_i)``: the rest volume [m^dim] (N,), computed when first asked."""
+        return self.m * (1.0 / self.rho0)
+
+    @staticmethod
+    def of(fluid: ParticleSet, rho0_ref: float) -> RestArrays:
+        """The arrays of a fluid set (fields ``rho0`` and ``m``)."""
+        rho0 = fluid["rho0"]
+        ref = fluid.dtype.type(rho0_ref)
+        uniform = bool(np.all(rho0 == ref))
+        if uniform:
+            c = np.ones(fluid.n, dtype=fluid.dtype)
+            mu = fluid["m"]
+        else:
+            c = rho0 / ref
+            mu = fluid["m"] / c
+        inv_c = c if uniform else 1.0 / c
+        return RestArrays(c=c, inv_c=inv_c, mu=mu, rho0=rho0, m=fluid["m"], uniform=uniform)
 
 
 @dataclass
@@ -36,7 +83,9 @@ class SimState:
     h: float  #: kernel support radius [m]
     kid: int  #: kernel id (see core.kernels)
     r: float  #: particle radius [m]
-    rho0: float  #: rest density [kg/m^3]
+    #: the reference rest density [kg/m^3]: the first fluid material's. Every fluid particle
+    #: carries its own in the field ``rho0``; the passes read it through :meth:`rest`
+    rho0: float
     gravity: np.ndarray  #: gravitational acceleration (dim,) [m/s^2]
     nl_ff: NeighborList = field(default_factory=lambda: NeighborList.empty(0))
     nl_fb: NeighborList = field(default_factory=lambda: NeighborList.empty(0))
@@ -52,6 +101,11 @@ class SimState:
     #: how the boundary reaches the pressure solvers: mirror weights, the boundary pressure of
     #: a boundary pressure model (MLS), the response of moving bodies (strong coupling)
     coupling: BoundaryCoupling = field(default_factory=BoundaryCoupling)
+
+    def rest(self) -> RestArrays:
+        """The fluid's rest quantities per particle (:class:`RestArrays`) from its fields
+        ``rho0`` and ``m``, relative to the reference :attr:`rho0`."""
+        return RestArrays.of(self.fluid, self.rho0)
 
     @property
     def periodic(self) -> tuple[float, float] | None:

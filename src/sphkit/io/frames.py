@@ -61,7 +61,14 @@ ATTRIBUTES: dict[str, tuple[str, str]] = {
     "id": ("id", "id"), "acceleration": ("acceleration", "a"), "mass": ("mass", "m"),
     "angular velocity": ("angular_velocity", "omega"),
     "angular_velocity": ("angular_velocity", "omega"),
+    # several fluids (sphkit.multiphase): the material index and the rest density [kg/m^3]
+    "phase": ("phase", "phase"), "rest_density": ("rest_density", "rho0"),
+    "rest density": ("rest_density", "rho0"),
 }
+
+#: the frame attributes written in addition to the others when the fluid has several
+#: materials (``extra_fields`` of :class:`FrameWriter`)
+MULTIPHASE_FIELDS: tuple[str, ...] = ("phase", "rest_density")
 
 
 def resolve_attributes(names: Sequence[str], fluid: Any) -> dict[str, str]:
@@ -127,9 +134,10 @@ def frame_arrays(fluid: Any, extra_fields: Sequence[str] = (),
     else:
         wanted = {"position": "x", **resolve_attributes(attributes, fluid), "id": "id"}
     for name in extra_fields:
-        if name in wanted or name in wanted.values():
+        frame_name, field = ATTRIBUTES.get(name, (name, name))
+        if frame_name in wanted or field in wanted.values():
             continue
-        wanted[name] = name
+        wanted[frame_name] = field
     missing = [f for f in wanted.values() if f not in fluid]
     if missing:
         raise KeyError(

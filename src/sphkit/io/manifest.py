@@ -37,18 +37,20 @@ a valid manifest describing the frames on disk. Layout (``format_version`` 1)::
     }
 
 Units: times and ``dt`` [s], ``max_velocity`` [m/s], ``max_displacement`` [m] (largest distance a
-particle moved since the previous frame), density errors are fractions of the rest density
-(mean and max over the fluid particles of the pressure solver's compression error, as in
-``StepStats``). A frame records the statistics of the last step before it: ``iterations`` the
-pressure solver's iterations in that step (1 for WCSPH), ``divergence_iterations`` and
-``divergence_error`` DFSPH's divergence solve (0 for the other solvers). ``run_stats`` sums up
-all steps so far (see :meth:`Manifest.add_step`): ``mean_iterations`` and ``max_iterations`` per
-step, ``mean_divergence_iterations`` per step, ``mean_density_error`` (the mean over steps of
+particle moved since the previous frame), density errors are fractions of the rest density (mean and
+max over the fluid particles of the pressure solver's compression error, as in ``StepStats``). A
+frame records the statistics of the last step before it: ``iterations`` the pressure solver's
+iterations in that step (1 for WCSPH), ``divergence_iterations`` and ``divergence_error`` DFSPH's
+divergence solve (0 for the other solvers); a fluid of several materials adds ``phases``: per
+material its id, ``particles`` and the compression of its densities (``density_error_avg``,
+``_max``, fractions of its own rest density). ``run_stats`` sums up all steps so far (see
+:meth:`Manifest.add_step`): ``mean_iterations`` and ``max_iterations`` per step,
+``mean_divergence_iterations`` per step, ``mean_density_error`` (the mean over steps of
 ``density_error_avg``), ``max_density_error`` (the largest ``density_error_max``) and
-``mean_divergence_error``. Statistics that are not known yet (before the first step) or not
-finite (an exploded run) are ``null``; file names are relative to the manifest. ``checkpoint``
-is the newest checkpoint written (``sphkit run --checkpoint-every``, or at a stop by a signal);
-a resumed run (``sphkit run --resume``) keeps the frames up to its checkpoint's and appends.
+``mean_divergence_error``. Statistics that are not known yet (before the first step) or not finite
+(an exploded run) are ``null``; file names are relative to the manifest. ``checkpoint`` is the
+newest checkpoint written (``sphkit run --checkpoint-every``, or at a stop by a signal); a resumed
+run (``sphkit run --resume``) keeps the frames up to its checkpoint's and appends.
 """
 
 from __future__ import annotations
@@ -348,6 +350,8 @@ class Manifest:
         }
         if getattr(last, "rigid_bodies", None):  # moving bodies: fluid force, torque, pose
             record["rigid_bodies"] = last.rigid_bodies
+        if getattr(last, "phases", None):  # several fluids: particles, density error each
+            record["phases"] = last.phases
         self.data["frames"].append(_clean(record))
         self.data["last_step"] = stats_dict(last)
         self.write()

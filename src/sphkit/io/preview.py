@@ -29,9 +29,10 @@ from sphkit.io.frames import read_frame
 
 logger = logging.getLogger("sphkit.io")
 
-COLOR_FIELDS = ("velocity", "pressure", "density")
+COLOR_FIELDS = ("velocity", "pressure", "density", "phase")
 VIDEO_FORMATS = ("auto", "mp4", "gif", "none")
-_UNITS = {"velocity": "|v| [m/s]", "pressure": "pressure [Pa]", "density": "density [kg/m^3]"}
+_UNITS = {"velocity": "|v| [m/s]", "pressure": "pressure [Pa]", "density": "density [kg/m^3]",
+          "phase": "phase (material index)"}
 
 
 class PlotUnavailable(ImportError):
@@ -63,7 +64,8 @@ def ffmpeg_path() -> str | None:
 
 
 def color_values(arrays: dict[str, np.ndarray], color: str, where: str = "") -> np.ndarray:
-    """The per-particle values of ``color`` (|velocity|, pressure or density)."""
+    """The per-particle values of ``color`` (|velocity|, pressure, density or phase: the
+    material index that runs of several fluids write)."""
     if color not in COLOR_FIELDS:
         raise ValueError(f"--color: got {color!r}; expected one of {', '.join(COLOR_FIELDS)}")
     if color not in arrays:

@@ -70,10 +70,11 @@ def _alpha(D, tiny, alpha):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _density_source(rho, rho0, div, dt, kprev, s, kappa):
-    # s = 1 - max(rho_hat*, 1); warm start where the predicted density exceeds rho0
+def _density_source(rho, inv_rho0, div, dt, kprev, s, kappa):
+    # s = 1 - max(rho_hat*, 1); warm start where the predicted density exceeds rho0 (inv_rho0
+    # (N,): 1 / each particle's rest density)
     for i in numba.prange(rho.shape[0]):
-        pred = rho[i] / rho0 + dt * div[i]
+        pred = rho[i] * inv_rho0[i] + dt * div[i]
         s[i] = 1.0 - pred
         kappa[i] = 0.5 * min(kprev[i], 0.00025) / (dt * dt) if pred > 1.0 else 0.0
 
@@ -169,7 +170,7 @@ class DFSPH(PressureSolver):
         div = self._grads.velocity_divergence(f["v"] + dt * f["a"])
         s = np.empty_like(div)
         kappa = np.empty_like(div)
-        _density_source(f["rho"], state.rho0, div, dt, f["dfsph_kappa"], s, kappa)
+        _density_source(f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"], s, kappa)
         ones = np.ones_like(div)
         active = np.ones(f.n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
@@ -180,7 +181,7 @@ class DFSPH(PressureSolver):
         f["dfsph_kappa"] = kappa * (dt * dt)
         # both solves apply pressure impulses in this step: the pressure is their sum
         total = kappa if self._kappa_v is None else kappa + self._kappa_v
-        f["p"] = total * f["rho"] ** 2 / state.rho0
+        f["p"] = total * f["rho"] ** 2 / f["rho0"]
         its_v, err_v = self._div_stats
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            divergence_iterations=its_v, divergence_error=err_v, converged=ok)
@@ -189,4 +190,4 @@ class DFSPH(PressureSolver):
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` for both solves
         together: ``k_i = kappa_i + kappa^v_i = p_i rho0 / rho_i^2``, mirrored share included."""
         f = state.fluid
-        return BoundaryReaction(f["p"] * state.rho0 / f["rho"] ** 2, 1.0)
+        return BoundaryReaction(f["p"] * f["rho0"] / f["rho"] ** 2, 1.0)

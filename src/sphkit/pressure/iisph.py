@@ -39,9 +39,9 @@ from sphkit.core.state import SimState
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _setup(rho, rho0, div, D, dt, tiny, s, w, scale):
+def _setup(rho, inv_rho0, div, D, dt, tiny, s, w, scale):
     for i in numba.prange(rho.shape[0]):
-        rh = rho[i] / rho0
+        rh = rho[i] * inv_rho0[i]
         s[i] = 1.0 - (rh + dt * div[i])
         w[i] = 1.0 / (rh * rh)
         # omega / (a_ii dt^2) with a_ii = -D / rho_hat^2; the engine applies -omega * scale
@@ -85,13 +85,13 @@ class IISPH(PressureSolver):
         s = np.empty(n, dtype=f.dtype)
         w = np.empty(n, dtype=f.dtype)
         scale = np.empty(n, dtype=f.dtype)
-        _setup(f["rho"], state.rho0, div, D, dt, 1e-9 / state.h ** 2, s, w, scale)
-        p = 0.5 * f["p"] / state.rho0  # warm start, normalized pressure
+        _setup(f["rho"], 1.0 / f["rho0"], div, D, dt, 1e-9 / state.h ** 2, s, w, scale)
+        p = 0.5 * f["p"] / f["rho0"]  # warm start, normalized pressure
         active = np.ones(n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
                                          self.omega, active, grads=grads)
         f["a"] += a
-        f["p"] = p * state.rho0
+        f["p"] = p * f["rho0"]
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
 
@@ -99,4 +99,4 @@ class IISPH(PressureSolver):
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached`:
         ``k_i = p_i rho0 / rho_i^2``, mirrored share included."""
         f = state.fluid
-        return BoundaryReaction(f["p"] * state.rho0 / f["rho"] ** 2, 1.0)
+        return BoundaryReaction(f["p"] * f["rho0"] / f["rho"] ** 2, 1.0)

@@ -140,6 +140,7 @@ class PBF(PressureSolver):
         w_dq = float(kernel_w(state.kid, self.s_corr_dq * state.h, state.h, state.dim))
 
         target = np.ones(n, dtype=f.dtype)  # C_i = rho_hat_i - 1
+        rest = state.rest()  # several fluids: lambda_j weighs rho0_j / rho0_i
 
         def sweep(_k: int) -> tuple[float, float]:
             bx, bV, nb = state.coupling.boundary_at(state, dx)  # maps: queried at x*
@@ -149,7 +150,7 @@ class PBF(PressureSolver):
             constraint_correction(x, dx, V, lam, nl.offsets, nl.indices, bx, bV,
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
-                                  self._d0_inv, corr)
+                                  self._d0_inv, corr, rest.c, rest.inv_c)
             dx[...] += corr
             lam_sum[...] += lam
             return avg, mx
@@ -164,6 +165,6 @@ class PBF(PressureSolver):
             a[...] = (v_new - v) / dt
         else:
             a[...] = (dx - dt * v) / (dt * dt)
-        f["p"] = -state.rho0 / (dt * dt) * lam_sum
+        f["p"] = -f["rho0"] / (dt * dt) * lam_sum
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)

@@ -198,6 +198,8 @@ class PCISPH(PressureSolver):
         mirror = coupling.mirror(state)
         kb = coupling.boundary_kappa(state)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
+        rest = state.rest()  # several fluids: the pressure sums weigh p~_j by rho0_j / rho0_i
+        pc = p if rest.uniform else np.empty_like(p)
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = np.empty((state.dim, 0), dtype=x.dtype)  # no boundary displacement
@@ -210,23 +212,25 @@ class PCISPH(PressureSolver):
             if bx is b["x"]:  # volume maps: the step's virtual particles slide along the wall
                 bx, bV, nbp = coupling.following(state, dx)
             bd = bdx[0] if bx is b["x"] else still
-            density_at(x, dx, f["m"], nl.offsets, nl.indices, bx, bd, bV,
+            density_at(x, dx, rest.mu, nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat)
             avg, mx = _pressure_update(rho_hat, factor, p)
-            kappa_accel_cached(p, kb(p), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror,
-                               g.gw, g.gwb, state.dim, ap)
+            if not rest.uniform:
+                np.multiply(p, rest.c, out=pc)
+            kappa_accel_cached(pc, kb(pc), nl.offsets, nl.indices, nb.offsets, nb.indices,
+                               mirror, g.gw, g.gwb, state.dim, ap, rest.inv_c)
             bdx[0] = coupling.displacement(state, p, g.gwb, dt)
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
         self._adapt(dt, its, ok)
         a += ap
-        f["p"] = p * state.rho0
+        f["p"] = p * f["rho0"]
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` with PCISPH's
         variable ``p~ = p / rho0``, mirrored share included."""
-        return BoundaryReaction(state.fluid["p"] / state.rho0, 1.0)
+        return BoundaryReaction(state.fluid["p"] / state.fluid["rho0"], 1.0)

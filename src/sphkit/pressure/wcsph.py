@@ -33,17 +33,19 @@ LINEAR = 1
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def state_equation(rho, rho0, equation, stiffness, exponent, p):
-    """Clamped state equation for all particles; returns (mean, max) compression."""
+    """Clamped state equation for all particles (``rho0`` (N,): each particle's rest density);
+    returns (mean, max) compression."""
     n = rho.shape[0]
     tot = 0.0
     mx = 0.0
     for i in numba.prange(n):
-        r = max(rho[i], rho0)
+        r0 = rho0[i]
+        r = max(rho[i], r0)
         if equation == TAIT:
-            p[i] = stiffness * ((r / rho0) ** exponent - 1.0)
+            p[i] = stiffness * ((r / r0) ** exponent - 1.0)
         else:
-            p[i] = stiffness * (r - rho0)
-        e = (r - rho0) / rho0
+            p[i] = stiffness * (r - r0)
+        e = (r - r0) / r0
         tot += e
         mx = max(mx, e)
     return tot / max(n, 1), mx
@@ -89,17 +91,20 @@ class WCSPH(PressureSolver):
         """
         if not self.acoustic_cfl:
             return float("inf")
-        return 0.4 * 2.0 * state.r / self.sound_speed(state.rho0)
+        f = state.fluid  # the lightest fluid has the fastest sound
+        rho0 = float(f["rho0"].min()) if f.n else state.rho0
+        return 0.4 * 2.0 * state.r / self.sound_speed(rho0)
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Pressure from the state equation, then add the pressure acceleration to ``a``."""
         f, b = state.fluid, state.boundary
-        avg, mx = state_equation(f["rho"], state.rho0, self.equation, self.stiffness,
+        rest = state.rest()
+        avg, mx = state_equation(f["rho"], rest.rho0, self.equation, self.stiffness,
                                  self.exponent, f["p"])
         pressure_accel_cpu(f["x"], f["m"], f["rho"], f["p"], state.nl_ff.offsets,
                            state.nl_ff.indices, b["x"], b["V"], state.nl_fb.offsets,
                            state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim, f["a"],
-                           state.period)
+                           state.period, c=rest.c, inv_c=rest.inv_c)
         state.coupling.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
 
@@ -113,7 +118,7 @@ class WCSPH(PressureSolver):
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.operators.pressure_accel_body`:
-        ``k_i = rho0 (p_i / rho_i^2 + p_i / rho0^2)``, without the mirror share."""
+        ``k_i = rho0_i (p_i / rho_i^2 + p_i / rho0_i^2)``, without the mirror share."""
         f = state.fluid
-        p, rho, rho0 = f["p"], f["rho"], state.rho0
+        p, rho, rho0 = f["p"], f["rho"], f["rho0"]
         return BoundaryReaction(rho0 * (p / rho ** 2 + p / rho0 ** 2), 0.0)

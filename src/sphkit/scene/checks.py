@@ -27,17 +27,32 @@ from sphkit.scene.schema import Box, Material, Scene, SceneError
 PERIODIC_ROLES = ("pressure", "viscosity", "vorticity", "surface_tension", "drag")
 
 
-def fluid_material(scene: Scene) -> Material:
-    """The one material of the scene's fluid (several are refused: multiphase is not there)."""
+def fluid_materials(scene: Scene) -> list[Material]:
+    """The materials of the scene's fluid (blocks, files, meshes, emitters), in the order of
+    ``materials``; the first when there is no fluid. Several are phases of one fluid
+    (:mod:`sphkit.multiphase`): the pressure solver and the boundary model must read each
+    particle's own rest density (registry capability ``multiphase``)."""
     used = ({b.material for b in scene.fluid_blocks} | {f.material for f in scene.fluid_files}
             | {b.material for b in scene.fluid_meshes}
             | {e.material for e in scene.emitters}) or {scene.materials[0].id}
-    if len(used) > 1:
-        raise SceneError(
-            f"fluid_blocks: materials {sorted(used)}; multiphase fluids are not supported yet, "
-            "expected all blocks to use one material"
-        )
-    return scene.material(next(iter(used)))
+    mats = [m for m in scene.materials if m.id in used]
+    if len(mats) > 1:
+        cfg = scene.configuration
+        for role, where, name in (("pressure", "configuration.pressure.method",
+                                   cfg.pressure.method),
+                                  ("boundary", "configuration.boundary.method",
+                                   cfg.boundary.method)):
+            ok = registry.with_capability(role, "multiphase")
+            if name not in ok:
+                raise SceneError(
+                    f"{where}: {name!r} does not support several fluid materials yet (the "
+                    f"fluid uses {sorted(m.id for m in mats)}); expected one of {sorted(ok)}")
+    return mats
+
+
+def fluid_material(scene: Scene) -> Material:
+    """The first material of the scene's fluid (:func:`fluid_materials`)."""
+    return fluid_materials(scene)[0]
 
 
 def _periodic(scene: Scene, mat: Material) -> None:
@@ -225,13 +240,15 @@ def scene_warnings(scene: Scene) -> list[str]:
     return notes
 
 
-def check_scene(scene: Scene) -> Material:
-    """Check the scene across its fields; returns the material of its fluid."""
-    mat = fluid_material(scene)
+def check_scene(scene: Scene) -> list[Material]:
+    """Check the scene across its fields; returns the materials of its fluid (the first is
+    the reference of the rest densities)."""
+    mats = fluid_materials(scene)
     if scene.configuration.periodic_x is not None:
-        _periodic(scene, mat)
+        for mat in mats:
+            _periodic(scene, mat)
     _boundary_pressure(scene)
     _lattices(scene)
     _bodies(scene)
     scene_warnings(scene)
-    return mat
+    return mats

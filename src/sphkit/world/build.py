@@ -27,6 +27,7 @@ from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.geometry import GeometryError
+from sphkit.multiphase import PhaseForce
 from sphkit.scene.checks import check_budget, check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.animation import AnimationField
@@ -49,7 +50,7 @@ class World:
 
     scene: Scene
     state: SimState
-    material: Material
+    material: Material  #: the first material of the fluid (the reference rest density)
     pressure: PressureSolver
     boundary_model: BoundaryModel
     rigid: RigidBodies
@@ -66,10 +67,14 @@ class World:
     start: StartReport = field(default_factory=StartReport)
     #: regions imposing a particle field after every step (:mod:`sphkit.world.animation`)
     animation_fields: list[AnimationField] = field(default_factory=list)
+    #: the materials of the fluid, in the order of ``scene.materials`` (several: phases)
+    materials: list[Material] = field(default_factory=list)
 
 
-def _state(scene: Scene, mat: Material) -> SimState:
-    """Empty particle sets with the fields every method reads, and the constants."""
+def _state(scene: Scene, mats: list[Material]) -> SimState:
+    """Empty particle sets with the fields every method reads, and the constants (the first
+    material's rest density is the reference, ``state.rho0``)."""
+    mat = mats[0]
     cfg = scene.configuration
     dim = cfg.dim
     dtype = np.dtype(cfg.precision)
@@ -78,6 +83,8 @@ def _state(scene: Scene, mat: Material) -> SimState:
         fluid.register(name, "vector")
     for name in ("m", "V0", "rho0", "rho", "p"):  # V0 = m / rho0, the rest volume
         fluid.register(name)
+    if len(mats) > 1:  # several fluids: the index of each particle's material in materials
+        fluid.register("phase", "scalar", np.int64)
     boundary = ParticleSet(dim, dtype)
     boundary.register("pressure_mirror")
     boundary.register("rigid_body", "scalar", np.int64)  # 1-based moving body, 0 static
@@ -95,14 +102,20 @@ def _state(scene: Scene, mat: Material) -> SimState:
     return state
 
 
-def _forces(mat: Material) -> tuple[list[NonPressureForce], list[str]]:
-    """The non-pressure forces a material names, in the order of the step."""
+def _forces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce], list[str]]:
+    """The non-pressure forces the fluid's materials name, in the order of the step (by role,
+    then by material). Several materials: each acts within its phase
+    (:class:`sphkit.multiphase.PhaseForce`)."""
     forces, roles = [], []
     for role in registry.OPTIONAL_ROLES:
-        conf = getattr(mat, role)
-        if conf.method != "none":
-            forces.append(registry.get(role, conf.method).load().from_config(conf))
-            roles.append(role)
+        for mat in mats:
+            conf = getattr(mat, role)
+            if conf.method != "none":
+                force = registry.get(role, conf.method).load().from_config(conf)
+                if len(mats) > 1:
+                    force = PhaseForce(force, scene.materials.index(mat), mat.density0)
+                forces.append(force)
+                roles.append(role)
     return forces, roles
 
 
@@ -118,9 +131,10 @@ def build_world(scene: Scene) -> World:
 
 
 def _build(scene: Scene) -> World:
-    mat = check_scene(scene)
+    mats = check_scene(scene)
+    mat = mats[0]
     cfg = scene.configuration
-    state = _state(scene, mat)
+    state = _state(scene, mats)
     r, h, dim = state.r, state.h, state.dim
     boundary_info = registry.get("boundary", cfg.boundary.method)
     maps = boundary_info.kind == "maps"
@@ -151,7 +165,7 @@ def _build(scene: Scene) -> World:
         model.hydrostatic = cfg.boundary.pressure == "hydrostatic"
     else:
         model = model_cls()
-    forces, roles = _forces(mat)
+    forces, roles = _forces(scene, mats)
     bd = state.boundary
     if bd.n:
         bd.permute(zorder_permutation(bd["x"], h))
@@ -188,5 +202,5 @@ def _build(scene: Scene) -> World:
                  boundary_model=model, rigid=rigid, emitters=emitters,
                  lattice_volume=lattice_volume(2.0 * r, state.kid, h, dim), forces=forces,
                  force_roles=roles, domain=domain_box(state, scene, meshes, emitters),
-                 start=start, animation_fields=animations)
+                 start=start, animation_fields=animations, materials=mats)
 

@@ -139,12 +139,14 @@ class FluidEmitter:
         return speed * self.direction
 
     def emit(self, fluid: ParticleSet, t: float, mass: float, volume: float, rho0: float,
-             budget: float = math.inf) -> int:
-        """Add the layers due by time ``t`` to ``fluid`` (fields x, v, m, V0, rho), at most
+             budget: float = math.inf, phase: int = 0) -> int:
+        """Add the layers due by time ``t`` to ``fluid`` (fields x, v, m, V0, rho, rho0 and
+        ``phase``, the index of the emitter's material, where the set has it), at most
         ``budget`` particles (a layer is cut short, later ones are skipped, as SPlisHSPlasH does
         at ``maxEmitterParticles``); return how many particles were added."""
         added = 0
         vel = self.speed * self.direction
+        extra = {"phase": phase} if "phase" in fluid.specs else {}
         while True:
             tk = self.layer_time(self.count)
             if tk > t or tk > self.end:
@@ -153,7 +155,7 @@ class FluidEmitter:
             take = int(min(len(x), max(budget - added, 0)))
             if take:
                 fluid.add(x[:take, : self.dim], name=self.name, m=mass, V0=volume, rho=rho0,
-                          rho0=rho0, v=vel[: self.dim])
+                          rho0=rho0, v=vel[: self.dim], **extra)
             self.count += 1
             self.emitted += take
             added += take

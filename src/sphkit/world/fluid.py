@@ -1,9 +1,9 @@
 """The fluid of a world: blocks, particle files and filled meshes sampled into particles.
 
 Every fluid particle gets the lattice volume ``V0 = 1 / sum_k W(|k| 2r)`` of its lattice (square,
-or hexagonal in 2D), the mass ``m = rho0 V0`` and the rest density ``rho0`` of its material, so
-that the interior of freshly sampled fluid is at rest density (README, "mass of lattice-sampled
-fluid").
+or hexagonal in 2D), the mass ``m = rho0 V0``, the rest density ``rho0`` and, in a fluid of
+several materials, the ``phase`` (index in ``scene.materials``) of its material, so that the
+interior of freshly sampled fluid is at rest density (README, "mass of lattice-sampled fluid").
 """
 
 from __future__ import annotations
@@ -13,11 +13,17 @@ import warnings
 import numpy as np
 
 from sphkit.core.kernels import block_volume, hexagonal_volume, lattice_volume
+from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.geometry.mesh_sampling import sample_mesh_volume
 from sphkit.geometry.sampling import DENSE_LATTICES, dense_block, hexagonal_block, lattice_block
-from sphkit.scene.schema import Scene, SceneError
+from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.meshes import SceneMeshes
+
+
+def _phase(fluid: ParticleSet, scene: Scene, mat: Material) -> dict:
+    """``{"phase": index of mat}`` where the fluid has the field (several materials)."""
+    return {"phase": scene.materials.index(mat)} if "phase" in fluid.specs else {}
 
 
 def periodic_clip(state: SimState, pts: np.ndarray) -> np.ndarray:
@@ -54,7 +60,7 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
         mat = scene.material(blk.material)
         vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
         fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * bvol, V0=bvol, v=vel,
-                  rho=mat.density0, rho0=mat.density0)
+                  rho=mat.density0, rho0=mat.density0, **_phase(fluid, scene, mat))
     for k, ff in enumerate(scene.fluid_files):
         _add_fluid_file(state, scene, meshes, k, ff, vol)
     for k, fm in enumerate(scene.fluid_meshes):
@@ -69,7 +75,7 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
         mat = scene.material(fm.material)
         vel = np.zeros(dim) if fm.velocity is None else np.asarray(fm.velocity, float)
         fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
-                  rho=mat.density0, rho0=mat.density0)
+                  rho=mat.density0, rho0=mat.density0, **_phase(fluid, scene, mat))
 
 
 def _add_fluid_file(state: SimState, scene: Scene, meshes: SceneMeshes, k: int, ff,
@@ -97,4 +103,4 @@ def _add_fluid_file(state: SimState, scene: Scene, meshes: SceneMeshes, k: int, 
         warnings.warn(note, UserWarning, stacklevel=4)
     mat = scene.material(ff.material)
     state.fluid.add(x, name=f"fluid_files[{k}]", m=mat.density0 * vol, V0=vol, v=v,
-                    rho=mat.density0, rho0=mat.density0)
+                    rho=mat.density0, rho0=mat.density0, **_phase(state.fluid, scene, mat))

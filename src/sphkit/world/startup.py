@@ -257,12 +257,17 @@ def _wall_label(scene: Scene, name: str) -> str:
 
 
 def column_depth(x: np.ndarray, gravity: np.ndarray, r: float, h: float,
-                 supported: np.ndarray | None = None) -> np.ndarray:
+                 supported: np.ndarray | None = None,
+                 rho0: np.ndarray | None = None) -> np.ndarray:
     """Depth [m] of each point of x (N, dim) below the free surface of its connected column
     (module docstring, item 2): columns 2r wide across gravity, split where the vertical gap
     exceeds h, the surface r above the column's highest point. ``supported`` (N,) bool: the
     points that rest on a wall below them; a column whose lowest point does not (fluid in the
-    air, falling) has depth 0 throughout. Zero without gravity."""
+    air, falling) has depth 0 throughout. Zero without gravity.
+
+    ``rho0`` (N,): instead the weight of the column above each point per unit area and
+    gravity, ``int rho0 dz`` [kg/m^2] up to the surface (layers of several fluids; the rest
+    density changes half-way between neighbouring points of a column)."""
     n, dim = x.shape
     g = np.asarray(gravity, float)[:dim]
     gn = float(np.linalg.norm(g))
@@ -283,7 +288,15 @@ def column_depth(x: np.ndarray, gravity: np.ndarray, r: float, h: float,
     new[1:] = (cs[1:] != cs[:-1]) | (hs[1:] - hs[:-1] > h)
     run = np.cumsum(new) - 1
     last = np.flatnonzero(np.append(new[1:], True))  # the highest point of each run
-    depth_sorted = hs[last][run] + r - hs
+    if rho0 is None:
+        depth_sorted = hs[last][run] + r - hs
+    else:
+        rs = np.asarray(rho0, dtype=float)[order]
+        seg = np.zeros(n)  # the weight between a point and the next one up its run
+        inner = ~new[1:]
+        seg[:-1][inner] = 0.5 * (rs[:-1] + rs[1:])[inner] * (hs[1:] - hs[:-1])[inner]
+        above = np.cumsum(seg[::-1])[::-1]  # suffix sums; a run's top adds nothing
+        depth_sorted = above - above[last][run] + r * rs[last][run]
     if supported is not None:  # a run rests on what its lowest point rests on
         depth_sorted[~supported[order][np.flatnonzero(new)][run]] = 0.0
     depth = np.empty(n)
@@ -317,8 +330,14 @@ def start_density(state: SimState, lists: _Lists, pressure: PressureSolver,
     if not hydrostatic or not np.any(state.gravity) or along_period:
         return np.zeros(f.n), rho0.astype(float).copy()
     lists.update(state)
-    depth = column_depth(f.view("x"), state.gravity, state.r, state.h, resting_on_walls(state))
-    p = rho0 * float(np.linalg.norm(state.gravity)) * depth
+    g = float(np.linalg.norm(state.gravity))
+    if state.rest().uniform:
+        depth = column_depth(f.view("x"), state.gravity, state.r, state.h,
+                             resting_on_walls(state))
+        p = rho0 * g * depth
+    else:  # layers of several fluids: the weight of the column above
+        p = g * column_depth(f.view("x"), state.gravity, state.r, state.h,
+                             resting_on_walls(state), rho0=rho0)
     return p, np.asarray(pressure.compressed_density(p, rho0), dtype=float)
 
 
@@ -346,10 +365,14 @@ class _Lists:
 
 
 def _density(state: SimState, m: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """The summation density with the masses m (number density of the particles' own rest
+    densities, :func:`sphkit.core.operators.density_body`)."""
     f, b = state.fluid, state.boundary
-    density_cpu(f["x"], m, state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["V"],
+    rest = state.rest()
+    mu = m if rest.uniform else m / rest.c
+    density_cpu(f["x"], mu, state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["V"],
                 state.nl_fb.offsets, state.nl_fb.indices, state.rho0, state.h, state.kid,
-                state.dim, out, state.period)
+                state.dim, out, state.period, c=rest.c)
     return out
 
 

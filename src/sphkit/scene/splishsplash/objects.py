@@ -263,9 +263,15 @@ def animation_fields(rd: Reader) -> list[dict[str, Any]]:
     return out
 
 
-def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]],
+                 particles: bool = False) -> list[dict[str, Any]]:
     """``RigidBodies`` -> ``meshes``: static walls, or dynamic bodies (``isDynamic``) with
-    PositionBasedDynamics' ``density`` and ``friction``."""
+    PositionBasedDynamics' ``density`` and ``friction``.
+
+    ``particles``: the scene samples boundary particles (``boundaryHandlingMethod`` 0). They
+    cover only the mesh's surface, so SPlisHSPlasH keeps fluid on either side of it and a wall
+    (``isWall``) without ``mapInvert`` holds its fluid inside (``Sampling_2D.json``); sphkit
+    needs the side: such a static wall becomes a container (``invert``), with a note."""
     out = []
     base = rd.path.parent if rd.path is not None else Path.cwd()
     for k, rb in enumerate(bodies):
@@ -323,6 +329,13 @@ def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]]) -> list[dict[str, Any
         n = len(out)
         rd.origin[f"meshes[{n}]"] = w
         rd.origin[f"meshes[{n}].invert"] = f"{w}.mapInvert"
+        wall_container = (particles and not dynamic and "mapInvert" not in rb
+                          and rd.flag(rb, "isWall", w, False))
+        if wall_container:
+            rd.notes.append(
+                f"{w}: a wall (isWall) without mapInvert, with boundary particles "
+                "(boundaryHandlingMethod 0), which sample only its surface: sphkit holds the "
+                "fluid inside it (meshes[].invert true)")
         rd.origin[f"meshes[{n}].geometry_file"] = f"{w}.geometryFile"
         out.append({
             "geometry_file": geometry,
@@ -330,7 +343,7 @@ def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]]) -> list[dict[str, Any
             "rotation_axis": axis,
             "rotation_angle": angle,
             "scale": scale,
-            "invert": rd.flag(rb, "mapInvert", w, False),
+            "invert": rd.flag(rb, "mapInvert", w, False) or wall_container,
             "map_thickness": rd.num(rb, "mapThickness", w, 0.0),
             "map_resolution": res,
         })

@@ -129,7 +129,7 @@ def translate(rd: Reader) -> dict[str, Any]:
             mats.append({"id": b["material"]})
     if not mats:
         mats.append({"id": "Fluid"})
-    meshes = rigid_bodies(rd, rigid)
+    meshes = rigid_bodies(rd, rigid, config["boundary"]["method"] == "akinci2012")
     emits = emitters(rd, dim, r)
     for e in emits:
         if e["material"] not in [m["id"] for m in mats]:

@@ -1,0 +1,182 @@
+"""Two fluids of different rest density (Solenthaler & Pajarola 2008; sphkit.multiphase).
+
+    python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
+        [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
+        [--jitter 0.1] [--viscosity 0.01]
+
+Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
+the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
+SPlisHSPlasH's multiphase scenes) in each phase (within the phase, as SPlisHSPlasH), heavy rest
+density 1000 kg/m^3, light ``1000 / --ratio``:
+
+* ``layers``: heavy over light, two layers 0.3 m each -- Rayleigh-Taylor unstable; the
+  particles start moved by a random displacement of up to ``--jitter`` r along each axis (seed
+  1), the perturbation that starts the instability (on the exact lattice a column at 1:2 stayed
+  heavy on top for 3 s: its equilibrium is unstable but nothing disturbs it). After
+  ``--until`` (3 s) the phases should lie in two layers, heavy below. The table counts the
+  particles more than two layers (4r) inside the other phase: heavy above ``y_s + 4r`` or light
+  below ``y_s - 4r``, ``y_s`` the height that would split the column into the two phases if they
+  were perfectly layered (between the N_heavy-th and the next particle by height); the largest
+  such depth; the largest speed at the end; iterations and wall time per step.
+* ``hydrostatic``: light over heavy at rest, 0.3 m each. After ``--settle`` s the pressure and
+  height of every particle are averaged over ``--average`` s, and the least-squares slope of
+  pressure over height is fitted in each layer (the particles more than h from the interface,
+  the free surface and the floor) and given as a multiple of its own rho0 g (1 is exact;
+  target within 2 %); also the pressure jump across the interface against the light layer's
+  weight rho0_light g H_light.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import time
+import warnings
+
+import numpy as np
+
+from sphkit.scene.schema import Scene
+from sphkit.simulation import InstabilityError, Simulation
+
+G = 9.81
+WIDTH = 0.4
+LAYER = 0.3
+
+
+def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
+          viscosity: float = 0.01) -> Scene:
+    """Two layers LAYER m high in a box WIDTH m wide (module docstring)."""
+    lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
+    visc = {"method": "standard", "coefficient": viscosity}
+    pressure: dict = {"method": method, "max_error": 0.05}
+    if method == "wcsph":
+        pressure = {"method": "wcsph", "stiffness": 1e5, "exponent": 7.0}
+    return Scene.model_validate({
+        "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, -G],
+                          "pressure": pressure, "time": {"dt_max": 0.002}},
+        "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc},
+                      {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc}],
+        "fluid_blocks": [{"start": [0.0, 0.0], "end": [WIDTH, LAYER], "material": lower},
+                         {"start": [0.0, LAYER], "end": [WIDTH, 2 * LAYER], "material": upper}],
+        "boxes": [{"min": [0.0, 0.0], "max": [WIDTH, 2 * LAYER + 0.2]}],
+    })
+
+
+def mixing(sim: Simulation) -> tuple[int, int, float]:
+    """(heavy above y_s + 4r, light below y_s - 4r, largest depth inside the other phase in
+    layers of 2r) of the module docstring."""
+    f = sim.fluid
+    y = f.view("x")[:, 1]
+    heavy = f["phase"] == 0
+    nh = int(heavy.sum())
+    ys = np.sort(y)
+    split = 0.5 * (ys[nh - 1] + ys[nh]) if 0 < nh < len(ys) else ys[-1]
+    r = sim.state.r
+    up = y[heavy] - split
+    down = split - y[~heavy]
+    deep = max(float(up.max(initial=0.0)), float(down.max(initial=0.0))) / (2 * r)
+    return int((up > 4 * r).sum()), int((down > 4 * r).sum()), deep
+
+
+def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
+           viscosity: float) -> None:
+    print(f"\nheavy over light, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
+          f"jitter {jitter} r, viscosity {viscosity} m^2/s")
+    print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
+          f"{'vmax':>6s} {'its':>6s} {'ms/step':>8s}  note")
+    for method in methods:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sim = Simulation(scene(method, r, True, ratio, viscosity))
+        x = sim.fluid["x"]  # the perturbation (set-up, once)
+        x += jitter * r * np.random.default_rng(1).uniform(-1.0, 1.0, x.shape)
+        its, steps, note = [], 0, ""
+        t0 = time.perf_counter()
+        try:
+            while sim.time < until - 1e-9:
+                st = sim.step()
+                its.append(st.iterations)
+                steps += 1
+        except InstabilityError as e:
+            note = f"unstable at t = {e.stats.time:.3f} s"
+        wall = (time.perf_counter() - t0) / max(steps, 1) * 1e3
+        up, down, deep = mixing(sim)
+        vmax = float(np.sqrt((sim.fluid["v"] ** 2).sum(axis=0)).max())
+        print(f"{method:8s} {sim.fluid.n:5d} {up:9d} {down:10d} {deep:8.1f} {vmax:6.2f} "
+              f"{np.mean(its):6.1f} {wall:8.1f}  {note}", flush=True)
+
+
+def hydrostatic(methods: list[str], r: float, settle: float, average: float,
+                ratio: float, viscosity: float) -> None:
+    print(f"\nlight over heavy at rest, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
+          f"units of the layer's rho0 g, averaged {settle}-{settle + average} s")
+    print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'jump/rho_l g H_l':>17s} "
+          f"{'vmax':>6s} {'ms/step':>8s}  note")
+    for method in methods:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sim = Simulation(scene(method, r, False, ratio, viscosity))
+        note = ""
+        t0 = time.perf_counter()
+        steps = 0
+        try:
+            sim.run(until=settle)
+            f = sim.fluid
+            n = f.n
+            order = f.order_by_id()
+            p_sum, y_sum, k = np.zeros(n), np.zeros(n), 0
+            while sim.time < settle + average - 1e-9:
+                sim.step()
+                steps += 1
+                order = f.order_by_id()
+                p_sum += f["p"][order]
+                y_sum += f.view("x")[order, 1]
+                k += 1
+        except InstabilityError as e:
+            print(f"{method:8s} unstable at t = {e.stats.time:.3f} s", flush=True)
+            continue
+        wall = (time.perf_counter() - t0) / max(steps + 1, 1) * 1e3
+        f = sim.fluid
+        order = f.order_by_id()
+        p, y = p_sum / k, y_sum / k
+        phase = f["phase"][order]
+        h = sim.state.h
+        heavy = phase == 0
+        top = y.max() + r
+        interface = 0.5 * (y[heavy].max() + y[~heavy].min())
+        rho_h, rho_l = 1000.0, 1000.0 / ratio
+        sel_h = heavy & (y > h) & (y < interface - h)
+        sel_l = ~heavy & (y > interface + h) & (y < top - h)
+        slope_h = -np.polyfit(y[sel_h], p[sel_h], 1)[0] / (rho_h * G)
+        slope_l = -np.polyfit(y[sel_l], p[sel_l], 1)[0] / (rho_l * G)
+        # the jump: the heavy layer's fit at the interface against the light layer's weight
+        p_int = np.polyval(np.polyfit(y[sel_h], p[sel_h], 1), interface)
+        jump = p_int / (rho_l * G * (top - interface))
+        vmax = float(np.sqrt((f["v"] ** 2).sum(axis=0)).max())
+        print(f"{method:8s} {slope_h:7.4f} {slope_l:7.4f} {jump:17.3f} {vmax:6.3f} "
+              f"{wall:8.1f}  {note}", flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--solvers", nargs="+", default=["pcisph", "pbf", "iisph", "dfsph"])
+    ap.add_argument("--study", nargs="+", default=["layers", "hydrostatic"],
+                    choices=["layers", "hydrostatic"])
+    ap.add_argument("--radius", type=float, default=0.01)
+    ap.add_argument("--until", type=float, default=3.0)
+    ap.add_argument("--ratio", type=float, default=10.0)
+    ap.add_argument("--settle", type=float, default=1.5)
+    ap.add_argument("--average", type=float, default=0.5)
+    ap.add_argument("--jitter", type=float, default=0.1)
+    ap.add_argument("--viscosity", type=float, default=0.01)
+    args = ap.parse_args()
+    logging.getLogger("sphkit").setLevel(logging.ERROR)
+    if "hydrostatic" in args.study:
+        hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
+                    args.viscosity)
+    if "layers" in args.study:
+        layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity)
+
+
+if __name__ == "__main__":
+    main()
