@@ -33,7 +33,7 @@ def _choices(role: str) -> Any:
     """The scene names of a role's methods (:mod:`sphkit.registry`) as a ``Literal``, with
     ``"none"`` first for the optional non-pressure forces."""
     names = registry.names(role)
-    if role in registry.OPTIONAL_ROLES:
+    if role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES:
         names = ("none", *names)
     return Literal[names]  # type: ignore[valid-type]
 
@@ -47,6 +47,7 @@ ViscosityMethod = _choices("viscosity")
 VorticityMethod = _choices("vorticity")
 SurfaceTensionMethod = _choices("surface_tension")
 DragMethod = _choices("drag")
+ElasticityMethod = _choices("elasticity")
 BoundaryMethod = _choices("boundary")
 BoundaryPressureMethod = _choices("boundary_pressure")
 
@@ -91,8 +92,9 @@ class PressureConfig(_Model):
         "tait", description="wcsph: tait: p = B((rho/rho0)^gamma - 1); linear: p = k (rho - rho0)"
     )
     stiffness: float = Field(
-        50000.0, gt=0,
-        description="wcsph: B [Pa] of the Tait equation, or k [m^2/s^2] of the linear equation",
+        50000.0, ge=0,
+        description="wcsph: B [Pa] of the Tait equation, or k [m^2/s^2] of the linear equation "
+        "(0, no pressure, only when every material is an elastic solid)",
     )
     exponent: float = Field(7.0, ge=1.0, description="gamma of the Tait equation (dimensionless)")
     acoustic_cfl: bool = Field(
@@ -315,8 +317,72 @@ class DragConfig(_Model):
     )
 
 
+class FixedBox(_Model):
+    """An axis-aligned box whose solid particles are pinned: particles whose rest position lies
+    inside ``[min, max]`` keep that position and zero velocity (SPlisHSPlasH ``fixedBoxMin``,
+    ``fixedBoxMax``)."""
+
+    min: Vec = Field(description="lower corner [m]")
+    max: Vec = Field(description="upper corner [m]")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> FixedBox:
+        if len(self.min) != len(self.max) or len(self.min) not in (1, 2, 3):
+            raise ValueError(f"min {self.min} and max {self.max}: expected two vectors of the "
+                             "same length (1 to 3)")
+        for a, b in zip(self.min, self.max, strict=True):
+            if not b >= a:
+                raise ValueError(f"max {self.max} must not be below min {self.min} on any axis")
+        return self
+
+
+class ElasticityConfig(_Model):
+    """Elasticity of a solid material (SPlisHSPlasH ``elasticityMethod``): ``becker2009``
+    (Becker et al. 2009 corotated SPH, explicit, 1; :mod:`sphkit.solids.becker2009`). A
+    material with an elasticity is an elastic solid: its particles keep their rest
+    neighbourhoods, feel the elastic force in the non-pressure stage and still go through the
+    pressure solver (volume, contact). Defaults are SPlisHSPlasH's."""
+
+    method: ElasticityMethod = "none"
+    youngs_modulus: float = Field(
+        1e5, gt=0, description="Young's modulus E [Pa] (SPlisHSPlasH youngsModulus)")
+    poisson_ratio: float = Field(
+        0.3, gt=-1, lt=0.5,
+        description="Poisson's ratio nu, dimensionless, in (-1, 0.5) (poissonsRatio); Lame "
+        "mu = E / (2 (1 + nu)), lambda = E nu / ((1 + nu)(1 - 2 nu)); in 2D plane strain")
+    alpha: float = Field(
+        0.0, ge=0,
+        description="zero-energy-mode (hourglass) control factor alpha, dimensionless "
+        "(Ganzenmüller 2015; 0: off; SPlisHSPlasH's scenes use 0.1)")
+    max_neighbors: int = Field(
+        -1, ge=-1,
+        description="cap on the rest neighbours of a particle (the nearest ones; pairs are kept "
+        "only when each is among the other's nearest, so the lists stay symmetric); -1: all "
+        "(SPlisHSPlasH maxNeighbors)")
+    max_iterations: int = Field(
+        100, ge=1, description="implicit models: maximum solver iterations (elasticityMaxIter)")
+    max_error: float = Field(
+        1e-4, gt=0, lt=1,
+        description="implicit models: relative residual tolerance of the linear solve "
+        "(elasticityMaxError), dimensionless")
+    gradient_correction: bool = Field(
+        True,
+        description="becker2009: correct the kernel gradients in the rest configuration (Bonet "
+        "& Lok 1999), so that surface particles feel their full strain; SPlisHSPlasH does not "
+        "(false), which makes thin bars and beams several times too soft in bending")
+    fixed_boxes: list[FixedBox] = Field(
+        default_factory=list,
+        description="boxes whose particles (by rest position) are pinned (fixedBoxMin/Max)")
+
+    @model_validator(mode="after")
+    def _cap(self) -> ElasticityConfig:
+        if self.max_neighbors == 0:
+            raise ValueError("max_neighbors 0: expected -1 (no cap) or a count >= 1")
+        return self
+
+
 class Material(_Model):
-    """A fluid material."""
+    """A fluid material, or an elastic solid when ``elasticity.method`` is not none."""
 
     id: str = "fluid"
     density0: float = Field(1000.0, gt=0, description="rest density [kg/m^3]")
@@ -324,6 +390,12 @@ class Material(_Model):
     vorticity: VorticityConfig = VorticityConfig()
     surface_tension: SurfaceTensionConfig = SurfaceTensionConfig()
     drag: DragConfig = DragConfig()
+    elasticity: ElasticityConfig = ElasticityConfig()
+
+    @property
+    def elastic(self) -> bool:
+        """Whether the material is an elastic solid."""
+        return self.elasticity.method != "none"
 
 
 class FluidBlock(_Model):

@@ -1,0 +1,122 @@
+"""Corotated SPH for elastic solids, explicit (SPlisHSPlasH ``elasticityMethod`` 1).
+
+Becker, Ihmsen & Teschner 2009, "Corotated SPH for deformable solids", Eurographics Workshop on
+Natural Phenomena: the linear (Cauchy) strain of the displacement measured in each particle's
+corotated frame, Hooke's law, and forces from the stresses of both particles of a pair (Eq.
+6-12 of the paper; the discrete form of SPlisHSPlasH's ``Elasticity_Becker2009.cpp``, see
+:mod:`sphkit.solids.corotation` for the formulas and where sphkit differs); zero-energy
+(hourglass) modes damped by Ganzenmüller 2015 with the factor ``alpha``. With
+``gradient_correction`` (sphkit's default; SPlisHSPlasH has none) the kernel gradients are
+corrected in the rest configuration (Bonet & Lok 1999), which makes the strain of surface
+particles right (see :mod:`sphkit.solids.corotation`).
+
+The force is explicit, so the step must resolve the elastic waves: :meth:`max_time_step` is
+``0.4 * 2r / c`` with the P-wave speed ``c = sqrt((lambda + 2 mu) / rho0)`` (the acoustic
+condition WCSPH uses; SPlisHSPlasH bounds nothing, and its Beam scenes use the implicit
+models).
+
+Conservation: the pair forces are antisymmetric on symmetric rest lists, so the elastic and
+hourglass forces keep linear momentum to round-off; the hourglass force is central, so it keeps
+angular momentum too; the corotated force is not central (it follows ``R sigma grad W``, not
+``x_ij``), and keeps angular momentum only as far as the kernel's moment
+``sum_j V0_j grad W(x0_ji) x0_ij^T`` is the identity (interior particles of a regular lattice),
+which tests/test_solids.py measures.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from sphkit.core.methods import Elasticity
+from sphkit.core.state import SimState
+from sphkit.solids.corotation import (
+    corrections,
+    forces,
+    lame,
+    rotations,
+    stresses,
+    work_arrays,
+)
+from sphkit.solids.rest import RestConfiguration
+
+#: iterations of the rotation extraction per step (SPlisHSPlasH: 10)
+ROTATION_ITERATIONS = 10
+
+
+class Becker2009(Elasticity):
+    """Explicit corotated SPH elasticity (module docstring)."""
+
+    name: ClassVar[str] = "becker2009"
+
+    @classmethod
+    def from_config(cls, config: Any) -> Becker2009:
+        """From a material's ``elasticity`` (``youngs_modulus`` [Pa], ``poisson_ratio``,
+        ``alpha``, ``max_neighbors``, ``fixed_boxes``)."""
+        return cls(config.youngs_modulus, config.poisson_ratio, config.alpha,
+                   config.max_neighbors, list(config.fixed_boxes), config.gradient_correction)
+
+    def __init__(self, youngs_modulus: float = 1e5, poisson_ratio: float = 0.3,
+                 alpha: float = 0.0, max_neighbors: int = -1,
+                 fixed_boxes: list | None = None, gradient_correction: bool = True) -> None:
+        if not youngs_modulus > 0:
+            raise ValueError(f"elasticity.youngs_modulus: {youngs_modulus!r}; expected a "
+                             "number > 0 [Pa]")
+        if not -1.0 < poisson_ratio < 0.5:
+            raise ValueError(f"elasticity.poisson_ratio: {poisson_ratio!r}; expected a number "
+                             "in (-1, 0.5)")
+        if not alpha >= 0:
+            raise ValueError(f"elasticity.alpha: {alpha!r}; expected a number >= 0")
+        self.youngs_modulus = float(youngs_modulus)
+        self.poisson_ratio = float(poisson_ratio)
+        self.alpha = float(alpha)
+        self.max_neighbors = int(max_neighbors)
+        self.fixed_boxes = fixed_boxes or []
+        self.gradient_correction = bool(gradient_correction)
+        self.mu, self.lam = lame(self.youngs_modulus, self.poisson_ratio)
+        self.rest: RestConfiguration | None = None
+        self.work: dict[str, np.ndarray] = {}
+
+    def init(self, state: SimState) -> None:
+        """Claim the solid's particles, store (or, after a restore, reload) the rest
+        configuration and build the rest lists."""
+        self.rest = RestConfiguration(self.objects, self.fixed_boxes, self.max_neighbors)
+        self.rest.build(state)
+        self.work = work_arrays(self.rest.n)
+        L, rest = self.work["L"], self.rest
+        if self.gradient_correction:
+            corrections(rest.x0, rest.V0, rest.lists.offsets, rest.lists.indices, state.h,
+                        state.kid, state.dim, L)
+        else:
+            L[:, [0, 4, 8]] = 1.0
+
+    def max_time_step(self, state: SimState) -> float:
+        """``0.4 * 2r / c``, c the P-wave speed ``sqrt((lambda + 2 mu) / rho0)`` [s]."""
+        if self.rest is None or self.rest.n == 0:
+            return math.inf
+        rho0 = float(np.min(state.fluid["rho0"][self.rest.pos]))
+        c = math.sqrt((self.lam + 2.0 * self.mu) / rho0)
+        return 0.4 * 2.0 * state.r / c
+
+    def apply(self, state: SimState, dt: float) -> None:
+        """Rotations, stresses, then the elastic and hourglass accelerations."""
+        rest = self.rest
+        if rest is None or rest.n == 0:
+            return
+        f = state.fluid
+        pos = rest.update(state)
+        off, idx = rest.lists.offsets, rest.lists.indices
+        w = self.work
+        rotations(f["x"], pos, rest.x0, rest.m, off, idx, state.h, state.kid, state.dim,
+                  f["solid_qw"], f["solid_q"], w["R"], ROTATION_ITERATIONS)
+        stresses(f["x"], pos, rest.x0, rest.V0, off, idx, state.h, state.kid, state.dim,
+                 self.mu, self.lam, w["R"], w["L"], w["F"], w["P"], w["M"], f["solid_stress"])
+        forces(f["x"], pos, rest.x0, rest.V0, rest.m, off, idx, state.h, state.kid, state.dim,
+               w["P"], w["M"], self.alpha * self.youngs_modulus, f["a"])
+
+    def constrain(self, state: SimState) -> None:
+        """Pinned particles back at rest."""
+        if self.rest is not None:
+            self.rest.constrain(state)
