@@ -56,10 +56,11 @@ def test_stretched_bar_pulls_with_youngs_modulus() -> None:
     reproduce a linear displacement exactly, at the surface too; what is left (3e-6 at edge
     particles) is the corotation: the rotation extracted from the moment matrix ``A = F M`` is
     not exactly the identity where the rest moment M is anisotropic -- and the left half pulls the
-    right half back with ``E eps A`` within 10 %: the discrete traction of the particles at
-    the lateral surfaces overshoots, by 19 %, 9 % and 6 % for sections of 4, 8 and 12
-    particles (measured; it shrinks as one particle layer over the width). SPlisHSPlasH's
-    force (half of this sum) gives 0.55 here."""
+    right half back with ``E eps A`` to 1e-4 (3e-5 measured, at any width): the pair forces
+    across the mid-plane, with corrected gradients and the particles' lattice volumes, sum to
+    the traction. SPlisHSPlasH's force (half of this sum, and rest volumes from the kernel
+    sum) gives 0.55 here; with its rest volumes alone (``rest_volume="kernel_sum"``) the
+    surface layer is too stiff: 1.09."""
     w, eps = 0.32, 1e-3
     sim = _solid([0.4, w, w])
     f = sim.fluid
@@ -70,7 +71,7 @@ def test_stretched_bar_pulls_with_youngs_modulus() -> None:
     np.testing.assert_allclose(f["solid_stress"], E * eps, rtol=1e-5)
     right = x0[0] > c[0, 0]
     pull = -(f["m"] * a)[0, right].sum()
-    assert abs(pull / (E * eps * w * w) - 1.0) < 0.10, pull / (E * eps * w * w)
+    assert abs(pull / (E * eps * w * w) - 1.0) < 1e-4, pull / (E * eps * w * w)
 
 
 def test_rigid_rotation_has_no_elastic_force() -> None:
@@ -100,7 +101,8 @@ def test_spinning_block_keeps_momentum() -> None:
     antisymmetric on symmetric rest lists. Angular momentum is not exact: the corotated force
     of a pair follows R sigma L grad W, not x_ij, so its torques cancel only to first order in
     the strain (the strain energy's rotational invariance is broken by holding R fixed); the
-    drift is measured below 1e-3 (5e-5 measured)."""
+    relative drift must stay below 1e-5 (2e-7 measured; the issue asks 1e-10, which this
+    model cannot give)."""
     sim = _solid([0.24, 0.16, 0.16], alpha=0.1)
     f = sim.fluid
     x, m = f["x"], f["m"]
@@ -118,7 +120,7 @@ def test_spinning_block_keeps_momentum() -> None:
         sim.step()
     p1, l1 = momenta()
     assert np.abs(p1 - p0).max() < 1e-12 * scale
-    assert np.linalg.norm(l1 - l0) < 1e-3 * np.linalg.norm(l0), np.linalg.norm(l1 - l0)
+    assert np.linalg.norm(l1 - l0) < 1e-5 * np.linalg.norm(l0), np.linalg.norm(l1 - l0)
     assert f["solid_stress"].max() > 0.0  # the spin strains it
 
 

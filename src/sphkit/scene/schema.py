@@ -365,11 +365,24 @@ class ElasticityConfig(_Model):
         1e-4, gt=0, lt=1,
         description="implicit models: relative residual tolerance of the linear solve "
         "(elasticityMaxError), dimensionless")
-    gradient_correction: bool = Field(
-        True,
-        description="becker2009: correct the kernel gradients in the rest configuration (Bonet "
-        "& Lok 1999), so that surface particles feel their full strain; SPlisHSPlasH does not "
-        "(false), which makes thin bars and beams several times too soft in bending")
+    gradient_correction: Literal["none", "linear", "quadratic"] = Field(
+        "quadratic",
+        description="becker2009: the displacement gradient's weights (sphkit.solids.gradients): "
+        "'none', SPlisHSPlasH's plain SPH gradient; 'linear', corrected kernel gradients "
+        "(Bonet & Lok 1999), exact for linear displacements; 'quadratic', a second-order "
+        "least-squares gradient, exact for the quadratic displacement of a bent beam (the "
+        "others make thin beams tens of percent too soft in bending)")
+    rest_support: float = Field(
+        1.0, ge=1, le=2,
+        description="becker2009: radius of the rest neighbourhoods as a multiple of the support "
+        "radius h (1: SPlisHSPlasH's); the quadratic gradient needs more neighbours than a "
+        "surface particle has within h (it falls back to the linear one there), 1.5 gives them")
+    rest_volume: Literal["particle", "kernel_sum"] = Field(
+        "particle",
+        description="becker2009: the rest volume V0 of a particle in the elastic sums: "
+        "'particle', its own V0 = m / density0 (the volume of its sampling lattice); "
+        "'kernel_sum', SPlisHSPlasH's m / sum_j m_j W(x0_ij), up to 1.65 times larger at the "
+        "surface (a stiffer surface layer)")
     fixed_boxes: list[FixedBox] = Field(
         default_factory=list,
         description="boxes whose particles (by rest position) are pinned (fixedBoxMin/Max)")

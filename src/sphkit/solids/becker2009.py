@@ -5,10 +5,13 @@ Natural Phenomena: the linear (Cauchy) strain of the displacement measured in ea
 corotated frame, Hooke's law, and forces from the stresses of both particles of a pair (Eq.
 6-12 of the paper; the discrete form of SPlisHSPlasH's ``Elasticity_Becker2009.cpp``, see
 :mod:`sphkit.solids.corotation` for the formulas and where sphkit differs); zero-energy
-(hourglass) modes damped by Ganzenmüller 2015 with the factor ``alpha``. With
-``gradient_correction`` (sphkit's default; SPlisHSPlasH has none) the kernel gradients are
-corrected in the rest configuration (Bonet & Lok 1999), which makes the strain of surface
-particles right (see :mod:`sphkit.solids.corotation`).
+(hourglass) modes damped by Ganzenmüller 2015 with the factor ``alpha``. The displacement
+gradient takes the weights of :mod:`sphkit.solids.gradients` (``gradient_correction``:
+SPlisHSPlasH's plain SPH gradient ``none``, the corrected ``linear`` one of Bonet & Lok 1999,
+or sphkit's default ``quadratic``, exact for the quadratic displacement of a bent beam), and
+the rest volumes are the particles' own (``rest_volume``, see :mod:`sphkit.solids.rest`);
+with a corrected gradient and these volumes a stretched bar pulls with ``E eps A`` to 1e-4
+whatever its width (tests/test_solids.py).
 
 The force is explicit, so the step must resolve the elastic waves: :meth:`max_time_step` is
 ``0.4 * 2r / c`` with the P-wave speed ``c = sqrt((lambda + 2 mu) / rho0)`` (the acoustic
@@ -32,14 +35,8 @@ import numpy as np
 
 from sphkit.core.methods import Elasticity
 from sphkit.core.state import SimState
-from sphkit.solids.corotation import (
-    corrections,
-    forces,
-    lame,
-    rotations,
-    stresses,
-    work_arrays,
-)
+from sphkit.solids.corotation import forces, lame, rotations, stresses, work_arrays
+from sphkit.solids.gradients import gradient_weights, reverse_pairs
 from sphkit.solids.rest import RestConfiguration
 
 #: iterations of the rotation extraction per step (SPlisHSPlasH: 10)
@@ -56,11 +53,13 @@ class Becker2009(Elasticity):
         """From a material's ``elasticity`` (``youngs_modulus`` [Pa], ``poisson_ratio``,
         ``alpha``, ``max_neighbors``, ``fixed_boxes``)."""
         return cls(config.youngs_modulus, config.poisson_ratio, config.alpha,
-                   config.max_neighbors, list(config.fixed_boxes), config.gradient_correction)
+                   config.max_neighbors, list(config.fixed_boxes), config.gradient_correction,
+                   config.rest_volume, config.rest_support)
 
     def __init__(self, youngs_modulus: float = 1e5, poisson_ratio: float = 0.3,
                  alpha: float = 0.0, max_neighbors: int = -1,
-                 fixed_boxes: list | None = None, gradient_correction: bool = True) -> None:
+                 fixed_boxes: list | None = None, gradient_correction: str = "quadratic",
+                 rest_volume: str = "particle", rest_support: float = 1.0) -> None:
         if not youngs_modulus > 0:
             raise ValueError(f"elasticity.youngs_modulus: {youngs_modulus!r}; expected a "
                              "number > 0 [Pa]")
@@ -74,23 +73,33 @@ class Becker2009(Elasticity):
         self.alpha = float(alpha)
         self.max_neighbors = int(max_neighbors)
         self.fixed_boxes = fixed_boxes or []
-        self.gradient_correction = bool(gradient_correction)
+        if gradient_correction not in ("none", "linear", "quadratic"):
+            raise ValueError(f"elasticity.gradient_correction: {gradient_correction!r}; "
+                             "expected 'none', 'linear' or 'quadratic'")
+        self.gradient_correction = gradient_correction
+        self.rest_volume = rest_volume
+        if not 1.0 <= rest_support <= 2.0:
+            raise ValueError(f"elasticity.rest_support: {rest_support!r}; expected a number "
+                             "in [1, 2] (multiple of the support radius h)")
+        self.rest_support = float(rest_support)
         self.mu, self.lam = lame(self.youngs_modulus, self.poisson_ratio)
         self.rest: RestConfiguration | None = None
         self.work: dict[str, np.ndarray] = {}
+        self.G = np.zeros((0, 3))  #: gradient weights per rest pair (solids.gradients)
+        self.rev = np.zeros(0, np.int64)  #: the reverse pair of each rest pair
 
     def init(self, state: SimState) -> None:
         """Claim the solid's particles, store (or, after a restore, reload) the rest
         configuration and build the rest lists."""
-        self.rest = RestConfiguration(self.objects, self.fixed_boxes, self.max_neighbors)
+        self.rest = RestConfiguration(self.objects, self.fixed_boxes, self.max_neighbors,
+                                      self.rest_volume, self.rest_support)
         self.rest.build(state)
         self.work = work_arrays(self.rest.n)
-        L, rest = self.work["L"], self.rest
-        if self.gradient_correction:
-            corrections(rest.x0, rest.V0, rest.lists.offsets, rest.lists.indices, state.h,
-                        state.kid, state.dim, L)
-        else:
-            L[:, [0, 4, 8]] = 1.0
+        rest = self.rest
+        off, idx = rest.lists.offsets, rest.lists.indices
+        self.G = gradient_weights(rest.x0, rest.V0, off, idx, rest.h, state.kid, state.dim,
+                                  self.gradient_correction)
+        self.rev = reverse_pairs(off, idx)
 
     def max_time_step(self, state: SimState) -> float:
         """``0.4 * 2r / c``, c the P-wave speed ``sqrt((lambda + 2 mu) / rho0)`` [s]."""
@@ -109,12 +118,12 @@ class Becker2009(Elasticity):
         pos = rest.update(state)
         off, idx = rest.lists.offsets, rest.lists.indices
         w = self.work
-        rotations(f["x"], pos, rest.x0, rest.m, off, idx, state.h, state.kid, state.dim,
+        rotations(f["x"], pos, rest.x0, rest.m, off, idx, rest.h, state.kid, state.dim,
                   f["solid_qw"], f["solid_q"], w["R"], ROTATION_ITERATIONS)
-        stresses(f["x"], pos, rest.x0, rest.V0, off, idx, state.h, state.kid, state.dim,
-                 self.mu, self.lam, w["R"], w["L"], w["F"], w["P"], w["M"], f["solid_stress"])
-        forces(f["x"], pos, rest.x0, rest.V0, rest.m, off, idx, state.h, state.kid, state.dim,
-               w["P"], w["M"], self.alpha * self.youngs_modulus, f["a"])
+        stresses(f["x"], pos, rest.x0, off, idx, self.G, state.dim, self.mu, self.lam, w["R"],
+                 w["F"], w["P"], w["M"], f["solid_stress"])
+        forces(f["x"], pos, rest.x0, rest.V0, rest.m, off, idx, self.G, self.rev, rest.h,
+               state.kid, state.dim, w["P"], w["M"], self.alpha * self.youngs_modulus, f["a"])
 
     def constrain(self, state: SimState) -> None:
         """Pinned particles back at rest."""

@@ -11,29 +11,24 @@ plane strain: ``F_zz = 1``, ``eps_zz = 0``, and the rotation turns about z only.
   Müller, Bender, Chentanez & Macklin 2016 ("A robust method to extract the rotational part of
   deformations", MIG), 10 iterations warm-started from the last step's R_i (a unit
   quaternion, fields ``solid_qw``, ``solid_q``);
-* displacement gradient ``grad u_i = -sum_j V0_j (R_i^T x_ji - x0_ji) (grad W(x0_ji))^T``
-  (``grad W(r) = W'(|r|) r / |r|``; the minus because the gradient is taken along
-  ``x0_ji``), ``F_i = I + grad u_i``; strain ``eps = (grad u + grad u^T) / 2``; stress
-  ``sigma = 2 mu eps + lambda tr(eps) I``.
+* displacement gradient ``grad u_i = sum_j (R_i^T x_ji - x0_ji) G_ij^T`` with the gradient
+  weights ``G_ij`` of :mod:`sphkit.solids.gradients` (SPlisHSPlasH's Becker:
+  ``G_ij = -V0_j grad W(x0_ji)``, the kernel gradient taken along ``x0_ji``; sphkit's default
+  a second-order least-squares gradient), ``F_i = I + grad u_i``; strain
+  ``eps = (grad u + grad u^T) / 2``; stress ``sigma = 2 mu eps + lambda tr(eps) I``.
 
   SPlisHSPlasH multiplies the tensor shear strain eps_01 by C_33 = mu in Voigt form, which
   gives half the shear stress of Hooke's law (Voigt notation needs the engineering strain
   2 eps_01); sphkit uses Hooke's law ``2 mu eps``;
-* force ``f_i = -sum_j V0_i V0_j (R_i sigma_i L_i + R_j sigma_j L_j) grad W(x0_ji)``, the
-  derivative ``-dU/dx_i`` of the strain energy ``U = sum_j V0_j sigma_j : eps_j / 2`` with the
-  rotations held: ``sum_j [R_j (-V0_j sigma_j d_ji) - R_i (-V0_i sigma_i d_ij)]`` with
-  ``d_ji = V0_i L_j grad W(x0_ji)``, ``d_ij = -V0_j L_i grad W(x0_ji)`` (the derivatives of
-  the neighbours' displacement gradients): antisymmetric in the pair, so with symmetric rest
-  lists the elastic forces sum to zero (linear momentum to round-off). SPlisHSPlasH (and the
-  paper's Eq. 12) halve this sum, which makes the material half as stiff as its E: a bar
-  stretched by eps then pulls with ``E eps A / 2`` (measured: 0.53 of ``E eps A`` for a
-  12 x 12-particle section, against 1.06 without the half; tests/test_solids.py);
-* kernel-gradient correction ``L_i`` (Bonet & Lok 1999, as Peer et al. 2018 Eq. 18 and
-  Ganzenmüller 2015 use it): optional (``gradient_correction``; SPlisHSPlasH's Becker has
-  none, ``L = I``). Without it a particle at the surface underestimates its strain by the
-  missing part of its kernel: a 4 x 4-particle bar stretched by 1e-3 carries 65 % of the
-  force ``E eps A`` (measured; tests/test_solids.py), and a bent beam, whose stiffness sits
-  in its outer fibres, is far too soft;
+* force ``f_i = sum_j (V0_i P_i G_ij - V0_j P_j G_ji)``, ``P = R sigma``: the derivative
+  ``-dU/dx_i`` of the strain energy ``U = sum_j V0_j sigma_j : eps_j / 2`` with the rotations
+  held (``d grad u_j / d x_i = R_j^T G_ji``, ``d grad u_i / d x_i = -R_i^T sum_j G_ij``). With
+  the plain SPH weights it is SPlisHSPlasH's ``sum_j [R_j (-V0_j sigma_j d_ji) - R_i (-V0_i
+  sigma_i d_ij)]``, ``d_ji = V0_i grad W(x0_ji)``, ``d_ij = -V0_j grad W(x0_ji)``. It is
+  antisymmetric in the pair, so with symmetric rest lists the elastic forces sum to zero
+  (linear momentum to round-off). SPlisHSPlasH (and the paper's Eq. 12) halve this sum, which
+  makes the material half as stiff as its E: a stretched bar then pulls with about
+  ``E eps A / 2`` (tests/test_solids.py);
 * zero-energy modes (Ganzenmüller 2015, "An hourglass control algorithm for Lagrangian SPH",
   CMAME 286, Eq. 20-22): with ``x_ij = x_j - x_i`` (his convention), the position of j that
   particle i predicts, ``R_i F_i x0_ij``, misses the actual one by ``e_ij``;
@@ -51,7 +46,7 @@ import math
 import numba
 import numpy as np
 
-from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.kernels import kernel_w
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -134,64 +129,14 @@ def rotations(x, pos, x0, m, off, idx, h, kid, dim, qw, qv, R, iterations):
 
 
 @numba.njit(parallel=True, **_JIT)
-def corrections(x0, V0, off, idx, h, kid, dim, L):
-    """The kernel-gradient corrections of the rest configuration (Bonet & Lok 1999):
-    ``L_s = (-sum_j V0_j grad W(x0_js) x0_js^T)^-1`` (row-major), so that the corrected
-    gradient ``L_s grad W`` reproduces ``grad u`` of any linear displacement exactly, also at
-    the surface where the kernel is cut; ``L = I`` where the sum is singular (fewer than dim
-    independent neighbours). In 2D the z row and column are those of I."""
-    for s in numba.prange(x0.shape[1]):
-        b = L[s]
-        for c in range(9):
-            b[c] = 0.0
-        for k in range(off[s], off[s + 1]):
-            t = idx[k]
-            e0 = x0[0, t] - x0[0, s]
-            e1 = x0[1, t] - x0[1, s]
-            e2 = x0[2, t] - x0[2, s]
-            f = -V0[t] * kernel_dw(kid, math.sqrt(e0 * e0 + e1 * e1 + e2 * e2), h, dim)
-            b[0] += f * e0 * e0
-            b[1] += f * e0 * e1
-            b[2] += f * e0 * e2
-            b[4] += f * e1 * e1
-            b[5] += f * e1 * e2
-            b[8] += f * e2 * e2
-        if dim < 3:
-            b[2] = b[5] = 0.0
-            b[8] = 1.0
-        if dim < 2:
-            b[1] = 0.0
-            b[4] = 1.0
-        b[3], b[6], b[7] = b[1], b[2], b[5]  # symmetric
-        c00 = b[4] * b[8] - b[5] * b[7]
-        c01 = b[2] * b[7] - b[1] * b[8]
-        c02 = b[1] * b[5] - b[2] * b[4]
-        det = b[0] * c00 + b[3] * c01 + b[6] * c02
-        scale = abs(b[0]) + abs(b[4]) + abs(b[8])
-        if abs(det) <= 1e-6 * scale * scale * scale:
-            for c in range(9):
-                b[c] = 1.0 if c % 4 == 0 else 0.0
-            continue
-        inv = 1.0 / det
-        m0, m1, m2 = c00 * inv, c01 * inv, c02 * inv
-        m3 = (b[5] * b[6] - b[3] * b[8]) * inv
-        m4 = (b[0] * b[8] - b[2] * b[6]) * inv
-        m5 = (b[2] * b[3] - b[0] * b[5]) * inv
-        m6 = (b[3] * b[7] - b[4] * b[6]) * inv
-        m7 = (b[1] * b[6] - b[0] * b[7]) * inv
-        m8 = (b[0] * b[4] - b[1] * b[3]) * inv
-        b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7], b[8] = m0, m1, m2, m3, m4, m5, m6, m7, m8
-
-
-@numba.njit(parallel=True, **_JIT)
-def stresses(x, pos, x0, V0, off, idx, h, kid, dim, mu, lam, R, L, F, P, M, von_mises):
-    """Per slot: ``F = I + grad u`` (row-major, with the corrected gradient ``L grad W``), the
-    stress term ``P = R sigma L`` of the force and the predictor ``M = R F`` of the
-    zero-energy-mode control; the von Mises stress per particle."""
+def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises):
+    """Per slot: ``F = I + grad u`` (row-major) with ``grad u_i = sum_j u_ji G_ij^T`` (the
+    gradient weights of :mod:`sphkit.solids.gradients`), the stress term ``P = R sigma`` of
+    the force and the predictor ``M = R F`` of the zero-energy-mode control; the von Mises
+    stress per particle."""
     for s in numba.prange(pos.shape[0]):
         i = pos[s]
         r = R[s]
-        cl = L[s]
         g = F[s]  # grad u accumulates in F[s]
         for c in range(9):
             g[c] = 0.0
@@ -204,7 +149,6 @@ def stresses(x, pos, x0, V0, off, idx, h, kid, dim, mu, lam, R, L, F, P, M, von_
             e0 = x0[0, t] - x0[0, s]
             e1 = x0[1, t] - x0[1, s]
             e2 = x0[2, t] - x0[2, s]
-            f = kernel_dw(kid, math.sqrt(e0 * e0 + e1 * e1 + e2 * e2), h, dim) * V0[t]
             d0 = x[0, j] - xi0
             d1 = (x[1, j] - xi1) if dim > 1 else 0.0
             d2 = (x[2, j] - xi2) if dim > 2 else 0.0
@@ -212,18 +156,16 @@ def stresses(x, pos, x0, V0, off, idx, h, kid, dim, mu, lam, R, L, F, P, M, von_
             u0 = r[0] * d0 + r[3] * d1 + r[6] * d2 - e0
             u1 = r[1] * d0 + r[4] * d1 + r[7] * d2 - e1
             u2 = r[2] * d0 + r[5] * d1 + r[8] * d2 - e2
-            g0 = f * (cl[0] * e0 + cl[1] * e1 + cl[2] * e2)
-            g1 = f * (cl[3] * e0 + cl[4] * e1 + cl[5] * e2)
-            g2 = f * (cl[6] * e0 + cl[7] * e1 + cl[8] * e2)
-            g[0] -= u0 * g0
-            g[1] -= u0 * g1
-            g[2] -= u0 * g2
-            g[3] -= u1 * g0
-            g[4] -= u1 * g1
-            g[5] -= u1 * g2
-            g[6] -= u2 * g0
-            g[7] -= u2 * g1
-            g[8] -= u2 * g2
+            g0, g1, g2 = G[k, 0], G[k, 1], G[k, 2]
+            g[0] += u0 * g0
+            g[1] += u0 * g1
+            g[2] += u0 * g2
+            g[3] += u1 * g0
+            g[4] += u1 * g1
+            g[5] += u1 * g2
+            g[6] += u2 * g0
+            g[7] += u2 * g1
+            g[8] += u2 * g2
         s00, s11, s22 = g[0], g[4], g[8]
         s01 = 0.5 * (g[1] + g[3])
         s02 = 0.5 * (g[2] + g[6])
@@ -244,21 +186,22 @@ def stresses(x, pos, x0, V0, off, idx, h, kid, dim, mu, lam, R, L, F, P, M, von_
         mm = M[s]
         for a in range(3):
             r0, r1, r2 = r[3 * a], r[3 * a + 1], r[3 * a + 2]
-            w0 = r0 * t00 + r1 * t01 + r2 * t02  # row a of R sigma
-            w1 = r0 * t01 + r1 * t11 + r2 * t12
-            w2 = r0 * t02 + r1 * t12 + r2 * t22
+            p[3 * a] = r0 * t00 + r1 * t01 + r2 * t02  # R sigma
+            p[3 * a + 1] = r0 * t01 + r1 * t11 + r2 * t12
+            p[3 * a + 2] = r0 * t02 + r1 * t12 + r2 * t22
             for b in range(3):
-                p[3 * a + b] = w0 * cl[b] + w1 * cl[3 + b] + w2 * cl[6 + b]
                 mm[3 * a + b] = r0 * g[b] + r1 * g[3 + b] + r2 * g[6 + b]
 
 
 @numba.njit(parallel=True, **_JIT)
-def forces(x, pos, x0, V0, m, off, idx, h, kid, dim, P, M, alpha_e, a):
-    """``a_i += (f_i + f_i^hg) / m_i`` (module docstring; ``alpha_e = alpha E`` [Pa])."""
+def forces(x, pos, x0, V0, m, off, idx, G, rev, h, kid, dim, P, M, alpha_e, a):
+    """``a_i += (f_i + f_i^hg) / m_i`` with ``f_i = sum_j (V0_i P_i G_ij - V0_j P_j G_ji)``
+    and the hourglass force (module docstring; ``alpha_e = alpha E`` [Pa])."""
     for s in numba.prange(pos.shape[0]):
         i = pos[s]
         p = P[s]
         mi = M[s]
+        vi = V0[s]
         f0 = f1 = f2 = 0.0
         h0 = h1 = h2 = 0.0
         xi0 = x[0, i]
@@ -267,16 +210,18 @@ def forces(x, pos, x0, V0, m, off, idx, h, kid, dim, P, M, alpha_e, a):
         for k in range(off[s], off[s + 1]):
             t = idx[k]
             q = P[t]
-            e0 = x0[0, t] - x0[0, s]
-            e1 = x0[1, t] - x0[1, s]
-            e2 = x0[2, t] - x0[2, s]
-            r0 = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-            c = -V0[t] * kernel_dw(kid, r0, h, dim)
-            g0, g1, g2 = c * e0, c * e1, c * e2
-            f0 += (p[0] + q[0]) * g0 + (p[1] + q[1]) * g1 + (p[2] + q[2]) * g2
-            f1 += (p[3] + q[3]) * g0 + (p[4] + q[4]) * g1 + (p[5] + q[5]) * g2
-            f2 += (p[6] + q[6]) * g0 + (p[7] + q[7]) * g1 + (p[8] + q[8]) * g2
+            vj = V0[t]
+            a0, a1, a2 = vi * G[k, 0], vi * G[k, 1], vi * G[k, 2]
+            kr = rev[k]
+            b0, b1, b2 = vj * G[kr, 0], vj * G[kr, 1], vj * G[kr, 2]
+            f0 += p[0] * a0 + p[1] * a1 + p[2] * a2 - q[0] * b0 - q[1] * b1 - q[2] * b2
+            f1 += p[3] * a0 + p[4] * a1 + p[5] * a2 - q[3] * b0 - q[4] * b1 - q[5] * b2
+            f2 += p[6] * a0 + p[7] * a1 + p[8] * a2 - q[6] * b0 - q[7] * b1 - q[8] * b2
             if alpha_e != 0.0:
+                e0 = x0[0, t] - x0[0, s]
+                e1 = x0[1, t] - x0[1, s]
+                e2 = x0[2, t] - x0[2, s]
+                r0 = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
                 j = pos[t]
                 d0 = x[0, j] - xi0
                 d1 = (x[1, j] - xi1) if dim > 1 else 0.0
@@ -293,17 +238,17 @@ def forces(x, pos, x0, V0, m, off, idx, h, kid, dim, P, M, alpha_e, a):
                     n2 = mj[6] * e0 + mj[7] * e1 + mj[8] * e2
                     dij = ((p0 - d0) * d0 + (p1 - d1) * d1 + (p2 - d2) * d2) / dl
                     dji = ((n0 - d0) * d0 + (n1 - d1) * d1 + (n2 - d2) * d2) / dl
-                    w = V0[t] * kernel_w(kid, r0, h, dim) / (r0 * r0) * (dij + dji) / dl
+                    w = vj * kernel_w(kid, r0, h, dim) / (r0 * r0) * (dij + dji) / dl
                     h0 -= w * d0
                     h1 -= w * d1
                     h2 -= w * d2
-        vi = V0[s]
-        inv = vi / m[s]
-        a[0, i] += inv * (f0 + alpha_e * h0)
+        inv = 1.0 / m[s]
+        c = alpha_e * vi
+        a[0, i] += inv * (f0 + c * h0)
         if dim > 1:
-            a[1, i] += inv * (f1 + alpha_e * h1)
+            a[1, i] += inv * (f1 + c * h1)
         if dim > 2:
-            a[2, i] += inv * (f2 + alpha_e * h2)
+            a[2, i] += inv * (f2 + c * h2)
 
 
 def lame(youngs_modulus: float, poisson_ratio: float) -> tuple[float, float]:
@@ -314,4 +259,4 @@ def lame(youngs_modulus: float, poisson_ratio: float) -> tuple[float, float]:
 
 def work_arrays(n: int) -> dict[str, np.ndarray]:
     """Per-slot work arrays of the passes (row-major 3x3 matrices)."""
-    return {name: np.zeros((n, 9)) for name in ("R", "F", "P", "M", "L")}
+    return {name: np.zeros((n, 9)) for name in ("R", "F", "P", "M")}

@@ -11,11 +11,19 @@ Storage. The particle set is reordered along a z-order curve during the run, so 
 per particle lives in registered fields of ``state.fluid`` (reordered, written to checkpoints
 and frames with the rest): ``solid_slot`` (the particle's index in its solid, -1 for fluid),
 ``solid_x0`` (rest position [m]), ``solid_fixed`` (1: pinned), ``solid_V0`` (rest volume
-``m_i / sum_j m_j W(x0_ij)`` [m^dim], self included), ``solid_qw``/``solid_q`` (the rotation of
+[m^dim]: the particle's own ``V0 = m / rho0``, the volume of its sampling lattice, or with
+``rest_volume="kernel_sum"`` SPlisHSPlasH's ``m_i / sum_j m_j W(x0_ij)``, self included, which
+is up to 1.65 times larger at the surface, where the kernel sum is cut, and makes the surface
+layer too stiff: a stretched bar 4 particles wide pulls with 1.19 of ``E eps A`` against 1.00003
+with the particle volume, measured), ``solid_qw``/``solid_q`` (the rotation of
 the corotated frame as a unit quaternion: its real part and its vector part) and
 ``solid_stress`` (von Mises stress [Pa], for output). The rest neighbour lists are CSR over
 slots, built from ``solid_x0`` by :meth:`RestConfiguration.build` (deterministic, so a restored
 checkpoint rebuilds the same lists). Each step ``pos[s]`` maps a slot to its current index.
+
+The rest lists reach ``support * h`` (default 1: the fluid's h, as SPlisHSPlasH; the
+second-order gradient of :mod:`sphkit.solids.gradients` needs more neighbours than a surface
+particle has within h, see ``ElasticityConfig.rest_support``).
 
 ``max_neighbors`` caps a list at the nearest neighbours; a pair is kept only when each particle
 is among the other's nearest, so the capped lists stay symmetric (Kee et al. 2023 found that
@@ -113,7 +121,14 @@ class RestConfiguration:
     (:meth:`update`).
     """
 
-    def __init__(self, objects: tuple[str, ...], fixed_boxes: list, max_neighbors: int) -> None:
+    def __init__(self, objects: tuple[str, ...], fixed_boxes: list, max_neighbors: int,
+                 rest_volume: str = "particle", support: float = 1.0) -> None:
+        if rest_volume not in ("particle", "kernel_sum"):
+            raise ValueError(f"elasticity.rest_volume: {rest_volume!r}; expected 'particle' or "
+                             "'kernel_sum'")
+        self.rest_volume = rest_volume
+        self.support = float(support)
+        self.h = 0.0  #: the support radius of the rest lists [m]: support * h
         self.objects = objects
         self.fixed_boxes = fixed_boxes
         self.max_neighbors = max_neighbors
@@ -157,13 +172,17 @@ class RestConfiguration:
         self.x0 = np.zeros((3, self.n))
         self.x0[:dim] = f["solid_x0"][:, self.pos]
         self.m = np.ascontiguousarray(f["m"][self.pos], dtype=np.float64)
-        lists = neighbor_lists(np.ascontiguousarray(self.x0[:dim]), state.h)
+        self.h = self.support * state.h
+        lists = neighbor_lists(np.ascontiguousarray(self.x0[:dim]), self.h)
         if self.max_neighbors > 0:
             lists = capped_lists(self.x0, lists, self.max_neighbors)
         self.lists = lists
-        self.V0 = np.zeros(self.n)
-        _rest_volumes(self.x0, self.m, lists.offsets, lists.indices, state.h, state.kid, dim,
-                      self.V0)
+        if self.rest_volume == "kernel_sum":
+            self.V0 = np.zeros(self.n)
+            _rest_volumes(self.x0, self.m, lists.offsets, lists.indices, self.h, state.kid,
+                          dim, self.V0)
+        else:
+            self.V0 = np.ascontiguousarray(f["V0"][self.pos], dtype=np.float64)
         f["solid_V0"][self.pos] = self.V0
         pinned = np.zeros(self.n, dtype=bool)
         for box in self.fixed_boxes:
