@@ -52,15 +52,15 @@ def _rotation(angle: float, axis: np.ndarray) -> np.ndarray:
 def test_stretched_bar_pulls_with_youngs_modulus() -> None:
     """A bar (10 x 8 x 8 particles) displaced by the uniaxial-stress field of a strain 1e-3
     (x stretched by eps, y and z contracted by nu eps): every particle's stress is Hooke's
-    ``E eps`` (von Mises of uniaxial stress) to 1e-5 -- the corrected kernel gradients
-    reproduce a linear displacement exactly, at the surface too; what is left (3e-6 at edge
+    ``E eps`` (von Mises of uniaxial stress) to 1e-4 -- the corrected gradients reproduce a
+    linear displacement exactly, at the surface too; what is left (1.2e-5 at corner
     particles) is the corotation: the rotation extracted from the moment matrix ``A = F M`` is
     not exactly the identity where the rest moment M is anisotropic -- and the left half pulls the
     right half back with ``E eps A`` to 1e-4 (3e-5 measured, at any width): the pair forces
     across the mid-plane, with corrected gradients and the particles' lattice volumes, sum to
-    the traction. SPlisHSPlasH's force (half of this sum, and rest volumes from the kernel
-    sum) gives 0.55 here; with its rest volumes alone (``rest_volume="kernel_sum"``) the
-    surface layer is too stiff: 1.09."""
+    the traction. SPlisHSPlasH's choices (plain kernel gradients, rest volumes from the kernel
+    sum, rest lists of radius h) give 1.17 here, and 0.59 with its halved force; its rest
+    volumes alone (``rest_volume="kernel_sum"``) make the surface layer too stiff: 1.20."""
     w, eps = 0.32, 1e-3
     sim = _solid([0.4, w, w])
     f = sim.fluid
@@ -68,7 +68,7 @@ def test_stretched_bar_pulls_with_youngs_modulus() -> None:
     c = x0.mean(axis=1, keepdims=True)
     f["x"][...] = x0 + np.array([[eps], [-NU * eps], [-NU * eps]]) * (x0 - c)
     a = _accelerations(sim)
-    np.testing.assert_allclose(f["solid_stress"], E * eps, rtol=1e-5)
+    np.testing.assert_allclose(f["solid_stress"], E * eps, rtol=1e-4)
     right = x0[0] > c[0, 0]
     pull = -(f["m"] * a)[0, right].sum()
     assert abs(pull / (E * eps * w * w) - 1.0) < 1e-4, pull / (E * eps * w * w)
@@ -101,7 +101,7 @@ def test_spinning_block_keeps_momentum() -> None:
     antisymmetric on symmetric rest lists. Angular momentum is not exact: the corotated force
     of a pair follows R sigma L grad W, not x_ij, so its torques cancel only to first order in
     the strain (the strain energy's rotational invariance is broken by holding R fixed); the
-    relative drift must stay below 1e-5 (2e-7 measured; the issue asks 1e-10, which this
+    relative drift must stay below 1e-5 (2.5e-6 measured; the issue asks 1e-10, which this
     model cannot give)."""
     sim = _solid([0.24, 0.16, 0.16], alpha=0.1)
     f = sim.fluid
@@ -180,3 +180,34 @@ def test_splishsplash_elasticity_translates(tmp_path) -> None:
         build_world(fluid)
     with pytest.raises(SceneError, match="poissonsRatio"):
         load_scene(_beam_2d(tmp_path, 1, {**block, "poissonsRatio": 0.5}))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_quadratic_gradient_weights_are_exact_for_quadratic_fields(dim: int) -> None:
+    """The second-order gradient weights (sphkit.solids.gradients) reproduce the gradient of a
+    quadratic field at every particle to round-off (1e-9 of its scale), surface and corner
+    particles included, on rest lists of 1.5 h; the corrected linear weights are exact for
+    linear fields only, and miss the quadratic one at the surface by O(h) (checked to be
+    above 5 %: the error that made a bent beam too soft)."""
+    from sphkit.solids.gradients import gradient_weights
+
+    sim = _solid([0.24, 0.16, 0.16][:dim])
+    rest, st = sim.solids[0].rest, sim.state
+    off, idx = rest.lists.offsets, rest.lists.indices
+    rows = np.repeat(np.arange(rest.n), np.diff(off))
+    x = rest.x0[:dim]
+    a = np.array([0.3, -0.7, 0.5][:dim])
+    Q = np.array([[1.0, 0.4, -0.2], [0.4, -2.0, 0.6], [-0.2, 0.6, 1.5]])[:dim, :dim]
+    phi = a @ x + 0.5 * np.einsum("an,ab,bn->n", x, Q, x)
+    exact = a[:, None] + Q @ x
+    scale = np.abs(exact).max()
+    for order in ("linear", "quadratic"):
+        G = gradient_weights(rest.x0, rest.V0, off, idx, rest.h, st.kid, dim, order)
+        grad = np.zeros((dim, rest.n))
+        for d in range(dim):
+            np.add.at(grad[d], rows, (phi[idx] - phi[rows]) * G[:, d])
+        err = np.abs(grad - exact).max() / scale
+        if order == "quadratic":
+            assert err < 1e-9, err
+        else:
+            assert err > 0.05, err

@@ -373,10 +373,11 @@ class ElasticityConfig(_Model):
         "least-squares gradient, exact for the quadratic displacement of a bent beam (the "
         "others make thin beams tens of percent too soft in bending)")
     rest_support: float = Field(
-        1.0, ge=1, le=2,
+        1.5, ge=1, le=2,
         description="becker2009: radius of the rest neighbourhoods as a multiple of the support "
         "radius h (1: SPlisHSPlasH's); the quadratic gradient needs more neighbours than a "
-        "surface particle has within h (it falls back to the linear one there), 1.5 gives them")
+        "surface particle has within h (it falls back to the linear one there); 1.5 gives "
+        "them, at about 3 times the pairs in 3D")
     rest_volume: Literal["particle", "kernel_sum"] = Field(
         "particle",
         description="becker2009: the rest volume V0 of a particle in the elastic sums: "

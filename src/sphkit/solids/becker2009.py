@@ -59,7 +59,7 @@ class Becker2009(Elasticity):
     def __init__(self, youngs_modulus: float = 1e5, poisson_ratio: float = 0.3,
                  alpha: float = 0.0, max_neighbors: int = -1,
                  fixed_boxes: list | None = None, gradient_correction: str = "quadratic",
-                 rest_volume: str = "particle", rest_support: float = 1.0) -> None:
+                 rest_volume: str = "particle", rest_support: float = 1.5) -> None:
         if not youngs_modulus > 0:
             raise ValueError(f"elasticity.youngs_modulus: {youngs_modulus!r}; expected a "
                              "number > 0 [Pa]")
