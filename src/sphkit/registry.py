@@ -275,3 +275,7 @@ register("elasticity", "becker2009", "sphkit.solids.becker2009:Becker2009", spli
          paper="Becker, Ihmsen & Teschner 2009, Corotated SPH for deformable solids; "
          "Ganzenmüller 2015, An hourglass control algorithm for Lagrangian SPH",
          summary="explicit corotated linear elasticity, zero-energy-mode control alpha")
+register("elasticity", "peer2018", "sphkit.solids.peer2018:Peer2018", splishsplash=2,
+         paper="Peer, Gissler, Band & Teschner 2018, An implicit SPH formulation for "
+         "incompressible linearly elastic solids",
+         summary="implicit corotated linear elasticity, backward Euler velocities, matrix-free CG")

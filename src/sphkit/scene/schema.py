@@ -338,7 +338,8 @@ class FixedBox(_Model):
 
 class ElasticityConfig(_Model):
     """Elasticity of a solid material (SPlisHSPlasH ``elasticityMethod``): ``becker2009``
-    (Becker et al. 2009 corotated SPH, explicit, 1; :mod:`sphkit.solids.becker2009`). A
+    (Becker et al. 2009 corotated SPH, explicit, 1; :mod:`sphkit.solids.becker2009`),
+    ``peer2018`` (Peer et al. 2018, implicit, 2; :mod:`sphkit.solids.peer2018`). A
     material with an elasticity is an elastic solid: its particles keep their rest
     neighbourhoods, feel the elastic force in the non-pressure stage and still go through the
     pressure solver (volume, contact). Defaults are SPlisHSPlasH's."""
@@ -367,20 +368,20 @@ class ElasticityConfig(_Model):
         "(elasticityMaxError), dimensionless")
     gradient_correction: Literal["none", "linear", "quadratic"] = Field(
         "quadratic",
-        description="becker2009: the displacement gradient's weights (sphkit.solids.gradients): "
+        description="the displacement gradient's weights (sphkit.solids.gradients): "
         "'none', SPlisHSPlasH's plain SPH gradient; 'linear', corrected kernel gradients "
         "(Bonet & Lok 1999), exact for linear displacements; 'quadratic', a second-order "
         "least-squares gradient, exact for the quadratic displacement of a bent beam (the "
         "others make thin beams tens of percent too soft in bending)")
     rest_support: float = Field(
         1.5, ge=1, le=2,
-        description="becker2009: radius of the rest neighbourhoods as a multiple of the support "
+        description="radius of the rest neighbourhoods as a multiple of the support "
         "radius h (1: SPlisHSPlasH's); the quadratic gradient needs more neighbours than a "
         "surface particle has within h (it falls back to the linear one there); 1.5 gives "
         "them, at about 3 times the pairs in 3D")
     rest_volume: Literal["particle", "kernel_sum"] = Field(
         "particle",
-        description="becker2009: the rest volume V0 of a particle in the elastic sums: "
+        description="the rest volume V0 of a particle in the elastic sums: "
         "'particle', its own V0 = m / density0 (the volume of its sampling lattice); "
         "'kernel_sum', SPlisHSPlasH's m / sum_j m_j W(x0_ij), up to 1.65 times larger at the "
         "surface (a stiffer surface layer)")
