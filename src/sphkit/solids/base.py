@@ -88,7 +88,7 @@ class CorotatedSolid(Elasticity):
         """``0.4 * 2r / c``, c the P-wave speed ``sqrt((lambda + 2 mu) / rho0)`` [s]."""
         if self.rest is None or self.rest.n == 0:
             return math.inf
-        rho0 = float(np.min(state.fluid["rho0"][self.rest.pos]))
+        rho0 = float(np.min(state.fluid["rho0"][self.rest.update(state)]))
         c = math.sqrt((self.lam + 2.0 * self.mu) / rho0)
         return 0.4 * 2.0 * state.r / c
 
