@@ -302,3 +302,16 @@ def test_capped_rest_lists_stay_symmetric() -> None:
     a = _accelerations(sim)
     total = (f["m"] * a).sum(axis=1)
     assert np.abs(total).max() < 1e-12 * (f["m"] * np.abs(a)).sum()
+
+
+def test_frames_carry_the_solid_fields(tmp_path) -> None:
+    """A solid's frames hold its stress, rest position and pinned flag besides the standard
+    fields (a fluid's frames do not change)."""
+    from sphkit.io.frames import frame_arrays
+
+    sim = _solid([0.2, 0.08], gravity=9.81, fixed=[{"min": [-1, -1], "max": [0.05, 1]}])
+    sim.step()
+    arrays = frame_arrays(sim.fluid)
+    assert {"stress", "rest_position", "fixed"} <= set(arrays)
+    assert arrays["rest_position"].shape == arrays["position"].shape
+    assert arrays["fixed"].sum() > 0
