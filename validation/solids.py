@@ -18,9 +18,11 @@ Two cases, each at several resolutions (particles across the thickness):
   sqrt(E H^2 / (12 rho (1 - nu^2)))``, kL = 1.875.
 
 No pressure (WCSPH with stiffness 0, as SPlisHSPlasH's Beam scenes): the solid alone. The time
-step is the elastic model's own (``0.4 * 2r / c``, c the P-wave speed). Run::
+step is the explicit model's bound (``0.4 * 2r / c``, c the P-wave speed) times ``--dt-factor``
+(the implicit ``--method peer2018`` may take larger steps). Run::
 
     PYTHONPATH=src python validation/solids.py [--case sag|mode|both] [--layers 4 6 8]
+        [--method becker2009|peer2018] [--dt-factor 1]
 """
 
 from __future__ import annotations
@@ -46,6 +48,9 @@ def _time_step(r: float, E: float, nu: float) -> float:
 
 #: the elasticity options of the runs (``--gradient``, ``--support``)
 OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5}
+#: the elasticity model (``--method``) and the multiple of the explicit step it runs with
+#: (``--dt-factor``; an implicit model may exceed 1)
+MODEL: dict = {"method": "becker2009", "dt_factor": 1.0}
 
 
 def _scene(dim: int, start: list[float], end: list[float], r: float, E: float, nu: float,
@@ -56,10 +61,11 @@ def _scene(dim: int, start: list[float], end: list[float], r: float, E: float, n
         "name": "cantilever",
         "configuration": {"dim": dim, "particle_radius": r, "gravity": g,
                           "pressure": {"method": "wcsph", "stiffness": 0.0},
-                          "time": {"cfl": False, "dt": _time_step(r, E, nu),
+                          "time": {"cfl": False,
+                                   "dt": MODEL["dt_factor"] * _time_step(r, E, nu),
                                    "dt_min": 1e-7}, "zsort_every": 0},
         "materials": [{"id": "solid", "density0": RHO,
-                       "elasticity": {"method": "becker2009", "youngs_modulus": E,
+                       "elasticity": {"method": MODEL["method"], "youngs_modulus": E,
                                       "poisson_ratio": nu, "alpha": alpha, **OPTIONS,
                                       "fixed_boxes": [{"min": [-1.0] * dim,
                                                        "max": [0.0] + [1.0] * (dim - 1)}]}}],
@@ -151,9 +157,14 @@ def main() -> None:
     ap.add_argument("--gradient", choices=("none", "linear", "quadratic"), default="quadratic",
                     help="elasticity.gradient_correction")
     ap.add_argument("--support", type=float, default=1.5, help="elasticity.rest_support")
+    ap.add_argument("--method", choices=("becker2009", "peer2018"), default="becker2009")
+    ap.add_argument("--dt-factor", type=float, default=1.0,
+                    help="time step as a multiple of the explicit bound 0.4 * 2r / c")
     a = ap.parse_args()
     OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support)
-    print(f"gradient {a.gradient}, rest support {a.support:g} h")
+    MODEL.update(method=a.method, dt_factor=a.dt_factor)
+    print(f"{a.method}, dt {a.dt_factor:g} x explicit bound, gradient {a.gradient}, "
+          f"rest support {a.support:g} h")
     if a.case in ("sag", "both"):
         print("3D cantilever under gravity (L 1 m, section 0.1 m, E 300 MPa, nu 0.3)")
         print("| layers | r [m] | particles | alpha | steps | w [mm] | EB [mm] | w/EB - 1 | "
