@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from sphkit import registry
-from sphkit.core.methods import BoundaryModel, NonPressureForce, PressureSolver
+from sphkit.core.methods import BoundaryModel, Elasticity, NonPressureForce, PressureSolver
 from sphkit.scene import schema
 
 SRC = Path(__file__).resolve().parent.parent / "src" / "sphkit"
@@ -89,7 +89,9 @@ def test_minimum_image_only_in_pairs() -> None:
 
 BASES = {"pressure": PressureSolver, "boundary": BoundaryModel, "viscosity": NonPressureForce,
          "vorticity": NonPressureForce, "surface_tension": NonPressureForce,
-         "drag": NonPressureForce}
+         "drag": NonPressureForce, "elasticity": Elasticity}
+#: the package of a role's methods, where it is not named as the role
+PACKAGES = {"elasticity": "solids"}
 
 
 @pytest.mark.parametrize("method", [m for m in registry.methods() if m.target],
@@ -102,7 +104,8 @@ def test_registered_methods_implement_their_role(method: registry.Method) -> Non
         assert base in cls.__mro__, (cls, base)  # nominal: it inherits the defaults
         assert cls.name == method.name
     package = method.target.split(".")[1]
-    assert package == ("boundary" if method.role.startswith("boundary") else method.role)
+    expected = "boundary" if method.role.startswith("boundary") else method.role
+    assert package == PACKAGES.get(method.role, expected)
 
 
 def test_schema_choices_are_the_registry() -> None:
@@ -114,12 +117,13 @@ def test_schema_choices_are_the_registry() -> None:
               "viscosity": (schema.ViscosityConfig, "method"),
               "vorticity": (schema.VorticityConfig, "method"),
               "surface_tension": (schema.SurfaceTensionConfig, "method"),
-              "drag": (schema.DragConfig, "method")}
+              "drag": (schema.DragConfig, "method"),
+              "elasticity": (schema.ElasticityConfig, "method")}
     assert set(fields) == set(registry.ROLES)
     for role, (model, name) in fields.items():
         choices = typing.get_args(model.model_fields[name].annotation)
         expected = registry.names(role)
-        if role in registry.OPTIONAL_ROLES:
+        if role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES:
             expected = ("none", *expected)
         assert choices == expected, (role, choices, expected)
 
@@ -149,5 +153,5 @@ def test_methods_command(capsys: pytest.CaptureFixture[str]) -> None:
     assert [r["name"] for r in rows] == list(registry.names("viscosity"))
     weiler = next(r for r in rows if r["name"] == "weiler2018")
     assert weiler["splishsplash"] == 6 and "periodic" in weiler["capabilities"]
-    assert main(["methods", "--role", "elasticity"]) == 2
-    assert "invalid choice: 'elasticity'" in capsys.readouterr().err
+    assert main(["methods", "--role", "plasticity"]) == 2
+    assert "invalid choice: 'plasticity'" in capsys.readouterr().err

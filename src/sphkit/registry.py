@@ -45,11 +45,14 @@ from typing import Any
 
 #: the roles, in the order of a time step (DESIGN.md, "One time step")
 ROLES: tuple[str, ...] = ("boundary", "boundary_pressure", "viscosity", "vorticity",
-                          "surface_tension", "drag", "pressure")
+                          "surface_tension", "drag", "elasticity", "pressure")
 
 #: the roles a material may leave out (scene value ``"none"``)
 OPTIONAL_ROLES: tuple[str, ...] = ("viscosity", "vorticity", "surface_tension", "drag")
 
+#: the roles of a solid material (scene value ``"none"``: the material is a fluid); a solid's
+#: elasticity is built and stepped apart from the fluid forces (``World.solids``)
+SOLID_ROLES: tuple[str, ...] = ("elasticity",)
 #: the capability flags a method may have
 CAPABILITIES: tuple[str, ...] = ("periodic", "dynamic_bodies", "multiphase", "gpu")
 
@@ -288,3 +291,12 @@ register("drag", "macklin2014", "sphkit.drag.macklin2014:Macklin2014", splishspl
 register("drag", "gissler2017", "sphkit.drag.gissler2017:Gissler2017", splishsplash=2,
          paper="Gissler et al. 2017, Generalized drag force for particle-based simulations",
          summary="droplet drag on surface particles")
+# elasticity of solid materials: SPlisHSPlasH elasticityMethod (package solids/)
+register("elasticity", "becker2009", "sphkit.solids.becker2009:Becker2009", splishsplash=1,
+         paper="Becker, Ihmsen & Teschner 2009, Corotated SPH for deformable solids; "
+         "Ganzenmüller 2015, An hourglass control algorithm for Lagrangian SPH",
+         summary="explicit corotated linear elasticity, zero-energy-mode control alpha")
+register("elasticity", "peer2018", "sphkit.solids.peer2018:Peer2018", splishsplash=2,
+         paper="Peer, Gissler, Band & Teschner 2018, An implicit SPH formulation for "
+         "incompressible linearly elastic solids",
+         summary="implicit corotated linear elasticity, backward Euler velocities, matrix-free CG")

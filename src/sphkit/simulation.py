@@ -14,11 +14,13 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 4. the pressure solver's ``pre_forces`` (DFSPH: factors and the divergence-free solve on the
    current velocities; a no-op for the others);
 5. accelerations: gravity, then the non-pressure forces (viscosity, vorticity, surface tension,
-   drag, the boundary model's own), then the pressure solver, which adds the pressure
-   acceleration (PBF: the acceleration that lands on its corrected positions); bodies that yield
+   drag, the boundary model's own, the elasticity of solid materials), then the pressure
+   solver, which adds the pressure acceleration (PBF: the acceleration that lands on its
+   corrected positions); bodies that yield
    to the pressure take their non-pressure velocity change before the solve (strong coupling);
 6. the fluid's force on the rigid bodies from the solver's boundary share of its pressure;
-7. symplectic Euler, then the bodies move (the boundary model follows them);
+7. symplectic Euler (pinned solid particles are put back at rest), then the bodies move (the
+   boundary model follows them);
 8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it;
    animation fields (:mod:`sphkit.world.animation`) set their particle field inside their
    regions; then the emitters' layers due by the new time are added;
@@ -119,6 +121,7 @@ class Simulation:
         self.pressure = world.pressure
         self.boundary_model = world.boundary_model
         self.forces = world.forces
+        self.solids = world.solids
         self.rigid = world.rigid
         self.emitters = world.emitters
         self._lattice_volume = world.lattice_volume
@@ -219,6 +222,8 @@ class Simulation:
         if st.fluid.n and not self._empty_at_init:
             self.pressure.init(st)  # re-derive what solvers compute from the fluid
         self.pressure.restore_checkpoint_state(s.get("pressure", {}))
+        for solid in self.solids:  # rest lists from the stored rest positions
+            solid.init(st)
 
     # -- user-facing state ----------------------------------------------------------------------
     @property
@@ -288,7 +293,10 @@ class Simulation:
         # moving boundary particles obey the CFL condition too
         vmax = max(max_speed(st.fluid["v"], None), self.rigid.max_speed(st))
         dt = cfl_time_step(vmax, st.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
-        return float(min(dt, self.pressure.max_time_step(st)))
+        dt = min(dt, self.pressure.max_time_step(st))
+        for solid in self.solids:  # an explicit elasticity's own bound
+            dt = min(dt, solid.max_time_step(st))
+        return float(dt)
 
     def step(self, land_at: float | None = None) -> StepStats:
         """Advance one time step; raises :class:`InstabilityError` when the state blows up.
@@ -314,11 +322,15 @@ class Simulation:
         f["a"][:] = st.gravity[:, None]  # non-pressure forces
         for force in self.forces:
             force.apply(st, dt)
+        for solid in self.solids:  # elasticity of the solid materials
+            solid.apply(st, dt)
         st.coupling.predict(st, dt)  # yielding bodies take their non-pressure velocity change
         ps = self.pressure.solve(st, dt)  # pressure
         self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))  # its push on bodies
         st.pair_grads = None  # positions change: the cache is stale
         symplectic_euler(f["x"], f["v"], f["a"], dt)  # integrate
+        for solid in self.solids:  # pinned solid particles stay at rest
+            solid.constrain(st)
         self.rigid.advance(st, dt, self.time)  # move the bodies (the boundary follows)
         if st.period > 0.0:  # periodic domain along x
             wrap_periodic(f["x"], st.period_lo, st.period)

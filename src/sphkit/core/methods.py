@@ -14,7 +14,8 @@ Simulation.step`) calls every entry point of every method without asking ``hasat
 * :class:`BoundaryModel` -- ``init``, ``update`` (this step's fluid-boundary neighbours),
   ``rebuild`` (after boundary particles moved), ``bind_bodies``, ``forces``, ``inside`` (the
   fluid that starts inside the model's solid);
-* :class:`Elasticity` -- ``init``, ``apply``, for the elastic solids to come.
+* :class:`Elasticity` -- ``init``, ``max_time_step``, ``apply`` (adds to ``state.fluid["a"]``
+  for the particles of its solid), ``constrain`` (pinned particles, after the integration).
 
 Each method builds itself from its part of the scene with ``from_config`` (the scene model's
 ``PressureConfig``, ``ViscosityConfig``, ... read by attribute; core does not import the
@@ -191,17 +192,42 @@ class BoundaryModel(Protocol):
 
 @runtime_checkable
 class Elasticity(Protocol):
-    """An elasticity model of a solid material (survey, "Material models")."""
+    """An elasticity model of a solid material (survey, "Material models").
+
+    A solid is a material of the fluid particle set: its particles (the scene objects named in
+    :attr:`objects`, set by the world builder before :meth:`init`) go through the density and
+    the pressure solve like the fluid, and the elasticity adds its acceleration in the
+    non-pressure stage (:meth:`apply`). After the integration :meth:`constrain` holds the
+    pinned particles (fixed boxes) at their rest positions with zero velocity.
+    """
 
     name: ClassVar[str] = ""
+    #: the names of the particle-set objects (``fluid_blocks[0]``, ...) that form this solid
+    objects: tuple[str, ...] = ()
+    #: an implicit model's last solve (iterations, residual, converged); None when explicit
+    stats: KrylovStats | None = None
+
+    @classmethod
+    def from_config(cls, config: Any) -> Elasticity:
+        """The model with the parameters of a material's ``elasticity``."""
+        return cls()
 
     def init(self, state: SimState) -> None:
-        """Reference configuration and fields of the solid."""
+        """Reference configuration and fields of the solid (called once the world is built,
+        and again after a checkpoint restore: the stored rest positions are kept)."""
         return None
+
+    def max_time_step(self, state: SimState) -> float:
+        """The model's own bound on the time step [s] (inf: none)."""
+        return math.inf
 
     @abstractmethod
     def apply(self, state: SimState, dt: float) -> None:
-        """Add the elastic acceleration of the solid's particles."""
+        """Add the elastic acceleration of the solid's particles to ``state.fluid["a"]``."""
+
+    def constrain(self, state: SimState) -> None:
+        """After the integration: pinned particles back to rest, at zero velocity."""
+        return None
 
 
 # ---------------------------------------------------------------------------------------------

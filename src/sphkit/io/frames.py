@@ -27,7 +27,10 @@ pressure     (N,)       pressure [Pa]
 id           (N,)       particle id (int64 in VTK, int32 in PLY)
 ===========  =========  =========================================================
 
-Extra fields a method registered with the ParticleSet can be added with ``extra_fields``.
+Scenes with elastic solids also write their von Mises ``stress`` [Pa], ``rest_position`` (the
+displacement is ``position - rest_position``) and ``fixed`` (1: pinned) by default
+(:data:`SOLID_FIELDS`). Extra fields a method registered with the ParticleSet can be added with
+``extra_fields``.
 ``attributes`` (the scene's ``output.attributes``, SPlisHSPlasH's ``particleAttributes``)
 replaces velocity, density and pressure by the named attributes: :data:`ATTRIBUTES` or any field
 of the ParticleSet (:func:`resolve_attributes`); position and id are always written.
@@ -53,6 +56,11 @@ FORMATS: dict[str, str] = {"vtk": ".vtu", "ply": ".ply", "bgeo": ".bgeo", "bgeo.
 
 #: name in the frame file -> field of the ParticleSet
 STANDARD_FIELDS: dict[str, str] = {"velocity": "v", "density": "rho", "pressure": "p", "id": "id"}
+
+#: written besides the standard fields when the particle set has them (elastic solids,
+#: :mod:`sphkit.solids.rest`): name in the frame file -> field
+SOLID_FIELDS: dict[str, str] = {"stress": "solid_stress", "rest_position": "solid_x0",
+                                "fixed": "solid_fixed"}
 
 #: attribute names a scene may ask for (SPlisHSPlasH's spelling included) -> (name in the frame
 #: file, field of the ParticleSet); any other field of the ParticleSet is written as it is named
@@ -131,6 +139,7 @@ def frame_arrays(fluid: Any, extra_fields: Sequence[str] = (),
     """
     if attributes is None:
         wanted = {"position": "x", **STANDARD_FIELDS}
+        wanted.update({k: f for k, f in SOLID_FIELDS.items() if f in fluid})
     else:
         wanted = {"position": "x", **resolve_attributes(attributes, fluid), "id": "id"}
     for name in extra_fields:

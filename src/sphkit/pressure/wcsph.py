@@ -66,8 +66,8 @@ class WCSPH(PressureSolver):
                  exponent: float = 7.0, acoustic_cfl: bool = True) -> None:
         if equation not in ("tait", "linear"):
             raise ValueError(f"pressure.equation: {equation!r}; expected 'tait' or 'linear'")
-        if not stiffness > 0:
-            raise ValueError(f"pressure.stiffness: {stiffness!r}; expected a positive number")
+        if not stiffness >= 0:  # 0: no pressure (elastic solids only, scene.checks)
+            raise ValueError(f"pressure.stiffness: {stiffness!r}; expected a number >= 0")
         self.equation = TAIT if equation == "tait" else LINEAR
         self.stiffness = float(stiffness)
         self.exponent = float(exponent)
@@ -89,7 +89,7 @@ class WCSPH(PressureSolver):
         Monaghan's condition ``dt <= 0.4 h_s / c`` is written for the smoothing length h_s, which
         is half the support radius: ``h_s = 2r`` with sphkit's support ``4r``.
         """
-        if not self.acoustic_cfl:
+        if not self.acoustic_cfl or self.stiffness == 0.0:  # no pressure, no sound
             return float("inf")
         f = state.fluid  # the lightest fluid has the fastest sound
         rho0 = float(f["rho0"].min()) if f.n else state.rho0
@@ -112,6 +112,8 @@ class WCSPH(PressureSolver):
         """The density of the state equation at pressure p >= 0 [Pa]: Tait
         ``rho0 (1 + p / B)^(1 / gamma)``, linear ``rho0 + p / k`` (the hydrostatic start)."""
         p = np.maximum(np.asarray(p, dtype=float), 0.0)
+        if self.stiffness == 0.0:  # no pressure: the density does not carry any
+            return np.broadcast_to(np.asarray(rho0, dtype=float), p.shape).copy()
         if self.equation == TAIT:
             return rho0 * (1.0 + p / self.stiffness) ** (1.0 / self.exponent)
         return rho0 + p / self.stiffness

@@ -250,5 +250,30 @@ def check_scene(scene: Scene) -> list[Material]:
     _boundary_pressure(scene)
     _lattices(scene)
     _bodies(scene)
+    _solids(scene)
     scene_warnings(scene)
     return mats
+
+
+def _solids(scene: Scene) -> None:
+    """Elastic materials: not emitted, not periodic; WCSPH without pressure (stiffness 0, as
+    SPlisHSPlasH's Beam scenes) only when every material in use is an elastic solid."""
+    cfg = scene.configuration
+    for k, e in enumerate(scene.emitters):
+        if scene.material(e.material).elastic:
+            raise SceneError(f"emitters[{k}].material: {e.material!r} is an elastic solid; "
+                             "expected a fluid material (solids are not emitted)")
+    used = ({b.material for b in scene.fluid_blocks} | {f.material for f in scene.fluid_files}
+            | {b.material for b in scene.fluid_meshes}
+            | {e.material for e in scene.emitters}) or {scene.materials[0].id}
+    for k, m in enumerate(scene.materials):
+        if m.elastic and cfg.periodic_x is not None:
+            raise SceneError(f"materials[{k}].elasticity.method: {m.elasticity.method!r} does "
+                             "not support configuration.periodic_x; expected 'none'")
+    p = cfg.pressure
+    if p.method == "wcsph" and p.stiffness == 0.0:
+        fluids = sorted(mid for mid in used if not scene.material(mid).elastic)
+        if fluids:
+            raise SceneError(f"configuration.pressure.stiffness: 0 with the fluid material(s) "
+                             f"{fluids}; expected a number > 0 (0 turns the pressure off, "
+                             "which only elastic solids may do without)")

@@ -33,7 +33,7 @@ def _choices(role: str) -> Any:
     """The scene names of a role's methods (:mod:`sphkit.registry`) as a ``Literal``, with
     ``"none"`` first for the optional non-pressure forces."""
     names = registry.names(role)
-    if role in registry.OPTIONAL_ROLES:
+    if role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES:
         names = ("none", *names)
     return Literal[names]  # type: ignore[valid-type]
 
@@ -47,6 +47,7 @@ ViscosityMethod = _choices("viscosity")
 VorticityMethod = _choices("vorticity")
 SurfaceTensionMethod = _choices("surface_tension")
 DragMethod = _choices("drag")
+ElasticityMethod = _choices("elasticity")
 BoundaryMethod = _choices("boundary")
 BoundaryPressureMethod = _choices("boundary_pressure")
 
@@ -94,8 +95,9 @@ class PressureConfig(_Model):
         "tait", description="wcsph: tait: p = B((rho/rho0)^gamma - 1); linear: p = k (rho - rho0)"
     )
     stiffness: float = Field(
-        50000.0, gt=0,
-        description="wcsph: B [Pa] of the Tait equation, or k [m^2/s^2] of the linear equation",
+        50000.0, ge=0,
+        description="wcsph: B [Pa] of the Tait equation, or k [m^2/s^2] of the linear equation "
+        "(0, no pressure, only when every material is an elastic solid)",
     )
     exponent: float = Field(7.0, ge=1.0, description="gamma of the Tait equation (dimensionless)")
     acoustic_cfl: bool = Field(
@@ -419,8 +421,87 @@ class DragConfig(_Model):
     )
 
 
+class FixedBox(_Model):
+    """An axis-aligned box whose solid particles are pinned: particles whose rest position lies
+    inside ``[min, max]`` keep that position and zero velocity (SPlisHSPlasH ``fixedBoxMin``,
+    ``fixedBoxMax``)."""
+
+    min: Vec = Field(description="lower corner [m]")
+    max: Vec = Field(description="upper corner [m]")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> FixedBox:
+        if len(self.min) != len(self.max) or len(self.min) not in (1, 2, 3):
+            raise ValueError(f"min {self.min} and max {self.max}: expected two vectors of the "
+                             "same length (1 to 3)")
+        for a, b in zip(self.min, self.max, strict=True):
+            if not b >= a:
+                raise ValueError(f"max {self.max} must not be below min {self.min} on any axis")
+        return self
+
+
+class ElasticityConfig(_Model):
+    """Elasticity of a solid material (SPlisHSPlasH ``elasticityMethod``): ``becker2009``
+    (Becker et al. 2009 corotated SPH, explicit, 1; :mod:`sphkit.solids.becker2009`),
+    ``peer2018`` (Peer et al. 2018, implicit, 2; :mod:`sphkit.solids.peer2018`). A
+    material with an elasticity is an elastic solid: its particles keep their rest
+    neighbourhoods, feel the elastic force in the non-pressure stage and still go through the
+    pressure solver (volume, contact). Defaults are SPlisHSPlasH's."""
+
+    method: ElasticityMethod = "none"
+    youngs_modulus: float = Field(
+        1e5, gt=0, description="Young's modulus E [Pa] (SPlisHSPlasH youngsModulus)")
+    poisson_ratio: float = Field(
+        0.3, gt=-1, lt=0.5,
+        description="Poisson's ratio nu, dimensionless, in (-1, 0.5) (poissonsRatio); Lame "
+        "mu = E / (2 (1 + nu)), lambda = E nu / ((1 + nu)(1 - 2 nu)); in 2D plane strain")
+    alpha: float = Field(
+        0.0, ge=0,
+        description="zero-energy-mode (hourglass) control factor alpha, dimensionless "
+        "(Ganzenmüller 2015; 0: off; SPlisHSPlasH's scenes use 0.1)")
+    max_neighbors: int = Field(
+        -1, ge=-1,
+        description="cap on the rest neighbours of a particle (the nearest ones; pairs are kept "
+        "only when each is among the other's nearest, so the lists stay symmetric); -1: all "
+        "(SPlisHSPlasH maxNeighbors)")
+    max_iterations: int = Field(
+        100, ge=1, description="implicit models: maximum solver iterations (elasticityMaxIter)")
+    max_error: float = Field(
+        1e-4, gt=0, lt=1,
+        description="implicit models: relative residual tolerance of the linear solve "
+        "(elasticityMaxError), dimensionless")
+    gradient_correction: Literal["none", "linear", "quadratic"] = Field(
+        "quadratic",
+        description="the displacement gradient's weights (sphkit.solids.gradients): "
+        "'none', SPlisHSPlasH's plain SPH gradient; 'linear', corrected kernel gradients "
+        "(Bonet & Lok 1999), exact for linear displacements; 'quadratic', a second-order "
+        "least-squares gradient, exact for the quadratic displacement of a bent beam (the "
+        "others make thin beams tens of percent too soft in bending)")
+    rest_support: float = Field(
+        1.5, ge=1, le=2,
+        description="radius of the rest neighbourhoods as a multiple of the support "
+        "radius h (1: SPlisHSPlasH's); the quadratic gradient needs more neighbours than a "
+        "surface particle has within h (it falls back to the linear one there); 1.5 gives "
+        "them, at about 3 times the pairs in 3D")
+    rest_volume: Literal["particle", "kernel_sum"] = Field(
+        "particle",
+        description="the rest volume V0 of a particle in the elastic sums: "
+        "'particle', its own V0 = m / density0 (the volume of its sampling lattice); "
+        "'kernel_sum', SPlisHSPlasH's m / sum_j m_j W(x0_ij), up to 1.65 times larger at the "
+        "surface (a stiffer surface layer)")
+    fixed_boxes: list[FixedBox] = Field(
+        default_factory=list,
+        description="boxes whose particles (by rest position) are pinned (fixedBoxMin/Max)")
+
+    @model_validator(mode="after")
+    def _cap(self) -> ElasticityConfig:
+        if self.max_neighbors == 0:
+            raise ValueError("max_neighbors 0: expected -1 (no cap) or a count >= 1")
+        return self
+
+
 class Material(_Model):
-    """A fluid material."""
+    """A fluid material, or an elastic solid when ``elasticity.method`` is not none."""
 
     id: str = "fluid"
     density0: float = Field(1000.0, gt=0, description="rest density [kg/m^3]")
@@ -428,6 +509,12 @@ class Material(_Model):
     vorticity: VorticityConfig = VorticityConfig()
     surface_tension: SurfaceTensionConfig = SurfaceTensionConfig()
     drag: DragConfig = DragConfig()
+    elasticity: ElasticityConfig = ElasticityConfig()
+
+    @property
+    def elastic(self) -> bool:
+        """Whether the material is an elastic solid."""
+        return self.elasticity.method != "none"
 
 
 class FluidBlock(_Model):

@@ -20,6 +20,7 @@ from sphkit.core.kernels import kernel_id, lattice_volume
 from sphkit.core.methods import (
     BoundaryCoupling,
     BoundaryModel,
+    Elasticity,
     NonPressureForce,
     PressureSolver,
 )
@@ -69,6 +70,8 @@ class World:
     animation_fields: list[AnimationField] = field(default_factory=list)
     #: the materials of the fluid, in the order of ``scene.materials`` (several: phases)
     materials: list[Material] = field(default_factory=list)
+    #: the elasticity of each elastic material (its particles: the objects it names)
+    solids: list[Elasticity] = field(default_factory=list)
 
 
 def _state(scene: Scene, mats: list[Material]) -> SimState:
@@ -117,6 +120,28 @@ def _forces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce],
                 forces.append(force)
                 roles.append(role)
     return forces, roles
+
+
+def _solids(scene: Scene) -> list[Elasticity]:
+    """The elasticity of each elastic material, bound to the particle-set objects of the
+    material (fluid blocks, files and meshes; solids are not emitted, see scene.checks)."""
+    solids = []
+    for mat in scene.materials:
+        if not mat.elastic:
+            continue
+        objects = tuple(
+            f"{kind}[{k}]"
+            for kind, items in (("fluid_blocks", scene.fluid_blocks),
+                                ("fluid_files", scene.fluid_files),
+                                ("fluid_meshes", scene.fluid_meshes))
+            for k, item in enumerate(items) if item.material == mat.id)
+        if not objects:
+            continue
+        solid = registry.get("elasticity", mat.elasticity.method).load().from_config(
+            mat.elasticity)
+        solid.objects = objects
+        solids.append(solid)
+    return solids
 
 
 def build_world(scene: Scene) -> World:
@@ -191,6 +216,9 @@ def _build(scene: Scene) -> World:
     for force in forces:
         force.init(state)
     pressure.init(state)
+    solids = _solids(scene)  # the rest configuration: the particles after the start-up
+    for solid in solids:
+        solid.init(state)
     animations = [AnimationField(a, dim) for a in scene.animation_fields]
     for k, an in enumerate(animations):
         if an.field not in state.fluid.fields:
@@ -202,5 +230,6 @@ def _build(scene: Scene) -> World:
                  boundary_model=model, rigid=rigid, emitters=emitters,
                  lattice_volume=lattice_volume(2.0 * r, state.kid, h, dim), forces=forces,
                  force_roles=roles, domain=domain_box(state, scene, meshes, emitters),
-                 start=start, animation_fields=animations, materials=mats)
+                 start=start, animation_fields=animations, materials=mats,
+                 solids=solids)
 

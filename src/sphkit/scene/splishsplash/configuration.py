@@ -193,9 +193,11 @@ def wcsph(rd: Reader, cfg: dict[str, Any], cfl_method: int) -> dict[str, Any]:
     w = "Configuration"
     wc = rd.obj(cfg, "WCSPH", f"{w}.WCSPH")
     rd.collect_unknown(wc, f"{w}.WCSPH", {"stiffness", "exponent"}, set())
-    stiffness = rd.num(cfg, "stiffness", w, 50.0, positive=True)
+    # stiffness 0 (no pressure) is accepted here; the scene checks allow it only for elastic
+    # solids (SPlisHSPlasH's Beam scenes)
+    stiffness = rd.num(cfg, "stiffness", w, 50.0, nonneg=True)
     exponent = rd.num(cfg, "exponent", w, 7.0, positive=True)
-    stiffness = rd.num(wc, "stiffness", f"{w}.WCSPH", stiffness, positive=True)
+    stiffness = rd.num(wc, "stiffness", f"{w}.WCSPH", stiffness, nonneg=True)
     exponent = rd.num(wc, "exponent", f"{w}.WCSPH", exponent, positive=True)
     src = f"{w}.WCSPH" if wc else w
     rd.origin["configuration.pressure.stiffness"] = f"{src}.stiffness"

@@ -1,7 +1,7 @@
 """The ``Materials`` of a SPlisHSPlasH scene: density, viscosity, vorticity, surface tension, drag.
 
 Each material's non-pressure methods are chosen by number (``viscosityMethod``,
-``vorticityMethod``, ``surfaceTensionMethod``, ``dragMethod``; ``elasticityMethod`` must be 0)
+``vorticityMethod``, ``surfaceTensionMethod``, ``dragMethod``, ``elasticityMethod``)
 and take their parameters from the block named after the method (``"Weiler et al. 2018":
 {"viscosity": ...}``) or, in scenes before 2.16, flat from the material; the XSPH filter is the
 per-material block ``"XSPH"``. Defaults and numbers: :mod:`sphkit.scene.splishsplash`; the method
@@ -16,6 +16,8 @@ from typing import Any
 from sphkit.scene.splishsplash.methods import (
     BOUNDARY_VISCOSITY,
     DRAG_SUPPORTED,
+    ELASTICITY_KEYS,
+    ELASTICITY_SUPPORTED,
     FACTOR_VISCOSITY,
     IMPLICIT_VISCOSITY,
     MATERIAL_NAMESPACES,
@@ -117,7 +119,7 @@ def materials(rd: Reader) -> list[dict[str, Any]]:
         rd.origin[f"materials[{k}].density0"] = f"{w}.density0"
         out.append({"id": mid, "density0": density0, "viscosity": viscosity,
                     "vorticity": vort, "surface_tension": surface_tension(rd, m, w, k),
-                    "drag": drag(rd, m, w, k)})
+                    "drag": drag(rd, m, w, k), "elasticity": elasticity(rd, m, w, k)})
     rd.origin["materials"] = "Materials"
     return out
 
@@ -362,3 +364,50 @@ def drag(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
     _origin_of_block(rd, m, w, k, "drag", ns_key, {"coefficient": "drag"})
     return {"method": method, "coefficient": v["drag"]}
 
+
+
+def elasticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
+    """The material's elasticity (``elasticityMethod``; its block, e.g. ``"Becker et al.
+    2009"``: ``youngsModulus``, ``poissonsRatio``, ``alpha``, ``fixedBoxMin``/``fixedBoxMax``,
+    the implicit models' ``maxNeighbors`` and iteration control)."""
+    em = rd.integer(m, "elasticityMethod", w, 0)
+    if em == 0:
+        return {"method": "none"}
+    names = OTHER_METHODS["elasticityMethod"]
+    if em not in ELASTICITY_SUPPORTED:
+        raise rd.unsupported(
+            f"{w}.elasticityMethod",
+            f"{em} ({names.get(em, 'unknown method')}) is not supported yet; supported: 0 "
+            "(none), " + supported_list(names, ELASTICITY_SUPPORTED),
+        )
+    method, ns_key = ELASTICITY_SUPPORTED[em]
+    nsw = f"{w}.{ns_key}"
+    ns = rd.obj(m, ns_key, nsw)
+    extra = ELASTICITY_KEYS[em]
+    rd.collect_unknown(ns, nsw, {"youngsModulus", "poissonsRatio", "alpha", "fixedBoxMin",
+                                 "fixedBoxMax", *extra}, set())
+    out: dict[str, Any] = {"method": method}
+    fields = {"youngs_modulus": ("youngsModulus", 1e5), "poisson_ratio": ("poissonsRatio", 0.3),
+              "alpha": ("alpha", 0.0)}
+    if "elasticityMaxIter" in extra:
+        fields["max_error"] = ("elasticityMaxError", 1e-4)
+    if "volumeMaxError" in extra:
+        fields["max_error"] = ("volumeMaxError", 1e-4)
+    for ours, (theirs, default) in fields.items():
+        out[ours] = rd.num(ns, theirs, nsw, default)
+        rd.origin[f"materials[{k}].elasticity.{ours}"] = f"{nsw}.{theirs}"
+    for ours, theirs, default in (("max_neighbors", "maxNeighbors", -1),
+                                  ("max_iterations", "elasticityMaxIter", 100),
+                                  ("max_iterations", "volumeMaxIter", 100)):
+        if theirs in extra:
+            out[ours] = rd.integer(ns, theirs, nsw, default)
+            rd.origin[f"materials[{k}].elasticity.{ours}"] = f"{nsw}.{theirs}"
+    if ("fixedBoxMin" in ns) != ("fixedBoxMax" in ns):
+        given = "fixedBoxMin" if "fixedBoxMin" in ns else "fixedBoxMax"
+        raise rd.error(f"{nsw}.{given}", ns[given], "fixedBoxMin and fixedBoxMax together")
+    if "fixedBoxMin" in ns:
+        out["fixed_boxes"] = [{"min": rd.vec3(ns, "fixedBoxMin", nsw, [0.0] * 3),
+                               "max": rd.vec3(ns, "fixedBoxMax", nsw, [0.0] * 3)}]
+        rd.origin[f"materials[{k}].elasticity.fixed_boxes"] = f"{nsw}.fixedBoxMin"
+    rd.origin[f"materials[{k}].elasticity"] = nsw
+    return out

@@ -146,8 +146,18 @@ OTHER_METHODS = {
 SURFACE_TENSION_SUPPORTED = _with_blocks("surface_tension", OTHER_METHODS["surfaceTensionMethod"])
 #: drag methods sphkit implements: number -> (scene name, SPlisHSPlasH block)
 DRAG_SUPPORTED = _with_blocks("drag", OTHER_METHODS["dragMethod"])
+#: elasticity methods sphkit implements: number -> (scene name, SPlisHSPlasH block)
+ELASTICITY_SUPPORTED = _with_blocks("elasticity", OTHER_METHODS["elasticityMethod"])
+#: the parameters of each elasticity block beyond ``youngsModulus``, ``poissonsRatio``,
+#: ``alpha``, ``fixedBoxMin``, ``fixedBoxMax`` (implicit models: their iteration control and
+#: the neighbour cap; defaults 100, 1e-4, -1)
+ELASTICITY_KEYS = {
+    1: (), 2: ("maxNeighbors", "elasticityMaxIter", "elasticityMaxError"),
+    3: ("maxNeighbors", "volumeMaxIter", "volumeMaxError"),
+    4: ("maxNeighbors", "elasticityMaxIter", "elasticityMaxError"),
+}
 #: the fields of :data:`OTHER_METHODS` that sphkit reads (the others must be 0)
-SUPPORTED_OTHER_METHODS = {"surfaceTensionMethod", "dragMethod"}
+SUPPORTED_OTHER_METHODS = {"surfaceTensionMethod", "dragMethod", "elasticityMethod"}
 
 #: the parameter blocks of SPlisHSPlasH's non-pressure methods in a material; ignored quietly
 #: when the material does not select the method

@@ -1,0 +1,12 @@
+"""Elastic solids (survey, "Material models"): one paper per file.
+
+* :mod:`sphkit.solids.becker2009` -- corotated SPH, explicit (SPlisHSPlasH elasticityMethod 1),
+  with Ganzenmüller 2015's zero-energy-mode control;
+* :mod:`sphkit.solids.peer2018` -- implicit corotated linear elasticity (elasticityMethod 2) on
+  the shared matrix-free CG.
+
+Shared machinery (not methods): :mod:`sphkit.solids.base` (the corotated solid both models
+derive from), :mod:`sphkit.solids.rest` (rest configuration, rest lists, pinned particles),
+:mod:`sphkit.solids.gradients` (gradient weights) and :mod:`sphkit.solids.corotation` (the
+compiled corotated passes).
+"""

@@ -1,0 +1,114 @@
+"""The corotated SPH solid shared by the elasticity models (not a method of its own).
+
+:class:`CorotatedSolid` holds what :mod:`sphkit.solids.becker2009` (explicit) and
+:mod:`sphkit.solids.peer2018` (implicit) share: the parameters of a material's
+``elasticity``, the rest configuration (:mod:`sphkit.solids.rest`), the gradient weights
+(:mod:`sphkit.solids.gradients`) and the explicit corotated force of
+:mod:`sphkit.solids.corotation` (Becker, Ihmsen & Teschner 2009, with Ganzenmüller 2015's
+zero-energy-mode control), which the explicit model applies as it is and the implicit model
+takes as its right-hand side.
+"""
+
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from sphkit.core.methods import Elasticity
+from sphkit.core.state import SimState
+from sphkit.solids.corotation import forces, lame, rotations, stresses, work_arrays
+from sphkit.solids.gradients import gradient_weights, reverse_pairs
+from sphkit.solids.rest import RestConfiguration
+
+#: iterations of the rotation extraction per step (SPlisHSPlasH: 10)
+ROTATION_ITERATIONS = 10
+
+
+class CorotatedSolid(Elasticity):
+    """A corotated SPH solid: parameters, rest configuration, gradient weights, the explicit
+    elastic and hourglass accelerations (module docstring)."""
+
+    @classmethod
+    def from_config(cls, config: Any) -> CorotatedSolid:
+        """From a material's ``elasticity`` (``youngs_modulus`` [Pa], ``poisson_ratio``,
+        ``alpha``, ``max_neighbors``, ``fixed_boxes``)."""
+        return cls(config.youngs_modulus, config.poisson_ratio, config.alpha,
+                   config.max_neighbors, list(config.fixed_boxes), config.gradient_correction,
+                   config.rest_volume, config.rest_support)
+
+    def __init__(self, youngs_modulus: float = 1e5, poisson_ratio: float = 0.3,
+                 alpha: float = 0.0, max_neighbors: int = -1,
+                 fixed_boxes: list | None = None, gradient_correction: str = "quadratic",
+                 rest_volume: str = "particle", rest_support: float = 1.5) -> None:
+        if not youngs_modulus > 0:
+            raise ValueError(f"elasticity.youngs_modulus: {youngs_modulus!r}; expected a "
+                             "number > 0 [Pa]")
+        if not -1.0 < poisson_ratio < 0.5:
+            raise ValueError(f"elasticity.poisson_ratio: {poisson_ratio!r}; expected a number "
+                             "in (-1, 0.5)")
+        if not alpha >= 0:
+            raise ValueError(f"elasticity.alpha: {alpha!r}; expected a number >= 0")
+        self.youngs_modulus = float(youngs_modulus)
+        self.poisson_ratio = float(poisson_ratio)
+        self.alpha = float(alpha)
+        self.max_neighbors = int(max_neighbors)
+        self.fixed_boxes = fixed_boxes or []
+        if gradient_correction not in ("none", "linear", "quadratic"):
+            raise ValueError(f"elasticity.gradient_correction: {gradient_correction!r}; "
+                             "expected 'none', 'linear' or 'quadratic'")
+        self.gradient_correction = gradient_correction
+        self.rest_volume = rest_volume
+        if not 1.0 <= rest_support <= 2.0:
+            raise ValueError(f"elasticity.rest_support: {rest_support!r}; expected a number "
+                             "in [1, 2] (multiple of the support radius h)")
+        self.rest_support = float(rest_support)
+        self.mu, self.lam = lame(self.youngs_modulus, self.poisson_ratio)
+        self.rest: RestConfiguration | None = None
+        self.work: dict[str, np.ndarray] = {}
+        self.G = np.zeros((0, 3))  #: gradient weights per rest pair (solids.gradients)
+        self.rev = np.zeros(0, np.int64)  #: the reverse pair of each rest pair
+
+    def init(self, state: SimState) -> None:
+        """Claim the solid's particles, store (or, after a restore, reload) the rest
+        configuration and build the rest lists."""
+        self.rest = RestConfiguration(self.objects, self.fixed_boxes, self.max_neighbors,
+                                      self.rest_volume, self.rest_support)
+        self.rest.build(state)
+        self.work = work_arrays(self.rest.n)
+        rest = self.rest
+        off, idx = rest.lists.offsets, rest.lists.indices
+        self.G = gradient_weights(rest.x0, rest.V0, off, idx, rest.h, state.kid, state.dim,
+                                  self.gradient_correction)
+        self.rev = reverse_pairs(off, idx)
+
+    def max_time_step(self, state: SimState) -> float:
+        """``0.4 * 2r / c``, c the P-wave speed ``sqrt((lambda + 2 mu) / rho0)`` [s]."""
+        if self.rest is None or self.rest.n == 0:
+            return math.inf
+        rho0 = float(np.min(state.fluid["rho0"][self.rest.update(state)]))
+        c = math.sqrt((self.lam + 2.0 * self.mu) / rho0)
+        return 0.4 * 2.0 * state.r / c
+
+    def apply(self, state: SimState, dt: float) -> None:
+        """Rotations, stresses, then the elastic and hourglass accelerations."""
+        rest = self.rest
+        if rest is None or rest.n == 0:
+            return
+        f = state.fluid
+        pos = rest.update(state)
+        off, idx = rest.lists.offsets, rest.lists.indices
+        w = self.work
+        rotations(f["x"], pos, rest.x0, rest.m, off, idx, rest.h, state.kid, state.dim,
+                  f["solid_qw"], f["solid_q"], w["R"], ROTATION_ITERATIONS)
+        stresses(f["x"], pos, rest.x0, off, idx, self.G, state.dim, self.mu, self.lam, w["R"],
+                 w["F"], w["P"], w["M"], f["solid_stress"])
+        forces(f["x"], pos, rest.x0, rest.V0, rest.m, off, idx, self.G, self.rev, rest.h,
+               state.kid, state.dim, w["P"], w["M"], self.alpha * self.youngs_modulus, f["a"])
+
+    def constrain(self, state: SimState) -> None:
+        """Pinned particles back at rest."""
+        if self.rest is not None:
+            self.rest.constrain(state)

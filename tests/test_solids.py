@@ -1,0 +1,317 @@
+"""Elastic solids (corotated SPH, Becker et al. 2009): Hooke's law on a stretched bar,
+corotation (a rigid rotation is free of force), conservation, pinned particles, and the
+SPlisHSPlasH translation of ``elasticityMethod``."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from sphkit.scene.schema import Scene, SceneError
+from sphkit.simulation import Simulation
+
+E, NU, R = 1e5, 0.3, 0.02
+
+
+def _solid(end: list[float], alpha: float = 0.0, gravity: float = 0.0,
+           fixed: list | None = None, dt: float = 2e-4, method: str = "becker2009",
+           **extra: float) -> Simulation:
+    """A block of one elastic material from the origin to ``end``, no pressure (WCSPH with
+    stiffness 0, as SPlisHSPlasH's Beam scenes), fixed time step."""
+    dim = len(end)
+    g = [0.0] * dim
+    g[1] = -gravity
+    el = {"method": method, "youngs_modulus": E, "poisson_ratio": NU, "alpha": alpha,
+          "fixed_boxes": fixed or [], **extra}
+    return Simulation(Scene.model_validate({
+        "configuration": {"dim": dim, "particle_radius": R, "gravity": g,
+                          "pressure": {"method": "wcsph", "stiffness": 0.0},
+                          "time": {"cfl": False, "dt": dt}},
+        "materials": [{"elasticity": el}],
+        "fluid_blocks": [{"start": [0.0] * dim, "end": end}]}))
+
+
+def _accelerations(sim: Simulation) -> np.ndarray:
+    """The elastic acceleration alone, at the current positions."""
+    st = sim.state
+    sim._neighbors()
+    st.fluid["a"][:] = 0.0
+    for s in sim.solids:
+        s.apply(st, 1e-4)
+    return st.fluid["a"].copy()
+
+
+def _rotation(angle: float, axis: np.ndarray) -> np.ndarray:
+    k = axis / np.linalg.norm(axis)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def test_stretched_bar_pulls_with_youngs_modulus() -> None:
+    """A bar (10 x 8 x 8 particles) displaced by the uniaxial-stress field of a strain 1e-3
+    (x stretched by eps, y and z contracted by nu eps): every particle's stress is Hooke's
+    ``E eps`` (von Mises of uniaxial stress) to 1e-4 -- the corrected gradients reproduce a
+    linear displacement exactly, at the surface too; what is left (1.2e-5 at corner
+    particles) is the corotation: the rotation extracted from the moment matrix ``A = F M`` is
+    not exactly the identity where the rest moment M is anisotropic -- and the left half pulls the
+    right half back with ``E eps A`` to 1e-4 (3e-5 measured, at any width): the pair forces
+    across the mid-plane, with corrected gradients and the particles' lattice volumes, sum to
+    the traction. SPlisHSPlasH's choices (plain kernel gradients, rest volumes from the kernel
+    sum, rest lists of radius h) give 1.17 here, and 0.59 with its halved force; its rest
+    volumes alone (``rest_volume="kernel_sum"``) make the surface layer too stiff: 1.20."""
+    w, eps = 0.32, 1e-3
+    sim = _solid([0.4, w, w])
+    f = sim.fluid
+    x0 = f["solid_x0"]
+    c = x0.mean(axis=1, keepdims=True)
+    f["x"][...] = x0 + np.array([[eps], [-NU * eps], [-NU * eps]]) * (x0 - c)
+    a = _accelerations(sim)
+    np.testing.assert_allclose(f["solid_stress"], E * eps, rtol=1e-4)
+    right = x0[0] > c[0, 0]
+    pull = -(f["m"] * a)[0, right].sum()
+    assert abs(pull / (E * eps * w * w) - 1.0) < 1e-4, pull / (E * eps * w * w)
+
+
+def test_rigid_rotation_has_no_elastic_force() -> None:
+    """Corotation: the rest block turned by 1 rad about an oblique axis and moved feels no
+    elastic force once the rotation extraction has converged (warm-started, as in a run:
+    after two calls of 10 iterations); compared with the acceleration of a strain of 1e-6
+    (E 1e5 Pa), it is below 1e-4 of it, i.e. round-off."""
+    sim = _solid([0.24, 0.16, 0.16], alpha=0.1)
+    f = sim.fluid
+    x0 = f["solid_x0"].copy()
+    f["x"][...] = _rotation(1.0, np.array([1.0, 2.0, 3.0])) @ x0 + 0.1
+    for _ in range(2):
+        _accelerations(sim)
+    a_rigid = np.abs(_accelerations(sim)).max()
+    f["x"][...] = x0 * (1.0 + 1e-6)
+    f["solid_qw"][:] = 1.0
+    f["solid_q"][:] = 0.0
+    a_strain = np.abs(_accelerations(sim)).max()
+    assert a_strain > 0.0
+    assert a_rigid < 1e-4 * a_strain, (a_rigid, a_strain)
+
+
+def test_spinning_block_keeps_momentum() -> None:
+    """An elastic block (6 x 4 x 4 particles, alpha 0.1) in zero gravity, turned by 0.7 rad
+    and spinning (omega = (0.3, 0.5, 2) rad/s) for 200 steps: linear momentum stays at its
+    start to round-off (1e-12 of sum m|v|): the elastic and hourglass pair forces are
+    antisymmetric on symmetric rest lists. Angular momentum is not exact: the corotated force
+    of a pair follows R sigma L grad W, not x_ij, so its torques cancel only to first order in
+    the strain (the strain energy's rotational invariance is broken by holding R fixed); the
+    relative drift must stay below 1e-5 (2.5e-6 measured; the issue asks 1e-10, which this
+    model cannot give)."""
+    sim = _solid([0.24, 0.16, 0.16], alpha=0.1)
+    f = sim.fluid
+    x, m = f["x"], f["m"]
+    c = x.mean(axis=1, keepdims=True)
+    x[...] = _rotation(0.7, np.array([0.0, 0.0, 1.0])) @ (x - c) + c
+    f["v"][...] = np.cross(np.array([0.3, 0.5, 2.0]), (x - c).T).T
+
+    def momenta() -> tuple[np.ndarray, np.ndarray]:
+        v = f["v"]
+        return (m * v).sum(axis=1), (m * np.cross(f["x"].T, v.T).T).sum(axis=1)
+
+    p0, l0 = momenta()
+    scale = (m * np.linalg.norm(f["v"], axis=0)).sum()
+    for _ in range(200):
+        sim.step()
+    p1, l1 = momenta()
+    assert np.abs(p1 - p0).max() < 1e-12 * scale
+    assert np.linalg.norm(l1 - l0) < 1e-5 * np.linalg.norm(l0), np.linalg.norm(l1 - l0)
+    assert f["solid_stress"].max() > 0.0  # the spin strains it
+
+
+def test_pinned_particles_stay_and_the_rest_sags() -> None:
+    """A 2D cantilever clamped by a fixed box under gravity: after 100 steps the pinned
+    particles are exactly at their rest positions with zero velocity, the free end has moved
+    down."""
+    sim = _solid([0.8, 0.08], gravity=9.81, fixed=[{"min": [-1, -1], "max": [0.1, 1]}],
+                 dt=1e-4)
+    for _ in range(100):
+        sim.step()
+    f = sim.fluid
+    pinned = f["solid_fixed"] == 1
+    assert 0 < pinned.sum() == (f["solid_x0"][0] <= 0.1).sum()
+    np.testing.assert_array_equal(f["x"][:, pinned], f["solid_x0"][:, pinned])
+    assert not f["v"][:, pinned].any()
+    tip = f["solid_x0"][0] > 0.7
+    assert (f["x"][1, tip] < f["solid_x0"][1, tip]).all()
+
+
+def _beam_2d(tmp_path, method: int, block: dict) -> str:
+    from sphkit.cli.compat import wheel_scene_folder
+
+    sc = json.load(open(os.path.join(wheel_scene_folder(), "Beam_2D.json")))
+    m = sc["Materials"][0]
+    m.pop("Kugelstadt et al. 2021")
+    m["elasticityMethod"] = method
+    m["Becker et al. 2009"] = block
+    p = tmp_path / "beam.json"
+    p.write_text(json.dumps(sc))
+    return str(p)
+
+
+def test_splishsplash_elasticity_translates(tmp_path) -> None:
+    """``elasticityMethod`` 1 with its "Becker et al. 2009" block becomes the becker2009
+    elasticity (E, nu, alpha, the fixed box) and WCSPH with stiffness 0 loads for it; methods
+    2 and 3 are refused naming the field and the supported numbers; stiffness 0 with a fluid
+    is refused naming the field."""
+    from sphkit.scene.files import load_scene
+    from sphkit.world import build_world
+
+    block = {"youngsModulus": 5e6, "poissonsRatio": 0.33, "alpha": 0.1,
+             "fixedBoxMin": [-10, -10, -10], "fixedBoxMax": [-1.5, 10, 10]}
+    scene = load_scene(_beam_2d(tmp_path, 1, block))
+    el = scene.materials[0].elasticity
+    assert (el.method, el.youngs_modulus, el.poisson_ratio, el.alpha) == ("becker2009", 5e6,
+                                                                          0.33, 0.1)
+    assert el.fixed_boxes[0].max == [-1.5, 10.0, 10.0]
+    assert scene.configuration.pressure.stiffness == 0.0
+    with pytest.raises(SceneError, match=r"elasticityMethod: 3 \(Kugelstadt et al. 2021\) is "
+                       r"not supported yet; supported: 0 \(none\), 1 \(Becker et al. 2009\), 2 "
+                       r"\(Peer et al. 2018\)"):
+        load_scene(_beam_2d(tmp_path, 3, {}))
+    peer = load_scene(_beam_2d(tmp_path, 2, {}))  # its block is "Peer et al. 2018"
+    assert peer.materials[0].elasticity.method == "peer2018"
+    fluid = load_scene(_beam_2d(tmp_path, 0, {}))
+    with pytest.raises(SceneError, match=r"WCSPH.stiffness \(sphkit configuration.pressure."
+                       r"stiffness\): 0 with the fluid material\(s\) \['Fluid'\]; expected"):
+        build_world(fluid)
+    with pytest.raises(SceneError, match="poissonsRatio"):
+        load_scene(_beam_2d(tmp_path, 1, {**block, "poissonsRatio": 0.5}))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_quadratic_gradient_weights_are_exact_for_quadratic_fields(dim: int) -> None:
+    """The second-order gradient weights (sphkit.solids.gradients) reproduce the gradient of a
+    quadratic field at every particle to round-off (1e-9 of its scale), surface and corner
+    particles included, on rest lists of 1.5 h; the corrected linear weights are exact for
+    linear fields only, and miss the quadratic one at the surface by O(h) (checked to be
+    above 5 %: the error that made a bent beam too soft)."""
+    from sphkit.solids.gradients import gradient_weights
+
+    sim = _solid([0.24, 0.16, 0.16][:dim])
+    rest, st = sim.solids[0].rest, sim.state
+    off, idx = rest.lists.offsets, rest.lists.indices
+    rows = np.repeat(np.arange(rest.n), np.diff(off))
+    x = rest.x0[:dim]
+    a = np.array([0.3, -0.7, 0.5][:dim])
+    Q = np.array([[1.0, 0.4, -0.2], [0.4, -2.0, 0.6], [-0.2, 0.6, 1.5]])[:dim, :dim]
+    phi = a @ x + 0.5 * np.einsum("an,ab,bn->n", x, Q, x)
+    exact = a[:, None] + Q @ x
+    scale = np.abs(exact).max()
+    for order in ("linear", "quadratic"):
+        G = gradient_weights(rest.x0, rest.V0, off, idx, rest.h, st.kid, dim, order)
+        grad = np.zeros((dim, rest.n))
+        for d in range(dim):
+            np.add.at(grad[d], rows, (phi[idx] - phi[rows]) * G[:, d])
+        err = np.abs(grad - exact).max() / scale
+        if order == "quadratic":
+            assert err < 1e-9, err
+        else:
+            assert err > 0.05, err
+
+
+def test_peer2018_small_step_is_the_explicit_force() -> None:
+    """The implicit model's acceleration ``(v' - v) / dt`` tends to the explicit elastic
+    acceleration as dt -> 0 (the implicit part is dt^2 K): on a stretched, resting bar with
+    dt = 1e-9 s they agree to 1e-6 (the CG tolerance 1e-10 here)."""
+    eps = 1e-3
+    out = []
+    for method in ("becker2009", "peer2018"):
+        sim = _solid([0.24, 0.16, 0.16], method=method, alpha=0.1, max_error=1e-10)
+        f = sim.fluid
+        x0 = f["solid_x0"]
+        f["x"][...] = x0 * np.array([[1 + eps], [1 - NU * eps], [1.0]])
+        st = sim.state
+        sim._neighbors()
+        f["a"][:] = 0.0
+        sim.solids[0].apply(st, 1e-9)
+        out.append(f["a"].copy())
+    scale = np.abs(out[0]).max()
+    assert scale > 0
+    assert np.abs(out[1] - out[0]).max() < 1e-6 * scale
+
+
+def test_peer2018_is_stable_far_beyond_the_explicit_step() -> None:
+    """A 2D cantilever (0.68 x 0.08 m free, E 100 MPa, clamped) released under gravity with a
+    step 50 times the explicit model's bound, over about one period of its first mode: the
+    implicit model's CG converges every step and the tip's largest deflection is the explicit
+    model's (run with its own step) within 15 % (12.2 against 13.3 mm measured: backward Euler
+    damps), and it swings back (the last third stays below the peak)."""
+    e_solid = 1e8
+    probe = _solid([0.8, 0.08], gravity=9.81, youngs_modulus=e_solid)
+    dt = 50 * probe.solids[0].max_time_step(probe.state)
+    peaks = {}
+    for method, sub in (("peer2018", 1), ("becker2009", 50)):
+        sim = _solid([0.8, 0.08], gravity=9.81, fixed=[{"min": [-1, -1], "max": [0.12, 1]}],
+                     dt=dt / sub, method=method, youngs_modulus=e_solid)
+        f = sim.fluid
+        tip = f["solid_x0"][0] > 0.75
+        deflection = []
+        for _ in range(70 * sub):
+            sim.step()
+            if method == "peer2018":
+                assert sim.solids[0].stats.converged
+            deflection.append(float(np.mean(f["solid_x0"][1, tip] - f["x"][1, tip])))
+        peaks[method] = max(deflection)
+        if method == "peer2018":
+            assert max(deflection[-20:]) < 0.5 * peaks[method]
+    assert abs(peaks["peer2018"] / peaks["becker2009"] - 1) < 0.15, peaks
+
+
+def test_checkpoint_restores_the_solid_bit_for_bit(tmp_path) -> None:
+    """The solid's state lives in particle fields (rest positions, slots, rotations, pinned
+    flags), so a run continued from a checkpoint repeats the uninterrupted one bit for bit,
+    across z-order reorderings (every 5 steps here)."""
+    sc = _solid([0.4, 0.12], gravity=9.81, fixed=[{"min": [-1, -1], "max": [0.1, 1]}],
+                dt=1e-4, alpha=0.1).scene.model_copy(deep=True)
+    sc.configuration.zsort_every = 5
+    sim = Simulation(sc)
+    for _ in range(12):
+        sim.step()
+    path = sim.save_checkpoint(tmp_path / "ck.npz")
+    for _ in range(12):
+        sim.step()
+    again = Simulation.from_checkpoint(path)
+    for _ in range(12):
+        again.step()
+    a, b = sim.fluid, again.fluid
+    np.testing.assert_array_equal(a["x"][:, a.order_by_id()], b["x"][:, b.order_by_id()])
+    np.testing.assert_array_equal(a["v"][:, a.order_by_id()], b["v"][:, b.order_by_id()])
+
+
+def test_capped_rest_lists_stay_symmetric() -> None:
+    """``max_neighbors`` keeps at most that many rest neighbours, and a pair only when each is
+    among the other's nearest: the lists stay symmetric (every pair has its reverse), so the
+    pair forces still cancel (Kee et al. 2023 found SPlisHSPlasH's one-sided caps break
+    momentum conservation); a stretched block's elastic forces sum to zero to round-off."""
+    from sphkit.solids.gradients import reverse_pairs
+
+    sim = _solid([0.24, 0.16, 0.16], max_neighbors=10, alpha=0.1)
+    rest = sim.solids[0].rest
+    counts = rest.lists.counts()
+    assert counts.max() <= 10 and counts.min() > 0
+    reverse_pairs(rest.lists.offsets, rest.lists.indices)  # raises when one is missing
+    f = sim.fluid
+    f["x"][...] = f["solid_x0"] * np.array([[1.01], [0.995], [1.0]])
+    a = _accelerations(sim)
+    total = (f["m"] * a).sum(axis=1)
+    assert np.abs(total).max() < 1e-12 * (f["m"] * np.abs(a)).sum()
+
+
+def test_frames_carry_the_solid_fields(tmp_path) -> None:
+    """A solid's frames hold its stress, rest position and pinned flag besides the standard
+    fields (a fluid's frames do not change)."""
+    from sphkit.io.frames import frame_arrays
+
+    sim = _solid([0.2, 0.08], gravity=9.81, fixed=[{"min": [-1, -1], "max": [0.05, 1]}])
+    sim.step()
+    arrays = frame_arrays(sim.fluid)
+    assert {"stress", "rest_position", "fixed"} <= set(arrays)
+    assert arrays["rest_position"].shape == arrays["position"].shape
+    assert arrays["fixed"].sum() > 0
