@@ -381,7 +381,7 @@ def test_loader_warns_about_unknown_keys_in_a_method_block() -> None:
 
 def test_schema_validates_the_material_fields() -> None:
     with pytest.raises(Exception, match=r"surface_tension\.method"):
-        Material.model_validate({"surface_tension": {"method": "jeske2023"}})
+        Material.model_validate({"surface_tension": {"method": "tension2099"}})
     with pytest.raises(Exception, match=r"surface_tension\.coefficient"):
         Material.model_validate({"surface_tension": {"method": "he2014", "coefficient": -1}})
     with pytest.raises(Exception, match=r"drag\.coefficient"):

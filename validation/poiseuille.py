@@ -186,7 +186,8 @@ def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinc
     fluid = ParticleSet(2, st.fluid.dtype)
     for name, spec in st.fluid.specs.items():
         fluid.register(name, spec.kind, spec.dtype)
-    fluid.add(rows(list(range(n))), name="channel", m=RHO0 * vol, V0=vol, rho=RHO0)
+    fluid.add(rows(list(range(n))), name="channel", m=RHO0 * vol, V0=vol, rho=RHO0,
+              rho0=RHO0)
     wall = ParticleSet(2, st.boundary.dtype)
     for name, spec in st.boundary.specs.items():
         wall.register(name, spec.kind, spec.dtype)

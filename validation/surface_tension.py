@@ -180,7 +180,7 @@ def cut_tension(sim: Simulation, planes: np.ndarray) -> tuple[float, float]:
                 dim, rho, L)
     p = np.empty(n)
     press = sim.pressure
-    state_equation(rho, st.rho0, LINEAR, press.stiffness, press.exponent, p)
+    state_equation(rho, np.full(n, st.rho0), LINEAR, press.stiffness, press.exponent, p)
     model = next(fo for fo in sim.forces if isinstance(fo, (BeckerTeschner2007, Akinci2013,
                                                              He2014, Jeske2023)))
     coef = model.coefficient
