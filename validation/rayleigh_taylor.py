@@ -16,8 +16,10 @@ The perturbation is the linear eigenmode's *displacement* of one wavelength, ``k
 LAMBDA``, amplitude ``a0`` (``--amplitude``, in units of LAMBDA) at the interface, applied to the
 particles after sphkit's start-up; it is divergence-free and vanishes at the walls:
 
-    light (y < H): xi_y = a0 cos(kx) sinh(ky) / sinh(kH),   xi_x = -a0 sin(kx) cosh(ky) / sinh(kH)
-    heavy (y > H): xi_y = a0 cos(kx) sinh(k(2H-y)) / sinh(kH), xi_x = a0 sin(kx) cosh(k(2H-y)) / sinh(kH)
+    light (y < H): xi_y = a0 cos(kx) sinh(ky) / sinh(kH),
+                   xi_x = -a0 sin(kx) cosh(ky) / sinh(kH)
+    heavy (y > H): xi_y = a0 cos(kx) sinh(k(2H-y)) / sinh(kH),
+                   xi_x = a0 sin(kx) cosh(k(2H-y)) / sinh(kH)
 
 The particles start at rest: nothing of the theory's rate enters the start state; linear theory
 then gives eta(t) = a0 cosh(n t), the sum of the growing and the decaying mode.
@@ -99,12 +101,13 @@ def profile(y: np.ndarray) -> np.ndarray:
                     np.sinh(K * np.clip(2 * H - y, 0, H))) / math.sinh(K * H)
 
 
-def fit_rate(t: np.ndarray, f: np.ndarray, n_guess: float) -> float:
-    """n of the least-squares fit f = C+ exp(n t) + C- exp(-n t)."""
+def fit_rate(t: np.ndarray, f: np.ndarray, guess: tuple[float, float, float]) -> float:
+    """n of the least-squares fit f = C+ exp(n t) + C- exp(-n t), from ``guess`` (n, C+, C-)."""
+    scale = float(np.abs(f).max())
+
     def res(p: np.ndarray) -> np.ndarray:
-        return (p[1] * np.exp(p[0] * t) + p[2] * np.exp(-p[0] * t) - f) / np.abs(f).max()
-    c = 0.5 * f[0] if abs(f[0]) > 0 else 0.5 * f.max()
-    return float(least_squares(res, [n_guess, c, c]).x[0])
+        return (p[1] * np.exp(p[0] * t) + p[2] * np.exp(-p[0] * t) - f) / scale
+    return float(least_squares(res, list(guess)).x[0])
 
 
 def grow(method: str, r: float, atwood: float, nu: float, a0: float,
@@ -159,8 +162,9 @@ def grow(method: str, r: float, atwood: float, nu: float, a0: float,
         end = reached[0]
         start = 0 if lo == 1.0 else np.nonzero(eta_a >= lo * eta_a[0])[0][0]
         sel = slice(start, end + 1)
-        out[name] = fit_rate(t[sel], eta_a[sel], n0)
-        out[name + "_w"] = fit_rate(t[sel], w_a[sel], n0)
+        e0 = eta_a[0]  # the guess: the inviscid solution a0 cosh(n0 t), w its derivative
+        out[name] = fit_rate(t[sel], eta_a[sel], (n0, 0.5 * e0, 0.5 * e0))
+        out[name + "_w"] = fit_rate(t[sel], w_a[sel], (n0, 0.5 * n0 * e0, -0.5 * n0 * e0))
         out[name + "_t"] = (float(t[start]), float(t[end]))
     return out
 
