@@ -35,8 +35,9 @@ the model's growth rate is n0 whatever nu. Chandrasekhar's viscous correction co
 continuity of tangential velocity and stress at the interface (its vorticity layer), which this
 model does not impose. For reference the table also gives the common approximation of that
 correction for equal kinematic viscosities, ``n = sqrt(n0^2 + nu^2 k^4) - nu k^2`` (the rate of
-a model whose viscosity crossed the interface). The viscosity still matters: it damps the
-short waves that RT grows fastest (inviscid ``n ~ sqrt(k)``) from the particle noise.
+a model whose viscosity crossed the interface). By the same argument the phase-local
+viscosity damps no RT wave of any length in the continuum (each grows at ``sqrt(A g k)``,
+faster the shorter); it damps the particle noise that is not a potential flow.
 
 Measured: the Lagrangian projection of every particle's displacement from its start-up position
 onto the eigenfunction, ``eta(t) = sum_i (y_i - y_i0) phi_i / sum_i phi_i^2`` with
