@@ -1,8 +1,8 @@
 """Rayleigh-Taylor instability: linear growth rate of two fluids (sphkit.multiphase).
 
     python validation/rayleigh_taylor.py [--radii 0.0025 0.00125] [--atwood 0.3333]
-        [--viscosity 0.001] [--amplitude 0.005] [--methods dfsph] [--until 0.5]
-        [--dt-max 0.0005] [--plot validation/rayleigh_taylor.png]
+        [--viscosity 0.001] [--amplitude 0.005] [--methods dfsph] [--until 0.4]
+        [--dt-max 0.00025] [--plot validation/rayleigh_taylor.png]
 
     python validation/rayleigh_taylor.py --study rest [--ratio 10]
         [--methods iisph dfsph pcisph pbf] [--radius 0.01] [--viscosity 0.01] [--until 5]
@@ -84,7 +84,7 @@ def theory(atwood: float, nu: float) -> tuple[float, float]:
 
 
 def growth_scene(method: str, r: float, atwood: float, nu: float,
-                 dt_max: float = 5e-4) -> Scene:
+                 dt_max: float = 2.5e-4) -> Scene:
     """The periodic two-layer box of the module docstring."""
     rho_h = RHO_L * (1 + atwood) / (1 - atwood)
     visc = {"method": "standard", "coefficient": nu} if nu > 0 else {"method": "none"}
@@ -119,7 +119,7 @@ def fit_rate(t: np.ndarray, f: np.ndarray, guess: tuple[float, float, float]) ->
 
 
 def grow(method: str, r: float, atwood: float, nu: float, a0: float,
-         until: float, dt_max: float = 5e-4) -> dict:
+         until: float, dt_max: float = 2.5e-4) -> dict:
     """One run: the history of eta, the measured rates (module docstring)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -179,7 +179,7 @@ def grow(method: str, r: float, atwood: float, nu: float, a0: float,
 
 
 def growth(methods: list[str], radii: list[float], atwood: float, nu: float, a0: float,
-           until: float, plot: str | None, dt_max: float = 5e-4) -> None:
+           until: float, plot: str | None, dt_max: float = 2.5e-4) -> None:
     n0, n = theory(atwood, nu)
     print(f"\nRayleigh-Taylor, 2D periodic, lambda = {LAMBDA} m, H = {H} m each side, "
           f"A = {atwood:.4f}, nu = {nu} m^2/s, a0 = {a0} lambda, dt_max = {dt_max} s")
@@ -277,17 +277,17 @@ def main() -> None:
     ap.add_argument("--viscosity", type=float, default=None,
                     help="kinematic nu [m^2/s] (growth: 1e-3, rest: 0.01)")
     ap.add_argument("--amplitude", type=float, default=0.005, help="a0 in units of lambda")
-    ap.add_argument("--until", type=float, default=None, help="growth: 0.5 s, rest: 5 s")
+    ap.add_argument("--until", type=float, default=None, help="growth: 0.4 s, rest: 5 s")
     ap.add_argument("--ratio", type=float, default=10.0)
     ap.add_argument("--radius", type=float, default=0.01)
     ap.add_argument("--plot", default=None, help="growth: write eta(t) to this PNG")
-    ap.add_argument("--dt-max", type=float, default=5e-4, help="growth: largest step [s]")
+    ap.add_argument("--dt-max", type=float, default=2.5e-4, help="growth: largest step [s]")
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if args.study == "growth":
         growth(args.methods or ["dfsph"], args.radii, args.atwood,
                1e-3 if args.viscosity is None else args.viscosity, args.amplitude,
-               args.until or 0.5, args.plot, args.dt_max)
+               args.until or 0.4, args.plot, args.dt_max)
     else:
         rest(args.methods or ["iisph", "dfsph", "pcisph", "pbf"], args.radius, args.ratio,
              0.01 if args.viscosity is None else args.viscosity, args.until or 5.0)
