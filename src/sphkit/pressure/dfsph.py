@@ -70,21 +70,22 @@ def _alpha(D, tiny, alpha):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _density_source(rho, inv_rho0, div, dt, kprev, s, kappa):
+def _density_source(rho, inv_rho0, div, dt, kprev, inv_c, s, kappa):
     # s = 1 - max(rho_hat*, 1); warm start where the predicted density exceeds rho0 (inv_rho0
-    # (N,): 1 / each particle's rest density)
+    # (N,): 1 / each particle's rest density); the cap bounds the pressure p / rho0_ref, so in
+    # each particle's own kappa it is 0.00025 inv_c (inv_c = rho0_ref / rho0_i, 1 for one fluid)
     for i in numba.prange(rho.shape[0]):
         pred = rho[i] * inv_rho0[i] + dt * div[i]
         s[i] = 1.0 - pred
-        kappa[i] = 0.5 * min(kprev[i], 0.00025) / (dt * dt) if pred > 1.0 else 0.0
+        kappa[i] = 0.5 * min(kprev[i], 0.00025 * inv_c[i]) / (dt * dt) if pred > 1.0 else 0.0
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _divergence_source(div, active, dt, kprev, s, kappa):
+def _divergence_source(div, active, dt, kprev, inv_c, s, kappa):
     for i in numba.prange(div.shape[0]):
         if active[i] and div[i] > 0.0:
             s[i] = -div[i]
-            kappa[i] = 0.5 * min(kprev[i], 0.5) / dt
+            kappa[i] = 0.5 * min(kprev[i], 0.5 * inv_c[i]) / dt
         else:
             s[i] = 0.0
             kappa[i] = 0.0
@@ -148,7 +149,7 @@ class DFSPH(PressureSolver):
             20 if state.dim == 3 else 7)
         s = np.empty_like(div)
         kappa = np.empty_like(div)
-        _divergence_source(div, active, dt, f["dfsph_kappa_v"], s, kappa)
+        _divergence_source(div, active, dt, f["dfsph_kappa_v"], state.rest().inv_c, s, kappa)
         ones = np.ones_like(div)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
                                            alpha / dt, dt, OMEGA, active, error_factor=dt,
@@ -170,7 +171,8 @@ class DFSPH(PressureSolver):
         div = self._grads.velocity_divergence(f["v"] + dt * f["a"])
         s = np.empty_like(div)
         kappa = np.empty_like(div)
-        _density_source(f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"], s, kappa)
+        _density_source(f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"], state.rest().inv_c,
+                        s, kappa)
         ones = np.ones_like(div)
         active = np.ones(f.n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
