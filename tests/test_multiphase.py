@@ -230,3 +230,57 @@ def test_viscosity_acts_within_a_phase() -> None:
     one, _ = accel(False, False)
     one_shaken, _ = accel(False, True)
     assert np.abs(one - one_shaken).max() > 1.0  # one material: the upper block drags
+
+
+def test_dfsph_warm_start_cap_bounds_the_same_pressure_in_every_phase() -> None:
+    """DFSPH caps its warm start (SPlisHSPlasH's ``0.5 min(kappa dt^2, 0.00025) / dt^2``). The
+    stored kappa is each particle's own ``p / rho0_i``, so one cap in kappa would allow a light
+    particle (100 kg/m^3) a tenth of the pressure of a heavy one: the light layer under a heavy
+    column needs about five times water's kappa to carry it. The cap is on ``p / rho0_ref``:
+    both phases keep the same largest warm-start pressure (exact: the factors are powers of
+    ten of the same floats, compared with a relative 1e-12)."""
+    from sphkit.pressure.dfsph import _density_source
+
+    dt = 0.002
+    rho0 = np.array([1000.0, 100.0])
+    inv_c = 1000.0 / rho0
+    rho = rho0.copy()
+    div = np.full(2, 1.0)  # compressing: the warm start applies
+    kprev = np.full(2, 1.0)  # far above either cap
+    s, kappa = np.empty(2), np.empty(2)
+    _density_source(rho, 1.0 / rho0, div, dt, kprev, inv_c, s, kappa)
+    p = kappa * rho0  # the warm-start pressure per unit rho_hat^2
+    np.testing.assert_allclose(p[1], p[0], rtol=1e-12)
+    np.testing.assert_allclose(kappa[0], 0.5 * 0.00025 / dt ** 2, rtol=1e-12)
+
+
+def test_pcisph_factor_follows_each_particles_diagonal() -> None:
+    """PCISPH's template factor delta is 1 / (2 D0) for a particle among its own phase. In the
+    own variable p / rho0_i a heavy particle among light neighbours (ratio 10) has about ten
+    times that diagonal (ppe.diagonal_cached), and the template factor over-corrected it tenfold
+    (the 1:10 heavy-over-light column blew up at 0.022 s). phase_factor scales delta by
+    D_i(ratio 1) / D_i(ratios): about 1/10 for one heavy particle inside a light block (between
+    0.1 and 0.11: the |G_i|^2 term of a filled neighbourhood is small but not 0), slightly above
+    1 for its light neighbours, exactly 1 where every neighbour is of the own phase."""
+    from sphkit.pressure.pcisph import phase_factor
+
+    sc = _scene("pcisph", [{"id": "light", "density0": 100.0}],
+                [([0.0, 0.0], [0.5, 0.48], "light")])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(sc)
+    f, st = sim.fluid, sim.state
+    x = f.view("x")
+    i = int(np.argmin(np.hypot(x[:, 0] - 0.25, x[:, 1] - 0.24)))  # a particle in the middle
+    f["rho0"][i] = 1000.0
+    f["m"][i] *= 10.0
+    st.rho0 = 100.0  # the reference: the light fluid (RestArrays compares against it)
+    sim._neighbors()  # (may reorder the particles)
+    sim.compute_density()
+    i = int(np.argmax(f["rho0"]))
+    scale = phase_factor(st, st.pair_grads)
+    assert 0.1 < scale[i] < 0.11
+    nbrs = st.nl_ff.indices[st.nl_ff.offsets[i]:st.nl_ff.offsets[i + 1]]
+    assert np.all(scale[nbrs] > 1.0)
+    others = np.setdiff1d(np.arange(f.n), np.append(nbrs, i))
+    assert np.all(scale[others] == 1.0)
