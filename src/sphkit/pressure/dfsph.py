@@ -13,7 +13,9 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
 2. the **divergence-free solver** (Alg. 3) on the current velocities: source
    ``s_i = -max(D rho_hat_i / Dt, 0)`` (0 for particles with fewer than 20 neighbours in 3D, 7 in
    2D, whose residual is also left out of the error), warm start
-   ``kappa^v_i = 0.5 min(kappa^v_prev, 0.5) / dt`` where the density increases, iterations
+   ``kappa^v_i = 0.5 min(kappa^v_prev, 0.5 rho0_ref / rho0_i) / dt`` where the density
+   increases (the cap bounds ``p / rho0_ref``, the same pressure in every phase; SPlisHSPlasH
+   caps its own kappa, i.e. a light phase at a tenth of the pressure), iterations
    ``kappa^v_i <- max(kappa^v_i - 0.5 (s_i - A kappa^v_i) alpha_i / dt, 0)`` until the average
    ``|D rho_hat / Dt| dt`` is at most ``max_error_v``; then ``v += dt a(kappa^v)``, and a
    boundary that yields to the pressure (``state.coupling``: dynamic rigid bodies, strong
@@ -24,7 +26,8 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
    rigid bodies are advanced by theirs (gravity) too (:meth:`sphkit.boundary.rigid.RigidBodies.
    predict`), so that the density solve sees the bodies fall as the fluid does;
 4. the **constant-density solver** (Alg. 2): ``rho_hat*_i = max(rho_hat_i + dt D rho_hat_i/Dt(v*),
-   1)``, ``s_i = 1 - rho_hat*_i``, warm start ``kappa_i = 0.5 min(kappa_prev, 0.00025) / dt^2``
+   1)``, ``s_i = 1 - rho_hat*_i``, warm start ``kappa_i = 0.5 min(kappa_prev, 0.00025 rho0_ref /
+   rho0_i) / dt^2``
    where ``rho_hat* > 1``, iterations ``kappa_i <- max(kappa_i - 0.5 (s_i - A kappa_i) alpha_i /
    dt^2, 0)`` until the average compression is at most ``max_error``; the pressure acceleration
    ``a = -sum_j V_j (kappa_i + kappa_j) grad W_ij - sum_b V_b (1 + m_b) kappa_i grad W_ib``

@@ -55,6 +55,10 @@ SPlisHSPlasH's final ``v = v_last + dt (a + a_p)``, ``x = x_last + dt v``.
 
 The reported pressure is ``p = rho0 p~`` [Pa].
 
+Several fluids (``p~_i = p_i / rho0_i``, neighbour weight ``rho0_j / rho0_i``): the factor is
+per particle, ``delta D_i(ratio 1) / D_i(ratios)`` (:func:`phase_factor`), the template's step
+corrected by the ratios in the particle's own diagonal; a single fluid keeps the scalar.
+
 Notes. ``delta / dt^2`` is the inverse of twice the template's PPE diagonal, so one iteration is a
 Jacobi sweep with omega = 0.5 (survey Sec. 4.4) and the pressure starts from 0 every step (no warm
 start, as paper and SPlisHSPlasH): holding a column of height H at rest with an average error
@@ -153,7 +157,7 @@ def phase_factor(state: SimState, g: PairGradients) -> np.ndarray:
     """Per-particle correction of the template factor for several fluids (N,).
 
     In the own variable ``p~_i = p_i / rho0_i`` the PPE diagonal of particle i is
-    ``D_i = |G_i + B_i|^2-like terms + sum_j (rho0_i / rho0_j) V_j^2 |grad W_ij|^2``
+    ``D_i = (G_i + B_i) . (G_i + M_i) + sum_j (rho0_i / rho0_j) V_j^2 |grad W_ij|^2``
     (:func:`sphkit.core.ppe.diagonal_cached`): the template's ``delta`` assumes every ratio is
     1. A heavy particle among light ones (ratio 10) has a diagonal up to ten times the
     template's, so ``delta`` over-corrects it up to tenfold (omega 5 instead of 0.5) and the
