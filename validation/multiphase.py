@@ -2,7 +2,7 @@
 
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
-        [--jitter 0.1] [--viscosity 0.01]
+        [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
 the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
@@ -44,7 +44,7 @@ LAYER = 0.3
 
 
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
-          viscosity: float = 0.01) -> Scene:
+          viscosity: float = 0.01, symmetric: bool = False) -> Scene:
     """Two layers LAYER m high in a box WIDTH m wide (module docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
     visc = {"method": "standard", "coefficient": viscosity}
@@ -53,7 +53,8 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
         pressure = {"method": "wcsph", "stiffness": 1e5, "exponent": 7.0}
     return Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, -G],
-                          "pressure": pressure, "time": {"dt_max": 0.002}},
+                          "pressure": pressure, "time": {"dt_max": 0.002},
+                          **({"boundary": {"symmetric": True}} if symmetric else {})},
         "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc},
                       {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc}],
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [WIDTH, LAYER], "material": lower},
@@ -79,15 +80,16 @@ def mixing(sim: Simulation) -> tuple[int, int, float]:
 
 
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
-           viscosity: float) -> None:
+           viscosity: float, symmetric: bool = False) -> None:
     print(f"\nheavy over light, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
-          f"jitter {jitter} r, viscosity {viscosity} m^2/s")
+          f"jitter {jitter} r, viscosity {viscosity} m^2/s"
+          + (", symmetric wall term" if symmetric else ""))
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
           f"{'vmax':>6s} {'its':>6s} {'ms/step':>8s}  note")
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sim = Simulation(scene(method, r, True, ratio, viscosity))
+            sim = Simulation(scene(method, r, True, ratio, viscosity, symmetric))
         x = sim.fluid["x"]  # the perturbation (set-up, once)
         x += jitter * r * np.random.default_rng(1).uniform(-1.0, 1.0, x.shape)
         its, steps, note = [], 0, ""
@@ -107,7 +109,7 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
 
 
 def hydrostatic(methods: list[str], r: float, settle: float, average: float,
-                ratio: float, viscosity: float) -> None:
+                ratio: float, viscosity: float, symmetric: bool = False) -> None:
     print(f"\nlight over heavy at rest, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
           f"units of the layer's rho0 g, averaged {settle}-{settle + average} s")
     print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'jump/rho_l g H_l':>17s} "
@@ -115,7 +117,7 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sim = Simulation(scene(method, r, False, ratio, viscosity))
+            sim = Simulation(scene(method, r, False, ratio, viscosity, symmetric))
         note = ""
         t0 = time.perf_counter()
         steps = 0
@@ -169,13 +171,16 @@ def main() -> None:
     ap.add_argument("--average", type=float, default=0.5)
     ap.add_argument("--jitter", type=float, default=0.1)
     ap.add_argument("--viscosity", type=float, default=0.01)
+    ap.add_argument("--symmetric-walls", action="store_true",
+                    help="configuration.boundary.symmetric: the walls' term V_b k_i alone")
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
         hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
-                    args.viscosity)
+                    args.viscosity, args.symmetric_walls)
     if "layers" in args.study:
-        layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity)
+        layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
+               args.symmetric_walls)
 
 
 if __name__ == "__main__":

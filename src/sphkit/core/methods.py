@@ -309,8 +309,10 @@ class BoundaryCoupling:
 
     def __init__(self, pressure: BoundaryPressure | None = None,
                  moving: MovingBoundary | None = None,
-                 model: BoundaryModel | None = None) -> None:
+                 model: BoundaryModel | None = None, symmetric: bool = False) -> None:
         self.pressure = pressure
+        #: the symmetric boundary term ``V_b k_i`` in the PPE solvers (see :meth:`mirror`)
+        self.symmetric = symmetric
         self.moving = moving
         self.model = model
         self._still = np.zeros((0, 0))
@@ -337,8 +339,24 @@ class BoundaryCoupling:
     # -- boundary pressure ----------------------------------------------------------------------
     def mirror(self, state: SimState, diagonal: bool = False) -> np.ndarray:
         """The mirror weights ``m_b`` (N_boundary,); ``diagonal``: the weights the Jacobi
-        diagonals use, which count extrapolated boundary pressures as mirrored."""
+        diagonals use, which count extrapolated boundary pressures as mirrored.
+
+        ``symmetric`` (scene ``configuration.boundary.symmetric``): ``m_b = 0`` and no
+        extrapolated ``k_b`` (:meth:`boundary_kappa`), SPlisHSPlasH's boundary term ``V_b k_i``.
+        Only that term keeps the PPE operator symmetric positive (semi)definite in p (the
+        divergence of the boundary pairs has the same ``V_b grad W_ib`` once); with full
+        mirroring or the MLS value the wall pushes a particle harder than the divergence
+        accounts for, which a single fluid tolerates but which turns the smallest eigenvalue
+        negative once a light phase lies between walls and a heavy one (measured, 2D column
+        1000 over 100 kg/m^3, r = 2 cm: eigenvalues of the diagonal-scaled operator from
+        -0.0025 (MLS) / -0.0018 (mirror) to +0.0077 (this), the mode being the light layer's
+        pressure; Jacobi then diverges along it and DFSPH, IISPH blew up at 1.1-1.6 s;
+        validation/README.md, "Several fluids"). Not the default: on lattice walls it lets a
+        resting light-over-heavy column move at 0.3 m/s and steepens the hydrostatic slopes
+        by 5-10 %."""
         b = state.boundary
+        if self.symmetric:  # the symmetric term (see below)
+            return np.zeros(b.n, dtype=b.dtype)
         if "pressure_mirror" in b.specs and b["pressure_mirror"].shape[0] == b.n:
             m = b["pressure_mirror"]
         else:
@@ -350,7 +368,7 @@ class BoundaryCoupling:
     def boundary_kappa(self, state: SimState) -> BoundaryKappa:
         """The extrapolation ``k -> k_b`` of this step's pressure fields (see
         :class:`BoundaryKappa`)."""
-        return BoundaryKappa(self.pressure, state)
+        return BoundaryKappa(None if self.symmetric else self.pressure, state)
 
     def prepare(self, state: SimState) -> None:
         """Once per step after the densities (the MLS coefficients of this step's pairs)."""

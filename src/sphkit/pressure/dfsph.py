@@ -13,7 +13,9 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
 2. the **divergence-free solver** (Alg. 3) on the current velocities: source
    ``s_i = -max(D rho_hat_i / Dt, 0)`` (0 for particles with fewer than 20 neighbours in 3D, 7 in
    2D, whose residual is also left out of the error), warm start
-   ``kappa^v_i = 0.5 min(kappa^v_prev, 0.5) / dt`` where the density increases, iterations
+   ``kappa^v_i = 0.5 min(kappa^v_prev, 0.5 rho0_ref / rho0_i) / dt`` where the density
+   increases (the cap bounds ``p / rho0_ref``, the same pressure in every phase; SPlisHSPlasH
+   caps its own kappa, i.e. a light phase at a tenth of the pressure), iterations
    ``kappa^v_i <- max(kappa^v_i - 0.5 (s_i - A kappa^v_i) alpha_i / dt, 0)`` until the average
    ``|D rho_hat / Dt| dt`` is at most ``max_error_v``; then ``v += dt a(kappa^v)``, and a
    boundary that yields to the pressure (``state.coupling``: dynamic rigid bodies, strong
@@ -24,7 +26,8 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
    rigid bodies are advanced by theirs (gravity) too (:meth:`sphkit.boundary.rigid.RigidBodies.
    predict`), so that the density solve sees the bodies fall as the fluid does;
 4. the **constant-density solver** (Alg. 2): ``rho_hat*_i = max(rho_hat_i + dt D rho_hat_i/Dt(v*),
-   1)``, ``s_i = 1 - rho_hat*_i``, warm start ``kappa_i = 0.5 min(kappa_prev, 0.00025) / dt^2``
+   1)``, ``s_i = 1 - rho_hat*_i``, warm start ``kappa_i = 0.5 min(kappa_prev, 0.00025 rho0_ref /
+   rho0_i) / dt^2``
    where ``rho_hat* > 1``, iterations ``kappa_i <- max(kappa_i - 0.5 (s_i - A kappa_i) alpha_i /
    dt^2, 0)`` until the average compression is at most ``max_error``; the pressure acceleration
    ``a = -sum_j V_j (kappa_i + kappa_j) grad W_ij - sum_b V_b (1 + m_b) kappa_i grad W_ib``
@@ -70,21 +73,22 @@ def _alpha(D, tiny, alpha):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _density_source(rho, inv_rho0, div, dt, kprev, s, kappa):
+def _density_source(rho, inv_rho0, div, dt, kprev, inv_c, s, kappa):
     # s = 1 - max(rho_hat*, 1); warm start where the predicted density exceeds rho0 (inv_rho0
-    # (N,): 1 / each particle's rest density)
+    # (N,): 1 / each particle's rest density); the cap bounds the pressure p / rho0_ref, so in
+    # each particle's own kappa it is 0.00025 inv_c (inv_c = rho0_ref / rho0_i, 1 for one fluid)
     for i in numba.prange(rho.shape[0]):
         pred = rho[i] * inv_rho0[i] + dt * div[i]
         s[i] = 1.0 - pred
-        kappa[i] = 0.5 * min(kprev[i], 0.00025) / (dt * dt) if pred > 1.0 else 0.0
+        kappa[i] = 0.5 * min(kprev[i], 0.00025 * inv_c[i]) / (dt * dt) if pred > 1.0 else 0.0
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _divergence_source(div, active, dt, kprev, s, kappa):
+def _divergence_source(div, active, dt, kprev, inv_c, s, kappa):
     for i in numba.prange(div.shape[0]):
         if active[i] and div[i] > 0.0:
             s[i] = -div[i]
-            kappa[i] = 0.5 * min(kprev[i], 0.5) / dt
+            kappa[i] = 0.5 * min(kprev[i], 0.5 * inv_c[i]) / dt
         else:
             s[i] = 0.0
             kappa[i] = 0.0
@@ -148,7 +152,7 @@ class DFSPH(PressureSolver):
             20 if state.dim == 3 else 7)
         s = np.empty_like(div)
         kappa = np.empty_like(div)
-        _divergence_source(div, active, dt, f["dfsph_kappa_v"], s, kappa)
+        _divergence_source(div, active, dt, f["dfsph_kappa_v"], state.rest().inv_c, s, kappa)
         ones = np.ones_like(div)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
                                            alpha / dt, dt, OMEGA, active, error_factor=dt,
@@ -170,7 +174,8 @@ class DFSPH(PressureSolver):
         div = self._grads.velocity_divergence(f["v"] + dt * f["a"])
         s = np.empty_like(div)
         kappa = np.empty_like(div)
-        _density_source(f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"], s, kappa)
+        _density_source(f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"], state.rest().inv_c,
+                        s, kappa)
         ones = np.ones_like(div)
         active = np.ones(f.n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,

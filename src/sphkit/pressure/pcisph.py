@@ -55,6 +55,10 @@ SPlisHSPlasH's final ``v = v_last + dt (a + a_p)``, ``x = x_last + dt v``.
 
 The reported pressure is ``p = rho0 p~`` [Pa].
 
+Several fluids (``p~_i = p_i / rho0_i``, neighbour weight ``rho0_j / rho0_i``): the factor is
+per particle, ``delta D_i(ratio 1) / D_i(ratios)`` (:func:`phase_factor`), the template's step
+corrected by the ratios in the particle's own diagonal; a single fluid keeps the scalar.
+
 Notes. ``delta / dt^2`` is the inverse of twice the template's PPE diagonal, so one iteration is a
 Jacobi sweep with omega = 0.5 (survey Sec. 4.4) and the pressure starts from 0 every step (no warm
 start, as paper and SPlisHSPlasH): holding a column of height H at rest with an average error
@@ -93,7 +97,7 @@ import numba
 import numpy as np
 
 from sphkit.core.methods import BoundaryReaction, PressureSolver
-from sphkit.core.ppe import density_at, kappa_accel_cached, lattice_diagonal
+from sphkit.core.ppe import density_at, diagonal_cached, kappa_accel_cached, lattice_diagonal
 from sphkit.core.solver import IterationControl, PairGradients, SolverStats
 from sphkit.core.state import SimState
 
@@ -126,6 +130,54 @@ def _pressure_update(rho_hat, factor, p):
         tot += e
         mx = max(mx, e)
     return tot / max(n, 1), mx
+
+
+@numba.njit(parallel=True, **_JIT)
+def _pressure_update_each(rho_hat, factor, p):
+    """:func:`_pressure_update` with a factor per particle (several fluids)."""
+    n = rho_hat.shape[0]
+    tot = 0.0
+    mx = 0.0
+    for i in numba.prange(n):
+        e = max(rho_hat[i] - 1.0, 0.0)
+        p[i] += factor[i] * e
+        tot += e
+        mx = max(mx, e)
+    return tot / max(n, 1), mx
+
+
+@numba.njit(parallel=True, **_JIT)
+def _ratio_scale(plain, weighted, out):
+    """out_i = plain_i / weighted_i (1 where the weighted diagonal vanishes)."""
+    for i in numba.prange(out.shape[0]):
+        out[i] = plain[i] / weighted[i] if weighted[i] > 0.0 else 1.0
+
+
+def phase_factor(state: SimState, g: PairGradients) -> np.ndarray:
+    """Per-particle correction of the template factor for several fluids (N,).
+
+    In the own variable ``p~_i = p_i / rho0_i`` the PPE diagonal of particle i is
+    ``D_i = (G_i + B_i) . (G_i + M_i) + sum_j (rho0_i / rho0_j) V_j^2 |grad W_ij|^2``
+    (:func:`sphkit.core.ppe.diagonal_cached`): the template's ``delta`` assumes every ratio is
+    1. A heavy particle among light ones (ratio 10) has a diagonal up to ten times the
+    template's, so ``delta`` over-corrects it up to tenfold (omega 5 instead of 0.5) and the
+    iteration diverges at the interface (measured: unstable at 0.022 s in the 1:10
+    heavy-over-light column). The correction is ``D_i(ratio 1) / D_i(ratios)`` from the
+    step-start neighbourhood, so that ``delta_i = delta D_i(1) / D_i`` keeps the template's
+    step where every neighbour is of the particle's own phase."""
+    st = state
+    n = st.fluid.n
+    mirror = st.coupling.mirror(st, diagonal=True)
+    rest = st.rest()
+    plain = np.empty(n, dtype=st.fluid.dtype)
+    weighted = np.empty(n, dtype=st.fluid.dtype)
+    diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices, mirror, g.gw, g.gwb,
+                    st.dim, plain)
+    diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices, mirror, g.gw, g.gwb,
+                    st.dim, weighted, st.nl_ff.indices, rest.c, rest.inv_c)
+    out = np.empty(n, dtype=st.fluid.dtype)
+    _ratio_scale(plain, weighted, out)
+    return out
 
 
 class PCISPH(PressureSolver):
@@ -200,6 +252,8 @@ class PCISPH(PressureSolver):
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
         rest = state.rest()  # several fluids: the pressure sums weigh p~_j by rho0_j / rho0_i
         pc = p if rest.uniform else np.empty_like(p)
+        # several fluids: each particle's own step (phase_factor); one fluid: the template's
+        factors = None if rest.uniform else factor * phase_factor(state, g)
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = np.empty((state.dim, 0), dtype=x.dtype)  # no boundary displacement
@@ -215,7 +269,10 @@ class PCISPH(PressureSolver):
             density_at(x, dx, rest.mu, nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat)
-            avg, mx = _pressure_update(rho_hat, factor, p)
+            if factors is None:
+                avg, mx = _pressure_update(rho_hat, factor, p)
+            else:
+                avg, mx = _pressure_update_each(rho_hat, factors, p)
             if not rest.uniform:
                 np.multiply(p, rest.c, out=pc)
             kappa_accel_cached(pc, kb(pc), nl.offsets, nl.indices, nb.offsets, nb.indices,

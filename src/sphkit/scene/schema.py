@@ -730,6 +730,13 @@ class BoundaryConfig(_Model):
         "tangential pressure gradient for p_b = p_i + rho_i g . (x_b - x_i), Adami et al. 2012) "
         "or 'mirror' (SPlisHSPlasH's boundary term); null or absent: the model's default",
     )
+    symmetric: bool = Field(
+        False, description="the PPE solvers (DFSPH, IISPH, PCISPH) use SPlisHSPlasH's "
+        "boundary term V_b k_i alone (no mirrored share, no extrapolated boundary pressure): "
+        "the only form that keeps their operator symmetric positive; needed for a light fluid "
+        "under a heavy one between walls (density ratio 1:10), where the other forms make it "
+        "indefinite and the Jacobi iterations diverge (validation/README.md, 'Several fluids')",
+    )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
         "radius (at most 8 million grid points)",

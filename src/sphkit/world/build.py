@@ -210,7 +210,8 @@ def _build(scene: Scene) -> World:
     rigid.bind(model, state)  # the boundary model follows the bodies (a grid, or body frames)
     # the one way the solvers meet the boundary: mirror weights, the boundary pressure model,
     # the bodies that yield to the pressure (strong coupling)
-    state.coupling = BoundaryCoupling(pressure=pressure_model, moving=rigid, model=model)
+    state.coupling = BoundaryCoupling(pressure=pressure_model, moving=rigid, model=model,
+                                      symmetric=cfg.boundary.symmetric)
     # the fluid's start: out of the walls, consistent next to them, hydrostatic
     start = start_fluid(state, scene, meshes, model, pressure)
     for force in forces:
