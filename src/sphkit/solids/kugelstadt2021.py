@@ -179,21 +179,10 @@ class Kugelstadt2021(CorotatedSolid):
         """Implicit: no bound of its own."""
         return math.inf
 
-    def _volume_gradient(self, X: np.ndarray, Rm: np.ndarray, dim: int,
-                         shift: float) -> np.ndarray:
-        """``lambda sum_c D_c^T (V0 (tr(R^T F(X)) - shift) R[:, a, c])`` for X (dim, n)."""
-        V0 = self.rest.V0
-        t = np.zeros(X.shape[1])
-        Fc = [[Dc @ X[a] for Dc in self.D] for a in range(dim)]
-        for a in range(dim):
-            for c in range(dim):
-                t += Rm[:, a, c] * Fc[a][c]
-        s = self.lam * V0 * (t - shift)
-        out = np.zeros_like(X)
-        for a in range(dim):
-            for c in range(dim):
-                out[a] += self.D[c].T @ (s * Rm[:, a, c])
-        return out
+    def _volume_operators(self, Rm: np.ndarray, dim: int) -> list[sp.csr_matrix]:
+        """``B_a = sum_c diag(R[:, a, c]) D_c``: ``tr(R_i^T F_i) = sum_a (B_a x_a)_i``."""
+        return [sum((sp.diags(Rm[:, a, c]) @ self.D[c] for c in range(1, dim)),
+                    sp.diags(Rm[:, a, 0]) @ self.D[0]).tocsr() for a in range(dim)]
 
     def apply(self, state: SimState, dt: float) -> None:
         """Rotations, the factorised stretch solve, the CG volume solve; the solid's
@@ -230,20 +219,33 @@ class Kugelstadt2021(CorotatedSolid):
             if fr.size:
                 rhs = b[fr] - self._Afp @ xp[a]
                 x1[a, fr] = self._lu.solve(rhs)
-        # volume: (M / dt^2 + H_v) dx = -grad U_v(x1), pinned dx = 0
-        g = -self._volume_gradient(x1, Rm, dim, float(dim))
-        g[:, pinned] = 0.0
+        # volume: (M / dt^2 + H_v) dx = -grad U_v(x1), H_v = lambda B^T V0 B, pinned dx = 0
         n = rest.n
-
-        def matvec(y: np.ndarray, out: np.ndarray) -> None:
-            yv = y.reshape(dim, n).copy()
-            yv[:, pinned] = 0.0
-            o = out.reshape(dim, n)
-            o[...] = m * inv_dt2 * yv + self._volume_gradient(yv, Rm, dim, 0.0)
-            o[:, pinned] = y.reshape(dim, n)[:, pinned]
-
         if self.lam > 0:
-            dx, stats = cg(matvec, g.ravel(), self._dx, tol=self.max_error,
+            B = self._volume_operators(Rm, dim)
+            BT = [Ba.T.tocsr() for Ba in B]
+            lv = self.lam * V0
+            t = sum(B[a] @ x1[a] for a in range(dim)) - dim
+            g = np.stack([-(BT[a] @ (lv * t)) for a in range(dim)])
+            g[:, pinned] = 0.0
+            # Jacobi: diag(H_v)_a = sum_i lambda V0_i B_a[i, j]^2
+            diag = np.stack([m * inv_dt2 + B[a].multiply(B[a]).T @ lv for a in range(dim)])
+            diag[:, pinned] = 1.0
+            inv_diag = (1.0 / diag).ravel()
+
+            def matvec(y: np.ndarray, out: np.ndarray) -> None:
+                yv = y.reshape(dim, n).copy()
+                yv[:, pinned] = 0.0
+                s = lv * sum(B[a] @ yv[a] for a in range(dim))
+                o = out.reshape(dim, n)
+                for a in range(dim):
+                    o[a] = m * inv_dt2 * yv[a] + BT[a] @ s
+                o[:, pinned] = y.reshape(dim, n)[:, pinned]
+
+            def precond(r: np.ndarray, z: np.ndarray) -> None:
+                np.multiply(r, inv_diag, out=z)
+
+            dx, stats = cg(matvec, g.ravel(), self._dx, precond=precond, tol=self.max_error,
                            max_iter=self.max_iterations, name="kugelstadt2021 volume",
                            step=state.step)
             self.stats = stats
