@@ -7,9 +7,9 @@ SPH Solids with Implicit Zero-Energy Mode Control", PACMCGIT 4(3) (SPlisHSPlasH'
 positions, ``x' = argmin |x - x~|_M^2 / (2 dt^2) + U(x)`` with ``x~ = x + dt (v + dt a)`` (``a``:
 the other accelerations of the stage), the corotated energy split into
 
-* the stretch part ``U_s = mu sum_i V0_i |F_i - R_i|^2`` (Sec. 4 of the paper), with R_i
-  the polar rotation of the deformation gradient of the predicted positions ``x~``, held:
-  ``F_i = grad x`` is linear in the positions, so the Hessian ``2 mu K``, ``K = sum_c D_c^T V0 D_c``
+* the stretch part ``U_s = mu sum_i V0_i |F_i - R_i|^2`` (Sec. 4 of the paper), with the
+  rotations R_i extracted from the predicted positions ``x~`` and held: ``F_i = grad x``
+  is linear in the positions, so the Hessian ``2 mu K``, ``K = sum_c D_c^T V0 D_c``
   (``D_c`` the sparse operator of the c-th component of the gradient, the weights of
   :mod:`sphkit.solids.gradients`), is constant and the same for every coordinate; the
   rotations only enter the right-hand side ``2 mu sum_c D_c^T (V0 R[:, a, c])``;
@@ -58,8 +58,8 @@ from scipy.sparse.linalg import splu
 from sphkit.core.kernels import Kernel
 from sphkit.core.krylov import cg
 from sphkit.core.state import SimState
-from sphkit.solids.base import CorotatedSolid
-from sphkit.solids.corotation import stresses
+from sphkit.solids.base import ROTATION_ITERATIONS, CorotatedSolid
+from sphkit.solids.corotation import rotations, stresses
 
 log = logging.getLogger("sphkit")
 
@@ -198,22 +198,19 @@ class Kugelstadt2021(CorotatedSolid):
         x = f["x"][:, pos]
         v = f["v"][:, pos]
         xt = x + dt * (v + dt * f["a"][:, pos])
-        # R_i: the polar rotation of F_i(x~), the deformation gradient of the predicted
-        # positions (the paper and SPlisHSPlasH take the rotations of x~ too). With the
-        # start's rotations held, a spinning body is pulled back to its old orientation by
-        # mu |F - R|^2, a drag of rate ~ c^2 dt / h^2 (measured: the plate's first mode died
-        # within a quarter period at 10 times the explicit step); with the rotations of the
-        # moment matrix (the corotated models'), which differ from polar(F) by O(strain) at
-        # the surface, |F - R|^2 is not |eps|^2 and the bent beams' stiffness was off by 17 %.
-        Fp = np.stack([np.stack([Dc @ xt[a] for Dc in self.D], axis=1) for a in range(dim)],
-                      axis=1)  # (n, a, c)
-        U, _, Vt = np.linalg.svd(Fp)
-        flip = np.linalg.det(U) * np.linalg.det(Vt) < 0
-        U[flip, :, -1] *= -1.0
-        Rfull = np.zeros((rest.n, 3, 3))
-        Rfull[:, 2, 2] = 1.0
-        Rfull[:, :dim, :dim] = U @ Vt
-        w["R"][...] = Rfull.reshape(rest.n, 9)
+        # the rotations of the predicted positions x~ (as the paper and SPlisHSPlasH): with the
+        # start's rotations held, a spinning body would be pulled back towards its old
+        # orientation by mu |F - R|^2, a drag of rate ~ c^2 dt / h^2 (measured: the plate's
+        # first mode dies within a quarter period at 10 times the explicit step). They are
+        # the moment matrix's (the corotated models' extraction, warm-started), not
+        # polar(F): the two differ by O(strain) at the surface, which makes mu |F - R|^2 a
+        # little more than mu |eps|^2, but polar(F) is arbitrary where F is degenerate
+        # (Beam.json's capped lists of 15 leave such particles), and with it Beam.json
+        # turned noisy within 25 steps (11 MPa, 3 cm sideways), against 0.5 MPa here.
+        xpred = f["x"].copy()
+        xpred[:, pos] = xt
+        rotations(xpred, pos, rest.x0, rest.m, off, idx, rest.h, state.kid, dim,
+                  f["solid_qw"], f["solid_q"], w["R"], ROTATION_ITERATIONS)
         stresses(f["x"], pos, rest.x0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
                  w["F"], w["P"], w["M"], f["solid_stress"])  # von Mises stress for output
         if dt != self._dt:
