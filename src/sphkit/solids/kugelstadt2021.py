@@ -59,9 +59,46 @@ from sphkit.core.kernels import Kernel
 from sphkit.core.krylov import cg
 from sphkit.core.state import SimState
 from sphkit.solids.base import ROTATION_ITERATIONS, CorotatedSolid
-from sphkit.solids.corotation import rotations, stresses
+from sphkit.solids.corotation import stresses
 
 log = logging.getLogger("sphkit")
+
+
+def _quat_matrices(q: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotation matrices of the unit quaternions ``q`` (n, 4), (w, x, y, z)."""
+    w, x, y, z = q.T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)],
+        axis=1)
+
+
+def _extract_rotations(A: np.ndarray, qw: np.ndarray, qv: np.ndarray, pos: np.ndarray,
+                       iterations: int) -> np.ndarray:
+    """The rotational parts of the matrices ``A`` (n, 3, 3) by the iteration of Müller,
+    Bender, Chentanez & Macklin 2016 (vectorised over the particles), warm-started from and
+    written back to the quaternion fields ``qw``, ``qv`` at the particles ``pos``."""
+    q = np.concatenate([qw[pos][:, None], qv[:, pos].T], axis=1)
+    for _ in range(iterations):
+        R = _quat_matrices(q)
+        omega = np.cross(R, A, axisa=1, axisb=1, axisc=1).sum(axis=2)
+        tr = np.einsum("nac,nac->n", R, A)
+        omega /= (np.abs(tr) + 1e-9)[:, None]
+        ang = np.linalg.norm(omega, axis=1)
+        if ang.max() < 1e-9:
+            break
+        safe = np.where(ang < 1e-9, 1.0, ang)
+        sh = np.where(ang < 1e-9, 0.0, np.sin(0.5 * ang) / safe)
+        pw, pv = np.cos(0.5 * ang), omega * sh[:, None]
+        w, v = q[:, 0], q[:, 1:]
+        nw = pw * w - np.einsum("ni,ni->n", pv, v)
+        nv = pw[:, None] * v + w[:, None] * pv + np.cross(pv, v)
+        q = np.concatenate([nw[:, None], nv], axis=1)
+        q /= np.linalg.norm(q, axis=1)[:, None]
+    qw[pos] = q[:, 0]
+    qv[:, pos] = q[:, 1:].T
+    return _quat_matrices(q)
 
 
 def gradient_operators(offsets: np.ndarray, indices: np.ndarray, G: np.ndarray,
@@ -198,19 +235,22 @@ class Kugelstadt2021(CorotatedSolid):
         x = f["x"][:, pos]
         v = f["v"][:, pos]
         xt = x + dt * (v + dt * f["a"][:, pos])
-        # the rotations of the predicted positions x~ (as the paper and SPlisHSPlasH): with the
-        # start's rotations held, a spinning body would be pulled back towards its old
-        # orientation by mu |F - R|^2, a drag of rate ~ c^2 dt / h^2 (measured: the plate's
-        # first mode dies within a quarter period at 10 times the explicit step). They are
-        # the moment matrix's (the corotated models' extraction, warm-started), not
-        # polar(F): the two differ by O(strain) at the surface, which makes mu |F - R|^2 a
-        # little more than mu |eps|^2, but polar(F) is arbitrary where F is degenerate
-        # (Beam.json's capped lists of 15 leave such particles), and with it Beam.json
-        # turned noisy within 25 steps (11 MPa, 3 cm sideways), against 0.5 MPa here.
-        xpred = f["x"].copy()
-        xpred[:, pos] = xt
-        rotations(xpred, pos, rest.x0, rest.m, off, idx, rest.h, state.kid, dim,
-                  f["solid_qw"], f["solid_q"], w["R"], ROTATION_ITERATIONS)
+        # R_i: the rotation of F_i(x~), the deformation gradient of the predicted positions,
+        # by Müller et al. 2016's iteration warm-started from the last step (as SPlisHSPlasH
+        # extracts it from F). Rotations held from the step's start dragged a spinning body
+        # back to its old orientation (mu |F - R|^2, a drag of rate ~ c^2 dt / h^2: the
+        # plate's first mode died within a quarter period); the moment matrix's rotation
+        # (the corotated models') differs from F's by O(strain) at the surface, so
+        # mu |F - R|^2 is not mu |eps|^2, and the plate went unstable at 3 times the
+        # explicit step; a plain SVD polar(F) jumps where F is degenerate (Beam.json's capped
+        # lists), the warm-started iteration does not.
+        Fp = np.zeros((rest.n, 3, 3))
+        Fp[:, 2, 2] = 1.0
+        for a in range(dim):
+            for c in range(dim):
+                Fp[:, a, c] = self.D[c] @ xt[a]
+        Rfull = _extract_rotations(Fp, f["solid_qw"], f["solid_q"], pos, ROTATION_ITERATIONS)
+        w["R"][...] = Rfull.reshape(rest.n, 9)
         stresses(f["x"], pos, rest.x0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
                  w["F"], w["P"], w["M"], f["solid_stress"])  # von Mises stress for output
         if dt != self._dt:
