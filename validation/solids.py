@@ -19,10 +19,11 @@ Two cases, each at several resolutions (particles across the thickness):
 
 No pressure (WCSPH with stiffness 0, as SPlisHSPlasH's Beam scenes): the solid alone. The time
 step is the explicit model's bound (``0.4 * 2r / c``, c the P-wave speed) times ``--dt-factor``
-(the implicit ``--method peer2018`` may take larger steps). Run::
+(the implicit ``--method peer2018`` and ``kugelstadt2021`` may take larger steps; the latter
+prints its factorisation time and memory). Run::
 
     PYTHONPATH=src python validation/solids.py [--case sag|mode|both] [--layers 4 6 8]
-        [--method becker2009|peer2018] [--dt-factor 1]
+        [--method becker2009|peer2018|kugelstadt2021] [--dt-factor 1]
 """
 
 from __future__ import annotations
@@ -104,7 +105,15 @@ def sag(layers: int, alpha: float, L: float = 1.0, h: float = 0.1, E: float = 3e
     return {"layers": layers, "r": r, "n": f.n, "steps": steps, "dt": dt, "alpha": alpha,
             "w": w, "w_eb": w_eb, "w_timo": w_timo, "err_eb": w / w_eb - 1.0,
             "err_timo": w / w_timo - 1.0, "change": abs(w - ref) / abs(w), "wall": wall,
-            "tip_particles": int(tip_sel.sum())}
+            "tip_particles": int(tip_sel.sum()), "factor": _factor(sim)}
+
+
+def _factor(sim: Simulation) -> str:
+    """kugelstadt2021: its factorisations' unknowns, time and memory; other models: ''."""
+    stats = getattr(sim.solids[0], "factor_stats", [])
+    return "; ".join(f"factorised {s['n']:.0f} unknowns, {s['nnz']:.0f} nonzeros -> "
+                     f"{s['factor_nnz']:.0f} in L+U, {s['bytes'] / 1e6:.2f} MB, "
+                     f"{s['seconds']:.3f} s" for s in stats)
 
 
 def _mode_shape(x: np.ndarray, L: float) -> np.ndarray:
@@ -143,7 +152,7 @@ def mode(layers: int, alpha: float, L: float = 0.2, H: float = 0.02, E: float = 
     return {"layers": layers, "r": r, "n": f.n, "steps": steps, "dt": dt, "alpha": alpha,
             "period": measured, "period_eb": period, "err": period / measured - 1.0
             if measured == measured else float("nan"),
-            "amplitude": float(np.abs(ys_a).max()), "wall": wall}
+            "amplitude": float(np.abs(ys_a).max()), "wall": wall, "factor": _factor(sim)}
 
 
 def main() -> None:
@@ -157,7 +166,8 @@ def main() -> None:
     ap.add_argument("--gradient", choices=("none", "linear", "quadratic"), default="quadratic",
                     help="elasticity.gradient_correction")
     ap.add_argument("--support", type=float, default=1.5, help="elasticity.rest_support")
-    ap.add_argument("--method", choices=("becker2009", "peer2018"), default="becker2009")
+    ap.add_argument("--method", choices=("becker2009", "peer2018", "kugelstadt2021"),
+                    default="becker2009")
     ap.add_argument("--dt-factor", type=float, default=1.0,
                     help="time step as a multiple of the explicit bound 0.4 * 2r / c")
     a = ap.parse_args()
@@ -177,6 +187,8 @@ def main() -> None:
                       f"{1e3 * s['w']:.3f} | {1e3 * s['w_eb']:.3f} | {100 * s['err_eb']:+.1f} % "
                       f"| {100 * s['err_timo']:+.1f} % | {s['change']:.1e} | {s['wall']:.0f} |",
                       flush=True)
+                if s["factor"]:
+                    print("  ", s["factor"], flush=True)
     if a.case in ("mode", "both"):
         print("2D clamped plate, first mode (Gray et al. 2001: L 0.2 m, H 0.02 m, E 2 MPa, "
               "nu 0.3375, plane strain)")
@@ -189,6 +201,8 @@ def main() -> None:
                 print(f"| {n} | {m['r']:.5f} | {m['n']} | {al:g} | {m['steps']} | "
                       f"{m['period']:.4f} | {m['period_eb']:.4f} | {100 * m['err']:+.1f} % | "
                       f"{1e3 * m['amplitude']:.2f} | {m['wall']:.0f} |", flush=True)
+                if m["factor"]:
+                    print("  ", m["factor"], flush=True)
 
 
 if __name__ == "__main__":

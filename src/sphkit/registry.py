@@ -300,3 +300,9 @@ register("elasticity", "peer2018", "sphkit.solids.peer2018:Peer2018", splishspla
          paper="Peer, Gissler, Band & Teschner 2018, An implicit SPH formulation for "
          "incompressible linearly elastic solids",
          summary="implicit corotated linear elasticity, backward Euler velocities, matrix-free CG")
+register("elasticity", "kugelstadt2021", "sphkit.solids.kugelstadt2021:Kugelstadt2021",
+         splishsplash=3,
+         paper="Kugelstadt, Bender, Fernández-Fernández, Jeske, Löschner & Longva 2021, Fast "
+         "corotated elastic SPH solids with implicit zero-energy mode control",
+         summary="operator-split implicit corotated elasticity: pre-factorised constant "
+         "stretch and zero-energy-mode matrix, CG volume solve")

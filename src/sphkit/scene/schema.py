@@ -443,7 +443,10 @@ class FixedBox(_Model):
 class ElasticityConfig(_Model):
     """Elasticity of a solid material (SPlisHSPlasH ``elasticityMethod``): ``becker2009``
     (Becker et al. 2009 corotated SPH, explicit, 1; :mod:`sphkit.solids.becker2009`),
-    ``peer2018`` (Peer et al. 2018, implicit, 2; :mod:`sphkit.solids.peer2018`). A
+    ``peer2018`` (Peer et al. 2018, implicit, 2; :mod:`sphkit.solids.peer2018`),
+    ``kugelstadt2021`` (Kugelstadt et al. 2021, implicit, pre-factorised, 3;
+    :mod:`sphkit.solids.kugelstadt2021`; its ``max_iterations``/``max_error`` are those of the
+    volume solve, volumeMaxIter/volumeMaxError). A
     material with an elasticity is an elastic solid: its particles keep their rest
     neighbourhoods, feel the elastic force in the non-pressure stage and still go through the
     pressure solver (volume, contact). Defaults are SPlisHSPlasH's."""

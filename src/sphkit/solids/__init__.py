@@ -3,7 +3,9 @@
 * :mod:`sphkit.solids.becker2009` -- corotated SPH, explicit (SPlisHSPlasH elasticityMethod 1),
   with Ganzenmüller 2015's zero-energy-mode control;
 * :mod:`sphkit.solids.peer2018` -- implicit corotated linear elasticity (elasticityMethod 2) on
-  the shared matrix-free CG.
+  the shared matrix-free CG;
+* :mod:`sphkit.solids.kugelstadt2021` -- operator-split implicit corotated elasticity with a
+  pre-factorised constant matrix and implicit zero-energy-mode control (elasticityMethod 3).
 
 Shared machinery (not methods): :mod:`sphkit.solids.base` (the corotated solid both models
 derive from), :mod:`sphkit.solids.rest` (rest configuration, rest lists, pinned particles),

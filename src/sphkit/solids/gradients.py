@@ -56,10 +56,13 @@ def _monomials(d: np.ndarray, dim: int) -> np.ndarray:
 
 
 def gradient_weights(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray, indices: np.ndarray,
-                     h: float, kid: int, dim: int, order: str) -> np.ndarray:
+                     h: float, kid: int, dim: int, order: str,
+                     min_samples: float = 1.0) -> np.ndarray:
     """The weights ``G`` (pairs, 3) of the rest lists (module docstring); ``x0`` (3, n) rest
     positions padded with zero rows, ``V0`` rest volumes, ``order`` one of ``none``,
-    ``linear``, ``quadratic``."""
+    ``linear``, ``quadratic``; a particle keeps the linear weights unless it has at least
+    ``min_samples`` times as many neighbours as the quadratic fit has monomials (capped lists:
+    a fit barely determined by its nearest neighbours is noisy)."""
     if order not in ("none", "linear", "quadratic"):
         raise ValueError(f"elasticity.gradient_correction: {order!r}; expected 'none', "
                          "'linear' or 'quadratic'")
@@ -94,7 +97,7 @@ def gradient_weights(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray, indice
     M = np.zeros((n, nb, nb))
     np.add.at(M, rows, w[:, None, None] * p[:, :, None] * p[:, None, :])
     counts = np.diff(offsets)
-    ok = counts >= nb
+    ok = counts >= max(1.0, min_samples) * nb
     cond = np.full(n, np.inf)
     if ok.any():
         cond[ok] = np.linalg.cond(M[ok])

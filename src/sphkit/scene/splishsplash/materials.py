@@ -387,8 +387,10 @@ def elasticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, An
     rd.collect_unknown(ns, nsw, {"youngsModulus", "poissonsRatio", "alpha", "fixedBoxMin",
                                  "fixedBoxMax", *extra}, set())
     out: dict[str, Any] = {"method": method}
-    fields = {"youngs_modulus": ("youngsModulus", 1e5), "poisson_ratio": ("poissonsRatio", 0.3),
-              "alpha": ("alpha", 0.0)}
+    # Kugelstadt 2021's constructor overrides the base's default E 1e5 with 5e6
+    e_default = 5e6 if em == 3 else 1e5
+    fields = {"youngs_modulus": ("youngsModulus", e_default),
+              "poisson_ratio": ("poissonsRatio", 0.3), "alpha": ("alpha", 0.0)}
     if "elasticityMaxIter" in extra:
         fields["max_error"] = ("elasticityMaxError", 1e-4)
     if "volumeMaxError" in extra:
