@@ -117,3 +117,24 @@ class CorotatedSolid(Elasticity):
         """Pinned particles back at rest."""
         if self.rest is not None:
             self.rest.constrain(state)
+
+
+class ImplicitCorotatedSolid(CorotatedSolid):
+    """A corotated solid with an iterative solve in its step (:mod:`sphkit.solids.peer2018`'s
+    CG, :mod:`sphkit.solids.kugelstadt2021`'s volume CG): the solve's iteration limit and
+    tolerance besides the parameters of :class:`CorotatedSolid`."""
+
+    @classmethod
+    def from_config(cls, config: Any) -> ImplicitCorotatedSolid:
+        """From a material's ``elasticity`` (as :class:`CorotatedSolid`, plus ``max_iterations``
+        and ``max_error`` of the solve)."""
+        out = super().from_config(config)
+        out.max_iterations = int(config.max_iterations)
+        out.max_error = float(config.max_error)
+        return out
+
+    def __init__(self, *args: Any, max_iterations: int = 100, max_error: float = 1e-4,
+                 **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.max_iterations = max_iterations
+        self.max_error = max_error

@@ -68,7 +68,7 @@ from scipy.sparse.linalg import splu
 from sphkit.core.kernels import Kernel
 from sphkit.core.krylov import cg
 from sphkit.core.state import SimState
-from sphkit.solids.base import ROTATION_ITERATIONS, CorotatedSolid
+from sphkit.solids.base import ROTATION_ITERATIONS, ImplicitCorotatedSolid
 from sphkit.solids.corotation import stresses
 
 log = logging.getLogger("sphkit")
@@ -150,26 +150,14 @@ def zero_energy_operator(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray,
     return (Z.T @ sp.diags(w) @ Z).tocsr()
 
 
-class Kugelstadt2021(CorotatedSolid):
+class Kugelstadt2021(ImplicitCorotatedSolid):
     """Operator-split implicit corotated elasticity with a pre-factorised constant matrix
     (module docstring)."""
 
     name: ClassVar[str] = "kugelstadt2021"
 
-    @classmethod
-    def from_config(cls, config: Any) -> Kugelstadt2021:
-        """From a material's ``elasticity`` (as :class:`Becker2009`, plus ``max_iterations``
-        and ``max_error`` of the volume solve: ``volumeMaxIter``, ``volumeMaxError``)."""
-        out = super().from_config(config)
-        out.max_iterations = int(config.max_iterations)
-        out.max_error = float(config.max_error)
-        return out
-
-    def __init__(self, *args: Any, max_iterations: int = 100, max_error: float = 1e-4,
-                 **kwargs: Any) -> None:
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        self.max_iterations = max_iterations
-        self.max_error = max_error
         self.D: list[sp.csr_matrix] = []
         self.K = sp.csr_matrix((0, 0))  #: 2 mu K + alpha E H_z (constant part of the matrix)
         self._dt = -1.0

@@ -26,35 +26,20 @@ own.
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from sphkit.core.krylov import cg
 from sphkit.core.state import SimState
-from sphkit.solids.base import CorotatedSolid
+from sphkit.solids.base import ImplicitCorotatedSolid
 from sphkit.solids.corotation import forces, stresses
 
 
-class Peer2018(CorotatedSolid):
+class Peer2018(ImplicitCorotatedSolid):
     """Implicit corotated linear elasticity (module docstring)."""
 
     name: ClassVar[str] = "peer2018"
-
-    @classmethod
-    def from_config(cls, config: Any) -> Peer2018:
-        """From a material's ``elasticity`` (as :class:`Becker2009`, plus ``max_iterations``
-        and ``max_error`` of the CG solve)."""
-        out = super().from_config(config)
-        out.max_iterations = int(config.max_iterations)
-        out.max_error = float(config.max_error)
-        return out
-
-    def __init__(self, *args: Any, max_iterations: int = 100, max_error: float = 1e-4,
-                 **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        self.max_iterations = max_iterations
-        self.max_error = max_error
 
     def max_time_step(self, state: SimState) -> float:
         """Implicit: no bound of its own."""
