@@ -29,6 +29,8 @@ pair helpers (:mod:`sphkit.core.pairs`).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -377,3 +379,21 @@ def surface_normals_cpu(x, m, rho, off, idx, scale, h, kid, dim, n, L=0.0):
     for i in numba.prange(x.shape[1]):
         n0, n1, n2 = color_gradient_sum(i, x, m, rho, ones, off, idx, h, kid, dim, L)
         set_vector(n, i, dim, scale * n0, scale * n1, scale * n2)
+
+
+def kirkwood_buff(force, n: float, h: float, breaks: list[float], dim: int
+                  ) -> tuple[float, float]:
+    """``(sigma, p_int)`` of a uniform continuum of number density ``n`` [1/m^dim] with a sharp
+    planar surface whose particles attract with the pair force magnitude ``force(s)`` [N] at
+    distance s < h (Kirkwood-Buff): in 3D ``sigma = pi n^2 / 8 int f s^4 ds`` and ``p_int =
+    2 pi n^2 / 3 int f s^3 ds``, in 2D ``sigma = n^2 / 3 int f s^3 ds`` and ``p_int = pi n^2 / 2
+    int f s^2 ds``. ``breaks``: where ``force`` has kinks (quadrature points). Used by the
+    pairwise cohesion models to name the surface tension their coefficient gives."""
+    from scipy.integrate import quad
+
+    def moment(k: int) -> float:
+        return quad(lambda s: force(s) * s**k, 0, h, points=breaks)[0]
+
+    if dim == 3:
+        return math.pi * n * n / 8.0 * moment(4), 2.0 * math.pi * n * n / 3.0 * moment(3)
+    return n * n / 3.0 * moment(3), math.pi * n * n / 2.0 * moment(2)

@@ -48,10 +48,9 @@ import math
 from typing import Any
 
 import numba
-from scipy.integrate import quad
 
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.operators import surface_normals_cpu
+from sphkit.core.operators import kirkwood_buff, surface_normals_cpu
 from sphkit.core.pairs import delta, dot, point
 from sphkit.core.state import SimState
 
@@ -195,13 +194,7 @@ class Akinci2013(NonPressureForce):
             return self.coefficient * mass * mass * float(cohesion_kernel(s, h))
 
         brk = [0.5 * h]
-        if dim == 3:
-            sig = _PI * n * n / 8.0 * quad(lambda s: f(s) * s**4, 0, h, points=brk)[0]
-            p = 2.0 * _PI * n * n / 3.0 * quad(lambda s: f(s) * s**3, 0, h, points=brk)[0]
-        else:
-            sig = n * n / 3.0 * quad(lambda s: f(s) * s**3, 0, h, points=brk)[0]
-            p = _PI * n * n / 2.0 * quad(lambda s: f(s) * s**2, 0, h, points=brk)[0]
-        return sig, p
+        return kirkwood_buff(f, n, h, brk, dim)
 
 
 __all__ = ["Akinci2013", "adhesion_kernel", "akinci_body", "cohesion_kernel"]

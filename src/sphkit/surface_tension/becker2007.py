@@ -41,10 +41,10 @@ import math
 from typing import Any
 
 import numba
-from scipy.integrate import quad
 
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.operators import kirkwood_buff
 from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
@@ -145,13 +145,7 @@ class BeckerTeschner2007(NonPressureForce):
             return self.coefficient * mass * s * float(kernel_w(kid, max(s, diam), h, dim))
 
         brk = [diam, 0.5 * h]
-        if dim == 3:
-            sig = math.pi * n * n / 8.0 * quad(lambda s: f(s) * s**4, 0, h, points=brk)[0]
-            p = 2.0 * math.pi * n * n / 3.0 * quad(lambda s: f(s) * s**3, 0, h, points=brk)[0]
-        else:
-            sig = n * n / 3.0 * quad(lambda s: f(s) * s**3, 0, h, points=brk)[0]
-            p = math.pi * n * n / 2.0 * quad(lambda s: f(s) * s**2, 0, h, points=brk)[0]
-        return sig, p
+        return kirkwood_buff(f, n, h, brk, dim)
 
 
 __all__ = ["BeckerTeschner2007", "becker_body"]

@@ -79,6 +79,7 @@ import numpy as np
 from sphkit.core.kernels import CUBIC, kernel_dw, kernel_w
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
+from sphkit.core.operators import kirkwood_buff
 from sphkit.core.pairs import delta, delta2, dot, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import add_velocity_change, laplacian_pair
@@ -323,7 +324,6 @@ class Jeske2023(NonPressureForce):
                          dim: int) -> tuple[float, float]:
         """(sigma, p_int) of the cohesion at rest: Becker & Teschner 2007's Kirkwood-Buff
         values for ``kappa = gamma / rho0`` (module docstring)."""
-        from scipy.integrate import quad
 
         n = rho0 / mass
         diam = 2.0 * r
@@ -334,13 +334,7 @@ class Jeske2023(NonPressureForce):
                                                         wmin) * s
 
         brk = [diam, 0.5 * h]
-        if dim == 3:
-            sig = math.pi * n * n / 8.0 * quad(lambda s: f(s) * s**4, 0, h, points=brk)[0]
-            p = 2.0 * math.pi * n * n / 3.0 * quad(lambda s: f(s) * s**3, 0, h, points=brk)[0]
-        else:
-            sig = n * n / 3.0 * quad(lambda s: f(s) * s**3, 0, h, points=brk)[0]
-            p = math.pi * n * n / 2.0 * quad(lambda s: f(s) * s**2, 0, h, points=brk)[0]
-        return sig, p
+        return kirkwood_buff(f, n, h, brk, dim)
 
     def init(self, state: SimState) -> None:
         """Register the warm-start field ``jeske_dv`` and the boundary fields read."""
