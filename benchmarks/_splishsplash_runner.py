@@ -13,7 +13,8 @@ every step): touching the simulation object after ``run()`` returns crashes the 
   ``iterationsV`` (``TimeStepDFSPH.SOLVER_ITERATIONS_V``); 0 for the other methods;
 * the density error: the wheel does not expose its solvers' own error, so it is measured from the
   particles' ``density`` field (``FluidModel.getFieldBuffer("density")``) as the average over the
-  fluid particles of max(rho / rho0 - 1, 0): the compression of the density the step computed
+  particles of every fluid model of max(rho / rho0 - 1, 0), each with its model's rho0: the
+  compression of the density the step computed
   (at the start of the step for WCSPH, PCISPH, IISPH and DFSPH; after the position correction for
   PBF).
 
@@ -48,12 +49,16 @@ def main() -> None:
         rec["iterations"] += int(ts.getNumIterations())
         if hasattr(ts, "SOLVER_ITERATIONS_V"):
             rec["divergence_iterations"] += int(ts.getValueUInt(ts.SOLVER_ITERATIONS_V))
-        fm = sim.getFluidModel(0)
-        n = fm.numActiveParticles()
-        if n:
-            rho = np.asarray(fm.getFieldBuffer("density"))[:n]
-            rec["density_error"] += float(
-                np.mean(np.maximum(rho / fm.getDensity0() - 1.0, 0.0)))
+        err, n_all = 0.0, 0
+        for k in range(sim.numberOfFluidModels()):  # several fluids, elastic solids
+            fm = sim.getFluidModel(k)
+            n = fm.numActiveParticles()
+            if n:
+                rho = np.asarray(fm.getFieldBuffer("density"))[:n]
+                err += float(np.sum(np.maximum(rho / fm.getDensity0() - 1.0, 0.0)))
+                n_all += n
+        if n_all:
+            rec["density_error"] += err / n_all
         rec["sim_time"] = float(sph.TimeManager.getCurrent().getTime())
 
     base.setTimeStepCB(on_step)

@@ -86,11 +86,10 @@ def run_splishsplash(scene: Path, threads: int) -> dict:
     if line is None:
         why = (res.stderr.strip() or res.stdout.strip()).splitlines()[-3:]
         return {"error": f"exit {res.returncode}: {' / '.join(why) or 'no output'}"}
-    counts = {}
+    counts = {}  # summed over the fluid models (several fluids, elastic solids)
     for key, pat in (("n_fluid", r"Number of fluid particles: (\d+)"),
                      ("n_boundary", r"Number of boundary particles: (\d+)")):
-        m = re.search(pat, res.stdout)
-        counts[key] = int(m.group(1)) if m else 0
+        counts[key] = sum(int(m) for m in re.findall(pat, res.stdout))
     out = _summary({**json.loads(line), **counts})
     if out.get("method") == "WCSPH":
         out["iterations"] = None  # WCSPH does not iterate (SPlisHSPlasH reports 0)
@@ -116,7 +115,7 @@ try:
 except SceneError as e:
     say("SPHKIT-UNAVAILABLE", " / ".join(str(e).splitlines()))
     sys.exit(0)
-rho0 = sim.material.density0
+rho0 = sim.fluid["rho0"]  # per particle: several fluids and solids have their own
 until = sc.configuration.time.until
 rec = {"steps": 0, "iterations": 0, "divergence_iterations": 0, "density_error": 0.0,
        "solver_error": 0.0, "method": sc.configuration.pressure.method,
@@ -129,7 +128,9 @@ try:
         rec["iterations"] += getattr(s, "iterations", 1)
         rec["divergence_iterations"] += getattr(s, "divergence_iterations", 0)
         rec["solver_error"] += s.density_error_avg
-        rec["density_error"] += float(np.mean(np.maximum(sim.densities / rho0 - 1.0, 0.0)))
+        if sim.fluid.n:
+            rho0 = sim.fluid["rho0"]  # emitters and z-sorting change the particle set
+            rec["density_error"] += float(np.mean(np.maximum(sim.densities / rho0 - 1.0, 0.0)))
 except InstabilityError as e:
     say("SPHKIT-FAILED", f"unstable: {e}")
     sys.exit(0)
@@ -162,16 +163,40 @@ def run_sphkit(scene: Path, threads: int) -> dict:
     return {"error": f"exit {res.returncode}: {' / '.join(why) or 'no output'}"}
 
 
+#: the fields of a SPlisHSPlasH scene that name a file relative to the scene's folder
+FILE_FIELDS = ("geometryFile", "particleFile", "mapFile")
+
+
 def _with_end_time(scene: Path, until: float, folder: Path) -> Path:
-    """A copy of the SPlisHSPlasH scene with ``stopAt`` = until and absolute mesh paths."""
+    """A copy of the SPlisHSPlasH scene with ``stopAt`` = until and absolute file paths (meshes
+    of rigid bodies, particle files of fluid models, in every block)."""
     data = json.loads(scene.read_text())
     data.setdefault("Configuration", {})["stopAt"] = until
-    for body in data.get("RigidBodies", []):
-        if body.get("geometryFile") and not Path(body["geometryFile"]).is_absolute():
-            body["geometryFile"] = str((scene.parent / body["geometryFile"]).resolve())
+    for block in data.values():
+        for entry in block if isinstance(block, list) else []:
+            for key in FILE_FIELDS:
+                name = entry.get(key) if isinstance(entry, dict) else None
+                if isinstance(name, str) and name and not Path(name).is_absolute():
+                    entry[key] = str((scene.parent / name).resolve())
     path = folder / scene.name
     path.write_text(json.dumps(data, indent=1))
     return path
+
+
+def resolve_scene(name: Path) -> Path:
+    """A scene path as given, or else a scene of the pysplishsplash wheel by its name
+    (``DoubleDamBreakMultiPhase`` or ``Beam.json``)."""
+    if name.exists():
+        return name.resolve()  # the wheel crashes on a relative scene path
+    from sphkit.cli.compat import wheel_scene_folder
+
+    folder = wheel_scene_folder()
+    if folder is not None:
+        for candidate in (folder / name.name, folder / f"{name.name}.json"):
+            if candidate.exists():
+                return candidate
+    raise SystemExit(f"vs_splishsplash.py: scene {str(name)!r}: no such file, nor a scene of the "
+                     "pysplishsplash wheel by that name")
 
 
 def _per_sim_s(r: dict) -> float:
@@ -188,18 +213,18 @@ def _num(value: float | None, spec: str, scale: float = 1.0) -> str:
     return "-" if value is None else f"{value * scale:{spec}}"
 
 
-COLUMNS = (f"{'scene':22s} {'code':13s} {'fluid':>6s} {'bound.':>6s} {'sim s':>6s} "
+COLUMNS = (f"{'scene':30s} {'code':13s} {'fluid':>6s} {'bound.':>6s} {'sim s':>6s} "
            f"{'wall s':>7s} {'steps':>5s} {'it/step':>7s} {'div/step':>8s} {'rho err%':>8s} "
            f"{'solver err%':>11s} {'ms/step':>7s}")
 
 
 def _row(scene: str, code: str, r: dict) -> str:
     if "unavailable" in r:
-        return f"{scene:22s} {code}: not available: {r['unavailable']}"
+        return f"{scene:30s} {code}: not available: {r['unavailable']}"
     if "error" in r:
-        return f"{scene:22s} {code}: failed: {r['error']}"
+        return f"{scene:30s} {code}: failed: {r['error']}"
     div = r["divergence_iterations"] if r.get("method") in ("dfsph", "DFSPH") else None
-    return (f"{scene:22s} {code:13s} {r['n_fluid']:6d} {r['n_boundary'] or 0:6d} "
+    return (f"{scene:30s} {code:13s} {r['n_fluid']:6d} {r['n_boundary'] or 0:6d} "
             f"{r['sim_time']:6.3f} {r['wall']:7.2f} {r['steps']:5d} "
             f"{_num(r['iterations'], '7.2f')} {_num(div, '8.2f')} "
             f"{_num(r['density_error'], '8.4f', 100)} {_num(r.get('solver_error'), '11.4f', 100)} "
@@ -209,7 +234,8 @@ def _row(scene: str, code: str, r: dict) -> str:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", nargs="*", type=Path, default=DEFAULT_SCENES,
-                    help="SPlisHSPlasH scene files (default: the six dam breaks)")
+                    help="SPlisHSPlasH scene files, or names of the pysplishsplash wheel's "
+                         "scenes (default: the six dam breaks)")
     ap.add_argument("--threads", type=int, default=2, help="threads for both codes (default 2)")
     ap.add_argument("--until", type=float, metavar="T",
                     help="simulated end time [s] for every scene (default: each scene's stopAt)")
@@ -239,7 +265,7 @@ def main() -> int:
     results = []
     with tempfile.TemporaryDirectory(prefix="sphkit-bench-") as tmp:
         for scene in args.scenes:
-            scene = scene.resolve()  # the wheel crashes on a relative scene path
+            scene = resolve_scene(scene)
             path = scene if args.until is None else _with_end_time(scene, args.until, Path(tmp))
             sk = sp = {"unavailable": "not run (--codes)"}
             runs_sk: list[dict] = []
@@ -265,7 +291,7 @@ def main() -> int:
                          for a, b in zip(runs_sk, runs_sp, strict=False)
                          if "wall" in a and "wall" in b]
                 each = ", ".join(f"{r:.2f}" for r in pairs)
-                print(f"{scene.name:22s} ratio sphkit/SPlisHSPlasH wall time per simulated "
+                print(f"{scene.name:30s} ratio sphkit/SPlisHSPlasH wall time per simulated "
                       f"second: {entry['ratio']:.2f} (fastest runs; the {len(pairs)} paired runs: "
                       f"{each})", flush=True)
             results.append(entry)
