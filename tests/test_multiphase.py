@@ -88,6 +88,25 @@ def test_dynamics_depend_on_density_ratios_only() -> None:
     np.testing.assert_allclose(rb["rho"], 2.0 * ra["rho"], rtol=1e-9)
 
 
+def test_particles_added_by_hand_get_the_reference_rest_density() -> None:
+    """Fluid added through the API without a rest density (``ParticleSet.add(x, m=...)``, as a
+    user or a script building its own lattice does) gets the reference rest density, not 0
+    (which made every rest-density ratio 0 and the first step NaN): the added copy of the block
+    then computes the same densities as the scene's own particles, to round-off."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(_scene("dfsph", [{"id": "water"}], [(BLOCKS[0][0], BLOCKS[0][1],
+                                                                 "water")]))
+    f = sim.fluid
+    n = f.n
+    x = f.view("x").copy()
+    x[:, 1] += 0.6  # a second block, clear of the first, under the box's lid
+    f.add(x, m=f["m"].copy(), V0=f["V0"].copy())
+    assert np.all(f["rho0"][n:] == sim.state.rho0)
+    sim.step()
+    assert np.all(np.isfinite(f["rho"])) and np.all(np.isfinite(f.view("x")))
+
+
 def test_number_density_has_no_jump_at_the_interface() -> None:
     """Two lattices (rest densities 1000 below, 100 above) touching along y = 0.24, sampled
     without start-up corrections: with number densities ``rho_i = rho0_i sum_j V0_j W_ij`` every

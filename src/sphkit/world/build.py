@@ -84,8 +84,11 @@ def _state(scene: Scene, mats: list[Material]) -> SimState:
     fluid = ParticleSet(dim, dtype)
     for name in ("v", "a"):
         fluid.register(name, "vector")
-    for name in ("m", "V0", "rho0", "rho", "p"):  # V0 = m / rho0, the rest volume
+    for name in ("m", "V0", "rho", "p"):  # V0 = m / rho0, the rest volume
         fluid.register(name)
+    # particles added without a rest density (by hand, through the API) get the reference one,
+    # not 0 (which would make every rest-density ratio 0 and the first step NaN)
+    fluid.register("rho0", fill=mat.density0)
     if len(mats) > 1:  # several fluids: the index of each particle's material in materials
         fluid.register("phase", "scalar", np.int64)
     boundary = ParticleSet(dim, dtype)
