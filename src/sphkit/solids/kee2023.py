@@ -229,6 +229,18 @@ def hessian_apply(H, dF, dP):
             dP[s, k] = acc
 
 
+@numba.njit(inline="always", cache=True)
+def _block_add(B, h, w, sc):
+    """``B[a, a2] += sc sum_(c, c2) w_c h[(a, c), (a2, c2)] w_c2``."""
+    for a in range(3):
+        for a2 in range(3):
+            acc = 0.0
+            for c in range(3):
+                for c2 in range(3):
+                    acc += w[c] * h[9 * (3 * a + c) + 3 * a2 + c2] * w[c2]
+            B[a, a2] += sc * acc
+
+
 @numba.njit(parallel=True, cache=True)
 def block_jacobi(off, idx, G, rev, V0, H, dt2, m, zdiag, dim, fixed, out):
     """The inverse of each particle's dim x dim diagonal block of ``M + dt^2 (K + Z)``
@@ -240,32 +252,15 @@ def block_jacobi(off, idx, G, rev, V0, H, dt2, m, zdiag, dim, fixed, out):
         for k in range(off[s], off[s + 1]):
             for c in range(3):
                 w[c] -= G[k, c]
-        for q in range(-1, off[s + 1] - off[s]):
-            if q < 0:
-                t = s
-                wt = w
-            else:
-                k = off[s] + q
-                t = idx[k]
-                wt = G[rev[k]]
-            h = H[t]
-            sc = dt2 * V0[t]
-            for a in range(3):
-                for a2 in range(3):
-                    acc = 0.0
-                    for c in range(3):
-                        for c2 in range(3):
-                            acc += wt[c] * h[9 * (3 * a + c) + 3 * a2 + c2] * wt[c2]
-                    B[a, a2] += sc * acc
+        _block_add(B, H[s], w, dt2 * V0[s])
+        for k in range(off[s], off[s + 1]):
+            t = idx[k]
+            _block_add(B, H[t], G[rev[k]], dt2 * V0[t])
         for a in range(3):
             B[a, a] += m[s] + zdiag[s]
         for a in range(3):
             for a2 in range(3):
-                if a >= dim or a2 >= dim:
-                    B[a, a2] = 1.0 if a == a2 else 0.0
-        if fixed[s]:
-            for a in range(3):
-                for a2 in range(3):
+                if a >= dim or a2 >= dim or fixed[s]:
                     B[a, a2] = 1.0 if a == a2 else 0.0
         Bi = np.linalg.inv(B)
         for a in range(3):
