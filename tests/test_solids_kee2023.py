@@ -150,33 +150,34 @@ def test_kee2023_stretched_bar_springs_back_at_the_bar_wave_speed() -> None:
 
 def test_kee2023_cantilever_sags_like_euler_bernoulli() -> None:
     """A 2D plate (L = 0.2 m free, H = 0.02 m, 4 particles thick, E 2e7 Pa, nu 0.3) clamped
-    by a fixed box over the particles behind x = 0, under gravity, stepped with 10 ms
-    (backward Euler damps the first mode, omega_1 = 76 rad/s, by a factor 0.8 a step, so 60
-    steps reach the static state to 1e-5): the tip sags downwards by Euler-Bernoulli's
+    by a fixed box over the particles behind x = 0, under gravity, stepped with 50 ms
+    (backward Euler damps the first mode, omega_1 = 76 rad/s, by a factor 0.25 a step: six
+    steps reach the static state to 1e-3; L-BFGS, whose initial Hessian is far from a bent
+    beam's, takes its 100 iterations a step): the tip sags downwards by Euler-Bernoulli's
     ``w = 1.5 rho g L^4 / (E' H^2)`` (plane strain: ``E' = E / (1 - nu^2)``; 2.6 mm) within
     [-5 %, +35 %]: at 4 layers the known, all positive parts are the clamp (an effective
     clamp about 2.3 r behind x = 0: +11.5 %), the midpoint rule's second moment (+6.7 %) and
     shear (Timoshenko +1 %) -- validation/README.md, "Elastic cantilevers", where becker2009
-    sags +18 % in 3D at 4 layers; measured here +19 %."""
+    sags +18 % in 3D at 4 layers; measured here +19.3 % (the static state, 12 steps)."""
     L, H, r = 0.2, 0.02, 0.0025
     e_mod = 2e7
     sim = Simulation(Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, -9.81],
                           "pressure": {"method": "wcsph", "stiffness": 0.0},
-                          "time": {"cfl": False, "dt": 0.01}},
+                          "time": {"cfl": False, "dt": 0.05}},
         "materials": [{"density0": RHO, "elasticity": {
             "method": "kee2023", "youngs_modulus": e_mod, "poisson_ratio": NU,
-            "solver": "newton", "fixed_boxes": [{"min": [-1, -1], "max": [0.0, 1]}]}}],
+            "fixed_boxes": [{"min": [-1, -1], "max": [0.0, 1]}]}}],
         "fluid_blocks": [{"start": [-6 * r, -H / 2], "end": [L, H / 2]}]}))
     f = sim.fluid
-    for _ in range(60):
+    for _ in range(6):
         sim.step()
     x0 = f["solid_x0"]
     tip = x0[0] > L - 2 * r
     w = float(np.mean(x0[1, tip] - f["x"][1, tip]))
     w_eb = 1.5 * RHO * 9.81 * L ** 4 * (1 - NU * NU) / (e_mod * H * H)
     assert -0.05 < w / w_eb - 1.0 < 0.35, w / w_eb
-    assert np.abs(f["v"]).max() < 1e-3  # static
+    assert np.abs(f["v"]).max() < 1e-4  # static (1e-2 of the sag per step)
 
 
 def test_kee2023_pinned_particles_move_with_their_velocity() -> None:
