@@ -178,16 +178,21 @@ def main() -> None:
                     help="kee2023: the minimiser")
     ap.add_argument("--material-model", choices=("corotated", "stable_neo_hookean"),
                     default="corotated", help="kee2023: the energy density")
+    ap.add_argument("--max-change", type=float, default=1e-6,
+                    help="kee2023: max_position_change [m], the minimisation's stopping "
+                    "tolerance (SPlisHSPlasH's maxError default 1e-6)")
     ap.add_argument("--dt-factor", type=float, default=1.0,
                     help="time step as a multiple of the explicit bound 0.4 * 2r / c")
     a = ap.parse_args()
     OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support)
     if a.method == "kee2023":
-        OPTIONS.update(solver=a.solver, material_model=a.material_model)
+        OPTIONS.update(solver=a.solver, material_model=a.material_model,
+                       max_position_change=a.max_change)
     MODEL.update(method=a.method, dt_factor=a.dt_factor)
     print(f"{a.method}, dt {a.dt_factor:g} x explicit bound, gradient {a.gradient}, "
           f"rest support {a.support:g} h"
-          + (f", {a.solver}, {a.material_model}" if a.method == "kee2023" else ""))
+          + (f", {a.solver}, {a.material_model}, max change {a.max_change:g} m"
+             if a.method == "kee2023" else ""))
     if a.case in ("sag", "both"):
         print("3D cantilever under gravity (L 1 m, section 0.1 m, E 300 MPa, nu 0.3)")
         print("| layers | r [m] | particles | alpha | steps | w [mm] | EB [mm] | w/EB - 1 | "
