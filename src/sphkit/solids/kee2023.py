@@ -475,7 +475,7 @@ class Kee2023(ImplicitCorotatedSolid):
         b = -g[:dim]
         sol, stats = cg(matvec, np.ascontiguousarray(b).ravel(), np.zeros(dim * n),
                         precond=precond, tol=self.cg_tolerance, max_iter=self.cg_max_iterations,
-                        name="kee2023 Newton", step=self.step)
+                        name="kee2023 Newton", step=self.step, warn=False)
         dx = np.zeros((3, n))
         dx[:dim] = sol.reshape(dim, n)
         dx[:, pinned] = 0.0
@@ -541,7 +541,7 @@ class Kee2023(ImplicitCorotatedSolid):
         e, g = self._energy(xk, xt, dt2, self.solver == "newton", True)
         g0 = float(np.linalg.norm(g)) or 1.0
         its = cg_its = ls_its = 0
-        step_max = 0.0
+        step_max, step, failed = 0.0, 0.0, False
         while its < self.max_iterations:
             its += 1
             if self.solver == "newton":
@@ -564,7 +564,9 @@ class Kee2023(ImplicitCorotatedSolid):
                     step *= self.line_search_beta
                 else:
                     step = 0.0
-            if step == 0.0:
+            if step == 0.0:  # no sufficient decrease along d: stop at xk
+                failed = True
+                self._energy(xk, xt, dt2, False, False)  # F, P of xk for the output
                 break
             x_new = xk + step * d
             e_new, g_new = self._energy(x_new, xt, dt2, self.solver == "newton", True)
@@ -578,7 +580,12 @@ class Kee2023(ImplicitCorotatedSolid):
             xk, e, g = x_new, e_new, g_new
             if step * step_max < self.max_position_change:
                 break
-        converged = step_max < self.max_position_change
+        converged = not failed and step * step_max < self.max_position_change
+        if not converged:
+            log.warning("kee2023: no convergence in %d iterations at step %d: last position "
+                        "change %.3g m (max_position_change %.3g m)%s", its, state.step,
+                        step * step_max, self.max_position_change,
+                        "; the line search found no decrease" if failed else "")
         self.stats = KrylovStats(its, float(np.linalg.norm(g)) / g0, converged)
         self.solve_stats = {"iterations": its, "cg_iterations": cg_its,
                             "line_search_trials": ls_its, "max_change": step_max}
