@@ -117,7 +117,7 @@ def test_kee2023_stretched_bar_springs_back_at_the_bar_wave_speed() -> None:
     stretch: the release waves from both ends meet in the middle at ``t = L / (2 c)``, ``c =
     sqrt(E / (rho (1 - nu^2)))`` (a thin plane-strain strip), where the length passes its rest
     value; it then overshoots into compression (an elastic spring-back, not a creep). The
-    crossing must be within 10 % of ``L / (2 c)`` = 19.1 ms (measured within 2 %): backward
+    crossing must be within 10 % of ``L / (2 c)`` = 19.1 ms (measured: 0.995 of it): backward
     Euler's period error at ``omega dt = 0.08`` is 0.3 %, the time is read at 1 ms steps
     (5 %), and the discretisation's stiffness error at 4 layers is a few percent."""
     L, eps = 0.4, 0.01
@@ -158,7 +158,7 @@ def test_kee2023_cantilever_sags_like_euler_bernoulli() -> None:
     [-5 %, +35 %]: at 4 layers the known, all positive parts are the clamp (an effective
     clamp about 2.3 r behind x = 0: +11.5 %), the midpoint rule's second moment (+6.7 %) and
     shear (Timoshenko +1 %) -- validation/README.md, "Elastic cantilevers", where becker2009
-    sags +18 % in 3D at 4 layers; measured here +19.3 % (the static state, 12 steps)."""
+    sags +18 % in 3D at 4 layers; measured here +19.3 %."""
     L, H, r = 0.2, 0.02, 0.0025
     e_mod = 2e7
     sim = Simulation(Scene.model_validate({
