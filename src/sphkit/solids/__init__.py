@@ -13,5 +13,7 @@ Shared machinery (not methods): :mod:`sphkit.solids.base` (the corotated solid b
 derive from), :mod:`sphkit.solids.rest` (rest configuration, rest lists, pinned particles),
 :mod:`sphkit.solids.gradients` (gradient weights), :mod:`sphkit.solids.corotation` (the
 compiled corotated passes, whose force pass kee2023 reuses with its own stresses) and
-:mod:`sphkit.solids.operators` (sparse gradient and zero-energy-mode matrices).
+:mod:`sphkit.solids.operators` (sparse gradient and zero-energy-mode matrices) and
+:mod:`sphkit.solids.hyperelastic` (energy densities, stresses and projected Hessians of
+isotropic hyperelastic solids, the pieces of a Newton step).
 """
