@@ -158,8 +158,8 @@ def _beam_2d(tmp_path, method: int, block: dict) -> str:
 def test_splishsplash_elasticity_translates(tmp_path) -> None:
     """``elasticityMethod`` 1 with its "Becker et al. 2009" block becomes the becker2009
     elasticity (E, nu, alpha, the fixed box) and WCSPH with stiffness 0 loads for it; method 2
-    loads; method 4 is refused naming the field and the supported numbers; stiffness 0 with a fluid
-    is refused naming the field."""
+    loads; an unknown method (5) is refused naming the field and the supported numbers;
+    stiffness 0 with a fluid is refused naming the field."""
     from sphkit.scene.files import load_scene
     from sphkit.world import build_world
 
@@ -171,10 +171,11 @@ def test_splishsplash_elasticity_translates(tmp_path) -> None:
                                                                           0.33, 0.1)
     assert el.fixed_boxes[0].max == [-1.5, 10.0, 10.0]
     assert scene.configuration.pressure.stiffness == 0.0
-    with pytest.raises(SceneError, match=r"elasticityMethod: 4 \(Kee et al. 2023\) is "
+    with pytest.raises(SceneError, match=r"elasticityMethod: 5 \(unknown method\) is "
                        r"not supported yet; supported: 0 \(none\), 1 \(Becker et al. 2009\), 2 "
-                       r"\(Peer et al. 2018\), 3 \(Kugelstadt et al. 2021\)"):
-        load_scene(_beam_2d(tmp_path, 4, {}))
+                       r"\(Peer et al. 2018\), 3 \(Kugelstadt et al. 2021\), 4 \(Kee et al. "
+                       r"2023\)"):
+        load_scene(_beam_2d(tmp_path, 5, {}))
     peer = load_scene(_beam_2d(tmp_path, 2, {}))  # its block is "Peer et al. 2018"
     assert peer.materials[0].elasticity.method == "peer2018"
     fluid = load_scene(_beam_2d(tmp_path, 0, {}))

@@ -19,11 +19,13 @@ Two cases, each at several resolutions (particles across the thickness):
 
 No pressure (WCSPH with stiffness 0, as SPlisHSPlasH's Beam scenes): the solid alone. The time
 step is the explicit model's bound (``0.4 * 2r / c``, c the P-wave speed) times ``--dt-factor``
-(the implicit ``--method peer2018`` and ``kugelstadt2021`` may take larger steps; the latter
-prints its factorisation time and memory). Run::
+(the implicit ``--method peer2018``, ``kugelstadt2021`` and ``kee2023`` may take larger steps;
+kugelstadt2021 prints its factorisation time and memory, kee2023 its last step's iterations;
+kee2023 takes ``--solver newton|lbfgs`` and ``--material-model corotated|stable_neo_hookean``).
+Run::
 
     PYTHONPATH=src python validation/solids.py [--case sag|mode|both] [--layers 4 6 8]
-        [--method becker2009|peer2018|kugelstadt2021] [--dt-factor 1]
+        [--method becker2009|peer2018|kugelstadt2021|kee2023] [--dt-factor 1]
 """
 
 from __future__ import annotations
@@ -109,7 +111,11 @@ def sag(layers: int, alpha: float, L: float = 1.0, h: float = 0.1, E: float = 3e
 
 
 def _factor(sim: Simulation) -> str:
-    """kugelstadt2021: its factorisations' unknowns, time and memory; other models: ''."""
+    """kugelstadt2021: its factorisations' unknowns, time and memory; kee2023: its solver's
+    iterations in the last step; other models: ''."""
+    solve = getattr(sim.solids[0], "solve_stats", None)
+    if solve:
+        return ", ".join(f"{k} {v:.3g}" for k, v in solve.items()) + " (last step)"
     stats = getattr(sim.solids[0], "factor_stats", [])
     return "; ".join(f"factorised {s['n']:.0f} unknowns, {s['nnz']:.0f} nonzeros -> "
                      f"{s['factor_nnz']:.0f} in L+U, {s['bytes'] / 1e6:.2f} MB, "
@@ -166,15 +172,27 @@ def main() -> None:
     ap.add_argument("--gradient", choices=("none", "linear", "quadratic"), default="quadratic",
                     help="elasticity.gradient_correction")
     ap.add_argument("--support", type=float, default=1.5, help="elasticity.rest_support")
-    ap.add_argument("--method", choices=("becker2009", "peer2018", "kugelstadt2021"),
+    ap.add_argument("--method", choices=("becker2009", "peer2018", "kugelstadt2021", "kee2023"),
                     default="becker2009")
+    ap.add_argument("--solver", choices=("newton", "lbfgs"), default="newton",
+                    help="kee2023: the minimiser")
+    ap.add_argument("--material-model", choices=("corotated", "stable_neo_hookean"),
+                    default="corotated", help="kee2023: the energy density")
+    ap.add_argument("--max-change", type=float, default=1e-6,
+                    help="kee2023: max_position_change [m], the minimisation's stopping "
+                    "tolerance (SPlisHSPlasH's maxError default 1e-6)")
     ap.add_argument("--dt-factor", type=float, default=1.0,
                     help="time step as a multiple of the explicit bound 0.4 * 2r / c")
     a = ap.parse_args()
     OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support)
+    if a.method == "kee2023":
+        OPTIONS.update(solver=a.solver, material_model=a.material_model,
+                       max_position_change=a.max_change)
     MODEL.update(method=a.method, dt_factor=a.dt_factor)
     print(f"{a.method}, dt {a.dt_factor:g} x explicit bound, gradient {a.gradient}, "
-          f"rest support {a.support:g} h")
+          f"rest support {a.support:g} h"
+          + (f", {a.solver}, {a.material_model}, max change {a.max_change:g} m"
+             if a.method == "kee2023" else ""))
     if a.case in ("sag", "both"):
         print("3D cantilever under gravity (L 1 m, section 0.1 m, E 300 MPa, nu 0.3)")
         print("| layers | r [m] | particles | alpha | steps | w [mm] | EB [mm] | w/EB - 1 | "

@@ -306,3 +306,8 @@ register("elasticity", "kugelstadt2021", "sphkit.solids.kugelstadt2021:Kugelstad
          "corotated elastic SPH solids with implicit zero-energy mode control",
          summary="operator-split implicit corotated elasticity: pre-factorised constant "
          "stretch and zero-energy-mode matrix, CG volume solve")
+register("elasticity", "kee2023", "sphkit.solids.kee2023:Kee2023", splishsplash=4,
+         paper="Kee, Um, Kang & Han 2023, An optimization-based SPH solver for simulation of "
+         "hyperelastic solids",
+         summary="hyperelastic (corotated or stable neo-Hookean) backward Euler as a "
+         "minimisation: projected Newton with CG, or L-BFGS on a pre-factorised Hessian")

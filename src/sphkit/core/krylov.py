@@ -222,12 +222,13 @@ def _report(name: str, stats: KrylovStats, max_iter: int, tol: float, step: int)
 
 def cg(matvec: MatVec, b: np.ndarray, x0: np.ndarray | None = None, *,
        precond: Preconditioner | None = None, tol: float = 1e-2, max_iter: int = 100,
-       name: str = "CG", step: int = -1) -> tuple[np.ndarray, KrylovStats]:
+       name: str = "CG", step: int = -1, warn: bool = True) -> tuple[np.ndarray, KrylovStats]:
     """Solve ``A x = b`` (A symmetric positive definite) by preconditioned CG.
 
     ``matvec(x, out)`` writes ``A x``; ``precond(r, z)`` writes ``M^-1 r`` (identity if None).
-    Stops when ``|r| <= tol |b|`` or after ``max_iter`` iterations (then warns). Returns the
-    solution (a new flat array) and :class:`KrylovStats`.
+    Stops when ``|r| <= tol |b|`` or after ``max_iter`` iterations (then warns, unless ``warn``
+    is false: an inexact Newton method's inner solve, whose caller reports its own
+    convergence). Returns the solution (a new flat array) and :class:`KrylovStats`.
     """
     if not tol > 0 or max_iter < 1:
         raise ValueError(f"tol {tol!r}, max_iter {max_iter!r}: expected tol > 0, max_iter >= 1")
@@ -268,7 +269,7 @@ def cg(matvec: MatVec, b: np.ndarray, x0: np.ndarray | None = None, *,
         _xpby(z, rz_new / rz, p)
         rz = rz_new
     stats = KrylovStats(it, math.sqrt(rr / bb), rr <= thresh)
-    return x, _report(name, stats, max_iter, tol, step)
+    return x, (_report(name, stats, max_iter, tol, step) if warn else stats)
 
 
 def bicgstab(matvec: MatVec, b: np.ndarray, x0: np.ndarray | None = None, *,

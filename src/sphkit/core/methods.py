@@ -198,7 +198,9 @@ class Elasticity(Protocol):
     :attr:`objects`, set by the world builder before :meth:`init`) go through the density and
     the pressure solve like the fluid, and the elasticity adds its acceleration in the
     non-pressure stage (:meth:`apply`). After the integration :meth:`constrain` holds the
-    pinned particles (fixed boxes) at their rest positions with zero velocity.
+    pinned particles (fixed boxes) where the model prescribes them: at their rest positions
+    with zero velocity, or (kee2023, as SPlisHSPlasH's Kee et al. 2023) moved by their own
+    velocity, which animation fields may set.
     """
 
     name: ClassVar[str] = ""
@@ -226,7 +228,8 @@ class Elasticity(Protocol):
         """Add the elastic acceleration of the solid's particles to ``state.fluid["a"]``."""
 
     def constrain(self, state: SimState) -> None:
-        """After the integration: pinned particles back to rest, at zero velocity."""
+        """After the integration: pinned particles where the model prescribes them (at rest,
+        or moved by their own velocity)."""
         return None
 
 

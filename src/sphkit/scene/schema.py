@@ -446,7 +446,9 @@ class ElasticityConfig(_Model):
     ``peer2018`` (Peer et al. 2018, implicit, 2; :mod:`sphkit.solids.peer2018`),
     ``kugelstadt2021`` (Kugelstadt et al. 2021, implicit, pre-factorised, 3;
     :mod:`sphkit.solids.kugelstadt2021`; its ``max_iterations``/``max_error`` are those of the
-    volume solve, volumeMaxIter/volumeMaxError). A
+    volume solve, volumeMaxIter/volumeMaxError), ``kee2023`` (Kee et al. 2023, hyperelastic,
+    backward Euler as a minimisation by Newton or L-BFGS, 4; :mod:`sphkit.solids.kee2023`; its
+    ``max_iterations`` are the minimisation's, maxIterations, and its own fields below). A
     material with an elasticity is an elastic solid: its particles keep their rest
     neighbourhoods, feel the elastic force in the non-pressure stage and still go through the
     pressure solver (volume, contact). Defaults are SPlisHSPlasH's."""
@@ -494,7 +496,37 @@ class ElasticityConfig(_Model):
         "surface (a stiffer surface layer)")
     fixed_boxes: list[FixedBox] = Field(
         default_factory=list,
-        description="boxes whose particles (by rest position) are pinned (fixedBoxMin/Max)")
+        description="boxes whose particles (by rest position) are pinned (fixedBoxMin/Max; "
+        "kee2023 also fixedBox2Min/Max); kee2023's pinned particles move with their velocity "
+        "(zero unless an animation field sets it), the others' stay at rest")
+    solver: Literal["newton", "lbfgs"] = Field(
+        "lbfgs", description="kee2023: the minimiser, projected Newton with block-Jacobi CG or "
+        "L-BFGS on a pre-factorised initial Hessian (solverType 0, 1)")
+    material_model: Literal["corotated", "stable_neo_hookean"] = Field(
+        "corotated", description="kee2023: the energy density, corotated or stable "
+        "neo-Hookean (Smith et al. 2018, Lamé parameters remapped so E and nu keep their "
+        "small-strain meaning) (materialType 1, 0)")
+    max_position_change: float = Field(
+        1e-6, gt=0, description="kee2023: the minimisation stops when no particle moves by "
+        "more than this in an iteration [m] (maxError)")
+    cg_max_iterations: int = Field(
+        100, ge=1, description="kee2023 Newton: CG iterations per Newton step "
+        "(maxIterationsCG)")
+    cg_tolerance: float = Field(
+        1e-4, gt=0, lt=1, description="kee2023 Newton: relative residual of the CG, "
+        "dimensionless (tolCG)")
+    lbfgs_window: int = Field(
+        5, ge=0, description="kee2023 L-BFGS: secant pairs kept (lbfgsWindowSize)")
+    line_search: bool = Field(
+        True, description="kee2023: backtracking Armijo line search (useLineSearch)")
+    line_search_iterations: int = Field(
+        20, ge=1, description="kee2023: line-search trials per iteration (maxLSIterations)")
+    armijo: float = Field(
+        1e-4, gt=0, lt=0.5, description="kee2023: Armijo's sufficient-decrease factor c1, "
+        "dimensionless (lsArmijoParam)")
+    line_search_beta: float = Field(
+        0.5, gt=0, lt=1, description="kee2023: step factor per line-search trial, "
+        "dimensionless (lsBeta)")
 
     @model_validator(mode="after")
     def _cap(self) -> ElasticityConfig:

@@ -20,6 +20,9 @@ from sphkit.scene.splishsplash.methods import (
     ELASTICITY_SUPPORTED,
     FACTOR_VISCOSITY,
     IMPLICIT_VISCOSITY,
+    KEE2023_FIELDS,
+    KEE2023_MATERIALS,
+    KEE2023_SOLVERS,
     MATERIAL_NAMESPACES,
     OMEGA_VISCOSITY,
     OTHER_METHODS,
@@ -387,10 +390,12 @@ def elasticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, An
     rd.collect_unknown(ns, nsw, {"youngsModulus", "poissonsRatio", "alpha", "fixedBoxMin",
                                  "fixedBoxMax", *extra}, set())
     out: dict[str, Any] = {"method": method}
-    # Kugelstadt 2021's constructor overrides the base's default E 1e5 with 5e6
-    e_default = 5e6 if em == 3 else 1e5
+    # Kugelstadt 2021's and Kee 2023's constructors override the base's default E 1e5 with 5e6
+    # (Kee 2023: and nu 0.3 with 0.45)
+    e_default = 5e6 if em in (3, 4) else 1e5
     fields = {"youngs_modulus": ("youngsModulus", e_default),
-              "poisson_ratio": ("poissonsRatio", 0.3), "alpha": ("alpha", 0.0)}
+              "poisson_ratio": ("poissonsRatio", 0.45 if em == 4 else 0.3),
+              "alpha": ("alpha", 0.0)}
     if "elasticityMaxIter" in extra:
         fields["max_error"] = ("elasticityMaxError", 1e-4)
     if "volumeMaxError" in extra:
@@ -404,12 +409,43 @@ def elasticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, An
         if theirs in extra:
             out[ours] = rd.integer(ns, theirs, nsw, default)
             rd.origin[f"materials[{k}].elasticity.{ours}"] = f"{nsw}.{theirs}"
-    if ("fixedBoxMin" in ns) != ("fixedBoxMax" in ns):
-        given = "fixedBoxMin" if "fixedBoxMin" in ns else "fixedBoxMax"
-        raise rd.error(f"{nsw}.{given}", ns[given], "fixedBoxMin and fixedBoxMax together")
-    if "fixedBoxMin" in ns:
-        out["fixed_boxes"] = [{"min": rd.vec3(ns, "fixedBoxMin", nsw, [0.0] * 3),
-                               "max": rd.vec3(ns, "fixedBoxMax", nsw, [0.0] * 3)}]
+    boxes = []
+    pairs = [("fixedBoxMin", "fixedBoxMax")] + ([("fixedBox2Min", "fixedBox2Max")] if em == 4
+                                                  else [])
+    for lo, hi in pairs:
+        if (lo in ns) != (hi in ns):
+            given = lo if lo in ns else hi
+            raise rd.error(f"{nsw}.{given}", ns[given], f"{lo} and {hi} together")
+        if lo in ns:
+            box = {"min": rd.vec3(ns, lo, nsw, [0.0] * 3), "max": rd.vec3(ns, hi, nsw, [0.0] * 3)}
+            # Kee 2023: an all-zero box is no box (its second box is optional)
+            if em != 4 or any(box["min"]) or any(box["max"]):
+                boxes.append(box)
+    if boxes:
+        out["fixed_boxes"] = boxes
         rd.origin[f"materials[{k}].elasticity.fixed_boxes"] = f"{nsw}.fixedBoxMin"
+    if em == 4:
+        out.update(_kee2023(rd, ns, nsw, k))
     rd.origin[f"materials[{k}].elasticity"] = nsw
+    return out
+
+
+def _kee2023(rd: Reader, ns: Mapping[str, Any], nsw: str, k: int) -> dict[str, Any]:
+    """Kee et al. 2023's solver parameters (``Elasticity_Kee2023.cpp``'s names and defaults)."""
+    out: dict[str, Any] = {}
+    for theirs, (ours, default, kind) in KEE2023_FIELDS.items():
+        out[ours] = (rd.integer(ns, theirs, nsw, default) if kind == "int"
+                     else rd.num(ns, theirs, nsw, default))
+        rd.origin[f"materials[{k}].elasticity.{ours}"] = f"{nsw}.{theirs}"
+    for theirs, ours, names, default in (("solverType", "solver", KEE2023_SOLVERS, 1),
+                                         ("materialType", "material_model", KEE2023_MATERIALS,
+                                          1)):
+        v = rd.integer(ns, theirs, nsw, default)
+        if v not in names:
+            raise rd.error(f"{nsw}.{theirs}", ns[theirs],
+                           " or ".join(f"{n} ({name})" for n, name in names.items()))
+        out[ours] = names[v]
+        rd.origin[f"materials[{k}].elasticity.{ours}"] = f"{nsw}.{theirs}"
+    out["line_search"] = rd.flag(ns, "useLineSearch", nsw, True)
+    rd.origin[f"materials[{k}].elasticity.line_search"] = f"{nsw}.useLineSearch"
     return out

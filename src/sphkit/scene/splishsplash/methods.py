@@ -154,8 +154,25 @@ ELASTICITY_SUPPORTED = _with_blocks("elasticity", OTHER_METHODS["elasticityMetho
 ELASTICITY_KEYS = {
     1: (), 2: ("maxNeighbors", "elasticityMaxIter", "elasticityMaxError"),
     3: ("maxNeighbors", "volumeMaxIter", "volumeMaxError"),
-    4: ("maxNeighbors", "elasticityMaxIter", "elasticityMaxError"),
+    4: ("maxNeighbors", "fixedBox2Min", "fixedBox2Max", "solverType", "materialType",
+        "maxIterations", "maxError", "maxIterationsCG", "tolCG", "maxLSIterations",
+        "lsArmijoParam", "lsBeta", "useLineSearch", "lbfgsWindowSize"),
 }
+#: Kee et al. 2023's parameters (``Elasticity_Kee2023.cpp``): SPlisHSPlasH name -> (sphkit
+#: field, default, kind); its enums: solverType 0 Newton, 1 L-BFGS; materialType 0 stable
+#: neo-Hookean, 1 corotated
+KEE2023_FIELDS = {
+    "maxIterations": ("max_iterations", 100, "int"),
+    "maxError": ("max_position_change", 1e-6, "num"),
+    "maxIterationsCG": ("cg_max_iterations", 100, "int"),
+    "tolCG": ("cg_tolerance", 1e-4, "num"),
+    "maxLSIterations": ("line_search_iterations", 20, "int"),
+    "lsArmijoParam": ("armijo", 1e-4, "num"),
+    "lsBeta": ("line_search_beta", 0.5, "num"),
+    "lbfgsWindowSize": ("lbfgs_window", 5, "int"),
+}
+KEE2023_SOLVERS = {0: "newton", 1: "lbfgs"}
+KEE2023_MATERIALS = {0: "stable_neo_hookean", 1: "corotated"}
 #: the fields of :data:`OTHER_METHODS` that sphkit reads (the others must be 0)
 SUPPORTED_OTHER_METHODS = {"surfaceTensionMethod", "dragMethod", "elasticityMethod"}
 
