@@ -495,6 +495,15 @@ class ElasticityConfig(_Model):
     fixed_boxes: list[FixedBox] = Field(
         default_factory=list,
         description="boxes whose particles (by rest position) are pinned (fixedBoxMin/Max)")
+    yield_stress: float | None = Field(
+        None, ge=0,
+        description="sphkit's own: von Mises yield stress sigma_y [Pa] of the corotated strain "
+        "(J2 plasticity with radial return, sphkit.solids.plasticity); absent, null or 0: "
+        "purely elastic (the default)")
+    hardening: float = Field(
+        0.0, ge=0,
+        description="sphkit's own: linear isotropic hardening modulus H [Pa], the growth of "
+        "the yield stress per unit equivalent plastic strain (0: perfectly plastic)")
 
     @model_validator(mode="after")
     def _cap(self) -> ElasticityConfig:

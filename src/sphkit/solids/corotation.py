@@ -47,6 +47,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_w
+from sphkit.solids.plasticity import radial_return
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -129,11 +130,15 @@ def rotations(x, pos, x0, m, off, idx, h, kid, dim, qw, qv, R, iterations):
 
 
 @numba.njit(parallel=True, **_JIT)
-def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises):
+def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises, ep, ep_s, alpha,
+             yield_stress, hardening, plastic):
     """Per slot: ``F = I + grad u`` (row-major) with ``grad u_i = sum_j u_ji G_ij^T`` (the
     gradient weights of :mod:`sphkit.solids.gradients`), the stress term ``P = R sigma`` of
     the force and the predictor ``M = R F`` of the zero-energy-mode control; the von Mises
-    stress per particle."""
+    stress per particle. ``plastic``: the strain is first returned onto the yield surface by
+    :func:`sphkit.solids.plasticity.radial_return` (the per-particle plastic state ``ep``,
+    ``ep_s``, ``alpha`` updated in place) and sigma is that of the elastic strain; otherwise
+    the plastic arrays are not read (they may be empty)."""
     for s in numba.prange(pos.shape[0]):
         i = pos[s]
         r = R[s]
@@ -170,6 +175,10 @@ def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises):
         s01 = 0.5 * (g[1] + g[3])
         s02 = 0.5 * (g[2] + g[6])
         s12 = 0.5 * (g[5] + g[7])
+        if plastic:
+            s00, s11, s22, s01, s02, s12 = radial_return(s00, s11, s22, s01, s02, s12, ep,
+                                                         ep_s, alpha, i, mu, yield_stress,
+                                                         hardening)
         ltr = lam * (s00 + s11 + s22)
         t00 = 2.0 * mu * s00 + ltr
         t11 = 2.0 * mu * s11 + ltr

@@ -111,6 +111,17 @@ def _extract_rotations(A: np.ndarray, qw: np.ndarray, qv: np.ndarray, pos: np.nd
     return _quat_matrices(q)
 
 
+def _plastic_tensors(diag: np.ndarray, shear: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) symmetric plastic strains from their diagonal (3, n: 00, 11, 22) and
+    off-diagonal (3, n: 01, 02, 12) components."""
+    e = np.zeros((diag.shape[1], 3, 3))
+    for a in range(3):
+        e[:, a, a] = diag[a]
+    for k, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))):
+        e[:, a, b] = e[:, b, a] = shear[k]
+    return e
+
+
 def gradient_operators(offsets: np.ndarray, indices: np.ndarray, G: np.ndarray,
                        dim: int) -> list[sp.csr_matrix]:
     """The sparse operators ``D_c`` (n x n) with ``(D_c phi)_i = sum_j (phi_j - phi_i) G_ij[c]``
@@ -249,11 +260,18 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
                 Fp[:, a, c] = self.D[c] @ xt[a]
         Rfull = _extract_rotations(Fp, f["solid_qw"], f["solid_q"], pos, ROTATION_ITERATIONS)
         w["R"][...] = Rfull.reshape(rest.n, 9)
+        # von Mises stress for output; with a yield stress, the return mapping of the
+        # step's start (solids.plasticity)
         stresses(f["x"], pos, rest.x0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
-                 w["F"], w["P"], w["M"], f["solid_stress"])  # von Mises stress for output
+                 w["F"], w["P"], w["M"], f["solid_stress"], *self.plastic_state(state),
+                 self.yield_stress, self.hardening, self.plastic)
         if dt != self._dt:
             self._factorise(dt)
         Rm = w["R"].reshape(rest.n, 3, 3)[:, :dim, :dim]
+        Rs = Rm  # the stretch energy's target mu |F - R (I + eps_p)|^2
+        if self.plastic:
+            Rs = (w["R"].reshape(rest.n, 3, 3) @ (np.eye(3) + _plastic_tensors(
+                f["solid_plastic"][:, pos], f["solid_plastic_shear"][:, pos])))[:, :dim, :dim]
         V0 = rest.V0
         m = rest.m
         fr, pinned = self._free, rest.fixed
@@ -264,7 +282,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         for a in range(dim):  # stretch + zero-energy modes: one factorisation, dim solves
             b = m * xt[a] * inv_dt2
             for c in range(dim):
-                b += 2.0 * self.mu * (self.D[c].T @ (V0 * Rm[:, a, c]))
+                b += 2.0 * self.mu * (self.D[c].T @ (V0 * Rs[:, a, c]))
             if fr.size:
                 rhs = b[fr] - self._Afp @ xp[a]
                 x1[a, fr] = self._lu.solve(rhs)

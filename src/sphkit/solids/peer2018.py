@@ -75,7 +75,7 @@ class Peer2018(ImplicitCorotatedSolid):
             scratch_x[:, pos] = dt * yv
             scratch_a[:, pos] = 0.0
             stresses(scratch_x, pos, zeros0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
-                     F, P, M, vm)
+                     F, P, M, vm, *self.plastic_state(state), 0.0, 0.0, False)
             forces(scratch_x, pos, zeros0, rest.V0, m, off, idx, self.G, self.rev, rest.h,
                    state.kid, dim, P, M, 0.0, scratch_a)
             o = out.reshape(dim, rest.n)
