@@ -495,6 +495,13 @@ class ElasticityConfig(_Model):
     fixed_boxes: list[FixedBox] = Field(
         default_factory=list,
         description="boxes whose particles (by rest position) are pinned (fixedBoxMin/Max)")
+    rotation: Literal["moment", "gradient"] = Field(
+        "moment",
+        description="becker2009, peer2018: the corotated frame of a particle: 'moment', the "
+        "rotation of its moment matrix sum_j m_j W x_ji x0_ji^T (Becker et al. 2009, "
+        "SPlisHSPlasH); 'gradient', the polar rotation of its deformation gradient (then the "
+        "force is the gradient of a rotation-invariant energy: angular momentum is kept to "
+        "round-off with the 'linear' or 'quadratic' gradient_correction)")
     yield_stress: float | None = Field(
         None, ge=0,
         description="sphkit's own: von Mises yield stress sigma_y [Pa] of the corotated strain "
