@@ -9,6 +9,7 @@
 
 Shared machinery (not methods): :mod:`sphkit.solids.base` (the corotated solid both models
 derive from), :mod:`sphkit.solids.rest` (rest configuration, rest lists, pinned particles),
-:mod:`sphkit.solids.gradients` (gradient weights) and :mod:`sphkit.solids.corotation` (the
-compiled corotated passes).
+:mod:`sphkit.solids.gradients` (gradient weights), :mod:`sphkit.solids.corotation` (the
+compiled corotated passes) and :mod:`sphkit.solids.plasticity` (von Mises plasticity, radial
+return).
 """

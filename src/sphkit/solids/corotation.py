@@ -11,11 +11,17 @@ plane strain: ``F_zz = 1``, ``eps_zz = 0``, and the rotation turns about z only.
   Müller, Bender, Chentanez & Macklin 2016 ("A robust method to extract the rotational part of
   deformations", MIG), 10 iterations warm-started from the last step's R_i (a unit
   quaternion, fields ``solid_qw``, ``solid_q``);
+* or, with ``rotation="gradient"`` (:func:`gradient_rotations`), R_i the polar rotation of
+  the deformation gradient ``H_i = sum_j x_ji G_ij^T``, by the same iteration run to
+  convergence: then ``R^T H`` is symmetric and the torques of the force below cancel
+  (:mod:`sphkit.solids.becker2009`, "Conservation");
 * displacement gradient ``grad u_i = sum_j (R_i^T x_ji - x0_ji) G_ij^T`` with the gradient
   weights ``G_ij`` of :mod:`sphkit.solids.gradients` (SPlisHSPlasH's Becker:
   ``G_ij = -V0_j grad W(x0_ji)``, the kernel gradient taken along ``x0_ji``; sphkit's default
   a second-order least-squares gradient), ``F_i = I + grad u_i``; strain
-  ``eps = (grad u + grad u^T) / 2``; stress ``sigma = 2 mu eps + lambda tr(eps) I``.
+  ``eps = (grad u + grad u^T) / 2``; stress ``sigma = 2 mu eps + lambda tr(eps) I``, with a
+  yield stress that of the elastic part ``eps - eps_p`` after the return mapping of
+  :mod:`sphkit.solids.plasticity`.
 
   SPlisHSPlasH multiplies the tensor shear strain eps_01 by C_33 = mu in Voigt form, which
   gives half the shear stress of Hooke's law (Voigt notation needs the engineering strain

@@ -41,6 +41,13 @@ factorisation's time and memory. SPlisHSPlasH factorises with its own AVX Choles
 on disk. The matrix is refactorised when the time step changes (fixed-step scenes, as
 SPlisHSPlasH's, factorise once).
 
+Plasticity (``yield_stress``, ``hardening``; :mod:`sphkit.solids.plasticity`): the return
+mapping acts on the corotated strain of the step's start; the plastic strain ``eps_p`` (in the
+particle's corotated frame, deviatoric) moves the stretch energy's target to
+``mu |F_i - R_i (I + eps_p,i)|^2``, which changes its right-hand side only (the Hessian stays
+``2 mu K``, the factorisation is kept), and leaves the volume part alone (``tr eps_p = 0``).
+The moment-matrix option ``rotation`` does not apply (the rotations are F's).
+
 The solid's acceleration of the stage becomes ``(v' - v) / dt`` with ``v' = (x' - x) / dt``;
 pinned particles keep ``x' = x0``. The pressure solver then acts on the result. No time-step
 bound of its own. The elastic forces of the step, ``M (x~ - x') / dt^2``, are sums of pair
