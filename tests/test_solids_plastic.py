@@ -130,13 +130,17 @@ def test_implicit_plastic_bar_stays_bent(method: str) -> None:
 def test_checkpoint_restores_the_plastic_strain(tmp_path) -> None:
     """The plastic strain lives in registered particle fields: a plastic run (a yield stress
     of 300 Pa, so it flows from the first steps) continued from a checkpoint repeats the
-    uninterrupted one bit for bit, across z-order reorderings."""
+    uninterrupted one bit for bit, across z-order reorderings; frames carry the equivalent
+    plastic strain."""
+    from sphkit.io.frames import frame_arrays
+
     sc = _bar(yield_stress=300.0).scene.model_copy(deep=True)
     sc.configuration.zsort_every = 5
     sim = Simulation(sc)
     for _ in range(12):
         sim.step()
     assert sim.fluid["solid_plastic_alpha"].max() > 0
+    assert frame_arrays(sim.fluid)["plastic_strain"].max() > 0
     path = sim.save_checkpoint(tmp_path / "ck.npz")
     for _ in range(12):
         sim.step()
