@@ -59,8 +59,8 @@ def _time_step(r: float, E: float, nu: float) -> float:
     return 0.4 * 2 * r / math.sqrt((lam + 2 * mu) / RHO)
 
 
-#: the elasticity options of the runs (``--gradient``, ``--support``)
-OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5}
+#: the elasticity options of the runs (``--gradient``, ``--support``, ``--rotation``)
+OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5, "rotation": "moment"}
 #: the elasticity model (``--method``) and the multiple of the explicit step it runs with
 #: (``--dt-factor``; an implicit model may exceed 1)
 MODEL: dict = {"method": "becker2009", "dt_factor": 1.0}
@@ -247,6 +247,8 @@ def main() -> None:
     ap.add_argument("--gradient", choices=("none", "linear", "quadratic"), default="quadratic",
                     help="elasticity.gradient_correction")
     ap.add_argument("--support", type=float, default=1.5, help="elasticity.rest_support")
+    ap.add_argument("--rotation", choices=("moment", "gradient"), default="moment",
+                    help="elasticity.rotation (becker2009, peer2018)")
     ap.add_argument("--method", choices=("becker2009", "peer2018", "kugelstadt2021"),
                     default="becker2009")
     ap.add_argument("--dt-factor", type=float, default=1.0,
@@ -257,10 +259,10 @@ def main() -> None:
     ap.add_argument("--float-viscosity", type=float, default=0.0,
                     help="float: the water's kinematic viscosity (standard) [m^2/s]")
     a = ap.parse_args()
-    OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support)
+    OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support, rotation=a.rotation)
     MODEL.update(method=a.method, dt_factor=a.dt_factor)
     print(f"{a.method}, dt {a.dt_factor:g} x explicit bound, gradient {a.gradient}, "
-          f"rest support {a.support:g} h")
+          f"rest support {a.support:g} h, rotation {a.rotation}")
     if a.case in ("sag", "both"):
         print("3D cantilever under gravity (L 1 m, section 0.1 m, E 300 MPa, nu 0.3)")
         print("| layers | r [m] | particles | alpha | steps | w [mm] | EB [mm] | w/EB - 1 | "
