@@ -178,7 +178,7 @@ def _level(x: np.ndarray, y: np.ndarray, lo: float, hi: float, r: float) -> floa
 
 
 def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1,
-             E: float = 1e6, viscosity: float = 0.0) -> dict:
+             E: float = 1e6, viscosity: float = 0.0, dt_max: float = 0.002) -> dict:
     """The floating block (module docstring): ``layers`` particles across its height."""
     r = H / (2 * layers)
     s = 2 * r
@@ -192,7 +192,7 @@ def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1
         "name": "floating block",
         "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, -G],
                           "pressure": {"method": "dfsph"},
-                          "time": {"until": until, "dt_max": 0.002}},
+                          "time": {"until": until, "dt_max": dt_max}},
         "materials": [{"id": "water", "density0": RHO,
                        "viscosity": {"method": "standard" if viscosity else "none",
                                      "coefficient": viscosity}},
@@ -258,6 +258,8 @@ def main() -> None:
     ap.add_argument("--float-time", type=float, default=3.0, help="float: simulated time [s]")
     ap.add_argument("--float-viscosity", type=float, default=0.0,
                     help="float: the water's kinematic viscosity (standard) [m^2/s]")
+    ap.add_argument("--float-dt-max", type=float, default=0.002,
+                    help="float: the largest (CFL) time step [s]")
     a = ap.parse_args()
     OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support, rotation=a.rotation)
     MODEL.update(method=a.method, dt_factor=a.dt_factor)
@@ -294,12 +296,14 @@ def main() -> None:
     if a.case == "float":
         print(f"2D block (H 0.1 m, width 0.2 m, E 1 MPa) floating in DFSPH water (viscosity "
               f"{a.float_viscosity:g} m^2/s), density {a.density:g} x water, "
-              f"{a.float_time:g} s, depth averaged over the second half")
+              f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
+              "second half")
         print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
               "| depth/Archimedes - 1 | max tilt [deg] | wall [s] |")
         print("|---|---|---|---|---|---|---|---|---|---|")
         for n in a.layers:
-            fl = floating(n, a.density, a.float_time, viscosity=a.float_viscosity)
+            fl = floating(n, a.density, a.float_time, viscosity=a.float_viscosity,
+                          dt_max=a.float_dt_max)
             print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
                   f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
                   f"{100 * fl['err']:+.1f} % | {fl['tilt']:.1f} | {fl['wall']:.0f} |"
