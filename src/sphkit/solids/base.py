@@ -157,7 +157,10 @@ class CorotatedSolid(Elasticity):
         stored ones) less the plastic strain. The elastic force of :meth:`apply` is ``-dU/dx``
         with the rotations held (:mod:`sphkit.solids.corotation`), so kinetic energy plus U is
         kept by the elastic force alone (not by the zero-energy-mode control, ``alpha``, which
-        has no energy of this form)."""
+        has no energy of this form); exactly (to the time integration) with
+        ``rotation="gradient"``, to second order in the strain with ``"moment"``.
+        kugelstadt2021 takes its rotations from F instead; its energy is the same to first
+        order in the strain."""
         rest = self.rest
         if rest is None or rest.n == 0:
             return 0.0
