@@ -17,15 +17,27 @@ Two cases, each at several resolutions (particles across the thickness):
   from the tip's zero crossings over two periods against ``omega = (k L)^2 / L^2
   sqrt(E H^2 / (12 rho (1 - nu^2)))``, kL = 1.875.
 
-No pressure (WCSPH with stiffness 0, as SPlisHSPlasH's Beam scenes): the solid alone. The time
+* ``float``: a 2D elastic block (height H = 0.1 m, width 2H: upright is its stable floating
+  position for densities 0.5 x water; E 1 MPa, density ``--density`` x water) released at
+  rest half as deep as Archimedes' depth in water (DFSPH, depth 2.5 H; the water sampled
+  around it) in a tank 6 H wide, for ``--float-time`` s. Its submerged depth -- the water
+  surface (the mean of the columns' highest particles plus r, within 1.5 H of either wall,
+  averaging the two sides, so the tank's sloshing mode cancels) minus its bottom (its centroid
+  less the rest height of the centroid above the bottom face) -- averaged over the second half
+  of the run (it bobs at about 2 Hz), against Archimedes' ``d = m / (rho_water w)``, m the
+  block's mass per unit length, w its width (its lattice cells).
+
+No pressure in ``sag`` and ``mode`` (WCSPH with stiffness 0, as SPlisHSPlasH's Beam scenes):
+the solid alone. The time
 step is the explicit model's bound (``0.4 * 2r / c``, c the P-wave speed) times ``--dt-factor``
 (the implicit ``--method peer2018``, ``kugelstadt2021`` and ``kee2023`` may take larger steps;
 kugelstadt2021 prints its factorisation time and memory, kee2023 its last step's iterations;
 kee2023 takes ``--solver newton|lbfgs`` and ``--material-model corotated|stable_neo_hookean``).
 Run::
 
-    PYTHONPATH=src python validation/solids.py [--case sag|mode|both] [--layers 4 6 8]
+    PYTHONPATH=src python validation/solids.py [--case sag|mode|both|float] [--layers 4 6 8]
         [--method becker2009|peer2018|kugelstadt2021|kee2023] [--dt-factor 1]
+        [--density 0.5] [--float-time 3]
 """
 
 from __future__ import annotations
@@ -49,8 +61,8 @@ def _time_step(r: float, E: float, nu: float) -> float:
     return 0.4 * 2 * r / math.sqrt((lam + 2 * mu) / RHO)
 
 
-#: the elasticity options of the runs (``--gradient``, ``--support``)
-OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5}
+#: the elasticity options of the runs (``--gradient``, ``--support``, ``--rotation``)
+OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5, "rotation": "moment"}
 #: the elasticity model (``--method``) and the multiple of the explicit step it runs with
 #: (``--dt-factor``; an implicit model may exceed 1)
 MODEL: dict = {"method": "becker2009", "dt_factor": 1.0}
@@ -161,10 +173,79 @@ def mode(layers: int, alpha: float, L: float = 0.2, H: float = 0.02, E: float = 
             "amplitude": float(np.abs(ys_a).max()), "wall": wall, "factor": _factor(sim)}
 
 
+def _level(x: np.ndarray, y: np.ndarray, lo: float, hi: float, r: float) -> float:
+    """The mean over the columns (width 2r) of ``[lo, hi)`` of the highest particle's y plus r
+    (the free surface)."""
+    cols = np.floor((x - lo) / (2 * r)).astype(np.int64)
+    ok = (x >= lo) & (x < hi)
+    tops = np.full(int(round((hi - lo) / (2 * r))) + 1, -np.inf)
+    np.maximum.at(tops, cols[ok], y[ok])
+    return float(np.mean(tops[np.isfinite(tops)])) + r
+
+
+def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1,
+             E: float = 1e6, viscosity: float = 0.0, dt_max: float = 0.002) -> dict:
+    """The floating block (module docstring): ``layers`` particles across its height."""
+    r = H / (2 * layers)
+    s = 2 * r
+    W, D = 6 * H, 2.5 * H
+    bw = 2 * H
+    x0 = round((W - bw) / 2 / s) * s  # on the water's lattice columns
+    d0 = max(1, round(ratio * H / 2 / s)) * s  # released at half Archimedes' depth
+    y0 = D - d0
+    water = [([0.0, 0.0], [W, y0]), ([0.0, y0], [x0, D]), ([x0 + bw, y0], [W, D])]
+    scene = Scene.model_validate({
+        "name": "floating block",
+        "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, -G],
+                          "pressure": {"method": "dfsph"},
+                          "time": {"until": until, "dt_max": dt_max}},
+        "materials": [{"id": "water", "density0": RHO,
+                       "viscosity": {"method": "standard" if viscosity else "none",
+                                     "coefficient": viscosity}},
+                      {"id": "block", "density0": ratio * RHO,
+                       "elasticity": {"method": MODEL["method"], "youngs_modulus": E,
+                                      "poisson_ratio": 0.3, "alpha": 0.1, **OPTIONS}}],
+        "fluid_blocks": [{"start": a, "end": b, "material": "water"} for a, b in water]
+        + [{"start": [x0, y0], "end": [x0 + bw, y0 + H], "material": "block"}],
+        "boxes": [{"min": [0.0, 0.0], "max": [W, 2.5 * D]}]})
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # DFSPH's convergence warnings of the first steps
+        sim = Simulation(scene)
+        f = sim.fluid
+        block = f["solid_slot"] >= 0
+        mass = float(f["m"][block].sum())
+        rest = f["solid_x0"][:, block]
+        width = float(np.ptp(rest[0])) + s
+        below = float(rest[1].mean() - rest[1].min()) + r  # centroid above the bottom face
+        d_arch = mass / (RHO * width)
+        depths, angles = [], []
+        t0 = time.perf_counter()
+        while sim.time < until - 1e-9:
+            sim.step()
+            if sim.time >= until / 2:
+                block = f["solid_slot"] >= 0
+                x, y = f["x"]
+                level = 0.5 * (_level(x[~block], y[~block], 0.0, 1.5 * H, r)
+                               + _level(x[~block], y[~block], W - 1.5 * H, W, r))
+                depths.append(level - (float(y[block].mean()) - below))
+                e = f["solid_x0"][:, block] - f["solid_x0"][:, block].mean(axis=1)[:, None]
+                d = f["x"][:, block] - f["x"][:, block].mean(axis=1)[:, None]
+                angles.append(math.degrees(math.atan2(float((e[0] * d[1] - e[1] * d[0]).sum()),
+                                                      float((e * d).sum()))))
+        wall = time.perf_counter() - t0
+    d = np.array(depths)
+    return {"layers": layers, "r": r, "n": f.n, "steps": sim.step_count, "d": float(d.mean()),
+            "swing": float(d.max() - d.min()), "d_arch": d_arch, "err": d.mean() / d_arch - 1,
+            "tilt": float(np.abs(angles).max()), "finite": bool(np.isfinite(f["x"]).all()),
+            "wall": wall}
+
+
 def main() -> None:
     """Run the cases and print the tables."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--case", choices=("sag", "mode", "both"), default="both")
+    ap.add_argument("--case", choices=("sag", "mode", "both", "float"), default="both")
     ap.add_argument("--layers", type=int, nargs="+", default=[4, 6, 8],
                     help="particles across the thickness")
     ap.add_argument("--alpha", type=float, nargs="+", default=[0.0, 0.1],
@@ -172,6 +253,8 @@ def main() -> None:
     ap.add_argument("--gradient", choices=("none", "linear", "quadratic"), default="quadratic",
                     help="elasticity.gradient_correction")
     ap.add_argument("--support", type=float, default=1.5, help="elasticity.rest_support")
+    ap.add_argument("--rotation", choices=("moment", "gradient"), default="moment",
+                    help="elasticity.rotation (becker2009, peer2018)")
     ap.add_argument("--method", choices=("becker2009", "peer2018", "kugelstadt2021", "kee2023"),
                     default="becker2009")
     ap.add_argument("--solver", choices=("newton", "lbfgs"), default="newton",
@@ -183,14 +266,21 @@ def main() -> None:
                     "tolerance (SPlisHSPlasH's maxError default 1e-6)")
     ap.add_argument("--dt-factor", type=float, default=1.0,
                     help="time step as a multiple of the explicit bound 0.4 * 2r / c")
+    ap.add_argument("--density", type=float, default=0.5,
+                    help="float: the block's density as a multiple of the water's")
+    ap.add_argument("--float-time", type=float, default=3.0, help="float: simulated time [s]")
+    ap.add_argument("--float-viscosity", type=float, default=0.0,
+                    help="float: the water's kinematic viscosity (standard) [m^2/s]")
+    ap.add_argument("--float-dt-max", type=float, default=0.002,
+                    help="float: the largest (CFL) time step [s]")
     a = ap.parse_args()
-    OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support)
+    OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support, rotation=a.rotation)
     if a.method == "kee2023":
         OPTIONS.update(solver=a.solver, material_model=a.material_model,
                        max_position_change=a.max_change)
     MODEL.update(method=a.method, dt_factor=a.dt_factor)
     print(f"{a.method}, dt {a.dt_factor:g} x explicit bound, gradient {a.gradient}, "
-          f"rest support {a.support:g} h"
+          f"rest support {a.support:g} h, rotation {a.rotation}"
           + (f", {a.solver}, {a.material_model}, max change {a.max_change:g} m"
              if a.method == "kee2023" else ""))
     if a.case in ("sag", "both"):
@@ -221,6 +311,21 @@ def main() -> None:
                       f"{1e3 * m['amplitude']:.2f} | {m['wall']:.0f} |", flush=True)
                 if m["factor"]:
                     print("  ", m["factor"], flush=True)
+    if a.case == "float":
+        print(f"2D block (H 0.1 m, width 0.2 m, E 1 MPa) floating in DFSPH water (viscosity "
+              f"{a.float_viscosity:g} m^2/s), density {a.density:g} x water, "
+              f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
+              "second half")
+        print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
+              "| depth/Archimedes - 1 | max tilt [deg] | wall [s] |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        for n in a.layers:
+            fl = floating(n, a.density, a.float_time, viscosity=a.float_viscosity,
+                          dt_max=a.float_dt_max)
+            print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
+                  f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
+                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.1f} | {fl['wall']:.0f} |"
+                  + ("" if fl["finite"] else " NaN"), flush=True)
 
 
 if __name__ == "__main__":

@@ -28,9 +28,9 @@ id           (N,)       particle id (int64 in VTK, int32 in PLY)
 ===========  =========  =========================================================
 
 Scenes with elastic solids also write their von Mises ``stress`` [Pa], ``rest_position`` (the
-displacement is ``position - rest_position``) and ``fixed`` (1: pinned) by default
-(:data:`SOLID_FIELDS`). Extra fields a method registered with the ParticleSet can be added with
-``extra_fields``.
+displacement is ``position - rest_position``) and ``fixed`` (1: pinned) by default, and plastic
+solids (a ``yield_stress``) their equivalent ``plastic_strain`` (:data:`SOLID_FIELDS`). Extra
+fields a method registered with the ParticleSet can be added with ``extra_fields``.
 ``attributes`` (the scene's ``output.attributes``, SPlisHSPlasH's ``particleAttributes``)
 replaces velocity, density and pressure by the named attributes: :data:`ATTRIBUTES` or any field
 of the ParticleSet (:func:`resolve_attributes`); position and id are always written.
@@ -60,7 +60,8 @@ STANDARD_FIELDS: dict[str, str] = {"velocity": "v", "density": "rho", "pressure"
 #: written besides the standard fields when the particle set has them (elastic solids,
 #: :mod:`sphkit.solids.rest`): name in the frame file -> field
 SOLID_FIELDS: dict[str, str] = {"stress": "solid_stress", "rest_position": "solid_x0",
-                                "fixed": "solid_fixed"}
+                                "fixed": "solid_fixed",
+                                "plastic_strain": "solid_plastic_alpha"}
 
 #: attribute names a scene may ask for (SPlisHSPlasH's spelling included) -> (name in the frame
 #: file, field of the ParticleSet); any other field of the ParticleSet is written as it is named

@@ -527,6 +527,22 @@ class ElasticityConfig(_Model):
     line_search_beta: float = Field(
         0.5, gt=0, lt=1, description="kee2023: step factor per line-search trial, "
         "dimensionless (lsBeta)")
+    rotation: Literal["moment", "gradient"] = Field(
+        "moment",
+        description="becker2009, peer2018: the corotated frame of a particle: 'moment', the "
+        "rotation of its moment matrix sum_j m_j W x_ji x0_ji^T (Becker et al. 2009, "
+        "SPlisHSPlasH); 'gradient', the polar rotation of its deformation gradient (then the "
+        "force is the gradient of a rotation-invariant energy: angular momentum is kept to "
+        "round-off with the 'linear' or 'quadratic' gradient_correction)")
+    yield_stress: float | None = Field(
+        None, ge=0,
+        description="sphkit's own: von Mises yield stress sigma_y [Pa] of the corotated strain "
+        "(J2 plasticity with radial return, sphkit.solids.plasticity); absent, null or 0: "
+        "purely elastic (the default)")
+    hardening: float = Field(
+        0.0, ge=0,
+        description="sphkit's own: linear isotropic hardening modulus H [Pa], the growth of "
+        "the yield stress per unit equivalent plastic strain (0: perfectly plastic)")
 
     @model_validator(mode="after")
     def _cap(self) -> ElasticityConfig:

@@ -15,5 +15,6 @@ derive from), :mod:`sphkit.solids.rest` (rest configuration, rest lists, pinned 
 compiled corotated passes, whose force pass kee2023 reuses with its own stresses) and
 :mod:`sphkit.solids.operators` (sparse gradient and zero-energy-mode matrices) and
 :mod:`sphkit.solids.hyperelastic` (energy densities, stresses and projected Hessians of
-isotropic hyperelastic solids, the pieces of a Newton step).
+isotropic hyperelastic solids, the pieces of a Newton step) and
+:mod:`sphkit.solids.plasticity` (von Mises plasticity, radial return).
 """

@@ -11,11 +11,17 @@ plane strain: ``F_zz = 1``, ``eps_zz = 0``, and the rotation turns about z only.
   Müller, Bender, Chentanez & Macklin 2016 ("A robust method to extract the rotational part of
   deformations", MIG), 10 iterations warm-started from the last step's R_i (a unit
   quaternion, fields ``solid_qw``, ``solid_q``);
+* or, with ``rotation="gradient"`` (:func:`gradient_rotations`), R_i the polar rotation of
+  the deformation gradient ``H_i = sum_j x_ji G_ij^T``, by the same iteration run to
+  convergence: then ``R^T H`` is symmetric and the torques of the force below cancel
+  (:mod:`sphkit.solids.becker2009`, "Conservation");
 * displacement gradient ``grad u_i = sum_j (R_i^T x_ji - x0_ji) G_ij^T`` with the gradient
   weights ``G_ij`` of :mod:`sphkit.solids.gradients` (SPlisHSPlasH's Becker:
   ``G_ij = -V0_j grad W(x0_ji)``, the kernel gradient taken along ``x0_ji``; sphkit's default
   a second-order least-squares gradient), ``F_i = I + grad u_i``; strain
-  ``eps = (grad u + grad u^T) / 2``; stress ``sigma = 2 mu eps + lambda tr(eps) I``.
+  ``eps = (grad u + grad u^T) / 2``; stress ``sigma = 2 mu eps + lambda tr(eps) I``, with a
+  yield stress that of the elastic part ``eps - eps_p`` after the return mapping of
+  :mod:`sphkit.solids.plasticity`.
 
   SPlisHSPlasH multiplies the tensor shear strain eps_01 by C_33 = mu in Voigt form, which
   gives half the shear stress of Hooke's law (Voigt notation needs the engineering strain
@@ -47,6 +53,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_w
+from sphkit.solids.plasticity import radial_return
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -63,6 +70,44 @@ def _quat_matrix(w, x, y, z, R):
     R[6] = 2.0 * (x * z - w * y)
     R[7] = 2.0 * (y * z + w * x)
     R[8] = 1.0 - 2.0 * (x * x + y * y)
+
+
+@numba.njit(inline="always", **_JIT)
+def _extract_rotation(a00, a01, a02, a10, a11, a12, a20, a21, a22, qw, qv, i, r, iterations,
+                      tol):
+    """The rotational part ``r`` (row-major) of the matrix ``a..`` by Müller et al. 2016's
+    iteration warm-started from particle i's quaternion ``qw[i]``, ``qv[:, i]`` (written back);
+    at most ``iterations``, ending when the correction's angle is below ``tol`` [rad]."""
+    w, qx, qy, qz = qw[i], qv[0, i], qv[1, i], qv[2, i]
+    for _ in range(iterations):
+        _quat_matrix(w, qx, qy, qz, r)
+        # omega = sum_c R_c x A_c / (|sum_c R_c . A_c| + 1e-9), columns c
+        o0 = (r[3] * a20 - r[6] * a10) + (r[4] * a21 - r[7] * a11) + (r[5] * a22 - r[8] * a12)
+        o1 = (r[6] * a00 - r[0] * a20) + (r[7] * a01 - r[1] * a21) + (r[8] * a02 - r[2] * a22)
+        o2 = (r[0] * a10 - r[3] * a00) + (r[1] * a11 - r[4] * a01) + (r[2] * a12 - r[5] * a02)
+        tr = (r[0] * a00 + r[3] * a10 + r[6] * a20 + r[1] * a01 + r[4] * a11 + r[7] * a21
+              + r[2] * a02 + r[5] * a12 + r[8] * a22)
+        inv = 1.0 / (abs(tr) + 1e-9)
+        o0 *= inv
+        o1 *= inv
+        o2 *= inv
+        ang = math.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
+        if ang < tol:
+            break
+        sh = math.sin(0.5 * ang) / ang
+        pw, px, py, pz = math.cos(0.5 * ang), o0 * sh, o1 * sh, o2 * sh
+        # q <- p q
+        nw = pw * w - px * qx - py * qy - pz * qz
+        nx = pw * qx + px * w + py * qz - pz * qy
+        ny = pw * qy + py * w + pz * qx - px * qz
+        nz = pw * qz + pz * w + px * qy - py * qx
+        nn = 1.0 / math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
+        w, qx, qy, qz = nw * nn, nx * nn, ny * nn, nz * nn
+    _quat_matrix(w, qx, qy, qz, r)
+    qw[i] = w
+    qv[0, i] = qx
+    qv[1, i] = qy
+    qv[2, i] = qz
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -95,45 +140,57 @@ def rotations(x, pos, x0, m, off, idx, h, kid, dim, qw, qv, R, iterations):
             a20 += c * d2 * e0
             a21 += c * d2 * e1
             a22 += c * d2 * e2
-        w, qx, qy, qz = qw[i], qv[0, i], qv[1, i], qv[2, i]
-        r = R[s]
-        for _ in range(iterations):
-            _quat_matrix(w, qx, qy, qz, r)
-            # omega = sum_c R_c x A_c / (|sum_c R_c . A_c| + 1e-9), columns c
-            o0 = (r[3] * a20 - r[6] * a10) + (r[4] * a21 - r[7] * a11) + (r[5] * a22 - r[8] * a12)
-            o1 = (r[6] * a00 - r[0] * a20) + (r[7] * a01 - r[1] * a21) + (r[8] * a02 - r[2] * a22)
-            o2 = (r[0] * a10 - r[3] * a00) + (r[1] * a11 - r[4] * a01) + (r[2] * a12 - r[5] * a02)
-            tr = (r[0] * a00 + r[3] * a10 + r[6] * a20 + r[1] * a01 + r[4] * a11 + r[7] * a21
-                  + r[2] * a02 + r[5] * a12 + r[8] * a22)
-            inv = 1.0 / (abs(tr) + 1e-9)
-            o0 *= inv
-            o1 *= inv
-            o2 *= inv
-            ang = math.sqrt(o0 * o0 + o1 * o1 + o2 * o2)
-            if ang < 1e-9:
-                break
-            sh = math.sin(0.5 * ang) / ang
-            pw, px, py, pz = math.cos(0.5 * ang), o0 * sh, o1 * sh, o2 * sh
-            # q <- p q
-            nw = pw * w - px * qx - py * qy - pz * qz
-            nx = pw * qx + px * w + py * qz - pz * qy
-            ny = pw * qy + py * w + pz * qx - px * qz
-            nz = pw * qz + pz * w + px * qy - py * qx
-            nn = 1.0 / math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
-            w, qx, qy, qz = nw * nn, nx * nn, ny * nn, nz * nn
-        _quat_matrix(w, qx, qy, qz, r)
-        qw[i] = w
-        qv[0, i] = qx
-        qv[1, i] = qy
-        qv[2, i] = qz
+        _extract_rotation(a00, a01, a02, a10, a11, a12, a20, a21, a22, qw, qv, i, R[s],
+                          iterations, 1e-9)
 
 
 @numba.njit(parallel=True, **_JIT)
-def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises):
+def gradient_rotations(x, pos, off, idx, G, dim, qw, qv, R, iterations, tol):
+    """``R[s]`` (row-major): the rotation of the polar decomposition of the deformation
+    gradient ``H_s = sum_j x_ji G_ij^T`` (``H_zz = 1`` in 2D), by the warm-started iteration
+    of Müller et al. 2016 run to the angle ``tol`` (at most ``iterations``). With it
+    ``R^T H`` is symmetric, and with linearly consistent weights (``sum_j x0_ji G_ij^T = I``)
+    the corotated force is the gradient of a rotation-invariant energy: angular momentum is
+    kept (module docstring)."""
+    for s in numba.prange(pos.shape[0]):
+        i = pos[s]
+        a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = 0.0
+        xi0 = x[0, i]
+        xi1 = x[1, i] if dim > 1 else 0.0
+        xi2 = x[2, i] if dim > 2 else 0.0
+        for k in range(off[s], off[s + 1]):
+            j = pos[idx[k]]
+            g0, g1, g2 = G[k, 0], G[k, 1], G[k, 2]
+            d0 = x[0, j] - xi0
+            d1 = (x[1, j] - xi1) if dim > 1 else 0.0
+            d2 = (x[2, j] - xi2) if dim > 2 else 0.0
+            a00 += d0 * g0
+            a01 += d0 * g1
+            a02 += d0 * g2
+            a10 += d1 * g0
+            a11 += d1 * g1
+            a12 += d1 * g2
+            a20 += d2 * g0
+            a21 += d2 * g1
+            a22 += d2 * g2
+        if dim < 3:
+            a22 = 1.0
+        if dim < 2:
+            a11 = 1.0
+        _extract_rotation(a00, a01, a02, a10, a11, a12, a20, a21, a22, qw, qv, i, R[s],
+                          iterations, tol)
+
+
+@numba.njit(parallel=True, **_JIT)
+def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises, ep, ep_s, alpha,
+             yield_stress, hardening, plastic):
     """Per slot: ``F = I + grad u`` (row-major) with ``grad u_i = sum_j u_ji G_ij^T`` (the
     gradient weights of :mod:`sphkit.solids.gradients`), the stress term ``P = R sigma`` of
     the force and the predictor ``M = R F`` of the zero-energy-mode control; the von Mises
-    stress per particle."""
+    stress per particle. ``plastic``: the strain is first returned onto the yield surface by
+    :func:`sphkit.solids.plasticity.radial_return` (the per-particle plastic state ``ep``,
+    ``ep_s``, ``alpha`` updated in place) and sigma is that of the elastic strain; otherwise
+    the plastic arrays are not read (they may be empty)."""
     for s in numba.prange(pos.shape[0]):
         i = pos[s]
         r = R[s]
@@ -170,6 +227,10 @@ def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises):
         s01 = 0.5 * (g[1] + g[3])
         s02 = 0.5 * (g[2] + g[6])
         s12 = 0.5 * (g[5] + g[7])
+        if plastic:
+            s00, s11, s22, s01, s02, s12 = radial_return(s00, s11, s22, s01, s02, s12, ep,
+                                                         ep_s, alpha, i, mu, yield_stress,
+                                                         hardening)
         ltr = lam * (s00 + s11 + s22)
         t00 = 2.0 * mu * s00 + ltr
         t11 = 2.0 * mu * s11 + ltr
@@ -249,6 +310,30 @@ def forces(x, pos, x0, V0, m, off, idx, G, rev, h, kid, dim, P, M, alpha_e, a):
             a[1, i] += inv * (f1 + c * h1)
         if dim > 2:
             a[2, i] += inv * (f2 + c * h2)
+
+
+@numba.njit(**_JIT)
+def energy(F, pos, V0, mu, lam, ep, ep_s, alpha, plastic):
+    """``sum_s V0_s (mu |eps_e|^2 + lam / 2 tr(eps_e)^2)`` with ``eps_e = sym(F_s) - I`` (less
+    the plastic strain ``ep``, ``ep_s`` of particle ``pos[s]`` when ``plastic``): the strain
+    energy of the stresses pass's ``F`` [J]."""
+    u = 0.0
+    for s in range(pos.shape[0]):
+        g = F[s]
+        e00, e11, e22 = g[0] - 1.0, g[4] - 1.0, g[8] - 1.0
+        e01, e02, e12 = 0.5 * (g[1] + g[3]), 0.5 * (g[2] + g[6]), 0.5 * (g[5] + g[7])
+        if plastic:
+            i = pos[s]
+            e00 -= ep[0, i]
+            e11 -= ep[1, i]
+            e22 -= ep[2, i]
+            e01 -= ep_s[0, i]
+            e02 -= ep_s[1, i]
+            e12 -= ep_s[2, i]
+        tr = e00 + e11 + e22
+        u += V0[s] * (mu * (e00 * e00 + e11 * e11 + e22 * e22
+                            + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12)) + 0.5 * lam * tr * tr)
+    return u
 
 
 def lame(youngs_modulus: float, poisson_ratio: float) -> tuple[float, float]:

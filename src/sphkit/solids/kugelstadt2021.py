@@ -41,6 +41,13 @@ factorisation's time and memory. SPlisHSPlasH factorises with its own AVX Choles
 on disk. The matrix is refactorised when the time step changes (fixed-step scenes, as
 SPlisHSPlasH's, factorise once).
 
+Plasticity (``yield_stress``, ``hardening``; :mod:`sphkit.solids.plasticity`): the return
+mapping acts on the corotated strain of the step's start; the plastic strain ``eps_p`` (in the
+particle's corotated frame, deviatoric) moves the stretch energy's target to
+``mu |F_i - R_i (I + eps_p,i)|^2``, which changes its right-hand side only (the Hessian stays
+``2 mu K``, the factorisation is kept), and leaves the volume part alone (``tr eps_p = 0``).
+The moment-matrix option ``rotation`` does not apply (the rotations are F's).
+
 The solid's acceleration of the stage becomes ``(v' - v) / dt`` with ``v' = (x' - x) / dt``;
 pinned particles keep ``x' = x0``. The pressure solver then acts on the result. No time-step
 bound of its own. The elastic forces of the step, ``M (x~ - x') / dt^2``, are sums of pair
@@ -109,6 +116,17 @@ def _extract_rotations(A: np.ndarray, qw: np.ndarray, qv: np.ndarray, pos: np.nd
     qw[pos] = q[:, 0]
     qv[:, pos] = q[:, 1:].T
     return _quat_matrices(q)
+
+
+def _plastic_tensors(diag: np.ndarray, shear: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) symmetric plastic strains from their diagonal (3, n: 00, 11, 22) and
+    off-diagonal (3, n: 01, 02, 12) components."""
+    e = np.zeros((diag.shape[1], 3, 3))
+    for a in range(3):
+        e[:, a, a] = diag[a]
+    for k, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))):
+        e[:, a, b] = e[:, b, a] = shear[k]
+    return e
 
 
 class Kugelstadt2021(ImplicitCorotatedSolid):
@@ -210,11 +228,18 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
                 Fp[:, a, c] = self.D[c] @ xt[a]
         Rfull = _extract_rotations(Fp, f["solid_qw"], f["solid_q"], pos, ROTATION_ITERATIONS)
         w["R"][...] = Rfull.reshape(rest.n, 9)
+        # von Mises stress for output; with a yield stress, the return mapping of the
+        # step's start (solids.plasticity)
         stresses(f["x"], pos, rest.x0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
-                 w["F"], w["P"], w["M"], f["solid_stress"])  # von Mises stress for output
+                 w["F"], w["P"], w["M"], f["solid_stress"], *self.plastic_state(state),
+                 self.yield_stress, self.hardening, self.plastic)
         if dt != self._dt:
             self._factorise(dt)
         Rm = w["R"].reshape(rest.n, 3, 3)[:, :dim, :dim]
+        Rs = Rm  # the stretch energy's target mu |F - R (I + eps_p)|^2
+        if self.plastic:
+            Rs = (w["R"].reshape(rest.n, 3, 3) @ (np.eye(3) + _plastic_tensors(
+                f["solid_plastic"][:, pos], f["solid_plastic_shear"][:, pos])))[:, :dim, :dim]
         V0 = rest.V0
         m = rest.m
         fr, pinned = self._free, rest.fixed
@@ -225,7 +250,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         for a in range(dim):  # stretch + zero-energy modes: one factorisation, dim solves
             b = m * xt[a] * inv_dt2
             for c in range(dim):
-                b += 2.0 * self.mu * (self.D[c].T @ (V0 * Rm[:, a, c]))
+                b += 2.0 * self.mu * (self.D[c].T @ (V0 * Rs[:, a, c]))
             if fr.size:
                 rhs = b[fr] - self._Afp @ xp[a]
                 x1[a, fr] = self._lu.solve(rhs)

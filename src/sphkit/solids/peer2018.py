@@ -20,7 +20,10 @@ force (``alpha``) is explicit, as in SPlisHSPlasH. The elastic acceleration of t
 ``(v' - v) / dt - a``, so ``a`` becomes ``(v' - v) / dt`` (SPlisHSPlasH adds ``(v' - v)/dt`` to
 ``a``, which counts ``a`` twice). Pinned particles keep ``v' = 0`` (identity rows and columns).
 The pressure solver then acts on the result (operator splitting). No time-step bound of its
-own.
+own. Plasticity (``yield_stress``, ``hardening``): the return mapping of
+:mod:`sphkit.solids.plasticity` acts on the strain of the step's start (the explicit force
+``f(x)``); ``K`` stays the elastic stiffness, so the solve extrapolates the step elastically
+with the plastic strain held, and the next step's return corrects it.
 """
 
 from __future__ import annotations
@@ -75,7 +78,7 @@ class Peer2018(ImplicitCorotatedSolid):
             scratch_x[:, pos] = dt * yv
             scratch_a[:, pos] = 0.0
             stresses(scratch_x, pos, zeros0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
-                     F, P, M, vm)
+                     F, P, M, vm, *self.plastic_state(state), 0.0, 0.0, False)
             forces(scratch_x, pos, zeros0, rest.V0, m, off, idx, self.G, self.rev, rest.h,
                    state.kid, dim, P, M, 0.0, scratch_a)
             o = out.reshape(dim, rest.n)

@@ -1,0 +1,154 @@
+"""Settling before t = 0: a weakly compressible fluid at rest in its container starts in its
+solver's own equilibrium (``configuration.start.settle``).
+
+The hydrostatic start (:mod:`sphkit.world.startup`) gives every particle the density and
+pressure of its column, but not the positions of the solver's discrete equilibrium: a block
+written the way SPlisHSPlasH's scenes write it sits a fraction of a particle spacing off the
+floor (its lowest row 3r above Akinci particles, which hold fluid at about 2.1r), so at t = 0
+the lowest rows are out of the wall's range, carry no pressure, and the whole column falls by
+that gap. The fall excites the column's acoustic modes, which physical viscosity damps only
+over tens of seconds: a 2D WCSPH column 0.48 m deep (stiffness 50,000, c = 18.7 m/s, period
+4H/c = 0.1 s) swung its frame-by-frame pressure slope between 0.54 and 1.68 of rho0 g for 3 s.
+
+Settling is dynamic relaxation (Day 1965, "An introduction to dynamic relaxation", The
+Engineer 219; Underwood 1983, "Dynamic relaxation", in Computational Methods for Transient
+Analysis, ch. 5): the simulation's own step, with gravity, and after every step the velocities
+damped as ``v <- v exp(-gamma dt)`` at the critical rate of the deepest column's first acoustic
+mode (a quarter wave, ``omega_1 = pi c / (2 H)``, ``gamma = 2 omega_1``), so that the slowest mode
+decays fastest and the others are overdamped. Fluid of columns that do not rest on a wall (start
+pressure 0: a block in the air) is held in place. It stops once the largest speed is below
+``settle_speed`` (after at least one period of the mode), or after ``settle_periods`` periods;
+then every velocity is set to 0 and the clock starts at t = 0, step 0.
+
+``"auto"`` settles only what settling does not change in kind: a solver with a speed of sound
+(:meth:`sphkit.core.methods.PressureSolver.acoustic_speed`: WCSPH), gravity, fluid resting on
+walls, and every resting particle deeper than h below its free surface either with a full
+neighbourhood as sampled or with a wall beside it -- fluid in a container; a dam break's free
+face (a resting particle deep in its column with an empty side and no wall) would flow while it
+settles, so such a scene is not settled. Moving bodies, emitters, elastic solids and animation
+fields, which the step moves by their own clocks, are not settled either (with ``settle: true``
+they are named in a warning). A settling that becomes unstable is undone (the run then starts
+from the unsettled state, with a warning).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from sphkit.core.methods import PressureSolver
+from sphkit.core.state import SimState
+from sphkit.scene.schema import Scene
+
+if TYPE_CHECKING:
+    from sphkit.simulation import Simulation
+
+#: at least this many periods of the first acoustic mode are settled, whatever the speed
+MIN_PERIODS = 1.0
+
+
+@dataclass
+class SettlePlan:
+    """What a settling does (module docstring): damping rate ``gamma`` [1/s], the deepest
+    column's depth [m] and speed of sound [m/s], the stopping speed [m/s] and the longest
+    settling [s]; the ids (sorted) and positions (dim, k) of the fluid held in place."""
+
+    gamma: float
+    depth: float
+    sound_speed: float
+    speed: float
+    max_time: float
+    held_ids: np.ndarray
+    held_x: np.ndarray
+
+    @property
+    def period(self) -> float:
+        """The period 4 H / c of the deepest column's first acoustic mode [s]."""
+        return 4.0 * self.depth / self.sound_speed
+
+
+def _moving_parts(scene: Scene) -> list[str]:
+    """The scene's parts that a settling would move by their own clocks."""
+    parts = [scene.field(f"meshes[{k}]") for k, mb in enumerate(scene.meshes) if mb.moving]
+    parts += [scene.field(f"emitters[{k}]") for k in range(len(scene.emitters))]
+    parts += [scene.field(f"animation_fields[{k}]") for k in range(len(scene.animation_fields))]
+    parts += [scene.field(f"materials[{k}].elasticity") for k, m in enumerate(scene.materials)
+              if m.elastic]
+    return parts
+
+
+def plan_settle(state: SimState, scene: Scene, pressure: PressureSolver, p: np.ndarray,
+                depth: np.ndarray, full: np.ndarray) -> SettlePlan | None:
+    """The settling of the started fluid (module docstring), or None when there is none:
+    ``p`` the start pressures, ``depth`` each particle's depth below its column's free surface
+    [m], ``full`` whether its neighbourhood was full as sampled (all per fluid particle)."""
+    cfg = scene.configuration.start
+    if cfg.settle is False:
+        return None
+    f = state.fluid
+    c = pressure.acoustic_speed(state)
+    resting = p > 0.0
+    why = None
+    if not math.isfinite(c):
+        why = f"the pressure solver {pressure.name!r} has no speed of sound"
+    elif f.n == 0 or not np.any(state.gravity) or not resting.any():
+        why = "no fluid rests on a wall under gravity"
+    elif parts := _moving_parts(scene):
+        why = f"{', '.join(parts)} move by their own clocks"
+    else:
+        walls = np.diff(state.nl_fb.offsets) > 0
+        free = resting & (depth > state.h) & ~full & ~walls
+        if free.any():
+            why = (f"{int(free.sum())} resting fluid particles deeper than h below the free "
+                   "surface have an empty side and no wall (a free face that would flow)")
+    if why is not None:
+        if cfg.settle is True:
+            warnings.warn(f"{scene.field('configuration.start.settle')}: true, but the fluid "
+                          f"is not settled: {why}", UserWarning, stacklevel=3)
+        return None
+    H = float(depth[resting].max())
+    period = 4.0 * H / c
+    order = np.argsort(f["id"])
+    held = order[~resting[order]]
+    return SettlePlan(gamma=math.pi * c / H, depth=H, sound_speed=c, speed=cfg.settle_speed,
+                      max_time=cfg.settle_periods * period, held_ids=f["id"][held].copy(),
+                      held_x=f["x"][:, held].copy())
+
+
+def settle(sim: Simulation, plan: SettlePlan) -> tuple[int, float, float]:
+    """Run the settling of ``plan`` on ``sim`` (module docstring) and reset its clock.
+    Returns (steps, settled time [s], largest speed at the end [m/s]); (0, 0, nan) when the
+    settling became unstable and was undone."""
+    from sphkit.simulation import InstabilityError
+
+    f = sim.state.fluid
+    saved = {name: arr.copy() for name, arr in f.fields.items()}
+    steps, speed = 0, math.inf
+    try:
+        while sim.time < plan.max_time:
+            s = sim.step()
+            steps += 1
+            v = f["v"]
+            v *= math.exp(-plan.gamma * s.dt)
+            if len(plan.held_ids):
+                k = np.flatnonzero(np.isin(f["id"], plan.held_ids))
+                pos = np.searchsorted(plan.held_ids, f["id"][k])
+                f["x"][:, k] = plan.held_x[:, pos]
+                v[:, k] = 0.0
+            speed = float(np.sqrt((v * v).sum(axis=0)).max()) if f.n else 0.0
+            if speed < plan.speed and sim.time >= MIN_PERIODS * plan.period:
+                break
+    except InstabilityError as e:
+        for name, arr in saved.items():
+            f.fields[name][...] = arr
+        warnings.warn(f"the start-up's settling became unstable ({str(e).splitlines()[0]}); the "
+                      "fluid starts as sampled", UserWarning, stacklevel=3)
+        steps, speed = 0, math.nan
+    settled = sim.time
+    f["v"] = 0.0
+    sim.reset_clock()
+    return steps, settled, speed
