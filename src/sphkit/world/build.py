@@ -45,8 +45,9 @@ class World:
     """A built scene: the state and the methods that act on it.
 
     ``forces`` are the non-pressure forces in the order the step applies them (viscosity,
-    vorticity, surface tension, drag, then the boundary model's own), ``force_roles`` their
-    roles (``"viscosity"``, ..., ``"boundary"``).
+    vorticity, surface tension, drag, the forces between phases, then the boundary model's
+    own), ``force_roles`` their roles (``"viscosity"``, ..., ``"interface_tension"``,
+    ``"boundary"``).
     """
 
     scene: Scene
@@ -122,6 +123,44 @@ def _forces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce],
     return forces, roles
 
 
+def _interfaces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce],
+                                                             list[str]]:
+    """The forces between phases the scene's ``interfaces`` name: per role and method, one
+    force over the whole fluid with the (P, P) table of coefficients by phase (P materials;
+    0 where no interface names the pair). An interface whose materials are not both in the
+    fluid does nothing (a warning)."""
+    fluid_ids = {m.id for m in mats} if len(mats) > 1 else set()
+    P = len(scene.materials)
+    tables: dict[tuple[str, str], np.ndarray] = {}
+    eps: dict[str, float] = {}
+    for k, itf in enumerate(scene.interfaces):
+        missing = [mid for mid in itf.materials if mid not in fluid_ids]
+        if missing:
+            warnings.warn(f"{scene.field(f'interfaces[{k}].materials')}: {missing} not among "
+                          f"the fluid's phases ({sorted(fluid_ids) or 'a single fluid'}); the "
+                          "interface does nothing", UserWarning, stacklevel=3)
+            continue
+        a, b = (scene.materials.index(scene.material(mid)) for mid in itf.materials)
+        for role, conf in (("interface_viscosity", itf.viscosity),
+                           ("interface_tension", itf.tension)):
+            if conf.method == "none" or conf.coefficient == 0.0:
+                continue
+            t = tables.setdefault((role, conf.method), np.zeros((P, P)))
+            t[a, b] = t[b, a] = conf.coefficient
+            if role == "interface_viscosity":
+                if eps.setdefault(conf.method, conf.laplacian_eps) != conf.laplacian_eps:
+                    raise SceneError(
+                        f"interfaces[{k}].viscosity.laplacian_eps: {conf.laplacian_eps!r}; "
+                        f"expected the same value in every interface of method "
+                        f"{conf.method!r} ({eps[conf.method]!r})")
+    forces, roles = [], []
+    for (role, method), t in tables.items():
+        cls = registry.get(role, method).load()
+        forces.append(cls.from_config((t, eps[method]) if role == "interface_viscosity" else t))
+        roles.append(role)
+    return forces, roles
+
+
 def _solids(scene: Scene) -> list[Elasticity]:
     """The elasticity of each elastic material, bound to the particle-set objects of the
     material (fluid blocks, files and meshes; solids are not emitted, see scene.checks)."""
@@ -191,6 +230,9 @@ def _build(scene: Scene) -> World:
     else:
         model = model_cls()
     forces, roles = _forces(scene, mats)
+    between, between_roles = _interfaces(scene, mats)
+    forces += between
+    roles += between_roles
     bd = state.boundary
     if bd.n:
         bd.permute(zorder_permutation(bd["x"], h))
