@@ -169,8 +169,8 @@ def test_interface_tension_rounds_an_ellipse() -> None:
     pulls the tips of the long axis (x) in harder than the flanks, so the force's quadrupole
     moment ``sum_i m_i (x_i a_x,i - y_i a_y,i)``, the second time derivative of the shape's
     ``(<x^2> - <y^2>) / 2`` that the force alone gives, is negative on phase b: the ellipse is
-    driven towards a circle (its rest shape) (measured -0.097 N m); on the disc, which the
-    lattice samples with four-fold symmetry, it is zero to round-off (measured 1.7e-16 N m;
+    driven towards a circle (its rest shape) (measured -0.107 N m); on the disc, which the
+    lattice samples with four-fold symmetry, it is zero to round-off (measured -4.5e-17 N m;
     bound 1e-9 of the ellipse's). Tiny: one force evaluation."""
     sim, inside = _drop(0.06, 1.0, aspect=np.sqrt(2.0))
     force = next(f for f in sim.forces if isinstance(f, HuAdams2006))

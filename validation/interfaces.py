@@ -21,7 +21,8 @@ otherwise:
   fluid: the jump must stay small, the profile is not erf). Solver ``--shear-solver``, WCSPH by
   default: with DFSPH even the single material's periodic shear layer grew vertical velocities
   of 0.08 m/s within 0.04 s and 1 m/s by 0.2 s (not investigated; WCSPH stays below 1e-3 m/s).
-* ``laplace``: a disc of phase b (radius R) in a square of phase a (free outer surface),
+* ``laplace``: a disc of phase b (radius R) in a square of phase a reaching 0.1 m beyond it
+  (free outer surface),
   interface tension sigma = 1 N (per unit depth), nu = 0.005 m^2/s in each phase and between
   them, run to ``--until`` (1 s) with ``--solver``: the mean pressure of b deeper than 2h inside
   the disc minus the mean pressure of a more than 2h from the disc and from the free outer
@@ -110,10 +111,10 @@ def shear(r: float, solver: str, until: float = 0.25, nu: float = 0.01) -> None:
 
 
 def drop_scene(r: float, R: float, sigma: float, nu: float, solver: str,
-               aspect: float = 1.0) -> tuple[Scene, float]:
+               aspect: float = 1.0, margin: float = 0.05) -> tuple[Scene, float]:
     """A square of phase a around the origin, large enough for the ellipse (semi-axes R aspect,
-    R / aspect) plus 0.05 m; returns the scene and its half width."""
-    half = R * aspect + 0.05
+    R / aspect) plus ``margin`` [m]; returns the scene and its half width."""
+    half = R * aspect + margin
     visc = {"method": "standard", "coefficient": nu}
     return Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, 0.0],
@@ -129,8 +130,8 @@ def drop_scene(r: float, R: float, sigma: float, nu: float, solver: str,
 
 
 def _drop(r: float, R: float, sigma: float, nu: float, solver: str,
-          aspect: float = 1.0) -> tuple[Simulation, float]:
-    scene, half = drop_scene(r, R, sigma, nu, solver, aspect)
+          aspect: float = 1.0, margin: float = 0.05) -> tuple[Simulation, float]:
+    scene, half = drop_scene(r, R, sigma, nu, solver, aspect, margin)
     sim = _sim(scene)
     x = sim.fluid["x"]
     inside = (x[0] / (R * aspect)) ** 2 + (x[1] * aspect / R) ** 2 < 1.0
@@ -145,7 +146,7 @@ def laplace(r: float, solver: str, until: float = 1.0, sigma: float = 1.0,
     print(f"{'R [m]':>6s} {'n':>5s} {'p_b - p_a [Pa]':>15s} {'sigma/R':>8s} {'ratio':>6s} "
           f"{'vmax':>6s} {'ms/step':>8s}  note")
     for R in (0.05, 0.075, 0.1):
-        sim, half = _drop(r, R, sigma, nu, solver)
+        sim, half = _drop(r, R, sigma, nu, solver, margin=0.1)
         h = sim.state.h
         jumps, steps, note = [], 0, ""
         t0 = time.perf_counter()
@@ -180,6 +181,7 @@ def laplace(r: float, solver: str, until: float = 1.0, sigma: float = 1.0,
 
 def ellipse(r: float, solver: str, until: float = 2.0, sigma: float = 1.0,
             nu: float = 0.01) -> None:
+    """The ellipse study of the module docstring (``nu`` [m^2/s] in and between the phases)."""
     print(f"\n2D ellipse of b in a (aspect 2, R = 0.06 m), r = {r} m, sigma = {sigma} N, "
           f"nu = {nu} m^2/s, {solver}: aspect sqrt(<x^2>/<y^2>) over time")
     sim, _ = _drop(r, 0.06, sigma, nu, solver, aspect=math.sqrt(2.0))
@@ -212,6 +214,7 @@ def main() -> None:
     ap.add_argument("--solver", default="dfsph")
     ap.add_argument("--shear-solver", default="wcsph")
     ap.add_argument("--radius", type=float, default=0.005)
+    ap.add_argument("--ellipse-nu", type=float, default=0.01, help="ellipse: nu [m^2/s]")
     ap.add_argument("--until", type=float, default=1.0, help="laplace: run time [s]")
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
@@ -220,7 +223,7 @@ def main() -> None:
     if "laplace" in args.study:
         laplace(args.radius, args.solver, args.until)
     if "ellipse" in args.study:
-        ellipse(args.radius, args.solver)
+        ellipse(args.radius, args.solver, nu=args.ellipse_nu)
 
 
 if __name__ == "__main__":

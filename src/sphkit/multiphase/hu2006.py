@@ -3,7 +3,8 @@
 Hu & Adams 2006, "A multi-phase SPH method for macroscopic and mesoscopic flows", J. Comput.
 Phys. 213, Sec. 2.3 (Eqs. 12-16): the interface tension as the divergence of a surface
 stress built from the gradient of the colour function (continuum surface stress, Lafaurie et
-al. 1994), discretised so that the pair forces are antisymmetric.
+al. 1994), discretised so that the pair forces are antisymmetric. One change, below: the full
+capillary stress instead of their traceless one.
 
 Colour gradient of particle i (phase a) towards phase b (the indicator ``c^b``; difference
 form, zero in the bulk of either phase, ``V_j = m_j / rho_j``)::
@@ -12,20 +13,28 @@ form, zero in the bulk of either phase, ``V_j = m_j / rho_j``)::
 
 (for a particle of b it is the same field's gradient with the opposite sign, ``-g^a``; the
 stress below is even in g). Surface stress of particle i, summed over the other phases b with
-an interface tension ``sigma_ab`` [N/m] (Hu & Adams, Eq. 13, d the dimension)::
+an interface tension ``sigma_ab`` [N/m]: the continuum surface stress of Lafaurie et al. 1994
+(J. Comput. Phys. 113), ``sigma delta_s (I - n n)`` with ``delta_s = |g|`` (it integrates to 1
+across the interface) and ``n = g / |g|``::
 
-    Pi_i = sum_b sigma_ab (1 / |g_i^b|) (|g_i^b|^2 I / d - g_i^b (x) g_i^b)
+    Pi_i = sum_b sigma_ab (1 / |g_i^b|) (|g_i^b|^2 I - g_i^b (x) g_i^b)
 
-and the acceleration (Eq. 16 with the pair volumes V_i^2, V_j^2 of their Eq. 7)::
+and the acceleration (Hu & Adams, Eq. 16 with the pair volumes V_i^2, V_j^2 of their Eq. 7)::
 
     a_i += (1 / m_i) sum_j (V_i^2 Pi_i + V_j^2 Pi_j) . grad_i W_ij
 
-over every fluid neighbour j (``Pi_j = 0`` in the bulk). Why this is interface tension: with
-``delta_s = |g|`` (it integrates to 1 across the interface) and n = g / |g|, ``Pi = sigma
-delta_s (I - n n) - sigma (1 - 1/d) delta_s I``; the first part is the capillary stress of the
-interface, whose divergence is ``sigma kappa n delta_s`` (the Laplace jump sigma kappa:
-sigma / R for a 2D drop, 2 sigma / R in 3D), the isotropic second part only shifts the pressure
-inside the interface band and has no net jump.
+over every fluid neighbour j (``Pi_j = 0`` in the bulk). The divergence of the stress is
+``sigma kappa n delta_s`` (Brackbill et al. 1992's CSF force): the Laplace jump sigma kappa,
+sigma / R for a 2D drop, 2 sigma / R in 3D.
+
+Hu & Adams (Eq. 13) write ``|g|^2 I / d`` instead of ``|g|^2 I``: their stress is traceless and
+differs from this one by the isotropic ``sigma (1 - 1/d) |g| I``, a pressure confined to the
+interface band. It has no net jump (the 2D disc's force integral is the same to 1e-5), but the
+pressure must drop by it inside the band, below the outer phase's; next to a free surface the
+incompressible solvers, which clamp p >= 0, cannot supply that: a 2D drop in a free square
+(DFSPH, r = 5 mm, sigma = 1 N) lost 3.5 % of its mean density in 0.36 s (0.6 % with the full
+stress) and an ellipse of aspect 2 stretched to 2.97 in 1 s. With the full stress the ellipse
+relaxes (validation/README.md, "Forces between phases").
 
 Properties: ``grad_i W_ij = -grad_j W_ji``, so the pair forces are antisymmetric and linear
 momentum is conserved to round-off; a flat interface feels no net force; the stress is zero away
@@ -78,7 +87,7 @@ def surface_stress_body(i, x, m, rho, phase, off, idx, sigma, h, kid, dim, L, S)
         if gn == 0.0:
             continue
         c = sg / gn
-        iso = sg * gn / dim
+        iso = sg * gn
         s00 += iso - c * g0 * g0
         s11 += iso - c * g1 * g1
         if dim > 2:
