@@ -29,7 +29,7 @@ otherwise:
   the disc minus the mean pressure of a more than 2h from the disc and from the walls, averaged
   over the last third, against sigma / R (Laplace, 2D; R the disc's volume radius).
 * ``ellipse``: an ellipse of b with semi-axes sqrt(2) R and R / sqrt(2) (aspect 2), R = 0.06 m,
-  in a, sigma = 1 N, nu = 0.01 m^2/s: its aspect ``sqrt(<x^2> / <y^2>)`` (about its centre) over
+  in a square of a reaching 0.05 m beyond it, closed by walls, sigma = 1 N, nu = 0.01 m^2/s: its aspect ``sqrt(<x^2> / <y^2>)`` (about its centre) over
   time; it must relax towards 1 (a circle).
 """
 
@@ -187,7 +187,7 @@ def ellipse(r: float, solver: str, until: float = 2.0, sigma: float = 1.0,
     """The ellipse study of the module docstring (``nu`` [m^2/s] in and between the phases)."""
     print(f"\n2D ellipse of b in a (aspect 2, R = 0.06 m), r = {r} m, sigma = {sigma} N, "
           f"nu = {nu} m^2/s, {solver}: aspect sqrt(<x^2>/<y^2>) over time")
-    sim, _ = _drop(r, 0.06, sigma, nu, solver, aspect=math.sqrt(2.0))
+    sim, _ = _drop(r, 0.06, sigma, nu, solver, aspect=math.sqrt(2.0), walls=True)
     marks = [0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0]
     marks = [t for t in marks if t <= until + 1e-9]
     row = []
