@@ -29,8 +29,9 @@ otherwise:
   the disc minus the mean pressure of a more than 2h from the disc and from the walls, averaged
   over the last third, against sigma / R (Laplace, 2D; R the disc's volume radius).
 * ``ellipse``: an ellipse of b with semi-axes sqrt(2) R and R / sqrt(2) (aspect 2), R = 0.06 m,
-  in a square of a reaching 0.05 m beyond it, closed by walls, sigma = 1 N, nu = 0.01 m^2/s: its aspect ``sqrt(<x^2> / <y^2>)`` (about its centre) over
-  time; it must relax towards 1 (a circle).
+  in a square of a reaching 0.05 m beyond it, closed by walls, sigma = 1 N, nu =
+  ``--ellipse-nu`` (0.01 m^2/s) in and between the phases: its aspect ``sqrt(<x^2> / <y^2>)``
+  (about its centre) over time; it must relax towards 1 (a circle).
 """
 
 from __future__ import annotations
