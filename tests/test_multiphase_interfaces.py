@@ -23,7 +23,7 @@ def _two_layers(interfaces: list, rho_b: float = 500.0, pressure: str = "dfsph")
     gravity."""
     return Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": R_P, "gravity": [0.0, 0.0],
-                          "pressure": {"method": pressure}},
+                          "pressure": {"method": pressure}, "time": {"dt_max": 0.001}},
         "materials": [{"id": "a", "density0": 1000.0}, {"id": "b", "density0": rho_b}],
         "fluid_blocks": [{"start": [0.0, -0.05], "end": [0.1, 0.0], "material": "a"},
                          {"start": [0.0, 0.0], "end": [0.1, 0.05], "material": "b"}],
@@ -93,8 +93,9 @@ def test_interface_viscosity_conserves_momentum_and_damps_shear() -> None:
 def test_interface_viscosity_damps_relative_velocity_in_a_run() -> None:
     """Twenty steps of the sheared layers with DFSPH: with the inter-phase viscosity the mean
     x-velocity difference between the phases decays (explicit, nu = 0.01 m^2/s: the step stays
-    below Morris' bound 0.125 h^2 / nu = 0.02 s); without it the phases slide over each other
-    (each material has no viscosity of its own here): the difference changes by less than 1 %.
+    below Morris' bound 0.125 (2r)^2 / nu = 1.25 ms: dt_max 1 ms); without it the phases slide
+    over each other (each material has no viscosity of its own here): the difference changes by
+    less than 1 %.
     The total momentum stays constant (no walls, no gravity; the pressure's pair forces are
     antisymmetric too)."""
     out = []

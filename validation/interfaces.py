@@ -5,11 +5,15 @@
     python validation/interfaces.py [--study shear laplace ellipse] [--solver dfsph]
         [--shear-solver wcsph] [--radius 0.005] [--until 1.0]
 
-Three 2D studies, no gravity, two fluid materials of equal rest density 1000 kg/m^3 unless said
+Three 2D studies, no gravity, time step at most :data:`DT_MAX` (0.5 ms), two fluid materials of equal rest density 1000 kg/m^3 unless said
 otherwise:
 
 * ``shear``: two layers 0.2 m thick between walls at y = -0.2 and 0.2 m (free slip: no wall
   viscosity; without walls the free slab flew apart), periodic in x (0.1 m), phase a at +U = 0.1
+#: the largest step [s]: below the explicit viscosity's bound 0.125 (2r)^2 / nu = 1.25 ms at
+#: r = 5 mm, nu = 0.01 m^2/s (Morris 1997; at 2 ms two materials with that viscosity grew
+#: velocities of 2 m/s from rest within 0.1 s)
+DT_MAX = 0.0005
   m/s below y = 0, phase b at -U above; each material has the standard viscosity nu = 0.01 m^2/s
   within its phase. With the inter-phase viscosity nu_ab = nu the two phases are one fluid of
   viscosity nu, and the profile must follow the impulsively started shear layer ``u(y, t) = -U
@@ -18,9 +22,7 @@ otherwise:
   interface (mean u of the particles within 2r below minus within 2r above, in U; erf gives 0 +
   O(r/sqrt(nu t))), for the interface viscosity on (nu), off (the phases slip: SPlisHSPlasH's
   convention), and one material (the reference); also rho_b = 500 with nu_ab = nu (a different
-  fluid: the jump must stay small, the profile is not erf). Solver ``--shear-solver``, WCSPH by
-  default: with DFSPH even the single material's periodic shear layer grew vertical velocities
-  of 0.08 m/s within 0.04 s and 1 m/s by 0.2 s (not investigated; WCSPH stays below 1e-3 m/s).
+  fluid: the jump must stay small, the profile is not erf). Solver ``--shear-solver`` (WCSPH).
 * ``laplace``: a disc of phase b (radius R) in a square of phase a reaching 0.1 m beyond it,
   closed by walls (with a free outer surface the pressure inside reached sigma / R after 0.1 s
   and then decayed to 0.18 sigma / R by 1 s: the outer phase expanded, DFSPH, R = 0.075 m),
@@ -48,6 +50,10 @@ from sphkit.scene.schema import Scene
 from sphkit.simulation import InstabilityError, Simulation
 
 U = 0.1
+#: the largest step [s]: below the explicit viscosity's bound 0.125 (2r)^2 / nu = 1.25 ms at
+#: r = 5 mm, nu = 0.01 m^2/s (Morris 1997; at 2 ms two materials with that viscosity grew
+#: velocities of 2 m/s from rest within 0.1 s)
+DT_MAX = 0.0005
 
 
 def _sim(scene: Scene) -> Simulation:
@@ -70,7 +76,7 @@ def shear_scene(r: float, nu: float, nu_ab: float | None, rho_b: float = 1000.0,
     return Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, 0.0],
                           "periodic_x": [0.0, 0.1], "pressure": {"method": solver},
-                          "time": {"dt_max": 0.002}},
+                          "time": {"dt_max": DT_MAX}},
         "materials": mats,
         "fluid_blocks": [{"start": [0.0, -0.2], "end": [0.1, 0.0], "material": "a",
                           "velocity": [U, 0.0]},
@@ -120,7 +126,7 @@ def drop_scene(r: float, R: float, sigma: float, nu: float, solver: str,
     visc = {"method": "standard", "coefficient": nu}
     return Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, 0.0],
-                          "pressure": {"method": solver}, "time": {"dt_max": 0.002}},
+                          "pressure": {"method": solver}, "time": {"dt_max": DT_MAX}},
         "materials": [{"id": "a", "density0": 1000.0, "viscosity": visc},
                       {"id": "b", "density0": 1000.0, "viscosity": visc}],
         "fluid_blocks": [{"start": [-half, -half], "end": [half, 0.0], "material": "a"},
