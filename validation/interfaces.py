@@ -5,8 +5,8 @@
     python validation/interfaces.py [--study shear laplace ellipse] [--solver dfsph]
         [--shear-solver wcsph] [--radius 0.005] [--until 1.0]
 
-Three 2D studies, no gravity, time step at most :data:`DT_MAX` (0.5 ms), two fluid materials of equal rest density 1000 kg/m^3 unless said
-otherwise:
+Three 2D studies, no gravity, time step at most :data:`DT_MAX` (0.5 ms), two fluid materials
+of equal rest density 1000 kg/m^3 unless said otherwise:
 
 * ``shear``: two layers 0.2 m thick between walls at y = -0.2 and 0.2 m (free slip: no wall
   viscosity; without walls the free slab flew apart), periodic in x (0.1 m), phase a at +U = 0.1
