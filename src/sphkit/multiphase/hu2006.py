@@ -30,11 +30,12 @@ sigma / R for a 2D drop, 2 sigma / R in 3D.
 Hu & Adams (Eq. 13) write ``|g|^2 I / d`` instead of ``|g|^2 I``: their stress is traceless and
 differs from this one by the isotropic ``sigma (1 - 1/d) |g| I``, a pressure confined to the
 interface band. It has no net jump (the 2D disc's force integral is the same to 1e-5), but the
-pressure must drop by it inside the band, below the outer phase's; next to a free surface the
-incompressible solvers, which clamp p >= 0, cannot supply that: a 2D drop in a free square
-(DFSPH, r = 5 mm, sigma = 1 N) lost 3.5 % of its mean density in 0.36 s (0.6 % with the full
-stress) and an ellipse of aspect 2 stretched to 2.97 in 1 s. With the full stress the ellipse
-relaxes (validation/README.md, "Forces between phases").
+pressure must drop by it inside the band, below the outer phase's, which the incompressible
+solvers (p >= 0) cannot supply next to a free surface. Measured on an ellipse of aspect 2 in a
+free square of the other phase (DFSPH, r = 5 mm, sigma = 1 N, nu = 0.01 m^2/s, dt 0.5 ms):
+after 1 s its aspect was 1.24 with the full stress, 1.63 with the traceless one, and the
+thinnest density among its particles (a gap opening at the interface) 0.76 and 0.60 rho0.
+``traceless=True`` selects Hu & Adams' form (comparisons only; scenes run the full stress).
 
 Properties: ``grad_i W_ij = -grad_j W_ji``, so the pair forces are antisymmetric and linear
 momentum is conserved to round-off; a flat interface feels no net force; the stress is zero away
@@ -63,9 +64,10 @@ from sphkit.multiphase.phases import pair_table
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
-def surface_stress_body(i, x, m, rho, phase, off, idx, sigma, h, kid, dim, L, S):
+def surface_stress_body(i, x, m, rho, phase, off, idx, sigma, iso_share, h, kid, dim, L, S):
     """Particle i's surface stress ``Pi_i`` (module docstring) into ``S[:, i]`` (xx, yy, zz,
-    xy, xz, yz); ``sigma`` (P, P) interface tensions [N/m] by phase."""
+    xy, xz, yz); ``sigma`` (P, P) interface tensions [N/m] by phase; ``iso_share`` the factor
+    of ``|g|^2 I``: 1 (the full capillary stress) or 1 / dim (Hu & Adams' traceless one)."""
     xi0, xi1, xi2 = point(x, i, dim)
     pa = phase[i]
     s00 = s11 = s22 = s01 = s02 = s12 = 0.0
@@ -87,7 +89,7 @@ def surface_stress_body(i, x, m, rho, phase, off, idx, sigma, h, kid, dim, L, S)
         if gn == 0.0:
             continue
         c = sg / gn
-        iso = sg * gn
+        iso = sg * gn * iso_share
         s00 += iso - c * g0 * g0
         s11 += iso - c * g1 * g1
         if dim > 2:
@@ -149,8 +151,11 @@ class HuAdams2006(NonPressureForce):
         ``interfaces`` (:func:`sphkit.world.build`)."""
         return cls(config)
 
-    def __init__(self, sigma: Any) -> None:
+    def __init__(self, sigma: Any, traceless: bool = False) -> None:
         self.sigma = pair_table(sigma, "interfaces[].tension.coefficient")
+        #: Hu & Adams' traceless stress (``|g|^2 I / d``) instead of the full one (module
+        #: docstring); for comparisons only, the scene always runs the full stress
+        self.traceless = bool(traceless)
         self._S = np.zeros((6, 0))
 
     def stress(self, state: SimState) -> np.ndarray:
@@ -160,7 +165,8 @@ class HuAdams2006(NonPressureForce):
         if self._S.shape[1] != f.n or self._S.dtype != f["x"].dtype:
             self._S = np.zeros((6, f.n), dtype=f["x"].dtype)
         launch(surface_stress_body, f.n, f["x"], f["m"], f["rho"], f["phase"],
-               state.nl_ff.offsets, state.nl_ff.indices, self.sigma, float(state.h),
+               state.nl_ff.offsets, state.nl_ff.indices, self.sigma,
+               1.0 / state.dim if self.traceless else 1.0, float(state.h),
                int(state.kid), int(state.dim), float(state.period), self._S)
         return self._S
 
