@@ -31,7 +31,8 @@ DT_MAX = 0.0005
   the disc minus the mean pressure of a more than 2h from the disc and from the walls, averaged
   over the last third, against sigma / R (Laplace, 2D; R the disc's volume radius).
 * ``ellipse``: an ellipse of b with semi-axes sqrt(2) R and R / sqrt(2) (aspect 2), R = 0.06 m,
-  in a square of a reaching 0.05 m beyond it, closed by walls, sigma = 1 N, nu =
+  in a square of a reaching 0.05 m beyond it (free outer surface; in a closed box it relaxed
+  more slowly: aspect 1.52 instead of 1.24 after 1 s with DFSPH), sigma = 1 N, nu =
   ``--ellipse-nu`` (0.01 m^2/s) in and between the phases: its aspect ``sqrt(<x^2> / <y^2>)``
   (about its centre) over time; it must relax towards 1 (a circle).
 """
@@ -194,7 +195,7 @@ def ellipse(r: float, solver: str, until: float = 2.0, sigma: float = 1.0,
     """The ellipse study of the module docstring (``nu`` [m^2/s] in and between the phases)."""
     print(f"\n2D ellipse of b in a (aspect 2, R = 0.06 m), r = {r} m, sigma = {sigma} N, "
           f"nu = {nu} m^2/s, {solver}: aspect sqrt(<x^2>/<y^2>) over time")
-    sim, _ = _drop(r, 0.06, sigma, nu, solver, aspect=math.sqrt(2.0), walls=True)
+    sim, _ = _drop(r, 0.06, sigma, nu, solver, aspect=math.sqrt(2.0))
     marks = [0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0]
     marks = [t for t in marks if t <= until + 1e-9]
     row = []
