@@ -60,6 +60,19 @@ def test_interfaces_are_off_by_default() -> None:
         assert not any(r.startswith("interface") for r in sim.world.force_roles)
 
 
+def test_interface_of_a_material_without_fluid_warns() -> None:
+    """An interface naming a material that no fluid uses does nothing, with a warning naming
+    the field."""
+    sc = _two_layers([])
+    d = sc.model_dump()
+    d["materials"].append({"id": "c", "density0": 800.0})
+    d["interfaces"] = _visc(0.01)
+    d["interfaces"][0]["materials"] = ["a", "c"]
+    with pytest.warns(UserWarning, match=r"interfaces\[0\]\.materials: \['c'\] not among"):
+        sim = Simulation(Scene.model_validate(d))
+    assert not any(r.startswith("interface") for r in sim.world.force_roles)
+
+
 def test_interface_viscosity_conserves_momentum_and_damps_shear() -> None:
     """Phase a moves at +U, phase b (half as dense) at -U along the interface y = 0. The
     inter-phase viscosity's pair forces are antisymmetric: total momentum change zero to
