@@ -73,6 +73,25 @@ def test_interface_of_a_material_without_fluid_warns() -> None:
     assert not any(r.startswith("interface") for r in sim.world.force_roles)
 
 
+def test_interfaces_of_one_method_share_its_options() -> None:
+    """One force per method acts on every interface naming it: different options of the same
+    method are refused naming both interfaces."""
+    d = _two_layers([]).model_dump()
+    d["materials"].append({"id": "c", "density0": 800.0})
+    d["fluid_blocks"].append({"start": [0.0, 0.05], "end": [0.1, 0.07], "material": "c"})
+    d["interfaces"] = [
+        {"materials": ["a", "b"], "viscosity": {"method": "morris1997", "coefficient": 0.01}},
+        {"materials": ["b", "c"], "viscosity": {"method": "morris1997", "coefficient": 0.02,
+                                                "laplacian_eps": 0.05}}]
+    with pytest.raises(SceneError, match=r"interfaces\[1\]\.viscosity: .*interfaces\[0\]"):
+        _sim(Scene.model_validate(d))
+    d["interfaces"][1]["viscosity"]["laplacian_eps"] = 0.01
+    sim = _sim(Scene.model_validate(d))
+    force = next(f for f in sim.forces if isinstance(f, Morris1997))
+    assert force.nu[0, 1] == force.nu[1, 0] == 0.01 and force.nu[1, 2] == 0.02
+    assert force.nu[0, 2] == 0.0
+
+
 def test_interface_viscosity_conserves_momentum_and_damps_shear() -> None:
     """Phase a moves at +U, phase b (half as dense) at -U along the interface y = 0. The
     inter-phase viscosity's pair forces are antisymmetric: total momentum change zero to

@@ -154,9 +154,10 @@ class HuAdams2006(NonPressureForce):
 
     @classmethod
     def from_config(cls, config: Any) -> HuAdams2006:
-        """The force of the table of sigma that the world builds from the scene's
-        ``interfaces`` (:func:`sphkit.world.build`)."""
-        return cls(config)
+        """The force of ``(sigma table, options)`` that the world builds from the scene's
+        ``interfaces`` (:func:`sphkit.world.build_world`; no options of its own)."""
+        sigma, _options = config
+        return cls(sigma)
 
     def __init__(self, sigma: Any, traceless: bool = False) -> None:
         self.sigma = pair_table(sigma, "interfaces[].tension.coefficient")

@@ -93,10 +93,11 @@ class Morris1997(NonPressureForce):
 
     @classmethod
     def from_config(cls, config: Any) -> Morris1997:
-        """The force of a table ``(nu, eps)`` that the world builds from the scene's
-        ``interfaces`` (:func:`sphkit.world.build`)."""
-        nu, eps = config
-        return cls(nu, eps)
+        """The force of ``(nu table, options)`` that the world builds from the scene's
+        ``interfaces`` (:func:`sphkit.world.build_world`; options: an ``interfaces[].viscosity``
+        with ``laplacian_eps``)."""
+        nu, options = config
+        return cls(nu, options.laplacian_eps)
 
     def __init__(self, nu: Any, eps: float = 0.01) -> None:
         self.nu = pair_table(nu, "interfaces[].viscosity.coefficient")

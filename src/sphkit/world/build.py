@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -126,13 +127,13 @@ def _forces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce],
 def _interfaces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce],
                                                              list[str]]:
     """The forces between phases the scene's ``interfaces`` name: per role and method, one
-    force over the whole fluid with the (P, P) table of coefficients by phase (P materials;
-    0 where no interface names the pair). An interface whose materials are not both in the
-    fluid does nothing (a warning)."""
+    force over the whole fluid, built with ``from_config((table, options))`` -- the (P, P)
+    table of coefficients by phase (P materials; 0 where no interface names the pair) and the
+    method's other options, which every interface of that method must give alike. An interface
+    whose materials are not both in the fluid does nothing (a warning)."""
     fluid_ids = {m.id for m in mats} if len(mats) > 1 else set()
     P = len(scene.materials)
-    tables: dict[tuple[str, str], np.ndarray] = {}
-    eps: dict[str, float] = {}
+    tables: dict[tuple[str, str], tuple[np.ndarray, Any, int]] = {}
     for k, itf in enumerate(scene.interfaces):
         missing = [mid for mid in itf.materials if mid not in fluid_ids]
         if missing:
@@ -141,22 +142,21 @@ def _interfaces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureFor
                           "interface does nothing", UserWarning, stacklevel=3)
             continue
         a, b = (scene.materials.index(scene.material(mid)) for mid in itf.materials)
-        for role, conf in (("interface_viscosity", itf.viscosity),
-                           ("interface_tension", itf.tension)):
+        for role, part, conf in (("interface_viscosity", "viscosity", itf.viscosity),
+                                 ("interface_tension", "tension", itf.tension)):
             if conf.method == "none" or conf.coefficient == 0.0:
                 continue
-            t = tables.setdefault((role, conf.method), np.zeros((P, P)))
+            t, first, k0 = tables.setdefault((role, conf.method), (np.zeros((P, P)), conf, k))
             t[a, b] = t[b, a] = conf.coefficient
-            if role == "interface_viscosity":
-                if eps.setdefault(conf.method, conf.laplacian_eps) != conf.laplacian_eps:
-                    raise SceneError(
-                        f"interfaces[{k}].viscosity.laplacian_eps: {conf.laplacian_eps!r}; "
-                        f"expected the same value in every interface of method "
-                        f"{conf.method!r} ({eps[conf.method]!r})")
+            options = conf.model_dump(exclude={"coefficient"})
+            if options != first.model_dump(exclude={"coefficient"}):
+                raise SceneError(
+                    f"interfaces[{k}].{part}: {options}; expected the options of "
+                    f"interfaces[{k0}].{part} ({first.model_dump(exclude={'coefficient'})}): one "
+                    f"{conf.method!r} force acts on every interface that names it")
     forces, roles = [], []
-    for (role, method), t in tables.items():
-        cls = registry.get(role, method).load()
-        forces.append(cls.from_config((t, eps[method]) if role == "interface_viscosity" else t))
+    for (role, method), (t, first, _) in tables.items():
+        forces.append(registry.get(role, method).load().from_config((t, first)))
         roles.append(role)
     return forces, roles
 
