@@ -89,9 +89,11 @@ def test_minimum_image_only_in_pairs() -> None:
 
 BASES = {"pressure": PressureSolver, "boundary": BoundaryModel, "viscosity": NonPressureForce,
          "vorticity": NonPressureForce, "surface_tension": NonPressureForce,
-         "drag": NonPressureForce, "elasticity": Elasticity}
+         "drag": NonPressureForce, "interface_viscosity": NonPressureForce,
+         "interface_tension": NonPressureForce, "elasticity": Elasticity}
 #: the package of a role's methods, where it is not named as the role
-PACKAGES = {"elasticity": "solids"}
+PACKAGES = {"elasticity": "solids", "interface_viscosity": "multiphase",
+            "interface_tension": "multiphase"}
 
 
 @pytest.mark.parametrize("method", [m for m in registry.methods() if m.target],
@@ -118,12 +120,15 @@ def test_schema_choices_are_the_registry() -> None:
               "vorticity": (schema.VorticityConfig, "method"),
               "surface_tension": (schema.SurfaceTensionConfig, "method"),
               "drag": (schema.DragConfig, "method"),
+              "interface_viscosity": (schema.InterfaceViscosityConfig, "method"),
+              "interface_tension": (schema.InterfaceTensionConfig, "method"),
               "elasticity": (schema.ElasticityConfig, "method")}
     assert set(fields) == set(registry.ROLES)
     for role, (model, name) in fields.items():
         choices = typing.get_args(model.model_fields[name].annotation)
         expected = registry.names(role)
-        if role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES:
+        if (role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES
+                or role in registry.INTERFACE_ROLES):
             expected = ("none", *expected)
         assert choices == expected, (role, choices, expected)
 

@@ -2,7 +2,8 @@
 
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
-        [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls]
+        [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
+        [--interface-viscosity 0.01]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
 the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
@@ -24,6 +25,12 @@ density 1000 kg/m^3, light ``1000 / --ratio``:
   the free surface and the floor) and given as a multiple of its own rho0 g (1 is exact;
   target within 2 %); also the pressure jump across the interface against the light layer's
   weight rho0_light g H_light.
+
+``--interface-viscosity``: the viscosity between the two phases (scene ``interfaces``,
+Morris et al. 1997, kinematic [m^2/s]; default none, SPlisHSPlasH's phases).
+
+``--dim 3``: the same column in 3D, ``--depth`` (0.2 m) deep along z between walls (a coarse
+slab; run it with ``--radius 0.02``: 0.4 x 0.6 x 0.2 m is 750 particles at r = 2 cm).
 """
 
 from __future__ import annotations
@@ -44,22 +51,32 @@ LAYER = 0.3
 
 
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
-          viscosity: float = 0.01, symmetric: bool = False) -> Scene:
-    """Two layers LAYER m high in a box WIDTH m wide (module docstring)."""
+          viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
+          depth: float = 0.2, interface_viscosity: float = 0.0) -> Scene:
+    """Two layers LAYER m high in a box WIDTH m wide (and ``depth`` m deep in 3D; module
+    docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
     visc = {"method": "standard", "coefficient": viscosity}
     pressure: dict = {"method": method, "max_error": 0.05}
     if method == "wcsph":
         pressure = {"method": "wcsph", "stiffness": 1e5, "exponent": 7.0}
+    z = [0.0] if dim == 3 else []
+    zd = [depth] if dim == 3 else []
     return Scene.model_validate({
-        "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, -G],
+        "configuration": {"dim": dim, "particle_radius": r, "gravity": [0.0, -G, *z],
                           "pressure": pressure, "time": {"dt_max": 0.002},
                           **({"boundary": {"symmetric": True}} if symmetric else {})},
         "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc},
                       {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc}],
-        "fluid_blocks": [{"start": [0.0, 0.0], "end": [WIDTH, LAYER], "material": lower},
-                         {"start": [0.0, LAYER], "end": [WIDTH, 2 * LAYER], "material": upper}],
-        "boxes": [{"min": [0.0, 0.0], "max": [WIDTH, 2 * LAYER + 0.2]}],
+        "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [WIDTH, LAYER, *zd],
+                          "material": lower},
+                         {"start": [0.0, LAYER, *z], "end": [WIDTH, 2 * LAYER, *zd],
+                          "material": upper}],
+        "boxes": [{"min": [0.0, 0.0, *z], "max": [WIDTH, 2 * LAYER + 0.2, *zd]}],
+        "interfaces": [{"materials": ["heavy", "light"],
+                        "viscosity": {"method": "morris1997",
+                                      "coefficient": interface_viscosity}}]
+        if interface_viscosity > 0 else [],
     })
 
 
@@ -80,16 +97,19 @@ def mixing(sim: Simulation) -> tuple[int, int, float]:
 
 
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
-           viscosity: float, symmetric: bool = False) -> None:
-    print(f"\nheavy over light, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
+           viscosity: float, symmetric: bool = False, dim: int = 2, depth: float = 0.2,
+           interface_viscosity: float = 0.0) -> None:
+    print(f"\nheavy over light, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
           f"jitter {jitter} r, viscosity {viscosity} m^2/s"
-          + (", symmetric wall term" if symmetric else ""))
+          + (", symmetric wall term" if symmetric else "")
+          + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else ""))
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
           f"{'vmax':>6s} {'its':>6s} {'ms/step':>8s}  note")
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sim = Simulation(scene(method, r, True, ratio, viscosity, symmetric))
+            sim = Simulation(scene(method, r, True, ratio, viscosity, symmetric, dim, depth,
+                                   interface_viscosity))
         x = sim.fluid["x"]  # the perturbation (set-up, once)
         x += jitter * r * np.random.default_rng(1).uniform(-1.0, 1.0, x.shape)
         its, steps, note = [], 0, ""
@@ -109,15 +129,16 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
 
 
 def hydrostatic(methods: list[str], r: float, settle: float, average: float,
-                ratio: float, viscosity: float, symmetric: bool = False) -> None:
-    print(f"\nlight over heavy at rest, 2D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
+                ratio: float, viscosity: float, symmetric: bool = False, dim: int = 2,
+                depth: float = 0.2) -> None:
+    print(f"\nlight over heavy at rest, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
           f"units of the layer's rho0 g, averaged {settle}-{settle + average} s")
     print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'jump/rho_l g H_l':>17s} "
           f"{'vmax':>6s} {'ms/step':>8s}  note")
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sim = Simulation(scene(method, r, False, ratio, viscosity, symmetric))
+            sim = Simulation(scene(method, r, False, ratio, viscosity, symmetric, dim, depth))
         note = ""
         t0 = time.perf_counter()
         steps = 0
@@ -173,14 +194,18 @@ def main() -> None:
     ap.add_argument("--viscosity", type=float, default=0.01)
     ap.add_argument("--symmetric-walls", action="store_true",
                     help="configuration.boundary.symmetric: the walls' term V_b k_i alone")
+    ap.add_argument("--dim", type=int, default=2, choices=[2, 3])
+    ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
+    ap.add_argument("--interface-viscosity", type=float, default=0.0,
+                    help="layers: viscosity between the phases [m^2/s] (0: none)")
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
         hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
-                    args.viscosity, args.symmetric_walls)
+                    args.viscosity, args.symmetric_walls, args.dim, args.depth)
     if "layers" in args.study:
         layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
-               args.symmetric_walls)
+               args.symmetric_walls, args.dim, args.depth, args.interface_viscosity)
 
 
 if __name__ == "__main__":

@@ -45,10 +45,15 @@ from typing import Any
 
 #: the roles, in the order of a time step (DESIGN.md, "One time step")
 ROLES: tuple[str, ...] = ("boundary", "boundary_pressure", "viscosity", "vorticity",
-                          "surface_tension", "drag", "elasticity", "pressure")
+                          "surface_tension", "drag", "interface_viscosity", "interface_tension",
+                          "elasticity", "pressure")
 
 #: the roles a material may leave out (scene value ``"none"``)
 OPTIONAL_ROLES: tuple[str, ...] = ("viscosity", "vorticity", "surface_tension", "drag")
+
+#: the roles of an interface between two fluid materials (``interfaces[]``, scene value
+#: ``"none"``: off); package :mod:`sphkit.multiphase`
+INTERFACE_ROLES: tuple[str, ...] = ("interface_viscosity", "interface_tension")
 
 #: the roles of a solid material (scene value ``"none"``: the material is a fluid); a solid's
 #: elasticity is built and stepped apart from the fluid forces (``World.solids``)
@@ -291,6 +296,16 @@ register("drag", "macklin2014", "sphkit.drag.macklin2014:Macklin2014", splishspl
 register("drag", "gissler2017", "sphkit.drag.gissler2017:Gissler2017", splishsplash=2,
          paper="Gissler et al. 2017, Generalized drag force for particle-based simulations",
          summary="droplet drag on surface particles")
+# between two fluid materials (scene interfaces[]; not in SPlisHSPlasH, package multiphase/)
+register("interface_viscosity", "morris1997", "sphkit.multiphase.morris1997:Morris1997",
+         paper="Morris, Fox & Zhu 1997, Modeling low Reynolds number incompressible flows using "
+         "SPH (pair viscosity: harmonic mean, Cleary 1998; Hu & Adams 2006)",
+         summary="explicit Laplacian viscosity between unlike phases, kinematic nu",
+         periodic=True, multiphase=True)
+register("interface_tension", "hu2006", "sphkit.multiphase.hu2006:HuAdams2006",
+         paper="Hu & Adams 2006, A multi-phase SPH method for macroscopic and mesoscopic flows",
+         summary="surface stress of the colour gradient between unlike phases, sigma [N/m]",
+         periodic=True, multiphase=True)
 # elasticity of solid materials: SPlisHSPlasH elasticityMethod (package solids/)
 register("elasticity", "becker2009", "sphkit.solids.becker2009:Becker2009", splishsplash=1,
          paper="Becker, Ihmsen & Teschner 2009, Corotated SPH for deformable solids; "

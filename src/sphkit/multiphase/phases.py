@@ -15,6 +15,7 @@ fields back. A scene with one fluid material runs its forces on the whole state,
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -68,6 +69,17 @@ def phase_state(state: SimState, index: np.ndarray, rho0: float) -> SimState:
     member[index] = True
     return replace(state, fluid=sub, rho0=float(rho0), nl_ff=phase_lists(state.nl_ff, member),
                    nl_fb=_rows(state.nl_fb, index), pair_grads=None)
+
+
+def pair_table(table: Any, name: str) -> np.ndarray:
+    """``table`` as a symmetric (P, P) float64 array of non-negative numbers (ValueError naming
+    ``name`` otherwise)."""
+    t = np.asarray(table, dtype=np.float64)
+    if t.ndim != 2 or t.shape[0] != t.shape[1] or not np.all(np.isfinite(t)) or np.any(t < 0):
+        raise ValueError(f"{name}: {table!r}; expected a square table of finite numbers >= 0")
+    if not np.array_equal(t, t.T):
+        raise ValueError(f"{name}: the table is not symmetric; expected one value per pair")
+    return t
 
 
 class PhaseForce(NonPressureForce):

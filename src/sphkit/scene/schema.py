@@ -33,7 +33,8 @@ def _choices(role: str) -> Any:
     """The scene names of a role's methods (:mod:`sphkit.registry`) as a ``Literal``, with
     ``"none"`` first for the optional non-pressure forces."""
     names = registry.names(role)
-    if role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES:
+    if (role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES
+            or role in registry.INTERFACE_ROLES):
         names = ("none", *names)
     return Literal[names]  # type: ignore[valid-type]
 
@@ -47,6 +48,8 @@ ViscosityMethod = _choices("viscosity")
 VorticityMethod = _choices("vorticity")
 SurfaceTensionMethod = _choices("surface_tension")
 DragMethod = _choices("drag")
+InterfaceViscosityMethod = _choices("interface_viscosity")
+InterfaceTensionMethod = _choices("interface_tension")
 ElasticityMethod = _choices("elasticity")
 BoundaryMethod = _choices("boundary")
 BoundaryPressureMethod = _choices("boundary_pressure")
@@ -568,6 +571,51 @@ class Material(_Model):
         return self.elasticity.method != "none"
 
 
+class InterfaceViscosityConfig(_Model):
+    """Viscosity between the two materials of an interface (``morris1997``: Morris et al.
+    1997's Laplacian over the pairs of unlike phases, :mod:`sphkit.multiphase.morris1997`)."""
+
+    method: InterfaceViscosityMethod = "none"
+    coefficient: float = Field(
+        0.0, ge=0, le=1e6, description="kinematic viscosity nu [m^2/s] between the two "
+        "phases; the pair's dynamic viscosity is the harmonic mean of rho0_a nu and rho0_b nu "
+        "(= rho0 nu for equal rest densities)",
+    )
+    laplacian_eps: float = Field(
+        0.01, gt=0, le=1, description="regularisation eps of |x_ij|^2 + eps h^2 "
+        "(dimensionless; Morris 1997's 0.01)",
+    )
+
+
+class InterfaceTensionConfig(_Model):
+    """Tension of the interface between two fluid materials (``hu2006``: the surface stress of
+    Hu & Adams 2006, :mod:`sphkit.multiphase.hu2006`)."""
+
+    method: InterfaceTensionMethod = "none"
+    coefficient: float = Field(
+        0.0, ge=0, le=1e6, description="interface tension sigma [N/m] (2D: N, per unit "
+        "depth): the pressure jump across the interface is sigma kappa (sigma / R for a 2D "
+        "drop, 2 sigma / R in 3D)",
+    )
+
+
+class Interface(_Model):
+    """Forces between two fluid materials (phases) of a scene with several fluids. Without an
+    entry, the materials meet as SPlisHSPlasH's phases do: through the pressure alone (each
+    material's viscosity and surface tension act within its own phase)."""
+
+    materials: list[str] = Field(description="the ids of the two fluid materials")
+    viscosity: InterfaceViscosityConfig = InterfaceViscosityConfig()
+    tension: InterfaceTensionConfig = InterfaceTensionConfig()
+
+    @field_validator("materials")
+    @classmethod
+    def _two(cls, v: list[str]) -> list[str]:
+        if len(v) != 2 or v[0] == v[1]:
+            raise ValueError(f"materials {v}: expected the ids of two different materials")
+        return v
+
+
 class FluidBlock(_Model):
     """An axis-aligned block of fluid, sampled on a lattice of spacing 2r (square, or hexagonal
     in 2D)."""
@@ -1046,6 +1094,10 @@ class Scene(_Model):
     emitters: list[Emitter] = Field(default_factory=list)
     animation_fields: list[AnimationFieldConfig] = Field(default_factory=list)
     joints: list[JointConfig] = Field(default_factory=list)
+    interfaces: list[Interface] = Field(
+        default_factory=list, description="viscosity and tension between pairs of fluid "
+        "materials (several fluids, sphkit.multiphase); none: the phases meet through the "
+        "pressure alone")
     output: OutputConfig = OutputConfig()
     source: str | None = Field(None, description="path of the file the scene was read from")
     #: a translated scene's field paths -> the paths the user wrote (SPlisHSPlasH's), for
@@ -1150,6 +1202,20 @@ class Scene(_Model):
         for k, b in enumerate(self.boxes):
             if len(b.min) != dim:
                 raise ValueError(f"boxes[{k}].min {b.min} must have {dims}")
+        pairs: set[frozenset[str]] = set()
+        for k, itf in enumerate(self.interfaces):
+            for mid in itf.materials:
+                if mid not in ids:
+                    raise ValueError(f"interfaces[{k}].materials {itf.materials}: {mid!r} is "
+                                     f"not one of the ids of materials {sorted(ids)}")
+                if self.material(mid).elastic:
+                    raise ValueError(f"interfaces[{k}].materials {itf.materials}: {mid!r} is "
+                                     "an elastic solid; expected fluid materials")
+            pair = frozenset(itf.materials)
+            if pair in pairs:
+                raise ValueError(f"interfaces[{k}].materials {itf.materials}: the pair is "
+                                 "named twice; expected one entry per pair of materials")
+            pairs.add(pair)
         for k, j in enumerate(self.joints):
             if max(j.bodies) >= len(self.meshes):
                 raise ValueError(f"joints[{k}].bodies {j.bodies}: expected indices into meshes "

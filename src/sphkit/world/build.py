@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -45,8 +46,9 @@ class World:
     """A built scene: the state and the methods that act on it.
 
     ``forces`` are the non-pressure forces in the order the step applies them (viscosity,
-    vorticity, surface tension, drag, then the boundary model's own), ``force_roles`` their
-    roles (``"viscosity"``, ..., ``"boundary"``).
+    vorticity, surface tension, drag, the forces between phases, then the boundary model's
+    own), ``force_roles`` their roles (``"viscosity"``, ..., ``"interface_tension"``,
+    ``"boundary"``).
     """
 
     scene: Scene
@@ -125,6 +127,43 @@ def _forces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce],
     return forces, roles
 
 
+def _interfaces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce],
+                                                             list[str]]:
+    """The forces between phases the scene's ``interfaces`` name: per role and method, one
+    force over the whole fluid, built with ``from_config((table, options))`` -- the (P, P)
+    table of coefficients by phase (P materials; 0 where no interface names the pair) and the
+    method's other options, which every interface of that method must give alike. An interface
+    whose materials are not both in the fluid does nothing (a warning)."""
+    fluid_ids = {m.id for m in mats} if len(mats) > 1 else set()
+    P = len(scene.materials)
+    tables: dict[tuple[str, str], tuple[np.ndarray, Any, int]] = {}
+    for k, itf in enumerate(scene.interfaces):
+        missing = [mid for mid in itf.materials if mid not in fluid_ids]
+        if missing:
+            warnings.warn(f"{scene.field(f'interfaces[{k}].materials')}: {missing} not among "
+                          f"the fluid's phases ({sorted(fluid_ids) or 'a single fluid'}); the "
+                          "interface does nothing", UserWarning, stacklevel=3)
+            continue
+        a, b = (scene.materials.index(scene.material(mid)) for mid in itf.materials)
+        for role, part, conf in (("interface_viscosity", "viscosity", itf.viscosity),
+                                 ("interface_tension", "tension", itf.tension)):
+            if conf.method == "none" or conf.coefficient == 0.0:
+                continue
+            t, first, k0 = tables.setdefault((role, conf.method), (np.zeros((P, P)), conf, k))
+            t[a, b] = t[b, a] = conf.coefficient
+            options = conf.model_dump(exclude={"coefficient"})
+            if options != first.model_dump(exclude={"coefficient"}):
+                raise SceneError(
+                    f"interfaces[{k}].{part}: {options}; expected the options of "
+                    f"interfaces[{k0}].{part} ({first.model_dump(exclude={'coefficient'})}): one "
+                    f"{conf.method!r} force acts on every interface that names it")
+    forces, roles = [], []
+    for (role, method), (t, first, _) in tables.items():
+        forces.append(registry.get(role, method).load().from_config((t, first)))
+        roles.append(role)
+    return forces, roles
+
+
 def _solids(scene: Scene) -> list[Elasticity]:
     """The elasticity of each elastic material, bound to the particle-set objects of the
     material (fluid blocks, files and meshes; solids are not emitted, see scene.checks)."""
@@ -194,6 +233,9 @@ def _build(scene: Scene) -> World:
     else:
         model = model_cls()
     forces, roles = _forces(scene, mats)
+    between, between_roles = _interfaces(scene, mats)
+    forces += between
+    roles += between_roles
     bd = state.boundary
     if bd.n:
         bd.permute(zorder_permutation(bd["x"], h))
