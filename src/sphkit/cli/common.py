@@ -11,14 +11,15 @@ the command logs to the logger ``"sphkit.cli"`` (:func:`sphkit.io.log.get_logger
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import os
+import signal
 import sys
-import threading
 import types
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -86,17 +87,19 @@ class Interrupts:
     @classmethod
     def handler(cls, signum: int, frame: types.FrameType | None) -> None:
         """The SIGINT handler: record, then raise KeyboardInterrupt -- unless the signal arrived
-        in llvmlite's code (Numba compiling), which LLVM may have called back through ctypes:
-        an exception raised in a ctypes callback is printed with its traceback and dropped.
-        There the signal is sent again 50 ms later, until it lands in ordinary Python code."""
+        while Numba compiles (a frame of numba's or llvmlite's code on the stack). There an
+        exception is unsafe: raised in a ctypes callback from LLVM it is printed and dropped,
+        and raised in Numba's pipeline it leaves LLVM's objects half-built, whose finalisation
+        crashed the process (SIGSEGV) or the compilation went on for a minute before the
+        interrupt reached sphkit's code. Nothing has been written then that an exit would leave
+        inconsistent (frames and checkpoints are written atomically, between steps), so the
+        command ends at once: the log is flushed, the one line printed, exit code 130."""
         cls.received = signum
         f = frame
         while f is not None:
-            if "llvmlite" in f.f_code.co_filename:
-                timer = threading.Timer(0.05, os.kill, (os.getpid(), signum))
-                timer.daemon = True
-                timer.start()
-                return
+            name = f.f_code.co_filename.replace("\\", "/")
+            if "/llvmlite/" in name or "/numba/" in name:
+                exit_now(f"interrupted while compiling ({signal_name(signum)})")
             f = f.f_back
         raise KeyboardInterrupt
 
@@ -105,6 +108,31 @@ class Interrupts:
         """Raise KeyboardInterrupt if a SIGINT arrived (even one a library swallowed)."""
         if cls.received is not None:
             raise KeyboardInterrupt
+
+
+def signal_name(signum: int) -> str:
+    """``SIGINT`` for 2, and so on."""
+    try:
+        return signal.Signals(signum).name
+    except ValueError:
+        return f"signal {signum}"
+
+
+def exit_now(why: str, code: int = 130) -> NoReturn:
+    """End the process at once with ``code`` after flushing the log and printing ``sphkit:
+    error: why`` (no interpreter shutdown: no finalisers, no atexit)."""
+    for h in logging.getLogger("sphkit").handlers + logging.getLogger().handlers:
+        try:
+            h.flush()
+        except Exception:  # noqa: BLE001 -- a broken handler must not keep the process alive
+            pass
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except Exception:  # noqa: BLE001 -- a closed pipe: nothing more to say
+            pass
+    os.write(2, f"sphkit: error: {why}\n".encode())
+    os._exit(code)
 
 
 class UsageError(Exception):
