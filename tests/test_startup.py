@@ -154,7 +154,7 @@ def test_wcsph_column_starts_with_its_hydrostatic_density_and_pressure() -> None
     sampled (the fluid next to the lattice walls starts up to 4.5 % too dense, and the
     column rises by the space they claim), and the pressure's least-squares slope is rho0 g.
     Without the hydrostatic start: rest density, p = 0 and the lattice masses."""
-    sim = Simulation(_column_scene(True))
+    sim = Simulation(_column_scene(True), settle=False)  # the start-up's state itself
     f, b, st = sim.fluid, sim.boundary, sim.state
     x, m = f.view("x"), f["m"]
     tops = np.array([x[np.abs(x[:, 0] - xi) < st.r, 1].max() for xi in x[:, 0]])
@@ -206,6 +206,69 @@ def test_column_does_not_drop_and_bounce(tmp_path: Path) -> None:
     assert abs(on[0] - 0.48) < r, on[0]
     assert np.abs(on - on[0]).max() < 0.5 * r, np.abs(on - on[0]).max()
     assert surfaces[False].max() > 0.48 + 5 * r  # the contrast: the old start threw it up
+
+
+def _slope(y: np.ndarray, p: np.ndarray) -> float:
+    """Least-squares -dp/dy over the middle 80 % of the column, in units of rho0 g."""
+    lo, top = y.min(), y.max()
+    m = (y > lo + 0.1 * (top - lo)) & (y < lo + 0.9 * (top - lo))
+    return float(-np.polyfit(y[m], p[m], 1)[0] / (RHO0 * G))
+
+
+def test_wcsph_column_settles_into_its_equilibrium(tmp_path: Path) -> None:
+    """A 2D WCSPH column in SPlisHSPlasH format (stiffness 50,000, Akinci walls from a box
+    mesh), its block written 3r off walls and floor as SPlisHSPlasH's column scenes are. The
+    Akinci floor holds fluid about 2.1r off, so unsettled the lowest row carries no pressure at
+    t = 0 and the whole column falls by the gap (mean vertical speed past 0.1 m/s within 0.05 s,
+    measured 0.27 m/s at r = 1 cm) and rings at its acoustic period. Settled before t = 0
+    (``start.settle`` "auto"), it starts at rest in its own equilibrium: the settling ran (its
+    root mean square speed came below 1 cm/s), the mean vertical speed stays below 1 cm/s over
+    0.3 s, the pressure slope averaged over the frames is within 3 % of rho0 g and that of
+    every frame within 12 % (this 14-row column's pressure noise: measured 0.90-1.04; a 0.48 m
+    column's frames lie within 1.021-1.053, README). Unsettled, the slope drops to 0 as the
+    column falls."""
+    r = 0.01
+    path = _tank_scene(tmp_path, 2, r, 0, 0, (0.4, 0.5, 1.0), [-0.2 + r, r, -0.5],
+                       [0.2 - r, 0.3, 0.5])
+    runs = {}
+    for settle in (True, False):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            scene = load_scene(path)
+            scene.configuration.start.settle = "auto" if settle else False
+            sim = Simulation(scene)
+        seen: list[tuple[float, float]] = []
+
+        def frame(s: Simulation, _k: int, seen: list = seen) -> None:
+            seen.append((float(s.velocities[:, 1].mean()),
+                         _slope(s.positions[:, 1], s.pressures)))
+
+        sim.run(until=0.3 if settle else 0.05, fps=50, on_frame=frame)
+        runs[settle] = (sim.world.start, np.array(seen))
+    start, on = runs[True]
+    assert start.settle_steps > 0 and start.settle_speed < 0.01, start
+    assert np.abs(on[:, 0]).max() < 0.01, on[:, 0]
+    assert abs(on[1:, 1].mean() - 1.0) < 0.03, on[:, 1]
+    assert np.abs(on[1:, 1] - 1.0).max() < 0.12, on[:, 1]
+    off_start, off = runs[False]
+    assert off_start.settle_steps == 0
+    assert off[:, 0].min() < -0.1, off[:, 0]  # the contrast: unsettled, the column falls
+
+
+def test_a_dam_break_is_not_settled(tmp_path: Path) -> None:
+    """A dam break's block has a free face deep in its column: settling would let it flow, so
+    "auto" does not settle it, and ``settle: true`` says why in a warning."""
+    r = 0.01
+    path = _tank_scene(tmp_path, 2, r, 0, 0, (0.8, 0.5, 1.0), [-0.4 + r, r, -0.5],
+                       [0.0, 0.3, 0.5])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_scene(path)
+        assert Simulation(scene).world.start.settle_steps == 0
+        scene.configuration.start.settle = True
+        assert Simulation(scene).world.start.settle_steps == 0
+    said = [str(w.message) for w in caught if "settle" in str(w.message)]
+    assert len(said) == 1 and "free face" in said[0], said
 
 
 # -- fluid at the walls, and in them --------------------------------------------------------------

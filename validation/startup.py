@@ -28,7 +28,8 @@ pressure solver and every boundary model (sphkit.world.startup).
    to wall and from the floor (r = 1 cm), to ``--until``: the least-squares slope of the
    particle pressures over height (middle 80 % of the column) per frame (25 frames/s) as a
    multiple of rho0 g, its range over the frames after 1 s and its mean, the mean particle
-   speed after 1 s and the range of the column's top; with the start-up on and off.
+   speed after 1 s and the range of the column's top; with the start-up on (with and without
+   its settling, ``start.settle``) and off.
 
 Results in validation/README.md ("Start-up: fluid at the walls, hydrostatic start").
 """
@@ -96,13 +97,15 @@ def splishsplash_scene(folder: Path, case: str, solver: str, boundary: str, dim:
     return path
 
 
-def _load(path: Path, start: bool):
+def _load(path: Path, start: bool, settle: bool = True):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = load_scene(path)
         if not start:
             scene.configuration.start.relax = False
             scene.configuration.start.hydrostatic = False
+        if not settle:
+            scene.configuration.start.settle = False
         sim = Simulation(scene)
     return sim, [str(w.message) for w in caught if "removed" in str(w.message)]
 
@@ -167,13 +170,14 @@ def run(folder: Path, case: str, solver: str, boundary: str, dim: int, r: float,
     return row
 
 
-def column(folder: Path, until: float, start: bool) -> dict:
-    """The 2D WCSPH column at rest (module docstring, item 2)."""
+def column(folder: Path, until: float, start: bool, settle: bool = True) -> dict:
+    """The 2D WCSPH column at rest (module docstring, item 2); ``settle``: the start-up's
+    settling (``start.settle``, "auto" or off)."""
     r, w, hgt = 0.01, 0.6, 0.5
     path = splishsplash_scene(folder / f"column-{int(start)}", "dambreak", "wcsph",
                               "akinci2012", 2, r, until, tank=(w, hgt + 0.2, 1.0),
                               fluid=(w - GAP * r, hgt))
-    sim, _ = _load(path, start)
+    sim, _ = _load(path, start, settle)
     rows = []
 
     def frame(s: Simulation, _k: int) -> None:
@@ -187,7 +191,8 @@ def column(folder: Path, until: float, start: bool) -> dict:
     sim.run(until=until, fps=25, on_frame=frame)
     a = np.array(rows)
     late = a[a[:, 0] > 1.0 - 1e-9]
-    return {"start": start, "n": sim.fluid.n, "frames": len(late),
+    return {"start": start, "settle": sim.world.start.settle_steps, "n": sim.fluid.n,
+            "frames": len(late),
             "lo": late[:, 1].min(), "hi": late[:, 1].max(), "mean": late[:, 1].mean(),
             "within3": float(np.mean(np.abs(late[:, 1] - 1.0) <= 0.03)),
             "speed": late[:, 3].mean(), "top": (a[:, 2].min(), a[:, 2].max()),
@@ -239,12 +244,13 @@ def main() -> None:
     if "column" in args.cases:
         print("\n2D WCSPH column (stiffness 50,000, Akinci walls from UnitBox.obj, 0.6 x 0.5 m, "
               f"r = 1 cm), frames after 1 s of {args.until} s:")
-        print("| start-up | particles | slope at t = 0 | slope min / mean / max | frames "
-              "within 3 % | mean speed [m/s] | top range [m] | wall [s] |")
-        print("|---|---|---|---|---|---|---|---|")
-        for start in (True, False):
-            c = column(folder, args.until, start)
-            print(f"| {'on' if start else 'off'} | {c['n']} | {c['t0']:.3f} | {c['lo']:.3f} / "
+        print("| start-up | settling steps | particles | slope at t = 0 | slope min / mean / "
+              "max | frames within 3 % | mean speed [m/s] | top range [m] | wall [s] |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for start, settle in ((True, True), (True, False), (False, False)):
+            c = column(folder, args.until, start, settle)
+            label = ("on" if start else "off") + (", settle off" if start and not settle else "")
+            print(f"| {label} | {c['settle']} | {c['n']} | {c['t0']:.3f} | {c['lo']:.3f} / "
                   f"{c['mean']:.3f} / {c['hi']:.3f} | {100 * c['within3']:.0f} % of "
                   f"{c['frames']} | {c['speed']:.4f} | {c['top'][0]:.4f} - {c['top'][1]:.4f} | "
                   f"{c['wall']:.1f} |", flush=True)

@@ -35,6 +35,7 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -56,6 +57,7 @@ from sphkit.core.timestep import (
 )
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world
+from sphkit.world.settle import MIN_PERIODS, SettlePlan
 
 
 @dataclass
@@ -108,9 +110,10 @@ class Simulation:
         x = sim.positions   # (N, dim) NumPy view
     """
 
-    def __init__(self, scene: Scene | World) -> None:
+    def __init__(self, scene: Scene | World, settle: bool = True) -> None:
         """Step the world of ``scene`` (built here with :func:`sphkit.world.build_world`, or
-        given ready-built)."""
+        given ready-built). ``settle``: run the world's settling before t = 0, if it has one
+        (:mod:`sphkit.world.settle`; ``configuration.start.settle``)."""
         world = scene if isinstance(scene, World) else build_world(scene)
         self.world = world
         self.scene = world.scene
@@ -132,6 +135,55 @@ class Simulation:
         self.dt = self.scene.configuration.time.dt
         self.last: StepStats | None = None
         self.last_solver: SolverStats | None = None
+        self._frame = -1
+        if settle and world.settle is not None:
+            rep = world.start
+            rep.settle_steps, rep.settle_time, rep.settle_speed = self.settle(world.settle)
+
+    def settle(self, plan: SettlePlan) -> tuple[int, float, float]:
+        """Run the start-up's settling ``plan`` before t = 0 (:mod:`sphkit.world.settle`): the
+        step with every velocity damped by ``exp(-gamma dt)``, the fluid of columns in the air
+        held in place, until the fluid's root mean square speed is below ``plan.speed`` (after
+        at least one period of the first acoustic mode) or ``plan.max_time``; then the
+        velocities are zeroed and the clock reset. Returns (steps, settled time [s], root mean
+        square speed at the end [m/s]); (0, 0, nan) when it became unstable and was undone
+        (with a warning)."""
+        f = self.state.fluid
+        saved = {name: arr.copy() for name, arr in f.fields.items()}
+        steps, speed = 0, math.inf
+        try:
+            while self.time < plan.max_time:
+                s = self.step()
+                steps += 1
+                v = f["v"]
+                v *= math.exp(-plan.gamma * s.dt)
+                if len(plan.held_ids):
+                    k = np.flatnonzero(np.isin(f["id"], plan.held_ids))
+                    f["x"][:, k] = plan.held_x[:, np.searchsorted(plan.held_ids, f["id"][k])]
+                    v[:, k] = 0.0
+                speed = float(np.sqrt((v * v).sum(axis=0).mean())) if f.n else 0.0
+                if speed < plan.speed and self.time >= MIN_PERIODS * plan.period:
+                    break
+        except InstabilityError as e:
+            for name, arr in saved.items():
+                f.fields[name][...] = arr
+            warnings.warn(f"the start-up's settling became unstable "
+                          f"({str(e).splitlines()[0]}); the fluid starts as sampled",
+                          UserWarning, stacklevel=2)
+            steps, speed = 0, math.nan
+        settled = self.time
+        f["v"] = 0.0
+        self.reset_clock()
+        return steps, settled, speed
+
+    def reset_clock(self) -> None:
+        """Start the clock again at t = 0, step 0 (after the start-up's settling), with the
+        scene's first time step and no statistics of a previous step."""
+        self.time = 0.0
+        self.step_count = 0
+        self.dt = self.scene.configuration.time.dt
+        self.last = None
+        self.last_solver = None
         self._frame = -1
 
     # -- construction ---------------------------------------------------------------------------
@@ -177,7 +229,7 @@ class Simulation:
             scene = Scene.model_validate(ck.meta["scene"])
         except Exception as e:
             raise CheckpointError(f"{str(ck.path)!r}: its scene is not valid here ({e})") from None
-        sim = cls(scene)
+        sim = cls(scene, settle=False)  # the checkpoint holds the state, settled or not
         sim.restore_checkpoint(ck)
         return sim
 

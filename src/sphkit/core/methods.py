@@ -103,6 +103,12 @@ class PressureSolver(Protocol):
         """Take back what :meth:`checkpoint_state` wrote (``{}`` for checkpoints without it)."""
         return None
 
+    def acoustic_speed(self, state: SimState) -> float:
+        """The speed of sound of the solver's state equation at rest [m/s] (the start-up's
+        settling, :mod:`sphkit.world.settle`); inf for the incompressible solvers, which have
+        no acoustic modes to settle."""
+        return math.inf
+
     def compressed_density(self, p: np.ndarray, rho0: np.ndarray) -> np.ndarray:
         """The density [kg/m^3] at which the fluid carries the pressure p [Pa] at rest (the
         hydrostatic start, :mod:`sphkit.world.startup`): rho0 for the incompressible solvers,

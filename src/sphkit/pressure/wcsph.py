@@ -83,6 +83,13 @@ class WCSPH(PressureSolver):
             return float(np.sqrt(self.stiffness * self.exponent / rho0))
         return float(np.sqrt(self.stiffness))
 
+    def acoustic_speed(self, state: SimState) -> float:
+        """The speed of sound of the lightest fluid [m/s]; inf without a pressure."""
+        if self.stiffness == 0.0:
+            return float("inf")
+        f = state.fluid
+        return self.sound_speed(float(f["rho0"].min()) if f.n else state.rho0)
+
     def max_time_step(self, state: SimState) -> float:
         """Acoustic time-step limit ``0.4 * 2r / c`` (inf when switched off).
 

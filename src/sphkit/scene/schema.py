@@ -889,6 +889,22 @@ class StartConfig(_Model):
     relax_iterations: int = Field(
         100, ge=0, le=10000, description="largest number of relaxation sweeps (it stops once "
         "no particle is more than 1 % too dense)")
+    settle: Literal["auto"] | bool = Field(
+        "auto", description="before t = 0, let fluid at rest in its container settle into its "
+        "solver's own equilibrium: the simulation's step with gravity and a velocity damping at "
+        "the critical rate of the deepest column's first acoustic mode (dynamic relaxation; "
+        "state-equation solvers only: WCSPH), until the fluid's root mean square speed is below "
+        "settle_speed; "
+        "the clock then starts at 0 with the fluid at rest. \"auto\": when the solver has a "
+        "speed of sound, gravity acts, and every resting fluid particle deeper than h below its "
+        "free surface has a full neighbourhood or a wall beside it (a container, not a dam "
+        "break's free face), with no moving body, emitter, elastic solid or animation field")
+    settle_speed: float = Field(
+        0.005, gt=0, description="the settling stops once the root mean square speed of the "
+        "fluid is below this [m/s]")
+    settle_periods: float = Field(
+        10.0, gt=0, le=1000, description="longest settling, in periods 4 H / c of the deepest "
+        "column's first acoustic mode (H its depth, c the speed of sound)")
 
 
 class OutputConfig(_Model):

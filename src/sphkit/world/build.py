@@ -37,6 +37,7 @@ from sphkit.world.bodies import rigid_bodies
 from sphkit.world.emitters import FluidEmitter
 from sphkit.world.fluid import add_fluid
 from sphkit.world.meshes import SceneMeshes
+from sphkit.world.settle import SettlePlan
 from sphkit.world.startup import StartReport, start_fluid
 from sphkit.world.walls import add_wall_particles, domain_box, map_geometries
 
@@ -68,6 +69,8 @@ class World:
     #: what the start-up did (:mod:`sphkit.world.startup`): removed particles, relaxation,
     #: masses, the start density error
     start: StartReport = field(default_factory=StartReport)
+    #: the settling the simulation runs before t = 0 (:mod:`sphkit.world.settle`), or None
+    settle: SettlePlan | None = None
     #: regions imposing a particle field after every step (:mod:`sphkit.world.animation`)
     animation_fields: list[AnimationField] = field(default_factory=list)
     #: the materials of the fluid, in the order of ``scene.materials`` (several: phases)
@@ -258,7 +261,7 @@ def _build(scene: Scene) -> World:
     state.coupling = BoundaryCoupling(pressure=pressure_model, moving=rigid, model=model,
                                       symmetric=cfg.boundary.symmetric)
     # the fluid's start: out of the walls, consistent next to them, hydrostatic
-    start = start_fluid(state, scene, meshes, model, pressure)
+    start, settle = start_fluid(state, scene, meshes, model, pressure)
     for force in forces:
         force.init(state)
     pressure.init(state)
@@ -277,5 +280,5 @@ def _build(scene: Scene) -> World:
                  lattice_volume=lattice_volume(2.0 * r, state.kid, h, dim), forces=forces,
                  force_roles=roles, domain=domain_box(state, scene, meshes, emitters),
                  start=start, animation_fields=animations, materials=mats,
-                 solids=solids)
+                 solids=solids, settle=settle)
 

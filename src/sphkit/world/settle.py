@@ -10,15 +10,17 @@ that gap. The fall excites the column's acoustic modes, which physical viscosity
 over tens of seconds: a 2D WCSPH column 0.48 m deep (stiffness 50,000, c = 18.7 m/s, period
 4H/c = 0.1 s) swung its frame-by-frame pressure slope between 0.54 and 1.68 of rho0 g for 3 s.
 
-Settling is dynamic relaxation (Day 1965, "An introduction to dynamic relaxation", The
-Engineer 219; Underwood 1983, "Dynamic relaxation", in Computational Methods for Transient
-Analysis, ch. 5): the simulation's own step, with gravity, and after every step the velocities
-damped as ``v <- v exp(-gamma dt)`` at the critical rate of the deepest column's first acoustic
-mode (a quarter wave, ``omega_1 = pi c / (2 H)``, ``gamma = 2 omega_1``), so that the slowest mode
-decays fastest and the others are overdamped. Fluid of columns that do not rest on a wall (start
-pressure 0: a block in the air) is held in place. It stops once the largest speed is below
-``settle_speed`` (after at least one period of the mode), or after ``settle_periods`` periods;
-then every velocity is set to 0 and the clock starts at t = 0, step 0.
+Settling (:meth:`sphkit.simulation.Simulation.settle`) is dynamic relaxation (Day 1965, "An
+introduction to dynamic relaxation", The Engineer 219; Underwood 1983, "Dynamic relaxation",
+in Computational Methods for Transient Analysis, ch. 5): the simulation's own step, with
+gravity, and after every step the velocities damped as ``v <- v exp(-gamma dt)`` at the
+critical rate of the deepest column's first acoustic mode (a quarter wave, ``omega_1 = pi c /
+(2 H)``, ``gamma = 2 omega_1``), so that the slowest mode decays fastest and the others are
+overdamped. Fluid of columns that do not rest on a wall (start pressure 0: a block in the air)
+is held in place. It stops once the fluid's root mean square speed is below ``settle_speed``
+(after at least one period of the mode; single particles keep a noise of a few cm/s), or after
+``settle_periods`` periods; then every velocity is set to 0 and the clock starts at t = 0,
+step 0.
 
 ``"auto"`` settles only what settling does not change in kind: a solver with a speed of sound
 (:meth:`sphkit.core.methods.PressureSolver.acoustic_speed`: WCSPH), gravity, fluid resting on
@@ -36,7 +38,6 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -44,11 +45,11 @@ from sphkit.core.methods import PressureSolver
 from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene
 
-if TYPE_CHECKING:
-    from sphkit.simulation import Simulation
-
 #: at least this many periods of the first acoustic mode are settled, whatever the speed
 MIN_PERIODS = 1.0
+
+# The settling's loop is the simulation's (:meth:`sphkit.simulation.Simulation.settle`): it
+# steps the simulation, which the world does not import.
 
 
 @dataclass
@@ -117,38 +118,3 @@ def plan_settle(state: SimState, scene: Scene, pressure: PressureSolver, p: np.n
     return SettlePlan(gamma=math.pi * c / H, depth=H, sound_speed=c, speed=cfg.settle_speed,
                       max_time=cfg.settle_periods * period, held_ids=f["id"][held].copy(),
                       held_x=f["x"][:, held].copy())
-
-
-def settle(sim: Simulation, plan: SettlePlan) -> tuple[int, float, float]:
-    """Run the settling of ``plan`` on ``sim`` (module docstring) and reset its clock.
-    Returns (steps, settled time [s], largest speed at the end [m/s]); (0, 0, nan) when the
-    settling became unstable and was undone."""
-    from sphkit.simulation import InstabilityError
-
-    f = sim.state.fluid
-    saved = {name: arr.copy() for name, arr in f.fields.items()}
-    steps, speed = 0, math.inf
-    try:
-        while sim.time < plan.max_time:
-            s = sim.step()
-            steps += 1
-            v = f["v"]
-            v *= math.exp(-plan.gamma * s.dt)
-            if len(plan.held_ids):
-                k = np.flatnonzero(np.isin(f["id"], plan.held_ids))
-                pos = np.searchsorted(plan.held_ids, f["id"][k])
-                f["x"][:, k] = plan.held_x[:, pos]
-                v[:, k] = 0.0
-            speed = float(np.sqrt((v * v).sum(axis=0)).max()) if f.n else 0.0
-            if speed < plan.speed and sim.time >= MIN_PERIODS * plan.period:
-                break
-    except InstabilityError as e:
-        for name, arr in saved.items():
-            f.fields[name][...] = arr
-        warnings.warn(f"the start-up's settling became unstable ({str(e).splitlines()[0]}); the "
-                      "fluid starts as sampled", UserWarning, stacklevel=3)
-        steps, speed = 0, math.nan
-    settled = sim.time
-    f["v"] = 0.0
-    sim.reset_clock()
-    return steps, settled, speed

@@ -70,6 +70,7 @@ from sphkit.core.state import SimState
 from sphkit.core.timestep import wrap_periodic
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.meshes import SceneMeshes
+from sphkit.world.settle import SettlePlan, plan_settle
 from sphkit.world.walls import gravity_axis
 
 #: relaxation stops once no particle's density exceeds its start density by more than this
@@ -110,6 +111,11 @@ class StartReport:
     #: the density error (mean, max) of the start, with its masses: ``|rho / rho_start - 1|``
     #: where the kernel is filled, the compression at a free surface
     start_error: tuple[float, float] = (0.0, 0.0)
+    #: the settling before t = 0 (:mod:`sphkit.world.settle`): steps, settled time [s] and the
+    #: root mean square speed of the fluid at its end [m/s] (0 steps: none)
+    settle_steps: int = 0
+    settle_time: float = 0.0
+    settle_speed: float = 0.0
 
     def to_dict(self) -> dict[str, object]:
         """Plain-dict form (``manifest.json``'s ``start``)."""
@@ -457,23 +463,25 @@ def consistent_masses(state: SimState, lists: _Lists, rho_start: np.ndarray,
 
 
 def start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
-                pressure: PressureSolver) -> StartReport:
+                pressure: PressureSolver) -> tuple[StartReport, SettlePlan | None]:
     """Steps 1-4 of the module docstring on the built state (walls, maps and bodies in place,
     the methods not yet initialised); ``state.fluid`` ends with its start masses, volumes,
-    positions, densities and pressures."""
+    positions, densities and pressures. Also returns the settling the simulation runs before
+    t = 0 (:mod:`sphkit.world.settle`), or None."""
     cfg = scene.configuration.start
     report = StartReport(hydrostatic=cfg.hydrostatic and bool(np.any(state.gravity)))
     f = state.fluid
     if f.n == 0:
-        return report
+        return report, None
     remove_inside(state, scene, meshes, model, report)
     lists = _Lists(model)
     p, rho_start = start_density(state, lists, pressure, cfg.hydrostatic)
+    two_sided = filled(state, lists, rho_start)
     if cfg.relax:
-        two_sided = filled(state, lists, rho_start)
         relax(state, lists, rho_start / f["rho0"], cfg.relax_iterations, report)
         p, rho_start = start_density(state, lists, pressure, cfg.hydrostatic)  # after the moves
-        p = p[consistent_masses(state, lists, rho_start, two_sided, report)]
+        kept = consistent_masses(state, lists, rho_start, two_sided, report)
+        p, two_sided = p[kept], two_sided[kept]
     else:
         c = rho_start / f["rho0"]
         f["m"] = f["m"] * c
@@ -482,4 +490,10 @@ def start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bound
         f["rho"] = _density(state, f["m"], np.empty(f.n, dtype=f.dtype))
         report.sampled_error = report.relaxed_error = _compression(f["rho"], rho_start)
     f["p"] = p
-    return report
+    plan = None
+    if report.hydrostatic and np.any(p > 0.0):
+        lists.update(state)
+        depth = column_depth(f.view("x"), state.gravity, state.r, state.h,
+                             resting_on_walls(state))
+        plan = plan_settle(state, scene, pressure, p, depth, two_sided)
+    return report, plan
