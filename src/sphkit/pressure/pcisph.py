@@ -38,7 +38,10 @@ same neighbourhood.)
    get no suction). The other clamped form, ``p~_i <- max(p~_i + (delta / dt^2) (rho_hat*_i - 1),
    0)`` (the paper's signed update plus clamping), lets an overshooting pressure fall again within
    a step; on the hydrostatic column and the 2D dam break of the tests both forms gave the same
-   iteration counts, errors and pressure slopes within the step-to-step noise;
+   iteration counts, errors and pressure slopes within the step-to-step noise. The factor of a
+   particle whose own PPE diagonal exceeds ``CAP`` times the template's is scaled down to
+   ``CAP`` times (:func:`diagonal_cap`; not in the paper nor in SPlisHSPlasH): next to a volume
+   map the template's factor overshot up to 50-fold;
 4. recomputes the pressure acceleration at the step-start positions (paper Eq. 5 with rho0 in
    the denominators, Akinci boundary as SPlisHSPlasH)
    ``a_p,i = -sum_j V_j (p~_i + p~_j) grad W_ij - sum_b V_b (1 + m_b) p~_i grad W_ib`` (m_b: the
@@ -107,8 +110,11 @@ _JIT = dict(cache=True, fastmath=True)
 #: SPlisHSPlasH's cflMinTimeStepSize) and the bound above which it is dropped [s]
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
 #: a particle's factor is capped where its own PPE diagonal exceeds CAP times the template's
-#: (:func:`diagonal_cap`): omega at most 0.5 CAP
-CAP = 2.0
+#: (:func:`diagonal_cap`): omega at most 0.5 CAP. Measured in validation/startup.py's 3D tank
+#: with volume maps: CAP 2 ran the dam break 3 s but the floating cube went unstable at
+#: 1.45 s, CAP 3 runs both, CAP 5 left the dam break unstable at 1.52 s (none: 0.42 s); Akinci
+#: walls reach 4.2 in validation/single_fluid_identity.py's small 2D dam break
+CAP = 3.0
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -207,9 +213,9 @@ def diagonal_cap(state: SimState, g: PairGradients, d0: float) -> np.ndarray | N
     ``D_i / d0`` reaches 3 at rest and 14-50 where a particle closes in. One sweep then
     overshoots the predicted density below rho0, where the clamped update stops: the solve
     "converges" in 3 sweeps with MPa pressures and throws the particle off at 14-70 m/s (the
-    3D dam break of validation/startup.py, unstable at 0.42 s). Capped at omega = 0.5 CAP the
-    sweep cannot overshoot; particles with ``D_i <= CAP d0`` keep the template's factor
-    exactly."""
+    3D dam break of validation/startup.py, unstable at 0.42 s). Capped at omega = 0.5 CAP
+    the sweep overshoots at most by half; particles with ``D_i <= CAP d0`` keep the template's
+    factor exactly."""
     if d0 <= 0.0:
         return None
     st = state
