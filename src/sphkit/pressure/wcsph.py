@@ -27,7 +27,7 @@ about 1.4 rho0 per r where a particle touches (``phi`` 1.5-2 r), and a lone part
 ``omega dt`` = 1.6 at the acoustic step at first contact, beyond 2 deeper in: it bounced off
 the wall faster than it came (6 m/s in, 23 m/s out) until the dam break went unstable; the
 bound takes that bounce to 1.17x (the step that enters the wall's range, before any pressure,
-is not resolved) and the dam break runs (validation/README.md, "WCSPH and volume maps").
+is not resolved) and the dam break runs (validation/README.md, "WCSPH and PCISPH with volume maps").
 """
 
 from __future__ import annotations
