@@ -10,7 +10,7 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
    gradients in the same pass where it uses them), and the boundary pressure model's view of
    the step (``state.coupling``);
 3. time step: CFL ``cfl_factor * 0.4 * 2r / max|v|`` (fluid and moving boundary) clamped to
-   [dt_min, dt_max], and the pressure solver's own limit (acoustic limit of WCSPH);
+   [dt_min, dt_max], and the pressure solver's own limit (WCSPH: acoustic and local stiffness);
 4. the pressure solver's ``pre_forces`` (DFSPH: factors and the divergence-free solve on the
    current velocities; a no-op for the others);
 5. accelerations: gravity, then the non-pressure forces (viscosity, vorticity, surface tension,

@@ -38,7 +38,10 @@ same neighbourhood.)
    get no suction). The other clamped form, ``p~_i <- max(p~_i + (delta / dt^2) (rho_hat*_i - 1),
    0)`` (the paper's signed update plus clamping), lets an overshooting pressure fall again within
    a step; on the hydrostatic column and the 2D dam break of the tests both forms gave the same
-   iteration counts, errors and pressure slopes within the step-to-step noise;
+   iteration counts, errors and pressure slopes within the step-to-step noise. The factor of a
+   particle whose own PPE diagonal exceeds ``CAP`` times the template's is scaled down to
+   ``CAP`` times (:func:`diagonal_cap`; not in the paper nor in SPlisHSPlasH): next to a volume
+   map the template's factor overshot up to 50-fold;
 4. recomputes the pressure acceleration at the step-start positions (paper Eq. 5 with rho0 in
    the denominators, Akinci boundary as SPlisHSPlasH)
    ``a_p,i = -sum_j V_j (p~_i + p~_j) grad W_ij - sum_b V_b (1 + m_b) p~_i grad W_ib`` (m_b: the
@@ -106,6 +109,12 @@ _JIT = dict(cache=True, fastmath=True)
 #: per-step growth after an easy one, the smallest bound [s] (the default time.dt_min, as
 #: SPlisHSPlasH's cflMinTimeStepSize) and the bound above which it is dropped [s]
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
+#: a particle's factor is capped where its own PPE diagonal exceeds CAP times the template's
+#: (:func:`diagonal_cap`): omega at most 0.5 CAP. Measured in validation/startup.py's 3D tank
+#: with volume maps: CAP 2 ran the dam break 3 s but the floating cube went unstable at
+#: 1.45 s, CAP 3 runs both, CAP 5 left the dam break unstable at 1.52 s (none: 0.42 s); Akinci
+#: walls reach 4.2 in validation/single_fluid_identity.py's small 2D dam break
+CAP = 3.0
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -180,6 +189,44 @@ def phase_factor(state: SimState, g: PairGradients) -> np.ndarray:
     return out
 
 
+@numba.njit(parallel=True, **_JIT)
+def _cap(d, limit, out):
+    """out_i = min(1, limit / d_i); returns how many are below 1."""
+    k = 0
+    for i in numba.prange(out.shape[0]):
+        if d[i] > limit:
+            out[i] = limit / d[i]
+            k += 1
+        else:
+            out[i] = 1.0
+    return k
+
+
+def diagonal_cap(state: SimState, g: PairGradients, d0: float) -> np.ndarray | None:
+    """Per-particle cap of the template factor, ``min(1, CAP d0 / D_i)`` with the particle's
+    own PPE diagonal ``D_i`` (:func:`sphkit.core.ppe.diagonal_cached`, boundary and mirror
+    included) from the step start; None where no particle exceeds ``CAP d0``.
+
+    The template's factor makes a sweep a Jacobi step with omega ``0.5 D_i / d0`` for particle
+    i: fine in the fluid, where ``D_i`` is about the template's, but a volume map's one virtual
+    particle carries V_B of up to about 20 particle volumes at 2 r, so next to such a wall
+    ``D_i / d0`` reaches 3 at rest and 14-50 where a particle closes in. One sweep then
+    overshoots the predicted density below rho0, where the clamped update stops: the solve
+    "converges" in 3 sweeps with MPa pressures and throws the particle off at 14-70 m/s (the
+    3D dam break of validation/startup.py, unstable at 0.42 s). Capped at omega = 0.5 CAP
+    the sweep overshoots at most by half; particles with ``D_i <= CAP d0`` keep the template's
+    factor exactly."""
+    if d0 <= 0.0:
+        return None
+    st = state
+    n = st.fluid.n
+    d = np.empty(n, dtype=st.fluid.dtype)
+    diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
+                    st.coupling.mirror(st, diagonal=True), g.gw, g.gwb, st.dim, d)
+    out = np.empty(n, dtype=st.fluid.dtype)
+    return out if _cap(d, CAP * d0, out) else None
+
+
 class PCISPH(PressureSolver):
     """Predictive-corrective incompressible SPH with SPlisHSPlasH's template scaling factor."""
 
@@ -201,6 +248,7 @@ class PCISPH(PressureSolver):
         self.control = IterationControl("PCISPH", min_iterations, max_iterations,
                                         max_error / 100.0)
         self.delta = 0.0  #: template scaling factor [m^2]
+        self.d0 = 0.0  #: the template's PPE diagonal [1/m^2] (delta = 1 / (2 d0))
         self.dt_bound = float("inf")  #: the adaptive time-step bound [s] (see max_time_step)
 
     def init(self, state: SimState) -> None:
@@ -209,7 +257,8 @@ class PCISPH(PressureSolver):
         f.register("p")
         V = float(f["V0"].max()) if f.n else 0.0
         if V > 0:
-            self.delta = 0.5 / lattice_diagonal(2.0 * state.r, state.h, state.kid, state.dim, V)
+            self.d0 = lattice_diagonal(2.0 * state.r, state.h, state.kid, state.dim, V)
+            self.delta = 0.5 / self.d0
 
     def max_time_step(self, state: SimState) -> float:
         """The adaptive bound: halved after a solve that stopped at ``max_iterations`` above the
@@ -252,8 +301,12 @@ class PCISPH(PressureSolver):
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
         rest = state.rest()  # several fluids: the pressure sums weigh p~_j by rho0_j / rho0_i
         pc = p if rest.uniform else np.empty_like(p)
-        # several fluids: each particle's own step (phase_factor); one fluid: the template's
-        factors = None if rest.uniform else factor * phase_factor(state, g)
+        # several fluids: each particle's own step (phase_factor); one fluid: the template's;
+        # both capped where the particle's own diagonal exceeds the template's (diagonal_cap)
+        scale = diagonal_cap(state, g, self.d0)
+        if not rest.uniform:
+            scale = phase_factor(state, g) if scale is None else scale * phase_factor(state, g)
+        factors = None if scale is None else factor * scale
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = np.empty((state.dim, 0), dtype=x.dtype)  # no boundary displacement

@@ -106,7 +106,8 @@ class PressureConfig(_Model):
     acoustic_cfl: bool = Field(
         True,
         description="wcsph: also bound dt by 0.4 h / c with the speed of sound c of the state "
-        "equation (Becker & Teschner 2007); switch off only to reproduce a peer's fixed step",
+        "equation (Becker & Teschner 2007) and by 0.8 / omega with each particle's own pressure "
+        "stiffness omega (sphkit.pressure.wcsph); switch off only to reproduce a peer's fixed step",
     )
     max_error: float = Field(
         0.01, gt=0, le=100,
