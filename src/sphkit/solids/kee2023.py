@@ -106,7 +106,11 @@ from sphkit.solids.hyperelastic import (
     hessian_apply,
     material,
 )
-from sphkit.solids.operators import gradient_operators, zero_energy_operator
+from sphkit.solids.operators import (
+    gradient_laplacian,
+    gradient_operators,
+    zero_energy_operator,
+)
 
 log = logging.getLogger("sphkit")
 
@@ -207,8 +211,7 @@ class Kee2023(ImplicitCorotatedSolid):
         dim = state.dim
         off, idx = rest.lists.offsets, rest.lists.indices
         self.D = gradient_operators(off, idx, self.G, dim)
-        V = sp.diags(rest.V0)
-        self.Klap = sum((Dc.T @ V @ Dc for Dc in self.D), sp.csr_matrix((rest.n, rest.n))).tocsr()
+        self.Klap = gradient_laplacian(self.D, rest.V0)
         if self.alpha > 0:
             self.Z = (self.alpha * self.mu * zero_energy_operator(
                 rest.x0, rest.V0, off, idx, self.D, rest.h, state.kid, dim)).tocsr()

@@ -76,7 +76,11 @@ from sphkit.core.krylov import cg
 from sphkit.core.state import SimState
 from sphkit.solids.base import ROTATION_ITERATIONS, ImplicitCorotatedSolid
 from sphkit.solids.corotation import stresses
-from sphkit.solids.operators import gradient_operators, zero_energy_operator
+from sphkit.solids.operators import (
+    gradient_laplacian,
+    gradient_operators,
+    zero_energy_operator,
+)
 
 log = logging.getLogger("sphkit")
 
@@ -155,8 +159,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         dim = state.dim
         off, idx = rest.lists.offsets, rest.lists.indices
         self.D = gradient_operators(off, idx, self.G, dim)
-        V = sp.diags(rest.V0)
-        K = sum((Dc.T @ V @ Dc for Dc in self.D), sp.csr_matrix((rest.n, rest.n)))
+        K = gradient_laplacian(self.D, rest.V0)
         A = 2.0 * self.mu * K
         if self.alpha > 0:
             A = A + self.alpha * self.youngs_modulus * zero_energy_operator(

@@ -36,6 +36,15 @@ def gradient_operators(offsets: np.ndarray, indices: np.ndarray, G: np.ndarray,
     return out
 
 
+def gradient_laplacian(D: list[sp.csr_matrix], V0: np.ndarray) -> sp.csr_matrix:
+    """``K = sum_c D_c^T diag(V0) D_c`` (n x n): the stiffness of the squared gradient,
+    ``phi^T K phi = sum_i V0_i |grad phi|_i^2`` (kugelstadt2021's and kee2023's constant
+    matrix)."""
+    V = sp.diags(V0)
+    n = len(V0)
+    return sum((Dc.T @ V @ Dc for Dc in D), sp.csr_matrix((n, n))).tocsr()
+
+
 def zero_energy_operator(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray,
                          indices: np.ndarray, D: list[sp.csr_matrix], h: float, kid: int,
                          dim: int) -> sp.csr_matrix:
