@@ -348,6 +348,8 @@ class Simulation:
         dt = min(dt, self.pressure.max_time_step(st))
         for solid in self.solids:  # an explicit elasticity's own bound
             dt = min(dt, solid.max_time_step(st))
+        for force in self.forces:  # an explicit viscosity's diffusion bound
+            dt = min(dt, force.max_time_step(st))
         return float(dt)
 
     def step(self, land_at: float | None = None) -> StepStats:

@@ -272,6 +272,11 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     if resume:
         for line in resume.messages:
             _say(report, line)
+    elif sim.world.start.settle_steps:
+        st = sim.world.start
+        _say(report, f"settled the fluid at rest before t = 0 in {st.settle_steps} steps "
+                     f"({st.settle_time:.3g} s of damped time; RMS speed {st.settle_speed:.2g} "
+                     "m/s): configuration.start.settle")
     _say(report,
         f"scene {scene.name!r}: {sim.fluid.n} fluid and {sim.boundary.n} boundary particles, "
         f"{sim.dim}D, until t = {until:g} s; {fps:g} frames/s as {', '.join(formats)} "

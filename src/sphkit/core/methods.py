@@ -134,6 +134,11 @@ class NonPressureForce(Protocol):
         """Register fields (called once the world is built)."""
         return None
 
+    def max_time_step(self, state: SimState) -> float:
+        """The force's own bound on the time step [s] (an explicit viscosity's diffusion
+        limit); inf: none."""
+        return math.inf
+
     @abstractmethod
     def apply(self, state: SimState, dt: float) -> None:
         """Add this force's acceleration to ``state.fluid["a"]``."""

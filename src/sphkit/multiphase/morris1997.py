@@ -27,9 +27,9 @@ uniform motion (Galilean invariant). Pairs within one phase are left to each mat
 viscosity (:class:`sphkit.multiphase.PhaseForce`), walls to the materials' boundary viscosity:
 this force only couples the phases. Explicit: stable for about ``dt < 0.125 dx^2 rho / mu``
 (Morris 1997, Eq. 23, his smoothing length ~ the spacing dx = 2r; ``rho / mu = 1 / nu_ab`` for
-equal densities); the time step is not bounded by it (as the materials' standard viscosity:
-two materials with nu = 0.01 m^2/s at r = 5 mm, whose bound is 1.25 ms, grew velocities of 2 m/s
-from rest within 0.1 s at dt = 2 ms).
+equal densities), and the time step is bounded by it for the largest ``nu_ab``
+(:meth:`Morris1997.max_time_step`; without the bound two materials with nu = 0.01 m^2/s at
+r = 5 mm, whose bound is 1.25 ms, grew velocities of 2 m/s from rest within 0.1 s at 2 ms).
 
 Several interfaces: one force holds the ``(P, P)`` table of ``nu_ab`` over the materials of the
 scene (0: no viscosity between those two), indexed by the particle field ``phase``.
@@ -47,6 +47,7 @@ from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import add_vector, delta2, dot, point
 from sphkit.core.state import SimState
+from sphkit.core.viscous import viscous_time_step
 from sphkit.multiphase.phases import pair_table
 
 
@@ -104,6 +105,11 @@ class Morris1997(NonPressureForce):
         if not eps > 0.0:
             raise ValueError(f"interfaces[].viscosity.laplacian_eps: {eps!r}; expected > 0")
         self.eps = float(eps)
+
+    def max_time_step(self, state: SimState) -> float:
+        """The explicit diffusion bound of Morris et al. 1997 for the largest viscosity
+        between two phases."""
+        return viscous_time_step(float(self.nu.max()) if self.nu.size else 0.0, state.r)
 
     def apply(self, state: SimState, dt: float) -> None:
         """Add the inter-phase viscous acceleration to ``state.fluid['a']``."""

@@ -124,6 +124,11 @@ class PhaseForce(NonPressureForce):
         phase without particles yet (an emitter's) is initialised at its first step."""
         self._ready = self._run(state, self.force.init)
 
+    def max_time_step(self, state: SimState) -> float:
+        """The wrapped force's own bound (it depends on the material, not on the phase's
+        particles)."""
+        return self.force.max_time_step(state)
+
     def apply(self, state: SimState, dt: float) -> None:
         """The force on the particles of the phase and their neighbours in it."""
         def call(sub: SimState) -> None:

@@ -40,6 +40,7 @@ from sphkit.core.viscous import (
     check_wall_options,
     laplacian_pair,
     register_wall_fields,
+    viscous_time_step,
     wall_pair,
 )
 
@@ -107,6 +108,12 @@ class StandardViscosity(NonPressureForce):
     def init(self, state: SimState) -> None:
         """Make sure the boundary carries the wall fields of the Morris wall velocity."""
         register_wall_fields(state.boundary)
+
+    def max_time_step(self, state: SimState) -> float:
+        """The explicit diffusion bound of Morris et al. 1997 for the larger of the fluid's and
+        the walls' viscosity (the walls' times the no-slip extrapolation's beta_max)."""
+        nu_b = self.nu_boundary * max(self.beta_max, 1.0)
+        return viscous_time_step(max(self.nu, nu_b), state.r)
 
     def apply(self, state: SimState, dt: float) -> None:
         """Add the viscous acceleration to ``state.fluid['a']``."""

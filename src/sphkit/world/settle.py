@@ -25,12 +25,12 @@ step 0.
 ``"auto"`` settles only what settling does not change in kind: a solver with a speed of sound
 (:meth:`sphkit.core.methods.PressureSolver.acoustic_speed`: WCSPH), gravity, fluid resting on
 walls, and every resting particle deeper than h below its free surface either with a full
-neighbourhood as sampled or with a wall beside it -- fluid in a container; a dam break's free
-face (a resting particle deep in its column with an empty side and no wall) would flow while it
-settles, so such a scene is not settled. Moving bodies, emitters, elastic solids and animation
-fields, which the step moves by their own clocks, are not settled either (with ``settle: true``
-they are named in a warning). A settling that becomes unstable is undone (the run then starts
-from the unsettled state, with a warning).
+neighbourhood as sampled or with a wall within 2h -- fluid in a container, also when written a
+few r off its walls; a dam break's free face (a resting particle deep in its column with an
+empty side and no wall near) would flow while it settles, so such a scene is not settled. Moving
+bodies, emitters, elastic solids and animation fields, which the step moves by their own clocks,
+are not settled either (with ``settle: true`` they are named in a warning). A settling that
+becomes unstable is undone (the run then starts from the unsettled state, with a warning).
 """
 
 from __future__ import annotations
@@ -47,6 +47,9 @@ from sphkit.scene.schema import Scene
 
 #: at least this many periods of the first acoustic mode are settled, whatever the speed
 MIN_PERIODS = 1.0
+#: a resting particle with an empty side is at a free face unless a wall lies within this many
+#: support radii h (a block written a few r off its container's walls is still contained)
+FACE_GAP = 2.0
 
 # The settling's loop is the simulation's (:meth:`sphkit.simulation.Simulation.settle`): it
 # steps the simulation, which the world does not import.
@@ -103,6 +106,12 @@ def plan_settle(state: SimState, scene: Scene, pressure: PressureSolver, p: np.n
     else:
         walls = np.diff(state.nl_fb.offsets) > 0
         free = resting & (depth > state.h) & ~full & ~walls
+        if free.any() and state.boundary.n:  # a gap to a wall is not a free face
+            from scipy.spatial import cKDTree
+
+            d, _ = cKDTree(state.boundary.view("x")).query(
+                f.view("x")[free], distance_upper_bound=FACE_GAP * state.h)
+            free[np.flatnonzero(free)[np.isfinite(d)]] = False
         if free.any():
             why = (f"{int(free.sum())} resting fluid particles deeper than h below the free "
                    "surface have an empty side and no wall (a free face that would flow)")
