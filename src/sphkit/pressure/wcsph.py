@@ -147,7 +147,8 @@ class WCSPH(PressureSolver):
         return float(np.sqrt(self.stiffness))
 
     def acoustic_speed(self, state: SimState) -> float:
-        """The speed of sound of the lightest fluid [m/s]; inf without a pressure."""
+        """The speed of sound of the lightest fluid (the fastest sound) [m/s]; inf without a
+        pressure."""
         if self.stiffness == 0.0:
             return float("inf")
         f = state.fluid
@@ -163,9 +164,8 @@ class WCSPH(PressureSolver):
         """
         if not self.acoustic_cfl or self.stiffness == 0.0:  # no pressure, no sound
             return float("inf")
-        f = state.fluid  # the lightest fluid has the fastest sound
-        rho0 = float(f["rho0"].min()) if f.n else state.rho0
-        dt = 0.4 * 2.0 * state.r / self.sound_speed(rho0)
+        f = state.fluid
+        dt = 0.4 * 2.0 * state.r / self.acoustic_speed(state)
         if f.n:
             b, rest = state.boundary, state.rest()
             _, w2 = launch_reduce(stiffness_body, f.n, f["x"], rest.mu, f["rho"],
