@@ -115,7 +115,6 @@ try:
 except SceneError as e:
     say("SPHKIT-UNAVAILABLE", " / ".join(str(e).splitlines()))
     sys.exit(0)
-rho0 = sim.fluid["rho0"]  # per particle: several fluids and solids have their own
 until = sc.configuration.time.until
 rec = {"steps": 0, "iterations": 0, "divergence_iterations": 0, "density_error": 0.0,
        "solver_error": 0.0, "method": sc.configuration.pressure.method,
@@ -129,7 +128,7 @@ try:
         rec["divergence_iterations"] += getattr(s, "divergence_iterations", 0)
         rec["solver_error"] += s.density_error_avg
         if sim.fluid.n:
-            rho0 = sim.fluid["rho0"]  # emitters and z-sorting change the particle set
+            rho0 = sim.fluid["rho0"]  # per particle (several fluids, solids), after the step
             rec["density_error"] += float(np.mean(np.maximum(sim.densities / rho0 - 1.0, 0.0)))
 except InstabilityError as e:
     say("SPHKIT-FAILED", f"unstable: {e}")
