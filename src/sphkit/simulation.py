@@ -345,6 +345,8 @@ class Simulation:
         # moving boundary particles obey the CFL condition too
         vmax = max(max_speed(st.fluid["v"], None), self.rigid.max_speed(st))
         dt = cfl_time_step(vmax, st.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
+        if self.step_count == 0:  # a run starts with the scene's initial step (timeStepSize)
+            dt = min(dt, tc.dt)
         dt = min(dt, self.pressure.max_time_step(st))
         for solid in self.solids:  # an explicit elasticity's own bound
             dt = min(dt, solid.max_time_step(st))
