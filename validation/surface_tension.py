@@ -384,17 +384,19 @@ def drop_3d_csf(sigma: float, R: float, r: float, until: float, nsamp: int = 20,
     m = float(sim.fluid["m"][0])
     Rv = float((sim.fluid.n * m / RHO0 * 3 / (4 * np.pi)) ** (1 / 3))
     h = 4.0 * r
-    ps, pj = [], []
+    ps, pj, pf = [], [], []
     for k in range(1, nsamp + 1):
         sim.run(until=until * k / nsamp, fps=1e-3)
         x = sim.positions
         d = np.linalg.norm(x - x.mean(axis=0), axis=1)
         ps.append(float(sim.pressures[d < Rv - 2.0 * h].mean()))
-        pj.append(surface_force_pressure(sim)[1])
+        f_area, f_jump = surface_force_pressure(sim)
+        pf.append(f_area)
+        pj.append(f_jump)
     tail = slice(nsamp // 2, None)
     return {"N": sim.fluid.n, "R": Rv, "p": float(np.mean(ps[tail])),
             "p_std": float(np.std(ps[tail])), "pJ": float(np.mean(pj[tail])),
-            "n_inner": int((d < Rv - 2.0 * h).sum())}
+            "pF": float(np.mean(pf[tail])), "n_inner": int((d < Rv - 2.0 * h).sum())}
 
 
 def kb_sigma(name: str, coef: float, m: float, r: float, dim: int) -> tuple[float, float]:
@@ -525,6 +527,47 @@ def rayleigh_3d(kappa: float, R: float, r: float, until: float, amp: float,
             "antisym": antisym}
 
 
+def twist_3d(coef: float, R: float, r: float, until: float, amp: float, nu: float,
+             name: str, relax: float, dt_max: float, solver: str = "dfsph",
+             jitter: float = 0.05, seed: int = 0, nsamp: int = 120) -> dict:
+    """Toroidal (twist) l = 2 mode of a 3D drop: the relaxed ball (:func:`relaxed_ball`) is
+    kicked with the divergence-free twist ``v = amp (-y z, x z, 0)`` (about the centre of mass;
+    no net angular momentum) and the twist momentum ``T = sum_i m_i z_i (x_i v_y - y_i v_x)`` is
+    sampled. A liquid drop has no restoring force for this mode (surface tension does not see
+    it: the shape does not change), so T decays without changing sign; an elastic ball
+    oscillates, ``omega R / c_s = 2.50`` (first l = 2 torsional root of a free sphere, c_s =
+    sqrt(G / rho)), so the period gives the shear modulus G that the drop's particle packing
+    carries. Returns the samples, the sign changes, the period from like extrema and G."""
+    x0, _ = relaxed_ball(coef, R, r, relax, nu, 200.0, name, solver, dt_max, jitter, seed)
+    sim = Simulation(scene(name, coef, ball_blocks(R, r), r, dim=3, nu=nu, solver=solver,
+                           dt_max=dt_max))
+    sim.positions[:] = x0
+    y = x0 - x0.mean(axis=0)
+    sim.velocities[:] = amp * np.stack([-y[:, 1] * y[:, 2], y[:, 0] * y[:, 2],
+                                        np.zeros(len(y))], axis=1)
+    m = sim.fluid["m"]
+
+    def twist() -> float:
+        q = sim.positions - sim.positions.mean(axis=0)
+        v = sim.velocities
+        return float((m * q[:, 2] * (q[:, 0] * v[:, 1] - q[:, 1] * v[:, 0])).sum())
+
+    ts, qs = [0.0], [twist()]
+    for k in range(1, nsamp + 1):
+        sim.run(until=until * k / nsamp, fps=1e-3)
+        ts.append(sim.time)
+        qs.append(twist())
+    t, q = np.array(ts), np.array(qs)
+    Rv = float((sim.fluid.n * float(m[0]) / RHO0 * 3 / (4 * np.pi)) ** (1 / 3))
+    period = period_from_extrema(t, q)
+    G = float("nan")
+    if np.isfinite(period):
+        G = RHO0 * (2.0 * np.pi / period * Rv / 2.50) ** 2
+    return {"N": sim.fluid.n, "R": Rv, "t": t, "q": q, "sign_changes": int(
+        (np.diff(np.sign(q)) != 0).sum()), "T_extrema": period, "G": G,
+        "min_over_start": float(q.min() / q[0])}
+
+
 def damped_fit(t: np.ndarray, q: np.ndarray, omega: float) -> dict:
     """Least-squares fit of ``a exp(-gamma t) cos(w t + phi) + c`` to q(t) (start guesses: w =
     0.7 / 0.85 / 1 / 1.15 omega, the best kept): ``T_fit = 2 pi / w``, ``gamma`` [1/s] (to
@@ -603,23 +646,28 @@ def zorilla_study(quick: bool, skip_2d: bool, skip_3d: bool, r: float, until: fl
         inv = np.array([1 / e["R"] for e in d2])
         sf, p0 = np.polyfit(inv, [e["p"] for e in d2], 1)
         sj, j0 = np.polyfit(inv, [e["pJ"] for e in d2], 1)
+        sF, F0 = np.polyfit(inv, [e["pF"] for e in d2], 1)
         print()
         print(f"Zorilla, Ritter et al. 2020 (zorilla2020, {ZR_OPTIONS}), 2D, nominal sigma = "
               f"{s2:g} N (gamma = {zr_coefficient(s2, r, 2):g} N), r = {r:g} m, WCSPH linear "
               f"k = {STIFFNESS:g}, nu = 0.005 m^2/s, {until:g} s, one random start (std "
-              f"{V_NOISE:g} m/s); p: mean pressure deeper than 2h, last third; p_jump: the "
-              "force alone integrated along the radius:")
-        print("| N | R [m] | R/h | max dist/R | p R / sigma | p_jump R / sigma | p / p_jump | "
-              "p within 5 % of p_jump |")
-        print("|---|---|---|---|---|---|---|---|")
+              f"{V_NOISE:g} m/s); p: mean pressure deeper than 2h, last third; the force alone "
+              "as p_F (per area of the drop's radius R: the Laplace pressure of its tension) "
+              "and p_jump (integrated along the radius):")
+        print("| N | R [m] | R/h | max dist/R | p R / sigma | p_F R / sigma | "
+              "p_jump R / sigma | p / p_F | p / p_jump | p within 5 % of p_F |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
         for e in d2:
-            q = e["p"] / e["pJ"] if e["pJ"] else float("nan")
+            q = e["p"] / e["pF"] if e["pF"] else float("nan")
+            qj = e["p"] / e["pJ"] if e["pJ"] else float("nan")
             print(f"| {e['n']} | {e['R']:.4f} | {e['R'] / (4 * r):.2f} | {e['roundness']:.3f} | "
-                  f"{e['p'] * e['R'] / s2:.3f} | {e['pJ'] * e['R'] / s2:.3f} | {q:.3f} | "
+                  f"{e['p'] * e['R'] / s2:.3f} | {e['pF'] * e['R'] / s2:.3f} | "
+                  f"{e['pJ'] * e['R'] / s2:.3f} | {q:.3f} | {qj:.3f} | "
                   f"{'yes' if abs(q - 1) <= 0.05 else 'no'} |")
         print(f"fit p = p0 + sigma_fit / R: p0 = {p0:.4g} Pa, sigma_fit = {sf:.4g} N "
-              f"({sf / s2:.3f} of nominal); p_jump: {j0:.4g} Pa + {sj:.4g} N / R")
-        out["fit2"] = (float(sf), float(p0), float(sj), float(j0))
+              f"({sf / s2:.3f} of nominal); p_F: {F0:.4g} Pa + {sF:.4g} N / R "
+              f"(sigma_fit / sigma_F = {sf / sF:.3f}); p_jump: {j0:.4g} Pa + {sj:.4g} N / R")
+        out["fit2"] = (float(sf), float(p0), float(sj), float(j0), float(sF), float(F0))
     if skip_3d:
         return out
     s3, r3 = 5.0, 0.0025
@@ -635,22 +683,27 @@ def zorilla_study(quick: bool, skip_2d: bool, skip_3d: bool, r: float, until: fl
           f"{zr_coefficient(s3, r3, 3):g} N m, r = {r3:g} m, WCSPH linear k = 200, nu = 1e-3 "
           "m^2/s, last half of the run):")
     print("| N | R [m] | R/h | particles deeper than 2h | p R / (2 sigma) (std) | "
-          "p_jump R / (2 sigma) | p / p_jump | p within 5 % of p_jump |")
-    print("|---|---|---|---|---|---|---|---|")
+          "p_F R / (2 sigma) | p_jump R / (2 sigma) | p / p_F | p / p_jump | "
+          "p within 5 % of p_F |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for d3 in d3s:
         q = d3["R"] / (2 * s3)
-        ratio = d3["p"] / d3["pJ"]
+        ratio = d3["p"] / d3["pF"]
         print(f"| {d3['N']} | {d3['R']:.4f} | {d3['R'] / (4 * r3):.2f} | {d3['n_inner']} | "
-              f"{d3['p'] * q:.3f} ({d3['p_std'] * q:.3f}) | {d3['pJ'] * q:.3f} | "
-              f"{ratio:.3f} | {'yes' if abs(ratio - 1) <= 0.05 else 'no'} |")
+              f"{d3['p'] * q:.3f} ({d3['p_std'] * q:.3f}) | {d3['pF'] * q:.3f} | "
+              f"{d3['pJ'] * q:.3f} | {ratio:.3f} | {d3['p'] / d3['pJ']:.3f} | "
+              f"{'yes' if abs(ratio - 1) <= 0.05 else 'no'} |")
     s_eff = float("nan")
     if len(d3s) > 1:
         inv = np.array([2.0 / e["R"] for e in d3s])
-        s_eff, p0 = np.polyfit(inv, [e["pJ"] for e in d3s], 1)
+        s_eff, p0 = np.polyfit(inv, [e["pF"] for e in d3s], 1)
+        sj, j0 = np.polyfit(inv, [e["pJ"] for e in d3s], 1)
         sp, pp0 = np.polyfit(inv, [e["p"] for e in d3s], 1)
-        print(f"fit p_jump = p0 + 2 sigma_fit / R: p0 = {p0:.4g} Pa, sigma_fit = {s_eff:.4g} N/m "
-              f"({s_eff / s3:.3f} of nominal); p: {pp0:.4g} Pa + 2 ({sp:.4g} N/m) / R")
-        out["fit3"] = (float(s_eff), float(p0), float(sp), float(pp0))
+        print(f"fit p_F = p0 + 2 sigma_F / R: p0 = {p0:.4g} Pa, sigma_F = {s_eff:.4g} N/m "
+              f"({s_eff / s3:.3f} of nominal); p: {pp0:.4g} Pa + 2 ({sp:.4g} N/m) / R "
+              f"(sigma_p / sigma_F = {sp / s_eff:.3f}); p_jump: {j0:.4g} Pa + 2 ({sj:.4g} N/m)"
+              " / R")
+        out["fit3"] = (float(s_eff), float(p0), float(sp), float(pp0), float(sj), float(j0))
     t0 = time.perf_counter()
     gamma = zr_coefficient(s3, r3, 3)
     kw = {"R": 0.03, "until": 0.5, "amp": 1.0, "relax": 0.2} if quick else \
@@ -662,23 +715,59 @@ def zorilla_study(quick: bool, skip_2d: bool, skip_3d: bool, r: float, until: fl
     out["ray"] = ray
     print(f"  zorilla2020 rayleigh: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     if not np.isfinite(s_eff):
-        s_eff = d3s[-1]["pJ"] * d3s[-1]["R"] / 2.0
+        s_eff = d3s[-1]["pF"] * d3s[-1]["R"] / 2.0
     T_eff = ray["T_rayleigh"] * np.sqrt(ray["sigma"] / s_eff)
     print()
     print("3D drop, mode 2 (zorilla2020, DFSPH, nu = 1e-3 m^2/s, jittered ball relaxed, +-A "
-          "kicks; sigma_eff = the balls' sigma_fit, or p_jump R / 2 of one ball with "
-          "--quick):")
+          "kicks; sigma_eff = the balls' sigma_F (slope of p_F over 2/R), or p_F R / 2 of "
+          "one ball with --quick):")
     print("| N | R [m] | R/h | period, extrema [s] | period, fit [s] | Rayleigh, nominal sigma "
           "[s] (omega ratio) | sigma_eff [N/m] | Rayleigh, sigma_eff [s] (omega ratio) | "
-          "within 10 % (sigma_eff) |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "omega / omega_R(sigma_eff), fit | within 10 % (sigma_eff) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     w_nom = ray["T_rayleigh"] / ray["T_extrema"]
     w_eff = T_eff / ray["T_extrema"]
     print(f"| {ray['N']} | {ray['R']:.4f} | {ray['R'] / ray['h']:.2f} | "
           f"{ray['T_extrema']:.4g} | {ray['T_fit']:.4g} | {ray['T_rayleigh']:.4g} "
           f"({w_nom:.3f}) | {s_eff:.4g} | {T_eff:.4g} ({w_eff:.3f}) | "
+          f"{T_eff / ray['T_fit']:.3f} | "
           f"{'yes' if abs(w_eff - 1) <= 0.1 else 'no'} |")
     return out
+
+
+def twist_table(names: list[str], quick: bool) -> int:
+    """Run :func:`twist_3d` for ``names`` with the settings of their mode-2 drops (DFSPH,
+    jittered ball relaxed 0.4 s, r = 2.5 mm, R = 0.04 m, nu = 1e-3 m^2/s) and print a table:
+    sign changes of the twist momentum, its smallest value over its start, the period and the
+    shear modulus G it implies, and the period of the spheroidal l = 2 mode of an
+    incompressible elastic ball with that G (``omega R / c_s = sqrt(38 / 5) = 2.76``, Lamb
+    1882), to set against the measured mode-2 period."""
+    r = 0.0025
+    settings = {"jeske2023": (300.0, 8.67), "mueller2003": (5.0, 5.0),
+                "zorilla2020": (zr_coefficient(5.0, r, 3), 5.0)}
+    rows = []
+    for name in names:
+        coef, sig = settings[name]
+        t0 = time.perf_counter()
+        kw = {"R": 0.03, "until": 0.2, "relax": 0.2, "nsamp": 60} if quick else \
+            {"R": 0.04, "until": 0.3, "relax": 0.4, "nsamp": 120}
+        tw = twist_3d(coef, r=r, amp=20.0, nu=1e-3, name=name,
+                      dt_max=0.7 * capillary_dt(sig, r), **kw)
+        print(f"  twist {name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+        rows.append((name, tw))
+    print()
+    print("3D drop, toroidal l = 2 twist (DFSPH, nu = 1e-3 m^2/s, jittered ball relaxed; "
+          "v = A (-y z, x z, 0), A = 20 1/(m s)): a liquid drop does not oscillate in this mode")
+    print("| model | N | R [m] | sign changes of the twist momentum | min T / T(0) | period, "
+          "extrema [s] | shear modulus G [Pa] | elastic ball's spheroidal l = 2 period [s] |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, tw in rows:
+        cs = np.sqrt(tw["G"] / RHO0) if np.isfinite(tw["G"]) else float("nan")
+        t_s = 2 * np.pi * tw["R"] / (np.sqrt(38.0 / 5.0) * cs) if cs > 0 else float("nan")
+        print(f"| {name} | {tw['N']} | {tw['R']:.4f} | {tw['sign_changes']} | "
+              f"{tw['min_over_start']:.3f} | {tw['T_extrema']:.4g} | {tw['G']:.4g} | "
+              f"{t_s:.4g} |")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -707,8 +796,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rayleigh-antisym", action=argparse.BooleanOptionalAction, default=True,
                     help="mueller2003 mode-2 drop: kick with +A and -A, use (q(+A) - q(-A))/2 "
                          "(default; --no-rayleigh-antisym: +A only)")
+    ap.add_argument("--twist", action="store_true",
+                    help="only the toroidal (twist) test of the 3D drop (twist_3d) for the chosen "
+                         "models among jeske2023, zorilla2020, mueller2003")
     args = ap.parse_args(argv)
     chosen = args.models.split(",")
+    if args.twist:
+        return twist_table([nm for nm in ("jeske2023", "zorilla2020", "mueller2003")
+                            if nm in chosen], args.quick)
     unknown = sorted(set(chosen) - set(MODELS) - {"mueller2003", "zorilla2020"})
     if unknown:
         ap.error(f"--models: unknown {unknown}; expected names from "
