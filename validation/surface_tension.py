@@ -57,16 +57,24 @@ force holds the right pressure jump but acts inside the fluid, where it drives t
 Zorilla, Ritter et al. 2020 (``zorilla2020``, :func:`zorilla_study`): its coefficient gamma is
 a force per curvature of one surface particle; the drops are set up with the gamma of a
 nominal sigma (one surface particle per (2r)^(dim-1), :func:`zr_coefficient`). 2D drops
-(three sizes, WCSPH) and a 3D ball at rest: the interior pressure against the jump the force
-holds (p_jump) and against the nominal sigma/R (2 sigma/R); the 3D mode-2 drop (DFSPH, as
-mueller2003's) against Rayleigh's period with the nominal sigma and with the sigma that the
-ball's p_jump implies.
+(three sizes, WCSPH) and 3D balls at rest (three sizes): the interior pressure p against the
+model's force alone as ``p_F`` (force per area of the drop's volume sphere: the Laplace
+pressure of the tension that the force exerts on a half drop) and ``p_jump`` (the force
+integrated along the radius, which places the surface at the particle centres); the fit
+``p_F = p0 + (dim - 1) sigma_F / R`` gives the model's tension sigma_F (the slope) and the
+constant pressure p0 of its curvature offset on flat surfaces. The 3D mode-2 drop (DFSPH, as
+mueller2003's) against Rayleigh's period with the nominal sigma and with sigma_F.
+
+Toroidal test (``--twist``, :func:`twist_3d`): the relaxed 3D ball is twisted, ``v = A (-y z,
+x z, 0)``; a liquid has no restoring force for this mode, an elastic ball oscillates with a
+period that gives its shear modulus G.
 
     python validation/surface_tension.py [--quick] [--skip-2d] [--skip-3d]
         [--models becker2007,...,mueller2003,zorilla2020] [--solvers wcsph,iisph,dfsph]
         [--seeds 3]
         [--rayleigh-radii 0.0025,0.002,0.0016667,0.0014286] [--rayleigh-solver dfsph|wcsph]
         [--rayleigh-jitter 0.05 --rayleigh-seeds 0,1] [--no-rayleigh-antisym]
+    python validation/surface_tension.py --twist --models jeske2023,zorilla2020,mueller2003
 
 Prints the tables and saves ``validation/surface_tension.png`` (matplotlib).
 """
@@ -80,6 +88,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sphkit.core.kernels import _dw_array
 from sphkit.core.neighbors import NeighborList, neighbor_lists
 from sphkit.core.operators import (
     color_field_cpu,
@@ -396,7 +405,63 @@ def drop_3d_csf(sigma: float, R: float, r: float, until: float, nsamp: int = 20,
     tail = slice(nsamp // 2, None)
     return {"N": sim.fluid.n, "R": Rv, "p": float(np.mean(ps[tail])),
             "p_std": float(np.std(ps[tail])), "pJ": float(np.mean(pj[tail])),
-            "pF": float(np.mean(pf[tail])), "n_inner": int((d < Rv - 2.0 * h).sum())}
+            "pF": float(np.mean(pf[tail])), "n_inner": int((d < Rv - 2.0 * h).sum()),
+            "balance": equatorial_balance(sim)}
+
+
+def equatorial_balance(sim: Simulation) -> dict:
+    """Mechanical balance of a 3D drop at rest across its equatorial plane z = z_c (centre of
+    mass): ``F_p``, the z-force of the state-equation pressure pair forces that the lower half
+    exerts on the upper half (WCSPH, linear; the pairs that cross the plane), against ``F_m``,
+    the surface tension model's (:func:`_radial_surface_force`'s model) z-force on the upper
+    half. With the mean interior pressure p (deeper than 2h), ``a_eff = sqrt(F_p / (pi p))`` is
+    the radius of the disk across which that pressure acts; ``a_jump = sqrt(-F_m / (pi
+    p_jump))`` the radius at which p_jump places the surface. Also ``M``, the interior mean of
+    ``-sum_j V_j grad W_ij . x_ij / 3`` (the pressure gradient's normalisation, 1 in the
+    continuum)."""
+    st = sim.state
+    f = st.fluid
+    x, m = f["x"], f["m"]
+    n, h, kid = f.n, st.h, st.kid
+    nl = neighbor_lists(x, h, st.periodic)
+    bx, bV, nb = np.zeros((3, 0)), np.zeros(0), NeighborList.empty(n)
+    rho, p = np.empty(n), np.empty(n)
+    density_cpu(x, m, nl.offsets, nl.indices, bx, bV, nb.offsets, nb.indices, st.rho0, h, kid, 3,
+                rho, 0.0)
+    state_equation(rho, np.full(n, st.rho0), LINEAR, sim.pressure.stiffness,
+                   sim.pressure.exponent, p)
+    c = x.mean(axis=1)
+    d = np.linalg.norm(x - c[:, None], axis=0)
+    vol = float(m.sum()) / RHO0
+    R = (3.0 * vol / (4.0 * np.pi)) ** (1.0 / 3.0)
+    inner = d < R - 2.0 * h
+    i = np.repeat(np.arange(n), np.diff(nl.offsets))
+    j = nl.indices
+    up = x[2] > c[2]
+    keep = up[i] & ~up[j]
+    off = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(i[keep], minlength=n), out=off[1:])
+    ap = np.zeros((3, n))
+    pressure_accel_cpu(x, m, rho, p, off, j[keep].astype(j.dtype), bx, bV, nb.offsets,
+                       nb.indices, st.rho0, h, kid, 3, ap, 0.0)
+    F_p = float((m * ap[2]).sum())
+    model = next(fo for fo in sim.forces if isinstance(fo, (Mueller2003, ZorillaRitter2020)))
+    a_save = f["a"].copy()
+    f["a"][:] = 0.0
+    model.apply(st, 0.0)
+    F_m = float((m * f["a"][2])[up].sum())
+    f["a"][:] = a_save
+    xij = x[:, i] - x[:, j]
+    rr = np.linalg.norm(xij, axis=0)
+    dw = np.empty_like(rr)
+    _dw_array(kid, rr, h, 3, dw)
+    M = np.zeros(n)
+    np.add.at(M, i, -(m[j] / rho[j]) * dw * rr * rr / 3.0)
+    p_in = float(p[inner].mean())
+    p_jump = surface_force_pressure(sim)[1]
+    return {"F_p": F_p, "F_m": F_m, "p": p_in, "a_eff": float(np.sqrt(F_p / (np.pi * p_in))),
+            "a_jump": float(np.sqrt(-F_m / (np.pi * p_jump))), "R": R,
+            "M": float(M[inner].mean())}
 
 
 def kb_sigma(name: str, coef: float, m: float, r: float, dim: int) -> tuple[float, float]:
@@ -628,12 +693,12 @@ def zorilla_study(quick: bool, skip_2d: bool, skip_3d: bool, r: float, until: fl
     a nominal sigma (:func:`zr_coefficient`), which is what the drops are set up with: 2D
     sigma = 1 N (gamma = 0.01 N at r = 5 mm), 3D sigma = 5 N/m (gamma = 2.5e-4 N m at r = 2.5
     mm). Prints (i) 2D drops relaxing from squares (WCSPH linear k = 200, nu = 0.005 m^2/s,
-    one random start each as for mueller2003): the interior pressure p against the jump the
-    force itself holds, ``p_jump`` (:func:`surface_force_pressure`), and both times R against
-    the nominal sigma, with the fit ``p = p0 + sigma_fit / R``; (ii) a 3D ball at rest: p and
-    p_jump against 2 sigma / R; (iii) the 3D mode-2 drop (as mueller2003's: DFSPH, jittered
-    ball relaxed 0.4 s, +-A kicks) against Rayleigh's period with the nominal sigma and with
-    the balls' sigma_fit."""
+    one random start each as for mueller2003) and (ii) 3D balls at rest: the interior pressure
+    p against the force alone as p_F and p_jump (:func:`surface_force_pressure`), all times R
+    against the nominal sigma, with the fits ``p_F = p0 + (dim - 1) sigma_F / R`` (and alike
+    for p and p_jump); (iii) the 3D mode-2 drop (as mueller2003's: DFSPH, jittered ball
+    relaxed 0.4 s, +-A kicks) against Rayleigh's period with the nominal sigma and with the
+    balls' sigma_F."""
     out: dict = {"d2": [], "d3": None, "ray": None}
     s2 = 1.0
     if not skip_2d:
@@ -693,6 +758,17 @@ def zorilla_study(quick: bool, skip_2d: bool, skip_3d: bool, r: float, until: fl
               f"{d3['p'] * q:.3f} ({d3['p_std'] * q:.3f}) | {d3['pF'] * q:.3f} | "
               f"{d3['pJ'] * q:.3f} | {ratio:.3f} | {d3['p'] / d3['pJ']:.3f} | "
               f"{'yes' if abs(ratio - 1) <= 0.05 else 'no'} |")
+    print("Balance across the equatorial plane at the end of each run (equatorial_balance): "
+          "pressure force F_p on the upper half against the model's F_m; a_eff: radius of the "
+          "disk over which the interior p acts; a_jump: where p_jump puts the surface; M: the "
+          "pressure gradient's normalisation")
+    print("| R [m] | F_p [N] | -F_m [N] | p [Pa] | (R - a_eff) / r | (R - a_jump) / r | M |")
+    print("|---|---|---|---|---|---|---|")
+    for d3 in d3s:
+        b = d3["balance"]
+        print(f"| {b['R']:.4f} | {b['F_p']:.4g} | {-b['F_m']:.4g} | {b['p']:.4g} | "
+              f"{(b['R'] - b['a_eff']) / r3:.2f} | {(b['R'] - b['a_jump']) / r3:.2f} | "
+              f"{b['M']:.4f} |")
     s_eff = float("nan")
     if len(d3s) > 1:
         inv = np.array([2.0 / e["R"] for e in d3s])
@@ -767,6 +843,10 @@ def twist_table(names: list[str], quick: bool) -> int:
         print(f"| {name} | {tw['N']} | {tw['R']:.4f} | {tw['sign_changes']} | "
               f"{tw['min_over_start']:.3f} | {tw['T_extrema']:.4g} | {tw['G']:.4g} | "
               f"{t_s:.4g} |")
+    for name, tw in rows:
+        k = np.linspace(0, len(tw["t"]) - 1, 11).astype(int)
+        print(f"{name}: T / T(0) at t = " + ", ".join(
+            f"{tw['t'][i]:.3f} s: {tw['q'][i] / tw['q'][0]:+.2f}" for i in k))
     return 0
 
 
