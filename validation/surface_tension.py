@@ -1085,6 +1085,8 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         print("(matplotlib not installed: no plot)")
         return 0
+    if not (rows or csf or rays):  # e.g. zorilla2020 alone: keep the last full run's figure
+        return 0
     fig, axs = plt.subplots(1, 3, figsize=(15, 4))
     for name, _, sl, res, *_ in rows:
         inv = np.array([1 / e["R"] for e in res])
