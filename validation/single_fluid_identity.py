@@ -29,14 +29,15 @@ SRC = HERE.parent / "src"
 
 
 def scene(method: str, bnd: str = "akinci2012", bp: str = "mirror", visc: str = "standard",
-          st: str = "none", vort: str = "none", drag: str = "none", dim: int = 2):  # noqa: ANN201
+          st: str = "none", vort: str = "none", drag: str = "none", dim: int = 2,
+          st_extra: dict | None = None):  # noqa: ANN201
     """A small dam break in a box: 99 particles in 2D (r = 2 cm), 40 in 3D (r = 4 cm)."""
     from sphkit.scene.schema import Scene
 
     r = 0.02 if dim == 2 else 0.04
     mat = {"viscosity": {"method": visc, "coefficient": 0.01}}
     if st != "none":
-        mat["surface_tension"] = {"method": st, "coefficient": 0.05}
+        mat["surface_tension"] = {"method": st, "coefficient": 0.05, **(st_extra or {})}
     if vort != "none":
         mat["vorticity"] = {"method": vort, "coefficient": 0.01}
     if drag != "none":
@@ -72,6 +73,12 @@ CASES = {
                             vort="micropolar", drag="macklin2014"),
     "wcsph_st": dict(method="wcsph", st="becker2007", vort="confinement", drag="gissler2017"),
     "dfsph_he": dict(method="dfsph", st="he2014", visc="bender2017"),
+    "dfsph_jeske": dict(method="dfsph", st="jeske2023", visc="weiler2018",
+                        st_extra={"jeske2023": {"viscosity": 0.01, "boundary_viscosity": 0.01,
+                                                "xsph": 0.1}}),
+    "dfsph_jeske3": dict(method="dfsph", st="jeske2023", dim=3,
+                         st_extra={"jeske2023": {"viscosity": 0.01, "boundary_viscosity": 0.01,
+                                                 "xsph": 0.1}}),
     "dfsph3": dict(method="dfsph", dim=3),
     "pbf3": dict(method="pbf", dim=3),
 }

@@ -92,6 +92,13 @@ def delta2(xi0, xi1, xi2, y, ui0, ui1, ui2, u, j, dim, L):
 
 
 @numba.njit(**_INLINE)
+def delta2_r(xi0, xi1, xi2, y, ui0, ui1, ui2, u, j, dim, L):
+    """:func:`delta2` and the distance ``|x_i - y_j|``: ``(d0, d1, d2, w0, w1, w2, r)``."""
+    d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, y, ui0, ui1, ui2, u, j, dim, L)
+    return d0, d1, d2, w0, w1, w2, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+
+
+@numba.njit(**_INLINE)
 def norm(d0, d1, d2):
     """``|d|`` of a vector given as three scalars."""
     return math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)

@@ -27,7 +27,11 @@ Methods never import each other, so what two of them share lives here:
   ``v_i - v_b = beta (v_i - v_wall)`` (see its docstring); :func:`wall_pair` is the preamble of
   their boundary pair loops (difference, squared distance, beta) and :func:`laplacian_pair` the
   pair factor of their Laplacian; :func:`register_wall_fields` adds the boundary fields it reads
-  (``wall_normal``, ``wall_distance``).
+  (``wall_normal``, ``wall_distance``);
+* :func:`laplacian_diagonal_pair`, :func:`outer_add`, :func:`write_blocks` -- the diagonal
+  3x3 blocks of an implicit Laplacian (``weiler2018``, and the viscosity inside ``jeske2023``'s
+  solve): a pair's coefficient ``c W'(r) / (r (r^2 + eps))``, its symmetric outer-product sum
+  ``sum s x_ij x_ij^T`` and the blocks ``diag I - f G``.
 
 All loops take ``L`` > 0 for periodic x (minimum-image differences, ``configuration.periodic_x``).
 """
@@ -330,3 +334,34 @@ def laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim):
     coefficient and ``x_ij`` it is the pair's term (``w = v_i - v_j``; ``eps`` = the
     regularisation times h^2, :data:`LAPLACIAN_EPS`)."""
     return dot(w0, w1, w2, d0, d1, d2) / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim)
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def laplacian_diagonal_pair(c, r2, eps, kid, h, dim):
+    """``c / (r2 + eps) W'(r) / r`` with ``r = sqrt(r2)``: the pair's factor s of the diagonal
+    block ``sum_j s x_ij x_ij^T`` of the Monaghan Laplacian (:func:`laplacian_pair` without the
+    velocity; ``c``: the pair's coefficient, e.g. ``c_f m_j / rho_j``)."""
+    return c / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim)
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def outer_add(s, d0, d1, d2, g00, g01, g02, g11, g12, g22):
+    """The six entries of the symmetric sum ``G + s d d^T`` (``G`` as g00 .. g22)."""
+    return (g00 + s * d0 * d0, g01 + s * d0 * d1, g02 + s * d0 * d2, g11 + s * d1 * d1,
+            g12 + s * d1 * d2, g22 + s * d2 * d2)
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def write_blocks(blocks, i, diag, f, g00, g01, g02, g11, g12, g22, dim):
+    """``blocks[:, :, i] = diag I - f G`` for the symmetric G (g00 .. g22), dim x dim."""
+    blocks[0, 0, i] = diag - f * g00
+    if dim > 1:
+        blocks[0, 1, i] = -f * g01
+        blocks[1, 0, i] = -f * g01
+        blocks[1, 1, i] = diag - f * g11
+    if dim > 2:
+        blocks[0, 2, i] = -f * g02
+        blocks[2, 0, i] = -f * g02
+        blocks[1, 2, i] = -f * g12
+        blocks[2, 1, i] = -f * g12
+        blocks[2, 2, i] = diag - f * g22

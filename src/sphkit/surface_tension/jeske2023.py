@@ -80,9 +80,15 @@ from sphkit.core.kernels import CUBIC, kernel_dw, kernel_w
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import kirkwood_buff
-from sphkit.core.pairs import delta, delta2, dot, point
+from sphkit.core.pairs import delta, delta2, delta2_r, dot, point
 from sphkit.core.state import SimState
-from sphkit.core.viscous import add_velocity_change, laplacian_pair
+from sphkit.core.viscous import (
+    add_velocity_change,
+    laplacian_diagonal_pair,
+    laplacian_pair,
+    outer_add,
+    write_blocks,
+)
 
 _JIT = dict(cache=True, fastmath=True)
 EPS = 0.01  #: the Laplacian's regularisation, times h^2
@@ -97,8 +103,7 @@ def _density_rate(x, v, m, off, idx, h, kid, dim, L, out):
         s = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
-            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
             s += m[j] * dot(w0, w1, w2, d0, d1, d2) * kernel_dw(kid, r, h, dim)
         out[i] = s
 
@@ -126,8 +131,7 @@ def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam
         s = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
-            d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
-            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
             F[k] = 2.0 * _weight(r, w0, w1, w2, d0, d1, d2, rho[i] + rho[j],
                                  drate[i] + drate[j], wmin, diam, dt, h, kid, dim)
             s += F[k]
@@ -135,8 +139,8 @@ def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam
         sb = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
-            d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, bx, vi0, vi1, vi2, bv, b, dim, L)
-            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, bx, vi0, vi1, vi2, bv, b, dim,
+                                                 L)
             # times (m_i + m_b) / m_i in _scale_boundary (needs V_b)
             Fb[k] = _weight(r, w0, w1, w2, d0, d1, d2, rho[i] + rho0, drate[i], wmin, diam, dt,
                             h, kid, dim)
@@ -225,13 +229,9 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbs
             b2 += gamma * F[k] * d2
             r2 = dot(d0, d1, d2, d0, d1, d2)
             r = math.sqrt(r2)
-            s = cf * m[j] / rho[j] / (r2 + eps) * kernel_dw(kid, r, h, dim)
-            g00 += s * d0 * d0
-            g01 += s * d0 * d1
-            g02 += s * d0 * d2
-            g11 += s * d1 * d1
-            g12 += s * d1 * d2
-            g22 += s * d2 * d2
+            s = laplacian_diagonal_pair(cf * m[j] / rho[j], r2, eps, kid, h, dim)
+            g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11, g12,
+                                                     g22)
             if xsph > 0.0:
                 xs += xsph * m[j] / rho[j] * kernel_w(CUBIC, r, h, dim) * rho[i] / dt
         c0 = c1 = c2 = 0.0
@@ -243,14 +243,9 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbs
             b2 += beta * Fb[k] * d2
             if cb > 0.0:
                 r2 = dot(d0, d1, d2, d0, d1, d2)
-                s = cb * rho0 * bV[b] / rho[i] / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h,
-                                                                        dim)
-                g00 += s * d0 * d0
-                g01 += s * d0 * d1
-                g02 += s * d0 * d2
-                g11 += s * d1 * d1
-                g12 += s * d1 * d2
-                g22 += s * d2 * d2
+                s = laplacian_diagonal_pair(cb * rho0 * bV[b] / rho[i], r2, eps, kid, h, dim)
+                g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11,
+                                                         g12, g22)
                 vb0, vb1, vb2 = point(bv, b, dim)
                 t = s * dot(vb0, vb1, vb2, d0, d1, d2)
                 c0 += t * d0
@@ -260,17 +255,9 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbs
         diag = 1.0 + dt * dt * (gamma * Fsum[i] + beta * Fbsum[i]) + f * xs
         rhs[0, i] = v[0, i] - dt * b0 - f * c0
         rhs[1, i] = v[1, i] - dt * b1 - f * c1
-        blocks[0, 0, i] = diag - f * g00
-        blocks[0, 1, i] = -f * g01
-        blocks[1, 0, i] = -f * g01
-        blocks[1, 1, i] = diag - f * g11
         if dim == 3:
             rhs[2, i] = v[2, i] - dt * b2 - f * c2
-            blocks[0, 2, i] = -f * g02
-            blocks[2, 0, i] = -f * g02
-            blocks[1, 2, i] = -f * g12
-            blocks[2, 1, i] = -f * g12
-            blocks[2, 2, i] = diag - f * g22
+        write_blocks(blocks, i, diag, f, g00, g01, g02, g11, g12, g22, dim)
 
 
 def _nonneg(what: str, value: Any, unit: str) -> float:

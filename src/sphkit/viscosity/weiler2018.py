@@ -46,13 +46,11 @@ x differences take the minimum image. Units: ``nu`` and ``nu_boundary`` are kine
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numba
 import numpy as np
 
-from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import delta, delta2, dot, point
@@ -62,9 +60,12 @@ from sphkit.core.viscous import (
     MORRIS_BETA_MAX,
     add_velocity_change,
     check_wall_options,
+    laplacian_diagonal_pair,
     laplacian_pair,
+    outer_add,
     register_wall_fields,
     wall_pair,
+    write_blocks,
 )
 
 _JIT = dict(cache=True, fastmath=True)
@@ -118,25 +119,17 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, 
             j = idx[k]
             d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
             r2 = dot(d0, d1, d2, d0, d1, d2)
-            s = cf * m[j] / rho[j] / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim)
-            g00 += s * d0 * d0
-            g01 += s * d0 * d1
-            g02 += s * d0 * d2
-            g11 += s * d1 * d1
-            g12 += s * d1 * d2
-            g22 += s * d2 * d2
+            s = laplacian_diagonal_pair(cf * m[j] / rho[j], r2, eps, kid, h, dim)
+            g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11, g12,
+                                                     g22)
         if cb > 0.0:
             for k in range(boff[i], boff[i + 1]):
                 b = bidx[k]
                 d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
-                s = (beta * cb * rho0 * bV[b] / rho[i] / (r2 + eps)
-                     * kernel_dw(kid, math.sqrt(r2), h, dim))
-                g00 += s * d0 * d0
-                g01 += s * d0 * d1
-                g02 += s * d0 * d2
-                g11 += s * d1 * d1
-                g12 += s * d1 * d2
-                g22 += s * d2 * d2
+                s = laplacian_diagonal_pair(beta * cb * rho0 * bV[b] / rho[i], r2, eps, kid, h,
+                                            dim)
+                g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11,
+                                                         g12, g22)
                 vb0, vb1, vb2 = point(bv, b, dim)
                 t = s * dot(vb0, vb1, vb2, d0, d1, d2)
                 b0 += t * d0
@@ -144,19 +137,11 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, 
                 b2 += t * d2
         f = dt / rho[i]
         rhs[0, i] = v[0, i] - f * b0
-        blocks[0, 0, i] = 1.0 - f * g00
         if dim > 1:
             rhs[1, i] = v[1, i] - f * b1
-            blocks[0, 1, i] = -f * g01
-            blocks[1, 0, i] = -f * g01
-            blocks[1, 1, i] = 1.0 - f * g11
         if dim > 2:
             rhs[2, i] = v[2, i] - f * b2
-            blocks[0, 2, i] = -f * g02
-            blocks[2, 0, i] = -f * g02
-            blocks[1, 2, i] = -f * g12
-            blocks[2, 1, i] = -f * g12
-            blocks[2, 2, i] = 1.0 - f * g22
+        write_blocks(blocks, i, 1.0, f, g00, g01, g02, g11, g12, g22, dim)
 
 
 class Weiler2018(NonPressureForce):
