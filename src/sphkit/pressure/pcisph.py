@@ -77,7 +77,10 @@ Gissler and Teschner 2010, "Boundary handling and adaptive time-stepping for PCI
 which shrinks the step when the density error is too large): a solve that stops at
 ``max_iterations`` above the tolerance halves the step bound (:meth:`PCISPH.max_time_step`,
 at least ``DT_FLOOR``); a solve that converges within half of ``max_iterations`` raises it by
-10 % (dropped above ``DT_FREE``). Why: with SPlisHSPlasH's defaults (steps up to 5 ms, 100
+10 % (dropped above ``DT_FREE``). The bound starts at the run's first step (the scene's initial
+step, 1 ms by default), so the steps grow from it by 10 % per easy solve: a floating cube in a
+3D pool with volume maps, whose first solve converged at 1 ms in 3 sweeps, went unstable in its
+second step when that jumped to the CFL cap of 5 ms (393 m/s at 7 ms). Why: with SPlisHSPlasH's defaults (steps up to 5 ms, 100
 iterations, 0.01 %) a 2D column 0.5 m high (r = 1 cm) landing on its floor needs more sweeps
 than 100 from p = 0 (the linearized iteration matrix ``delta A`` has eigenvalues in (0, 1.2]:
 stable, but its smallest, the column's hydrostatic mode, is about 0.001). The residual compression
@@ -276,7 +279,9 @@ class PCISPH(PressureSolver):
         b = state.get("dt_bound")
         self.dt_bound = float("inf") if b is None else float(b)
 
-    def _adapt(self, dt: float, iterations: int, converged: bool) -> None:
+    def _adapt(self, dt: float, iterations: int, converged: bool, first: bool) -> None:
+        if first and np.isinf(self.dt_bound):  # the steps grow from the run's first one
+            self.dt_bound = dt
         if not converged:
             self.dt_bound = max(DT_SHRINK * dt, DT_FLOOR)
         elif iterations <= self.control.max_iterations // 2 and np.isfinite(self.dt_bound):
@@ -334,7 +339,7 @@ class PCISPH(PressureSolver):
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
-        self._adapt(dt, its, ok)
+        self._adapt(dt, its, ok, state.step == 1)
         a += ap
         f["p"] = p * f["rho0"]
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
