@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from sphkit.core.krylov import KrylovStats
-from sphkit.core.neighbors import neighbor_lists, zorder_permutation
+from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats
@@ -319,6 +319,8 @@ class Simulation:
         k = self.scene.configuration.zsort_every
         if k and self.step_count % k == 0:
             st.fluid.permute(zorder_permutation(st.fluid["x"], st.h))
+        # the last step's lists go before the search builds the new ones (a lower peak)
+        st.nl_ff = NeighborList.empty(0)
         st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic)
         self.boundary_model.update(st)
 
