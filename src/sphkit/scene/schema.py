@@ -937,6 +937,11 @@ class Configuration(_Model):
     pressure: PressureConfig = PressureConfig()
     boundary: BoundaryConfig = BoundaryConfig()
     start: StartConfig = StartConfig()
+    neighbor_skin: float = Field(
+        0.0, ge=0, le=1, description="Verlet neighbour lists: the fluid's lists are searched "
+        "with the radius h (1 + neighbor_skin) and reused until a particle has moved half the "
+        "skin, each step cut to the pairs closer than h (the same pairs, summed in another "
+        "order: results agree to round-off); 0: a search every step (default)")
     zsort_every: int = Field(
         50, ge=0, description="reorder particles along a z-curve every this many steps (0: never)"
     )
