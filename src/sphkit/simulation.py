@@ -5,7 +5,7 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 
 1. neighbour search: every ``zsort_every`` steps the fluid is reordered along a z-order curve;
    fluid-fluid CSR lists (with ``neighbor_skin`` > 0 cut from Verlet lists reused across steps,
-   :class:`sphkit.core.neighbors.VerletLists`), fluid-boundary lists from the boundary model;
+   :class:`sphkit.core.verlet.VerletLists`), fluid-boundary lists from the boundary model;
 2. densities ``rho_i = rho0_i (sum_j V0_j W_ij + sum_b V_b W_ib)`` (number densities of the
    particles' own rest densities, Solenthaler & Pajarola 2008; with the solver's cached pair
    gradients in the same pass where it uses them), and the boundary pressure model's view of
@@ -44,12 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from sphkit.core.krylov import KrylovStats
-from sphkit.core.neighbors import (
-    NeighborList,
-    VerletLists,
-    neighbor_lists,
-    zorder_permutation,
-)
+from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats
@@ -61,6 +56,7 @@ from sphkit.core.timestep import (
     symplectic_euler,
     wrap_periodic,
 )
+from sphkit.core.verlet import VerletLists
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world
 from sphkit.world.settle import MIN_PERIODS, SettlePlan
