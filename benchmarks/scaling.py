@@ -2,7 +2,8 @@
 
     python benchmarks/scaling.py [--solver dfsph|wcsph|pcisph|pbf|iisph|all] [--radii R,R,...]
                                  [--large] [--until T] [--repeat 3] [--threads 2]
-                                 [--codes sphkit,splishsplash] [--json FILE]
+                                 [--codes sphkit,splishsplash] [--precision float32] [--skin S]
+                                 [--json FILE]
 
 Runs the DamBreakModel dam break of ``scenes/dambreak_<solver>.json`` (SPlisHSPlasH's setup,
 Akinci walls; the same file in both codes) with the particle radius replaced: by default 0.025,
@@ -20,7 +21,8 @@ particle-step (wall time / steps / fluid particles), the peak resident memory of
 process (``ru_maxrss``) in MB and in bytes per fluid particle, the same less the process's
 resident memory before the scene was built (Python, Numba's compiled code, the wheel: ``net
 B/p``), and the ratio sphkit / SPlisHSPlasH of the wall time per simulated second (below 1:
-sphkit is faster) and of the peak memory.
+sphkit is faster) and of the peak memory. ``--precision`` and ``--skin`` set sphkit's
+``configuration.precision`` and ``configuration.neighbor_skin`` (Verlet lists) for its runs.
 """
 
 from __future__ import annotations
@@ -101,8 +103,20 @@ def main() -> int:
     ap.add_argument("--threads", type=int, default=2, help="threads for both codes (default 2)")
     ap.add_argument("--codes", default="sphkit,splishsplash", metavar="LIST",
                     help="sphkit, splishsplash or both (default)")
+    ap.add_argument("--precision", choices=("float64", "float32"),
+                    help="sphkit's configuration.precision (default: float64)")
+    ap.add_argument("--skin", type=float, metavar="S",
+                    help="sphkit's configuration.neighbor_skin: Verlet lists with a skin of S h "
+                         "(default: none, a search every step)")
     ap.add_argument("--json", type=Path, metavar="FILE", help="also write the results as JSON")
     args = ap.parse_args()
+    config: dict = {}
+    if args.precision:
+        config["precision"] = args.precision
+    if args.skin is not None:
+        if not 0.0 <= args.skin <= 1.0:
+            ap.error(f"--skin: got {args.skin}; expected a fraction of h in [0, 1]")
+        config["neighbor_skin"] = args.skin
     try:
         radii = (tuple(float(v) for v in args.radii.split(",")) if args.radii else RADII)
     except ValueError:
@@ -120,8 +134,8 @@ def main() -> int:
         ap.error(f"--codes: got {args.codes!r}; expected sphkit, splishsplash or both")
     solvers = SOLVERS if args.solver == "all" else (args.solver,)
     print(f"# {time.strftime('%Y-%m-%d %H:%M')} {args.threads} threads each, to t = {args.until} "
-          f"s, fastest of {args.repeat}; B/p: peak resident bytes per fluid particle, net B/p: "
-          "less the process before the scene")
+          f"s, fastest of {args.repeat}; sphkit settings {config or 'default'}; B/p: peak "
+          "resident bytes per fluid particle, net B/p: less the process before the scene")
     print(COLUMNS, flush=True)
     results = []
     with tempfile.TemporaryDirectory(prefix="sphkit-scaling-") as tmp:
@@ -134,7 +148,7 @@ def main() -> int:
                 runs: dict[str, list[dict]] = {"sphkit": [], "splishsplash": []}
                 for _ in range(args.repeat):
                     if "sphkit" in codes:
-                        runs["sphkit"].append(vs.run_sphkit(path, args.threads, warm))
+                        runs["sphkit"].append(vs.run_sphkit(path, args.threads, warm, config))
                     if "splishsplash" in codes:
                         runs["splishsplash"].append(vs.run_splishsplash(path, args.threads))
                     if any("wall" not in r for rs in runs.values() for r in rs):
@@ -143,7 +157,7 @@ def main() -> int:
                 for code, label in (("sphkit", "sphkit"), ("splishsplash", "SPlisHSPlasH")):
                     if code in best:
                         print(_row(solver, radius, label, best[code]), flush=True)
-                entry = {"solver": solver, "radius": radius, "until": args.until,
+                entry = {"solver": solver, "radius": radius, "until": args.until, "config": config,
                          **best, "runs": runs, "ratio": None, "memory_ratio": None}
                 sk, sp = best.get("sphkit", {}), best.get("splishsplash", {})
                 if "wall" in sk and "wall" in sp and sk["sim_time"] > 0 and sp["sim_time"] > 0:

@@ -97,7 +97,7 @@ def run_splishsplash(scene: Path, threads: int) -> dict:
 
 
 SPHKIT_CODE = """
-import gc, json, resource, sys, time
+import gc, json, os, resource, sys, time
 import numpy as np
 from sphkit.scene.files import load_scene
 from sphkit.scene.schema import SceneError
@@ -116,10 +116,15 @@ def rss():  # resident bytes now (Linux; 0 elsewhere)
         pass
     return 0
 
+def configured(scene):  # sphkit-only settings of the run (SPHKIT_BENCH_CONFIG, JSON)
+    for key, value in json.loads(os.environ.get("SPHKIT_BENCH_CONFIG") or "{}").items():
+        setattr(scene.configuration, key, value)
+    return scene
+
 try:
-    sc = load_scene(sys.argv[1])
+    sc = configured(load_scene(sys.argv[1]))
     # warm-up (compilation) on the scene itself or, for large runs, on a smaller copy of it
-    warm = Simulation(load_scene(sys.argv[2]) if len(sys.argv) > 2 else sc)
+    warm = Simulation(configured(load_scene(sys.argv[2])) if len(sys.argv) > 2 else sc)
     for _ in range(3):
         warm.step()
     del warm
@@ -155,14 +160,17 @@ say("SPHKIT-BENCH", rec)
 """
 
 
-def run_sphkit(scene: Path, threads: int, warm: Path | None = None) -> dict:
+def run_sphkit(scene: Path, threads: int, warm: Path | None = None,
+               config: dict | None = None) -> dict:
     """Run the scene in sphkit (in a subprocess so the thread count applies); ``{"unavailable":
     ...}`` when sphkit rejects the scene, ``{"error": ...}`` when the run fails. ``warm``: the
     scene of the untimed warm-up run (default: the scene itself; a small copy of a large scene
     keeps the warm-up short and out of the peak memory). The result carries the child's peak
     resident memory ``maxrss`` and its resident memory before the measured world was built
-    ``rss_base`` (bytes)."""
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+    ``rss_base`` (bytes). ``config``: sphkit-only settings of ``configuration`` for the run
+    (e.g. ``{"precision": "float32", "neighbor_skin": 0.5}``)."""
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
+               SPHKIT_BENCH_CONFIG=json.dumps(config or {}))
     cmd = [sys.executable, "-c", SPHKIT_CODE, str(scene)] + ([str(warm)] if warm else [])
     try:
         res = subprocess.run(cmd, env=env,
