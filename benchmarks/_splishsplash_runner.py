@@ -19,10 +19,13 @@ every step): touching the simulation object after ``run()`` returns crashes the 
   PBF).
 
 The line ``SPHKIT-BENCH {json}`` carries steps, wall seconds of ``run()``, the simulated time,
-and the sums of the per-step values above (the caller divides by the steps).
+and the sums of the per-step values above (the caller divides by the steps); ``maxrss`` is the
+process's peak resident memory (``ru_maxrss``) and ``rss_base`` its resident memory before the
+scene was loaded, in bytes.
 """
 
 import json
+import resource
 import sys
 import tempfile
 import time
@@ -31,8 +34,21 @@ import numpy as np
 import pysplishsplash as sph
 
 
+def _rss() -> int:
+    """Resident bytes now (Linux; 0 elsewhere)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmRSS:"):
+                    return 1024 * int(line.split()[1])
+    except OSError:
+        pass
+    return 0
+
+
 def main() -> None:
     scene = sys.argv[1]
+    rss_base = _rss()  # the process before the scene: Python, NumPy, the wheel
     base = sph.Exec.SimulatorBase()
     out = tempfile.mkdtemp(prefix="sphkit-bench-sps-")
     base.init(["bench", "--no-gui", "--output-dir", out, "--no-cache", scene], "bench")
@@ -65,6 +81,8 @@ def main() -> None:
     t0 = time.perf_counter()
     base.run()
     rec["wall"] = time.perf_counter() - t0
+    rec["maxrss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # Linux: KiB
+    rec["rss_base"] = rss_base
     # particle counts are parsed from the wheel's own log by the caller
     print("SPHKIT-BENCH " + json.dumps(rec), flush=True)
 

@@ -97,7 +97,7 @@ def run_splishsplash(scene: Path, threads: int) -> dict:
 
 
 SPHKIT_CODE = """
-import json, sys, time
+import gc, json, os, resource, sys, time
 import numpy as np
 from sphkit.scene.files import load_scene
 from sphkit.scene.schema import SceneError
@@ -106,11 +106,30 @@ from sphkit.simulation import InstabilityError, Simulation
 def say(mark, obj):
     print(mark + " " + json.dumps(obj), flush=True)
 
+def rss():  # resident bytes now (Linux; 0 elsewhere)
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmRSS:"):
+                    return 1024 * int(line.split()[1])
+    except OSError:
+        pass
+    return 0
+
+def configured(scene):  # sphkit-only settings of the run (SPHKIT_BENCH_CONFIG, JSON)
+    for key, value in json.loads(os.environ.get("SPHKIT_BENCH_CONFIG") or "{}").items():
+        setattr(scene.configuration, key, value)
+    return scene
+
 try:
-    sc = load_scene(sys.argv[1])
-    warm = Simulation(sc)
+    sc = configured(load_scene(sys.argv[1]))
+    # warm-up (compilation) on the scene itself or, for large runs, on a smaller copy of it
+    warm = Simulation(configured(load_scene(sys.argv[2])) if len(sys.argv) > 2 else sc)
     for _ in range(3):
         warm.step()
+    del warm
+    gc.collect()
+    rss_base = rss()  # the process before the measured world: Python, Numba, compiled code
     sim = Simulation(sc)
 except SceneError as e:
     say("SPHKIT-UNAVAILABLE", " / ".join(str(e).splitlines()))
@@ -135,16 +154,26 @@ except InstabilityError as e:
     sys.exit(0)
 rec["wall"] = time.perf_counter() - t0
 rec["sim_time"] = sim.time
+rec["maxrss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # Linux: KiB
+rec["rss_base"] = rss_base
 say("SPHKIT-BENCH", rec)
 """
 
 
-def run_sphkit(scene: Path, threads: int) -> dict:
+def run_sphkit(scene: Path, threads: int, warm: Path | None = None,
+               config: dict | None = None) -> dict:
     """Run the scene in sphkit (in a subprocess so the thread count applies); ``{"unavailable":
-    ...}`` when sphkit rejects the scene, ``{"error": ...}`` when the run fails."""
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+    ...}`` when sphkit rejects the scene, ``{"error": ...}`` when the run fails. ``warm``: the
+    scene of the untimed warm-up run (default: the scene itself; a small copy of a large scene
+    keeps the warm-up short and out of the peak memory). The result carries the child's peak
+    resident memory ``maxrss`` and its resident memory before the measured world was built
+    ``rss_base`` (bytes). ``config``: sphkit-only settings of ``configuration`` for the run
+    (e.g. ``{"precision": "float32", "neighbor_skin": 0.5}``)."""
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
+               SPHKIT_BENCH_CONFIG=json.dumps(config or {}))
+    cmd = [sys.executable, "-c", SPHKIT_CODE, str(scene)] + ([str(warm)] if warm else [])
     try:
-        res = subprocess.run([sys.executable, "-c", SPHKIT_CODE, str(scene)], env=env,
+        res = subprocess.run(cmd, env=env,
                              capture_output=True, text=True, timeout=TIMEOUT_S)
     except subprocess.TimeoutExpired:
         return {"error": f"no result within {TIMEOUT_S} s"}

@@ -84,10 +84,15 @@ def accurate(boundary: str) -> str:
     return "mls" if registry.get("boundary", boundary).kind == "particles" else "hydrostatic"
 
 
+#: floating-point type of the runs (``--precision``)
+PRECISION = "float64"
+
+
 def _set_pressure(scene: Scene, bp: str, cache: str, eta: float | None,
                   dt_max: float | None) -> Scene:
     d = scene.model_dump()
     cfg = d["configuration"]
+    cfg["precision"] = PRECISION
     cfg["boundary"]["map_cache_dir"] = cache
     if bp != "default":
         cfg["boundary"]["pressure"] = bp
@@ -301,7 +306,11 @@ def main() -> None:
                     help="boxes: fluid_blocks[].lattice (hexagonal is 2D only)")
     ap.add_argument("--dambreak", action="store_true",
                     help="run the dam break of each row instead of the column")
+    ap.add_argument("--precision", choices=("float64", "float32"), default="float64",
+                    help="floating-point type of the particle fields (default float64)")
     args = ap.parse_args()
+    global PRECISION
+    PRECISION = args.precision
     logging.disable(logging.WARNING)
     rows = []
     for b, bp in itertools.product(args.boundaries, args.boundary_pressure):
@@ -314,7 +323,7 @@ def main() -> None:
 
 
 def _columns(args: argparse.Namespace, rows: list[tuple[str, str]], cache: str) -> None:
-    print(f"Hydrostatic columns, {args.dim}D, {args.until} s, averages over the last "
+    print(f"Hydrostatic columns, {args.dim}D, {PRECISION}, {args.until} s, averages over the last "
           f"{args.average} s; slope / rho0 g")
     print("| scene | solver | boundary | pressure | width | n | slope | inner | per step: mean "
           "+- std [min, max] | per frame from 1 s [min, max] | wall [%] | iterations | ms/step "
@@ -377,7 +386,8 @@ def _plot(curves: list) -> None:
     ax.set_xlabel("depth [m]")
     ax.set_ylabel("pressure [kPa]")
     ax.legend(fontsize=4)
-    out = Path(__file__).with_name("hydrostatic.png")
+    out = Path(__file__).with_name("hydrostatic.png" if PRECISION == "float64"
+                                   else f"hydrostatic.{PRECISION}.png")
     fig.savefig(out, dpi=120, bbox_inches="tight")
     print(f"plot: {out}")
 

@@ -120,6 +120,10 @@ CASES = (
 )
 
 
+#: floating-point type of the runs (``--precision``)
+PRECISION = "float64"
+
+
 def _scene(method: str, r: float, lx: float, dt: float, c: float, wall_velocity: str = "zero",
            beta_max: float = 1.5, kernel: str = "cubic", eps: float = 0.01) -> Scene:
     vis = {"method": method, "coefficient": NU,
@@ -132,7 +136,7 @@ def _scene(method: str, r: float, lx: float, dt: float, c: float, wall_velocity:
         "name": f"poiseuille-{method}",
         "configuration": {
             "dim": 2, "particle_radius": r, "gravity": [FORCE, 0.0], "zsort_every": 0,
-            "kernel": kernel,
+            "kernel": kernel, "precision": PRECISION,
             "periodic_x": [0.0, lx],
             "pressure": {"method": "wcsph", "equation": "linear", "stiffness": c * c},
             "time": {"dt": dt, "cfl": False},
@@ -237,10 +241,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="10 particles across")
     ap.add_argument("--methods", default=",".join(METHODS),
                     help=f"comma-separated viscosity methods (default {','.join(METHODS)})")
+    ap.add_argument("--precision", choices=("float64", "float32"), default="float64",
+                    help="floating-point type of the particle fields (default float64)")
     args = ap.parse_args(argv)
+    global PRECISION
+    PRECISION = args.precision
     methods = [m for m in args.methods.split(",") if m]
     n = 10 if args.quick else args.n
-    print(f"Poiseuille flow, {n} rows across, u_max {U_MAX:.3g} m/s, "
+    print(f"Poiseuille flow, {n} rows across, {PRECISION}, u_max {U_MAX:.3g} m/s, "
           f"settling time t_s {SETTLING:.3f} s; error = max |u - u_exact| / u_max")
     print("case = lattice/walls/setup/wall velocity; setup Morris = quintic spline, support 3 "
           "spacings, eps 0.01/9 h^2; sphkit = cubic spline, support 2 spacings (h = 4r), "
@@ -288,7 +296,7 @@ def main(argv: list[str] | None = None) -> int:
     ax.set_ylabel("y [mm]")
     ax.set_title("Poiseuille start-up (lines: Morris 1997 Eq. 21)")
     ax.legend(fontsize=7)
-    path = Path(__file__).with_suffix(".png")
+    path = Path(__file__).with_suffix(".png" if PRECISION == "float64" else f".{PRECISION}.png")
     fig.savefig(path, dpi=120, bbox_inches="tight")
     print(f"plot: {path}")
     return 0

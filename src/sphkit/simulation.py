@@ -4,7 +4,8 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 :func:`sphkit.world.build_world`; one step (DESIGN.md, "One time step"; docs/architecture.md):
 
 1. neighbour search: every ``zsort_every`` steps the fluid is reordered along a z-order curve;
-   fluid-fluid CSR lists, fluid-boundary lists from the boundary model;
+   fluid-fluid CSR lists (with ``neighbor_skin`` > 0 cut from Verlet lists reused across steps,
+   :class:`sphkit.core.verlet.VerletLists`), fluid-boundary lists from the boundary model;
 2. densities ``rho_i = rho0_i (sum_j V0_j W_ij + sum_b V_b W_ib)`` (number densities of the
    particles' own rest densities, Solenthaler & Pajarola 2008; with the solver's cached pair
    gradients in the same pass where it uses them), and the boundary pressure model's view of
@@ -43,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from sphkit.core.krylov import KrylovStats
-from sphkit.core.neighbors import neighbor_lists, zorder_permutation
+from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats
@@ -55,6 +56,7 @@ from sphkit.core.timestep import (
     symplectic_euler,
     wrap_periodic,
 )
+from sphkit.core.verlet import VerletLists
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world
 from sphkit.world.settle import MIN_PERIODS, SettlePlan
@@ -136,6 +138,9 @@ class Simulation:
         self.last: StepStats | None = None
         self.last_solver: SolverStats | None = None
         self._frame = -1
+        skin = self.scene.configuration.neighbor_skin
+        #: Verlet lists of the fluid (``configuration.neighbor_skin`` > 0), else None
+        self._verlet = VerletLists(skin) if skin > 0.0 else None
         if settle and world.settle is not None:
             rep = world.start
             rep.settle_steps, rep.settle_time, rep.settle_speed = self.settle(world.settle)
@@ -238,6 +243,8 @@ class Simulation:
         from sphkit.io.checkpoint import CheckpointError
 
         st = self.state
+        if self._verlet is not None:  # the lists are searched afresh after a restore
+            self._verlet = VerletLists(self._verlet.skin)
         sets = ck.meta["sets"]
         try:
             old_bx = st.boundary["x"].copy()
@@ -317,9 +324,15 @@ class Simulation:
     def _neighbors(self) -> None:
         st = self.state
         k = self.scene.configuration.zsort_every
-        if k and self.step_count % k == 0:
+        reordered = bool(k and self.step_count % k == 0)
+        if reordered:
             st.fluid.permute(zorder_permutation(st.fluid["x"], st.h))
-        st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic)
+        # the last step's lists go before the search builds the new ones (a lower peak)
+        st.nl_ff = NeighborList.empty(0)
+        if self._verlet is not None:  # configuration.neighbor_skin: lists reused across steps
+            st.nl_ff = self._verlet.lists(st.fluid["x"], st.h, st.periodic, rebuild=reordered)
+        else:
+            st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic)
         self.boundary_model.update(st)
 
     def compute_density(self) -> None:

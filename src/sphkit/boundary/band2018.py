@@ -71,7 +71,7 @@ def _transpose(boff, bidx, nb):
     for b in range(nb):
         count[b + 1] += count[b]
     fill = count[:nb].copy()
-    tfluid = np.empty(bidx.shape[0], dtype=np.int64)
+    tfluid = np.empty(bidx.shape[0], dtype=np.int32)  # fluid indices: int32 as the lists'
     for i in range(nf):
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
@@ -211,7 +211,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.ridge = float(ridge)
         self.use = np.ascontiguousarray(use, dtype=np.bool_)
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
-        self.tfluid = np.empty(0, dtype=np.int64)
+        self.tfluid = np.empty(0, dtype=np.int32)
         self.coef = np.empty(0)
 
     def init(self, state: SimState) -> None:

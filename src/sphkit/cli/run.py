@@ -94,6 +94,10 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                      help="particle budget: refuse a scene that needs more particles, estimated "
                           "before anything is allocated (default: the scene's "
                           f"configuration.max_particles, {MAX_PARTICLES:,})")
+    run.add_argument("--precision", choices=("float64", "float32"),
+                     help="floating-point type of the particle fields and the cached pair "
+                          "values (default: the scene's configuration.precision, float64); "
+                          "float32 halves their memory")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="continue the run in output folder DIR from its newest checkpoint, "
                           "appending frames (only --until may change the scene)")
@@ -190,6 +194,8 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
             scene.output.formats = args.formats
         if args.max_particles is not None:
             scene.configuration.max_particles = args.max_particles
+        if getattr(args, "precision", None) is not None:
+            scene.configuration.precision = args.precision
         sim = Simulation.from_scene(scene)
         Interrupts.check()  # a Ctrl-C that a library swallowed while the world was built
     except SceneError as e:
@@ -257,6 +263,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
                         "series": writer.series_path.name if "vtk" in formats else None},
             )
             manifest.data["start"] = sim.world.start.to_dict()
+            manifest.data["precision"] = sim.dtype.name  # also in scene.configuration
             manifest.write()
     except OSError as e:
         error(f"cannot write to the output folder {str(out_dir)!r}: {e}")

@@ -23,6 +23,8 @@ Neighbour lists are compressed sparse rows: the neighbours of query point ``i`` 
 queried against itself). The scan writes into rows of a fixed capacity (grown and redone on
 overflow) in parallel over query points, then the rows are compacted.
 
+Verlet lists reused across steps (``configuration.neighbor_skin``): :mod:`sphkit.core.verlet`.
+
 :func:`zorder_permutation` gives the permutation that sorts particles along a Morton (z-order)
 curve of their cells, which the simulation applies to every particle field every few steps.
 """
@@ -35,6 +37,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+#: first sorted slot of every cell (dense) or bucket (hashed): int32 like the neighbour indices
+#: (half the memory of int64; a grid holds fewer than 2^31 points)
+_START = np.int32
 _BITS = 21
 _LIMIT = (1 << _BITS) - 2  # largest relative cell coordinate (one cell kept free on each side)
 
@@ -78,12 +83,14 @@ def _counting_sort(buckets, keys, x, table_size, bucket_start, sorted_index, sor
         bucket_start[b + 1] += bucket_start[b]
     fill = bucket_start[:table_size].copy()
     dim = x.shape[0]
+    with_keys = sorted_key.shape[0] > 0  # the dense grid needs no keys
     for i in range(n):
         b = buckets[i]
         s = fill[b]
         fill[b] = s + 1
         sorted_index[s] = i
-        sorted_key[s] = keys[i]
+        if with_keys:
+            sorted_key[s] = keys[i]
         for d in range(3):
             sorted_x[d, s] = x[d, i] if d < dim else 0.0
 
@@ -337,10 +344,12 @@ class Grid:
         if n and not np.all(np.isfinite(x)):
             raise ValueError("positions: contain NaN or inf; cannot build a neighbour grid")
         self.sorted_index = np.empty(n, dtype=np.int32)
-        self.sorted_key = np.empty(n, dtype=np.int64)
+        #: the packed cell key of each sorted point (hashed grid only: the dense grid has none)
+        self.sorted_key = np.empty(0, dtype=np.int64)
         self.sorted_x = np.empty((3, n), dtype=x.dtype)  # zero-padded to 3 rows
         self.dense = n > 0 and self._build_dense(xc)
         if not self.dense:
+            self.sorted_key = np.empty(n, dtype=np.int64)
             self._build_hashed(xc)
 
     def _build_dense(self, xc: np.ndarray) -> bool:
@@ -362,7 +371,7 @@ class Grid:
         self.lo, self.shape = lo, shape
         cell = np.empty(n, dtype=np.int64)
         _dense_cells(xc, dim, inv_a, lo, shape, cell)
-        self.cell_start = np.empty(cells + 1, dtype=np.int64)
+        self.cell_start = np.empty(cells + 1, dtype=_START)
         _counting_sort(cell, cell, xc, cells, self.cell_start, self.sorted_index,
                        self.sorted_key, self.sorted_x)
         return True
@@ -388,7 +397,7 @@ class Grid:
         keys = np.empty(n, dtype=np.int64)
         buckets = np.empty(n, dtype=np.int64)
         _cells(xc, self.dim, 1.0 / h, origin, self.mask, keys, buckets)
-        self.bucket_start = np.empty(size + 1, dtype=np.int64)
+        self.bucket_start = np.empty(size + 1, dtype=_START)
         _counting_sort(buckets, keys, xc, size, self.bucket_start, self.sorted_index,
                        self.sorted_key, self.sorted_x)
 

@@ -929,11 +929,19 @@ class Configuration(_Model):
     particle_radius: float = Field(0.025, gt=0, description="particle radius r [m]")
     kernel: Literal["cubic", "wendland", "poly6", "spiky", "quintic"] = "cubic"
     gravity: Vec = Field([0.0, -9.81, 0.0], description="gravitational acceleration [m/s^2]")
-    precision: Literal["float64", "float32"] = "float64"
+    precision: Literal["float64", "float32"] = Field(
+        "float64", description="floating-point type of the particle fields and of the cached "
+        "pair values (pair gradients, MLS coefficients): float32 halves their memory (sphkit "
+        "run --precision); the accuracy of each is in validation/README.md, 'float32'")
     time: TimeConfig = TimeConfig()
     pressure: PressureConfig = PressureConfig()
     boundary: BoundaryConfig = BoundaryConfig()
     start: StartConfig = StartConfig()
+    neighbor_skin: float = Field(
+        0.0, ge=0, le=1, description="Verlet neighbour lists: the fluid's lists are searched "
+        "with the radius h (1 + neighbor_skin) and reused until a particle has moved half the "
+        "skin, each step cut to the pairs closer than h (the same pairs, summed in another "
+        "order: results agree to round-off); 0: a search every step (default)")
     zsort_every: int = Field(
         50, ge=0, description="reorder particles along a z-curve every this many steps (0: never)"
     )
