@@ -80,8 +80,8 @@ at least ``DT_FLOOR``); a solve that converges within half of ``max_iterations``
 10 % (dropped above ``DT_FREE``). The bound starts at the run's first step (the scene's initial
 step, 1 ms by default), so the steps grow from it by 10 % per easy solve: a floating cube in a
 3D pool with volume maps, whose first solve converged at 1 ms in 3 sweeps, went unstable in its
-second step when that jumped to the CFL cap of 5 ms (393 m/s at 7 ms). Why: with SPlisHSPlasH's defaults (steps up to 5 ms, 100
-iterations, 0.01 %) a 2D column 0.5 m high (r = 1 cm) landing on its floor needs more sweeps
+second step when that jumped to the CFL cap of 5 ms (393 m/s at 7 ms). Why: with
+SPlisHSPlasH's defaults (steps up to 5 ms, 100 iterations, 0.01 %) a 2D column 0.5 m high (r = 1 cm) landing on its floor needs more sweeps
 than 100 from p = 0 (the linearized iteration matrix ``delta A`` has eigenvalues in (0, 1.2]:
 stable, but its smallest, the column's hydrostatic mode, is about 0.001). The residual compression
 piles up at the walls (13 % predicted before the pressure at a step start), the pressure that
