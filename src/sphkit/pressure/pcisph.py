@@ -75,23 +75,23 @@ r (0.15-0.2 r) off the walls.
 **Time step** (not in the paper nor in SPlisHSPlasH; after the adaptive step of Ihmsen, Akinci,
 Gissler and Teschner 2010, "Boundary handling and adaptive time-stepping for PCISPH", VRIPHYS,
 which shrinks the step when the density error is too large): a solve that stops at
-``max_iterations`` above the tolerance halves the step bound (:meth:`PCISPH.max_time_step`,
-at least ``DT_FLOOR``); a solve that converges within half of ``max_iterations`` raises it by
-10 % (dropped above ``DT_FREE``). The bound starts at the run's first step (the scene's initial
-step, 1 ms by default), so the steps grow from it by 10 % per easy solve: a floating cube in a
-3D pool with volume maps, whose first solve converged at 1 ms in 3 sweeps, went unstable in its
-second step when that jumped to the CFL cap of 5 ms (393 m/s at 7 ms). Why: with
-SPlisHSPlasH's defaults (steps up to 5 ms, 100 iterations, 0.01 %) a 2D column 0.5 m high (r = 1 cm) landing on its floor needs more sweeps
-than 100 from p = 0 (the linearized iteration matrix ``delta A`` has eigenvalues in (0, 1.2]:
-stable, but its smallest, the column's hydrostatic mode, is about 0.001). The residual compression
-piles up at the walls (13 % predicted before the pressure at a step start), the pressure that
-removes it moves particles by 0.3-0.8 r within the iteration while the forces keep the
-step-start gradients, and the nonlinear prediction makes the error grow again (it fell to
-0.32 % after 30 sweeps and rose to 0.6 % at 95, then to 1,400 m/s in the next steps).
-SPlisHSPlasH 2.19's own PCISPH, run on the same scene through pysplishsplash, diverges the same
-way at step 11-13 (1,400-4,000 m/s) with all three boundary models. A warm start (IISPH's ``0.5 p``)
-did not prevent it; a fixed 2 ms step did (100 unconverged sweeps per step at rest); the bound
-settles where 100 sweeps suffice (about 1.1 ms for that column at rest, 62 sweeps a step).
+``max_iterations`` above the tolerance halves the step bound (:meth:`PCISPH.max_time_step`, at
+least ``DT_FLOOR``); a solve that converges within half of ``max_iterations`` raises it by 10 %
+(dropped above ``DT_FREE``). Why: with SPlisHSPlasH's defaults (steps up to 5 ms, 100 iterations,
+0.01 %) a 2D column 0.5 m high (r = 1 cm) landing on its floor needs more sweeps than 100 from p =
+0 (the linearized iteration matrix ``delta A`` has eigenvalues in (0, 1.2]: stable, but its
+smallest, the column's hydrostatic mode, is about 0.001). The residual compression piles up at the
+walls (13 % predicted before the pressure at a step start), the pressure that removes it moves
+particles by 0.3-0.8 r within the iteration while the forces keep the step-start gradients, and the
+nonlinear prediction makes the error grow again (it fell to 0.32 % after 30 sweeps and rose to 0.6
+% at 95, then to 1,400 m/s in the next steps). SPlisHSPlasH 2.19's own PCISPH, run on the same
+scene through pysplishsplash, diverges the same way at step 11-13 (1,400-4,000 m/s) with all three
+boundary models. A warm start (IISPH's ``0.5 p``) did not prevent it; a fixed 2 ms step did (100
+unconverged sweeps per step at rest); the bound settles where 100 sweeps suffice (about 1.1 ms for
+that column at rest, 62 sweeps a step). The bound starts at the run's first step (the scene's
+initial step, 1 ms by default), so the steps grow from it by 10 % per easy solve: a floating cube
+in a 3D pool with volume maps, whose first solve converged at 1 ms in 3 sweeps, went unstable in
+its second step when that jumped to the CFL cap of 5 ms (393 m/s at 7 ms).
 The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`).
 """
 
