@@ -88,10 +88,14 @@ nonlinear prediction makes the error grow again (it fell to 0.32 % after 30 swee
 scene through pysplishsplash, diverges the same way at step 11-13 (1,400-4,000 m/s) with all three
 boundary models. A warm start (IISPH's ``0.5 p``) did not prevent it; a fixed 2 ms step did (100
 unconverged sweeps per step at rest); the bound settles where 100 sweeps suffice (about 1.1 ms for
-that column at rest, 62 sweeps a step). The bound starts at the run's first step (the scene's
-initial step, 1 ms by default), so the steps grow from it by 10 % per easy solve: a floating cube
-in a 3D pool with volume maps, whose first solve converged at 1 ms in 3 sweeps, went unstable in
-its second step when that jumped to the CFL cap of 5 ms (393 m/s at 7 ms).
+that column at rest, 62 sweeps a step). Where the run's first solve builds pressure, the bound
+starts at that first step (the scene's initial step, 1 ms by default), so the steps grow from it by
+10 % per easy solve: a floating cube in a 3D pool with volume maps, whose first solve converged at
+1 ms in 3 sweeps, went unstable in its second step when that jumped to the CFL cap of 5 ms (393 m/s
+at 7 ms). A first solve without pressure (a lone particle) leaves the CFL step: a particle thrown
+at 3 m/s against a volume-map wall (tests/test_pcisph_pbf.py) came back at 3.3 m/s when its steps
+grew from 1 ms and at 1.0 m/s at the CFL step (the map's answer to a particle entering its range
+within one step depends on where the step lands).
 The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`).
 """
 
@@ -280,7 +284,7 @@ class PCISPH(PressureSolver):
         self.dt_bound = float("inf") if b is None else float(b)
 
     def _adapt(self, dt: float, iterations: int, converged: bool, first: bool) -> None:
-        if first and np.isinf(self.dt_bound):  # the steps grow from the run's first one
+        if first and np.isinf(self.dt_bound):  # fluid under pressure: steps grow from the first
             self.dt_bound = dt
         if not converged:
             self.dt_bound = max(DT_SHRINK * dt, DT_FLOOR)
@@ -339,7 +343,7 @@ class PCISPH(PressureSolver):
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
-        self._adapt(dt, its, ok, state.step == 1)
+        self._adapt(dt, its, ok, state.step == 1 and bool(np.any(p > 0.0)))
         a += ap
         f["p"] = p * f["rho0"]
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
