@@ -65,7 +65,8 @@ def _time_step(r: float, E: float, nu: float) -> float:
 OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5, "rotation": "moment"}
 #: the elasticity model (``--method``) and the multiple of the explicit step it runs with
 #: (``--dt-factor``; an implicit model may exceed 1)
-MODEL: dict = {"method": "becker2009", "dt_factor": 1.0}
+#: (``--static N``: N backward Euler steps of omega_1 dt = 1e4 for the sag, an implicit model)
+MODEL: dict = {"method": "becker2009", "dt_factor": 1.0, "static": 0}
 
 
 def _scene(dim: int, start: list[float], end: list[float], r: float, E: float, nu: float,
@@ -92,7 +93,16 @@ def sag(layers: int, alpha: float, L: float = 1.0, h: float = 0.1, E: float = 3e
         nu: float = 0.3) -> dict:
     """The 3D cantilever under gravity (module docstring)."""
     r = h / (2 * layers)
-    sim = Simulation(_scene(3, [-6 * r, 0.0, 0.0], [L, h, h], r, E, nu, G, alpha))
+    scene = _scene(3, [-6 * r, 0.0, 0.0], [L, h, h], r, E, nu, G, alpha)
+    if MODEL["static"]:
+        # backward Euler with omega_1 dt = 1e4 and the velocities zeroed after each step: a
+        # Newton step on the static equilibrium (the inertia 1e-8 of the stiffness); the
+        # solve to 1e-10, however many CG iterations that takes
+        omega_est = KL ** 2 * math.sqrt(E * h ** 4 / 12.0 / (RHO * h * h * L ** 4))
+        scene.configuration.time.dt = 1e4 / omega_est
+        scene.materials[0].elasticity.max_iterations = 100000
+        scene.materials[0].elasticity.max_error = 1e-10
+    sim = Simulation(scene)
     f = sim.fluid
     dt = sim.scene.configuration.time.dt
     x0 = f["solid_x0"]
@@ -103,14 +113,14 @@ def sag(layers: int, alpha: float, L: float = 1.0, h: float = 0.1, E: float = 3e
     w_timo = w_eb + q * L ** 2 / (2 * (5 / 6) * E / (2 * (1 + nu)) * h * h)
     omega = KL ** 2 * math.sqrt(E * inertia / (q / G * L ** 4))
     c = 2.0 * omega
-    steps = int(math.ceil(12.0 / omega / dt))
+    steps = MODEL["static"] or int(math.ceil(12.0 / omega / dt))
     tip_sel = x0[0] > L - 2 * r
     history = []
     t0 = time.perf_counter()
     for k in range(steps):
         sim.step()
-        f["v"] *= math.exp(-c * dt)
-        if k % 50 == 0 or k == steps - 1:
+        f["v"] *= 0.0 if MODEL["static"] else math.exp(-c * dt)
+        if k % 50 == 0 or k == steps - 1 or MODEL["static"]:
             tip = f["solid_x0"][0] > L - 2 * r
             history.append(float(np.mean(f["solid_x0"][1, tip] - f["x"][1, tip])))
     wall = time.perf_counter() - t0
@@ -129,6 +139,10 @@ def _factor(sim: Simulation) -> str:
     if solve:
         return ", ".join(f"{k} {v:.3g}" for k, v in solve.items()) + " (last step)"
     stats = getattr(sim.solids[0], "factor_stats", [])
+    cg_stats = getattr(sim.solids[0], "stats", None)
+    if not stats and cg_stats is not None:
+        return (f"CG {cg_stats.iterations} iterations, relative residual "
+                f"{cg_stats.residual:.1e} (last step)")
     return "; ".join(f"factorised {s['n']:.0f} unknowns, {s['nnz']:.0f} nonzeros -> "
                      f"{s['factor_nnz']:.0f} in L+U, {s['bytes'] / 1e6:.2f} MB, "
                      f"{s['seconds']:.3f} s" for s in stats)
@@ -184,7 +198,8 @@ def _level(x: np.ndarray, y: np.ndarray, lo: float, hi: float, r: float) -> floa
 
 
 def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1,
-             E: float = 1e6, viscosity: float = 0.0, dt_max: float = 0.002) -> dict:
+             E: float = 1e6, viscosity: float = 0.0, dt_max: float = 0.002,
+             alpha: float = 0.1) -> dict:
     """The floating block (module docstring): ``layers`` particles across its height."""
     r = H / (2 * layers)
     s = 2 * r
@@ -204,7 +219,7 @@ def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1
                                      "coefficient": viscosity}},
                       {"id": "block", "density0": ratio * RHO,
                        "elasticity": {"method": MODEL["method"], "youngs_modulus": E,
-                                      "poisson_ratio": 0.3, "alpha": 0.1, **OPTIONS}}],
+                                      "poisson_ratio": 0.3, "alpha": alpha, **OPTIONS}}],
         "fluid_blocks": [{"start": a, "end": b, "material": "water"} for a, b in water]
         + [{"start": [x0, y0], "end": [x0 + bw, y0 + H], "material": "block"}],
         "boxes": [{"min": [0.0, 0.0], "max": [W, 2.5 * D]}]})
@@ -242,6 +257,102 @@ def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1
             "wall": wall}
 
 
+def _cap_depth(volume: float, R: float) -> float:
+    """The depth d of the spherical cap of radius R whose volume ``pi d^2 (3R - d) / 3`` is
+    ``volume`` (bisection; 0 <= d <= 2R)."""
+    lo, hi = 0.0, 2.0 * R
+    for _ in range(100):
+        d = 0.5 * (lo + hi)
+        lo, hi = (d, hi) if math.pi * d * d * (3 * R - d) / 3 < volume else (lo, d)
+    return 0.5 * (lo + hi)
+
+
+def floating_ball(layers: int, ratio: float = 0.5, until: float = 2.0, D: float = 0.1,
+                  E: float = 1e6, viscosity: float = 0.0, dt_max: float = 0.002,
+                  alpha: float = 0.1) -> dict:
+    """3D: an elastic ball (diameter D, ``layers`` particles across, E 1 MPa, alpha 0.1,
+    density ``ratio`` x water) released at rest half as deep as Archimedes' depth in DFSPH
+    water 1.5 D deep in a tank 3 D x 3 D (module docstring, ``float``). The ball is the
+    lattice points within D/2 of its centre, the water the lattice points of the tank outside
+    D/2 + r of it, both written to particle files; the depth is the water level (the highest
+    particle plus r per lattice column, averaged over the columns farther than D from the
+    ball's axis) minus the ball's bottom (its centroid less its equivalent radius, that of a
+    sphere of the particles' lattice volume); Archimedes: the cap of that sphere whose volume
+    is the ball's mass over the water's density."""
+    import tempfile
+
+    import meshio
+
+    r = D / (2 * layers)
+    s = 2 * r
+    W, depth = 3 * D, 1.5 * D
+    R = D / 2
+    nx, ny = round(W / s), round(depth / s)
+    grid = (np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nx), indexing="ij"),
+                     axis=-1).reshape(-1, 3) + 0.5) * s
+    c_xz = np.array([W / 2, W / 2])
+    # the ball: a lattice of spacing 2r symmetric about its centre, the points within R
+    k = np.arange(layers) - (layers - 1) / 2
+    local = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3) * s
+    local = local[np.linalg.norm(local, axis=1) <= R]
+    v_ball = len(local) * s ** 3
+    R_eq = (3 * v_ball / (4 * math.pi)) ** (1 / 3)
+    d_arch = _cap_depth(ratio * v_ball, R_eq)
+    centre = np.array([W / 2, depth - 0.5 * d_arch + R_eq, W / 2])  # half Archimedes' depth
+    ball = local + centre
+    water = grid[np.linalg.norm(grid - centre, axis=1) > R + r]
+    tmp = tempfile.mkdtemp(prefix="sphkit_float3d_")
+    files = []
+    for name, pts in (("water", water), ("ball", ball)):
+        path = f"{tmp}/{name}.vtk"
+        meshio.write_points_cells(path, pts, [("vertex", np.arange(len(pts))[:, None])])
+        files.append({"file": path, "material": name})
+    scene = Scene.model_validate({
+        "name": "floating ball",
+        "configuration": {"dim": 3, "particle_radius": r, "gravity": [0.0, -G, 0.0],
+                          "pressure": {"method": "dfsph"},
+                          "time": {"until": until, "dt_max": dt_max}},
+        "materials": [{"id": "water", "density0": RHO,
+                       "viscosity": {"method": "standard" if viscosity else "none",
+                                     "coefficient": viscosity}},
+                      {"id": "ball", "density0": ratio * RHO,
+                       "elasticity": {"method": MODEL["method"], "youngs_modulus": E,
+                                      "poisson_ratio": 0.3, "alpha": alpha, **OPTIONS}}],
+        "fluid_files": files,
+        "boxes": [{"min": [0.0, 0.0, 0.0], "max": [W, 2.5 * depth, W]}]})
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # DFSPH's convergence warnings of the first steps
+        sim = Simulation(scene)
+        f = sim.fluid
+        block = f["solid_slot"] >= 0
+        mass = float(f["m"][block].sum())
+        d_arch = _cap_depth(mass / RHO, R_eq)
+        depths, speeds = [], []
+        t0 = time.perf_counter()
+        while sim.time < until - 1e-9:
+            sim.step()
+            if sim.time >= until / 2:
+                block = f["solid_slot"] >= 0
+                x = f["x"]
+                wx = x[:, ~block]
+                far = np.hypot(wx[0] - c_xz[0], wx[2] - c_xz[1]) > D
+                cols = (np.floor(wx[0, far] / s) * nx + np.floor(wx[2, far] / s)).astype(
+                    np.int64)
+                tops = np.full(nx * nx + nx + 1, -np.inf)
+                np.maximum.at(tops, np.clip(cols, 0, tops.size - 1), wx[1, far])
+                level = float(np.mean(tops[np.isfinite(tops)])) + r
+                depths.append(level - (float(x[1, block].mean()) - R_eq))
+                speeds.append(float(np.abs(f["v"][:, block]).max()))
+        wall = time.perf_counter() - t0
+    d = np.array(depths)
+    return {"layers": layers, "r": r, "n": f.n, "steps": sim.step_count, "d": float(d.mean()),
+            "swing": float(d.max() - d.min()), "d_arch": d_arch, "err": d.mean() / d_arch - 1,
+            "tilt": float(max(speeds)), "finite": bool(np.isfinite(f["x"]).all()),
+            "wall": wall}
+
+
 def main() -> None:
     """Run the cases and print the tables."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -266,11 +377,18 @@ def main() -> None:
                     "tolerance (SPlisHSPlasH's maxError default 1e-6)")
     ap.add_argument("--dt-factor", type=float, default=1.0,
                     help="time step as a multiple of the explicit bound 0.4 * 2r / c")
+    ap.add_argument("--static", type=int, default=0, metavar="N",
+                    help="sag, implicit models: the static state by N backward Euler steps "
+                    "of omega_1 dt = 1e4, velocities zeroed after each (Newton steps)")
     ap.add_argument("--density", type=float, default=0.5,
                     help="float: the block's density as a multiple of the water's")
+    ap.add_argument("--dim", type=int, choices=(2, 3), default=2,
+                    help="float: 2 (a block) or 3 (a ball)")
     ap.add_argument("--float-time", type=float, default=3.0, help="float: simulated time [s]")
     ap.add_argument("--float-viscosity", type=float, default=0.0,
                     help="float: the water's kinematic viscosity (standard) [m^2/s]")
+    ap.add_argument("--float-alpha", type=float, default=0.1,
+                    help="float: the solid's zero-energy-mode control factor")
     ap.add_argument("--float-dt-max", type=float, default=0.002,
                     help="float: the largest (CFL) time step [s]")
     a = ap.parse_args()
@@ -278,7 +396,9 @@ def main() -> None:
     if a.method == "kee2023":
         OPTIONS.update(solver=a.solver, material_model=a.material_model,
                        max_position_change=a.max_change)
-    MODEL.update(method=a.method, dt_factor=a.dt_factor)
+    if a.static and a.method == "becker2009":
+        ap.error("--static needs an implicit --method (peer2018, kugelstadt2021, kee2023)")
+    MODEL.update(method=a.method, dt_factor=a.dt_factor, static=a.static)
     print(f"{a.method}, dt {a.dt_factor:g} x explicit bound, gradient {a.gradient}, "
           f"rest support {a.support:g} h, rotation {a.rotation}"
           + (f", {a.solver}, {a.material_model}, max change {a.max_change:g} m"
@@ -311,7 +431,22 @@ def main() -> None:
                       f"{1e3 * m['amplitude']:.2f} | {m['wall']:.0f} |", flush=True)
                 if m["factor"]:
                     print("  ", m["factor"], flush=True)
-    if a.case == "float":
+    if a.case == "float" and a.dim == 3:
+        print(f"3D ball (D 0.1 m, E 1 MPa) floating in DFSPH water (viscosity "
+              f"{a.float_viscosity:g} m^2/s), density {a.density:g} x water, "
+              f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
+              "second half")
+        print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
+              "| depth/Archimedes - 1 | ball's max speed [m/s] | wall [s] |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        for n in a.layers:
+            fl = floating_ball(n, a.density, a.float_time, viscosity=a.float_viscosity,
+                               dt_max=a.float_dt_max, alpha=a.float_alpha)
+            print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
+                  f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
+                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.3f} | {fl['wall']:.0f} |"
+                  + ("" if fl["finite"] else " NaN"), flush=True)
+    elif a.case == "float":
         print(f"2D block (H 0.1 m, width 0.2 m, E 1 MPa) floating in DFSPH water (viscosity "
               f"{a.float_viscosity:g} m^2/s), density {a.density:g} x water, "
               f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
@@ -321,7 +456,7 @@ def main() -> None:
         print("|---|---|---|---|---|---|---|---|---|---|")
         for n in a.layers:
             fl = floating(n, a.density, a.float_time, viscosity=a.float_viscosity,
-                          dt_max=a.float_dt_max)
+                          dt_max=a.float_dt_max, alpha=a.float_alpha)
             print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
                   f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
                   f"{100 * fl['err']:+.1f} % | {fl['tilt']:.1f} | {fl['wall']:.0f} |"
