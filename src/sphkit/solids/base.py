@@ -40,17 +40,6 @@ ROTATION_ITERATIONS = 10
 GRADIENT_ROTATION_TOLERANCE = 1e-14
 GRADIENT_ROTATION_ITERATIONS = 50
 
-#: the field (vector, per particle; checkpointed) of an implicit solid's lagged pressure push:
-#: the acceleration that the pressure solve, which acts on the solid's particles after the
-#: elastic solve (operator splitting), gave them in the last step. The implicit models add it
-#: to the other accelerations of their solve and take it off their result, so the solid's
-#: implicit response includes the fluid's push and only the push's change from one step to
-#: the next is left explicit; without it a solid afloat at the fluid's step, far above the
-#: elastic wave's explicit bound, answered each push one step late, vibrated and jumped off
-#: the water (validation/README.md, "Floating block"). Zero without a pressure (WCSPH with
-#: stiffness 0: bit for bit the solve without it).
-PUSH_FIELD = "solid_push"
-
 #: the plastic state of a purely elastic solid (never read)
 _NO_PLASTIC = (np.zeros((3, 0)), np.zeros((3, 0)), np.zeros(0))
 
@@ -235,43 +224,3 @@ class ImplicitCorotatedSolid(CorotatedSolid):
         super().__init__(*args, **kwargs)
         self.max_iterations = max_iterations
         self.max_error = max_error
-        self._a_elastic: np.ndarray | None = None
-
-    def init(self, state: SimState) -> None:
-        """The base's rest configuration, plus the field of the lagged pressure push."""
-        super().init(state)
-        state.fluid.register(PUSH_FIELD, "vector")
-        self._a_elastic = None
-
-    def lagged_push(self, state: SimState, pos: np.ndarray) -> np.ndarray:
-        """The acceleration the pressure solve (and whatever else acts after the elastic
-        solve) gave the solid's particles in the last step, per slot (dim, n): the implicit
-        solve takes it as a load of its own step (see :data:`PUSH_FIELD`)."""
-        return state.fluid[PUSH_FIELD][:, pos]
-
-    def finish_solve(self, state: SimState, pos: np.ndarray, vnew: np.ndarray,
-                     v: np.ndarray, push: np.ndarray, dt: float) -> None:
-        """The solid's acceleration of the stage, ``(v' - v) / dt - push``: the pressure solve
-        adds this step's push back, so only its change since the last step is explicit; the
-        acceleration is kept to measure the next push (:meth:`record_push`)."""
-        a = (vnew - v) / dt - push
-        state.fluid["a"][:, pos] = a
-        self._a_elastic = a
-
-    def record_push(self, state: SimState) -> None:
-        """After the integration: this step's push, the solid particles' final acceleration
-        less what :meth:`finish_solve` set, into :data:`PUSH_FIELD` for the next step."""
-        rest = self.rest
-        if rest is None or rest.n == 0 or self._a_elastic is None:
-            return
-        f = state.fluid
-        pos = rest.update(state)
-        push = f["a"][:, pos] - self._a_elastic
-        push[:, rest.fixed] = 0.0
-        f[PUSH_FIELD][:, pos] = push
-        self._a_elastic = None
-
-    def constrain(self, state: SimState) -> None:
-        """Record the step's push (:meth:`record_push`), then pin the pinned particles."""
-        self.record_push(state)
-        super().constrain(state)

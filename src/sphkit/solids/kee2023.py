@@ -368,8 +368,7 @@ class Kee2023(ImplicitCorotatedSolid):
         x[:dim] = f["x"][:, pos]
         v[:dim] = f["v"][:, pos]
         xt = x + dt * v
-        push = self.lagged_push(state, pos)  # the last step's pressure push (base)
-        xt[:dim] += dt * dt * (f["a"][:, pos] + push)
+        xt[:dim] += dt * dt * f["a"][:, pos]
         xt[:, pinned] = x[:, pinned] + dt * v[:, pinned]  # kinematic: no acceleration
         self._target_x, self._target_v = xt[:, pinned].copy(), v[:, pinned].copy()
         if self.solver == "lbfgs" and dt != self._dt:
@@ -432,7 +431,7 @@ class Kee2023(ImplicitCorotatedSolid):
         self._von_mises(state, pos)
         vnew = (xk[:dim] - x[:dim]) / dt
         vnew[:, pinned] = v[:dim, pinned]
-        self.finish_solve(state, pos, vnew, v[:dim], push, dt)
+        f["a"][:, pos] = (vnew - v[:dim]) / dt
 
     def _von_mises(self, state: SimState, pos: np.ndarray) -> None:
         F = self._F.reshape(-1, 3, 3)
@@ -445,7 +444,6 @@ class Kee2023(ImplicitCorotatedSolid):
 
     def constrain(self, state: SimState) -> None:
         """Pinned particles at their kinematic targets ``x + dt v`` with their velocity."""
-        self.record_push(state)
         rest = self.rest
         if rest is None or not rest.fixed.size or self._target_x.shape[1] != rest.fixed.size:
             return
