@@ -10,7 +10,9 @@ Two cases, each at several resolutions (particles across the thickness):
   mass-proportional velocity damping ``v <- v exp(-c dt)`` after every step, with ``c`` twice
   the first-mode angular frequency (critical damping of mode 1; damping does not change a
   static state); the run lasts 12 / omega_1 and the table shows the deflection's last relative
-  change over the final 10 % of the run.
+  change over the final 10 % of the run. ``--static N`` (peer2018): the static state directly,
+  by N backward Euler steps of ``omega_1 dt = 1e4`` with the velocities zeroed after each
+  (Newton steps on the equilibrium; the CG to a relative residual of 1e-10).
 * ``mode``: the 2D clamped plate of Gray, Monaghan & Swift 2001 (L = 0.2 m, H = 0.02 m,
   E = 2 MPa, nu = 0.3375, rho = 1000 kg/m^3; plane strain), no gravity, started with the
   velocity of the first bending mode (tip speed 0.05 m/s, tip amplitude 1 % of L); the period
@@ -25,7 +27,10 @@ Two cases, each at several resolutions (particles across the thickness):
   averaging the two sides, so the tank's sloshing mode cancels) minus its bottom (its centroid
   less the rest height of the centroid above the bottom face) -- averaged over the second half
   of the run (it bobs at about 2 Hz), against Archimedes' ``d = m / (rho_water w)``, m the
-  block's mass per unit length, w its width (its lattice cells).
+  block's mass per unit length, w its width (its lattice cells). ``--dim 3``: a ball of
+  diameter 0.1 m in water 0.15 m deep (:func:`floating_ball`).
+* ``sheet``: a 2D sheet clamped at both ends under water poured on it, against its dead-load
+  twin and Euler-Bernoulli's clamped-clamped deflection (:func:`sheet`).
 
 No pressure in ``sag`` and ``mode`` (WCSPH with stiffness 0, as SPlisHSPlasH's Beam scenes):
 the solid alone. The time
@@ -35,7 +40,8 @@ kugelstadt2021 prints its factorisation time and memory, kee2023 its last step's
 kee2023 takes ``--solver newton|lbfgs`` and ``--material-model corotated|stable_neo_hookean``).
 Run::
 
-    PYTHONPATH=src python validation/solids.py [--case sag|mode|both|float] [--layers 4 6 8]
+    PYTHONPATH=src python validation/solids.py [--case sag|mode|both|float|sheet]
+        [--layers 4 6 8] [--static N] [--dim 2|3] [--float-alpha 0.1]
         [--method becker2009|peer2018|kugelstadt2021|kee2023] [--dt-factor 1]
         [--density 0.5] [--float-time 3]
 """
@@ -65,7 +71,7 @@ def _time_step(r: float, E: float, nu: float) -> float:
 OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5, "rotation": "moment"}
 #: the elasticity model (``--method``) and the multiple of the explicit step it runs with
 #: (``--dt-factor``; an implicit model may exceed 1)
-#: (``--static N``: N backward Euler steps of omega_1 dt = 1e4 for the sag, an implicit model)
+#: (``--static N``: N backward Euler steps of omega_1 dt = 1e4 for the sag, peer2018)
 MODEL: dict = {"method": "becker2009", "dt_factor": 1.0, "static": 0}
 
 
@@ -445,7 +451,7 @@ def main() -> None:
     ap.add_argument("--dt-factor", type=float, default=1.0,
                     help="time step as a multiple of the explicit bound 0.4 * 2r / c")
     ap.add_argument("--static", type=int, default=0, metavar="N",
-                    help="sag, implicit models: the static state by N backward Euler steps "
+                    help="sag, peer2018: the static state by N backward Euler steps "
                     "of omega_1 dt = 1e4, velocities zeroed after each (Newton steps)")
     ap.add_argument("--density", type=float, default=0.5,
                     help="float: the block's density as a multiple of the water's")
@@ -463,8 +469,10 @@ def main() -> None:
     if a.method == "kee2023":
         OPTIONS.update(solver=a.solver, material_model=a.material_model,
                        max_position_change=a.max_change)
-    if a.static and a.method == "becker2009":
-        ap.error("--static needs an implicit --method (peer2018, kugelstadt2021, kee2023)")
+    if a.static and a.method != "peer2018":
+        ap.error("--static needs --method peer2018 (becker2009 is explicit; kugelstadt2021's "
+                 "static state depends on its step, kee2023's Newton caps its CG at "
+                 "cg_max_iterations)")
     MODEL.update(method=a.method, dt_factor=a.dt_factor, static=a.static)
     print(f"{a.method}, dt {a.dt_factor:g} x explicit bound, gradient {a.gradient}, "
           f"rest support {a.support:g} h, rotation {a.rotation}"
