@@ -45,6 +45,7 @@ import math
 from typing import ClassVar
 
 import numpy as np
+import scipy.sparse as sp
 
 from sphkit.core.krylov import cg
 from sphkit.core.state import SimState
@@ -57,6 +58,8 @@ class Peer2018(ImplicitCorotatedSolid):
     """Implicit corotated linear elasticity (module docstring)."""
 
     name: ClassVar[str] = "peer2018"
+    #: ``alpha E Z``, the zero-energy-mode stiffness of the implicit part (None: alpha 0)
+    Z: sp.csr_matrix | None = None
 
     def init(self, state: SimState) -> None:
         """The base's rest configuration; with ``alpha > 0`` the zero-energy-mode stiffness
