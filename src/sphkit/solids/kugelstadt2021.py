@@ -68,6 +68,7 @@ import math
 import time
 from typing import Any, ClassVar
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
@@ -75,7 +76,7 @@ from scipy.sparse.linalg import splu
 from sphkit.core.krylov import cg
 from sphkit.core.state import SimState
 from sphkit.solids.base import ROTATION_ITERATIONS, ImplicitCorotatedSolid
-from sphkit.solids.corotation import stresses
+from sphkit.solids.corotation import _extract_rotation, stresses
 from sphkit.solids.operators import (
     gradient_laplacian,
     gradient_operators,
@@ -85,41 +86,16 @@ from sphkit.solids.operators import (
 log = logging.getLogger("sphkit")
 
 
-def _quat_matrices(q: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotation matrices of the unit quaternions ``q`` (n, 4), (w, x, y, z)."""
-    w, x, y, z = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)],
-        axis=1)
-
-
-def _extract_rotations(A: np.ndarray, qw: np.ndarray, qv: np.ndarray, pos: np.ndarray,
-                       iterations: int) -> np.ndarray:
-    """The rotational parts of the matrices ``A`` (n, 3, 3) by the iteration of Müller,
-    Bender, Chentanez & Macklin 2016 (vectorised over the particles), warm-started from and
-    written back to the quaternion fields ``qw``, ``qv`` at the particles ``pos``."""
-    q = np.concatenate([qw[pos][:, None], qv[:, pos].T], axis=1)
-    for _ in range(iterations):
-        R = _quat_matrices(q)
-        omega = np.cross(R, A, axisa=1, axisb=1, axisc=1).sum(axis=2)
-        tr = np.einsum("nac,nac->n", R, A)
-        omega /= (np.abs(tr) + 1e-9)[:, None]
-        ang = np.linalg.norm(omega, axis=1)
-        if ang.max() < 1e-9:
-            break
-        safe = np.where(ang < 1e-9, 1.0, ang)
-        sh = np.where(ang < 1e-9, 0.0, np.sin(0.5 * ang) / safe)
-        pw, pv = np.cos(0.5 * ang), omega * sh[:, None]
-        w, v = q[:, 0], q[:, 1:]
-        nw = pw * w - np.einsum("ni,ni->n", pv, v)
-        nv = pw[:, None] * v + w[:, None] * pv + np.cross(pv, v)
-        q = np.concatenate([nw[:, None], nv], axis=1)
-        q /= np.linalg.norm(q, axis=1)[:, None]
-    qw[pos] = q[:, 0]
-    qv[:, pos] = q[:, 1:].T
-    return _quat_matrices(q)
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def _extract_rotations(A, qw, qv, pos, iterations, R):
+    """``R[s]`` (row-major 9-vector): the rotational part of ``A[s]`` (3 x 3) by the iteration
+    of Müller, Bender, Chentanez & Macklin 2016 (:mod:`sphkit.solids.corotation`'s, compiled,
+    per particle until the correction is below 1e-9 rad), warm-started from and written back
+    to the quaternion fields ``qw``, ``qv`` at the particles ``pos``."""
+    for s in numba.prange(pos.shape[0]):
+        a = A[s]
+        _extract_rotation(a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0],
+                          a[2, 1], a[2, 2], qw, qv, pos[s], R[s], iterations, 1e-9)
 
 
 def _plastic_tensors(diag: np.ndarray, shear: np.ndarray) -> np.ndarray:
@@ -171,6 +147,20 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         self._dt = -1.0
         self._lu = None
         self._dx = np.zeros(dim * rest.n)
+        # the common pattern of the D_c (one per component, built from the same pairs) and
+        # the permutation of its entries into the transposed pattern (_volume_operators)
+        D0 = self.D[0]
+        for Dc in self.D[1:]:
+            if not (np.array_equal(Dc.indptr, D0.indptr)
+                    and np.array_equal(Dc.indices, D0.indices)):
+                raise RuntimeError("kugelstadt2021: the gradient operators' patterns differ")
+        self._rows = np.repeat(np.arange(rest.n, dtype=np.int64), np.diff(D0.indptr))
+        self._Ddata = np.stack([Dc.data for Dc in self.D])
+        T = sp.csr_matrix((np.arange(1.0, D0.nnz + 1.0), D0.indices, D0.indptr),
+                          shape=D0.shape).T.tocsr()
+        self._tperm = (T.data - 1.0).astype(np.int64)
+        self._tindices, self._tindptr = T.indices, T.indptr
+        self._DT = [Dc.T.tocsr() for Dc in self.D]
 
     def _factorise(self, dt: float) -> None:
         """LU of ``M / dt^2 + K`` on the free particles; its time and memory into
@@ -196,10 +186,22 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         """Implicit: no bound of its own."""
         return math.inf
 
-    def _volume_operators(self, Rm: np.ndarray, dim: int) -> list[sp.csr_matrix]:
-        """``B_a = sum_c diag(R[:, a, c]) D_c``: ``tr(R_i^T F_i) = sum_a (B_a x_a)_i``."""
-        return [sum((sp.diags(Rm[:, a, c]) @ self.D[c] for c in range(1, dim)),
-                    sp.diags(Rm[:, a, 0]) @ self.D[0]).tocsr() for a in range(dim)]
+    def _volume_operators(self, Rm: np.ndarray,
+                          dim: int) -> tuple[list[sp.csr_matrix], list[sp.csr_matrix]]:
+        """``B_a = sum_c diag(R[:, a, c]) D_c`` (``tr(R_i^T F_i) = sum_a (B_a x_a)_i``) and
+        their transposes. The ``D_c`` share one sparsity pattern (that of the rest lists plus
+        the diagonal), so B_a's entries are ``sum_c R[row, a, c] D_c.data`` on that pattern
+        and the transpose is a fixed permutation of them (both set up in :meth:`init`)."""
+        D0 = self.D[0]
+        n = D0.shape[0]
+        Rr = Rm[self._rows]  # (nnz, dim, dim): the rotation of each entry's row
+        B, BT = [], []
+        for a in range(dim):
+            data = np.einsum("kc,ck->k", Rr[:, a, :], self._Ddata)
+            B.append(sp.csr_matrix((data, D0.indices, D0.indptr), shape=(n, n)))
+            BT.append(sp.csr_matrix((data[self._tperm], self._tindices, self._tindptr),
+                                    shape=(n, n)))
+        return B, BT
 
     def apply(self, state: SimState, dt: float) -> None:
         """Rotations, the factorised stretch solve, the CG volume solve; the solid's
@@ -229,8 +231,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         for a in range(dim):
             for c in range(dim):
                 Fp[:, a, c] = self.D[c] @ xt[a]
-        Rfull = _extract_rotations(Fp, f["solid_qw"], f["solid_q"], pos, ROTATION_ITERATIONS)
-        w["R"][...] = Rfull.reshape(rest.n, 9)
+        _extract_rotations(Fp, f["solid_qw"], f["solid_q"], pos, ROTATION_ITERATIONS, w["R"])
         # von Mises stress for output; with a yield stress, the return mapping of the
         # step's start (solids.plasticity)
         stresses(f["x"], pos, rest.x0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
@@ -250,24 +251,26 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         x1 = np.empty_like(x)
         x1[:, pinned] = xp
         inv_dt2 = 1.0 / (dt * dt)
-        for a in range(dim):  # stretch + zero-energy modes: one factorisation, dim solves
+        rhs = np.empty((fr.size, dim))
+        for a in range(dim):  # stretch + zero-energy modes: one factorisation, one solve
             b = m * xt[a] * inv_dt2
             for c in range(dim):
-                b += 2.0 * self.mu * (self.D[c].T @ (V0 * Rs[:, a, c]))
-            if fr.size:
-                rhs = b[fr] - self._Afp @ xp[a]
-                x1[a, fr] = self._lu.solve(rhs)
+                b += 2.0 * self.mu * (self._DT[c] @ (V0 * Rs[:, a, c]))
+            rhs[:, a] = b[fr] - self._Afp @ xp[a]
+        if fr.size:  # the dim right-hand sides at once
+            x1[:, fr] = self._lu.solve(rhs).T
         # volume: (M / dt^2 + H_v) dx = -grad U_v(x1), H_v = lambda B^T V0 B, pinned dx = 0
         n = rest.n
         if self.lam > 0:
-            B = self._volume_operators(Rm, dim)
-            BT = [Ba.T.tocsr() for Ba in B]
+            B, BT = self._volume_operators(Rm, dim)
             lv = self.lam * V0
             t = sum(B[a] @ x1[a] for a in range(dim)) - dim
             g = np.stack([-(BT[a] @ (lv * t)) for a in range(dim)])
             g[:, pinned] = 0.0
             # Jacobi: diag(H_v)_a = sum_i lambda V0_i B_a[i, j]^2
-            diag = np.stack([m * inv_dt2 + B[a].multiply(B[a]).T @ lv for a in range(dim)])
+            lv_rows = lv[self._rows]
+            diag = np.stack([m * inv_dt2 + np.bincount(B[a].indices, B[a].data ** 2 * lv_rows,
+                                                       minlength=n) for a in range(dim)])
             diag[:, pinned] = 1.0
             inv_diag = (1.0 / diag).ravel()
 

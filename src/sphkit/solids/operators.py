@@ -1,5 +1,6 @@
 """Sparse operators of a solid's rest configuration, shared by the models that assemble
-matrices (:mod:`sphkit.solids.kugelstadt2021`, :mod:`sphkit.solids.kee2023`); not a method.
+matrices (:mod:`sphkit.solids.kugelstadt2021`, :mod:`sphkit.solids.kee2023`, and
+:mod:`sphkit.solids.peer2018` for its implicit zero-energy-mode stiffness); not a method.
 
 * :func:`gradient_operators`: the components ``D_c`` of the gradient with the weights of
   :mod:`sphkit.solids.gradients`, ``(D_c phi)_i = sum_j (phi_j - phi_i) G_ij[c]``; the

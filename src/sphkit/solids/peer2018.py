@@ -16,7 +16,20 @@ SPlisHSPlasH does. A product ``K v`` is one displacement-gradient pass and one f
 :mod:`sphkit.solids.corotation` on the displacement field ``dt v`` (rest positions zero), so
 the implicit model shares the explicit one's discretisation: gradient weights
 (``gradient_correction``), rest volumes, the energy-consistent force. The zero-energy-mode
-force (``alpha``) is explicit, as in SPlisHSPlasH. The elastic acceleration of the stage is
+force (``alpha``; Ganzenmüller 2015's, as SPlisHSPlasH) is evaluated at the step's start, as in
+SPlisHSPlasH, but linearly implicit (sphkit's): its stiffness is approximated by the constant
+Hessian ``alpha E Z`` of Kugelstadt et al. 2021's zero-energy-mode energy
+(:func:`sphkit.solids.operators.zero_energy_operator`, the same error vectors and pair
+weights, not projected on the pair direction, so at least as stiff), which joins the system's
+matrix: ``(M - dt^2 K + dt^2 alpha E Z) v' = ...``. At rest (``v' = 0``) the added term
+vanishes, so static states are those of the explicit force; what it buys is stability at
+steps above the hourglass force's explicit bound: with the term explicit, a block afloat at
+the fluid's step (10 times the P-wave bound, alpha 0.1) vibrated at 5-9 m/s and jumped off the
+water, with alpha 0 it floated (validation/README.md, "Floating block"; the pressure solve's
+push, which this solve sees a step late, was not the cause: taking the last step's push into
+the right-hand side moved the depth by 0.02 mm). The implicit part
+adds backward-Euler damping to the modes where Z is stiffer than the projected force. The
+elastic acceleration of the stage is
 ``(v' - v) / dt - a``, so ``a`` becomes ``(v' - v) / dt`` (SPlisHSPlasH adds ``(v' - v)/dt`` to
 ``a``, which counts ``a`` twice). Pinned particles keep ``v' = 0`` (identity rows and columns).
 The pressure solver then acts on the result (operator splitting). No time-step bound of its
@@ -32,17 +45,33 @@ import math
 from typing import ClassVar
 
 import numpy as np
+import scipy.sparse as sp
 
 from sphkit.core.krylov import cg
 from sphkit.core.state import SimState
 from sphkit.solids.base import ImplicitCorotatedSolid
 from sphkit.solids.corotation import forces, stresses
+from sphkit.solids.operators import gradient_operators, zero_energy_operator
 
 
 class Peer2018(ImplicitCorotatedSolid):
     """Implicit corotated linear elasticity (module docstring)."""
 
     name: ClassVar[str] = "peer2018"
+    #: ``alpha E Z``, the zero-energy-mode stiffness of the implicit part (None: alpha 0)
+    Z: sp.csr_matrix | None = None
+
+    def init(self, state: SimState) -> None:
+        """The base's rest configuration; with ``alpha > 0`` the zero-energy-mode stiffness
+        ``alpha E Z`` of the implicit part (module docstring)."""
+        super().init(state)
+        self.Z = None
+        if self.alpha > 0 and self.rest.n:
+            rest = self.rest
+            off, idx = rest.lists.offsets, rest.lists.indices
+            D = gradient_operators(off, idx, self.G, state.dim)
+            self.Z = (self.alpha * self.youngs_modulus * zero_energy_operator(
+                rest.x0, rest.V0, off, idx, D, rest.h, state.kid, state.dim)).tocsr()
 
     def max_time_step(self, state: SimState) -> float:
         """Implicit: no bound of its own."""
@@ -71,6 +100,8 @@ class Peer2018(ImplicitCorotatedSolid):
         F, P, M = np.zeros_like(w["F"]), np.zeros_like(w["P"]), np.zeros_like(w["M"])
         off, idx = rest.lists.offsets, rest.lists.indices
         m = rest.m
+        Z = self.Z
+        dt2 = dt * dt
 
         def matvec(y: np.ndarray, out: np.ndarray) -> None:
             yv = y.reshape(dim, rest.n).copy()
@@ -83,6 +114,9 @@ class Peer2018(ImplicitCorotatedSolid):
                    state.kid, dim, P, M, 0.0, scratch_a)
             o = out.reshape(dim, rest.n)
             o[...] = m * (yv - dt * scratch_a[:, pos])
+            if Z is not None:  # the zero-energy-mode stiffness, linearly implicit
+                for a in range(dim):
+                    o[a] += dt2 * (Z @ yv[a])
             o[:, pinned] = y.reshape(dim, rest.n)[:, pinned]
 
         x0 = (v + dt * a_before)
