@@ -3,7 +3,7 @@
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
-        [--interface-viscosity 0.01]
+        [--interface-viscosity 0.01] [--solved-walls]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
 the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
@@ -54,7 +54,7 @@ LAYER = 0.3
 
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
           viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
-          depth: float = 0.2, interface_viscosity: float = 0.0) -> Scene:
+          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool = False) -> Scene:
     """Two layers LAYER m high in a box WIDTH m wide (and ``depth`` m deep in 3D; module
     docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
@@ -67,7 +67,7 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
     return Scene.model_validate({
         "configuration": {"dim": dim, "particle_radius": r, "gravity": [0.0, -G, *z],
                           "pressure": pressure, "time": {"dt_max": 0.002},
-                          **({"boundary": {"symmetric": True}} if symmetric else {})},
+                          "boundary": {"symmetric": symmetric, "solved": solved}},
         "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc},
                       {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc}],
         "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [WIDTH, LAYER, *zd],
@@ -120,10 +120,11 @@ def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
 
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
            viscosity: float, symmetric: bool = False, dim: int = 2, depth: float = 0.2,
-           interface_viscosity: float = 0.0) -> None:
+           interface_viscosity: float = 0.0, solved: bool = False) -> None:
     print(f"\nheavy over light, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
           f"jitter {jitter} r, viscosity {viscosity} m^2/s"
           + (", symmetric wall term" if symmetric else "")
+          + (", solved wall pressures" if solved else "")
           + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else ""))
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
           f"{'vmax':>6s} {'its':>6s} {'ms/step':>8s}  note")
@@ -132,7 +133,7 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
             warnings.simplefilter("ignore")
             sim = Simulation(_perturbed_world(
                 scene(method, r, True, ratio, viscosity, symmetric, dim, depth,
-                      interface_viscosity), jitter))
+                      interface_viscosity, solved), jitter))
         its, steps, note = [], 0, ""
         t0 = time.perf_counter()
         try:
@@ -151,7 +152,7 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
 
 def hydrostatic(methods: list[str], r: float, settle: float, average: float,
                 ratio: float, viscosity: float, symmetric: bool = False, dim: int = 2,
-                depth: float = 0.2) -> None:
+                depth: float = 0.2, solved: bool = False) -> None:
     print(f"\nlight over heavy at rest, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
           f"units of the layer's rho0 g, averaged {settle}-{settle + average} s")
     print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'jump/rho_l g H_l':>17s} "
@@ -159,7 +160,8 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sim = Simulation(scene(method, r, False, ratio, viscosity, symmetric, dim, depth))
+            sim = Simulation(scene(method, r, False, ratio, viscosity, symmetric, dim, depth,
+                                   solved=solved))
         note = ""
         t0 = time.perf_counter()
         steps = 0
@@ -215,6 +217,8 @@ def main() -> None:
     ap.add_argument("--viscosity", type=float, default=0.01)
     ap.add_argument("--symmetric-walls", action="store_true",
                     help="configuration.boundary.symmetric: the walls' term V_b k_i alone")
+    ap.add_argument("--solved-walls", action="store_true",
+                    help="configuration.boundary.solved: the walls' pressures solved in the PPE")
     ap.add_argument("--dim", type=int, default=2, choices=[2, 3])
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,
@@ -223,10 +227,12 @@ def main() -> None:
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
         hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
-                    args.viscosity, args.symmetric_walls, args.dim, args.depth)
+                    args.viscosity, args.symmetric_walls, args.dim, args.depth,
+                    args.solved_walls)
     if "layers" in args.study:
         layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
-               args.symmetric_walls, args.dim, args.depth, args.interface_viscosity)
+               args.symmetric_walls, args.dim, args.depth, args.interface_viscosity,
+               args.solved_walls)
 
 
 if __name__ == "__main__":

@@ -47,7 +47,7 @@ def scene(dim: int, n: int, solver: str, walls: str, dt: float) -> Scene:
     """The closed box of the module docstring."""
     L = 2 * R * n
     z, zl = ([0.0], [L]) if dim == 3 else ([], [])
-    boundary: dict = {"symmetric": walls == "symmetric"}
+    boundary: dict = {"symmetric": walls == "symmetric", "solved": walls == "solved"}
     if walls == "mirror":
         boundary["pressure"] = "mirror"
     return Scene.model_validate({
@@ -129,8 +129,8 @@ def main() -> None:
     ap.add_argument("--solver", default="iisph")
     ap.add_argument("--until", type=float, default=0.01)
     ap.add_argument("--dt", type=float, default=0.0005)
-    ap.add_argument("--walls", nargs="+", default=["mls", "mirror", "symmetric"],
-                    choices=["mls", "mirror", "symmetric"])
+    ap.add_argument("--walls", nargs="+", default=["mls", "mirror", "symmetric", "solved"],
+                    choices=["mls", "mirror", "symmetric", "solved"])
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     print(f"closed box, {args.dim}D, {args.n} particles per side, r = {R} m, {args.solver}, "

@@ -385,3 +385,61 @@ def lattice_diagonal(spacing: float, h: float, kid: int, dim: int, V: float) -> 
     g = Kernel(kid, h, dim).grad(-grid[(d > 0.0) & (d < h)])
     s1 = g.sum(axis=0)
     return float(V * V * (s1 @ s1 + (g * g).sum()))
+
+
+# ---------------------------------------------------------------------------------------------
+# wall pressures solved in the PPE (configuration.boundary.solved)
+
+
+@numba.njit(**_JIT_GATHER)
+def wall_sums(v, Vf, Vb, boff, bidx, gwb, dim, use, out):
+    """``out[b] = sum_f (V_f / V_b) gwb_fb . v_f`` for the static boundary particles b with
+    ``use[b]`` (0 elsewhere), over the fluid-boundary pairs ``(boff, bidx)`` with the cached
+    ``gwb = V_b grad_f W_fb``: for velocities v the rate of the fluid's normalized density at
+    the wall particle, ``D rho_hat_b / Dt = sum_f V_f v_f . grad_f W_fb`` (positive when the
+    fluid approaches it), for pressure accelerations its change per dt^2. One serial pass
+    (the pairs are listed by fluid particle; a boundary particle collects from several)."""
+    out[:] = 0.0
+    for i in range(boff.shape[0] - 1):
+        wi = Vf[i]
+        for kk in range(boff[i], boff[i + 1]):
+            b = bidx[kk]
+            t = v[0, i] * gwb[0, kk]
+            if dim > 1:
+                t += v[1, i] * gwb[1, kk]
+            if dim > 2:
+                t += v[2, i] * gwb[2, kk]
+            out[b] += wi * t
+    for b in range(out.shape[0]):
+        out[b] = out[b] / Vb[b] if use[b] else 0.0
+
+
+@numba.njit(**_JIT_GATHER)
+def wall_diagonal(Vf, Vb, inv_c, boff, bidx, gwb, dim, use, out):
+    """``out[b] = sum_f (V_f / V_b) (1 / c_f) |gwb_fb|^2``: minus the derivative of the wall
+    particle's :func:`wall_sums` of the pressure accelerations with respect to its own
+    ``k_b`` (the pressure acceleration of fluid f holds ``-k_b gwb_fb / c_f``)."""
+    out[:] = 0.0
+    for i in range(boff.shape[0] - 1):
+        wi = Vf[i] * inv_c[i]
+        for kk in range(boff[i], boff[i + 1]):
+            b = bidx[kk]
+            t = gwb[0, kk] * gwb[0, kk]
+            if dim > 1:
+                t += gwb[1, kk] * gwb[1, kk]
+            if dim > 2:
+                t += gwb[2, kk] * gwb[2, kk]
+            out[b] += wi * t
+    for b in range(out.shape[0]):
+        out[b] = out[b] / Vb[b] if use[b] else 0.0
+
+
+@numba.njit(**_JIT_GATHER)
+def wall_update(ap, s, D, ap_factor, omega, kb):
+    """The walls' Jacobi update ``k_b <- max(k_b - omega (s_b - f Ap_b) / (f D_b), 0)`` (Ap_b:
+    :func:`wall_sums` of the pressure accelerations; D_b: :func:`wall_diagonal`; no update
+    where D_b = 0: no fluid neighbour, or a wall particle that is not solved)."""
+    for b in range(kb.shape[0]):
+        if D[b] > 0.0:
+            r = s[b] - ap_factor * ap[b]
+            kb[b] = max(kb[b] - omega * r / (ap_factor * D[b]), 0.0)
