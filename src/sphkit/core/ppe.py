@@ -451,11 +451,21 @@ def wall_diagonal(Vf, Vb, inv_c, boff, bidx, gwb, dim, use, out):
 
 
 @numba.njit(**_JIT_GATHER)
-def wall_update(ap, s, D, ap_factor, omega, kb):
-    """The walls' Jacobi update ``k_b <- max(k_b - omega (s_b - f Ap_b) / (f D_b), 0)`` (Ap_b:
-    :func:`wall_sums` of the pressure accelerations; D_b: :func:`wall_diagonal`; no update
-    where D_b = 0: no fluid neighbour, or a wall particle that is not solved)."""
+def wall_update(ap, s, D, ap_factor, omega, kb, k, boff, bidx, cap, kmax):
+    """The walls' Jacobi update ``k_b <- min(max(k_b - omega (s_b - f Ap_b) / (f D_b), 0),
+    cap max_f k_f)`` (Ap_b: :func:`wall_sums` of the pressure accelerations; D_b:
+    :func:`wall_diagonal`; no update where D_b = 0: no fluid neighbour, or a wall particle that
+    is not solved). The bound ``cap`` times the largest ``k_f`` of the wall particle's fluid
+    neighbours (``kmax``, a work array) keeps the wall from pushing harder than mirroring
+    (``cap = 1``: ``k_b <= max_f k_f``) where the walls' velocity-level constraint and the
+    fluid's density-level one cannot both hold (fluid compressed against a wall)."""
+    kmax[:] = 0.0
+    for i in range(boff.shape[0] - 1):
+        for kk in range(boff[i], boff[i + 1]):
+            b = bidx[kk]
+            if k[i] > kmax[b]:
+                kmax[b] = k[i]
     for b in range(kb.shape[0]):
         if D[b] > 0.0:
             r = s[b] - ap_factor * ap[b]
-            kb[b] = max(kb[b] - omega * r / (ap_factor * D[b]), 0.0)
+            kb[b] = min(max(kb[b] - omega * r / (ap_factor * D[b]), 0.0), cap * kmax[b])
