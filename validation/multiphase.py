@@ -26,6 +26,11 @@ density 1000 kg/m^3, light ``1000 / --ratio``:
   target within 2 %); also the pressure jump across the interface against the light layer's
   weight rho0_light g H_light.
 
+* ``rest``: light over heavy at rest (``--study rest``, not in the default list) for ``--until``
+  s: every second the particles more than two layers (4r) inside the other phase (counted as
+  in ``layers``: heavy above the split + light below it), the deepest in layers of 2r, and the
+  largest speed: whether the interface stays sharp (no spurious mixing, no blow-up).
+
 ``--interface-viscosity``: the viscosity between the two phases (scene ``interfaces``,
 Morris et al. 1997, kinematic [m^2/s]; default none, SPlisHSPlasH's phases).
 
@@ -203,11 +208,43 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
               f"{wall:8.1f}  {note}", flush=True)
 
 
+def rest(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
+         symmetric: bool = False, dim: int = 2, depth: float = 0.2, solved: bool = False,
+         every: float = 1.0) -> None:
+    """Light over heavy at rest for ``until`` s: the interface should stay sharp (module
+    docstring, ``rest``)."""
+    print(f"\nlight over heavy at rest, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, "
+          f"until {until} s; particles more than two layers (4r) inside the other phase, "
+          "the deepest in layers of 2r, the largest speed [m/s]")
+    for method in methods:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sim = Simulation(scene(method, r, False, ratio, viscosity, symmetric, dim, depth,
+                                   solved=solved))
+        row, next_t, note = [], every, ""
+        t0 = time.perf_counter()
+        steps = 0
+        try:
+            while sim.time < until - 1e-9:
+                sim.step()
+                steps += 1
+                if sim.time >= next_t - 1e-9:
+                    up, down, deep = mixing(sim)
+                    vmax = float(np.sqrt((sim.fluid["v"] ** 2).sum(axis=0)).max())
+                    row.append(f"{sim.time:.0f} s: {up}+{down} ({deep:.1f}, {vmax:.3f})")
+                    next_t += every
+        except InstabilityError as e:
+            note = f"unstable at t = {e.stats.time:.3f} s"
+        wall = (time.perf_counter() - t0) / max(steps, 1) * 1e3
+        print(f"{method:8s} n = {sim.fluid.n}: " + "; ".join(row)
+              + f"  [{wall:.0f} ms/step] {note}", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--solvers", nargs="+", default=["pcisph", "pbf", "iisph", "dfsph"])
     ap.add_argument("--study", nargs="+", default=["layers", "hydrostatic"],
-                    choices=["layers", "hydrostatic"])
+                    choices=["layers", "hydrostatic", "rest"])
     ap.add_argument("--radius", type=float, default=0.01)
     ap.add_argument("--until", type=float, default=3.0)
     ap.add_argument("--ratio", type=float, default=10.0)
@@ -229,6 +266,9 @@ def main() -> None:
         hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
                     args.viscosity, args.symmetric_walls, args.dim, args.depth,
                     args.solved_walls)
+    if "rest" in args.study:
+        rest(args.solvers, args.radius, args.until, args.ratio, args.viscosity,
+             args.symmetric_walls, args.dim, args.depth, args.solved_walls)
     if "layers" in args.study:
         layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
                args.symmetric_walls, args.dim, args.depth, args.interface_viscosity,
