@@ -598,6 +598,12 @@ class InterfaceTensionConfig(_Model):
         "depth): the pressure jump across the interface is sigma kappa (sigma / R for a 2D "
         "drop, 2 sigma / R in 3D)",
     )
+    background_pressure: float = Field(
+        0.0, ge=0, le=1e9, description="hu2006: a background pressure p_b [Pa] added to the "
+        "surface stress of the particles in the interface band (Pi - p_b I; Hu & Adams 2006 "
+        "run with a background pressure): a repulsion among the band's particles that "
+        "closes the gap the tangential tension opens at the interface; 0: none",
+    )
 
 
 class Interface(_Model):
