@@ -11,8 +11,9 @@ SPlisHSPlasH's multiphase scenes) in each phase (within the phase, as SPlisHSPla
 density 1000 kg/m^3, light ``1000 / --ratio``:
 
 * ``layers``: heavy over light, two layers 0.3 m each -- Rayleigh-Taylor unstable; the
-  particles start moved by a random displacement of up to ``--jitter`` r along each axis (seed
-  1), the perturbation that starts the instability (on the exact lattice a column at 1:2 stayed
+  sampled particles are moved by a random displacement of up to ``--jitter`` r along each axis
+  (seed 1) before sphkit's start-up relaxes and weighs them (``_perturbed_world``), the
+  perturbation that starts the instability (on the exact lattice a column at 1:2 stayed
   heavy on top for 3 s: its equilibrium is unstable but nothing disturbs it). After
   ``--until`` (3 s) the phases should lie in two layers, heavy below. The table counts the
   particles more than two layers (4r) inside the other phase: heavy above ``y_s + 4r`` or light
