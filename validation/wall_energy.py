@@ -23,7 +23,8 @@ the wall term's share beyond the symmetric one (``-sum_b V_b (m_b k_i + k_b) gra
 ``m_i v_i``, summed over the steps with the end-of-step velocity), split by where the wall
 particle sits: on the floor, on a side wall, on an edge of the box, in a corner. The share is
 read from the solver's last call of ``kappa_accel_cached`` in each step (instrumentation of
-this script only).
+this script only; it wraps the Jacobi loop's pass, ``sphkit.core.solver``, so the work columns
+are those of IISPH and DFSPH: PCISPH's own loop shows zeros there, its energies are right).
 """
 
 from __future__ import annotations

@@ -41,7 +41,12 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
 * :func:`jacobi_sweep` -- ``Ap_i`` (the divergence above, of the pressure accelerations) and
   ``q_i <- max(q_i - omega * scale_i * (s_i - f Ap_i), 0)`` in one pass, with the error of the
   residual before the update;
-* :func:`density_at` -- PCISPH's / PBF's density at predicted positions.
+* :func:`density_at` -- PCISPH's / PBF's density at predicted positions;
+* :func:`wall_sums`, :func:`wall_diagonal`, :func:`wall_update` -- the static walls' own
+  pressures ``k_b`` when the scene solves them (``configuration.boundary.solved``,
+  :meth:`sphkit.core.methods.BoundaryCoupling.solved_walls`): the fluid's density rate at each
+  wall particle, its Jacobi scale, and its clamped update (serial passes over the
+  fluid-boundary pairs).
 
 :func:`density_pair_gradients`, :func:`kappa_accel_cached` and :func:`jacobi_sweep` are per-particle
 bodies (``density_pair_gradients_body``, ``kappa_accel_body``, ``jacobi_body``) run through
