@@ -266,3 +266,41 @@ def test_interface_errors_name_the_field(itf: list, match: str) -> None:
     """Bad interfaces are refused naming the field, the value and what was expected."""
     with pytest.raises((SceneError, ValueError), match=match):
         _two_layers(itf)
+
+
+def test_interface_background_pressure_conserves_momentum_and_pushes_into_a_gap() -> None:
+    """hu2006's background pressure p_b (``interfaces[].tension.background_pressure``): every
+    particle of a phase with an interface tension carries ``Pi - p_b I``. Its pair forces are
+    antisymmetric (momentum to 1e-12 of the largest particle force); inside the drop, more
+    than h from the interface, the full lattice neighbourhood cancels it (1e-9 of p_b's scale
+    ``V p_b / (m h)``). With b's outermost ring removed (a gap at the interface), the rows on
+    both sides are pushed into it: their mean radial acceleration, against p_b = 0, points into
+    the gap on each side."""
+    sigma, pb, R = 1.0, 100.0, 0.06
+    sim, inside = _drop(R, sigma)
+    force = next(f for f in sim.forces if isinstance(f, HuAdams2006))
+    force.background_pressure = pb
+    f = sim.fluid
+    a = _accel(sim, force)
+    ma = f["m"] * a
+    assert np.abs(ma.sum(axis=1)).max() <= 1e-12 * np.abs(ma).max()
+    d = np.linalg.norm(f["x"], axis=0)
+    h = sim.state.h
+    scale = (2 * R_P) ** 2 * pb / (f["m"].mean() * h)
+    assert np.abs(a[:, d < R - 2 * h - 2 * R_P]).max() < 1e-9 * scale
+    # the gap: remove b's outermost ring (within 2r inside the interface), compare with p_b 0
+    f.compact(~(inside & (d > R - 2 * R_P)))
+
+    def radial() -> np.ndarray:  # outward acceleration (after _accel's neighbour search)
+        acc = _accel(sim, force)
+        return (acc * f["x"]).sum(axis=0) / np.linalg.norm(f["x"], axis=0)
+
+    with_pb = radial()
+    force.background_pressure = 0.0
+    without = radial()
+    d = np.linalg.norm(f["x"], axis=0)
+    gap_lo, gap_hi = R - 2 * R_P, R
+    inner = (d < gap_lo) & (d > gap_lo - 2 * R_P)  # the row of b inside the gap
+    outer = (d > gap_hi) & (d < gap_hi + 2 * R_P)  # the row of a outside it
+    assert (with_pb - without)[inner].mean() > 0.0  # pushed outwards, into the gap
+    assert (with_pb - without)[outer].mean() < 0.0  # pushed inwards, into the gap

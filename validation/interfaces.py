@@ -2,8 +2,13 @@
 ``sphkit.multiphase.morris1997``) and interface tension (Hu & Adams 2006,
 ``sphkit.multiphase.hu2006``).
 
-    python validation/interfaces.py [--study shear laplace ellipse] [--solver dfsph]
-        [--shear-solver wcsph] [--radius 0.005] [--until 1.0]
+    python validation/interfaces.py [--study shear laplace ellipse drop] [--solver dfsph]
+        [--shear-solver wcsph] [--radius 0.005] [--until 1.0] [--background 0 50 200]
+
+``drop`` (not in the default list): a disc of b (R = 0.075 m) in a free square of a reaching
+0.1 m beyond it (sigma = 1 N, nu = 0.005), its jump ``(p_b - p_a) / (sigma / R)`` and the
+lowest density of b at 0.1 ... 1 s, for each ``--background`` pressure p_b of hu2006's band
+(``interfaces[].tension.background_pressure``).
 
 Three 2D studies, no gravity, time step at most :data:`DT_MAX` (0.5 ms), two fluid materials
 of equal rest density 1000 kg/m^3 unless said otherwise:
@@ -120,7 +125,7 @@ def shear(r: float, solver: str, until: float = 0.25, nu: float = 0.01) -> None:
 
 def drop_scene(r: float, R: float, sigma: float, nu: float, solver: str,
                aspect: float = 1.0, margin: float = 0.05,
-               walls: bool = False) -> tuple[Scene, float]:
+               walls: bool = False, background: float = 0.0) -> tuple[Scene, float]:
     """A square of phase a around the origin, large enough for the ellipse (semi-axes R aspect,
     R / aspect) plus ``margin`` [m]; returns the scene and its half width."""
     half = R * aspect + margin
@@ -135,14 +140,15 @@ def drop_scene(r: float, R: float, sigma: float, nu: float, solver: str,
         "boxes": [{"min": [-half, -half], "max": [half, half]}] if walls else [],
         "interfaces": [{"materials": ["a", "b"],
                         "viscosity": {"method": "morris1997", "coefficient": nu},
-                        "tension": {"method": "hu2006", "coefficient": sigma}}],
+                        "tension": {"method": "hu2006", "coefficient": sigma,
+                                    "background_pressure": background}}],
     }), half
 
 
 def _drop(r: float, R: float, sigma: float, nu: float, solver: str,
           aspect: float = 1.0, margin: float = 0.05,
-          walls: bool = False) -> tuple[Simulation, float]:
-    scene, half = drop_scene(r, R, sigma, nu, solver, aspect, margin, walls)
+          walls: bool = False, background: float = 0.0) -> tuple[Simulation, float]:
+    scene, half = drop_scene(r, R, sigma, nu, solver, aspect, margin, walls, background)
     sim = _sim(scene)
     x = sim.fluid["x"]
     inside = (x[0] / (R * aspect)) ** 2 + (x[1] * aspect / R) ** 2 < 1.0
@@ -190,6 +196,49 @@ def laplace(r: float, solver: str, until: float = 1.0, sigma: float = 1.0,
                   f"{wall:8.1f}  {note}", flush=True)
 
 
+def drop_history(r: float, solver: str, backgrounds: list[float], until: float = 1.0,
+                 sigma: float = 1.0, nu: float = 0.005, R: float = 0.075,
+                 walls: bool = False) -> None:
+    """A 2D drop in a free square (no walls, so the pressure level cannot drift) over time,
+    for each background pressure: the jump ``p_b - p_a`` (drop interior more than 2h inside,
+    the outer phase more than 2h outside the drop and 2h inside the free surface) over sigma /
+    R, and the lowest density among the drop's particles (a gap at the interface)."""
+    marks = [t for t in (0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0) if t <= until + 1e-9]
+    print(f"\n2D drop of b (R = {R} m) in a {'closed' if walls else 'free'} square of a, "
+          f"r = {r} m, sigma = {sigma} N, "
+          f"nu = {nu} m^2/s, {solver}: (p_b - p_a) / (sigma / R), lowest rho / rho0 of b")
+    print(f"{'p_bg [Pa]':>9s} " + " ".join(f"{f'{t:g} s':>14s}" for t in marks)
+          + "  ms/step  note")
+    for bg in backgrounds:
+        sim, half = _drop(r, R, sigma, nu, solver, margin=0.1, walls=walls, background=bg)
+        h = sim.state.h
+        row, k, steps, note = [], 0, 0, ""
+        t0 = time.perf_counter()
+        try:
+            while k < len(marks):
+                sim.step()
+                steps += 1
+                if sim.time >= marks[k] - 1e-9:
+                    f = sim.fluid
+                    x = f["x"]
+                    b = f["phase"] == 1
+                    c = x[:, b].mean(axis=1, keepdims=True)
+                    d = np.linalg.norm(x - c, axis=0)
+                    Rv = math.sqrt(b.sum() * (2 * r) ** 2 / math.pi)
+                    top = half if walls else np.abs(x).max()  # the square's half width
+                    edge = top - np.abs(x).max(axis=0)
+                    pin = f["p"][b & (d < Rv - 2 * h)].mean()
+                    pout = f["p"][~b & (d > Rv + 2 * h) & (edge > 2 * h)].mean()
+                    rmin = float((f["rho"][b] / f["rho0"][b]).min())
+                    row.append(f"{(pin - pout) * Rv / sigma:6.3f} / {rmin:5.3f}")
+                    k += 1
+        except InstabilityError as e:
+            note = f"unstable at t = {e.stats.time:.3f} s"
+        wall = (time.perf_counter() - t0) / max(steps, 1) * 1e3
+        print(f"{bg:9g} " + " ".join(f"{c:>14s}" for c in row) + f"  {wall:7.1f}  {note}",
+              flush=True)
+
+
 def ellipse(r: float, solver: str, until: float = 2.0, sigma: float = 1.0,
             nu: float = 0.01) -> None:
     """The ellipse study of the module docstring (``nu`` [m^2/s] in and between the phases)."""
@@ -221,18 +270,24 @@ def ellipse(r: float, solver: str, until: float = 2.0, sigma: float = 1.0,
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--study", nargs="+", default=["shear", "laplace", "ellipse"],
-                    choices=["shear", "laplace", "ellipse"])
+                    choices=["shear", "laplace", "ellipse", "drop"])
     ap.add_argument("--solver", default="dfsph")
     ap.add_argument("--shear-solver", default="wcsph")
     ap.add_argument("--radius", type=float, default=0.005)
     ap.add_argument("--ellipse-nu", type=float, default=0.01, help="ellipse: nu [m^2/s]")
     ap.add_argument("--until", type=float, default=1.0, help="laplace: run time [s]")
+    ap.add_argument("--drop-walls", action="store_true", help="drop: a closed square")
+    ap.add_argument("--background", type=float, nargs="+", default=[0.0, 50.0, 200.0],
+                    help="drop: background pressures p_b of the interface band [Pa]")
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "shear" in args.study:
         shear(args.radius, args.shear_solver)
     if "laplace" in args.study:
         laplace(args.radius, args.solver, args.until)
+    if "drop" in args.study:
+        drop_history(args.radius, args.solver, args.background, args.until,
+                     walls=args.drop_walls)
     if "ellipse" in args.study:
         ellipse(args.radius, args.solver, nu=args.ellipse_nu)
 

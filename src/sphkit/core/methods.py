@@ -323,10 +323,14 @@ class BoundaryCoupling:
 
     def __init__(self, pressure: BoundaryPressure | None = None,
                  moving: MovingBoundary | None = None,
-                 model: BoundaryModel | None = None, symmetric: bool = False) -> None:
+                 model: BoundaryModel | None = None, symmetric: bool = False,
+                 solved: bool = False) -> None:
         self.pressure = pressure
         #: the symmetric boundary term ``V_b k_i`` in the PPE solvers (see :meth:`mirror`)
         self.symmetric = symmetric
+        #: the static walls' pressures are unknowns of the PPE (:meth:`solved_walls`)
+        self.solved = solved
+        self._wall_k: dict[str, np.ndarray] = {}
         self.moving = moving
         self.model = model
         self._still = np.zeros((0, 0))
@@ -371,18 +375,57 @@ class BoundaryCoupling:
         b = state.boundary
         if self.symmetric:  # the symmetric term (see below)
             return np.zeros(b.n, dtype=b.dtype)
-        if "pressure_mirror" in b.specs and b["pressure_mirror"].shape[0] == b.n:
-            m = b["pressure_mirror"]
-        else:
-            m = np.zeros(b.n, dtype=b.dtype)
+        if self.solved:  # the static walls' own pressure k_b instead (solved_walls)
+            m = self._mirror_field(state)
+            return np.where(self.solved_walls(state), 0.0, m).astype(b.dtype)
+        m = self._mirror_field(state)
         if diagonal and self.pressure is not None:
             m = m + self.pressure.diagonal_mirror()
         return m
 
+    @staticmethod
+    def _mirror_field(state: SimState) -> np.ndarray:
+        b = state.boundary
+        if "pressure_mirror" in b.specs and b["pressure_mirror"].shape[0] == b.n:
+            return b["pressure_mirror"]
+        return np.zeros(b.n, dtype=b.dtype)
+
     def boundary_kappa(self, state: SimState) -> BoundaryKappa:
         """The extrapolation ``k -> k_b`` of this step's pressure fields (see
         :class:`BoundaryKappa`)."""
-        return BoundaryKappa(None if self.symmetric else self.pressure, state)
+        return BoundaryKappa(None if self.symmetric or self.solved else self.pressure, state)
+
+    def solved_walls(self, state: SimState) -> np.ndarray:
+        """Which boundary particles carry a pressure of their own that the PPE solvers solve
+        for (scene ``configuration.boundary.solved``; static walls, not rigid bodies; all
+        False when off). Their boundary term is ``-sum_b V_b (k_i + k_b) grad W_ib`` with
+        ``k_b >= 0`` chosen in the same Jacobi iteration as the fluid's so that the fluid's
+        normalized density at the wall particle, ``sum_f V_f W_fb``, does not change in the
+        step (:func:`sphkit.core.solver.jacobi_ppe`). The force is then the transpose of
+        that constraint (a Lagrange multiplier's): it does no work on a flow that keeps it,
+        unlike the mirrored or extrapolated ``k_b``, whose share beyond ``V_b k_i`` made a
+        closed box of fluid at rest gain energy (``validation/wall_energy.py``). After Band
+        et al. 2018, "Pressure boundaries for implicit incompressible SPH" (ACM TOG 37(2)),
+        whose extended PPE gives boundary samples a pressure of their own; the paper itself
+        could not be read here: the constraint (the fluid density at the wall held, velocity
+        level) and its Jacobi update are sphkit's."""
+        b = state.boundary
+        if not self.solved:
+            return np.zeros(b.n, dtype=np.bool_)
+        if "rigid_body" in b.specs and b["rigid_body"].shape[0] == b.n:
+            return b["rigid_body"] == 0
+        return np.ones(b.n, dtype=np.bool_)
+
+    def wall_kappa(self, state: SimState, key: str) -> np.ndarray:
+        """The solved walls' ``k_b`` of the solve named ``key`` (its warm start: the last
+        step's values; zeros when the boundary changed size). Not checkpointed: a run resumed
+        from a checkpoint starts its walls from zero."""
+        n = state.boundary.n
+        kb = self._wall_k.get(key)
+        if kb is None or kb.shape[0] != n:
+            kb = np.zeros(n, dtype=state.fluid.dtype)
+            self._wall_k[key] = kb
+        return kb
 
     def prepare(self, state: SimState) -> None:
         """Once per step after the densities (the MLS coefficients of this step's pairs)."""

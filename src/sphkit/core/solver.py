@@ -28,10 +28,18 @@ from sphkit.core.ppe import (
     kappa_accel_cached,
     pair_divergence_cached,
     pair_gradients,
+    wall_diagonal,
+    wall_sums,
+    wall_update,
 )
 from sphkit.core.state import SimState
 
 log = logging.getLogger("sphkit")
+
+#: solved walls: a wall particle's k_b is at most this times the largest k of its fluid
+#: neighbours (:func:`sphkit.core.ppe.wall_update`; without the bound the walls' values grew
+#: to 1e5-1e8 and a 3D 1:10 heavy-over-light column blew up at 1.2 s, also with omega 0.1)
+WALL_CAP = 1.0
 
 
 @dataclass
@@ -130,6 +138,18 @@ class PairGradients:
                           else (st.nl_ff.indices, rest.c, rest.inv_c)))
         return out
 
+    def wall_rate(self, v: np.ndarray) -> np.ndarray:
+        """``D rho_hat_b / Dt = sum_f V_f v_f . grad_f W_fb`` of the fluid velocities v at each
+        solved wall particle (0 at the others; :func:`sphkit.core.ppe.wall_sums`)."""
+        st = self.state
+        b = st.boundary
+        out = np.empty(b.n, dtype=st.fluid.dtype)
+        rest = st.rest()
+        Vf = st.fluid["V0"] if rest.uniform else rest.V
+        wall_sums(v, Vf, b["V"], st.nl_fb.offsets, st.nl_fb.indices, self.gwb, st.dim,
+                  st.coupling.solved_walls(st), out)
+        return out
+
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
         """``D rho_hat / Dt`` of the velocities v (boundary velocities from the state)."""
         st = self.state
@@ -144,7 +164,8 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
                s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
                active: np.ndarray, error_factor: float = 1.0,
                grads: PairGradients | None = None, shift: float = 0.0, clamp: bool = True,
-               mirror: np.ndarray | None = None
+               mirror: np.ndarray | None = None, wall_source: np.ndarray | None = None,
+               wall_key: str = "", wall_scale: float = 1.0
                ) -> tuple[np.ndarray, int, float, float, bool]:
     """Relaxed Jacobi on ``A q = s``; q is updated in place and clamped to q >= 0.
 
@@ -160,6 +181,17 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     ``max(Ap - s, 0)`` of ``active`` particles averaged over all particles, times
     ``error_factor``.
     ``grads`` are the step's cached pair gradients (computed here when not given).
+
+    Solved walls (scene ``configuration.boundary.solved``,
+    :meth:`~sphkit.core.methods.BoundaryCoupling.solved_walls`): a solver that passes
+    ``wall_source`` (N_boundary,), the source of the walls' constraint in the units of s (its
+    velocity part: ``-dt D rho_hat_b / Dt`` of the predicted velocities where s is ``1 - rho_hat
+    - dt div``, ``-D rho_hat_b / Dt`` where s is ``-div``; :meth:`PairGradients.wall_rate`),
+    has the static walls' ``k_b`` (warm-started from the coupling's field ``wall_key``, which
+    keeps ``k_b wall_scale``: DFSPH's dt^2 or dt, as its own warm starts) updated
+    in every iteration from the same accelerations as the fluid's q:
+    ``k_b <- max(k_b - omega (s_b - f Ap_b) / (f D_b), 0)`` (:func:`sphkit.core.ppe.
+    wall_update`); the convergence test stays the fluid's.
     Returns (pressure acceleration of the final q, iterations, average error, max error,
     converged).
     """
@@ -180,6 +212,21 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     if mirror is None:
         mirror = coupling.mirror(state)
     kb = coupling.boundary_kappa(state)
+    walls = coupling.solved and wall_source is not None and state.boundary.n > 0
+    if walls:
+        use = coupling.solved_walls(state)
+        stored = coupling.wall_kappa(state, wall_key)
+        stored[~use] = 0.0
+        wk = stored * (1.0 / wall_scale)
+        b = state.boundary
+        Vf = f["V0"] if rest.uniform else rest.V
+        wd = np.empty(b.n, dtype=f.dtype)
+        wall_diagonal(Vf, b["V"], rest.inv_c, nb.offsets, nb.indices, g.gwb, dim, use, wd)
+        wap = np.empty(b.n, dtype=f.dtype)
+        wkmax = np.empty(b.n, dtype=f.dtype)
+
+        def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the solved walls' own values)
+            return wk
     # no clamping: a finite bound (the passes are compiled with fast math's no-infinities flag)
     lo = 0.0 if clamp else -1e300
 
@@ -193,9 +240,15 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         ab = coupling.response(state, own(k), g.gwb)
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
                                dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo)
+        if walls:  # the same accelerations: a Jacobi sweep over fluid and walls together
+            wall_sums(a, Vf, b["V"], nb.offsets, nb.indices, g.gwb, dim, use, wap)
+            wall_update(wap, wall_source, wd, ap_factor, omega, wk, k, nb.offsets, nb.indices,
+                        WALL_CAP, wkmax)
         return avg * error_factor, mx * error_factor
 
     its, avg, mx, ok = control.run(sweep, state.step)
+    if walls:
+        stored[:] = wk * wall_scale
     kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                        g.gwb, dim, a, rest.inv_c)
     return a, its, avg, mx, ok

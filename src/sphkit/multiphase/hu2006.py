@@ -50,6 +50,18 @@ the force alone holds 0.94-0.97 sigma/R on sampled 2D discs of 6-10 spacings and
 Hu & Adams ran weakly compressible SPH with a background pressure) and a 2D drop's interior
 pressure, sigma/R after 0.1 s, decays to a fifth of it by 1 s; an ellipse still relaxes.
 
+Background pressure (``interfaces[].tension.background_pressure`` p_b, default 0): every
+particle of a phase with an interface tension carries ``Pi - p_b I``, i.e. the pair force
+``-(V_i^2 p_b + V_j^2 p_b) grad_i W_ij``, a repulsion that cancels in a full neighbourhood and
+pushes particles into a gap (and, unopposed, out of a free surface; walls hold it through the
+pressure solve). Hu & Adams ran weakly compressible SPH with a background pressure that keeps
+the total pressure positive (against the tensile instability); with the clamped incompressible
+solvers it is a force of its own, added to the tension's. Momentum is still conserved (the pair
+form is antisymmetric). Restricted to the interface band (a nonzero colour gradient) it made
+the gap worse: the step of p_b at the band's edge pushed particles out of the band (2D drop, p_b
+= 50 Pa: lowest density of the drop 0.45 rho0 at 0.5 s instead of 0.73, no pressure jump left;
+validation/README.md, "Forces between phases").
+
 Several interfaces: one force holds the (P, P) table of ``sigma_ab`` over the materials of the
 scene (0: none between those two), indexed by the particle field ``phase``; the stress (six
 components per particle, xx yy zz xy xz yz) is a work array of the force, recomputed each step.
@@ -71,17 +83,22 @@ from sphkit.multiphase.phases import pair_table
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
-def surface_stress_body(i, x, m, rho, phase, off, idx, sigma, iso_share, h, kid, dim, L, S):
+def surface_stress_body(i, x, m, rho, phase, off, idx, sigma, iso_share, h, kid, dim, L, S,
+                        background=0.0):
     """Particle i's surface stress ``Pi_i`` (module docstring) into ``S[:, i]`` (xx, yy, zz,
     xy, xz, yz); ``sigma`` (P, P) interface tensions [N/m] by phase; ``iso_share`` the factor
-    of ``|g|^2 I``: 1 (the full capillary stress) or 1 / dim (Hu & Adams' traceless one)."""
+    of ``|g|^2 I``: 1 (the full capillary stress) or 1 / dim (Hu & Adams' traceless one);
+    ``background``: ``p_b``, subtracted from the diagonal of every particle of a phase with an
+    interface tension."""
     xi0, xi1, xi2 = point(x, i, dim)
     pa = phase[i]
     s00 = s11 = s22 = s01 = s02 = s12 = 0.0
+    band = False
     for b in range(sigma.shape[0]):
         sg = sigma[pa, b]
         if b == pa or sg == 0.0:
             continue
+        band = True  # a phase with an interface tension: the background pressure applies
         g0 = g1 = g2 = 0.0
         for k in range(off[i], off[i + 1]):
             j = idx[k]
@@ -104,6 +121,11 @@ def surface_stress_body(i, x, m, rho, phase, off, idx, sigma, iso_share, h, kid,
         s01 -= c * g0 * g1
         s02 -= c * g0 * g2
         s12 -= c * g1 * g2
+    if band:
+        s00 -= background
+        s11 -= background
+        if dim > 2:
+            s22 -= background
     S[0, i] = s00
     S[1, i] = s11
     S[2, i] = s22
@@ -156,11 +178,14 @@ class HuAdams2006(NonPressureForce):
     def from_config(cls, config: Any) -> HuAdams2006:
         """The force of ``(sigma table, options)`` that the world builds from the scene's
         ``interfaces`` (:func:`sphkit.world.build_world`; no options of its own)."""
-        sigma, _options = config
-        return cls(sigma)
+        sigma, options = config
+        return cls(sigma, background_pressure=getattr(options, "background_pressure", 0.0))
 
-    def __init__(self, sigma: Any, traceless: bool = False) -> None:
+    def __init__(self, sigma: Any, traceless: bool = False,
+                 background_pressure: float = 0.0) -> None:
         self.sigma = pair_table(sigma, "interfaces[].tension.coefficient")
+        #: p_b [Pa] of the phases with an interface tension (module docstring)
+        self.background_pressure = float(background_pressure)
         #: Hu & Adams' traceless stress (``|g|^2 I / d``) instead of the full one (module
         #: docstring); for comparisons only, the scene always runs the full stress
         self.traceless = bool(traceless)
@@ -175,7 +200,8 @@ class HuAdams2006(NonPressureForce):
         launch(surface_stress_body, f.n, f["x"], f["m"], f["rho"], f["phase"],
                state.nl_ff.offsets, state.nl_ff.indices, self.sigma,
                1.0 / state.dim if self.traceless else 1.0, float(state.h),
-               int(state.kid), int(state.dim), float(state.period), self._S)
+               int(state.kid), int(state.dim), float(state.period), self._S,
+               self.background_pressure)
         return self._S
 
     def apply(self, state: SimState, dt: float) -> None:

@@ -156,7 +156,8 @@ class DFSPH(PressureSolver):
         ones = np.ones_like(div)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
                                            alpha / dt, dt, OMEGA, active, error_factor=dt,
-                                           grads=self._grads)
+                                           grads=self._grads, **self._walls(state, f["v"], 1.0,
+                                                                            "dfsph_v", dt))
         f["v"] += dt * a
         # strong coupling: a boundary that yielded to kappa^v in the solve takes its velocity
         # change too, so that the density solve sees the bodies as the fluid does
@@ -164,6 +165,16 @@ class DFSPH(PressureSolver):
         f["dfsph_kappa_v"] = kappa * dt
         self._kappa_v = kappa
         self._div_stats = (its, avg)
+
+    def _walls(self, state: SimState, v: np.ndarray, factor: float, key: str,
+               scale: float) -> dict:
+        """jacobi_ppe's solved-wall arguments (scene ``configuration.boundary.solved``): the
+        walls' source ``-factor D rho_hat_b / Dt`` of the velocities v, the warm start's name and
+        scale; none when the walls are not solved."""
+        if not state.coupling.solved:
+            return {}
+        return {"wall_source": -factor * self._grads.wall_rate(v), "wall_key": key,
+                "wall_scale": scale}
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Constant-density solve on v* = v + dt a; adds the pressure acceleration to a."""
@@ -180,7 +191,9 @@ class DFSPH(PressureSolver):
         active = np.ones(f.n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
                                          alpha / (dt * dt), dt * dt, OMEGA, active,
-                                         grads=self._grads)
+                                         grads=self._grads,
+                                         **self._walls(state, f["v"] + dt * f["a"], dt, "dfsph",
+                                                       dt * dt))
         self._grads = None
         f["a"] += a
         f["dfsph_kappa"] = kappa * (dt * dt)

@@ -598,6 +598,12 @@ class InterfaceTensionConfig(_Model):
         "depth): the pressure jump across the interface is sigma kappa (sigma / R for a 2D "
         "drop, 2 sigma / R in 3D)",
     )
+    background_pressure: float = Field(
+        0.0, ge=0, le=1e9, description="hu2006: a background pressure p_b [Pa] added to the "
+        "surface stress of the particles in the interface band (Pi - p_b I; Hu & Adams 2006 "
+        "run with a background pressure): a repulsion among the band's particles that "
+        "closes the gap the tangential tension opens at the interface; 0: none",
+    )
 
 
 class Interface(_Model):
@@ -837,6 +843,15 @@ class BoundaryConfig(_Model):
         "under a heavy one between walls (density ratio 1:10), where the other forms make it "
         "indefinite and the Jacobi iterations diverge (validation/README.md, 'Several fluids')",
     )
+    solved: bool = Field(
+        False, description="the static wall particles (boxes, static meshes) get a pressure of "
+        "their own that IISPH and DFSPH solve for in the same Jacobi iteration as the fluid's, "
+        "so that the fluid's density at each wall particle does not change in a step (after "
+        "Band et al. 2018, 'Pressure boundaries for IISPH'): a wall force that does no work on "
+        "the flow, where the mirrored or MLS boundary pressure (the default) pumped energy into "
+        "a closed box of fluid at rest (validation/wall_energy.py); akinci2012 only; PCISPH, "
+        "ICSPH and WCSPH then use the symmetric term V_b k_i",
+    )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
         "radius (at most 8 million grid points)",
@@ -852,6 +867,17 @@ class BoundaryConfig(_Model):
         if v is not None and (len(v) not in (2, 3) or min(v) < 1):
             raise ValueError(f"map_resolution {v}: expected 2 or 3 positive cell counts")
         return v
+
+    @model_validator(mode="after")
+    def _one_wall_term(self) -> BoundaryConfig:
+        if self.symmetric and self.solved:
+            raise ValueError("symmetric true and solved true: expected at most one of them "
+                             "(two different wall terms of the PPE solvers)")
+        if self.solved and self.method != "akinci2012":
+            raise ValueError(f"solved true with method {self.method!r}: expected method "
+                             "'akinci2012' (the solved wall pressures belong to boundary "
+                             "particles)")
+        return self
 
     #: ``pressure`` was left out and is the model's default (the scene may change it to the
     #: default for moving bodies, :meth:`Scene._moving_bodies_pressure`)

@@ -259,7 +259,8 @@ def _build(scene: Scene) -> World:
     # the one way the solvers meet the boundary: mirror weights, the boundary pressure model,
     # the bodies that yield to the pressure (strong coupling)
     state.coupling = BoundaryCoupling(pressure=pressure_model, moving=rigid, model=model,
-                                      symmetric=cfg.boundary.symmetric)
+                                      symmetric=cfg.boundary.symmetric,
+                                      solved=cfg.boundary.solved)
     # the fluid's start: out of the walls, consistent next to them, hydrostatic
     start, settle = start_fluid(state, scene, meshes, model, pressure)
     for force in forces:
