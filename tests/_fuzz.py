@@ -111,6 +111,7 @@ def _own_extras() -> list[tuple[tuple, st.SearchStrategy]]:
         (("configuration", "start", "settle"),
          st.one_of(st.sampled_from(["auto", True, False, "maybe"]), VALUES)),
         (("configuration", "start", "settle_speed"), VALUES),
+        (("configuration", "start", "settle_min_periods"), VALUES),
         (("configuration", "max_velocity"), VALUES),
         (("configuration", "zsort_every"), VALUES),
         (("configuration", "periodic_x"), st.one_of(st.just([-0.1, 0.7]), VALUES)),

@@ -59,7 +59,7 @@ from sphkit.core.timestep import (
 from sphkit.core.verlet import VerletLists
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world
-from sphkit.world.settle import MIN_PERIODS, SettlePlan
+from sphkit.world.settle import SettlePlan
 
 
 @dataclass
@@ -149,7 +149,7 @@ class Simulation:
         """Run the start-up's settling ``plan`` before t = 0 (:mod:`sphkit.world.settle`): the
         step with every velocity damped by ``exp(-gamma dt)``, the fluid of columns in the air
         held in place, until the fluid's root mean square speed is below ``plan.speed`` (after
-        at least one period of the first acoustic mode) or ``plan.max_time``; then the
+        at least ``plan.min_time``) or ``plan.max_time``; then the
         velocities are zeroed and the clock reset. Returns (steps, settled time [s], root mean
         square speed at the end [m/s]); (0, 0, nan) when it became unstable and was undone
         (with a warning)."""
@@ -167,7 +167,7 @@ class Simulation:
                     f["x"][:, k] = plan.held_x[:, np.searchsorted(plan.held_ids, f["id"][k])]
                     v[:, k] = 0.0
                 speed = float(np.sqrt((v * v).sum(axis=0).mean())) if f.n else 0.0
-                if speed < plan.speed and self.time >= MIN_PERIODS * plan.period:
+                if speed < plan.speed and self.time >= plan.min_time:
                     break
         except InstabilityError as e:
             for name, arr in saved.items():

@@ -930,8 +930,12 @@ class StartConfig(_Model):
         0.005, gt=0, description="the settling stops once the root mean square speed of the "
         "fluid is below this [m/s]")
     settle_periods: float = Field(
-        10.0, gt=0, le=1000, description="longest settling, in periods 4 H / c of the deepest "
+        30.0, gt=0, le=1000, description="longest settling, in periods 4 H / c of the deepest "
         "column's first acoustic mode (H its depth, c the speed of sound)")
+    settle_min_periods: float = Field(
+        20.0, ge=0, le=1000, description="shortest settling, in the same periods, whatever the "
+        "speed: a block sampled on a 2D square lattice keeps rearranging into hexagonal grains "
+        "for 1-2 s after its speed is below settle_speed; at most settle_periods")
 
 
 class OutputConfig(_Model):
