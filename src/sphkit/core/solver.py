@@ -150,6 +150,16 @@ class PairGradients:
                   st.coupling.solved_walls(st), out)
         return out
 
+    def wall_args(self, v: np.ndarray, factor: float, key: str, scale: float = 1.0) -> dict:
+        """:func:`jacobi_ppe`'s solved-wall arguments (scene ``configuration.boundary.solved``):
+        the walls' source ``-factor D rho_hat_b / Dt`` of the velocities v
+        (:meth:`wall_rate`), the name of their warm start and its scale; none (``{}``) when
+        the walls are not solved."""
+        if not self.state.coupling.solved:
+            return {}
+        return {"wall_source": -factor * self.wall_rate(v), "wall_key": key,
+                "wall_scale": scale}
+
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
         """``D rho_hat / Dt`` of the velocities v (boundary velocities from the state)."""
         st = self.state

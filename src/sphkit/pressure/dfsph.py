@@ -156,8 +156,8 @@ class DFSPH(PressureSolver):
         ones = np.ones_like(div)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
                                            alpha / dt, dt, OMEGA, active, error_factor=dt,
-                                           grads=self._grads, **self._walls(state, f["v"], 1.0,
-                                                                            "dfsph_v", dt))
+                                           grads=self._grads,
+                                           **self._grads.wall_args(f["v"], 1.0, "dfsph_v", dt))
         f["v"] += dt * a
         # strong coupling: a boundary that yielded to kappa^v in the solve takes its velocity
         # change too, so that the density solve sees the bodies as the fluid does
@@ -166,23 +166,14 @@ class DFSPH(PressureSolver):
         self._kappa_v = kappa
         self._div_stats = (its, avg)
 
-    def _walls(self, state: SimState, v: np.ndarray, factor: float, key: str,
-               scale: float) -> dict:
-        """jacobi_ppe's solved-wall arguments (scene ``configuration.boundary.solved``): the
-        walls' source ``-factor D rho_hat_b / Dt`` of the velocities v, the warm start's name and
-        scale; none when the walls are not solved."""
-        if not state.coupling.solved:
-            return {}
-        return {"wall_source": -factor * self._grads.wall_rate(v), "wall_key": key,
-                "wall_scale": scale}
-
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Constant-density solve on v* = v + dt a; adds the pressure acceleration to a."""
         f = state.fluid
         alpha = f["dfsph_alpha"]
         if self._grads is None:  # solve() without pre_forces(): build this step's cache
             self.pre_forces(state, dt)
-        div = self._grads.velocity_divergence(f["v"] + dt * f["a"])
+        v_star = f["v"] + dt * f["a"]
+        div = self._grads.velocity_divergence(v_star)
         s = np.empty_like(div)
         kappa = np.empty_like(div)
         _density_source(f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"], state.rest().inv_c,
@@ -192,8 +183,7 @@ class DFSPH(PressureSolver):
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
                                          alpha / (dt * dt), dt * dt, OMEGA, active,
                                          grads=self._grads,
-                                         **self._walls(state, f["v"] + dt * f["a"], dt, "dfsph",
-                                                       dt * dt))
+                                         **self._grads.wall_args(v_star, dt, "dfsph", dt * dt))
         self._grads = None
         f["a"] += a
         f["dfsph_kappa"] = kappa * (dt * dt)

@@ -80,7 +80,8 @@ class IISPH(PressureSolver):
         f = state.fluid
         n = f.n
         grads = PairGradients.of(state)
-        div = grads.velocity_divergence(f["v"] + dt * f["a"])
+        v_star = f["v"] + dt * f["a"]
+        div = grads.velocity_divergence(v_star)
         D = grads.diagonal()
         s = np.empty(n, dtype=f.dtype)
         w = np.empty(n, dtype=f.dtype)
@@ -88,12 +89,9 @@ class IISPH(PressureSolver):
         _setup(f["rho"], 1.0 / f["rho0"], div, D, dt, 1e-9 / state.h ** 2, s, w, scale)
         p = 0.5 * f["p"] / f["rho0"]  # warm start, normalized pressure
         active = np.ones(n, dtype=np.bool_)
-        walls = {}
-        if state.coupling.solved:  # the static walls' own pressures (BoundaryCoupling)
-            walls = {"wall_source": -dt * grads.wall_rate(f["v"] + dt * f["a"]),
-                     "wall_key": "iisph"}
         a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
-                                         self.omega, active, grads=grads, **walls)
+                                         self.omega, active, grads=grads,
+                                         **grads.wall_args(v_star, dt, "iisph"))
         f["a"] += a
         f["p"] = p * f["rho0"]
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
