@@ -375,10 +375,9 @@ class BoundaryCoupling:
         b = state.boundary
         if self.symmetric:  # the symmetric term (see below)
             return np.zeros(b.n, dtype=b.dtype)
-        if self.solved:  # the static walls' own pressure k_b instead (solved_walls)
-            m = self._mirror_field(state)
-            return np.where(self.solved_walls(state), 0.0, m).astype(b.dtype)
         m = self._mirror_field(state)
+        if self.solved:  # the static walls' own pressure k_b instead (solved_walls)
+            return np.where(self.solved_walls(state), 0.0, m).astype(b.dtype)
         if diagonal and self.pressure is not None:
             m = m + self.pressure.diagonal_mirror()
         return m
