@@ -183,6 +183,7 @@ def _run_sweep(job: Job) -> dict[str, Any]:
     args = argparse.Namespace(
         scene=f"{scene.name} variant {job.k}", scene_object=scene, until=None, out=out,
         fps=None, formats=None, checkpoint_every=None, keep_checkpoints=2, max_particles=None,
+        precision=None,
         resume=None, quiet=True, verbose=False, log_session=None)
     code = cmd_run(args, ["sweep", "variant", str(job.k)])
     try:

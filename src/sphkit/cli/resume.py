@@ -88,7 +88,7 @@ def prepare_resume(args: argparse.Namespace, argv: Sequence[str]) -> Resume | in
     given = [name for name, value in (("SCENE", args.scene), ("--fps", args.fps),
                                       ("--format", args.formats),
                                       ("--max-particles", args.max_particles),
-                                      ("--precision", getattr(args, "precision", None)))
+                                      ("--precision", args.precision))
              if value is not None]
     if given:
         error(f"--resume {str(out_dir)!r}: got {', '.join(given)} too; expected only --until "

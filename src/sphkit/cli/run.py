@@ -194,7 +194,7 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
             scene.output.formats = args.formats
         if args.max_particles is not None:
             scene.configuration.max_particles = args.max_particles
-        if getattr(args, "precision", None) is not None:
+        if args.precision is not None:
             scene.configuration.precision = args.precision
         sim = Simulation.from_scene(scene)
         Interrupts.check()  # a Ctrl-C that a library swallowed while the world was built
