@@ -444,6 +444,16 @@ def neighbor_lists(x: np.ndarray, h: float,
     return Grid(x, h).query(x, exclude_self=True, period=period)
 
 
+@numba.njit(cache=True, inline="always")
+def csr_offsets(counts):
+    """The CSR row offsets (N + 1,) int64 of the row lengths ``counts`` (N,): a prefix sum."""
+    n = counts.shape[0]
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        offsets[i + 1] = offsets[i] + counts[i]
+    return offsets
+
+
 @numba.njit(cache=True, parallel=True)
 def _merge_rows(off_a, idx_a, off_b, idx_b, row_b):
     """CSR lists whose row i is row i of (off_a, idx_a) followed by row row_b[i] of
@@ -456,9 +466,7 @@ def _merge_rows(off_a, idx_a, off_b, idx_b, row_b):
         if k >= 0:
             c += off_b[k + 1] - off_b[k]
         counts[i] = c
-    offsets = np.zeros(n + 1, dtype=np.int64)
-    for i in range(n):
-        offsets[i + 1] = offsets[i] + counts[i]
+    offsets = csr_offsets(counts)
     indices = np.empty(offsets[n], dtype=np.int32)
     for i in numba.prange(n):
         o = offsets[i]

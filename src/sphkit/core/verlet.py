@@ -16,7 +16,7 @@ import math
 import numba
 import numpy as np
 
-from sphkit.core.neighbors import NeighborList, neighbor_lists
+from sphkit.core.neighbors import NeighborList, csr_offsets, neighbor_lists
 from sphkit.core.pairs import delta, point
 
 
@@ -33,9 +33,7 @@ def _within(x, off, idx, h, dim, L):
             d0, d1, d2 = delta(xi0, xi1, xi2, x, idx[k], dim, L)
             c += np.int64(d0 * d0 + d1 * d1 + d2 * d2 < h2)
         counts[i] = c
-    offsets = np.zeros(n + 1, dtype=np.int64)
-    for i in range(n):
-        offsets[i + 1] = offsets[i] + counts[i]
+    offsets = csr_offsets(counts)
     indices = np.empty(offsets[n], dtype=np.int32)
     for i in numba.prange(n):
         xi0, xi1, xi2 = point(x, i, dim)
