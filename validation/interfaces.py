@@ -156,6 +156,22 @@ def _drop(r: float, R: float, sigma: float, nu: float, solver: str,
     return sim, half
 
 
+def _jump(sim: Simulation, r: float, h: float, top: float) -> tuple[float, float]:
+    """The drop's pressure jump ``p_b - p_a`` [Pa] and its volume radius ``Rv`` [m]: the mean
+    pressure of the drop (phase 1) more than 2h inside Rv against that of the outer phase more
+    than 2h outside it and more than 2h inside the square of half width ``top``."""
+    f = sim.fluid
+    x = f["x"]
+    b = f["phase"] == 1
+    c = x[:, b].mean(axis=1, keepdims=True)
+    d = np.linalg.norm(x - c, axis=0)
+    Rv = math.sqrt(b.sum() * (2 * r) ** 2 / math.pi)
+    edge = top - np.abs(x).max(axis=0)  # distance to the square's sides
+    pin = f["p"][b & (d < Rv - 2 * h)].mean()
+    pout = f["p"][~b & (d > Rv + 2 * h) & (edge > 2 * h)].mean()
+    return float(pin - pout), Rv
+
+
 def laplace(r: float, solver: str, until: float = 1.0, sigma: float = 1.0,
             nu: float = 0.005) -> None:
     print(f"\n2D drop of b in a, r = {r} m, sigma = {sigma} N, nu = {nu} m^2/s, {solver}, "
@@ -172,16 +188,7 @@ def laplace(r: float, solver: str, until: float = 1.0, sigma: float = 1.0,
                 sim.step()
                 steps += 1
                 if sim.time > 2.0 * until / 3.0:
-                    f = sim.fluid
-                    x = f["x"]
-                    b = f["phase"] == 1
-                    c = x[:, b].mean(axis=1, keepdims=True)
-                    d = np.linalg.norm(x - c, axis=0)
-                    Rv = math.sqrt(b.sum() * (2 * r) ** 2 / math.pi)
-                    edge = half - np.abs(x).max(axis=0)  # distance to the walls
-                    pin = f["p"][b & (d < Rv - 2 * h)].mean()
-                    pout = f["p"][~b & (d > Rv + 2 * h) & (edge > 2 * h)].mean()
-                    jumps.append((pin - pout, Rv))
+                    jumps.append(_jump(sim, r, h, half))
         except InstabilityError as e:
             note = f"unstable at t = {e.stats.time:.3f} s"
         wall = (time.perf_counter() - t0) / max(steps, 1) * 1e3
@@ -220,17 +227,12 @@ def drop_history(r: float, solver: str, backgrounds: list[float], until: float =
                 steps += 1
                 if sim.time >= marks[k] - 1e-9:
                     f = sim.fluid
-                    x = f["x"]
                     b = f["phase"] == 1
-                    c = x[:, b].mean(axis=1, keepdims=True)
-                    d = np.linalg.norm(x - c, axis=0)
-                    Rv = math.sqrt(b.sum() * (2 * r) ** 2 / math.pi)
-                    top = half if walls else np.abs(x).max()  # the square's half width
-                    edge = top - np.abs(x).max(axis=0)
-                    pin = f["p"][b & (d < Rv - 2 * h)].mean()
-                    pout = f["p"][~b & (d > Rv + 2 * h) & (edge > 2 * h)].mean()
+                    # the square's half width: its walls, or the free fluid's extent
+                    top = half if walls else float(np.abs(f["x"]).max())
+                    jump, Rv = _jump(sim, r, h, top)
                     rmin = float((f["rho"][b] / f["rho0"][b]).min())
-                    row.append(f"{(pin - pout) * Rv / sigma:6.3f} / {rmin:5.3f}")
+                    row.append(f"{jump * Rv / sigma:6.3f} / {rmin:5.3f}")
                     k += 1
         except InstabilityError as e:
             note = f"unstable at t = {e.stats.time:.3f} s"
