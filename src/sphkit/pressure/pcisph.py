@@ -89,13 +89,9 @@ scene through pysplishsplash, diverges the same way at step 11-13 (1,400-4,000 m
 boundary models. A warm start (IISPH's ``0.5 p``) did not prevent it; a fixed 2 ms step did (100
 unconverged sweeps per step at rest); the bound settles where 100 sweeps suffice (about 1.1 ms for
 that column at rest, 62 sweeps a step). Where the run's first solve builds pressure, the bound
-starts at that first step (the scene's initial step, 1 ms by default), so the steps grow from it by
-10 % per easy solve: a floating cube in a 3D pool with volume maps, whose first solve converged at
-1 ms in 3 sweeps, went unstable in its second step when that jumped to the CFL cap of 5 ms (393 m/s
-at 7 ms). A first solve without pressure (a lone particle) leaves the CFL step: a particle thrown
-at 3 m/s against a volume-map wall (tests/test_pcisph_pbf.py) came back at 3.3 m/s when its steps
-grew from 1 ms and at 1.0 m/s at the CFL step (the map's answer to a particle entering its range
-within one step depends on where the step lands).
+starts at that first step (the scene's initial step), so the steps grow from it by 10 % per easy
+solve instead of jumping to the CFL cap in the second step; a first solve without pressure (a lone
+particle) leaves the CFL step (measurements: validation/README.md, "The first step").
 The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`).
 """
 

@@ -22,9 +22,8 @@ after at least ``settle_min_periods`` periods of the mode (20), or after ``settl
 periods (30); then every velocity is set to 0 and the clock starts at t = 0, step 0. The
 minimum is for the packing, not the waves: a 2D block sampled on SPlisHSPlasH's square lattice
 is below 5 mm/s after one period, but the square lattice is not a rest state of 2D SPH and
-keeps shearing into hexagonal grains for 1-2 s; a column released then still drifted (per-frame
-slope 1.007-1.048 of rho0 g after 1 s, 1.018-1.036 after 10 periods of settling, 1.024-1.030
-after 20; validation/README.md, "Settling WCSPH fluid before t = 0").
+keeps shearing into hexagonal grains for 1-2 s, and a column released earlier drifts with it
+(measurements: validation/README.md, "Settling WCSPH fluid, continued").
 
 ``"auto"`` settles only what settling does not change in kind: a solver with a speed of sound
 (:meth:`sphkit.core.methods.PressureSolver.acoustic_speed`: WCSPH), gravity, fluid resting on
