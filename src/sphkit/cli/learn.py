@@ -7,7 +7,8 @@
                        [--lr LR] [--lr-final LR] [--lr-decay-steps N] [--noise STD]
                        [--radius R] [--seed S]
     sphkit learn rollout MODEL SCENE [--until T | --steps N] [--out DIR] [--format vtk,...]
-    sphkit learn eval MODEL DATASET [--split test] [--out DIR] [--limit N]
+                         [--no-collisions]
+    sphkit learn eval MODEL DATASET [--split test] [--out DIR] [--limit N] [--no-collisions]
 
 ``DATASET`` is a folder in LagrangeBench's layout (:mod:`sphkit.learn.data`); ``MODEL`` the
 folder ``sphkit learn train`` wrote (or its ``model.pt``). ``train`` prints progress lines
@@ -114,6 +115,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     r.add_argument("--format", type=choices_list(tuple(FORMATS), "vtk,ply", "the formats "),
                    dest="formats", metavar="LIST", help="frame formats (default: the scene's)")
     r.add_argument("--device", choices=("cpu", "cuda"), default="cpu", help="cpu or cuda")
+    r.add_argument("--no-collisions", dest="collisions", action="store_false",
+                   help="let the fluid move through the wall particles (the network alone; "
+                        "default: it collides with them, see sphkit.learn.walls)")
     add_verbosity(r)
     r.set_defaults(handler=lambda a, argv: _run(cmd_rollout, a, argv))
 
@@ -128,6 +132,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="folder for eval.json and the plots (default MODEL/eval-<split>)")
     e.add_argument("--limit", type=positive_int, metavar="N",
                    help="evaluate the first N trajectories only")
+    e.add_argument("--no-collisions", dest="collisions", action="store_false",
+                   help="let the fluid move through the wall particles (the network and the "
+                        "baseline alone; default: it collides with them, see sphkit.learn.walls)")
     e.add_argument("--starts", type=positive_int, default=8, metavar="K",
                    help="also measure 20-step rollouts from K evenly spaced frames of each "
                         "trajectory (default 8)")
@@ -231,7 +238,7 @@ def cmd_rollout(args: argparse.Namespace, argv: Sequence[str]) -> int:
         res = rollout_scene(args.model, scene, out, steps=args.steps, until=args.until,
                             formats=args.formats, command=["sphkit", *argv],
                             device=args.device, say=lambda text: say(args, text),
-                            check_interrupt=Interrupts.check)
+                            check_interrupt=Interrupts.check, collisions=args.collisions)
     except TrainingError as e:
         raise UsageError(f"MODEL: {e}") from None
     except (RolloutError, SceneError) as e:
@@ -262,7 +269,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     try:
         evaluate(args.model, args.dataset, args.split, out, limit=args.limit,
                  device=args.device, starts=args.starts, say=lambda text: print(text, flush=True),
-                 check_interrupt=Interrupts.check)
+                 check_interrupt=Interrupts.check, collisions=args.collisions)
     except TrainingError as e:
         raise UsageError(f"MODEL: {e}") from None
     except DatasetError as e:

@@ -9,6 +9,7 @@
   Sanchez-Gonzalez et al. 2020;
 * :mod:`sphkit.learn.train` -- training (noise injection, checkpoints, resume);
 * :mod:`sphkit.learn.rollout` -- autoregressive rollouts written as frames, like ``sphkit run``;
+* :mod:`sphkit.learn.walls` -- the rollout's collisions of the fluid with the wall particles;
 * :mod:`sphkit.learn.evaluate` -- rollout errors against the solver and a constant-velocity
   baseline, kinetic energy and density error over time.
 

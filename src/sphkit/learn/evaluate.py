@@ -20,6 +20,10 @@ compared with the solver's frames:
   away from particle i of the solver and a per-particle comparison would measure that drift
   twice.
 * **Inside the tank**: the largest number of fluid particles outside ``bounds`` at any step.
+* **Wall collisions** (``collisions``, on by default as in ``sphkit learn rollout``): the
+  model's and the baseline's fluid particles collide with the wall particles after every step
+  (:mod:`sphkit.learn.walls`); ``collisions=False`` (``--no-collisions``) measures the network
+  and the baseline alone.
 * **Later starts** (``starts``, default 8): rollouts from the start of a trajectory begin with
   its most violent transient (in the dam break: the column's free fall and impact on the
   floor), so ``MSE_20`` is also measured on 20-step rollouts started at ``starts`` evenly
@@ -43,6 +47,7 @@ import numpy as np
 from sphkit.io.atomic import atomic_write_text
 from sphkit.learn.data import FLUID, INPUT_SEQ_LENGTH, load_split, read_metadata
 from sphkit.learn.rollout import constant_velocity, outside, rollout, sph_density
+from sphkit.learn.walls import WallCollision
 
 HORIZONS = (1, 5, 20)
 
@@ -68,9 +73,12 @@ def evaluate(model: str | os.PathLike[str], dataset: str | os.PathLike[str],
              split: str = "test", out: str | os.PathLike[str] | None = None,
              limit: int | None = None, device: str = "cpu", starts: int = 8,
              say: Callable[[str], None] | None = None,
-             check_interrupt: Callable[[], None] | None = None) -> dict[str, Any]:
+             check_interrupt: Callable[[], None] | None = None,
+             collisions: bool = True) -> dict[str, Any]:
     """Evaluate the checkpoint ``model`` on ``dataset/<split>.h5``; return the results (also
-    written to ``out/eval.json`` with the plots when ``out`` is given)."""
+    written to ``out/eval.json`` with the plots when ``out`` is given). ``collisions``: the
+    model's and the baseline's fluid collide with the wall particles
+    (:mod:`sphkit.learn.walls`); off, both move freely (the network alone)."""
     from sphkit.learn.train import load_simulator
 
     say = say or print
@@ -92,16 +100,17 @@ def evaluate(model: str | os.PathLike[str], dataset: str | os.PathLike[str],
         fluid = tr.particle_type == FLUID
         walls = pos[0, ~fluid]
         hist = pos[:INPUT_SEQ_LENGTH]
+        collide = WallCollision(walls, dx) if collisions else None
 
         def tick(k: int, x: np.ndarray) -> bool:
             if check_interrupt is not None:
                 check_interrupt()
             return not np.all(np.isfinite(x))
 
-        pred = rollout(simulator, hist, tr.particle_type, steps, tick)
+        pred = rollout(simulator, hist, tr.particle_type, steps, tick, collide)
         if len(pred) < steps:  # the model blew up: count the rest as lost at the last state
             pred = np.concatenate([pred, np.repeat(pred[-1:], steps - len(pred), axis=0)])
-        cv = constant_velocity(hist, tr.particle_type, steps)
+        cv = constant_velocity(hist, tr.particle_type, steps, collide)
         gt = pos[INPUT_SEQ_LENGTH:]
         err = {name: ((p[:, fluid] - gt[:, fluid]) ** 2).mean(axis=(1, 2))
                for name, p in (("model", pred), ("cv", cv))}
@@ -115,8 +124,9 @@ def evaluate(model: str | os.PathLike[str], dataset: str | os.PathLike[str],
         for t0 in np.linspace(0, T - INPUT_SEQ_LENGTH - horizon, max(starts, 1)).astype(int):
             h0 = pos[t0:t0 + INPUT_SEQ_LENGTH]
             ref = pos[t0 + INPUT_SEQ_LENGTH:t0 + INPUT_SEQ_LENGTH + horizon, fluid]
-            for name, p in (("model", rollout(simulator, h0, tr.particle_type, horizon, tick)),
-                            ("cv", constant_velocity(h0, tr.particle_type, horizon))):
+            for name, p in (("model", rollout(simulator, h0, tr.particle_type, horizon, tick,
+                                              collide)),
+                            ("cv", constant_velocity(h0, tr.particle_type, horizon, collide))):
                 p = p if len(p) == horizon else np.concatenate(
                     [p, np.repeat(p[-1:], horizon - len(p), axis=0)])
                 later[name].append(float(((p[:, fluid] - ref) ** 2).mean()))
@@ -143,6 +153,7 @@ def evaluate(model: str | os.PathLike[str], dataset: str | os.PathLike[str],
     summary = {
         "model": str(model), "dataset": str(dataset), "split": split,
         "trajectories": len(per), "trained_steps": int(ckpt["step"]), "frame_dt": dt,
+        "wall_collisions": collisions,
         "mse": {name: {k: float(np.mean([p["mse"][name][k] for p in per])) for k in keys}
                 for name in ("model", "cv")},
         "kinetic_energy_error": {name: float(np.mean([p["kinetic_energy_error"][name]
@@ -187,7 +198,8 @@ def table(s: dict[str, Any]) -> list[str]:
                 f"{ke['model']:.3g}, constant velocity {ke['cv']:.3g}")
     rows.append(f"density error (mean |rho/rho0 - 1|): GNS {de['model']:.3g}, constant velocity "
                 f"{de['cv']:.3g}, solver {de['solver']:.3g}")
-    rows.append(f"fluid particles outside the bounds (most at any step): {s['max_outside']}")
+    rows.append(f"fluid particles outside the bounds (most at any step): {s['max_outside']}; "
+                f"wall collisions {'on' if s.get('wall_collisions', False) else 'off'}")
     return rows
 
 

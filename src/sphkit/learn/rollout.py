@@ -27,6 +27,7 @@ import numpy as np
 from sphkit.core.kernels import Kernel, lattice_volume
 from sphkit.core.neighbors import Grid
 from sphkit.learn.data import FLUID, INPUT_SEQ_LENGTH, WALL
+from sphkit.learn.walls import WallCollision
 
 
 class RolloutError(RuntimeError):
@@ -34,13 +35,18 @@ class RolloutError(RuntimeError):
 
 
 def rollout(simulator: Any, history: np.ndarray, particle_type: np.ndarray, steps: int,
-            on_step: Callable[[int, np.ndarray], bool] | None = None) -> np.ndarray:
+            on_step: Callable[[int, np.ndarray], bool] | None = None,
+            collide: WallCollision | None = None) -> np.ndarray:
     """Positions (steps, N, dim) after ``history`` (W, N, dim), W >= 6 frames; ``on_step(k,
-    x)`` after each step may return True to stop (the result is then shorter)."""
+    x)`` after each step may return True to stop (the result is then shorter); ``collide``
+    moves the fluid's predicted positions out of the walls (:mod:`sphkit.learn.walls`)."""
     hist = np.asarray(history, dtype=np.float64)[-INPUT_SEQ_LENGTH:].transpose(1, 0, 2).copy()
+    fluid = np.asarray(particle_type) == FLUID
     out = []
     for k in range(steps):
         nxt = simulator.step(hist, particle_type)
+        if collide is not None:
+            nxt[fluid] = collide(hist[fluid, -1], nxt[fluid])
         out.append(nxt)
         hist = np.concatenate([hist[:, 1:], nxt[:, None]], axis=1)
         if on_step is not None and on_step(k + 1, nxt):
@@ -49,12 +55,23 @@ def rollout(simulator: Any, history: np.ndarray, particle_type: np.ndarray, step
     return np.stack(out) if out else np.zeros((0, hist.shape[0], dim))
 
 
-def constant_velocity(history: np.ndarray, particle_type: np.ndarray, steps: int) -> np.ndarray:
-    """The baseline ``x[t+1] = 2 x[t] - x[t-1]`` (non-fluid particles fixed): (steps, N, dim)."""
+def constant_velocity(history: np.ndarray, particle_type: np.ndarray, steps: int,
+                      collide: WallCollision | None = None) -> np.ndarray:
+    """The baseline ``x[t+1] = 2 x[t] - x[t-1]`` (non-fluid particles fixed): (steps, N, dim);
+    with ``collide``, step by step with the same wall collisions as a model's rollout."""
     x1, x0 = np.asarray(history[-1], np.float64), np.asarray(history[-2], np.float64)
-    v = np.where((particle_type == FLUID)[:, None], x1 - x0, 0.0)
-    k = np.arange(1, steps + 1, dtype=np.float64)[:, None, None]
-    return x1[None] + k * v[None]
+    fluid = particle_type == FLUID
+    v = np.where(fluid[:, None], x1 - x0, 0.0)
+    if collide is None:
+        k = np.arange(1, steps + 1, dtype=np.float64)[:, None, None]
+        return x1[None] + k * v[None]
+    out = np.empty((steps,) + x1.shape)
+    for k in range(steps):
+        nxt = x1 + v
+        nxt[fluid] = collide(x1[fluid], nxt[fluid])
+        x1, v = nxt, nxt - x1
+        out[k] = nxt
+    return out
 
 
 def sph_density(fluid: np.ndarray, walls: np.ndarray, dx: float,
@@ -110,10 +127,12 @@ def rollout_scene(model: str | os.PathLike[str], scene: Any, out: str | os.PathL
                   steps: int | None = None, until: float | None = None,
                   formats: Sequence[str] | None = None, command: Sequence[str] | None = None,
                   device: str = "cpu", say: Callable[[str], None] | None = None,
-                  check_interrupt: Callable[[], None] | None = None) -> dict[str, Any]:
+                  check_interrupt: Callable[[], None] | None = None,
+                  collisions: bool = True) -> dict[str, Any]:
     """Roll the model out from the initial state of ``scene`` (a Scene) and write its frames
-    and ``manifest.json`` into ``out``. Returns a summary (frames, particles outside the
-    bounds, status)."""
+    and ``manifest.json`` into ``out``; ``collisions``: the fluid collides with the wall particles
+    (:mod:`sphkit.learn.walls`). Returns a summary (frames, particles outside the bounds,
+    status)."""
     from sphkit.io.frames import FrameWriter
     from sphkit.io.manifest import Manifest
     from sphkit.learn.train import load_simulator
@@ -160,7 +179,8 @@ def rollout_scene(model: str | os.PathLike[str], scene: Any, out: str | os.PathL
                                 "series": writer.series_path.name if "vtk" in formats else None})
     manifest.data["learned"] = {"model": str(Path(model).resolve()), "step": ckpt["step"],
                                 "dataset": ckpt.get("dataset"), "steps": steps,
-                                "frame_dt": dt, "method": "sanchez_gonzalez2020"}
+                                "frame_dt": dt, "method": "sanchez_gonzalez2020",
+                                "wall_collisions": collisions}
     bounds = meta["bounds"]
     worst = {"outside": 0}
 
@@ -195,7 +215,8 @@ def rollout_scene(model: str | os.PathLike[str], scene: Any, out: str | os.PathL
         return False
 
     try:
-        rollout(simulator, history, ptype, steps, on_step)
+        rollout(simulator, history, ptype, steps, on_step,
+                WallCollision(walls, dx) if collisions else None)
     except KeyboardInterrupt:
         manifest.finish("interrupted", "interrupted (Ctrl-C)")
         raise
