@@ -3,7 +3,7 @@
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
-        [--interface-viscosity 0.01] [--solved-walls]
+        [--interface-viscosity 0.01] [--solved-walls] [--study bubbles --blob 1 4 9]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
 the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
@@ -26,6 +26,14 @@ density 1000 kg/m^3, light ``1000 / --ratio``:
   the free surface and the floor) and given as a multiple of its own rho0 g (1 is exact;
   target within 2 %); also the pressure jump across the interface against the light layer's
   weight rho0_light g H_light.
+
+* ``bubbles``: light particles in a heavy column at rest (``--study bubbles``, not in the
+  default list): a heavy layer 0.3 m under a light one 0.04 m, both filling the box's width;
+  before the start-up, ``--blob`` k (1, 4, 9) heavy particles nearest to each of four points
+  (the floor's middle, (0.3, 0.06), the middle (0.2, 0.15), (0.3, 0.25) m) become light ones:
+  the blob's mean height [r] every ``--every`` s shows whether buoyancy lifts it. One light
+  particle is the straggler that ``layers`` counts; a blob of 9 is a bubble a few particles
+  across.
 
 * ``rest``: light over heavy at rest (``--study rest``, not in the default list) for ``--until``
   s: every second the particles more than two layers (4r) inside the other phase (counted as
@@ -241,11 +249,81 @@ def rest(methods: list[str], r: float, until: float, ratio: float, viscosity: fl
               + f"  [{wall:.0f} ms/step] {note}", flush=True)
 
 
+#: bubbles: where the blobs start [m] (module docstring)
+BUBBLES = {"floor": (0.2, 0.0), "low": (0.3, 0.06), "middle": (0.2, 0.15), "high": (0.3, 0.25)}
+
+
+def _bubble_world(scene: Scene, blob: int, ratio: float) -> tuple[World, dict[str, list[int]]]:
+    """The world of ``scene`` with the ``blob`` heavy particles nearest to each point of
+    BUBBLES turned into the light phase (phase 1, its rest density and mass) before the
+    start-up; the ids of each blob."""
+    original = build.add_fluid
+    ids: dict[str, list[int]] = {}
+
+    def add_fluid(state, scene_, meshes):  # noqa: ANN001, ANN202 (build's own signature)
+        original(state, scene_, meshes)
+        f = state.fluid
+        x = f["x"]
+        for name, (px, py) in BUBBLES.items():
+            d2 = (x[0] - px) ** 2 + (x[1] - py) ** 2
+            sel = np.argsort(np.where(f["phase"] == 0, d2, np.inf))[:blob]
+            f["phase"][sel] = 1
+            f["rho0"][sel] = 1000.0 / ratio
+            f["rho"][sel] = 1000.0 / ratio
+            f["m"][sel] = f["V0"][sel] * (1000.0 / ratio)
+            ids[name] = [int(i) for i in f["id"][sel]]
+
+    build.add_fluid = add_fluid
+    try:
+        return build_world(scene), ids
+    finally:
+        build.add_fluid = original
+
+
+def bubbles(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
+            blob: int, symmetric: bool = False, solved: bool = False,
+            every: float = 0.5) -> None:
+    """Blobs of ``blob`` light particles in a heavy column at rest (module docstring,
+    ``bubbles``; 2D)."""
+    print(f"\nbubbles of {blob} light particle(s) in a heavy column, 2D, r = {r} m, rho0 1000 / "
+          f"{1000 / ratio:g}, viscosity {viscosity} m^2/s"
+          + (", symmetric wall term" if symmetric else "")
+          + (", solved wall pressures" if solved else "")
+          + f"; the blob's mean height [r] every {every} s (heavy top at {LAYER / r:.0f} r)")
+    for method in methods:
+        sc = scene(method, r, False, ratio, viscosity, symmetric, solved=solved)
+        sc = sc.model_copy(update={"fluid_blocks": [
+            sc.fluid_blocks[0],
+            sc.fluid_blocks[1].model_copy(update={"end": [WIDTH, LAYER + 0.04]})]})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            world, ids = _bubble_world(sc, blob, ratio)
+            sim = Simulation(world)
+        rows: dict[str, list[str]] = {name: [] for name in ids}
+        next_t, note = 0.0, ""
+
+        try:
+            while True:
+                if sim.time >= next_t - 1e-9:
+                    where = {int(i): k for k, i in enumerate(sim.fluid["id"])}
+                    y = sim.fluid.view("x")[:, 1]
+                    for name, members in ids.items():
+                        rows[name].append(f"{np.mean([y[where[i]] for i in members]) / r:5.1f}")
+                    next_t += every
+                if sim.time >= until - 1e-9:
+                    break
+                sim.step()
+        except InstabilityError as e:
+            note = f"unstable at t = {e.stats.time:.3f} s"
+        for name, row in rows.items():
+            print(f"{method:8s} {name:7s} " + " ".join(row) + f"  {note}", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--solvers", nargs="+", default=["pcisph", "pbf", "iisph", "dfsph"])
     ap.add_argument("--study", nargs="+", default=["layers", "hydrostatic"],
-                    choices=["layers", "hydrostatic", "rest"])
+                    choices=["layers", "hydrostatic", "rest", "bubbles"])
     ap.add_argument("--radius", type=float, default=0.01)
     ap.add_argument("--until", type=float, default=3.0)
     ap.add_argument("--ratio", type=float, default=10.0)
@@ -261,6 +339,8 @@ def main() -> None:
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,
                     help="layers: viscosity between the phases [m^2/s] (0: none)")
+    ap.add_argument("--blob", type=int, nargs="+", default=[1, 9],
+                    help="bubbles: particles per blob (one table each)")
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
@@ -270,6 +350,10 @@ def main() -> None:
     if "rest" in args.study:
         rest(args.solvers, args.radius, args.until, args.ratio, args.viscosity,
              args.symmetric_walls, args.dim, args.depth, args.solved_walls)
+    if "bubbles" in args.study:
+        for blob in args.blob:
+            bubbles(args.solvers, args.radius, args.until, args.ratio, args.viscosity, blob,
+                    args.symmetric_walls, args.solved_walls)
     if "layers" in args.study:
         layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
                args.symmetric_walls, args.dim, args.depth, args.interface_viscosity,
