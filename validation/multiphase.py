@@ -3,7 +3,7 @@
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
-        [--interface-viscosity 0.01] [--solved-walls] [--study bubbles --blob 1 4 9]
+        [--interface-viscosity 0.01] [--solved-walls] [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
 the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
@@ -112,6 +112,31 @@ def mixing(sim: Simulation) -> tuple[int, int, float]:
     return int((up > 4 * r).sum()), int((down > 4 * r).sum()), deep
 
 
+def stragglers(sim: Simulation, depth: float) -> tuple[int, int, int, float]:
+    """The light particles more than two layers below the split (as :func:`mixing`): (how
+    many, how many are alone -- at most one other light particle within 2.5 r --, how many
+    lie in the first row at a wall -- centre within 1.5 r of the floor or a side wall (and, in
+    3D, the front and back at 0 and ``depth``) --, their mean vertical speed [m/s])."""
+    f = sim.fluid
+    x, v = f.view("x"), f.view("v")
+    y = x[:, 1]
+    heavy = f["phase"] == 0
+    nh = int(heavy.sum())
+    ys = np.sort(y)
+    split = 0.5 * (ys[nh - 1] + ys[nh]) if 0 < nh < len(ys) else ys[-1]
+    r = sim.state.r
+    sel = ~heavy & (split - y > 4 * r)
+    if not sel.any():
+        return 0, 0, 0, 0.0
+    xs, xl = x[sel], x[~heavy]
+    d = np.sqrt(((xs[:, None, :] - xl[None, :, :]) ** 2).sum(axis=-1))
+    alone = int(((d < 2.5 * r).sum(axis=1) - 1 <= 1).sum())
+    wall = np.minimum(np.minimum(xs[:, 0], WIDTH - xs[:, 0]), xs[:, 1])
+    if x.shape[1] == 3:
+        wall = np.minimum(wall, np.minimum(xs[:, 2], depth - xs[:, 2]))
+    return int(sel.sum()), alone, int((wall < 1.5 * r).sum()), float(v[sel, 1].mean())
+
+
 def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
     """The world of ``scene`` with every fluid particle moved by a random displacement of up to
     ``jitter`` r along each axis (seed ``seed``) *before* the start-up (removal, relaxation,
@@ -134,7 +159,10 @@ def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
 
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
            viscosity: float, symmetric: bool = False, dim: int = 2, depth: float = 0.2,
-           interface_viscosity: float = 0.0, solved: bool = False) -> None:
+           interface_viscosity: float = 0.0, solved: bool = False,
+           every: float = 0.0) -> None:
+    """Heavy over light (module docstring, ``layers``); ``every`` > 0: a line every ``every``
+    s with the counts and the light stragglers of :func:`stragglers`."""
     print(f"\nheavy over light, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
           f"jitter {jitter} r, viscosity {viscosity} m^2/s"
           + (", symmetric wall term" if symmetric else "")
@@ -149,12 +177,20 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
                 scene(method, r, True, ratio, viscosity, symmetric, dim, depth,
                       interface_viscosity, solved), jitter))
         its, steps, note = [], 0, ""
+        next_t = every
         t0 = time.perf_counter()
         try:
             while sim.time < until - 1e-9:
                 st = sim.step()
                 its.append(st.iterations)
                 steps += 1
+                if every > 0 and sim.time >= next_t - 1e-9:
+                    next_t += every
+                    up, down, deep = mixing(sim)
+                    n, alone, wall, vy = stragglers(sim, depth)
+                    print(f"  {method} t = {sim.time:.1f} s: heavy up {up}, light down {down} "
+                          f"(deepest {deep:.1f}): {alone} alone, {wall} in the first row at "
+                          f"a wall, mean v_y {vy:+.3f} m/s", flush=True)
         except InstabilityError as e:
             note = f"unstable at t = {e.stats.time:.3f} s"
         wall = (time.perf_counter() - t0) / max(steps, 1) * 1e3
@@ -339,6 +375,9 @@ def main() -> None:
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,
                     help="layers: viscosity between the phases [m^2/s] (0: none)")
+    ap.add_argument("--every", type=float, default=0.0,
+                    help="layers: print the counts and the stragglers every EVERY s (0: at "
+                         "the end only)")
     ap.add_argument("--blob", type=int, nargs="+", default=[1, 9],
                     help="bubbles: particles per blob (one table each)")
     args = ap.parse_args()
@@ -357,7 +396,7 @@ def main() -> None:
     if "layers" in args.study:
         layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
                args.symmetric_walls, args.dim, args.depth, args.interface_viscosity,
-               args.solved_walls)
+               args.solved_walls, args.every)
 
 
 if __name__ == "__main__":
