@@ -46,7 +46,13 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
   pressures ``k_b`` when the scene solves them (``configuration.boundary.solved``,
   :meth:`sphkit.core.methods.BoundaryCoupling.solved_walls`): the fluid's density rate at each
   wall particle, its Jacobi scale, and its clamped update (serial passes over the
-  fluid-boundary pairs).
+  fluid-boundary pairs);
+* :func:`wall_transpose`, :func:`transposed_diagonal`, :func:`wall_number_density` -- the MLS
+  wall pressure's transpose in the fluid's rows when the scene asks for it
+  (``configuration.boundary.conservative``, :meth:`sphkit.core.methods.BoundaryCoupling.
+  transposed_walls`): the walls' residuals moved into the rows of the fluid particles whose
+  pressures the MLS fit extrapolates to them, the exact diagonal of those rows, and the fluid's
+  number density at each wall particle (the rows' density-level source).
 
 :func:`density_pair_gradients`, :func:`kappa_accel_cached` and :func:`jacobi_sweep` are per-particle
 bodies (``density_pair_gradients_body``, ``kappa_accel_body``, ``jacobi_body``) run through
@@ -474,3 +480,117 @@ def wall_update(ap, s, D, ap_factor, omega, kb, k, boff, bidx, cap, kmax):
         if D[b] > 0.0:
             r = s[b] - ap_factor * ap[b]
             kb[b] = min(max(kb[b] - omega * r / (ap_factor * D[b]), 0.0), cap * kmax[b])
+
+
+@numba.njit(**_JIT_GATHER)
+def wall_transpose(ws, wap, ap_factor, kb, Vb, Vf, toff, tfluid, coef, s, out):
+    """``out[f] = s[f] + sum_b (V_b c_bf / V_f) (ws_b - ap_factor wap_b)`` over the
+    boundary -> fluid pairs ``(toff, tfluid)`` with the MLS coefficients ``coef`` (of the
+    weighted variable: ``k_b = max(sum_f c_bf k_f, 0)``), for the wall particles whose value
+    ``kb`` is not clamped (``kb > 0``; a clamped one does not depend on the fluid): the walls'
+    residuals ``ws_b - f Ap_b`` (source, :func:`wall_sums` of the pressure accelerations)
+    moved into the rows of the fluid particles that set their pressure
+    (:meth:`sphkit.core.methods.BoundaryCoupling.transposed_walls`). One serial pass."""
+    out[:] = s
+    for b in range(toff.shape[0] - 1):
+        if kb[b] <= 0.0:
+            continue
+        rb = (ws[b] - ap_factor * wap[b]) * Vb[b]
+        for t in range(toff[b], toff[b + 1]):
+            f = tfluid[t]
+            out[f] += coef[t] * rb / Vf[f]
+
+
+@numba.njit(**_JIT)
+def transposed_diagonal(x, Vf, c, off, idx, gw, boff, bidx, gwb, bx, bV, toff, tfluid, coef,
+                        h, kid, dim, L, out):
+    """The Jacobi diagonal of the rows extended by the walls (:func:`wall_transpose`): ``out[f]
+    = sum_i (c_f V_f / (c_i V_i)) |dC'_f / dx_i|^2`` with ``C'_f = rho_hat_f + sum_b (V_b c_bf /
+    V_f) rho_hat_b`` (``rho_hat_b = sum_i V_i W_ib``), over particle f itself, its fluid
+    neighbours and the fluid neighbours of its wall particles: the exact diagonal of ``J' M^-1
+    J'^T`` in the units of :func:`diagonal_cached` (to which it reduces without walls' rows,
+    the boundary term unmirrored). One serial pass with a scratch row."""
+    n = off.shape[0] - 1
+    acc = np.zeros((3, n))
+    mark = np.zeros(n, dtype=np.bool_)
+    touched = np.empty(n, dtype=np.int64)
+    for f in range(n):
+        nt = 0
+        # dC_f / dx_f = G_f + B_f; dC_f / dx_j = -V_j grad W_fj
+        s0 = s1 = s2 = 0.0
+        for k in range(off[f], off[f + 1]):
+            j = idx[k]
+            s0 += gw[0, k]
+            if dim > 1:
+                s1 += gw[1, k]
+            if dim > 2:
+                s2 += gw[2, k]
+            if not mark[j]:
+                mark[j] = True
+                touched[nt] = j
+                nt += 1
+            acc[0, j] -= gw[0, k]
+            if dim > 1:
+                acc[1, j] -= gw[1, k]
+            if dim > 2:
+                acc[2, j] -= gw[2, k]
+        for k in range(boff[f], boff[f + 1]):
+            s0 += gwb[0, k]
+            if dim > 1:
+                s1 += gwb[1, k]
+            if dim > 2:
+                s2 += gwb[2, k]
+        if not mark[f]:
+            mark[f] = True
+            touched[nt] = f
+            nt += 1
+        acc[0, f] += s0
+        acc[1, f] += s1
+        acc[2, f] += s2
+        # + sum_b alpha_bf V_i grad_i W_ib for the fluid neighbours i of f's wall particles
+        for k in range(boff[f], boff[f + 1]):
+            b = bidx[k]
+            cb = 0.0
+            for t in range(toff[b], toff[b + 1]):
+                if tfluid[t] == f:
+                    cb = coef[t]
+                    break
+            if cb == 0.0:
+                continue
+            alpha = bV[b] * cb / Vf[f]
+            for t in range(toff[b], toff[b + 1]):
+                i = tfluid[t]
+                xi0, xi1, xi2 = point(x, i, dim)
+                d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+                g = alpha * Vf[i] * kernel_dw(kid, r, h, dim)
+                if not mark[i]:
+                    mark[i] = True
+                    touched[nt] = i
+                    nt += 1
+                acc[0, i] += g * d0
+                acc[1, i] += g * d1
+                acc[2, i] += g * d2
+        d = 0.0
+        for m in range(nt):
+            i = touched[m]
+            d += (c[f] * Vf[f] / (c[i] * Vf[i])) * (acc[0, i] * acc[0, i] + acc[1, i] * acc[1, i]
+                                                    + acc[2, i] * acc[2, i])
+            acc[0, i] = 0.0
+            acc[1, i] = 0.0
+            acc[2, i] = 0.0
+            mark[i] = False
+        out[f] = d
+
+
+@numba.njit(**_JIT)
+def wall_number_density(x, Vf, bx, boff, bidx, h, kid, dim, L, use, out):
+    """``out[b] = sum_f V_f W_fb``: the fluid's normalized (number) density at each boundary
+    particle with ``use[b]`` (0 elsewhere), over the fluid-boundary pairs. One serial pass."""
+    out[:] = 0.0
+    for i in range(boff.shape[0] - 1):
+        xi0, xi1, xi2 = point(x, i, dim)
+        for kk in range(boff[i], boff[i + 1]):
+            b = bidx[kk]
+            if use[b]:
+                d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+                out[b] += Vf[i] * kernel_w(kid, r, h, dim)
