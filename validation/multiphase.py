@@ -3,8 +3,7 @@
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
-        [--interface-viscosity 0.01] [--solved-walls] [--conservative-walls]
-        [--study bubbles --blob 1 4 9] [--every 0.5]
+        [--interface-viscosity 0.01] [--solved-walls] [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
 the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
@@ -63,20 +62,16 @@ from sphkit.world import World, build
 from sphkit.world.build import build_world
 
 G = 9.81
-#: --conservative-walls (configuration.boundary.conservative) for every scene of the run
-CONSERVATIVE = False
 WIDTH = 0.4
 LAYER = 0.3
 
 
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
           viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
-          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool = False,
-          conservative: bool | None = None) -> Scene:
+          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool = False) -> Scene:
     """Two layers LAYER m high in a box WIDTH m wide (and ``depth`` m deep in 3D; module
     docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
-    conservative = CONSERVATIVE if conservative is None else conservative
     visc = {"method": "standard", "coefficient": viscosity}
     pressure: dict = {"method": method, "max_error": 0.05}
     if method == "wcsph":
@@ -86,8 +81,7 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
     return Scene.model_validate({
         "configuration": {"dim": dim, "particle_radius": r, "gravity": [0.0, -G, *z],
                           "pressure": pressure, "time": {"dt_max": 0.002},
-                          "boundary": {"symmetric": symmetric, "solved": solved,
-                                       "conservative": conservative}},
+                          "boundary": {"symmetric": symmetric, "solved": solved}},
         "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc},
                       {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc}],
         "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [WIDTH, LAYER, *zd],
@@ -377,9 +371,6 @@ def main() -> None:
                     help="configuration.boundary.symmetric: the walls' term V_b k_i alone")
     ap.add_argument("--solved-walls", action="store_true",
                     help="configuration.boundary.solved: the walls' pressures solved in the PPE")
-    ap.add_argument("--conservative-walls", action="store_true",
-                    help="configuration.boundary.conservative: the MLS wall pressure's "
-                         "transpose in the PPE rows")
     ap.add_argument("--dim", type=int, default=2, choices=[2, 3])
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,
@@ -390,8 +381,6 @@ def main() -> None:
     ap.add_argument("--blob", type=int, nargs="+", default=[1, 9],
                     help="bubbles: particles per blob (one table each)")
     args = ap.parse_args()
-    global CONSERVATIVE
-    CONSERVATIVE = args.conservative_walls
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
         hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,

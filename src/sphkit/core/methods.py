@@ -324,14 +324,12 @@ class BoundaryCoupling:
     def __init__(self, pressure: BoundaryPressure | None = None,
                  moving: MovingBoundary | None = None,
                  model: BoundaryModel | None = None, symmetric: bool = False,
-                 solved: bool = False, conservative: bool = False) -> None:
+                 solved: bool = False) -> None:
         self.pressure = pressure
         #: the symmetric boundary term ``V_b k_i`` in the PPE solvers (see :meth:`mirror`)
         self.symmetric = symmetric
         #: the static walls' pressures are unknowns of the PPE (:meth:`solved_walls`)
         self.solved = solved
-        #: the MLS wall pressure's transpose in the PPE rows (:meth:`transposed_walls`)
-        self.conservative = conservative and pressure is not None and hasattr(pressure, "coef")
         self._wall_k: dict[str, np.ndarray] = {}
         self.moving = moving
         self.model = model
@@ -416,44 +414,6 @@ class BoundaryCoupling:
         if "rigid_body" in b.specs and b["rigid_body"].shape[0] == b.n:
             return b["rigid_body"] == 0
         return np.ones(b.n, dtype=np.bool_)
-
-    def transposed_walls(self, state: SimState) -> np.ndarray:
-        """Which boundary particles' density rates enter the fluid's PPE rows through the MLS
-        coefficients (scene ``configuration.boundary.conservative``; the extrapolated static
-        samples; all False when off). The MLS wall pressure ``k_b = sum_f c_bf k_f`` pushes
-        fluid particle i with ``-V_b k_b grad W_ib``: that is the force of the constraint
-        ``C'_f = rho_hat_f + sum_b (V_b c_bf / V_f) rho_hat_b`` (rho_hat_b = ``sum_f V_f W_fb``,
-        the fluid's number density at the wall particle) with the multiplier of the fluid
-        particle's own row, so a solve that keeps C'_f at velocity level (the rows of
-        :func:`sphkit.core.solver.jacobi_ppe` extended by the walls' rates) has a wall force
-        that does no work on the flow. Band et al. 2018 ("MLS pressure extrapolation for the
-        boundary handling in divergence-free SPH") extrapolate the pressure; the transposed
-        rows are sphkit's."""
-        b = state.boundary
-        if not self.conservative:
-            return np.zeros(b.n, dtype=np.bool_)
-        return self.pressure.use
-
-    def wall_density_error(self, state: SimState) -> np.ndarray:
-        """``rho_hat_b^0 - rho_hat_b`` at the transposed walls: the fluid's number density at
-        each wall particle against its value at the first call (the start)."""
-        from sphkit.core.ppe import wall_number_density
-
-        b, f = state.boundary, state.fluid
-        rest = state.rest()
-        Vf = f["V0"] if rest.uniform else rest.V
-        use = self.transposed_walls(state)
-        out = np.empty(b.n, dtype=f.dtype)
-        wall_number_density(f["x"], Vf, b["x"], state.nl_fb.offsets, state.nl_fb.indices,
-                            state.h, state.kid, state.dim, state.period, use, out)
-        if getattr(self, "_wall_rest", None) is None or self._wall_rest.shape[0] != b.n:
-            self._wall_rest = out.copy()
-        return np.where(use, self._wall_rest - out, 0.0)
-
-    def constrained_walls(self, state: SimState) -> np.ndarray:
-        """The wall particles whose density rate a solve needs: :meth:`solved_walls` or
-        :meth:`transposed_walls`."""
-        return self.transposed_walls(state) if self.conservative else self.solved_walls(state)
 
     def wall_kappa(self, state: SimState, key: str) -> np.ndarray:
         """The solved walls' ``k_b`` of the solve named ``key`` (its warm start: the last

@@ -28,10 +28,8 @@ from sphkit.core.ppe import (
     kappa_accel_cached,
     pair_divergence_cached,
     pair_gradients,
-    transposed_diagonal,
     wall_diagonal,
     wall_sums,
-    wall_transpose,
     wall_update,
 )
 from sphkit.core.state import SimState
@@ -149,26 +147,17 @@ class PairGradients:
         rest = st.rest()
         Vf = st.fluid["V0"] if rest.uniform else rest.V
         wall_sums(v, Vf, b["V"], st.nl_fb.offsets, st.nl_fb.indices, self.gwb, st.dim,
-                  st.coupling.constrained_walls(st), out)
+                  st.coupling.solved_walls(st), out)
         return out
 
-    def wall_args(self, v: np.ndarray, factor: float, key: str, scale: float = 1.0,
-                  density: bool = False) -> dict:
-        """:func:`jacobi_ppe`'s wall arguments (scene ``configuration.boundary.solved`` or
-        ``.conservative``): the walls' source ``-factor D rho_hat_b / Dt`` of the velocities v
+    def wall_args(self, v: np.ndarray, factor: float, key: str, scale: float = 1.0) -> dict:
+        """:func:`jacobi_ppe`'s solved-wall arguments (scene ``configuration.boundary.solved``):
+        the walls' source ``-factor D rho_hat_b / Dt`` of the velocities v
         (:meth:`wall_rate`), the name of their warm start and its scale; none (``{}``) when
-        neither is on. ``density`` (a density solve, conservative walls only): plus the
-        walls' density error ``rho_hat_b^0 - rho_hat_b``
-        (:meth:`~sphkit.core.methods.BoundaryCoupling.wall_density_error`), so that the
-        fluid's number density at each wall particle is held at its start value, not only its
-        rate at zero (without it the combined rows let the fluid next to the walls drift in
-        density, and a closed box at rest gained energy: validation/README.md)."""
-        if not (self.state.coupling.solved or self.state.coupling.conservative):
+        the walls are not solved."""
+        if not self.state.coupling.solved:
             return {}
-        source = -factor * self.wall_rate(v)
-        if density and self.state.coupling.conservative:
-            source += self.state.coupling.wall_density_error(self.state)
-        return {"wall_source": source, "wall_key": key,
+        return {"wall_source": -factor * self.wall_rate(v), "wall_key": key,
                 "wall_scale": scale}
 
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
@@ -234,21 +223,6 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         mirror = coupling.mirror(state)
     kb = coupling.boundary_kappa(state)
     walls = coupling.solved and wall_source is not None and state.boundary.n > 0
-    transposed = (coupling.conservative and wall_source is not None and state.boundary.n > 0)
-    if transposed:
-        b = state.boundary
-        tuse = coupling.transposed_walls(state)
-        Vf = f["V0"] if rest.uniform else rest.V
-        mls = coupling.pressure
-        wap = np.empty(b.n, dtype=f.dtype)
-        s_eff = np.empty_like(s)
-        # the exact diagonal of the extended rows replaces the solver's in its scale
-        d_new = np.empty(f.n, dtype=f.dtype)
-        transposed_diagonal(f["x"], Vf, rest.c, nl.offsets, nl.indices, g.gw, nb.offsets,
-                            nb.indices, g.gwb, b["x"], b["V"], mls.toff, mls.tfluid, mls.coef,
-                            state.h, state.kid, dim, state.period, d_new)
-        d_old = g.diagonal()
-        scale = np.where(d_new > 0.0, scale * d_old / np.where(d_new > 0.0, d_new, 1.0), scale)
     if walls:
         use = coupling.solved_walls(state)
         stored = coupling.wall_kappa(state, wall_key)
@@ -270,19 +244,12 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         return k if rest.uniform else k * rest.inv_c
 
     def sweep(_k: int) -> tuple[float, float]:
-        kbk = kb(k)
-        kappa_accel_cached(k, kbk, nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
+        kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                            g.gwb, dim, a, rest.inv_c)
         # boundary particles take no pressure acceleration unless they yield (dynamic bodies)
         ab = coupling.response(state, own(k), g.gwb)
-        src = s
-        if transposed:  # the walls' residuals into the rows that set their pressures
-            wall_sums(a, Vf, b["V"], nb.offsets, nb.indices, g.gwb, dim, tuse, wap)
-            wall_transpose(wall_source, wap, ap_factor, kbk, b["V"], Vf, mls.toff, mls.tfluid,
-                           mls.coef, s, s_eff)
-            src = s_eff
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
-                               dim, q, src, ap_factor, scale, omega, active, w, k, shift, lo)
+                               dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo)
         if walls:  # the same accelerations: a Jacobi sweep over fluid and walls together
             wall_sums(a, Vf, b["V"], nb.offsets, nb.indices, g.gwb, dim, use, wap)
             wall_update(wap, wall_source, wd, ap_factor, omega, wk, k, nb.offsets, nb.indices,

@@ -183,8 +183,7 @@ class DFSPH(PressureSolver):
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
                                          alpha / (dt * dt), dt * dt, OMEGA, active,
                                          grads=self._grads,
-                                         **self._grads.wall_args(v_star, dt, "dfsph", dt * dt,
-                                                                  density=True))
+                                         **self._grads.wall_args(v_star, dt, "dfsph", dt * dt))
         self._grads = None
         f["a"] += a
         f["dfsph_kappa"] = kappa * (dt * dt)

@@ -91,7 +91,7 @@ class IISPH(PressureSolver):
         active = np.ones(n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
                                          self.omega, active, grads=grads,
-                                         **grads.wall_args(v_star, dt, "iisph", density=True))
+                                         **grads.wall_args(v_star, dt, "iisph"))
         f["a"] += a
         f["p"] = p * f["rho0"]
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,

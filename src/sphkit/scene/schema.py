@@ -852,13 +852,6 @@ class BoundaryConfig(_Model):
         "a closed box of fluid at rest (validation/wall_energy.py); akinci2012 only; PCISPH, "
         "ICSPH and WCSPH then use the symmetric term V_b k_i",
     )
-    conservative: bool = Field(
-        False, description="akinci2012 with pressure 'mls': IISPH and DFSPH add to each fluid "
-        "particle's PPE row the wall particles' density rates weighted by the MLS coefficients "
-        "that give the particle's pressure its share of the wall pressures, so that the MLS "
-        "wall force is the transpose of the constraints the solve keeps and does no work on "
-        "the flow (validation/README.md, 'A conservative MLS wall term')",
-    )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
         "radius (at most 8 million grid points)",
@@ -880,14 +873,6 @@ class BoundaryConfig(_Model):
         if self.symmetric and self.solved:
             raise ValueError("symmetric true and solved true: expected at most one of them "
                              "(two different wall terms of the PPE solvers)")
-        if self.conservative and (self.symmetric or self.solved):
-            raise ValueError("conservative true with symmetric or solved true: expected at "
-                             "most one of them (different wall terms of the PPE solvers)")
-        if self.conservative and (self.method != "akinci2012"
-                                  or self.pressure not in (None, "mls")):
-            raise ValueError(f"conservative true with pressure {self.pressure!r} and method "
-                             f"{self.method!r}: expected method 'akinci2012' with pressure "
-                             "'mls' (the transposed rows are those of the MLS wall pressure)")
         if self.solved and self.method != "akinci2012":
             raise ValueError(f"solved true with method {self.method!r}: expected method "
                              "'akinci2012' (the solved wall pressures belong to boundary "

@@ -260,8 +260,7 @@ def _build(scene: Scene) -> World:
     # the bodies that yield to the pressure (strong coupling)
     state.coupling = BoundaryCoupling(pressure=pressure_model, moving=rigid, model=model,
                                       symmetric=cfg.boundary.symmetric,
-                                      solved=cfg.boundary.solved,
-                                      conservative=cfg.boundary.conservative)
+                                      solved=cfg.boundary.solved)
     # the fluid's start: out of the walls, consistent next to them, hydrostatic
     start, settle = start_fluid(state, scene, meshes, model, pressure)
     for force in forces:
