@@ -3,7 +3,8 @@
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
-        [--interface-viscosity 0.01] [--solved-walls] [--study bubbles --blob 1 4 9] [--every 0.5]
+        [--interface-viscosity 0.01] [--interface-tension 1.0] [--solved-walls]
+        [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
 the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
@@ -68,7 +69,8 @@ LAYER = 0.3
 
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
           viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
-          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool = False) -> Scene:
+          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool = False,
+          interface_tension: float = 0.0) -> Scene:
     """Two layers LAYER m high in a box WIDTH m wide (and ``depth`` m deep in 3D; module
     docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
@@ -90,9 +92,12 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
                           "material": upper}],
         "boxes": [{"min": [0.0, 0.0, *z], "max": [WIDTH, 2 * LAYER + 0.2, *zd]}],
         "interfaces": [{"materials": ["heavy", "light"],
-                        "viscosity": {"method": "morris1997",
-                                      "coefficient": interface_viscosity}}]
-        if interface_viscosity > 0 else [],
+                        **({"viscosity": {"method": "morris1997",
+                                          "coefficient": interface_viscosity}}
+                           if interface_viscosity > 0 else {}),
+                        **({"tension": {"method": "hu2006", "coefficient": interface_tension}}
+                           if interface_tension > 0 else {})}]
+        if interface_viscosity > 0 or interface_tension > 0 else [],
     })
 
 
@@ -160,14 +165,15 @@ def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
            viscosity: float, symmetric: bool = False, dim: int = 2, depth: float = 0.2,
            interface_viscosity: float = 0.0, solved: bool = False,
-           every: float = 0.0) -> None:
+           every: float = 0.0, interface_tension: float = 0.0) -> None:
     """Heavy over light (module docstring, ``layers``); ``every`` > 0: a line every ``every``
     s with the counts and the light stragglers of :func:`stragglers`."""
     print(f"\nheavy over light, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
           f"jitter {jitter} r, viscosity {viscosity} m^2/s"
           + (", symmetric wall term" if symmetric else "")
           + (", solved wall pressures" if solved else "")
-          + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else ""))
+          + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else "")
+          + (f", interface tension {interface_tension} N" if interface_tension else ""))
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
           f"{'vmax':>6s} {'its':>6s} {'ms/step':>8s}  note")
     for method in methods:
@@ -175,7 +181,7 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
             warnings.simplefilter("ignore")
             sim = Simulation(_perturbed_world(
                 scene(method, r, True, ratio, viscosity, symmetric, dim, depth,
-                      interface_viscosity, solved), jitter))
+                      interface_viscosity, solved, interface_tension), jitter))
         its, steps, note = [], 0, ""
         next_t = every
         t0 = time.perf_counter()
@@ -375,6 +381,9 @@ def main() -> None:
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,
                     help="layers: viscosity between the phases [m^2/s] (0: none)")
+    ap.add_argument("--interface-tension", type=float, default=0.0,
+                    help="layers: interface tension between the phases (hu2006) [N/m; N in "
+                         "2D] (0: none)")
     ap.add_argument("--every", type=float, default=0.0,
                     help="layers: print the counts and the stragglers every EVERY s (0: at "
                          "the end only)")
@@ -396,7 +405,7 @@ def main() -> None:
     if "layers" in args.study:
         layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
                args.symmetric_walls, args.dim, args.depth, args.interface_viscosity,
-               args.solved_walls, args.every)
+               args.solved_walls, args.every, args.interface_tension)
 
 
 if __name__ == "__main__":
