@@ -43,6 +43,8 @@ density 1000 kg/m^3, light ``1000 / --ratio``:
 
 ``--interface-viscosity``: the viscosity between the two phases (scene ``interfaces``,
 Morris et al. 1997, kinematic [m^2/s]; default none, SPlisHSPlasH's phases).
+``--interface-tension``: an interface tension between them (Hu & Adams 2006, scene
+``interfaces[].tension``, ``hu2006`` [N/m; N in 2D]; default none).
 
 ``--dim 3``: the same column in 3D, ``--depth`` (0.2 m) deep along z between walls (a coarse
 slab; run it with ``--radius 0.02``: 0.4 x 0.6 x 0.2 m is 750 particles at r = 2 cm).
