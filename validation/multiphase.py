@@ -3,7 +3,8 @@
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
-        [--interface-viscosity 0.01] [--solved-walls]
+        [--interface-viscosity 0.01] [--interface-tension 1.0] [--solved-walls]
+        [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
 the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
@@ -27,6 +28,14 @@ density 1000 kg/m^3, light ``1000 / --ratio``:
   target within 2 %); also the pressure jump across the interface against the light layer's
   weight rho0_light g H_light.
 
+* ``bubbles``: light particles in a heavy column at rest (``--study bubbles``, not in the
+  default list): a heavy layer 0.3 m under a light one 0.04 m, both filling the box's width;
+  before the start-up, ``--blob`` k (1, 4, 9) heavy particles nearest to each of four points
+  (the floor's middle, (0.3, 0.06), the middle (0.2, 0.15), (0.3, 0.25) m) become light ones:
+  the blob's mean height [r] every ``--every`` s shows whether buoyancy lifts it. One light
+  particle is the straggler that ``layers`` counts; a blob of 9 is a bubble a few particles
+  across.
+
 * ``rest``: light over heavy at rest (``--study rest``, not in the default list) for ``--until``
   s: every second the particles more than two layers (4r) inside the other phase (counted as
   in ``layers``: heavy above the split + light below it), the deepest in layers of 2r, and the
@@ -34,6 +43,8 @@ density 1000 kg/m^3, light ``1000 / --ratio``:
 
 ``--interface-viscosity``: the viscosity between the two phases (scene ``interfaces``,
 Morris et al. 1997, kinematic [m^2/s]; default none, SPlisHSPlasH's phases).
+``--interface-tension``: an interface tension between them (Hu & Adams 2006, scene
+``interfaces[].tension``, ``hu2006`` [N/m; N in 2D]; default none).
 
 ``--dim 3``: the same column in 3D, ``--depth`` (0.2 m) deep along z between walls (a coarse
 slab; run it with ``--radius 0.02``: 0.4 x 0.6 x 0.2 m is 750 particles at r = 2 cm).
@@ -60,7 +71,8 @@ LAYER = 0.3
 
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
           viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
-          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool = False) -> Scene:
+          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool = False,
+          interface_tension: float = 0.0) -> Scene:
     """Two layers LAYER m high in a box WIDTH m wide (and ``depth`` m deep in 3D; module
     docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
@@ -82,9 +94,12 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
                           "material": upper}],
         "boxes": [{"min": [0.0, 0.0, *z], "max": [WIDTH, 2 * LAYER + 0.2, *zd]}],
         "interfaces": [{"materials": ["heavy", "light"],
-                        "viscosity": {"method": "morris1997",
-                                      "coefficient": interface_viscosity}}]
-        if interface_viscosity > 0 else [],
+                        **({"viscosity": {"method": "morris1997",
+                                          "coefficient": interface_viscosity}}
+                           if interface_viscosity > 0 else {}),
+                        **({"tension": {"method": "hu2006", "coefficient": interface_tension}}
+                           if interface_tension > 0 else {})}]
+        if interface_viscosity > 0 or interface_tension > 0 else [],
     })
 
 
@@ -102,6 +117,31 @@ def mixing(sim: Simulation) -> tuple[int, int, float]:
     down = split - y[~heavy]
     deep = max(float(up.max(initial=0.0)), float(down.max(initial=0.0))) / (2 * r)
     return int((up > 4 * r).sum()), int((down > 4 * r).sum()), deep
+
+
+def stragglers(sim: Simulation, depth: float) -> tuple[int, int, int, float]:
+    """The light particles more than two layers below the split (as :func:`mixing`): (how
+    many, how many are alone -- at most one other light particle within 2.5 r --, how many
+    lie in the first row at a wall -- centre within 1.5 r of the floor or a side wall (and, in
+    3D, the front and back at 0 and ``depth``) --, their mean vertical speed [m/s])."""
+    f = sim.fluid
+    x, v = f.view("x"), f.view("v")
+    y = x[:, 1]
+    heavy = f["phase"] == 0
+    nh = int(heavy.sum())
+    ys = np.sort(y)
+    split = 0.5 * (ys[nh - 1] + ys[nh]) if 0 < nh < len(ys) else ys[-1]
+    r = sim.state.r
+    sel = ~heavy & (split - y > 4 * r)
+    if not sel.any():
+        return 0, 0, 0, 0.0
+    xs, xl = x[sel], x[~heavy]
+    d = np.sqrt(((xs[:, None, :] - xl[None, :, :]) ** 2).sum(axis=-1))
+    alone = int(((d < 2.5 * r).sum(axis=1) - 1 <= 1).sum())
+    wall = np.minimum(np.minimum(xs[:, 0], WIDTH - xs[:, 0]), xs[:, 1])
+    if x.shape[1] == 3:
+        wall = np.minimum(wall, np.minimum(xs[:, 2], depth - xs[:, 2]))
+    return int(sel.sum()), alone, int((wall < 1.5 * r).sum()), float(v[sel, 1].mean())
 
 
 def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
@@ -126,12 +166,16 @@ def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
 
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
            viscosity: float, symmetric: bool = False, dim: int = 2, depth: float = 0.2,
-           interface_viscosity: float = 0.0, solved: bool = False) -> None:
+           interface_viscosity: float = 0.0, solved: bool = False,
+           every: float = 0.0, interface_tension: float = 0.0) -> None:
+    """Heavy over light (module docstring, ``layers``); ``every`` > 0: a line every ``every``
+    s with the counts and the light stragglers of :func:`stragglers`."""
     print(f"\nheavy over light, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
           f"jitter {jitter} r, viscosity {viscosity} m^2/s"
           + (", symmetric wall term" if symmetric else "")
           + (", solved wall pressures" if solved else "")
-          + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else ""))
+          + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else "")
+          + (f", interface tension {interface_tension} N" if interface_tension else ""))
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
           f"{'vmax':>6s} {'its':>6s} {'ms/step':>8s}  note")
     for method in methods:
@@ -139,14 +183,22 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
             warnings.simplefilter("ignore")
             sim = Simulation(_perturbed_world(
                 scene(method, r, True, ratio, viscosity, symmetric, dim, depth,
-                      interface_viscosity, solved), jitter))
+                      interface_viscosity, solved, interface_tension), jitter))
         its, steps, note = [], 0, ""
+        next_t = every
         t0 = time.perf_counter()
         try:
             while sim.time < until - 1e-9:
                 st = sim.step()
                 its.append(st.iterations)
                 steps += 1
+                if every > 0 and sim.time >= next_t - 1e-9:
+                    next_t += every
+                    up, down, deep = mixing(sim)
+                    n, alone, wall, vy = stragglers(sim, depth)
+                    print(f"  {method} t = {sim.time:.1f} s: heavy up {up}, light down {down} "
+                          f"(deepest {deep:.1f}): {alone} alone, {wall} in the first row at "
+                          f"a wall, mean v_y {vy:+.3f} m/s", flush=True)
         except InstabilityError as e:
             note = f"unstable at t = {e.stats.time:.3f} s"
         wall = (time.perf_counter() - t0) / max(steps, 1) * 1e3
@@ -241,11 +293,81 @@ def rest(methods: list[str], r: float, until: float, ratio: float, viscosity: fl
               + f"  [{wall:.0f} ms/step] {note}", flush=True)
 
 
+#: bubbles: where the blobs start [m] (module docstring)
+BUBBLES = {"floor": (0.2, 0.0), "low": (0.3, 0.06), "middle": (0.2, 0.15), "high": (0.3, 0.25)}
+
+
+def _bubble_world(scene: Scene, blob: int, ratio: float) -> tuple[World, dict[str, list[int]]]:
+    """The world of ``scene`` with the ``blob`` heavy particles nearest to each point of
+    BUBBLES turned into the light phase (phase 1, its rest density and mass) before the
+    start-up; the ids of each blob."""
+    original = build.add_fluid
+    ids: dict[str, list[int]] = {}
+
+    def add_fluid(state, scene_, meshes):  # noqa: ANN001, ANN202 (build's own signature)
+        original(state, scene_, meshes)
+        f = state.fluid
+        x = f["x"]
+        for name, (px, py) in BUBBLES.items():
+            d2 = (x[0] - px) ** 2 + (x[1] - py) ** 2
+            sel = np.argsort(np.where(f["phase"] == 0, d2, np.inf))[:blob]
+            f["phase"][sel] = 1
+            f["rho0"][sel] = 1000.0 / ratio
+            f["rho"][sel] = 1000.0 / ratio
+            f["m"][sel] = f["V0"][sel] * (1000.0 / ratio)
+            ids[name] = [int(i) for i in f["id"][sel]]
+
+    build.add_fluid = add_fluid
+    try:
+        return build_world(scene), ids
+    finally:
+        build.add_fluid = original
+
+
+def bubbles(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
+            blob: int, symmetric: bool = False, solved: bool = False,
+            every: float = 0.5) -> None:
+    """Blobs of ``blob`` light particles in a heavy column at rest (module docstring,
+    ``bubbles``; 2D)."""
+    print(f"\nbubbles of {blob} light particle(s) in a heavy column, 2D, r = {r} m, rho0 1000 / "
+          f"{1000 / ratio:g}, viscosity {viscosity} m^2/s"
+          + (", symmetric wall term" if symmetric else "")
+          + (", solved wall pressures" if solved else "")
+          + f"; the blob's mean height [r] every {every} s (heavy top at {LAYER / r:.0f} r)")
+    for method in methods:
+        sc = scene(method, r, False, ratio, viscosity, symmetric, solved=solved)
+        sc = sc.model_copy(update={"fluid_blocks": [
+            sc.fluid_blocks[0],
+            sc.fluid_blocks[1].model_copy(update={"end": [WIDTH, LAYER + 0.04]})]})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            world, ids = _bubble_world(sc, blob, ratio)
+            sim = Simulation(world)
+        rows: dict[str, list[str]] = {name: [] for name in ids}
+        next_t, note = 0.0, ""
+
+        try:
+            while True:
+                if sim.time >= next_t - 1e-9:
+                    where = {int(i): k for k, i in enumerate(sim.fluid["id"])}
+                    y = sim.fluid.view("x")[:, 1]
+                    for name, members in ids.items():
+                        rows[name].append(f"{np.mean([y[where[i]] for i in members]) / r:5.1f}")
+                    next_t += every
+                if sim.time >= until - 1e-9:
+                    break
+                sim.step()
+        except InstabilityError as e:
+            note = f"unstable at t = {e.stats.time:.3f} s"
+        for name, row in rows.items():
+            print(f"{method:8s} {name:7s} " + " ".join(row) + f"  {note}", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--solvers", nargs="+", default=["pcisph", "pbf", "iisph", "dfsph"])
     ap.add_argument("--study", nargs="+", default=["layers", "hydrostatic"],
-                    choices=["layers", "hydrostatic", "rest"])
+                    choices=["layers", "hydrostatic", "rest", "bubbles"])
     ap.add_argument("--radius", type=float, default=0.01)
     ap.add_argument("--until", type=float, default=3.0)
     ap.add_argument("--ratio", type=float, default=10.0)
@@ -261,6 +383,14 @@ def main() -> None:
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,
                     help="layers: viscosity between the phases [m^2/s] (0: none)")
+    ap.add_argument("--interface-tension", type=float, default=0.0,
+                    help="layers: interface tension between the phases (hu2006) [N/m; N in "
+                         "2D] (0: none)")
+    ap.add_argument("--every", type=float, default=0.0,
+                    help="layers: print the counts and the stragglers every EVERY s (0: at "
+                         "the end only)")
+    ap.add_argument("--blob", type=int, nargs="+", default=[1, 9],
+                    help="bubbles: particles per blob (one table each)")
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
@@ -270,10 +400,14 @@ def main() -> None:
     if "rest" in args.study:
         rest(args.solvers, args.radius, args.until, args.ratio, args.viscosity,
              args.symmetric_walls, args.dim, args.depth, args.solved_walls)
+    if "bubbles" in args.study:
+        for blob in args.blob:
+            bubbles(args.solvers, args.radius, args.until, args.ratio, args.viscosity, blob,
+                    args.symmetric_walls, args.solved_walls)
     if "layers" in args.study:
         layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
                args.symmetric_walls, args.dim, args.depth, args.interface_viscosity,
-               args.solved_walls)
+               args.solved_walls, args.every, args.interface_tension)
 
 
 if __name__ == "__main__":
