@@ -22,6 +22,12 @@ e_c) / L``:
 * ``e_s = level - y0``: the counted surface above the pressure's zero;
 * ``e_c = d* - (y0 - yb)``: how much higher the body rides than Archimedes puts it in the
   fluid's own pressure field -- the coupling's share.
+
+Also printed: the pool's pressure slope (rho0 g), the fluid's vertical force on the body over
+M g, and for the fluid within 3 r below the body's bottom (2 r in from its edges) its mean depth
+below the bottom and its mean pressure above the pool's line, both in r and rho0 g r. The two
+shares trade against each other between boundary pressures (validation/README.md, "Floats and
+columns against issue 15's targets"); their sum is the robust quantity.
 """
 
 from __future__ import annotations
@@ -112,8 +118,8 @@ def main() -> None:
     folder = Path(tempfile.mkdtemp(prefix="sphkit-buoyancy-"))
     print(f"{args.dim}D float, density 500, last 1 s of {args.until} s; e_s, e_c, gap, p1 in r")
     print("| solver | boundary | r [m] | side [r] | particles | submerged | e_s = level - y0 | "
-          "e_c = d* - (y0 - yb) | slope / rho0 g | F_y / Mg | first layer below bottom | "
-          "its p - rho0 g (y0 - y) [rho0 g r] | run | wall [s] |")
+          "e_c = d* - (y0 - yb) | slope / rho0 g | F_y / Mg | fluid within 3 r under the "
+          "bottom: mean depth | its pressure above the pool's line [rho0 g r] | run | wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in radii:
         for side in args.side:
