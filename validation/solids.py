@@ -68,7 +68,8 @@ def _time_step(r: float, E: float, nu: float) -> float:
 
 
 #: the elasticity options of the runs (``--gradient``, ``--support``, ``--rotation``)
-OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5, "rotation": "moment"}
+OPTIONS: dict = {"gradient_correction": "quadratic", "rest_support": 1.5, "rotation": "moment",
+                 "clamp": "particles"}
 #: the elasticity model (``--method``) and the multiple of the explicit step it runs with
 #: (``--dt-factor``; an implicit model may exceed 1)
 #: (``--static N``: N backward Euler steps of omega_1 dt = 1e4 for the sag, peer2018)
@@ -117,6 +118,10 @@ def sag(layers: int, alpha: float, L: float = 1.0, h: float = 0.1, E: float = 3e
     inertia = h ** 4 / 12.0
     w_eb = q * L ** 4 / (8 * E * inertia)
     w_timo = w_eb + q * L ** 2 / (2 * (5 / 6) * E / (2 * (1 + nu)) * h * h)
+    # the same at the tip particles' own x (the last layer's centres, L - r): like with like
+    xt = float(np.mean(x0[0, x0[0] > L - 2 * r]))
+    w_eb_x = q / (24 * E * inertia) * (xt ** 4 - 4 * L * xt ** 3 + 6 * L ** 2 * xt ** 2)
+    w_timo_x = w_eb_x + q * (L * xt - xt ** 2 / 2) / ((5 / 6) * E / (2 * (1 + nu)) * h * h)
     omega = KL ** 2 * math.sqrt(E * inertia / (q / G * L ** 4))
     c = 2.0 * omega
     steps = MODEL["static"] or int(math.ceil(12.0 / omega / dt))
@@ -134,7 +139,8 @@ def sag(layers: int, alpha: float, L: float = 1.0, h: float = 0.1, E: float = 3e
     ref = history[-max(2, len(history) // 10)]
     return {"layers": layers, "r": r, "n": f.n, "steps": steps, "dt": dt, "alpha": alpha,
             "w": w, "w_eb": w_eb, "w_timo": w_timo, "err_eb": w / w_eb - 1.0,
-            "err_timo": w / w_timo - 1.0, "change": abs(w - ref) / abs(w), "wall": wall,
+            "err_timo": w / w_timo - 1.0, "w_eb_x": w_eb_x, "err_eb_x": w / w_eb_x - 1.0,
+            "err_timo_x": w / w_timo_x - 1.0, "change": abs(w - ref) / abs(w), "wall": wall,
             "tip_particles": int(tip_sel.sum()), "factor": _factor(sim)}
 
 
@@ -203,6 +209,17 @@ def _level(x: np.ndarray, y: np.ndarray, lo: float, hi: float, r: float) -> floa
     return float(np.mean(tops[np.isfinite(tops)])) + r
 
 
+def _pressure_level(y: np.ndarray, p: np.ndarray, level: float, floor: float, r: float) -> float:
+    """Where the far water's hydrostatic pressure extrapolates to zero: the least-squares line
+    ``p(y)`` through the particles from ``floor + 6 r`` (above the wall's layer) to ``level -
+    4 r`` (below the free surface's deficient layers), and its root [m]."""
+    sel = (y > floor + 6 * r) & (y < level - 4 * r)
+    if sel.sum() < 3:
+        return float("nan")
+    slope, icpt = np.polyfit(y[sel], p[sel], 1)
+    return float(-icpt / slope)
+
+
 def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1,
              E: float = 1e6, viscosity: float = 0.0, dt_max: float = 0.002,
              alpha: float = 0.1) -> dict:
@@ -241,7 +258,7 @@ def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1
         width = float(np.ptp(rest[0])) + s
         below = float(rest[1].mean() - rest[1].min()) + r  # centroid above the bottom face
         d_arch = mass / (RHO * width)
-        depths, angles = [], []
+        depths, angles, p_levels = [], [], []
         t0 = time.perf_counter()
         while sim.time < until - 1e-9:
             sim.step()
@@ -251,16 +268,19 @@ def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1
                 level = 0.5 * (_level(x[~block], y[~block], 0.0, 1.5 * H, r)
                                + _level(x[~block], y[~block], W - 1.5 * H, W, r))
                 depths.append(level - (float(y[block].mean()) - below))
+                far = ~block & ((x < 1.5 * H) | (x > W - 1.5 * H))
+                p_levels.append(_pressure_level(y[far], f["p"][far], level, 0.0, r) - level)
                 e = f["solid_x0"][:, block] - f["solid_x0"][:, block].mean(axis=1)[:, None]
                 d = f["x"][:, block] - f["x"][:, block].mean(axis=1)[:, None]
                 angles.append(math.degrees(math.atan2(float((e[0] * d[1] - e[1] * d[0]).sum()),
                                                       float((e * d).sum()))))
         wall = time.perf_counter() - t0
     d = np.array(depths)
+    dp = float(np.mean(p_levels))
     return {"layers": layers, "r": r, "n": f.n, "steps": sim.step_count, "d": float(d.mean()),
             "swing": float(d.max() - d.min()), "d_arch": d_arch, "err": d.mean() / d_arch - 1,
             "tilt": float(np.abs(angles).max()), "finite": bool(np.isfinite(f["x"]).all()),
-            "wall": wall}
+            "wall": wall, "p_level": dp, "err_p": (d.mean() + dp) / d_arch - 1}
 
 
 def _cap_depth(volume: float, R: float) -> float:
@@ -335,7 +355,7 @@ def floating_ball(layers: int, ratio: float = 0.5, until: float = 2.0, D: float 
         block = f["solid_slot"] >= 0
         mass = float(f["m"][block].sum())
         d_arch = _cap_depth(mass / RHO, R_eq)
-        depths, speeds = [], []
+        depths, speeds, p_levels = [], [], []
         t0 = time.perf_counter()
         while sim.time < until - 1e-9:
             sim.step()
@@ -350,13 +370,16 @@ def floating_ball(layers: int, ratio: float = 0.5, until: float = 2.0, D: float 
                 np.maximum.at(tops, np.clip(cols, 0, tops.size - 1), wx[1, far])
                 level = float(np.mean(tops[np.isfinite(tops)])) + r
                 depths.append(level - (float(x[1, block].mean()) - R_eq))
+                p_levels.append(_pressure_level(wx[1, far], f["p"][~block][far], level, 0.0, r)
+                                - level)
                 speeds.append(float(np.abs(f["v"][:, block]).max()))
         wall = time.perf_counter() - t0
     d = np.array(depths)
+    dp = float(np.mean(p_levels))
     return {"layers": layers, "r": r, "n": f.n, "steps": sim.step_count, "d": float(d.mean()),
             "swing": float(d.max() - d.min()), "d_arch": d_arch, "err": d.mean() / d_arch - 1,
             "tilt": float(max(speeds)), "finite": bool(np.isfinite(f["x"]).all()),
-            "wall": wall}
+            "wall": wall, "p_level": dp, "err_p": (d.mean() + dp) / d_arch - 1}
 
 
 def sheet(layers: int = 4, water: bool = True, L: float = 0.4, H: float = 0.04,
@@ -439,6 +462,8 @@ def main() -> None:
     ap.add_argument("--support", type=float, default=1.5, help="elasticity.rest_support")
     ap.add_argument("--rotation", choices=("moment", "gradient"), default="moment",
                     help="elasticity.rotation (becker2009, peer2018)")
+    ap.add_argument("--clamp", choices=("particles", "face"), default="particles",
+                    help="elasticity.clamp: the pinned particles in the elastic sums")
     ap.add_argument("--method", choices=("becker2009", "peer2018", "kugelstadt2021", "kee2023"),
                     default="becker2009")
     ap.add_argument("--solver", choices=("newton", "lbfgs"), default="newton",
@@ -468,7 +493,8 @@ def main() -> None:
     ap.add_argument("--float-dt-max", type=float, default=0.002,
                     help="float: the largest (CFL) time step [s]")
     a = ap.parse_args()
-    OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support, rotation=a.rotation)
+    OPTIONS.update(gradient_correction=a.gradient, rest_support=a.support, rotation=a.rotation,
+                   clamp=a.clamp)
     if a.method == "kee2023":
         OPTIONS.update(solver=a.solver, material_model=a.material_model,
                        max_position_change=a.max_change)
@@ -478,21 +504,24 @@ def main() -> None:
                  "cg_max_iterations)")
     MODEL.update(method=a.method, dt_factor=a.dt_factor, static=a.static)
     print(f"{a.method}, dt {a.dt_factor:g} x explicit bound, gradient {a.gradient}, "
-          f"rest support {a.support:g} h, rotation {a.rotation}"
+          f"clamp {a.clamp}, rest support {a.support:g} h, rotation {a.rotation}"
           + (f", {a.solver}, {a.material_model}, max change {a.max_change:g} m"
              if a.method == "kee2023" else ""))
     if a.case in ("sag", "both"):
         print(f"3D cantilever under gravity (L {a.sag_length:g} m, section 0.1 m, E "
               f"{3e8 * a.sag_length ** 4 / 1e6:g} MPa, nu 0.3)")
         print("| layers | r [m] | particles | alpha | steps | w [mm] | EB [mm] | w/EB - 1 | "
-              "w/Timoshenko - 1 | last change | wall [s] |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|")
+              "w/Timoshenko - 1 | EB at L - r [mm] | w/EB(L - r) - 1 | w/Timoshenko(L - r) - 1 "
+              "| last change | wall [s] |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for n in a.layers:
             for al in a.alpha:
                 s = sag(n, al, L=a.sag_length, E=3e8 * a.sag_length ** 4)
                 print(f"| {n} | {s['r']:.5f} | {s['n']} | {al:g} | {s['steps']} | "
                       f"{1e3 * s['w']:.3f} | {1e3 * s['w_eb']:.3f} | {100 * s['err_eb']:+.1f} % "
-                      f"| {100 * s['err_timo']:+.1f} % | {s['change']:.1e} | {s['wall']:.0f} |",
+                      f"| {100 * s['err_timo']:+.1f} % | {1e3 * s['w_eb_x']:.3f} | "
+                      f"{100 * s['err_eb_x']:+.1f} % | {100 * s['err_timo_x']:+.1f} % | "
+                      f"{s['change']:.1e} | {s['wall']:.0f} |",
                       flush=True)
                 if s["factor"]:
                     print("  ", s["factor"], flush=True)
@@ -531,14 +560,16 @@ def main() -> None:
               f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
               "second half")
         print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
-              "| depth/Archimedes - 1 | ball's max speed [m/s] | wall [s] |")
-        print("|---|---|---|---|---|---|---|---|---|---|")
+              "| depth/Archimedes - 1 | ball's max speed [m/s] | p = 0 above level [r] | "
+              "depth below p = 0 / Archimedes - 1 | wall [s] |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for n in a.layers:
             fl = floating_ball(n, a.density, a.float_time, viscosity=a.float_viscosity,
                                dt_max=a.float_dt_max, alpha=a.float_alpha)
             print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
                   f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
-                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.3f} | {fl['wall']:.0f} |"
+                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.3f} | {fl['p_level'] / fl['r']:+.2f} | "
+                  f"{100 * fl['err_p']:+.1f} % | {fl['wall']:.0f} |"
                   + ("" if fl["finite"] else " NaN"), flush=True)
     elif a.case == "float":
         print(f"2D block (H 0.1 m, width 0.2 m, E 1 MPa) floating in DFSPH water (viscosity "
@@ -546,14 +577,16 @@ def main() -> None:
               f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
               "second half")
         print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
-              "| depth/Archimedes - 1 | max tilt [deg] | wall [s] |")
-        print("|---|---|---|---|---|---|---|---|---|---|")
+              "| depth/Archimedes - 1 | max tilt [deg] | p = 0 above level [r] | "
+              "depth below p = 0 / Archimedes - 1 | wall [s] |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for n in a.layers:
             fl = floating(n, a.density, a.float_time, viscosity=a.float_viscosity,
                           dt_max=a.float_dt_max, alpha=a.float_alpha)
             print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
                   f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
-                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.1f} | {fl['wall']:.0f} |"
+                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.1f} | {fl['p_level'] / fl['r']:+.2f} | "
+                  f"{100 * fl['err_p']:+.1f} % | {fl['wall']:.0f} |"
                   + ("" if fl["finite"] else " NaN"), flush=True)
 
 

@@ -190,9 +190,43 @@ class RestConfiguration:
             lo, hi = np.asarray(box.min[:k], float), np.asarray(box.max[:k], float)
             pinned |= np.all((self.x0[:k].T >= lo) & (self.x0[:k].T <= hi), axis=1)
         self.fixed = np.flatnonzero(pinned).astype(np.int64)
+        self.dim = dim
         fx = np.zeros(self.n, np.int64)
         fx[self.fixed] = 1
         f["solid_fixed"][self.pos] = fx
+
+    def clamp_vectors(self) -> np.ndarray:
+        """The fit's sample vectors (pairs, dim) of the face clamp: ``x0_ji`` for every rest
+        pair (i, j), except from a free particle i to a pinned j, where the sample is moved
+        along the segment to the point where it enters j's fixed box (the first such box
+        boundary when j lies in several), so that the free particle's fit sees the pinned
+        (zero) displacement on the clamp's face instead of behind it."""
+        dim = self.dim
+        off, idx = self.lists.offsets, self.lists.indices
+        rows = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(off))
+        cols = idx.astype(np.int64)
+        d = (self.x0[:dim, cols] - self.x0[:dim, rows]).T.copy()
+        pinned = np.zeros(self.n, dtype=bool)
+        pinned[self.fixed] = True
+        sel = np.flatnonzero(~pinned[rows] & pinned[cols])
+        if not sel.size:
+            return d
+        xi = self.x0[:dim, rows[sel]].T
+        xj = self.x0[:dim, cols[sel]].T
+        dd = xj - xi
+        t = np.ones(sel.size)
+        for box in self.fixed_boxes:
+            k = min(dim, len(box.min))
+            lo, hi = np.asarray(box.min[:k], float), np.asarray(box.max[:k], float)
+            inside = np.all((xj[:, :k] >= lo) & (xj[:, :k] <= hi), axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t1 = (lo - xi[:, :k]) / dd[:, :k]
+                t2 = (hi - xi[:, :k]) / dd[:, :k]
+            near = np.where(dd[:, :k] != 0.0, np.minimum(t1, t2), -np.inf)
+            enter = np.clip(near.max(axis=1), 0.0, 1.0)
+            t = np.where(inside, np.minimum(t, enter), t)
+        d[sel] = t[:, None] * dd
+        return d
 
     def update(self, state: SimState) -> np.ndarray:
         """The current particle index of every slot (after this step's reordering)."""
