@@ -14,7 +14,8 @@ Two cases, each at several resolutions (particles across the thickness):
   layer, whose centres lie at x = L - r: the table compares it with Euler-Bernoulli's (and
   Timoshenko's) tip ``w(L)`` and, like with like, with their ``w(L - r)`` (1.7 % lower at 4
   particles across, 0.8 % at 8). ``--clamp face``: ``elasticity.clamp`` "face" (pinned
-  particles rigid, the free particles' fits sample the fixed box's face; sphkit.solids.rest). ``--static N`` (peer2018): the static state directly,
+  particles rigid, the free particles' fits sample the fixed box's face; sphkit.solids.rest).
+  ``--static N`` (peer2018): the static state directly,
   by N backward Euler steps of ``omega_1 dt = 1e4`` with the velocities zeroed after each
   (Newton steps on the equilibrium; the CG to a relative residual of 1e-10).
 * ``mode``: the 2D clamped plate of Gray, Monaghan & Swift 2001 (L = 0.2 m, H = 0.02 m,

@@ -31,15 +31,15 @@ strain and stress, and the free particles' gradient fits sample its zero displac
 lies, behind the clamp's face. A bent cantilever's curvature jumps to zero at the face, which
 the fits across it smooth: the clamp acts as an elastic hinge (3D cantilever, 4 particles
 across, alpha 0: the first free layer has turned by 1.00e-3 rad where Euler-Bernoulli has
-0.24e-3, and the beam's slope stays about 0.6e-3 rad above Euler-Bernoulli's from there to
-the tip, while its curvature in the middle matches to 0.2 %; validation/README.md). With ``"face"`` the
-pinned particles are rigid (no strain: their gradient weights are zero) and a free particle's
-fit samples a pinned neighbour's zero displacement where the pair's segment enters the fixed
-box (:meth:`RestConfiguration.clamp_vectors`; the pair's weight stays that of its rest
+0.24e-3, and the beam's slope stays about 0.6e-3 rad above Euler-Bernoulli's from there to the
+tip, while its curvature in the middle matches to 0.2 %; validation/README.md). With ``"face"``
+the pinned particles are rigid (no strain: their gradient weights are zero) and a free
+particle's fit samples a pinned neighbour's zero displacement where the pair's segment enters
+the fixed box (:meth:`RestConfiguration.clamp_vectors`; the pair's weight stays that of its rest
 distance), so the fits of the free particles are exact for a quadratic displacement that
-vanishes on the face. The displacement of the moved sample is the pinned particle's own,
-which assumes pinned particles at rest (kee2023's pinned particles follow a velocity field
-when a scene sets one: then the face's samples carry the pinned particles' motion, exact for a
+vanishes on the face. The displacement of the moved sample is the pinned particle's own, which
+assumes pinned particles at rest (kee2023's pinned particles follow a velocity field when a
+scene sets one: then the face's samples carry the pinned particles' motion, exact for a
 translation only).
 
 ``max_neighbors`` caps a list at the nearest neighbours; a pair is kept only when each particle
