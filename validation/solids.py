@@ -32,10 +32,7 @@ Two cases, each at several resolutions (particles across the thickness):
   averaging the two sides, so the tank's sloshing mode cancels) minus its bottom (its centroid
   less the rest height of the centroid above the bottom face) -- averaged over the second half
   of the run (it bobs at about 2 Hz), against Archimedes' ``d = m / (rho_water w)``, m the
-  block's mass per unit length, w its width (its lattice cells). Also measured: where the far
-  water's pressure (a straight line fitted from 6 r above the floor to 4 r below the level)
-  extrapolates to zero, relative to the level, and the depth below that pressure level
-  against Archimedes. ``--dim 3``: a ball of
+  block's mass per unit length, w its width (its lattice cells). ``--dim 3``: a ball of
   diameter 0.1 m in water 0.15 m deep (:func:`floating_ball`).
 * ``sheet``: a 2D sheet clamped at both ends under water poured on it, against its dead-load
   twin and Euler-Bernoulli's clamped-clamped deflection (:func:`sheet`).
@@ -217,17 +214,6 @@ def _level(x: np.ndarray, y: np.ndarray, lo: float, hi: float, r: float) -> floa
     return float(np.mean(tops[np.isfinite(tops)])) + r
 
 
-def _pressure_level(y: np.ndarray, p: np.ndarray, level: float, floor: float, r: float) -> float:
-    """Where the far water's hydrostatic pressure extrapolates to zero: the least-squares line
-    ``p(y)`` through the particles from ``floor + 6 r`` (above the wall's layer) to ``level -
-    4 r`` (below the free surface's deficient layers), and its root [m]."""
-    sel = (y > floor + 6 * r) & (y < level - 4 * r)
-    if sel.sum() < 3:
-        return float("nan")
-    slope, icpt = np.polyfit(y[sel], p[sel], 1)
-    return float(-icpt / slope)
-
-
 def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1,
              E: float = 1e6, viscosity: float = 0.0, dt_max: float = 0.002,
              alpha: float = 0.1) -> dict:
@@ -266,7 +252,7 @@ def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1
         width = float(np.ptp(rest[0])) + s
         below = float(rest[1].mean() - rest[1].min()) + r  # centroid above the bottom face
         d_arch = mass / (RHO * width)
-        depths, angles, p_levels = [], [], []
+        depths, angles = [], []
         t0 = time.perf_counter()
         while sim.time < until - 1e-9:
             sim.step()
@@ -276,19 +262,16 @@ def floating(layers: int, ratio: float = 0.5, until: float = 3.0, H: float = 0.1
                 level = 0.5 * (_level(x[~block], y[~block], 0.0, 1.5 * H, r)
                                + _level(x[~block], y[~block], W - 1.5 * H, W, r))
                 depths.append(level - (float(y[block].mean()) - below))
-                far = ~block & ((x < 1.5 * H) | (x > W - 1.5 * H))
-                p_levels.append(_pressure_level(y[far], f["p"][far], level, 0.0, r) - level)
                 e = f["solid_x0"][:, block] - f["solid_x0"][:, block].mean(axis=1)[:, None]
                 d = f["x"][:, block] - f["x"][:, block].mean(axis=1)[:, None]
                 angles.append(math.degrees(math.atan2(float((e[0] * d[1] - e[1] * d[0]).sum()),
                                                       float((e * d).sum()))))
         wall = time.perf_counter() - t0
     d = np.array(depths)
-    dp = float(np.mean(p_levels))
     return {"layers": layers, "r": r, "n": f.n, "steps": sim.step_count, "d": float(d.mean()),
             "swing": float(d.max() - d.min()), "d_arch": d_arch, "err": d.mean() / d_arch - 1,
             "tilt": float(np.abs(angles).max()), "finite": bool(np.isfinite(f["x"]).all()),
-            "wall": wall, "p_level": dp, "err_p": (d.mean() + dp) / d_arch - 1}
+            "wall": wall}
 
 
 def _cap_depth(volume: float, R: float) -> float:
@@ -363,7 +346,7 @@ def floating_ball(layers: int, ratio: float = 0.5, until: float = 2.0, D: float 
         block = f["solid_slot"] >= 0
         mass = float(f["m"][block].sum())
         d_arch = _cap_depth(mass / RHO, R_eq)
-        depths, speeds, p_levels = [], [], []
+        depths, speeds = [], []
         t0 = time.perf_counter()
         while sim.time < until - 1e-9:
             sim.step()
@@ -378,16 +361,13 @@ def floating_ball(layers: int, ratio: float = 0.5, until: float = 2.0, D: float 
                 np.maximum.at(tops, np.clip(cols, 0, tops.size - 1), wx[1, far])
                 level = float(np.mean(tops[np.isfinite(tops)])) + r
                 depths.append(level - (float(x[1, block].mean()) - R_eq))
-                p_levels.append(_pressure_level(wx[1, far], f["p"][~block][far], level, 0.0, r)
-                                - level)
                 speeds.append(float(np.abs(f["v"][:, block]).max()))
         wall = time.perf_counter() - t0
     d = np.array(depths)
-    dp = float(np.mean(p_levels))
     return {"layers": layers, "r": r, "n": f.n, "steps": sim.step_count, "d": float(d.mean()),
             "swing": float(d.max() - d.min()), "d_arch": d_arch, "err": d.mean() / d_arch - 1,
             "tilt": float(max(speeds)), "finite": bool(np.isfinite(f["x"]).all()),
-            "wall": wall, "p_level": dp, "err_p": (d.mean() + dp) / d_arch - 1}
+            "wall": wall}
 
 
 def sheet(layers: int = 4, water: bool = True, L: float = 0.4, H: float = 0.04,
@@ -568,16 +548,14 @@ def main() -> None:
               f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
               "second half")
         print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
-              "| depth/Archimedes - 1 | ball's max speed [m/s] | p = 0 above level [r] | "
-              "depth below p = 0 / Archimedes - 1 | wall [s] |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+              "| depth/Archimedes - 1 | ball's max speed [m/s] | wall [s] |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
         for n in a.layers:
             fl = floating_ball(n, a.density, a.float_time, viscosity=a.float_viscosity,
                                dt_max=a.float_dt_max, alpha=a.float_alpha)
             print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
                   f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
-                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.3f} | {fl['p_level'] / fl['r']:+.2f} | "
-                  f"{100 * fl['err_p']:+.1f} % | {fl['wall']:.0f} |"
+                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.3f} | {fl['wall']:.0f} |"
                   + ("" if fl["finite"] else " NaN"), flush=True)
     elif a.case == "float":
         print(f"2D block (H 0.1 m, width 0.2 m, E 1 MPa) floating in DFSPH water (viscosity "
@@ -585,16 +563,14 @@ def main() -> None:
               f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
               "second half")
         print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
-              "| depth/Archimedes - 1 | max tilt [deg] | p = 0 above level [r] | "
-              "depth below p = 0 / Archimedes - 1 | wall [s] |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+              "| depth/Archimedes - 1 | max tilt [deg] | wall [s] |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
         for n in a.layers:
             fl = floating(n, a.density, a.float_time, viscosity=a.float_viscosity,
                           dt_max=a.float_dt_max, alpha=a.float_alpha)
             print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
                   f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
-                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.1f} | {fl['p_level'] / fl['r']:+.2f} | "
-                  f"{100 * fl['err_p']:+.1f} % | {fl['wall']:.0f} |"
+                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.1f} | {fl['wall']:.0f} |"
                   + ("" if fl["finite"] else " NaN"), flush=True)
 
 
