@@ -66,8 +66,8 @@ def gradient_weights(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray, indice
     a fit barely determined by its nearest neighbours is noisy). ``pair_d`` (pairs, dim), if
     given, replaces the rest vectors ``x0_ji`` as the fit's sample positions (the face clamp
     of :meth:`sphkit.solids.rest.RestConfiguration.clamp_vectors`; the weights stay those of
-    the rest distances); the rows of the particles
-    marked in ``rigid`` (bool per particle) are zero (no strain)."""
+    the rest distances); the rows of the particles marked in ``rigid`` (bool per particle)
+    are zero (no strain)."""
     if order not in ("none", "linear", "quadratic"):
         raise ValueError(f"elasticity.gradient_correction: {order!r}; expected 'none', "
                          "'linear' or 'quadratic'")

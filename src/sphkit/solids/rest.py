@@ -151,6 +151,7 @@ class RestConfiguration:
         self.max_neighbors = max_neighbors
         self.base = 0
         self.n = 0
+        self.dim = 0  #: the scene's dimension (set by build)
         self.x0 = np.zeros((3, 0))
         self.V0 = np.zeros(0)
         self.m = np.zeros(0)
