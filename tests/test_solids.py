@@ -274,6 +274,46 @@ def test_quadratic_gradient_weights_are_exact_for_quadratic_fields(dim: int) -> 
             assert err > 0.05, err
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_face_clamp_fits_see_the_fixed_box_face(dim: int) -> None:
+    """``clamp="face"``: a free particle's fit samples a pinned neighbour where their segment
+    enters the fixed box (x = 0.12, the box's face), the pinned particles have no strain, and
+    the free particles' gradient of a quadratic field that vanishes on the face -- sampled
+    as zero at the pinned particles, as a clamp's displacement is -- is exact to round-off
+    (1e-9 of its scale); with SPlisHSPlasH's clamp (``"particles"``) the pinned zeros lie
+    behind the face and the fits near it miss the gradient by more than 10 %."""
+    face = 0.12
+    errs = {}
+    for clamp in ("face", "particles"):
+        sim = _solid([0.4, 0.16, 0.16][:dim], clamp=clamp,
+                     fixed=[{"min": [-1.0] * dim, "max": [face] + [1.0] * (dim - 1)}])
+        solid = sim.solids[0]
+        rest = solid.rest
+        off, idx = rest.lists.offsets, rest.lists.indices
+        rows = np.repeat(np.arange(rest.n), np.diff(off))
+        pinned = np.zeros(rest.n, bool)
+        pinned[rest.fixed] = True
+        x = rest.x0[:dim]
+        phi = (x[0] - face) * (0.4 + 1.3 * x[0] - 0.8 * x[1])
+        phi[pinned] = 0.0
+        exact = np.stack([0.4 + 2.6 * x[0] - 0.8 * x[1] - 1.3 * face,
+                          -0.8 * (x[0] - face)] + [0.0 * x[0]] * (dim - 2))
+        G = solid.G
+        grad = np.zeros((dim, rest.n))
+        for d in range(dim):
+            np.add.at(grad[d], rows, (phi[idx] - phi[rows]) * G[:, d])
+        free = ~pinned
+        errs[clamp] = np.abs(grad - exact)[:, free].max() / np.abs(exact[:, free]).max()
+        if clamp == "face":
+            d = rest.clamp_vectors()
+            cross = free[rows] & pinned[idx]
+            assert cross.any()
+            assert np.allclose(x[0, rows[cross]] + d[cross, 0], face)
+            assert not np.abs(G[pinned[rows]]).any()
+    assert errs["face"] < 1e-9, errs
+    assert errs["particles"] > 0.1, errs
+
+
 def test_peer2018_small_step_is_the_explicit_force() -> None:
     """The implicit model's acceleration ``(v' - v) / dt`` tends to the explicit elastic
     acceleration as dt -> 0 (the implicit part is dt^2 K): on a stretched, resting bar with

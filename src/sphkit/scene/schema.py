@@ -538,6 +538,14 @@ class ElasticityConfig(_Model):
         "SPlisHSPlasH); 'gradient', the polar rotation of its deformation gradient (then the "
         "force is the gradient of a rotation-invariant energy: angular momentum is kept to "
         "round-off with the 'linear' or 'quadratic' gradient_correction)")
+    clamp: Literal["particles", "face"] = Field(
+        "particles",
+        description="the pinned particles (fixed_boxes) in the elastic sums: 'particles' "
+        "(SPlisHSPlasH's), pinned particles are particles of the solid, with their own strain "
+        "and stress, and the free particles' gradient fits sample them where they are; "
+        "'face', pinned particles are rigid (no strain) and a free particle's fit samples "
+        "their zero displacement where the pair's segment enters the fixed box, on the "
+        "clamp's face (assumes the pinned particles at rest)")
     yield_stress: float | None = Field(
         None, ge=0,
         description="sphkit's own: von Mises yield stress sigma_y [Pa] of the corotated strain "

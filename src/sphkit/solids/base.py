@@ -56,14 +56,14 @@ class CorotatedSolid(Elasticity):
         return cls(config.youngs_modulus, config.poisson_ratio, config.alpha,
                    config.max_neighbors, list(config.fixed_boxes), config.gradient_correction,
                    config.rest_volume, config.rest_support, config.yield_stress,
-                   config.hardening, config.rotation)
+                   config.hardening, config.rotation, config.clamp)
 
     def __init__(self, youngs_modulus: float = 1e5, poisson_ratio: float = 0.3,
                  alpha: float = 0.0, max_neighbors: int = -1,
                  fixed_boxes: list | None = None, gradient_correction: str = "quadratic",
                  rest_volume: str = "particle", rest_support: float = 1.5,
                  yield_stress: float | None = None, hardening: float = 0.0,
-                 rotation: str = "moment") -> None:
+                 rotation: str = "moment", clamp: str = "particles") -> None:
         if not youngs_modulus > 0:
             raise ValueError(f"elasticity.youngs_modulus: {youngs_modulus!r}; expected a "
                              "number > 0 [Pa]")
@@ -97,6 +97,10 @@ class CorotatedSolid(Elasticity):
         #: 2009, SPlisHSPlasH); "gradient", the polar rotation of the deformation gradient
         #: (keeps angular momentum; solids.corotation)
         self.rotation = rotation
+        if clamp not in ("particles", "face"):
+            raise ValueError(f"elasticity.clamp: {clamp!r}; expected 'particles' or 'face'")
+        #: the pinned particles' part in the elastic sums (ElasticityConfig.clamp)
+        self.clamp = clamp
         self.rest: RestConfiguration | None = None
         self.work: dict[str, np.ndarray] = {}
         self.G = np.zeros((0, 3))  #: gradient weights per rest pair (solids.gradients)
@@ -115,9 +119,14 @@ class CorotatedSolid(Elasticity):
         # fit barely determined: there it needs twice as many neighbours as monomials, or the
         # particle keeps the linear weights (with kugelstadt2021, Beam.json's quadratic
         # weights on lists of 15 made the beam noisy within 25 steps: 33 MPa, 8 cm sideways)
+        face = self.clamp == "face" and rest.fixed.size > 0
+        rigid = np.zeros(rest.n, dtype=bool)
+        rigid[rest.fixed] = True
         self.G = gradient_weights(rest.x0, rest.V0, off, idx, rest.h, state.kid, state.dim,
                                   self.gradient_correction,
-                                  2.0 if self.max_neighbors > 0 else 1.0)
+                                  2.0 if self.max_neighbors > 0 else 1.0,
+                                  rest.clamp_vectors() if face else None,
+                                  rigid if face else None)
         self.rev = reverse_pairs(off, idx)
         if self.plastic:
             for name, kind in PLASTIC_FIELDS.items():

@@ -57,12 +57,17 @@ def _monomials(d: np.ndarray, dim: int) -> np.ndarray:
 
 def gradient_weights(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray, indices: np.ndarray,
                      h: float, kid: int, dim: int, order: str,
-                     min_samples: float = 1.0) -> np.ndarray:
+                     min_samples: float = 1.0, pair_d: np.ndarray | None = None,
+                     rigid: np.ndarray | None = None) -> np.ndarray:
     """The weights ``G`` (pairs, 3) of the rest lists (module docstring); ``x0`` (3, n) rest
     positions padded with zero rows, ``V0`` rest volumes, ``order`` one of ``none``,
     ``linear``, ``quadratic``; a particle keeps the linear weights unless it has at least
     ``min_samples`` times as many neighbours as the quadratic fit has monomials (capped lists:
-    a fit barely determined by its nearest neighbours is noisy)."""
+    a fit barely determined by its nearest neighbours is noisy). ``pair_d`` (pairs, dim), if
+    given, replaces the rest vectors ``x0_ji`` as the fit's sample positions (the face clamp
+    of :meth:`sphkit.solids.rest.RestConfiguration.clamp_vectors`; the weights stay those of
+    the rest distances); the rows of the particles marked in ``rigid`` (bool per particle)
+    are zero (no strain)."""
     if order not in ("none", "linear", "quadratic"):
         raise ValueError(f"elasticity.gradient_correction: {order!r}; expected 'none', "
                          "'linear' or 'quadratic'")
@@ -70,13 +75,15 @@ def gradient_weights(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray, indice
     rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(offsets))
     cols = indices.astype(np.int64)
     d = (x0[:dim, cols] - x0[:dim, rows]).T  # x0_ji, (pairs, dim)
+    dist = np.linalg.norm(d, axis=1)  # the pairs' weights: their rest distances
+    if pair_d is not None:  # the face clamp's samples: moved, with their pairs' weights
+        d = pair_d
     kern = Kernel(kid, h, dim)
-    dist = np.linalg.norm(d, axis=1)
     g = kern.dw_over_r(dist)[:, None] * d  # grad W(x0_ji)
     G = np.zeros((rows.size, 3))
     G[:, :dim] = -V0[cols, None] * g
     if order == "none" or rows.size == 0:
-        return G
+        return _zero_rows(G, rows, rigid)
     # linear: L_i = (sum_j -V0_j grad W(x0_ji) x0_ji^T)^-1 ... as rows: B_i = sum_j d (-V g)^T
     B = np.zeros((n, dim, dim))
     np.add.at(B, rows, d[:, :, None] * G[:, None, :dim])
@@ -90,7 +97,7 @@ def gradient_weights(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray, indice
     G_lin = np.einsum("nba,nb->na", Linv[rows], G[:, :dim])
     G[:, :dim] = G_lin
     if order == "linear":
-        return G
+        return _zero_rows(G, rows, rigid)
     p = _monomials(d / h, dim)
     nb = p.shape[1]
     w = V0[cols] * kern.w(dist)
@@ -107,4 +114,11 @@ def gradient_weights(x0: np.ndarray, V0: np.ndarray, offsets: np.ndarray, indice
     quad = ok[rows]
     coef = np.einsum("kab,kb->ka", Minv[rows[quad]], p[quad])[:, :dim]
     G[quad, :dim] = w[quad, None] * coef / h
+    return _zero_rows(G, rows, rigid)
+
+
+def _zero_rows(G: np.ndarray, rows: np.ndarray, rigid: np.ndarray | None) -> np.ndarray:
+    """``G`` with the pairs of the particles marked in ``rigid`` zeroed."""
+    if rigid is not None:
+        G[rigid[rows]] = 0.0
     return G

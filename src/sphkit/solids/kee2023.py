@@ -253,11 +253,15 @@ class Kee2023(ImplicitCorotatedSolid):
         material(F, self.psi_mu, self.psi_lam, self.snh_a, MATERIAL_MODELS[self.material_model],
                  hessian, self._P, self._psi, self._H)
         d = x - xt
-        zx = [self.Z @ x[a] for a in range(self.dim)] if self.alpha > 0 else None
+        # the zero-energy-mode energy of the displacement: Z x0 = 0 where the gradient weights
+        # are exact for linear fields on the rest vectors, not next to the face clamp
+        # (elasticity.clamp "face"), whose moved samples would give the rest state a force
+        ux = x - rest.x0
+        zx = [self.Z @ ux[a] for a in range(self.dim)] if self.alpha > 0 else None
         e = 0.5 * float(np.einsum("an,n,an->", d, rest.m, d))
         e += dt2 * float(rest.V0 @ self._psi)
         if zx is not None:
-            e += 0.5 * dt2 * sum(float(x[a] @ zx[a]) for a in range(self.dim))
+            e += 0.5 * dt2 * sum(float(ux[a] @ zx[a]) for a in range(self.dim))
         if not gradient:
             return e, None
         f = self._elastic_force(self._P, x)

@@ -117,6 +117,13 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
+        if self.clamp != "particles":
+            # F = D x of the absolute positions (the stretch and volume solves) is I at rest
+            # only where the weights are exact for linear fields on the rest vectors; the
+            # face clamp's moved samples are not (a 3D cantilever blew up in its first step)
+            raise ValueError(f"elasticity.clamp: {self.clamp!r} is not supported by "
+                             "kugelstadt2021 (its deformation gradient of the positions "
+                             "needs the pinned particles' own samples); expected 'particles'")
         self.D: list[sp.csr_matrix] = []
         self.K = sp.csr_matrix((0, 0))  #: 2 mu K + alpha E H_z (constant part of the matrix)
         self._dt = -1.0

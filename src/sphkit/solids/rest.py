@@ -25,6 +25,23 @@ The rest lists reach ``support * h`` (default 1: the fluid's h, as SPlisHSPlasH;
 second-order gradient of :mod:`sphkit.solids.gradients` needs more neighbours than a surface
 particle has within h, see ``ElasticityConfig.rest_support``).
 
+Pinned particles and the elastic sums (``ElasticityConfig.clamp``): with ``"particles"``
+(SPlisHSPlasH's) a pinned particle is a particle of the solid like any other, with its own
+strain and stress, and the free particles' gradient fits sample its zero displacement where it
+lies, behind the clamp's face. A bent cantilever's curvature jumps to zero at the face, which
+the fits across it smooth: the clamp acts as an elastic hinge (3D cantilever, 4 particles
+across, alpha 0: the first free layer has turned by 1.00e-3 rad where Euler-Bernoulli has
+0.24e-3, and the beam's slope stays about 0.6e-3 rad above Euler-Bernoulli's from there to the
+tip, while its curvature in the middle matches to 0.2 %; validation/README.md). With ``"face"``
+the pinned particles are rigid (no strain: their gradient weights are zero) and a free
+particle's fit samples a pinned neighbour's zero displacement where the pair's segment enters
+the fixed box (:meth:`RestConfiguration.clamp_vectors`; the pair's weight stays that of its rest
+distance), so the fits of the free particles are exact for a quadratic displacement that
+vanishes on the face. The displacement of the moved sample is the pinned particle's own, which
+assumes pinned particles at rest (kee2023's pinned particles follow a velocity field when a
+scene sets one: then the face's samples carry the pinned particles' motion, exact for a
+translation only).
+
 ``max_neighbors`` caps a list at the nearest neighbours; a pair is kept only when each particle
 is among the other's nearest, so the capped lists stay symmetric (Kee et al. 2023 found that
 SPlisHSPlasH's one-sided caps break the conservation of momentum).
@@ -134,6 +151,7 @@ class RestConfiguration:
         self.max_neighbors = max_neighbors
         self.base = 0
         self.n = 0
+        self.dim = 0  #: the scene's dimension (set by build)
         self.x0 = np.zeros((3, 0))
         self.V0 = np.zeros(0)
         self.m = np.zeros(0)
@@ -190,9 +208,43 @@ class RestConfiguration:
             lo, hi = np.asarray(box.min[:k], float), np.asarray(box.max[:k], float)
             pinned |= np.all((self.x0[:k].T >= lo) & (self.x0[:k].T <= hi), axis=1)
         self.fixed = np.flatnonzero(pinned).astype(np.int64)
+        self.dim = dim
         fx = np.zeros(self.n, np.int64)
         fx[self.fixed] = 1
         f["solid_fixed"][self.pos] = fx
+
+    def clamp_vectors(self) -> np.ndarray:
+        """The fit's sample vectors (pairs, dim) of the face clamp: ``x0_ji`` for every rest
+        pair (i, j), except from a free particle i to a pinned j, where the sample is moved
+        along the segment to the point where it enters j's fixed box (the first such box
+        boundary when j lies in several), so that the free particle's fit sees the pinned
+        (zero) displacement on the clamp's face instead of behind it."""
+        dim = self.dim
+        off, idx = self.lists.offsets, self.lists.indices
+        rows = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(off))
+        cols = idx.astype(np.int64)
+        d = (self.x0[:dim, cols] - self.x0[:dim, rows]).T.copy()
+        pinned = np.zeros(self.n, dtype=bool)
+        pinned[self.fixed] = True
+        sel = np.flatnonzero(~pinned[rows] & pinned[cols])
+        if not sel.size:
+            return d
+        xi = self.x0[:dim, rows[sel]].T
+        xj = self.x0[:dim, cols[sel]].T
+        dd = xj - xi
+        t = np.ones(sel.size)
+        for box in self.fixed_boxes:
+            k = min(dim, len(box.min))
+            lo, hi = np.asarray(box.min[:k], float), np.asarray(box.max[:k], float)
+            inside = np.all((xj[:, :k] >= lo) & (xj[:, :k] <= hi), axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t1 = (lo - xi[:, :k]) / dd[:, :k]
+                t2 = (hi - xi[:, :k]) / dd[:, :k]
+            near = np.where(dd[:, :k] != 0.0, np.minimum(t1, t2), -np.inf)
+            enter = np.clip(near.max(axis=1), 0.0, 1.0)
+            t = np.where(inside, np.minimum(t, enter), t)
+        d[sel] = t[:, None] * dd
+        return d
 
     def update(self, state: SimState) -> np.ndarray:
         """The current particle index of every slot (after this step's reordering)."""
