@@ -542,37 +542,24 @@ def main() -> None:
                       f"{1e3 * sh['w_eb']:.3f} | {100 * sh['err']:+.1f} % | "
                       f"{1e3 * sh['max']:.3f} | {sh['change']:.1e} | {sh['wall']:.0f} |"
                       + ("" if sh["finite"] else " NaN"), flush=True)
-    if a.case == "float" and a.dim == 3:
-        print(f"3D ball (D 0.1 m, E 1 MPa) floating in DFSPH water (viscosity "
+    if a.case == "float":
+        body, run, last, fmt = (
+            ("3D ball (D 0.1 m", floating_ball, "ball's max speed [m/s]", ".3f") if a.dim == 3
+            else ("2D block (H 0.1 m, width 0.2 m", floating, "max tilt [deg]", ".1f"))
+        print(f"{body}, E 1 MPa) floating in DFSPH water (viscosity "
               f"{a.float_viscosity:g} m^2/s), density {a.density:g} x water, "
               f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
               "second half")
         print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
-              "| depth/Archimedes - 1 | ball's max speed [m/s] | wall [s] |")
+              f"| depth/Archimedes - 1 | {last} | wall [s] |")
         print("|---|---|---|---|---|---|---|---|---|---|")
         for n in a.layers:
-            fl = floating_ball(n, a.density, a.float_time, viscosity=a.float_viscosity,
-                               dt_max=a.float_dt_max, alpha=a.float_alpha)
+            fl = run(n, a.density, a.float_time, viscosity=a.float_viscosity,
+                     dt_max=a.float_dt_max, alpha=a.float_alpha)
             print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
                   f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
-                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.3f} | {fl['wall']:.0f} |"
+                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:{fmt}} | {fl['wall']:.0f} |"
                   + ("" if fl["finite"] else " NaN"), flush=True)
-    elif a.case == "float":
-        print(f"2D block (H 0.1 m, width 0.2 m, E 1 MPa) floating in DFSPH water (viscosity "
-              f"{a.float_viscosity:g} m^2/s), density {a.density:g} x water, "
-              f"{a.float_time:g} s, dt_max {a.float_dt_max:g} s, depth averaged over the "
-              "second half")
-        print("| layers | r [m] | particles | steps | depth [mm] | swing [mm] | Archimedes [mm] "
-              "| depth/Archimedes - 1 | max tilt [deg] | wall [s] |")
-        print("|---|---|---|---|---|---|---|---|---|---|")
-        for n in a.layers:
-            fl = floating(n, a.density, a.float_time, viscosity=a.float_viscosity,
-                          dt_max=a.float_dt_max, alpha=a.float_alpha)
-            print(f"| {n} | {fl['r']:.5f} | {fl['n']} | {fl['steps']} | {1e3 * fl['d']:.2f} | "
-                  f"{1e3 * fl['swing']:.2f} | {1e3 * fl['d_arch']:.2f} | "
-                  f"{100 * fl['err']:+.1f} % | {fl['tilt']:.1f} | {fl['wall']:.0f} |"
-                  + ("" if fl["finite"] else " NaN"), flush=True)
-
 
 if __name__ == "__main__":
     main()
