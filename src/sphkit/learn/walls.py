@@ -48,6 +48,33 @@ RADIUS = 3.0
 LIFT = 0.05
 
 
+def _field(p: np.ndarray, pts: np.ndarray, tree: cKDTree,
+           rad: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The field ``phi = sum_w (1 - |p - x_w|^2 / R^2)^3`` of the points ``pts`` (their
+    ``tree``) within R = ``rad`` at the points ``p`` (K, dim), the unit direction away from them
+    ``sum_w (1 - |p - x_w|^2 / R^2)^2 (p - x_w)`` (K, dim) and the field's gradient's magnitude
+    (K,), which is 6 / R^2 times that sum's."""
+    phi = np.zeros(len(p))
+    away = np.zeros_like(p)
+    near = tree.query_ball_point(p, rad, return_sorted=False)
+    lens = np.fromiter(map(len, near), dtype=np.int64, count=len(p))
+    if lens.sum():
+        rows = np.repeat(np.arange(len(p)), lens)
+        d = p[rows] - pts[np.concatenate(near).astype(np.int64)]
+        q = 1.0 - (d * d).sum(axis=1) / rad ** 2
+        phi = np.bincount(rows, weights=q ** 3, minlength=len(p))
+        for k in range(p.shape[1]):
+            away[:, k] = np.bincount(rows, weights=q ** 2 * d[:, k], minlength=len(p))
+    norm = np.linalg.norm(away, axis=1, keepdims=True)
+    unit = np.divide(away, norm, out=np.zeros_like(away), where=norm > 0)
+    return phi, unit, 6.0 * norm[:, 0] / rad ** 2
+
+
+def _sample(a: np.ndarray, b: np.ndarray, k: np.ndarray, f: float) -> np.ndarray:
+    """Sample ``k`` (K,) of the segments ``a -> b`` (K, dim) sampled at fractions ``f``."""
+    return a + (k * f)[:, None] * (b - a)
+
+
 class WallCollision:
     """Frictionless, inelastic collisions of moving points with static wall particles ``walls``
     (M, dim) of lattice spacing ``dx``."""
@@ -68,37 +95,16 @@ class WallCollision:
         ref = np.concatenate([np.insert(flat, 1, y, axis=1) for y in (0.0, -self.dx)])
         probe = np.full((2, self.dim), 0.5 * self.dx)
         probe[:, 1] = np.array([CONTACT, CONTACT + LIFT]) * self.dx
-        self.level, self.lifted = self._weights(probe, ref)[0]
-
-    def _weights(self, p: np.ndarray, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The field ``phi = sum_w (1 - |p - x_w|^2 / R^2)^3`` over the points ``pts`` within
-        R = RADIUS dx, and its direction away from them ``sum_w (1 - ...)^2 (p - x_w)``."""
-        d = p[:, None, :] - pts[None]
-        q = np.maximum(1.0 - (d * d).sum(axis=2) / self.rad ** 2, 0.0)
-        return (q ** 3).sum(axis=1), ((q ** 2)[:, :, None] * d).sum(axis=1)
+        self.level, self.lifted = _field(probe, ref, cKDTree(ref), self.rad)[0]
 
     def field(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The wall field (K,) at the points ``p`` (K, dim), the wall's outward unit normal
-        there (K, dim) (the smooth weight's direction away from the walls) and the field's
-        gradient's magnitude (K,)."""
-        phi = np.zeros(len(p))
-        away = np.zeros_like(p)
-        near = self.tree.query_ball_point(p, self.rad, return_sorted=False)
-        lens = np.fromiter(map(len, near), dtype=np.int64, count=len(p))
-        if lens.sum():
-            rows = np.repeat(np.arange(len(p)), lens)
-            d = p[rows] - self.walls[np.concatenate(near).astype(np.int64)]
-            q = 1.0 - (d * d).sum(axis=1) / self.rad ** 2
-            phi = np.bincount(rows, weights=q ** 3, minlength=len(p))
-            for k in range(self.dim):
-                away[:, k] = np.bincount(rows, weights=q ** 2 * d[:, k], minlength=len(p))
-        norm = np.linalg.norm(away, axis=1, keepdims=True)
-        unit = np.divide(away, norm, out=np.zeros_like(away), where=norm > 0)
-        return phi, unit, 6.0 * norm[:, 0] / self.rad ** 2
+        there (K, dim) and the field's gradient's magnitude (K,) (:func:`_field`)."""
+        return _field(p, self.walls, self.tree, self.rad)
 
-    def first_contact(self, x0: np.ndarray, x1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def first_contact(self, x0: np.ndarray, x1: np.ndarray) -> tuple[np.ndarray, float]:
         """For each segment ``x0 -> x1`` (N, dim): the index of its first sample in contact
-        (-1 for none; samples ``x0 + k/n (x1 - x0)``, k = 0..n) and the sample fraction
+        (-1 for none; samples ``x0 + k/n (x1 - x0)``, k = 0..n), and the samples' fraction
         ``1/n`` of the step."""
         d = x1 - x0
         n = max(1, int(np.ceil(np.linalg.norm(d, axis=1).max(initial=0.0)
@@ -112,8 +118,7 @@ class WallCollision:
         if len(close):
             hit[close] = self.field(pts[close])[0] > self.level
         hit = hit.reshape(len(x0), n + 1)
-        first = np.where(hit.any(axis=1), hit.argmax(axis=1), -1)
-        return first, np.full(len(x0), 1.0 / n)
+        return np.where(hit.any(axis=1), hit.argmax(axis=1), -1), 1.0 / n
 
     def lift(self, p: np.ndarray) -> np.ndarray:
         """The points ``p`` (K, dim) moved out along the walls' normal to the level LIFT dx
@@ -138,12 +143,12 @@ class WallCollision:
         start = np.asarray(x0, dtype=np.float64).copy()
         active = np.arange(len(x1))
         for _ in range(PASSES):
-            first, frac = self.first_contact(start[active], x1[active])
+            first, f = self.first_contact(start[active], x1[active])
             hit = first >= 0
-            idx, k, f = active[hit], first[hit], frac[hit]
+            idx, k = active[hit], first[hit]
             a, b = start[idx], x1[idx]
-            free = a + (np.maximum(k - 1, 0) * f)[:, None] * (b - a)  # last sample clear of it
-            nrm = self.field(a + (k * f)[:, None] * (b - a))[1]
+            free = _sample(a, b, np.maximum(k - 1, 0), f)  # the last sample clear of the wall
+            nrm = self.field(_sample(a, b, k, f))[1]
             rest = b - free
             into = np.minimum((rest * nrm).sum(axis=1), 0.0)
             # a step that starts in contact and moves along or away from the wall goes on
@@ -154,10 +159,8 @@ class WallCollision:
             active = idx
             if len(active) == 0:
                 return x1
-        first, frac = self.first_contact(start[active], x1[active])
+        first, f = self.first_contact(start[active], x1[active])
         k = first > 0
         idx = active[k]  # still driven into a wall after PASSES projections: stop at the last
-        if len(idx):     # sample clear of it
-            a, b = start[idx], x1[idx]
-            x1[idx] = a + ((first[k] - 1) * frac[k])[:, None] * (b - a)
+        x1[idx] = _sample(start[idx], x1[idx], first[k] - 1, f)  # sample clear of it
         return x1
