@@ -305,7 +305,7 @@ def test_face_clamp_fits_see_the_fixed_box_face(dim: int) -> None:
         free = ~pinned
         errs[clamp] = np.abs(grad - exact)[:, free].max() / np.abs(exact[:, free]).max()
         if clamp == "face":
-            d = rest.clamp_vectors()
+            d = rest.clamp_vectors(dim)
             cross = free[rows] & pinned[idx]
             assert cross.any()
             assert np.allclose(x[0, rows[cross]] + d[cross, 0], face)

@@ -125,7 +125,7 @@ class CorotatedSolid(Elasticity):
         self.G = gradient_weights(rest.x0, rest.V0, off, idx, rest.h, state.kid, state.dim,
                                   self.gradient_correction,
                                   2.0 if self.max_neighbors > 0 else 1.0,
-                                  rest.clamp_vectors() if face else None,
+                                  rest.clamp_vectors(state.dim) if face else None,
                                   rigid if face else None)
         self.rev = reverse_pairs(off, idx)
         if self.plastic:

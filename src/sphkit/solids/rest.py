@@ -151,7 +151,6 @@ class RestConfiguration:
         self.max_neighbors = max_neighbors
         self.base = 0
         self.n = 0
-        self.dim = 0  #: the scene's dimension (set by build)
         self.x0 = np.zeros((3, 0))
         self.V0 = np.zeros(0)
         self.m = np.zeros(0)
@@ -208,18 +207,16 @@ class RestConfiguration:
             lo, hi = np.asarray(box.min[:k], float), np.asarray(box.max[:k], float)
             pinned |= np.all((self.x0[:k].T >= lo) & (self.x0[:k].T <= hi), axis=1)
         self.fixed = np.flatnonzero(pinned).astype(np.int64)
-        self.dim = dim
         fx = np.zeros(self.n, np.int64)
         fx[self.fixed] = 1
         f["solid_fixed"][self.pos] = fx
 
-    def clamp_vectors(self) -> np.ndarray:
-        """The fit's sample vectors (pairs, dim) of the face clamp: ``x0_ji`` for every rest
+    def clamp_vectors(self, dim: int) -> np.ndarray:
+        """The fit's sample vectors (pairs, ``dim``) of the face clamp: ``x0_ji`` for every rest
         pair (i, j), except from a free particle i to a pinned j, where the sample is moved
         along the segment to the point where it enters j's fixed box (the first such box
         boundary when j lies in several), so that the free particle's fit sees the pinned
         (zero) displacement on the clamp's face instead of behind it."""
-        dim = self.dim
         off, idx = self.lists.offsets, self.lists.indices
         rows = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(off))
         cols = idx.astype(np.int64)
