@@ -72,11 +72,8 @@ def measure(folder: Path, solver: str, boundary: str, dim: int, r: float, side: 
                 continue
             x = sim.fluid["x"]
             p = sim.pressures
-            far = np.abs(x[0] - body.c[0]) > side
-            if dim == 3:
-                far |= np.abs(x[2] - body.c[2]) > side
-            yy = np.sort(x[1, far])
-            level = yy[-max(int(len(yy) / layers), 1):].mean() + r
+            far = startup.far_from_body(x, body.c, side, dim)
+            level = startup.water_level(x, far, r, layers)
             inner = far & (np.abs(x[0]) < w / 2 - 6 * r)
             if dim == 3:
                 inner &= np.abs(x[2]) < startup.TANK[2] / 2 - 6 * r

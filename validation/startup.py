@@ -118,6 +118,21 @@ def _outside(x: np.ndarray, dim: int, r: float, tank=TANK) -> int:
     return int(out.sum())
 
 
+def far_from_body(x: np.ndarray, c: np.ndarray, side: float, dim: int) -> np.ndarray:
+    """The fluid particles farther than ``side`` from a body centred at ``c`` horizontally."""
+    far = np.abs(x[0] - c[0]) > side
+    if dim == 3:
+        far |= np.abs(x[2] - c[2]) > side
+    return far
+
+
+def water_level(x: np.ndarray, far: np.ndarray, r: float, layers: float) -> float:
+    """The pool's free surface: the mean height of the top layer (the highest 1/``layers`` of
+    the particles ``far``, see :func:`far_from_body`) plus r."""
+    yy = np.sort(x[1, far])
+    return float(yy[-max(int(len(yy) / layers), 1):].mean() + r)
+
+
 def run(folder: Path, case: str, solver: str, boundary: str, dim: int, r: float, until: float,
         start: bool = True) -> dict:
     """One run of a matrix case; returns its row."""
@@ -152,11 +167,7 @@ def run(folder: Path, case: str, solver: str, boundary: str, dim: int, r: float,
             row["vmax"] = max(row["vmax"], st.max_velocity)
             if body is not None and sim.time > until - 1.0:
                 x = sim.fluid["x"]
-                far = np.abs(x[0] - body.c[0]) > SIDE
-                if dim == 3:
-                    far |= np.abs(x[2] - body.c[2]) > SIDE
-                yy = np.sort(x[1, far])
-                level = yy[-max(int(len(yy) / layers), 1):].mean() + r
+                level = water_level(x, far_from_body(x, body.c, SIDE, dim), r, layers)
                 frac.append(float(np.mean((body.c[:, None] + body.R @ grid)[1] < level)))
     except InstabilityError as e:
         row["status"] = f"unstable at {e.stats.time:.3g} s ({e.stats.max_velocity:.3g} m/s)"
