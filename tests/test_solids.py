@@ -243,6 +243,28 @@ def test_splishsplash_elasticity_translates(tmp_path) -> None:
         load_scene(_beam_2d(tmp_path, 1, {**block, "poissonsRatio": 0.5}))
 
 
+@pytest.mark.parametrize("value", ["hinge", 3, None, float("nan")])
+def test_bad_clamp_is_refused_by_name(value: object) -> None:
+    """``elasticity.clamp`` accepts 'particles' or 'face' only; anything else is a scene error
+    naming ``materials[0].elasticity.clamp``, and kugelstadt2021 refuses 'face' (its
+    deformation gradient of the positions needs the pinned particles' own samples) with a scene
+    error naming the same field when the world is built (``sphkit run`` exits 2 on it)."""
+    from sphkit.scene.files import scene_from_dict
+
+    def scene(method: str, clamp: object) -> Scene:
+        return scene_from_dict({
+            "configuration": {"dim": 2, "particle_radius": 0.01},
+            "materials": [{"elasticity": {"method": method, "clamp": clamp, "fixed_boxes": [
+                {"min": [-1.0, -1.0], "max": [0.02, 1.0]}]}}],
+            "fluid_blocks": [{"start": [0, 0], "end": [0.2, 0.04]}]})
+
+    with pytest.raises(SceneError, match=r"materials\[0\]\.elasticity\.clamp"):
+        scene("becker2009", value)
+    with pytest.raises(SceneError, match=r"materials\[0\]\.elasticity\.clamp: 'face' is not "
+                       r"supported by kugelstadt2021"):
+        Simulation(scene("kugelstadt2021", "face"))
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_quadratic_gradient_weights_are_exact_for_quadratic_fields(dim: int) -> None:
     """The second-order gradient weights (sphkit.solids.gradients) reproduce the gradient of a

@@ -171,7 +171,7 @@ def _solids(scene: Scene) -> list[Elasticity]:
     """The elasticity of each elastic material, bound to the particle-set objects of the
     material (fluid blocks, files and meshes; solids are not emitted, see scene.checks)."""
     solids = []
-    for mat in scene.materials:
+    for k, mat in enumerate(scene.materials):
         if not mat.elastic:
             continue
         objects = tuple(
@@ -182,8 +182,11 @@ def _solids(scene: Scene) -> list[Elasticity]:
             for k, item in enumerate(items) if item.material == mat.id)
         if not objects:
             continue
-        solid = registry.get("elasticity", mat.elasticity.method).load().from_config(
-            mat.elasticity)
+        try:  # a combination of fields the method refuses (its message names the field)
+            solid = registry.get("elasticity", mat.elasticity.method).load().from_config(
+                mat.elasticity)
+        except ValueError as e:
+            raise SceneError(f"materials[{k}].{e}") from None
         solid.objects = objects
         solids.append(solid)
     return solids
