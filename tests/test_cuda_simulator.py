@@ -4,7 +4,9 @@ Runs in a subprocess with NUMBA_ENABLE_CUDASIM=1 (the simulator must be chosen b
 is imported), on a small 2D and 3D case (a jittered block over a wall shell), and compares the
 density, the pressure acceleration, the fused density and pair gradients and one Jacobi pass of
 the iterative solvers (kappa acceleration, then the sweep with its (sum, max) reduction) with
-the same bodies launched on the CPU; where a CUDA GPU is present the same script also runs on it
+the same bodies launched on the CPU, and the neighbour search whose passes are bodies
+(:class:`sphkit.core.neighbors.HashGrid`, with the scan and the histogram of the counting sort)
+against the CPU grid's lists; where a CUDA GPU is present the same script also runs on it
 (skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
 the CPU does not import numba.cuda.
 """
@@ -102,6 +104,38 @@ SCRIPT = textwrap.dedent(
             assert e <= 1e-12, (dim, key, e)
         assert rel(gpu["err"], cpu["err"]) <= 1e-12, (dim, gpu["err"], cpu["err"])
         print("dim", dim, "ok", N, "particles")
+
+    # the neighbour search as bodies (HashGrid): the same sets as the CPU Grid, fluid-fluid
+    # (self excluded, from a capacity of 4 slots so that the overflow regrowth runs) and
+    # fluid-boundary; on the GPU only the order within a row may differ
+    from sphkit.backend import exclusive_scan, to_device, to_host
+    from sphkit.core.neighbors import HashGrid, hash_origin
+
+    counts = rng.integers(0, 5, 300)  # three blocks of 128: the block totals are scanned too
+    out = cuda.device_array(301, np.int64)
+    assert exclusive_scan(to_device(counts, "cuda"), out, device="cuda") == counts.sum()
+    assert np.array_equal(out.copy_to_host(), np.concatenate([[0], np.cumsum(counts)]))
+
+    def same_sets(nl, ref, n):
+        off, idx = to_host(nl.offsets), to_host(nl.indices)
+        return all(np.array_equal(np.sort(idx[off[i]:off[i + 1]]), np.sort(ref.neighbors(i)))
+                   for i in range(n))
+
+    for dim in (2, 3):
+        h = 0.12
+        x = rng.uniform(0.0, 0.5, (dim, 60))
+        bx = rng.uniform(-0.2, 0.7, (dim, 40))
+        origin = hash_origin(np.full(dim, 0.25), h)
+        grid = HashGrid(dim, h, origin, device="cuda")
+        grid.capacity = 4
+        xd = to_device(x, "cuda")
+        grid.build(xd)
+        assert same_sets(grid.query(xd, exclude_self=True), neighbor_lists(x, h), 60)
+        assert grid.capacity > 4
+        walls = HashGrid(dim, h, origin, device="cuda")
+        walls.build(to_device(bx, "cuda"))
+        assert same_sets(walls.query(xd), Grid(bx, h).query(x), 60)
+        print("hash grid", dim, "ok")
     """
 )
 
@@ -125,6 +159,7 @@ def _run_script(env: dict) -> None:
                          timeout=600)
     assert res.returncode == 0, res.stdout + res.stderr
     assert "dim 2 ok" in res.stdout and "dim 3 ok" in res.stdout
+    assert "hash grid 2 ok" in res.stdout and "hash grid 3 ok" in res.stdout
 
 
 def _cuda_gpu() -> bool:

@@ -2,6 +2,16 @@
 a CUDA kernel (:mod:`sphkit.backend.launch`; the CUDA side, :mod:`sphkit.backend.cuda`, is
 imported only when a launch asks for it)."""
 
-from sphkit.backend.launch import DEVICES, launch, launch_reduce
+from sphkit.backend.launch import (
+    DEVICES,
+    empty,
+    exclusive_scan,
+    histogram,
+    launch,
+    launch_reduce,
+    to_device,
+    to_host,
+)
 
-__all__ = ["DEVICES", "launch", "launch_reduce"]
+__all__ = ["DEVICES", "empty", "exclusive_scan", "histogram", "launch", "launch_reduce",
+           "to_device", "to_host"]

@@ -13,6 +13,12 @@ reducing kernel (:func:`launch_reduce`) sums and maximizes the body's values ove
 shared memory (a tree over :data:`THREADS` threads) and adds one partial result per block to the
 output with ``cuda.atomic.add`` / ``cuda.atomic.max``.
 
+The counting-sort primitives of :mod:`sphkit.backend.launch` are here too: :func:`histogram`
+(one ``cuda.atomic.add`` per element, whose returned old value is the element's rank in its
+bin) and :func:`exclusive_scan` (each block of :data:`THREADS` elements scanned in shared memory
+by Hillis & Steele's doubling, the block totals scanned the same way, recursively, and added
+back).
+
 Only this module imports numba.cuda; :mod:`sphkit.backend.launch` imports it when a launch asks
 for ``device="cuda"``.
 """
@@ -129,3 +135,82 @@ def launch_reduce(body: Any, n: int, args: tuple) -> tuple[float, float]:
         kernel_for(body, len(args), True)[_blocks(n), THREADS](n, out, *args)
     tot, mx = out.copy_to_host()
     return float(tot), float(mx)
+
+
+@cuda.jit
+def _zero(a, n):
+    i = cuda.grid(1)
+    if i < n:
+        a[i] = 0
+
+
+@cuda.jit
+def _count(bins, n, counts, rank):
+    i = cuda.grid(1)
+    if i < n:
+        rank[i] = cuda.atomic.add(counts, bins[i], 1)
+
+
+def histogram(bins: Any, counts: Any, rank: Any) -> None:
+    """See :func:`sphkit.backend.launch.histogram`."""
+    nb = counts.shape[0]
+    if nb > 0:
+        _zero[_blocks(nb), THREADS](counts, nb)
+    n = bins.shape[0]
+    if n > 0:
+        _count[_blocks(n), THREADS](bins, n, counts, rank)
+
+
+@cuda.jit
+def _block_scan(a, n, out, sums):
+    """Inclusive scan of each block's THREADS entries of ``a`` into ``out[i + 1]``; the block's
+    total into ``sums[block]``."""
+    tmp = cuda.shared.array(THREADS, numba.int64)
+    t = cuda.threadIdx.x
+    i = cuda.grid(1)
+    v = 0
+    if i < n:
+        v = a[i]
+    tmp[t] = v
+    cuda.syncthreads()
+    d = 1
+    while d < THREADS:
+        w = 0
+        if t >= d:
+            w = tmp[t - d]
+        cuda.syncthreads()
+        tmp[t] += w
+        cuda.syncthreads()
+        d *= 2
+    if i < n:
+        out[i + 1] = tmp[t]
+    if t == THREADS - 1:
+        sums[cuda.blockIdx.x] = tmp[t]
+
+
+@cuda.jit
+def _add_block_offsets(out, n, offsets):
+    i = cuda.grid(1)
+    if i < n:
+        out[i + 1] += offsets[cuda.blockIdx.x]
+    if i == 0:
+        out[0] = 0
+
+
+def exclusive_scan(counts: Any, out: Any) -> int:
+    """See :func:`sphkit.backend.launch.exclusive_scan`; the total is the one scalar copied
+    back."""
+    n = counts.shape[0]
+    if n == 0:
+        out[0:1].copy_to_device(np.zeros(1, dtype=out.dtype))
+        return 0
+    nb = _blocks(n)
+    sums = cuda.device_array(nb, dtype=np.int64)
+    _block_scan[nb, THREADS](counts, n, out, sums)
+    offsets = cuda.device_array(nb + 1, dtype=np.int64)
+    if nb > 1:
+        exclusive_scan(sums, offsets)
+    else:
+        offsets[0:1].copy_to_device(np.zeros(1, dtype=np.int64))
+    _add_block_offsets[nb, THREADS](out, n, offsets)
+    return int(out[n:n + 1].copy_to_host()[0])

@@ -58,6 +58,20 @@ maximum are reduced in the same ``prange`` loop (no per-particle array, no secon
 memory); on the GPU each block reduces its values in shared memory and adds them to the result
 with one atomic operation per block. The two sums are added in different orders, so they agree
 to rounding, not bit for bit.
+
+Primitives that are not per-particle bodies
+-------------------------------------------
+Two steps of a counting sort write entries that belong to no single particle, and a few array
+helpers hide where the arrays live; each has a CPU and a CUDA version:
+
+* :func:`histogram`: ``counts[b]`` = how many ``bins[i] == b``, and ``rank[i]`` = the place of i
+  within its bin (index order on the CPU; the order of the atomic increments on the GPU, which
+  is not reproducible from run to run);
+* :func:`exclusive_scan`: ``out[0] = 0``, ``out[k + 1] = out[k] + counts[k]`` (on the GPU a
+  block-wise Hillis-Steele scan in shared memory, the block totals scanned recursively); returns
+  the total, the one scalar read back;
+* :func:`empty`, :func:`to_device`, :func:`to_host`: allocate on, copy to and copy from the
+  device (NumPy arrays, unchanged, on the CPU).
 """
 
 from __future__ import annotations
@@ -66,6 +80,7 @@ import types
 from typing import Any
 
 import numba
+import numpy as np
 
 #: the devices :func:`launch` knows
 DEVICES = ("cpu", "cuda")
@@ -157,3 +172,74 @@ def launch_reduce(body: Any, n: int, *args: Any, device: str = "cpu") -> tuple[f
     from sphkit.backend import cuda
 
     return cuda.launch_reduce(body, n, args)
+
+
+@numba.njit(cache=True)
+def _histogram(bins, counts, rank):
+    for b in range(counts.shape[0]):
+        counts[b] = 0
+    for i in range(bins.shape[0]):
+        b = bins[i]
+        rank[i] = counts[b]
+        counts[b] += 1
+
+
+@numba.njit(cache=True)
+def _exclusive_scan(counts, out):
+    s = 0
+    out[0] = 0
+    for k in range(counts.shape[0]):
+        s += counts[k]
+        out[k + 1] = s
+    return s
+
+
+def histogram(bins: Any, counts: Any, rank: Any, device: str = "cpu") -> None:
+    """Count the integer ``bins`` (N,) into ``counts`` (zeroed here; one entry per bin, every
+    bin index below its length) and write each element's ``rank`` (N,) within its bin."""
+    _check(device)
+    if device == "cpu":
+        _histogram(bins, counts, rank)
+    else:
+        from sphkit.backend import cuda
+
+        cuda.histogram(bins, counts, rank)
+
+
+def exclusive_scan(counts: Any, out: Any, device: str = "cpu") -> int:
+    """``out[0] = 0`` and ``out[k + 1] = sum(counts[:k + 1])`` (``out`` has one more entry than
+    ``counts``); returns the total."""
+    _check(device)
+    if out.shape[0] != counts.shape[0] + 1:
+        raise ValueError(f"exclusive_scan: out has {out.shape[0]} entries for "
+                         f"{counts.shape[0]} counts; expected one more")
+    if device == "cpu":
+        return int(_exclusive_scan(counts, out))
+    from sphkit.backend import cuda
+
+    return cuda.exclusive_scan(counts, out)
+
+
+def empty(shape: int | tuple[int, ...], dtype: Any, device: str = "cpu") -> Any:
+    """An uninitialised array on ``device``."""
+    _check(device)
+    if device == "cpu":
+        return np.empty(shape, dtype=dtype)
+    from numba import cuda as nbcuda
+
+    return nbcuda.device_array(shape, dtype=dtype)
+
+
+def to_device(a: Any, device: str = "cpu") -> Any:
+    """``a`` on ``device`` (a contiguous copy there; the array itself on the CPU)."""
+    _check(device)
+    if device == "cpu":
+        return a
+    from numba import cuda as nbcuda
+
+    return nbcuda.to_device(np.ascontiguousarray(a))
+
+
+def to_host(a: Any) -> np.ndarray:
+    """A NumPy array of ``a`` (a copy from the device, or ``a`` itself)."""
+    return a.copy_to_host() if hasattr(a, "copy_to_host") else np.asarray(a)
