@@ -5,7 +5,7 @@ is imported), on a small 2D and 3D case (a jittered block over a wall shell), an
 density, the pressure acceleration, the fused density and pair gradients and one Jacobi pass of
 the iterative solvers (kappa acceleration, then the sweep with its (sum, max) reduction) with
 the same bodies launched on the CPU, and the neighbour search whose passes are bodies
-(:class:`sphkit.core.neighbors.HashGrid`, with the scan and the histogram of the counting sort)
+(:class:`sphkit.core.hashgrid.HashGrid`, with the scan and the histogram of the counting sort)
 against the CPU grid's lists; where a CUDA GPU is present the same script also runs on it
 (skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
 the CPU does not import numba.cuda.
@@ -109,7 +109,7 @@ SCRIPT = textwrap.dedent(
     # (self excluded, from a capacity of 4 slots so that the overflow regrowth runs) and
     # fluid-boundary; on the GPU only the order within a row may differ
     from sphkit.backend import exclusive_scan, to_device, to_host
-    from sphkit.core.neighbors import HashGrid, hash_origin
+    from sphkit.core.hashgrid import HashGrid, hash_origin
 
     counts = rng.integers(0, 5, 300)  # three blocks of 128: the block totals are scanned too
     out = cuda.device_array(301, np.int64)

@@ -197,7 +197,13 @@ def test_2d_heavy_square_sinks_and_rests_on_floor(tmp_path: Path) -> None:
       impulse but without the bodies' gravity in the density solve it stayed on a layer 8.4 mm
       = 1.7 r up), a side on the floor (rotation within 1 degree of a multiple of 90: 1 degree
       lifts a corner 0.9 mm = 0.17 r, more than a flat landing leaves; measured 0.000 degrees),
-      |v| < 0.01 m/s and |omega| < 0.1 rad/s (measured 6e-12 m/s and 6e-11 rad/s).
+      |omega| < 0.1 rad/s (measured 3e-10 rad/s), and it is held: over the last 0.2 s its
+      median speed is below 1 mm/s and its centre moves less than r. The fluid around it never
+      quite settles (0.5-1 m/s at the surface at 2 s) and pushes the frictional contact into
+      brief slips of about 1-2 cm/s between long rests at 1e-9 m/s, so its speed at one instant
+      is not a rest criterion: at t = 1.2 s one machine measured 6e-12 m/s, another (AVX-512
+      rounding) caught a slip, 1.5e-2 m/s. Measured: median 1e-9 m/s, drift 0.1 mm; it creeps
+      by about 3 mm over 2 s;
 
     Known fragile (validation/README.md, "Rigid bodies: the body's velocity in the solves"): of
     seven neighbouring set-ups (box layers 1 or 2, start 6.5-8 cm), four land flat, two turn
@@ -216,19 +222,21 @@ def test_2d_heavy_square_sinks_and_rests_on_floor(tmp_path: Path) -> None:
     assert body.mass == pytest.approx(20.0, rel=1e-12)  # 2000 kg/m^3 * 0.01 m^2 [kg/m]
     s = np.array([-1.0, 1.0]) * side / 2
     corners = np.stack(np.meshgrid(s, s, [0.0], indexing="ij")).reshape(3, -1)
-    track = track_landing(sim, body, corners, 1.2, R)
+    track = track_landing(sim, body, corners, 1.2, R, window=0.2)
     lowest, landed, vmax = track.lowest, track.landed, track.vmax
     x = sim.fluid["x"]
     print(f"landed at {landed} s, lowest {lowest * 1000:+.3f} mm, fluid after landing "
           f"{vmax:.2f} m/s, centre {(body.c[1] - side / 2) * 1000:+.2f} mm above rest, "
-          f"|v| {np.linalg.norm(body.v):.1e} m/s, omega {body.omega[2]:.1e} rad/s, fluid x "
-          f"[{x[0].min():.4f}, {x[0].max():.4f}], y min {x[1].min():.4f}")
+          f"|v| {np.linalg.norm(body.v):.1e} m/s (median {track.rest_speed:.1e} m/s, drift "
+          f"{track.drift * 1000:.2f} mm over the last 0.2 s), omega {body.omega[2]:.1e} rad/s, "
+          f"fluid x [{x[0].min():.4f}, {x[0].max():.4f}], y min {x[1].min():.4f}")
     assert np.all(np.isfinite(x)) and np.all(np.isfinite(sim.fluid["v"]))
     assert np.all((x[0] > 0.0) & (x[0] < L) & (x[1] > 0.0))
     assert landed is not None
     assert lowest >= -0.1 * R, lowest
     assert abs(body.c[1] - side / 2) < R, body.c[1]
-    assert np.linalg.norm(body.v) < 0.01
+    assert track.rest_speed < 1e-3, track.rest_speed
+    assert track.drift < R, track.drift
     assert abs(body.omega[2]) < 0.1
     tilt = np.degrees(np.arctan2(body.R[1, 0], body.R[0, 0]))
     assert abs((tilt + 45.0) % 90.0 - 45.0) < 1.0, tilt
