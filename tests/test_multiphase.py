@@ -260,7 +260,8 @@ def test_dfsph_warm_start_cap_bounds_the_same_pressure_in_every_phase() -> None:
     column needs about five times water's kappa to carry it. The cap is on ``p / rho0_ref``:
     both phases keep the same largest warm-start pressure (exact: the factors are powers of
     ten of the same floats, compared with a relative 1e-12)."""
-    from sphkit.pressure.dfsph import _density_source
+    from sphkit.backend import launch
+    from sphkit.pressure.dfsph import density_source_body
 
     dt = 0.002
     rho0 = np.array([1000.0, 100.0])
@@ -269,7 +270,7 @@ def test_dfsph_warm_start_cap_bounds_the_same_pressure_in_every_phase() -> None:
     div = np.full(2, 1.0)  # compressing: the warm start applies
     kprev = np.full(2, 1.0)  # far above either cap
     s, kappa = np.empty(2), np.empty(2)
-    _density_source(rho, 1.0 / rho0, div, dt, kprev, inv_c, s, kappa)
+    launch(density_source_body, 2, rho, 1.0 / rho0, div, dt, kprev, inv_c, s, kappa)
     p = kappa * rho0  # the warm-start pressure per unit rho_hat^2
     np.testing.assert_allclose(p[1], p[0], rtol=1e-12)
     np.testing.assert_allclose(kappa[0], 0.5 * 0.00025 / dt ** 2, rtol=1e-12)

@@ -303,39 +303,40 @@ def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror
         weighted = False
     else:
         weighted = True
-    _diagonal(off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, inv_c, out)
+    launch(diagonal_body, n, off, idx, boff, bidx, bmirror, gw, gwb, int(dim), weighted, c, inv_c,
+           out)
 
 
-@numba.njit(parallel=True, **_JIT_GATHER)
-def _diagonal(off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, inv_c, out):
-    for i in numba.prange(off.shape[0] - 1):
-        g0 = g1 = g2 = 0.0
-        sq = 0.0
-        ci = c[i]
-        for k in range(off[i], off[i + 1]):
-            t0 = gw[0, k]
-            t1 = gw[1, k] if dim > 1 else 0.0
-            t2 = gw[2, k] if dim > 2 else 0.0
-            g0 += t0
-            g1 += t1
-            g2 += t2
-            if weighted:
-                sq += (t0 * t0 + t1 * t1 + t2 * t2) * (ci * inv_c[idx[k]])
-            else:
-                sq += t0 * t0 + t1 * t1 + t2 * t2
-        b0 = b1 = b2 = 0.0
-        m0 = m1 = m2 = 0.0
-        for k in range(boff[i], boff[i + 1]):
-            f = 1.0 + bmirror[bidx[k]]
-            b0 += gwb[0, k]
-            m0 += f * gwb[0, k]
-            if dim > 1:
-                b1 += gwb[1, k]
-                m1 += f * gwb[1, k]
-            if dim > 2:
-                b2 += gwb[2, k]
-                m2 += f * gwb[2, k]
-        out[i] = ((g0 + b0) * (g0 + m0) + (g1 + b1) * (g1 + m1) + (g2 + b2) * (g2 + m2) + sq)
+@numba.njit(inline="always", **_JIT_GATHER)
+def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, inv_c, out):
+    """``out[i]`` = the diagonal ``D_i`` of :func:`diagonal_cached` (a kernel body)."""
+    g0 = g1 = g2 = 0.0
+    sq = 0.0
+    ci = c[i]
+    for k in range(off[i], off[i + 1]):
+        t0 = gw[0, k]
+        t1 = gw[1, k] if dim > 1 else 0.0
+        t2 = gw[2, k] if dim > 2 else 0.0
+        g0 += t0
+        g1 += t1
+        g2 += t2
+        if weighted:
+            sq += (t0 * t0 + t1 * t1 + t2 * t2) * (ci * inv_c[idx[k]])
+        else:
+            sq += t0 * t0 + t1 * t1 + t2 * t2
+    b0 = b1 = b2 = 0.0
+    m0 = m1 = m2 = 0.0
+    for k in range(boff[i], boff[i + 1]):
+        f = 1.0 + bmirror[bidx[k]]
+        b0 += gwb[0, k]
+        m0 += f * gwb[0, k]
+        if dim > 1:
+            b1 += gwb[1, k]
+            m1 += f * gwb[1, k]
+        if dim > 2:
+            b2 += gwb[2, k]
+            m2 += f * gwb[2, k]
+    out[i] = ((g0 + b0) * (g0 + m0) + (g1 + b1) * (g1 + m1) + (g2 + b2) * (g2 + m2) + sq)
 
 
 @numba.njit(inline="always", **_JIT_GATHER)
@@ -365,13 +366,20 @@ def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
     return s
 
 
-@numba.njit(parallel=True, **_JIT_GATHER)
-def pair_divergence_cached(v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
+@numba.njit(inline="always", **_JIT_GATHER)
+def divergence_body(i, v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
+    """``out[i]`` = :func:`_divergence_i` (a kernel body)."""
+    out[i] = _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim)
+
+
+def pair_divergence_cached(v: np.ndarray, bv: np.ndarray, off: np.ndarray, idx: np.ndarray,
+                           boff: np.ndarray, bidx: np.ndarray, gw: np.ndarray, gwb: np.ndarray,
+                           dim: int, out: np.ndarray) -> None:
     """``sum_j (v_i - v_j) . V_j grad W_ij + sum_b (v_i - v_b) . V_b grad W_ib`` from cached
     pair gradients: ``D rho_hat / Dt`` for velocities (bv: boundary velocities), and the density
-    change per dt^2 for accelerations (bv = 0: pressure does not accelerate the boundary)."""
-    for i in numba.prange(v.shape[1]):
-        out[i] = _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim)
+    change per dt^2 for accelerations (bv = 0: pressure does not accelerate the boundary);
+    :func:`divergence_body` through :func:`sphkit.backend.launch`."""
+    launch(divergence_body, v.shape[1], v, bv, off, idx, boff, bidx, gw, gwb, int(dim), out)
 
 
 def lattice_diagonal(spacing: float, h: float, kid: int, dim: int, V: float) -> float:

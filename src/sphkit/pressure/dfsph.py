@@ -60,38 +60,41 @@ from typing import Any
 import numba
 import numpy as np
 
+from sphkit.backend import launch
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import neighbor_counts
 from sphkit.core.solver import IterationControl, PairGradients, SolverStats, jacobi_ppe
 from sphkit.core.state import SimState
 
-
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _alpha(D, tiny, alpha):
-    for i in numba.prange(D.shape[0]):
-        alpha[i] = 1.0 / D[i] if D[i] > tiny else 0.0
+_BODY = dict(cache=True, fastmath=True, inline="always")
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _density_source(rho, inv_rho0, div, dt, kprev, inv_c, s, kappa):
+@numba.njit(**_BODY)
+def alpha_body(i, D, tiny, alpha):
+    """The factor ``alpha_i = 1 / D_i`` (0 where ``D_i <= tiny``)."""
+    alpha[i] = 1.0 / D[i] if D[i] > tiny else 0.0
+
+
+@numba.njit(**_BODY)
+def density_source_body(i, rho, inv_rho0, div, dt, kprev, inv_c, s, kappa):
+    """The constant-density solve's source and warm start of particle i."""
     # s = 1 - max(rho_hat*, 1); warm start where the predicted density exceeds rho0 (inv_rho0
     # (N,): 1 / each particle's rest density); the cap bounds the pressure p / rho0_ref, so in
     # each particle's own kappa it is 0.00025 inv_c (inv_c = rho0_ref / rho0_i, 1 for one fluid)
-    for i in numba.prange(rho.shape[0]):
-        pred = rho[i] * inv_rho0[i] + dt * div[i]
-        s[i] = 1.0 - pred
-        kappa[i] = 0.5 * min(kprev[i], 0.00025 * inv_c[i]) / (dt * dt) if pred > 1.0 else 0.0
+    pred = rho[i] * inv_rho0[i] + dt * div[i]
+    s[i] = 1.0 - pred
+    kappa[i] = 0.5 * min(kprev[i], 0.00025 * inv_c[i]) / (dt * dt) if pred > 1.0 else 0.0
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _divergence_source(div, active, dt, kprev, inv_c, s, kappa):
-    for i in numba.prange(div.shape[0]):
-        if active[i] and div[i] > 0.0:
-            s[i] = -div[i]
-            kappa[i] = 0.5 * min(kprev[i], 0.5 * inv_c[i]) / dt
-        else:
-            s[i] = 0.0
-            kappa[i] = 0.0
+@numba.njit(**_BODY)
+def divergence_source_body(i, div, active, dt, kprev, inv_c, s, kappa):
+    """The divergence-free solve's source and warm start of particle i."""
+    if active[i] and div[i] > 0.0:
+        s[i] = -div[i]
+        kappa[i] = 0.5 * min(kprev[i], 0.5 * inv_c[i]) / dt
+    else:
+        s[i] = 0.0
+        kappa[i] = 0.0
 
 
 #: Jacobi relaxation of both solves: SPlisHSPlasH's ``p_rho2_i = max(p_rho2_i - 0.5 (s_i -
@@ -142,7 +145,8 @@ class DFSPH(PressureSolver):
         f = state.fluid
         self._grads = PairGradients.of(state)
         alpha = f["dfsph_alpha"]
-        _alpha(self._grads.diagonal(), 1e-5, alpha)  # SPlisHSPlasH's epsilon [1/m^2]
+        D = self._grads.diagonal()
+        launch(alpha_body, f.n, D, 1e-5, alpha)  # SPlisHSPlasH's epsilon [1/m^2]
         self._div_stats = (0, 0.0)
         self._kappa_v = None
         if not self.divergence_solver:
@@ -152,7 +156,8 @@ class DFSPH(PressureSolver):
             20 if state.dim == 3 else 7)
         s = np.empty_like(div)
         kappa = np.empty_like(div)
-        _divergence_source(div, active, dt, f["dfsph_kappa_v"], state.rest().inv_c, s, kappa)
+        launch(divergence_source_body, f.n, div, active, dt, f["dfsph_kappa_v"],
+               state.rest().inv_c, s, kappa)
         ones = np.ones_like(div)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
                                            alpha / dt, dt, OMEGA, active, error_factor=dt,
@@ -176,8 +181,8 @@ class DFSPH(PressureSolver):
         div = self._grads.velocity_divergence(v_star)
         s = np.empty_like(div)
         kappa = np.empty_like(div)
-        _density_source(f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"], state.rest().inv_c,
-                        s, kappa)
+        launch(density_source_body, f.n, f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"],
+               state.rest().inv_c, s, kappa)
         ones = np.ones_like(div)
         active = np.ones(f.n, dtype=np.bool_)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
