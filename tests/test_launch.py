@@ -55,3 +55,34 @@ def test_unknown_device_is_an_error() -> None:
         launch(_scale_body, 1, np.zeros(1), 1.0, np.zeros(1), device="gpu")
     with pytest.raises(ValueError, match="device"):
         launch_reduce(_error_body, 1, np.zeros(1), np.ones(1, dtype=np.bool_), device="tpu")
+
+
+
+def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) -> None:
+    """``Simulation(device=...)`` / ``sphkit run --device``: no method has the registry's
+    ``gpu`` capability yet, so ``cuda`` is refused with the fields and names of the scene's
+    methods (never a silent CPU fallback), before anything is built; ``auto`` runs on the CPU
+    without probing for a GPU, and an unknown device names the choices. (The manifest's record
+    of the device: tests/test_cli.py's tiny run.)"""
+    from sphkit.cli import main
+    from sphkit.scene.checks import check_device, methods_in_use
+    from sphkit.scene.files import load_scene
+    from sphkit.scene.schema import SceneError
+
+    scene = load_scene("dambreak-2d")
+    used = methods_in_use(scene)
+    assert ("configuration.pressure.method", "pressure", scene.configuration.pressure.method) \
+        in used
+
+    def no_probe() -> bool:
+        raise AssertionError("auto probed for a GPU although a method is CPU-only")
+
+    assert check_device(scene, "auto", no_probe) == "cpu"
+    assert check_device(scene, "cpu", no_probe) == "cpu"
+    with pytest.raises(SceneError, match="configuration.pressure.method 'wcsph'"):
+        check_device(scene, "cuda", lambda: True)
+    with pytest.raises(SceneError, match="expected one of auto, cpu, cuda"):
+        check_device(scene, "gpu", lambda: True)
+    assert main(["run", "dambreak-2d", "--device", "cuda", "--quiet",
+                 "--out", str(tmp_path / "refused")]) == 2
+    assert not (tmp_path / "refused").exists()

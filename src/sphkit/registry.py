@@ -60,6 +60,9 @@ INTERFACE_ROLES: tuple[str, ...] = ("interface_viscosity", "interface_tension")
 SOLID_ROLES: tuple[str, ...] = ("elasticity",)
 #: the capability flags a method may have
 CAPABILITIES: tuple[str, ...] = ("periodic", "dynamic_bodies", "multiphase", "gpu")
+#: the devices a simulation runs on (``Simulation(device=...)``, ``sphkit run --device``):
+#: ``auto`` takes the GPU when one is found and every method of the scene has ``gpu``
+DEVICE_CHOICES: tuple[str, ...] = ("auto", "cpu", "cuda")
 
 
 @dataclass(frozen=True)

@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sphkit.backend import cuda_available
 from sphkit.core.krylov import KrylovStats
 from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
@@ -57,6 +58,7 @@ from sphkit.core.timestep import (
     wrap_periodic,
 )
 from sphkit.core.verlet import VerletLists
+from sphkit.scene.checks import check_device
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world
 from sphkit.world.settle import SettlePlan
@@ -112,10 +114,16 @@ class Simulation:
         x = sim.positions   # (N, dim) NumPy view
     """
 
-    def __init__(self, scene: Scene | World, settle: bool = True) -> None:
+    def __init__(self, scene: Scene | World, settle: bool = True, device: str = "auto") -> None:
         """Step the world of ``scene`` (built here with :func:`sphkit.world.build_world`, or
         given ready-built). ``settle``: run the world's settling before t = 0, if it has one
-        (:mod:`sphkit.world.settle`; ``configuration.start.settle``)."""
+        (:mod:`sphkit.world.settle`; ``configuration.start.settle``). ``device``: ``auto``,
+        ``cpu`` or ``cuda`` (:func:`sphkit.scene.checks.check_device`: ``cuda`` is refused,
+        naming the methods, while a method of the scene does not run on the GPU; ``auto`` then
+        runs on the CPU); the device it runs on is :attr:`device`."""
+        #: the device the time step runs on ("cpu" or "cuda")
+        self.device = check_device(scene.scene if isinstance(scene, World) else scene, device,
+                                   cuda_available)
         world = scene if isinstance(scene, World) else build_world(scene)
         self.world = world
         self.scene = world.scene
@@ -193,13 +201,14 @@ class Simulation:
 
     # -- construction ---------------------------------------------------------------------------
     @classmethod
-    def from_scene(cls, src: str | Path | Scene | dict) -> Simulation:
-        """Build from a built-in scene name, a scene file (sphkit or SPlisHSPlasH) or a Scene."""
+    def from_scene(cls, src: str | Path | Scene | dict, device: str = "auto") -> Simulation:
+        """Build from a built-in scene name, a scene file (sphkit or SPlisHSPlasH) or a Scene,
+        on ``device`` (see :meth:`__init__`)."""
         if isinstance(src, Scene):
-            return cls(src)
+            return cls(src, device=device)
         from sphkit.scene.files import load_scene
 
-        return cls(load_scene(src))
+        return cls(load_scene(src), device=device)
 
     # -- checkpoints ----------------------------------------------------------------------------
     def checkpoint_state(self) -> dict:

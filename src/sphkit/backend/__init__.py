@@ -4,6 +4,7 @@ imported only when a launch asks for it)."""
 
 from sphkit.backend.launch import (
     DEVICES,
+    cuda_available,
     empty,
     exclusive_scan,
     histogram,
@@ -13,5 +14,5 @@ from sphkit.backend.launch import (
     to_host,
 )
 
-__all__ = ["DEVICES", "empty", "exclusive_scan", "histogram", "launch", "launch_reduce",
-           "to_device", "to_host"]
+__all__ = ["DEVICES", "cuda_available", "empty", "exclusive_scan", "histogram", "launch",
+           "launch_reduce", "to_device", "to_host"]

@@ -144,6 +144,17 @@ def cpu_driver(body: Any, nargs: int, kind: str = "each") -> Any:
     return drv
 
 
+def cuda_available() -> bool:
+    """Whether numba-cuda finds a usable CUDA GPU (imports ``numba.cuda``: ask only when the
+    answer matters)."""
+    try:
+        from numba import cuda
+
+        return bool(cuda.is_available())
+    except Exception:  # noqa: BLE001 - a broken driver or toolkit means no GPU to run on
+        return False
+
+
 def _check(device: str) -> None:
     if device not in DEVICES:
         raise ValueError(f"device: {device!r}; expected one of {', '.join(DEVICES)}")

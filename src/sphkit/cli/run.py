@@ -54,6 +54,7 @@ from sphkit.cli.resume import CheckpointSchedule, prepare_resume
 from sphkit.io.frames import FORMATS, MULTIPHASE_FIELDS, FrameWriter, resolve_attributes
 from sphkit.io.log import get_logger
 from sphkit.io.manifest import MANIFEST_NAME, Manifest, read_manifest, sphkit_version
+from sphkit.registry import DEVICE_CHOICES
 from sphkit.scene.limits import MAX_FPS, MAX_PARTICLES
 
 DEFAULT_SCENE = "dambreak-3d"
@@ -98,6 +99,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                      help="floating-point type of the particle fields and the cached pair "
                           "values (default: the scene's configuration.precision, float64); "
                           "float32 halves their memory")
+    run.add_argument("--device", choices=DEVICE_CHOICES, default="auto",
+                     help="where the time step runs: cpu, cuda (refused, naming the methods, "
+                          "while a method of the scene does not run on the GPU; today none "
+                          "does) or auto (the GPU when one is found and every method runs "
+                          "there, else the CPU; default); the manifest records it")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="continue the run in output folder DIR from its newest checkpoint, "
                           "appending frames (only --until may change the scene)")
@@ -196,7 +202,7 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
             scene.configuration.max_particles = args.max_particles
         if args.precision is not None:
             scene.configuration.precision = args.precision
-        sim = Simulation.from_scene(scene)
+        sim = Simulation.from_scene(scene, device=getattr(args, "device", "auto"))
         Interrupts.check()  # a Ctrl-C that a library swallowed while the world was built
     except SceneError as e:
         error(f"scene {name!r}:\n{e}")
@@ -264,6 +270,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
             )
             manifest.data["start"] = sim.world.start.to_dict()
             manifest.data["precision"] = sim.dtype.name  # also in scene.configuration
+            manifest.data["device"] = sim.device
             manifest.write()
     except OSError as e:
         error(f"cannot write to the output folder {str(out_dir)!r}: {e}")

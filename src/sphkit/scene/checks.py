@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from sphkit import registry
 from sphkit.scene.schema import Box, Material, Scene, SceneError
@@ -277,3 +277,48 @@ def _solids(scene: Scene) -> None:
             raise SceneError(f"configuration.pressure.stiffness: 0 with the fluid material(s) "
                              f"{fluids}; expected a number > 0 (0 turns the pressure off, "
                              "which only elastic solids may do without)")
+
+
+def methods_in_use(scene: Scene) -> list[tuple[str, str, str]]:
+    """``(field, role, name)`` of every method the scene names (none-valued roles left out):
+    the pressure solver, the boundary and its pressure, each material's forces and elasticity,
+    each interface's forces."""
+    cfg = scene.configuration
+    used = [("configuration.pressure.method", "pressure", cfg.pressure.method),
+            ("configuration.boundary.method", "boundary", cfg.boundary.method),
+            ("configuration.boundary.pressure", "boundary_pressure", cfg.boundary.pressure)]
+    for k, mat in enumerate(scene.materials):
+        for role in (*registry.OPTIONAL_ROLES, *registry.SOLID_ROLES):
+            used.append((f"materials[{k}].{role}.method", role, getattr(mat, role).method))
+    for k, face in enumerate(scene.interfaces):
+        used.append((f"interfaces[{k}].viscosity.method", "interface_viscosity",
+                     face.viscosity.method))
+        used.append((f"interfaces[{k}].tension.method", "interface_tension",
+                     face.tension.method))
+    return [(f, role, name) for f, role, name in used if name not in (None, "none")]
+
+
+def check_device(scene: Scene, device: str, gpu_found: Callable[[], bool]) -> str:
+    """The device the scene runs on for the asked ``device`` (one of
+    :data:`sphkit.registry.DEVICE_CHOICES`).
+
+    ``cuda`` needs a GPU (``gpu_found()``) and every method in use to have the registry's
+    ``gpu`` capability; a method without it is named in the error (no silent CPU fallback in
+    the step). ``auto`` is ``cuda`` where both hold, else ``cpu``; ``gpu_found`` is asked only
+    once every method runs on the GPU (it imports numba.cuda)."""
+    if device not in registry.DEVICE_CHOICES:
+        raise SceneError(f"device: {device!r}; expected one of "
+                         f"{', '.join(registry.DEVICE_CHOICES)}")
+    if device == "cpu":
+        return "cpu"
+    cpu_only = [f"{field} {name!r}" for field, role, name in methods_in_use(scene)
+                if not registry.get(role, name).has("gpu")]
+    if device == "auto":
+        return "cuda" if not cpu_only and gpu_found() else "cpu"
+    if cpu_only:
+        raise SceneError("device 'cuda': the time step of these methods does not run on the GPU "
+                         f"yet: {', '.join(cpu_only)}; expected device 'cpu' (or 'auto')")
+    if not gpu_found():
+        raise SceneError("device 'cuda': no CUDA GPU found (numba.cuda.is_available() is False); "
+                         "expected device 'cpu' (or 'auto')")
+    return "cuda"
