@@ -43,7 +43,6 @@ from pathlib import Path
 
 import numpy as np
 
-from sphkit.backend import cuda_available
 from sphkit.core.krylov import KrylovStats
 from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
@@ -58,9 +57,8 @@ from sphkit.core.timestep import (
     wrap_periodic,
 )
 from sphkit.core.verlet import VerletLists
-from sphkit.scene.checks import check_device
 from sphkit.scene.schema import Scene
-from sphkit.world import World, build_world
+from sphkit.world import World, build_world, resolve_device
 from sphkit.world.settle import SettlePlan
 
 
@@ -118,12 +116,11 @@ class Simulation:
         """Step the world of ``scene`` (built here with :func:`sphkit.world.build_world`, or
         given ready-built). ``settle``: run the world's settling before t = 0, if it has one
         (:mod:`sphkit.world.settle`; ``configuration.start.settle``). ``device``: ``auto``,
-        ``cpu`` or ``cuda`` (:func:`sphkit.scene.checks.check_device`: ``cuda`` is refused,
+        ``cpu`` or ``cuda`` (:func:`sphkit.world.resolve_device`: ``cuda`` is refused,
         naming the methods, while a method of the scene does not run on the GPU; ``auto`` then
         runs on the CPU); the device it runs on is :attr:`device`."""
         #: the device the time step runs on ("cpu" or "cuda")
-        self.device = check_device(scene.scene if isinstance(scene, World) else scene, device,
-                                   cuda_available)
+        self.device = resolve_device(scene.scene if isinstance(scene, World) else scene, device)
         world = scene if isinstance(scene, World) else build_world(scene)
         self.world = world
         self.scene = world.scene

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from sphkit import registry
+from sphkit.backend import cuda_available
 from sphkit.boundary.rigid import RigidBodies
 from sphkit.core.kernels import kernel_id, lattice_volume
 from sphkit.core.methods import (
@@ -30,7 +31,7 @@ from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.geometry import GeometryError
 from sphkit.multiphase import PhaseForce
-from sphkit.scene.checks import check_budget, check_scene
+from sphkit.scene.checks import check_budget, check_device, check_scene
 from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.animation import AnimationField
 from sphkit.world.bodies import rigid_bodies
@@ -190,6 +191,12 @@ def _solids(scene: Scene) -> list[Elasticity]:
         solid.objects = objects
         solids.append(solid)
     return solids
+
+
+def resolve_device(scene: Scene, device: str) -> str:
+    """The device the scene's time step runs on for the asked ``device`` ("auto", "cpu" or
+    "cuda"; :func:`sphkit.scene.checks.check_device` with numba-cuda's GPU probe)."""
+    return check_device(scene, device, cuda_available)
 
 
 def build_world(scene: Scene) -> World:
