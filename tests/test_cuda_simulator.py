@@ -2,9 +2,10 @@
 
 Runs in a subprocess with NUMBA_ENABLE_CUDASIM=1 (the simulator must be chosen before numba.cuda
 is imported), on a small 2D and 3D case (a jittered block over a wall shell), and compares the
-density, the pressure acceleration, the fused density and pair gradients and one Jacobi pass of
-the iterative solvers (kappa acceleration, then the sweep with its (sum, max) reduction) with
-the same bodies launched on the CPU, and the neighbour search whose passes are bodies
+density, the pressure acceleration, the fused density and pair gradients, one Jacobi pass of
+the iterative solvers (kappa acceleration, then the sweep with its (sum, max) reduction), the PPE
+diagonal and pair divergence, DFSPH's factor and sources, and the standard and XSPH viscosities
+with the same bodies launched on the CPU, and the neighbour search whose passes are bodies
 (:class:`sphkit.core.hashgrid.HashGrid`, with the scan and the histogram of the counting sort)
 against the CPU grid's lists; where a CUDA GPU is present the same script also runs on it
 (skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
@@ -28,7 +29,12 @@ SCRIPT = textwrap.dedent(
     from sphkit.core.kernels import lattice_volume
     from sphkit.core.neighbors import Grid, neighbor_lists
     from sphkit.core.operators import density_body, pressure_accel_body
-    from sphkit.core.ppe import density_pair_gradients_body, jacobi_body, kappa_accel_body
+    from sphkit.core.ppe import (density_pair_gradients_body, diagonal_body, divergence_body,
+                                 jacobi_body, kappa_accel_body)
+    from sphkit.pressure.dfsph import (alpha_body, density_source_body,
+                                       divergence_source_body)
+    from sphkit.viscosity.standard import standard_body
+    from sphkit.viscosity.xsph import xsph_body
 
     def rel(a, b):
         return np.abs(np.asarray(a) - np.asarray(b)).max() / max(np.abs(b).max(), 1e-300)
@@ -59,6 +65,12 @@ SCRIPT = textwrap.dedent(
         # two fluids of rest densities 1000 and 100 (c = rho0_i / 1000, RestArrays)
         c = np.where(rng.uniform(size=N) > 0.5, 1.0, 0.1)
         inv_c, mu, V = 1.0 / c, m / c, m / (1000.0 * c)
+        vel = rng.normal(0.0, 0.1, (dim, N))
+        bvel = rng.normal(0.0, 0.1, bx.shape)
+        bn = rng.normal(size=bx.shape)
+        bn /= np.linalg.norm(bn, axis=0)
+        bd = rng.uniform(0.0, r, bx.shape[1])
+        kprev = rng.uniform(0.0, 1e-3, N)
 
         def run(device):
             on = (lambda v: v) if device == "cpu" else cuda.to_device
@@ -90,6 +102,31 @@ SCRIPT = textwrap.dedent(
                                        1.0, on(np.full(N, 0.8)), 0.5, on(active), on(wq), k,
                                        0.0, 0.0, device=device)
             out["q"], out["k"] = back(q), back(k)
+            # DFSPH's factor (PPE diagonal, alpha) and sources from the pair divergence
+            D = on(np.empty(N))
+            launch(diagonal_body, N, *map(on, (off, idx, boff, bidx, mirror)), gw, gwb, dim,
+                   True, on(c), on(inv_c), D, device=device)
+            alpha = on(np.empty(N))
+            launch(alpha_body, N, D, 1e-5, alpha, device=device)
+            div = on(np.empty(N))
+            launch(divergence_body, N, on(vel), on(bvel), *map(on, (off, idx, boff, bidx)),
+                   gw, gwb, dim, div, device=device)
+            out["D"], out["alpha"], out["div"] = back(D), back(alpha), back(div)
+            for name, body, args in (
+                    ("dens", density_source_body, (on(out["rho"]), on(1.0 / (1000.0 * c)), div,
+                                                   1e-3)),
+                    ("divs", divergence_source_body, (div, on(active), 1e-3))):
+                ss, kap = on(np.empty(N)), on(np.empty(N))
+                launch(body, N, *args, on(kprev), on(inv_c), ss, kap, device=device)
+                out[name + "_s"], out[name + "_k"] = back(ss), back(kap)
+            # the explicit viscosities (standard with the no-slip wall factor, XSPH)
+            av = on(np.zeros((dim, N)))
+            launch(standard_body, N, *map(on, (x, vel, m, out["rho"], off, idx, bx, bvel, bV,
+                   bn, bd, boff, bidx)), 1e-3, 2e-3, 1.5, 0.01, 1000.0, h, 0, dim, 0.0, av,
+                   device=device)
+            launch(xsph_body, N, *map(on, (x, vel, m, out["rho"], off, idx, bx, bvel, bV, boff,
+                   bidx)), 0.1, 0.2, 1000.0, h, 0, dim, 250.0, av, device=device)
+            out["av"] = back(av)
             return out
 
         cpu = run("cpu")
@@ -99,7 +136,8 @@ SCRIPT = textwrap.dedent(
         assert cuda.is_available()
         gpu = run("cuda")
         assert cpu["err"][0] > 0.0 and cpu["err"][1] > 0.0, cpu["err"]
-        for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k"):
+        for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k", "D", "alpha", "div",
+                    "dens_s", "dens_k", "divs_s", "divs_k", "av"):
             e = rel(gpu[key], cpu[key])
             assert e <= 1e-12, (dim, key, e)
         assert rel(gpu["err"], cpu["err"]) <= 1e-12, (dim, gpu["err"], cpu["err"])

@@ -15,36 +15,39 @@ from typing import Any
 
 import numba
 
+from sphkit.backend import launch
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import add_vector, delta, distance, point
 from sphkit.core.state import SimState
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _xsph(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, c, cb, rho0, h, kid, dim, inv_dt, a):
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = point(x, i, dim)
-        vi0, vi1, vi2 = point(v, i, dim)
-        acc0 = acc1 = acc2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            s = (c * inv_dt * (m[j] / rho[j])
-                 * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, 0.0), h, dim))
-            w0, w1, w2 = delta(vi0, vi1, vi2, v, j, dim, 0.0)  # v_i - v_j
+@numba.njit(cache=True, fastmath=True, inline="always")
+def xsph_body(i, x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, c, cb, rho0, h, kid, dim, inv_dt,
+              a):
+    """Add the XSPH acceleration of fluid particle i to ``a[:, i]`` (a kernel body,
+    :func:`sphkit.backend.launch`)."""
+    xi0, xi1, xi2 = point(x, i, dim)
+    vi0, vi1, vi2 = point(v, i, dim)
+    acc0 = acc1 = acc2 = 0.0
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        s = (c * inv_dt * (m[j] / rho[j])
+             * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, 0.0), h, dim))
+        w0, w1, w2 = delta(vi0, vi1, vi2, v, j, dim, 0.0)  # v_i - v_j
+        acc0 -= s * w0
+        acc1 -= s * w1
+        acc2 -= s * w2
+    if cb > 0.0:
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            s = (cb * inv_dt * (rho0 * bV[b] / rho[i])
+                 * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, 0.0), h, dim))
+            w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
             acc0 -= s * w0
             acc1 -= s * w1
             acc2 -= s * w2
-        if cb > 0.0:
-            for k in range(boff[i], boff[i + 1]):
-                b = bidx[k]
-                s = (cb * inv_dt * (rho0 * bV[b] / rho[i])
-                     * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, 0.0), h, dim))
-                w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
-                acc0 -= s * w0
-                acc1 -= s * w1
-                acc2 -= s * w2
-        add_vector(a, i, dim, acc0, acc1, acc2)
+    add_vector(a, i, dim, acc0, acc1, acc2)
 
 
 class XSPH(NonPressureForce):
@@ -66,6 +69,7 @@ class XSPH(NonPressureForce):
     def apply(self, state: SimState, dt: float) -> None:
         """Add the XSPH acceleration to ``state.fluid['a']``."""
         f, b = state.fluid, state.boundary
-        _xsph(f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets, state.nl_ff.indices,
-              b["x"], b["v"], b["V"], state.nl_fb.offsets, state.nl_fb.indices, self.c,
-              self.c_boundary, state.rho0, state.h, state.kid, state.dim, 1.0 / dt, f["a"])
+        launch(xsph_body, f.n, f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets,
+               state.nl_ff.indices, b["x"], b["v"], b["V"], state.nl_fb.offsets,
+               state.nl_fb.indices, self.c, self.c_boundary, state.rho0, state.h, state.kid,
+               state.dim, 1.0 / dt, f["a"])
