@@ -1,0 +1,302 @@
+"""The GPU's kernel passes against the CPU's: neighbour search and the passes of a DFSPH step
+that run as kernel bodies today (issue 18).
+
+    python benchmarks/gpu.py [--sizes 1e6 4e6 16e6] [--cpu-size 1e6] [--repeat 5]
+                             [--iterations 5] [--json FILE]
+
+On a 3D block of fluid on a lattice (spacing 2r, jittered by 0.1 r, h = 4r, about 33
+neighbours) over a floor of two layers of boundary particles, every pass that the time step will
+run on the device is launched through :func:`sphkit.backend.launch` with its arrays resident on
+the GPU and timed (median of ``--repeat``, after one warm-up launch that compiles):
+
+* ``search``: :class:`sphkit.core.hashgrid.HashGrid` builds the fluid's and the walls' grids and
+  queries both (fluid-fluid without self, fluid-boundary);
+* ``density+grads``: the density and the cached pair gradients (DFSPH's and IISPH's first pass);
+* ``diagonal``: the PPE diagonal from the cached gradients (DFSPH's factor);
+* ``viscosity``: the standard (Morris) viscosity with the boundary term;
+* ``jacobi``: one Jacobi iteration of the pressure solves (the kappa acceleration, then the
+  sweep with its residual reduction, one scalar pair read back).
+
+It prints per pass the time, particles/s and an estimate of the bytes it moves (each particle's
+own fields once, and per pair its index and the neighbour's gathered fields) against the
+device's copy bandwidth measured here (a device-to-device copy of 1 GB; ``--peak`` for a spec
+value instead), the GPU memory per particle (the device's free memory before and after the set-up),
+and a *ported-pass step*: search + density+grads + diagonal + viscosity + ``--iterations``
+Jacobi iterations of each of the two DFSPH solves, as particle-steps/s. That is not yet the whole
+DFSPH step (the integration, the CFL step, the boundary pressure and the solves' Python control
+still run on the CPU: ``sphkit run --device cuda`` refuses every scene), so these are bounds of
+the passes, not of the simulator. The same passes then run on the CPU (``--cpu-size``
+particles, NUMBA_NUM_THREADS threads) for the ratio.
+
+Without a GPU (numba-cuda finds none) only the CPU rows run. Under ``NUMBA_ENABLE_CUDASIM=1`` the
+script runs the simulator for a check of the script itself (``--sizes 300 --cpu-size 300``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+
+import numpy as np
+
+from sphkit.backend import cuda_available, launch, launch_reduce, to_device
+from sphkit.core.hashgrid import HashGrid, hash_origin
+from sphkit.core.kernels import lattice_volume
+from sphkit.core.ppe import (
+    density_pair_gradients_body,
+    diagonal_body,
+    jacobi_body,
+    kappa_accel_body,
+)
+from sphkit.viscosity.standard import standard_body
+
+R = 0.005  #: particle radius [m]
+RHO0 = 1000.0
+
+
+def block(n_target: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """About ``n_target`` fluid particles in a cube on a jittered lattice (3, N), and two floor
+    layers of boundary particles under it (3, Nb)."""
+    n = max(2, round(n_target ** (1 / 3)))
+    s = 2 * R
+    g = (np.arange(n) + 0.5) * s
+    x = np.stack(np.meshgrid(g, g, g, indexing="ij")).reshape(3, -1)
+    x += np.random.default_rng(seed).uniform(-0.1 * R, 0.1 * R, x.shape)
+    gb = (np.arange(-2, n + 2) + 0.5) * s
+    fx, fy, fz = np.meshgrid(gb, gb, np.array([-0.5, -1.5]) * s, indexing="ij")
+    bx = np.stack([fx, fy, fz]).reshape(3, -1)
+    return np.ascontiguousarray(x), np.ascontiguousarray(bx)
+
+
+class Passes:
+    """The arrays of one block on ``device`` and its passes as closures."""
+
+    def __init__(self, x: np.ndarray, bx: np.ndarray, device: str) -> None:
+        self.device = dev = device
+        self.n, self.nb = n, nb = x.shape[1], bx.shape[1]
+        h = 4 * R
+        self.h = h
+        V0 = lattice_volume(2 * R, 0, h, 3)
+
+        def on(a: np.ndarray):  # noqa: ANN202 - a NumPy or a device array
+            return to_device(np.ascontiguousarray(a), dev)
+
+        self.x, self.bx = on(x), on(bx)
+        self.m = on(np.full(n, RHO0 * V0))
+        self.V = on(np.full(n, V0))
+        self.c = on(np.ones(n))
+        self.bV = on(np.full(nb, (2 * R) ** 3))
+        self.bv = on(np.zeros((3, nb)))
+        self.bn = on(np.zeros((3, nb)))
+        self.bd = on(np.zeros(nb))
+        self.mirror = on(np.zeros(nb))
+        self.kb = on(np.zeros(0))
+        self.v = on(np.random.default_rng(1).normal(0.0, 0.1, (3, n)))
+        self.rho = on(np.empty(n))
+        self.a = on(np.zeros((3, n)))
+        self.D = on(np.empty(n))
+        self.q = on(np.full(n, 1e-6))
+        self.k = on(np.full(n, 1e-6))
+        self.s = on(np.full(n, -1e-4))
+        self.w = on(np.ones(n))
+        self.scale = on(np.full(n, 0.5))
+        self.active = on(np.ones(n, dtype=np.bool_))
+        origin = hash_origin(np.full(3, 0.5 * n ** (1 / 3) * 2 * R), h)
+        self.grid = HashGrid(3, h, origin, device=dev)
+        self.walls = HashGrid(3, h, origin, device=dev)
+        self.search()
+        self.pairs, self.bpairs = int(self.nl.indices.shape[0]), int(self.nb_.indices.shape[0])
+        self.gw = to_device(np.empty((3, max(self.pairs, 1))), dev)
+        self.gwb = to_device(np.empty((3, max(self.bpairs, 1))), dev)
+
+    def sync(self) -> None:
+        """Wait for the device's queued work."""
+        if self.device == "cuda":
+            from numba import cuda
+
+            cuda.synchronize()
+
+    def search(self) -> None:
+        """Both grids built, both queries run."""
+        self.grid.build(self.x)
+        self.walls.build(self.bx)
+        self.nl = self.grid.query(self.x, exclude_self=True)
+        self.nb_ = self.walls.query(self.x)
+
+    def density_grads(self) -> None:
+        """The density and the cached pair gradients."""
+        launch(density_pair_gradients_body, self.n, self.x, self.m, self.nl.offsets,
+               self.nl.indices, self.bx, self.bV, self.nb_.offsets, self.nb_.indices, RHO0,
+               self.h, 0, 3, self.rho, self.gw, self.gwb, 0.0, self.V, self.c,
+               device=self.device)
+
+    def diagonal(self) -> None:
+        """The PPE diagonal from the cached gradients."""
+        launch(diagonal_body, self.n, self.nl.offsets, self.nl.indices, self.nb_.offsets,
+               self.nb_.indices, self.mirror, self.gw, self.gwb, 3, False, self.c, self.c,
+               self.D, device=self.device)
+
+    def viscosity(self) -> None:
+        """The standard viscosity, boundary term included."""
+        launch(standard_body, self.n, self.x, self.v, self.m, self.rho, self.nl.offsets,
+               self.nl.indices, self.bx, self.bv, self.bV, self.bn, self.bd, self.nb_.offsets,
+               self.nb_.indices, 1e-3, 1e-3, 0.0, 0.01, RHO0, self.h, 0, 3, 0.0, self.a,
+               device=self.device)
+
+    def jacobi(self) -> tuple[float, float]:
+        """One Jacobi iteration: kappa acceleration, then the sweep with its reduction."""
+        launch(kappa_accel_body, self.n, self.k, self.kb, self.nl.offsets, self.nl.indices,
+               self.nb_.offsets, self.nb_.indices, self.mirror, self.gw, self.gwb, 3, self.a,
+               self.c, device=self.device)
+        return launch_reduce(jacobi_body, self.n, self.a, self.bv, self.nl.offsets,
+                             self.nl.indices, self.nb_.offsets, self.nb_.indices, self.gw,
+                             self.gwb, 3, self.q, self.s, 1.0, self.scale, 0.5, self.active,
+                             self.w, self.k, 0.0, 0.0, device=self.device)
+
+    def bytes_moved(self, name: str) -> float:
+        """A model of the bytes a pass reads and writes: its per-particle fields once, and per
+        pair the neighbour index (4 B) and the fields it gathers (8 B each)."""
+        n, p, pb = self.n, self.pairs, self.bpairs
+        per = {  # (bytes per particle, bytes per fluid pair, bytes per boundary pair)
+            "search": (3 * 8 * 3 + 8 * 6 + 64 * 4 + 8 * 2, 4 + 24, 4 + 24),
+            "density+grads": (3 * 8 + 8 * 4 + 16, 4 + 32 + 24, 4 + 32 + 24),
+            "diagonal": (8 * 3 + 16, 4 + 24 + 8, 4 + 24 + 8),
+            "viscosity": (3 * 8 * 3 + 8 * 2 + 16, 4 + 24 + 24 + 16, 4 + 24 + 24 + 8 + 32),
+            "jacobi": (3 * 8 * 2 + 8 * 10 + 16, 2 * (4 + 24 + 8 + 24), 2 * (4 + 24 + 8)),
+        }[name]
+        return n * per[0] + p * per[1] + pb * per[2]
+
+
+def timed(fn, sync, repeat: int) -> float:  # noqa: ANN001 - a pass and the device's wait
+    """Median wall time [s] of ``fn`` over ``repeat`` runs after one warm-up run."""
+    fn()
+    sync()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        sync()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def copy_bandwidth() -> float:
+    """Bytes/s of a device-to-device copy of 1 GB (read + write counted)."""
+    from numba import cuda
+
+    nbytes = 1 << 30 if not os.environ.get("NUMBA_ENABLE_CUDASIM") else 1 << 16
+    a = cuda.device_array(nbytes // 8, np.float64)
+    b = cuda.device_array(nbytes // 8, np.float64)
+    t = timed(lambda: b.copy_to_device(a), cuda.synchronize, 5)
+    return 2 * nbytes / t
+
+
+def free_memory() -> float | None:
+    """The device's free memory [B], or None where it cannot be asked (the simulator)."""
+    try:
+        from numba import cuda
+
+        free = float(cuda.current_context().get_memory_info()[0])
+        return free if np.isfinite(free) else None
+    except Exception:  # noqa: BLE001 - the simulator has no memory to ask about
+        return None
+
+
+PASSES = ("search", "density+grads", "diagonal", "viscosity", "jacobi")
+
+
+def run_size(n_target: int, device: str, repeat: int, iterations: int) -> dict:
+    """Time the passes on one block; returns the row."""
+    x, bx = block(n_target)
+    free0 = free_memory() if device == "cuda" else None
+    P = Passes(x, bx, device)
+    P.density_grads()
+    P.sync()
+    free1 = free_memory() if device == "cuda" else None
+    fns = {"search": P.search, "density+grads": P.density_grads, "diagonal": P.diagonal,
+           "viscosity": P.viscosity, "jacobi": P.jacobi}
+    t = {name: timed(fns[name], P.sync, repeat) for name in PASSES}
+    step = (t["search"] + t["density+grads"] + t["diagonal"] + t["viscosity"]
+            + 2 * iterations * t["jacobi"])
+    row = {"device": device, "particles": P.n, "boundary": P.nb,
+           "pairs_per_particle": P.pairs / P.n, "seconds": t,
+           "bytes": {name: P.bytes_moved(name) for name in PASSES},
+           "ported_step_s": step, "particle_steps_per_s": P.n / step,
+           "memory_per_particle": None if free0 is None or free1 is None
+           else (free0 - free1) / P.n}
+    return row
+
+
+def show(row: dict, bandwidth: float | None) -> None:
+    """Print one size's rows."""
+    n = row["particles"]
+    mem = row["memory_per_particle"]
+    print(f"\n{row['device']}: {n:,} fluid + {row['boundary']:,} boundary particles, "
+          f"{row['pairs_per_particle']:.1f} neighbours each"
+          + (f", {mem:,.0f} B of GPU memory per particle" if mem is not None else ""))
+    print(f"  {'pass':<15}{'ms':>10}{'particles/s':>14}{'GB/s (model)':>14}"
+          + (f"{'of copy bw':>12}" if bandwidth else ""))
+    for name in PASSES:
+        s = row["seconds"][name]
+        gbs = row["bytes"][name] / s
+        frac = f"{gbs / bandwidth:>11.0%}" if bandwidth else ""
+        print(f"  {name:<15}{s * 1e3:>10.3f}{n / s:>14.3e}{gbs / 1e9:>14.1f} {frac}")
+    print(f"  ported-pass step: {row['ported_step_s'] * 1e3:.2f} ms, "
+          f"{row['particle_steps_per_s']:.3e} particle-steps/s")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark; returns the exit code."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sizes", type=float, nargs="+", default=[1e6, 4e6, 16e6],
+                    help="GPU block sizes (particles)")
+    ap.add_argument("--cpu-size", type=float, default=1e6, help="CPU block size (0: none)")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--iterations", type=int, default=5,
+                    help="Jacobi iterations per solve in the ported-pass step")
+    ap.add_argument("--peak", type=float, default=None,
+                    help="device bandwidth [B/s] for the fraction (default: the measured copy)")
+    ap.add_argument("--json", type=str, default=None, help="write the rows to this file")
+    args = ap.parse_args(argv)
+    rows = []
+    gpu = cuda_available()
+    if gpu:
+        from numba import cuda
+
+        name = cuda.get_current_device().name if hasattr(cuda, "get_current_device") else "?"
+        bw = args.peak or copy_bandwidth()
+        print(f"GPU: {name.decode() if isinstance(name, bytes) else name}, "
+              f"copy bandwidth {bw / 1e9:.0f} GB/s" + (" (given)" if args.peak else
+                                                      " (measured, device-to-device)"))
+        for n in args.sizes:
+            row = run_size(int(n), "cuda", args.repeat, args.iterations)
+            show(row, bw)
+            rows.append(row)
+    else:
+        print("no CUDA GPU found: the CPU rows only")
+    if args.cpu_size > 0:
+        import numba
+
+        print(f"\nCPU: {numba.get_num_threads()} thread(s)")
+        row = run_size(int(args.cpu_size), "cpu", max(1, min(args.repeat, 3)), args.iterations)
+        show(row, None)
+        rows.append(row)
+        same = [r for r in rows if r["device"] == "cuda" and r["particles"] == row["particles"]]
+        if same:
+            g = same[0]
+            print("\nGPU / CPU speed-up at the same size: "
+                  + ", ".join(f"{name} {row['seconds'][name] / g['seconds'][name]:.1f}x"
+                              for name in PASSES)
+                  + f"; ported-pass step {row['ported_step_s'] / g['ported_step_s']:.1f}x")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
