@@ -4,12 +4,12 @@ Runs in a subprocess with NUMBA_ENABLE_CUDASIM=1 (the simulator must be chosen b
 is imported), on a small 2D and 3D case (a jittered block over a wall shell), and compares the
 density, the pressure acceleration, the fused density and pair gradients, one Jacobi pass of
 the iterative solvers (kappa acceleration, then the sweep with its (sum, max) reduction), the PPE
-diagonal and pair divergence, DFSPH's factor and sources, and the standard and XSPH viscosities
-with the same bodies launched on the CPU, and the neighbour search whose passes are bodies
-(:class:`sphkit.core.hashgrid.HashGrid`, with the scan and the histogram of the counting sort)
-against the CPU grid's lists; where a CUDA GPU is present the same script also runs on it
-(skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
-the CPU does not import numba.cuda.
+diagonal and pair divergence, DFSPH's factor and sources, the standard and XSPH viscosities, the
+symplectic Euler step and the CFL speed with the same bodies launched on the CPU, and the
+neighbour search whose passes are bodies (:class:`sphkit.core.hashgrid.HashGrid`, with the scan
+and the histogram of the counting sort) against the CPU grid's lists; where a CUDA GPU is
+present the same script also runs on it (skipped otherwise, e.g. in CI). The subprocess also
+checks that importing sphkit and running on the CPU does not import numba.cuda.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ SCRIPT = textwrap.dedent(
                                  jacobi_body, kappa_accel_body)
     from sphkit.pressure.dfsph import (alpha_body, density_source_body,
                                        divergence_source_body)
+    from sphkit.core.timestep import euler_body, speed2_body
     from sphkit.viscosity.standard import standard_body
     from sphkit.viscosity.xsph import xsph_body
 
@@ -127,6 +128,11 @@ SCRIPT = textwrap.dedent(
             launch(xsph_body, N, *map(on, (x, vel, m, out["rho"], off, idx, bx, bvel, bV, boff,
                    bidx)), 0.1, 0.2, 1000.0, h, 0, dim, 250.0, av, device=device)
             out["av"] = back(av)
+            # the integration and the CFL speed
+            xe, ve = on(x.copy()), on(vel.copy())
+            launch(euler_body, N, xe, ve, av, 1e-3, dim, device=device)
+            out["xe"], out["ve"] = back(xe), back(ve)
+            out["vmax"] = launch_reduce(speed2_body, N, ve, av, 1e-3, dim, device=device)
             return out
 
         cpu = run("cpu")
@@ -137,7 +143,7 @@ SCRIPT = textwrap.dedent(
         gpu = run("cuda")
         assert cpu["err"][0] > 0.0 and cpu["err"][1] > 0.0, cpu["err"]
         for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k", "D", "alpha", "div",
-                    "dens_s", "dens_k", "divs_s", "divs_k", "av"):
+                    "dens_s", "dens_k", "divs_s", "divs_k", "av", "xe", "ve", "vmax"):
             e = rel(gpu[key], cpu[key])
             assert e <= 1e-12, (dim, key, e)
         assert rel(gpu["err"], cpu["err"]) <= 1e-12, (dim, gpu["err"], cpu["err"])

@@ -11,20 +11,27 @@
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
+
+from sphkit.backend import launch, launch_reduce
 
 _JIT = dict(cache=True, fastmath=True)
 
 
-@numba.njit(parallel=True, **_JIT)
-def symplectic_euler(x, v, a, dt):
+@numba.njit(inline="always", **_JIT)
+def euler_body(i, x, v, a, dt, dim):
+    """Particle i of :func:`symplectic_euler` (a kernel body)."""
+    for d in range(dim):
+        v[d, i] += dt * a[d, i]
+        x[d, i] += dt * v[d, i]
+
+
+def symplectic_euler(x: np.ndarray, v: np.ndarray, a: np.ndarray, dt: float) -> None:
     """``v += dt a``; ``x += dt v`` for all particles (arrays of shape (dim, N))."""
-    dim = x.shape[0]
-    for i in numba.prange(x.shape[1]):
-        for d in range(dim):
-            v[d, i] += dt * a[d, i]
-            x[d, i] += dt * v[d, i]
+    launch(euler_body, x.shape[1], x, v, a, float(dt), x.shape[0])
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -39,51 +46,49 @@ def wrap_periodic(x, lo, L):
             x[0, i] = lo
 
 
-@numba.njit(parallel=True, **_JIT)
-def _max_speed(v, a, dt):
-    n = v.shape[1]
-    dim = v.shape[0]
-    m = 0.0
-    for i in numba.prange(n):
-        s = 0.0
-        for d in range(dim):
-            t = v[d, i] + dt * a[d, i]
-            s += t * t
-        m = max(m, s)
-    return np.sqrt(m)
+@numba.njit(inline="always", **_JIT)
+def speed2_body(i, v, a, dt, dim):
+    """``|v_i + dt a_i|^2`` (a kernel body whose maximum :func:`max_speed` takes)."""
+    s = 0.0
+    for d in range(dim):
+        t = v[d, i] + dt * a[d, i]
+        s += t * t
+    return s
 
 
-@numba.njit(parallel=True)
-def _speed_stats(v):
-    # max |v| and whether any component is not finite (fastmath off: it must see NaN)
-    n = v.shape[1]
-    dim = v.shape[0]
-    m = 0.0
-    bad = 0
-    for i in numba.prange(n):
-        s = 0.0
-        for d in range(dim):
-            s += v[d, i] * v[d, i]
-        if not np.isfinite(s):
-            bad += 1
-        else:
-            m = max(m, s)
-    return np.sqrt(m), bad
+@numba.njit(cache=True, inline="always")
+def finite_speed2_body(i, v, dim):
+    """``|v_i|^2`` where it is finite, else 0 (compiled without fast math: it must see NaN)."""
+    s = 0.0
+    for d in range(dim):
+        s += v[d, i] * v[d, i]
+    return s if np.isfinite(s) else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def nonfinite_body(i, v, dim):
+    """1 where a velocity component of particle i is NaN or infinite, else 0."""
+    s = 0.0
+    for d in range(dim):
+        s += v[d, i] * v[d, i]
+    return 0.0 if np.isfinite(s) else 1.0
 
 
 def max_speed(v: np.ndarray, a: np.ndarray | None = None, dt: float = 0.0) -> float:
     """``max_i |v_i + dt a_i|`` (0 for an empty set)."""
     if v.shape[1] == 0:
         return 0.0
-    return float(_max_speed(v, v if a is None else a, 0.0 if a is None else dt))
+    return math.sqrt(launch_reduce(speed2_body, v.shape[1], v, v if a is None else a,
+                                   0.0 if a is None else float(dt), v.shape[0])[1])
 
 
 def speed_check(v: np.ndarray) -> tuple[float, int]:
     """Maximum finite speed and the number of particles with a non-finite velocity."""
     if v.shape[1] == 0:
         return 0.0, 0
-    m, bad = _speed_stats(v)
-    return float(m), int(bad)
+    m = launch_reduce(finite_speed2_body, v.shape[1], v, v.shape[0])[1]
+    bad = launch_reduce(nonfinite_body, v.shape[1], v, v.shape[0])[0]
+    return math.sqrt(m), int(bad)
 
 
 @numba.njit(parallel=True, cache=True)
