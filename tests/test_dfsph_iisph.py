@@ -165,3 +165,41 @@ def test_iteration_limit_is_a_logged_warning(caplog: pytest.LogCaptureFixture) -
     msgs = [r.getMessage() for r in caplog.records]
     assert any("no convergence in 1 iterations at step" in m for m in msgs), msgs
     assert not sim.last_solver.converged
+
+
+def test_iisph_step_bound_rule_and_checkpoint() -> None:
+    """IISPH's adaptive step bound (:class:`sphkit.core.solver.StepBound`, IISPH's constants),
+    driven by hand, no simulation: absent while solves converge; 0.8 times the step after a
+    solve that stopped at max_iterations; +2 % per solve converged within half the limit,
+    unchanged after a converged but hard one; never below the floor (the default dt_min);
+    dropped above 1 s; the same through a JSON checkpoint round trip. Exact comparisons: the
+    rule is a few float products."""
+    import json
+
+    from sphkit.pressure.iisph import DT_FLOOR, IISPH
+
+    def restored(s: IISPH) -> IISPH:
+        t = IISPH(max_iterations=100)
+        t.restore_checkpoint_state(json.loads(json.dumps(s.checkpoint_state())))
+        return t
+
+    s = IISPH(max_iterations=100)
+    b = s.step_bound
+    b.update(0.005, 30, 100, True)
+    assert b.value == float("inf")  # converged solves leave the run as it was
+    assert restored(s).step_bound.value == float("inf")
+    b.update(0.005, 100, 100, False)
+    assert b.value == 0.8 * 0.005
+    b.update(0.004, 50, 100, True)  # easy: within half the limit
+    assert b.value == 0.8 * 0.005 * 1.02
+    b.update(0.004, 80, 100, True)  # converged, not easy
+    assert b.value == 0.8 * 0.005 * 1.02
+    assert restored(s).step_bound.value == b.value
+    b.update(1.1e-4, 100, 100, False)
+    assert b.value == DT_FLOOR  # 0.8 * 1.1e-4 is below the floor
+    b.value = 0.99
+    b.update(0.005, 10, 100, True)
+    assert b.value == float("inf")  # above 1 s: no bound
+    t = IISPH()
+    t.restore_checkpoint_state({})  # a checkpoint written before the bound existed
+    assert t.step_bound.value == float("inf")

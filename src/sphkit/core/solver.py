@@ -11,11 +11,15 @@ pressure acceleration ``a = kappa_accel_cached(w q)`` it iterates
 ``q <- max(q - omega scale (s - A q), 0)``
 with ``A q = ap_factor * pair_divergence_cached(a)``. IISPH and both DFSPH solvers are this
 engine with their own source s, diagonal (``scale``), weight w and time factor.
+
+:class:`StepBound` is the adaptive time-step bound of the solvers whose solves can stop at
+their iteration limit (PCISPH, IISPH): shrunk after an unconverged solve, grown after easy ones.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -85,6 +89,51 @@ class IterationControl:
             "(tolerance %.4g%%), max %.4g%%", self.name, self.max_iterations, step,
             100 * avg, 100 * self.tolerance, 100 * mx)
         return self.max_iterations, avg, mx, False
+
+
+class StepBound:
+    """An adaptive time-step bound [s] driven by the convergence of a solver's solves.
+
+    After each solve, :meth:`update`: a solve that stopped at its iteration limit above the
+    tolerance sets the bound to ``shrink`` times that step (at least ``floor``); a solve that
+    converged within half of the limit ("easy") multiplies a finite bound by ``grow``, and a
+    bound above ``free`` is dropped (inf: no bound). ``start``, given by the solver, sets an
+    absent bound to the step's dt before that rule (PCISPH: its first solve built pressure, so
+    the steps grow from the scene's initial step). Without an unconverged solve or a start the
+    bound stays inf and the run is what it would be without it. After Ihmsen, Akinci, Gissler
+    and Teschner 2010, "Boundary handling and adaptive time-stepping for PCISPH", VRIPHYS, which
+    shrinks the step when the density error is too large.
+    """
+
+    def __init__(self, shrink: float, grow: float, floor: float, free: float) -> None:
+        """``shrink``: factor of the step after an unconverged solve (< 1); ``grow``: factor
+        per easy solve (> 1); ``floor``: the smallest bound [s]; ``free``: the bound [s] above
+        which it is dropped."""
+        self.shrink, self.grow, self.floor, self.free = shrink, grow, floor, free
+        self.value = math.inf  #: the bound [s] (inf: none)
+
+    def update(self, dt: float, iterations: int, max_iterations: int, converged: bool,
+               start: bool = False) -> None:
+        """The rule after a solve of step ``dt`` [s] that took ``iterations`` of at most
+        ``max_iterations`` and ``converged`` (or not)."""
+        if start and math.isinf(self.value):
+            self.value = dt
+        if not converged:
+            self.value = max(self.shrink * dt, self.floor)
+        elif iterations <= max_iterations // 2 and math.isfinite(self.value):
+            self.value *= self.grow
+            if self.value > self.free:
+                self.value = math.inf
+
+    def checkpoint_state(self) -> dict:
+        """The bound, for checkpoints (JSON-ready; None for no bound)."""
+        return {"dt_bound": None if math.isinf(self.value) else float(self.value)}
+
+    def restore(self, state: dict) -> None:
+        """Take the bound back from :meth:`checkpoint_state` (no bound when absent: checkpoints
+        written before the bound existed)."""
+        b = state.get("dt_bound")
+        self.value = math.inf if b is None else float(b)
 
 
 class PairGradients:

@@ -104,13 +104,14 @@ import numpy as np
 
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import density_at, diagonal_cached, kappa_accel_cached, lattice_diagonal
-from sphkit.core.solver import IterationControl, PairGradients, SolverStats
+from sphkit.core.solver import IterationControl, PairGradients, SolverStats, StepBound
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
-#: adaptive time step (module docstring, "Time step"): factor after an unconverged solve,
-#: per-step growth after an easy one, the smallest bound [s] (the default time.dt_min, as
-#: SPlisHSPlasH's cflMinTimeStepSize) and the bound above which it is dropped [s]
+#: adaptive time step (module docstring, "Time step"; :class:`sphkit.core.solver.StepBound`):
+#: factor after an unconverged solve, per-step growth after an easy one, the smallest bound [s]
+#: (the default time.dt_min, as SPlisHSPlasH's cflMinTimeStepSize) and the bound above which it
+#: is dropped [s]
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
 #: a particle's factor is capped where its own PPE diagonal exceeds CAP times the template's
 #: (:func:`diagonal_cap`): omega at most 0.5 CAP. Measured in validation/startup.py's 3D tank
@@ -252,7 +253,8 @@ class PCISPH(PressureSolver):
                                         max_error / 100.0)
         self.delta = 0.0  #: template scaling factor [m^2]
         self.d0 = 0.0  #: the template's PPE diagonal [1/m^2] (delta = 1 / (2 d0))
-        self.dt_bound = float("inf")  #: the adaptive time-step bound [s] (see max_time_step)
+        #: the adaptive time-step bound (see max_time_step)
+        self.step_bound = StepBound(DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE)
 
     def init(self, state: SimState) -> None:
         """Register the pressure field and precompute the template factor delta."""
@@ -267,27 +269,16 @@ class PCISPH(PressureSolver):
         """The adaptive bound: halved after a solve that stopped at ``max_iterations`` above the
         tolerance, raised by 10 % per step after solves that converged within half of them (see
         the module docstring, "Time step")."""
-        return self.dt_bound
+        return self.step_bound.value
 
     def checkpoint_state(self) -> dict:
         """The adaptive step bound, for checkpoints (JSON-ready; None for no bound)."""
-        return {"dt_bound": None if np.isinf(self.dt_bound) else float(self.dt_bound)}
+        return self.step_bound.checkpoint_state()
 
     def restore_checkpoint_state(self, state: dict) -> None:
         """Take the bound back from :meth:`checkpoint_state` (no bound when absent: checkpoints
         written before the bound existed)."""
-        b = state.get("dt_bound")
-        self.dt_bound = float("inf") if b is None else float(b)
-
-    def _adapt(self, dt: float, iterations: int, converged: bool, first: bool) -> None:
-        if first and np.isinf(self.dt_bound):  # fluid under pressure: steps grow from the first
-            self.dt_bound = dt
-        if not converged:
-            self.dt_bound = max(DT_SHRINK * dt, DT_FLOOR)
-        elif iterations <= self.control.max_iterations // 2 and np.isfinite(self.dt_bound):
-            self.dt_bound *= DT_GROW
-            if self.dt_bound > DT_FREE:
-                self.dt_bound = float("inf")
+        self.step_bound.restore(state)
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Predict-correct loop on the current non-pressure accelerations; adds a_p to a."""
@@ -339,7 +330,9 @@ class PCISPH(PressureSolver):
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
-        self._adapt(dt, its, ok, state.step == 1 and bool(np.any(p > 0.0)))
+        # fluid under pressure at the first step: the steps grow from the scene's initial one
+        self.step_bound.update(dt, its, self.control.max_iterations, ok,
+                               start=state.step == 1 and bool(np.any(p > 0.0)))
         a += ap
         f["p"] = p * f["rho0"]
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
