@@ -73,7 +73,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from sphkit.scene.schema import Scene
-from sphkit.simulation import Simulation
+from sphkit.simulation import InstabilityError, Simulation
 
 RADIUS = 1.0  # R [m]
 A0 = 100.0  # initial strain rate [1/s]
@@ -237,8 +237,13 @@ def main(argv: list[str] | None = None) -> int:
     for solver in args.solvers:
         for r in args.radii:
             t0 = time.perf_counter()
-            o = run(drop(solver, r, args.lattice, args.cfl_factor, args.support),
-                    args.until)
+            try:
+                o = run(drop(solver, r, args.lattice, args.cfl_factor, args.support),
+                        args.until)
+            except InstabilityError as e:
+                print(f"{solver:7s}{r:7.4f}{RADIUS / (2 * r):6.1f}  unstable: "
+                      f"{str(e).splitlines()[0]}", flush=True)
+                continue
             wall = time.perf_counter() - t0
             results[(solver, r)] = o
             print(f"{solver:7s}{r:7.4f}{RADIUS / (2 * r):6.1f}{o['n']:7d}{o['steps']:6d}"
