@@ -144,7 +144,7 @@ def test_bad_boundary_velocity_is_a_named_scene_error() -> None:
             assert w in str(err.value)
 
 
-def _couette():
+def _couette_validation():
     path = Path(__file__).resolve().parent.parent / "validation" / "couette.py"
     spec = importlib.util.spec_from_file_location("couette_validation", path)
     mod = importlib.util.module_from_spec(spec)
@@ -163,7 +163,7 @@ def test_couette_start_up_with_a_moving_wall_matches_the_series_solution() -> No
     (couette.run) that nothing in the step overwrites the plate's velocity. Measured 0.8-1.3 s
     warm (a second call in one process; 3.5-4.6 s when it is the first to load the compiled
     kernels)."""
-    C = _couette()
+    C = _couette_validation()
     res = C.run(C.channel(10, "morris1997"), (0.0225, 0.1125, 0.225))
     errs = [e for e, _l, _y, _u in res.values()]
     assert max(errs) < 0.015, errs
