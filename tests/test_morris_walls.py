@@ -160,9 +160,9 @@ def test_couette_start_up_with_a_moving_wall_matches_the_series_solution() -> No
     bound 1.5 % is the largest of these plus 50 % (at 20 rows: 0.38 / 0.21 / 0.14 %). With the
     walls' own velocity the fluid slips at both walls: 18 % at 0.0225 s, so the bound 9 % (half
     of it) checks that the wall velocity enters through the moving wall's term. It also checks
-    (couette.run) that nothing in the step overwrites the plate's velocity. Measured 0.8-1.3 s
-    warm (a second call in one process; 3.5-4.6 s when it is the first to load the compiled
-    kernels)."""
+    (couette.run) that nothing in the step overwrites the plate's velocity. Measured 0.5 s
+    warm (pytest, after this file's other tests; 0.8-1.3 s as a second call in a loaded
+    process; 3.5-4.6 s when it is the first to load the compiled kernels)."""
     C = _couette_validation()
     res = C.run(C.channel(10, "morris1997"), (0.0225, 0.1125, 0.225))
     errs = [e for e, _l, _y, _u in res.values()]
