@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -143,3 +146,23 @@ def test_lone_particle_bounces_off_a_volume_map_wall_without_gaining_speed(tmp_p
     assert v[2] > 0.0 and z >= z0, (v, z)  # it came back
     speed = float(np.linalg.norm(v))
     assert speed < 1.3 * 6.0, speed
+
+
+def test_elliptical_drop_semi_axis_follows_the_incompressible_solution() -> None:
+    """Monaghan 1994's elliptical drop, coarse (validation/elliptical_drop.py: R = 1 m,
+    A0 = 100 1/s, no gravity, no walls; particle radius 0.05 m, 316 particles; Tait WCSPH,
+    c = 1400 m/s) to t = 0.0076 s, where the exact semi-axis b has grown from 1 to 1.9445 m.
+    The second-moment semi-axis (exact for any sampling under the analytic linear flow) stays
+    within 2.5 % of the exact b at every step: measured 1.77 % (2026-12-03; 1.27 % at r = 0.01 m,
+    the issue's target is 2 %), the bound is that plus 40 %. The largest compression stays below
+    1 %: the centre pressure 5 MPa over rho0 c^2 gives 0.26 % (measured 0.19 %). Measured 0.4 s
+    warm (pytest, after test_free_blob; 0.6 s as a second call in a loaded process; 2.6 s when
+    it is the first to load the compiled kernels)."""
+    path = Path(__file__).resolve().parent.parent / "validation" / "elliptical_drop.py"
+    spec = importlib.util.spec_from_file_location("elliptical_drop_validation", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    out = mod.run(mod.drop("wcsph", 0.05))
+    assert abs(out["b_exact"][-1] / 1.9445 - 1.0) < 1e-3  # the exact solution's end state
+    assert out["err_mom"] < 0.025, out["err_mom"]
+    assert out["rho_max"] < 0.01, out["rho_max"]

@@ -125,7 +125,8 @@ PRECISION = "float64"
 
 
 def _scene(method: str, r: float, lx: float, dt: float, c: float, wall_velocity: str = "zero",
-           beta_max: float = 1.5, kernel: str = "cubic", eps: float = 0.01) -> Scene:
+           beta_max: float = 1.5, kernel: str = "cubic", eps: float = 0.01,
+           force: float = FORCE) -> Scene:
     vis = {"method": method, "coefficient": NU,
            "boundary_coefficient": WALL_VISCOSITY[method], "max_error": CG_TOL}
     if eps != 0.01:
@@ -135,7 +136,7 @@ def _scene(method: str, r: float, lx: float, dt: float, c: float, wall_velocity:
     return Scene.model_validate({
         "name": f"poiseuille-{method}",
         "configuration": {
-            "dim": 2, "particle_radius": r, "gravity": [FORCE, 0.0], "zsort_every": 0,
+            "dim": 2, "particle_radius": r, "gravity": [force, 0.0], "zsort_every": 0,
             "kernel": kernel, "precision": PRECISION,
             "periodic_x": [0.0, lx],
             "pressure": {"method": "wcsph", "equation": "linear", "stiffness": c * c},
@@ -164,10 +165,12 @@ def square_channel(method: str, n: int = 20, columns: int = 12, walls: str = "ak
 
 def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinci",
                 wall_velocity: str = "zero", beta_max: float = 1.5, kernel: str = "cubic",
-                eps: float = 0.01, support: float = 2.0) -> Simulation:
+                eps: float = 0.01, support: float = 2.0, force: float = FORCE) -> Simulation:
     """The channel on a hexagonal lattice: n rows across (row distance L/n), ``columns``
     particles per row and period, three wall rows on each side; the particle radius r is set by
-    ``(2r)^2`` = the lattice's area per particle, so that h = 4r as everywhere in sphkit."""
+    ``(2r)^2`` = the lattice's area per particle, so that h = 4r as everywhere in sphkit.
+    ``force``: the body force along x [m/s^2] (validation/couette.py: 0). The wall set holds
+    the lower rows first, then the upper rows (``len(wall) // 2`` each)."""
     from sphkit.core.kernels import Kernel
     from sphkit.core.particles import ParticleSet
 
@@ -177,7 +180,7 @@ def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinc
     r = support * spacing / 4.0
     dt = 0.125 * spacing**2 / NU
     sim = Simulation(_scene(method, r, columns * a, dt, 0.4 * spacing / dt, wall_velocity,
-                            beta_max, kernel, eps))
+                            beta_max, kernel, eps, force))
     st = sim.state
 
     def rows(ks: list[int]) -> np.ndarray:
