@@ -241,7 +241,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         _extract_rotations(Fp, f["solid_qw"], f["solid_q"], pos, ROTATION_ITERATIONS, w["R"])
         # von Mises stress for output; with a yield stress, the return mapping of the
         # step's start (solids.plasticity)
-        stresses(f["x"], pos, rest.x0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
+        stresses(f["x"], pos, rest.x0, off, idx, self.G, self.C, dim, self.mu, self.lam, w["R"],
                  w["F"], w["P"], w["M"], f["solid_stress"], *self.plastic_state(state),
                  self.yield_stress, self.hardening, self.plastic)
         if dt != self._dt:
