@@ -20,6 +20,7 @@ import numpy as np
 from sphkit.core.methods import Elasticity
 from sphkit.core.state import SimState
 from sphkit.solids.corotation import (
+    clamp_shifts,
     energy,
     forces,
     gradient_rotations,
@@ -104,6 +105,9 @@ class CorotatedSolid(Elasticity):
         self.rest: RestConfiguration | None = None
         self.work: dict[str, np.ndarray] = {}
         self.G = np.zeros((0, 3))  #: gradient weights per rest pair (solids.gradients)
+        #: the face clamp's shift per particle (row-major 3 x 3; zero without it;
+        #: solids.corotation.clamp_shifts)
+        self.C = np.zeros((0, 9))
         self.rev = np.zeros(0, np.int64)  #: the reverse pair of each rest pair
 
     def init(self, state: SimState) -> None:
@@ -122,11 +126,12 @@ class CorotatedSolid(Elasticity):
         face = self.clamp == "face" and rest.fixed.size > 0
         rigid = np.zeros(rest.n, dtype=bool)
         rigid[rest.fixed] = True
+        samples = rest.clamp_vectors(state.dim) if face else None
         self.G = gradient_weights(rest.x0, rest.V0, off, idx, rest.h, state.kid, state.dim,
                                   self.gradient_correction,
                                   2.0 if self.max_neighbors > 0 else 1.0,
-                                  rest.clamp_vectors(state.dim) if face else None,
-                                  rigid if face else None)
+                                  samples, rigid if face else None)
+        self.C = clamp_shifts(rest.x0, off, idx, self.G, state.dim, samples)
         self.rev = reverse_pairs(off, idx)
         if self.plastic:
             for name, kind in PLASTIC_FIELDS.items():
@@ -153,8 +158,9 @@ class CorotatedSolid(Elasticity):
         rest = self.rest
         off, idx = rest.lists.offsets, rest.lists.indices
         if self.rotation == "gradient":
-            gradient_rotations(state.fluid["x"], pos, off, idx, self.G, state.dim, qw, qv, R,
-                               GRADIENT_ROTATION_ITERATIONS, GRADIENT_ROTATION_TOLERANCE)
+            gradient_rotations(state.fluid["x"], pos, off, idx, self.G, self.C, state.dim, qw,
+                               qv, R, GRADIENT_ROTATION_ITERATIONS,
+                               GRADIENT_ROTATION_TOLERANCE)
         else:
             rotations(state.fluid["x"], pos, rest.x0, rest.m, off, idx, rest.h, state.kid,
                       state.dim, qw, qv, R, ROTATION_ITERATIONS)
@@ -179,8 +185,8 @@ class CorotatedSolid(Elasticity):
         qw, qv = f["solid_qw"].copy(), f["solid_q"].copy()
         w = {k: np.zeros_like(v) for k, v in self.work.items()}
         self._rotations(state, pos, qw, qv, w["R"])
-        stresses(f["x"], pos, rest.x0, off, idx, self.G, state.dim, self.mu, self.lam, w["R"],
-                 w["F"], w["P"], w["M"], np.zeros(f.n), *_NO_PLASTIC, 0.0, 0.0, False)
+        stresses(f["x"], pos, rest.x0, off, idx, self.G, self.C, state.dim, self.mu, self.lam,
+                 w["R"], w["F"], w["P"], w["M"], np.zeros(f.n), *_NO_PLASTIC, 0.0, 0.0, False)
         return energy(w["F"], pos, rest.V0, self.mu, self.lam, *self.plastic_state(state),
                       self.plastic)
 
@@ -202,9 +208,9 @@ class CorotatedSolid(Elasticity):
         off, idx = rest.lists.offsets, rest.lists.indices
         w = self.work
         self._rotations(state, pos, f["solid_qw"], f["solid_q"], w["R"])
-        stresses(f["x"], pos, rest.x0, off, idx, self.G, state.dim, self.mu, self.lam, w["R"],
-                 w["F"], w["P"], w["M"], f["solid_stress"], *self.plastic_state(state),
-                 self.yield_stress, self.hardening, self.plastic)
+        stresses(f["x"], pos, rest.x0, off, idx, self.G, self.C, state.dim, self.mu, self.lam,
+                 w["R"], w["F"], w["P"], w["M"], f["solid_stress"],
+                 *self.plastic_state(state), self.yield_stress, self.hardening, self.plastic)
         forces(f["x"], pos, rest.x0, rest.V0, rest.m, off, idx, self.G, self.rev, rest.h,
                state.kid, state.dim, w["P"], w["M"], self.alpha * self.youngs_modulus, f["a"])
 

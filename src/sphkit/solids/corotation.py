@@ -23,6 +23,17 @@ plane strain: ``F_zz = 1``, ``eps_zz = 0``, and the rotation turns about z only.
   yield stress that of the elastic part ``eps - eps_p`` after the return mapping of
   :mod:`sphkit.solids.plasticity`.
 
+  Face clamp (``elasticity.clamp="face"``, :mod:`sphkit.solids.rest`): a free particle's fit
+  samples a pinned neighbour j at ``d_ji = x0_ji - s_ji``, on the clamp's face; the sample
+  moves with the pinned body, at ``x_ji - s_ji``. The deformation gradient is then
+  ``H_i - C_i`` with the constant ``C_i = sum_j s_ji G_ij^T`` (:func:`clamp_shifts`), and
+  ``grad u_i = R_i^T (H_i - C_i) - (sum_j x0_ji G_ij^T - C_i)``: the stresses add
+  ``C_i - R_i^T C_i`` to the pass's sum, and the gradient's rotation is that of
+  ``H_i - C_i``. Shifting the one and not the other leaves ``R_i^T (H_i - C_i)`` unsymmetric
+  near the face, so the rotation is not stationary for the energy and the force is not its
+  gradient (15 % off on a block clamped by a face, tests/test_solids.py); ``C = 0`` without
+  the face clamp.
+
   SPlisHSPlasH multiplies the tensor shear strain eps_01 by C_33 = mu in Voigt form, which
   gives half the shear stress of Hooke's law (Voigt notation needs the engineering strain
   2 eps_01); sphkit uses Hooke's law ``2 mu eps``;
@@ -145,9 +156,10 @@ def rotations(x, pos, x0, m, off, idx, h, kid, dim, qw, qv, R, iterations):
 
 
 @numba.njit(parallel=True, **_JIT)
-def gradient_rotations(x, pos, off, idx, G, dim, qw, qv, R, iterations, tol):
+def gradient_rotations(x, pos, off, idx, G, C, dim, qw, qv, R, iterations, tol):
     """``R[s]`` (row-major): the rotation of the polar decomposition of the deformation
-    gradient ``H_s = sum_j x_ji G_ij^T`` (``H_zz = 1`` in 2D), by the warm-started iteration
+    gradient ``H_s = sum_j x_ji G_ij^T - C_s`` (``C``: the face clamp's shift of
+    :func:`clamp_shifts`, zero without it; ``H_zz = 1`` in 2D), by the warm-started iteration
     of Müller et al. 2016 run to the angle ``tol`` (at most ``iterations``). With it
     ``R^T H`` is symmetric, and with linearly consistent weights (``sum_j x0_ji G_ij^T = I``)
     the corotated force is the gradient of a rotation-invariant energy: angular momentum is
@@ -173,6 +185,16 @@ def gradient_rotations(x, pos, off, idx, G, dim, qw, qv, R, iterations, tol):
             a20 += d2 * g0
             a21 += d2 * g1
             a22 += d2 * g2
+        cs = C[s]  # the face clamp's shift (zero without it)
+        a00 -= cs[0]
+        a01 -= cs[1]
+        a02 -= cs[2]
+        a10 -= cs[3]
+        a11 -= cs[4]
+        a12 -= cs[5]
+        a20 -= cs[6]
+        a21 -= cs[7]
+        a22 -= cs[8]
         if dim < 3:
             a22 = 1.0
         if dim < 2:
@@ -182,11 +204,13 @@ def gradient_rotations(x, pos, off, idx, G, dim, qw, qv, R, iterations, tol):
 
 
 @numba.njit(parallel=True, **_JIT)
-def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises, ep, ep_s, alpha,
+def stresses(x, pos, x0, off, idx, G, C, dim, mu, lam, R, F, P, M, von_mises, ep, ep_s, alpha,
              yield_stress, hardening, plastic):
-    """Per slot: ``F = I + grad u`` (row-major) with ``grad u_i = sum_j u_ji G_ij^T`` (the
-    gradient weights of :mod:`sphkit.solids.gradients`), the stress term ``P = R sigma`` of
-    the force and the predictor ``M = R F`` of the zero-energy-mode control; the von Mises
+    """Per slot: ``F = I + grad u`` (row-major) with ``grad u_i = sum_j u_ji G_ij^T + C_i -
+    R_i^T C_i`` (the gradient weights of :mod:`sphkit.solids.gradients`; ``C`` the face
+    clamp's shift of :func:`clamp_shifts`, zero without it, module docstring), the stress
+    term ``P = R sigma`` of the force and the predictor ``M = R F`` of the zero-energy-mode
+    control; the von Mises
     stress per particle. ``plastic``: the strain is first returned onto the yield surface by
     :func:`sphkit.solids.plasticity.radial_return` (the per-particle plastic state ``ep``,
     ``ep_s``, ``alpha`` updated in place) and sigma is that of the elastic strain; otherwise
@@ -223,6 +247,12 @@ def stresses(x, pos, x0, off, idx, G, dim, mu, lam, R, F, P, M, von_mises, ep, e
             g[6] += u2 * g0
             g[7] += u2 * g1
             g[8] += u2 * g2
+        # the face clamp's shift: grad u += C - R^T C (zero without it; module docstring)
+        cs = C[s]
+        for a in range(3):
+            for b in range(3):
+                g[3 * a + b] += cs[3 * a + b] - (r[a] * cs[b] + r[3 + a] * cs[3 + b]
+                                                 + r[6 + a] * cs[6 + b])
         s00, s11, s22 = g[0], g[4], g[8]
         s01 = 0.5 * (g[1] + g[3])
         s02 = 0.5 * (g[2] + g[6])
@@ -334,6 +364,27 @@ def energy(F, pos, V0, mu, lam, ep, ep_s, alpha, plastic):
         u += V0[s] * (mu * (e00 * e00 + e11 * e11 + e22 * e22
                             + 2.0 * (e01 * e01 + e02 * e02 + e12 * e12)) + 0.5 * lam * tr * tr)
     return u
+
+
+def clamp_shifts(x0: np.ndarray, offsets: np.ndarray, indices: np.ndarray, G: np.ndarray,
+                 dim: int, samples: np.ndarray | None) -> np.ndarray:
+    """The face clamp's shift per particle, ``C_i = sum_j s_ji G_ij^T`` (n, 9: row-major
+    3 x 3), with ``s_ji = x0_ji - d_ji`` the pair's shift from the pinned neighbour's rest
+    vector to the fit's sample ``d_ji`` on the clamp's face
+    (:meth:`sphkit.solids.rest.RestConfiguration.clamp_vectors`; zero for every other pair);
+    all zero when ``samples`` is None (no face clamp). The sample's current position is
+    ``x_j - s_ji`` (the pinned body, carried rigidly by its particle), so the deformation
+    gradient is ``H_i - C_i`` (module docstring)."""
+    n = offsets.shape[0] - 1
+    C = np.zeros((n, 9))
+    if samples is None or indices.size == 0:
+        return C
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(offsets))
+    cols = indices.astype(np.int64)
+    s = np.zeros((rows.size, 3))
+    s[:, :dim] = (x0[:dim, cols] - x0[:dim, rows]).T - samples
+    np.add.at(C, rows, np.einsum("ka,kb->kab", s, G).reshape(-1, 9))
+    return C
 
 
 def lame(youngs_modulus: float, poisson_ratio: float) -> tuple[float, float]:

@@ -48,6 +48,20 @@ particle's corotated frame, deviatoric) moves the stretch energy's target to
 ``2 mu K``, the factorisation is kept), and leaves the volume part alone (``tr eps_p = 0``).
 The moment-matrix option ``rotation`` does not apply (the rotations are F's).
 
+Face clamp (``clamp="face"``, :mod:`sphkit.solids.rest`): a free particle's fit samples a
+pinned neighbour on the clamp's face, a constant shift per pair, so the deformation gradient is
+``F_i = (D x)_i - C_i`` with the constant ``C_i`` of
+:func:`sphkit.solids.corotation.clamp_shifts` (``D x0 = I + C`` next to the face, not I; zero
+elsewhere and without the face clamp). The matrix keeps its form; three constants enter the
+right-hand sides: the rotations are those of ``D x~ - C``; the stretch energy
+``mu |D x - C - R|^2`` has the target ``R + C`` for ``D x``
+(``2 mu sum_c D_c^T V0 (R + C)[:, a, c]``); the zero-energy term, whose error vectors carry
+the same shift, is ``1/2 (x - x0)^T alpha E Z (x - x0)`` (``Z x0`` is the shift's error
+vectors, so this is the energy of ``F = D x - C``), which adds ``alpha E Z x0`` per
+coordinate; and the volume term's ``tr(R^T F)`` loses ``tr(R^T C)``. The rest state is then
+free of force (tests/test_solids.py), and the response at small steps is becker2009's
+face-clamped force.
+
 The solid's acceleration of the stage becomes ``(v' - v) / dt`` with ``v' = (x' - x) / dt``;
 pinned particles keep ``x' = x0``. The pressure solver then acts on the result. No time-step
 bound of its own. The elastic forces of the step, ``M (x~ - x') / dt^2``, are sums of pair
@@ -117,13 +131,6 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        if self.clamp != "particles":
-            # F = D x of the absolute positions (the stretch and volume solves) is I at rest
-            # only where the weights are exact for linear fields on the rest vectors; the
-            # face clamp's moved samples are not (a 3D cantilever blew up in its first step)
-            raise ValueError(f"elasticity.clamp: {self.clamp!r} is not supported by "
-                             "kugelstadt2021 (its deformation gradient of the positions "
-                             "needs the pinned particles' own samples); expected 'particles'")
         self.D: list[sp.csr_matrix] = []
         self.K = sp.csr_matrix((0, 0))  #: 2 mu K + alpha E H_z (constant part of the matrix)
         self._dt = -1.0
@@ -148,6 +155,14 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
             A = A + self.alpha * self.youngs_modulus * zero_energy_operator(
                 rest.x0, rest.V0, off, idx, self.D, rest.h, state.kid, dim)
         self.K = sp.csr_matrix(A)
+        # the face clamp (module docstring): F = D x - C, and the zero-energy term's constant
+        # force alpha E Z x0 (Z x0 = -c, the error vectors' shift); none without it
+        self._face = bool(np.abs(self.C).any())
+        self._Cm = self.C.reshape(rest.n, 3, 3)[:, :dim, :dim]
+        self._z0 = np.zeros((dim, rest.n))
+        if self._face and self.alpha > 0:
+            Kz = A - 2.0 * self.mu * K
+            self._z0 = np.stack([Kz @ rest.x0[a] for a in range(dim)])
         free = np.ones(rest.n, bool)
         free[rest.fixed] = False
         self._free = np.flatnonzero(free)
@@ -238,10 +253,12 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         for a in range(dim):
             for c in range(dim):
                 Fp[:, a, c] = self.D[c] @ xt[a]
+        if self._face:
+            Fp[:, :dim, :dim] -= self._Cm
         _extract_rotations(Fp, f["solid_qw"], f["solid_q"], pos, ROTATION_ITERATIONS, w["R"])
         # von Mises stress for output; with a yield stress, the return mapping of the
         # step's start (solids.plasticity)
-        stresses(f["x"], pos, rest.x0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
+        stresses(f["x"], pos, rest.x0, off, idx, self.G, self.C, dim, self.mu, self.lam, w["R"],
                  w["F"], w["P"], w["M"], f["solid_stress"], *self.plastic_state(state),
                  self.yield_stress, self.hardening, self.plastic)
         if dt != self._dt:
@@ -251,6 +268,8 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         if self.plastic:
             Rs = (w["R"].reshape(rest.n, 3, 3) @ (np.eye(3) + _plastic_tensors(
                 f["solid_plastic"][:, pos], f["solid_plastic_shear"][:, pos])))[:, :dim, :dim]
+        if self._face:  # the stretch target of D x: R (I + eps_p) + C
+            Rs = Rs + self._Cm
         V0 = rest.V0
         m = rest.m
         fr, pinned = self._free, rest.fixed
@@ -263,6 +282,8 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
             b = m * xt[a] * inv_dt2
             for c in range(dim):
                 b += 2.0 * self.mu * (self._DT[c] @ (V0 * Rs[:, a, c]))
+            if self._face:
+                b += self._z0[a]
             rhs[:, a] = b[fr] - self._Afp @ xp[a]
         if fr.size:  # the dim right-hand sides at once
             x1[:, fr] = self._lu.solve(rhs).T
@@ -272,6 +293,8 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
             B, BT = self._volume_operators(Rm, dim)
             lv = self.lam * V0
             t = sum(B[a] @ x1[a] for a in range(dim)) - dim
+            if self._face:  # tr(R^T (D x - C))
+                t -= np.einsum("nac,nac->n", Rm, self._Cm)
             g = np.stack([-(BT[a] @ (lv * t)) for a in range(dim)])
             g[:, pinned] = 0.0
             # Jacobi: diag(H_v)_a = sum_i lambda V0_i B_a[i, j]^2

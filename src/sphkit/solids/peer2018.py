@@ -96,6 +96,7 @@ class Peer2018(ImplicitCorotatedSolid):
         scratch_x = np.zeros_like(f["x"])
         scratch_a = np.zeros_like(f["a"])
         zeros0 = np.zeros_like(rest.x0)
+        noshift = np.zeros_like(self.C)  # K v is linear in v: no face-clamp shift
         vm = np.zeros(f.n)
         F, P, M = np.zeros_like(w["F"]), np.zeros_like(w["P"]), np.zeros_like(w["M"])
         off, idx = rest.lists.offsets, rest.lists.indices
@@ -108,8 +109,8 @@ class Peer2018(ImplicitCorotatedSolid):
             yv[:, pinned] = 0.0
             scratch_x[:, pos] = dt * yv
             scratch_a[:, pos] = 0.0
-            stresses(scratch_x, pos, zeros0, off, idx, self.G, dim, self.mu, self.lam, w["R"],
-                     F, P, M, vm, *self.plastic_state(state), 0.0, 0.0, False)
+            stresses(scratch_x, pos, zeros0, off, idx, self.G, noshift, dim, self.mu, self.lam,
+                     w["R"], F, P, M, vm, *self.plastic_state(state), 0.0, 0.0, False)
             forces(scratch_x, pos, zeros0, rest.V0, m, off, idx, self.G, self.rev, rest.h,
                    state.kid, dim, P, M, 0.0, scratch_a)
             o = out.reshape(dim, rest.n)

@@ -37,7 +37,9 @@ the pinned particles are rigid (no strain: their gradient weights are zero) and 
 particle's fit samples a pinned neighbour's zero displacement where the pair's segment enters
 the fixed box (:meth:`RestConfiguration.clamp_vectors`; the pair's weight stays that of its rest
 distance), so the fits of the free particles are exact for a quadratic displacement that
-vanishes on the face. The displacement of the moved sample is the pinned particle's own, which
+vanishes on the face. The moved sample is carried by its pinned particle (at ``x_j`` less the
+pair's constant shift; the deformation gradient of :mod:`sphkit.solids.corotation`, "Face
+clamp"), so its displacement is the pinned particle's own, which
 assumes pinned particles at rest (kee2023's pinned particles follow a velocity field when a
 scene sets one: then the face's samples carry the pinned particles' motion, exact for a
 translation only).
