@@ -34,12 +34,12 @@ The constant matrix ``A = M / dt^2 + 2 mu K + alpha E H_z`` (one scalar n x n ma
 material, the pinned particles eliminated; the objects of one material, such as
 DeformableBunnies' two bunnies, are its uncoupled diagonal blocks, which SuperLU's ordering
 keeps apart; SPlisHSPlasH factorises each object on its own) is factorised once per time-step
-size by scipy's sparse LU (:func:`scipy.sparse.linalg.splu`, SuperLU; the issue asked for
-CHOLMOD through scikit-sparse, which is a source package needing the system's SuiteSparse, not
-installed here, so not a dependency); :attr:`Kugelstadt2021.factor_stats` reports the
-factorisation's time and memory. SPlisHSPlasH factorises with its own AVX Cholesky and caches it
-on disk. The matrix is refactorised when the time step changes (fixed-step scenes, as
-SPlisHSPlasH's, factorise once).
+size as ``L D L^T`` (:class:`sphkit.core.ldlt.LDLT`: SuperLU's symmetric mode through scipy,
+with compiled triangular solves; the issue asked for CHOLMOD through scikit-sparse, which is a
+source package needing the system's SuiteSparse, not installed here, so not a dependency);
+:attr:`Kugelstadt2021.factor_stats` reports the factorisation's time and memory. SPlisHSPlasH
+factorises with its own AVX Cholesky and caches it on disk. The matrix is refactorised when
+the time step changes (fixed-step scenes, as SPlisHSPlasH's, factorise once).
 
 Plasticity (``yield_stress``, ``hardening``; :mod:`sphkit.solids.plasticity`): the return
 mapping acts on the corotated strain of the step's start; the plastic strain ``eps_p`` (in the
@@ -71,9 +71,9 @@ from typing import Any, ClassVar
 import numba
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from sphkit.core.krylov import JacobiPreconditioner, cg
+from sphkit.core.ldlt import LDLT
 from sphkit.core.state import SimState
 from sphkit.solids.base import ROTATION_ITERATIONS, ImplicitCorotatedSolid
 from sphkit.solids.corotation import _extract_rotation, stresses
@@ -237,7 +237,8 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         self._Afp = sp.csr_matrix((0, 0))
         self._dx = np.zeros(0)
         #: per factorisation: ``{"n": unknowns, "nnz": matrix nonzeros, "factor_nnz": nonzeros
-        #: of L and U, "bytes": their memory [B], "seconds": wall time, "dt": the step}``
+        #: of the kept factor (L D L^T: strict lower L and D), "bytes": its memory [B],
+        #: "seconds": wall time, "dt": the step}``
         self.factor_stats: list[dict[str, float]] = []
 
     def init(self, state: SimState) -> None:
@@ -278,24 +279,26 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         self._BTd = np.zeros((dim, D0.nnz))
 
     def _factorise(self, dt: float) -> None:
-        """LU of ``M / dt^2 + K`` on the free particles; its time and memory into
-        :attr:`factor_stats`."""
+        """The factorisation of ``M / dt^2 + K`` on the free particles (:class:`LDLT`); its
+        time and memory into :attr:`factor_stats`."""
         rest = self.rest
         A = (self.K + sp.diags(rest.m / (dt * dt))).tocsr()
         fr = self._free
         pinned = rest.fixed
         Aff = A[fr][:, fr].tocsc()
         t0 = time.perf_counter()
-        self._lu = splu(Aff) if fr.size else None
+        self._lu = LDLT(Aff) if fr.size else None
         secs = time.perf_counter() - t0
         self._Afp = A[fr][:, pinned].tocsr()
         self._dt = dt
-        fnnz = (self._lu.L.nnz + self._lu.U.nnz) if self._lu is not None else 0
+        lu = self._lu
+        fnnz = lu.nnz if lu is not None else 0
         stats = {"n": float(fr.size), "nnz": float(Aff.nnz), "factor_nnz": float(fnnz),
-                 "bytes": float(fnnz * 12 + 2 * (fr.size + 1) * 4), "seconds": secs, "dt": dt}
+                 "bytes": float(lu.bytes if lu is not None else 0), "seconds": secs, "dt": dt}
         self.factor_stats.append(stats)
-        log.info("kugelstadt2021: factorised %d unknowns (%d nonzeros -> %d in L+U, %.1f MB) "
-                 "in %.3f s", fr.size, Aff.nnz, fnnz, stats["bytes"] / 1e6, secs)
+        log.info("kugelstadt2021: factorised %d unknowns (%d nonzeros -> %d in the factor, "
+                 "%s, %.1f MB) in %.3f s", fr.size, Aff.nnz, fnnz,
+                 "L D L^T" if lu is None or lu.symmetric else "L U", stats["bytes"] / 1e6, secs)
 
     def max_time_step(self, state: SimState) -> float:
         """Implicit: no bound of its own."""
