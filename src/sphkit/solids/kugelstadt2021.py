@@ -179,28 +179,43 @@ def _volume_system(indptr, indices, tindptr, tindices, Bd, BTd, x1, lv, md, pinn
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _volume_matvec(indptr, indices, tindptr, tindices, Bd, BTd, lv, md, pinned, dim, y, s,
+def _volume_matvec(indptr, indices, tindptr, tindices, Bd, BTd, lv, md, free, dim, y, s,
                    out):
     """``out = (M / dt^2 + lambda B^T V0 B) y`` with the pinned unknowns held (their rows the
-    identity, their columns dropped); y, out: flat (dim, n), s: n scratch."""
+    identity, their columns dropped: ``free`` is 1 for a free particle, 0 for a pinned one);
+    y, out: flat (dim, n), s: n scratch. Written for dim <= 3 without branches in the pair
+    loops."""
     n = indptr.shape[0] - 1
+    n1 = n if dim > 1 else 0
+    n2 = 2 * n if dim > 2 else 0
     for i in numba.prange(n):
         r = 0.0
-        for a in range(dim):
-            for k in range(indptr[i], indptr[i + 1]):
-                j = indices[k]
-                if not pinned[j]:
-                    r += Bd[a, k] * y[a * n + j]
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            t = Bd[0, k] * y[j]
+            if dim > 1:
+                t += Bd[1, k] * y[n1 + j]
+            if dim > 2:
+                t += Bd[2, k] * y[n2 + j]
+            r += free[j] * t
         s[i] = lv[i] * r
     for j in numba.prange(n):
-        for a in range(dim):
-            if pinned[j]:
-                out[a * n + j] = y[a * n + j]
-                continue
-            r = 0.0
-            for k in range(tindptr[j], tindptr[j + 1]):
-                r += BTd[a, k] * s[tindices[k]]
-            out[a * n + j] = md[j] * y[a * n + j] + r
+        r0 = r1 = r2 = 0.0
+        for k in range(tindptr[j], tindptr[j + 1]):
+            sv = s[tindices[k]]
+            r0 += BTd[0, k] * sv
+            if dim > 1:
+                r1 += BTd[1, k] * sv
+            if dim > 2:
+                r2 += BTd[2, k] * sv
+        if free[j] == 0.0:
+            r0 = r1 = r2 = 0.0
+        c = md[j] if free[j] != 0.0 else 1.0
+        out[j] = c * y[j] + r0
+        if dim > 1:
+            out[n1 + j] = c * y[n1 + j] + r1
+        if dim > 2:
+            out[n2 + j] = c * y[n2 + j] + r2
 
 
 def _plastic_tensors(diag: np.ndarray, shear: np.ndarray) -> np.ndarray:
@@ -277,6 +292,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         self._tindices, self._tindptr = T.indices.astype(np.int64), T.indptr.astype(np.int64)
         self._pinned = np.zeros(rest.n, bool)
         self._pinned[rest.fixed] = True
+        self._freew = np.where(self._pinned, 0.0, 1.0)  #: 1 free, 0 pinned (the volume matvec)
         self._Bd = np.zeros((dim, D0.nnz))
         self._BTd = np.zeros((dim, D0.nnz))
 
@@ -376,7 +392,8 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
             scratch = np.empty(n)
 
             def matvec(y: np.ndarray, out: np.ndarray) -> None:
-                _volume_matvec(ip, ix, tip, tix, Bd, BTd, lv, md, pin, dim, y, scratch, out)
+                _volume_matvec(ip, ix, tip, tix, Bd, BTd, lv, md, self._freew, dim, y, scratch,
+                               out)
 
             # started from the last two corrections extrapolated, 2 dx(n-1) - dx(n-2)
             # (Beam.json: about half the iterations of a start from dx(n-1) alone)
