@@ -161,7 +161,7 @@ def _factor(sim: Simulation) -> str:
         return (f"CG {cg_stats.iterations} iterations, relative residual "
                 f"{cg_stats.residual:.1e} (last step)")
     return "; ".join(f"factorised {s['n']:.0f} unknowns, {s['nnz']:.0f} nonzeros -> "
-                     f"{s['factor_nnz']:.0f} in L+U, {s['bytes'] / 1e6:.2f} MB, "
+                     f"{s['factor_nnz']:.0f} in the factor, {s['bytes'] / 1e6:.2f} MB, "
                      f"{s['seconds']:.3f} s" for s in stats)
 
 
