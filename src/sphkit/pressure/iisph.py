@@ -60,6 +60,7 @@ from sphkit.core.state import SimState
 #: and the bound above which it is dropped [s]
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.8, 1.02, 1e-4, 1.0
 
+
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _setup(rho, inv_rho0, div, D, dt, tiny, s, w, scale):
     for i in numba.prange(rho.shape[0]):

@@ -124,13 +124,11 @@ class CorotatedSolid(Elasticity):
         # particle keeps the linear weights (with kugelstadt2021, Beam.json's quadratic
         # weights on lists of 15 made the beam noisy within 25 steps: 33 MPa, 8 cm sideways)
         face = self.clamp == "face" and rest.fixed.size > 0
-        rigid = np.zeros(rest.n, dtype=bool)
-        rigid[rest.fixed] = True
         samples = rest.clamp_vectors(state.dim) if face else None
         self.G = gradient_weights(rest.x0, rest.V0, off, idx, rest.h, state.kid, state.dim,
                                   self.gradient_correction,
                                   2.0 if self.max_neighbors > 0 else 1.0,
-                                  samples, rigid if face else None)
+                                  samples, rest.pinned if face else None)
         self.C = clamp_shifts(rest.x0, off, idx, self.G, state.dim, samples)
         self.rev = reverse_pairs(off, idx)
         if self.plastic:

@@ -217,10 +217,8 @@ class Kee2023(ImplicitCorotatedSolid):
                 rest.x0, rest.V0, off, idx, self.D, rest.h, state.kid, dim)).tocsr()
         else:
             self.Z = sp.csr_matrix((rest.n, rest.n))
-        free = np.ones(rest.n, bool)
-        free[rest.fixed] = False
-        self._free = np.flatnonzero(free)
-        self._fixed_mask = (~free).astype(np.int64)
+        self._free = np.flatnonzero(~rest.pinned)
+        self._fixed_mask = rest.pinned.astype(np.int64)
         self._zdiag = np.ascontiguousarray(self.Z.diagonal())
         self._ids = np.arange(rest.n, dtype=np.int64)
         self._ones = np.ones(rest.n)

@@ -286,15 +286,13 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         if self._face and self.alpha > 0:
             Kz = A - 2.0 * self.mu * K
             self._z0 = np.stack([Kz @ rest.x0[a] for a in range(dim)])
-        free = np.ones(rest.n, bool)
-        free[rest.fixed] = False
-        self._free = np.flatnonzero(free)
+        self._free = np.flatnonzero(~rest.pinned)
         self._dt = -1.0
         self._lu = None
         self._dx = np.zeros(dim * rest.n)
         self._dx_prev = np.zeros(dim * rest.n)  #: the volume correction before the last
         # the common pattern of the D_c (one per component, built from the same pairs) and
-        # the permutation of its entries into the transposed pattern (_volume_operators)
+        # the permutation of its entries into the transposed pattern (the volume passes)
         D0 = self.D[0]
         for Dc in self.D[1:]:
             if not (np.array_equal(Dc.indptr, D0.indptr)
@@ -306,9 +304,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
                           shape=D0.shape).T.tocsr()
         self._tperm = (T.data - 1.0).astype(np.int64)
         self._tindices, self._tindptr = T.indices.astype(np.int64), T.indptr.astype(np.int64)
-        self._pinned = np.zeros(rest.n, bool)
-        self._pinned[rest.fixed] = True
-        self._freew = np.where(self._pinned, 0.0, 1.0)  #: 1 free, 0 pinned (the volume matvec)
+        self._freew = np.where(rest.pinned, 0.0, 1.0)  #: 1 free, 0 pinned (the volume matvec)
         self._Bd = np.zeros((dim, D0.nnz))
         self._BTd = np.zeros((dim, D0.nnz))
 
@@ -404,7 +400,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
             x1[:, fr] = self._lu.solve(rhs).T
         # volume: (M / dt^2 + H_v) dx = -grad U_v(x1), H_v = lambda B^T V0 B, pinned dx = 0
         if self.lam > 0:
-            Bd, BTd, pin = self._Bd, self._BTd, self._pinned
+            Bd, BTd, pin = self._Bd, self._BTd, rest.pinned
             _volume_data(ip, self._tperm, self._Ddata, Rm, dim, Bd, BTd)
             lv = self.lam * V0
             md = m * inv_dt2

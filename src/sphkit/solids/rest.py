@@ -158,6 +158,7 @@ class RestConfiguration:
         self.m = np.zeros(0)
         self.lists = NeighborList.empty(0)
         self.fixed = np.zeros(0, np.int64)
+        self.pinned = np.zeros(0, dtype=bool)  #: (n,) True for a pinned slot
         self.pos = np.zeros(0, np.int64)
 
     def build(self, state: SimState) -> None:
@@ -208,6 +209,7 @@ class RestConfiguration:
             k = min(dim, len(box.min))
             lo, hi = np.asarray(box.min[:k], float), np.asarray(box.max[:k], float)
             pinned |= np.all((self.x0[:k].T >= lo) & (self.x0[:k].T <= hi), axis=1)
+        self.pinned = pinned
         self.fixed = np.flatnonzero(pinned).astype(np.int64)
         fx = np.zeros(self.n, np.int64)
         fx[self.fixed] = 1
