@@ -56,6 +56,8 @@ def test_scenes_lists_dambreak_3d(capsys: pytest.CaptureFixture[str]) -> None:
         (["--until", "0"], ["--until", "'0'", "positive number"]),
         (["--until", "inf"], ["--until", "'inf'", "positive number"]),
         (["--frobnicate"], ["--frobnicate"]),
+        (["--device", "gpu"], ["--device", "'gpu'", "'auto', 'cpu', 'cuda'"]),
+        (["--device", "nan"], ["--device", "'nan'", "'auto', 'cpu', 'cuda'"]),
     ],
 )
 def test_bad_flags_exit_2_naming_flag_value_expectation(
