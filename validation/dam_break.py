@@ -353,10 +353,13 @@ def _plot(results: dict) -> None:
         if gate is not None:
             ax.plot(o["T"], o["Z"], "--", lw=0.8, label=f"dfsph n2=2 gate {gate:g} m/s")
             bx.plot(o["tau"], o["H"], "--", lw=0.8, label=f"gate {gate:g} m/s")
-        elif per_a == top and wall == "free-slip":
+        elif (per_a == top or n2 != 2.0) and wall == "free-slip":
             ax.plot(o["T"], o["Z"], lw=1, label=f"{solver} n2={n2:g} a/2r={per_a}")
             if n2 == 2.0:
                 bx.plot(o["tau"], o["H"], lw=1, label=f"{solver} a/2r={per_a}")
+            if n2 == 2.0 and solver == "dfsph":
+                t0 = fit_shift(o["T"], o["Z"], "MM a=2.25in")[0]
+                ax.plot(o["T"] + t0, o["Z"], "k-.", lw=0.8, label=f"dfsph shifted by T0 = {t0:.3f}")
     for (solver, wall), mk in zip(sorted({(k[1], k[2]) for k in results if k[0] == 2.0
                                            and k[4] is None}), "ov^sdxP+*<>", strict=False):
         keys = sorted(k for k in results if k[:3] == (2.0, solver, wall) and k[4] is None)
