@@ -24,7 +24,9 @@ reproduced; ``--columns 1`` runs it and compares it, on Martin & Moyce's scaled 
 n^2 = 2 table (their scaling makes the two close but not equal) and with Ritter's front.
 
 Measures: the front ``max_i x_i + r`` (the leading particle's edge; Z = 1 at t = 0), the
-residual column ``max y_i + r`` over the particles within 4r of the back wall. Errors:
+fronts of the water at least 0.02, 0.05, 0.1 a deep (the depth of each 2r-wide column of
+particles; printed under each row), the residual column ``max y_i + r`` over the particles
+within 4r of the back wall. Errors:
 ``(Z_sim(T) - Z_exp) / Z_exp`` at every experimental point with T > 0 and Z_exp < 3.9 (the
 front is still inside the 4a tank), the mean (signed) and the largest absolute; height: the
 mean |H_sim - H_exp| at the tabulated tau within the run. Observed order of convergence from
@@ -84,6 +86,9 @@ REFERENCES = {  # name: (file, column n^2)
     "K&O": ("koshizuka_oka_1996_front.csv", 2),
 }
 HEIGHT = "martin_moyce_1952_n2_2_height.csv"
+#: the front of the water at least this deep [a] (``Z<d>``): how much of the lead is a thin
+#: tongue
+DEPTHS = (0.02, 0.05, 0.1)
 
 
 def reference(file: str) -> tuple[np.ndarray, np.ndarray]:
@@ -143,6 +148,7 @@ def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END) -> dict:
     r = sim.state.r
     s = math.sqrt(G / a)
     ts, zs, hs = [0.0], [float(f["x"][0].max() + r) / a], [float(f["x"][1].max() + r) / (n2 * a)]
+    zd = [[1.0] for _ in DEPTHS]
     while n * sim.time * s < t_end and zs[-1] < TANK - 0.05:
         sim.step()
         x = f["x"]
@@ -150,9 +156,19 @@ def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END) -> dict:
         zs.append(float(x[0].max() + r) / a)
         back = x[0] < 4.0 * r
         hs.append(float(x[1][back].max() + r) / (n2 * a) if back.any() else 0.0)
+        # fronts of the water at least d deep: the depth of each 2r-wide column of particles
+        cell = np.floor(x[0] / (2.0 * r)).astype(np.int64)
+        depth = np.zeros(cell.max() + 1)
+        np.maximum.at(depth, cell, x[1] + r)
+        for k, d in enumerate(DEPTHS):
+            deep = depth[cell] >= d * a
+            zd[k].append(float(x[0][deep].max() + r) / a if deep.any() else 0.0)
     t = np.array(ts)
-    return {"T": n * s * t, "tau": s * t, "Z": np.array(zs), "H": np.array(hs),
-            "steps": sim.step_count, "n": f.n}
+    out = {"T": n * s * t, "tau": s * t, "Z": np.array(zs), "H": np.array(hs),
+           "steps": sim.step_count, "n": f.n}
+    for k, d in enumerate(DEPTHS):
+        out[f"Z{d:g}"] = np.array(zd[k])
+    return out
 
 
 def front_error(T: np.ndarray, Z: np.ndarray, ref: str, shift: float = 0.0
@@ -222,7 +238,7 @@ def simulate(solver: str, per_a: int, wall: str, n2: float, gate: float | None =
     return out
 
 
-FIELDS = ("T", "tau", "Z", "H")
+FIELDS = ("T", "tau", "Z", "H") + tuple(f"Z{d:g}" for d in DEPTHS)
 
 
 def save(path: Path, results: dict) -> None:
@@ -231,7 +247,8 @@ def save(path: Path, results: dict) -> None:
     for key, o in results.items():
         tag = "|".join(str(k) for k in key)
         for f in FIELDS:
-            arrays[f"{tag}|{f}"] = o[f]
+            if f in o:
+                arrays[f"{tag}|{f}"] = o[f]
         arrays[f"{tag}|info"] = np.array([o["steps"], o["n"], o["wall"]])
     np.savez_compressed(path, **arrays)
 
@@ -272,6 +289,18 @@ def row(key: tuple, o: dict | str) -> str:
             + f"{np.interp(1.0, o['T'], o['Z']):7.3f}{o['wall']:7.1f}")
 
 
+def depth_row(o: dict) -> str:
+    """The fronts of water at least d deep against Martin & Moyce (2.25 in) and K&O."""
+    out = []
+    for d in DEPTHS:
+        if f"Z{d:g}" in o:
+            mm = front_error(o["T"], o[f"Z{d:g}"], "MM a=2.25in")
+            ko = front_error(o["T"], o[f"Z{d:g}"], "K&O")
+            out.append(f"depth >= {d:g} a: MM {mm[0]:+.1%}/{mm[1]:.1%}, K&O {ko[0]:+.1%}/"
+                       f"{ko[1]:.1%}")
+    return "    fronts of deeper water: " + "; ".join(out) if out else ""
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--per-a", type=int, nargs="+", default=[10, 20, 40],
@@ -303,6 +332,8 @@ def main(argv: list[str] | None = None) -> int:
         for key, o in load(path).items():
             results[key] = o
             print(row(key, o), flush=True)
+            if any(f.startswith("Z0") for f in o):
+                print(depth_row(o), flush=True)
     cases = [] if args.load else [
         (n2, solver, wall, per_a, None) for n2 in args.columns for solver in args.solvers
         for wall in args.walls for per_a in args.per_a]
@@ -315,6 +346,7 @@ def main(argv: list[str] | None = None) -> int:
             o = simulate(solver, per_a, wall, n2, gate, Path(tmp))
             print(row(key, o), flush=True)
             if not isinstance(o, str):
+                print(depth_row(o), flush=True)
                 results[key] = o
                 if args.save:
                     save(args.save, results)
