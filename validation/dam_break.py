@@ -21,7 +21,8 @@ Both references are n^2 = 2 columns: inviscid and without surface tension the fl
 a only through the scales sqrt(g a) and a, so one simulation (a = 0.146 m, Koshizuka & Oka's
 size) is compared with both. No table of Martin & Moyce's square column (n^2 = 1) was found
 reproduced; ``--columns 1`` runs it and compares it, on Martin & Moyce's scaled time, with the
-n^2 = 2 table (their scaling makes the two close but not equal) and with Ritter's front.
+n^2 = 2 table (their scaling makes Ritter's fronts equal, not the early collapse: the square
+column runs well ahead, validation/README.md) and on T = t sqrt(2 g / a) (column 'MM 2g/a').
 
 Measures: the front ``max_i x_i + r`` (the leading particle's edge; Z = 1 at t = 0), the
 fronts of the water at least 0.02, 0.05, 0.1 a deep (the depth of each 2r-wide column of
