@@ -8,6 +8,7 @@ r under a splash's impact is still in front of the wall, while a leak puts centr
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import shutil
 from pathlib import Path
@@ -25,7 +26,9 @@ def _inside(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, r: float) -> bool:
 
 
 def test_builtin_dambreak_2d_stays_in_tank() -> None:
-    """`sphkit run dambreak-2d --until 2`: tank [0, 2] x [0, 1.2], checked at 25 frames/s."""
+    """`sphkit run dambreak-2d --until 1.5`: tank [0, 2] x [0, 1.2], checked at 25 frames/s
+    (the surge hits the far wall at about 0.45 s and runs up and back; 1.5 s instead of 2 s
+    pays for the dam-break validation test below)."""
     sim = Simulation.from_scene("dambreak-2d")
     lo, hi = np.array([0.0, 0.0]), np.array([2.0, 1.2])
     bad: list[float] = []
@@ -34,12 +37,46 @@ def test_builtin_dambreak_2d_stays_in_tank() -> None:
         if not _inside(s.positions, lo, hi, 0.01):
             bad.append(s.time)
 
-    sim.run(until=2.0, fps=25, on_frame=check)
-    assert sim.time >= 2.0
+    sim.run(until=1.5, fps=25, on_frame=check)
+    assert sim.time >= 1.5
     assert not bad, f"particles left the tank at t = {bad}"
     assert np.all(np.isfinite(sim.positions))
     # the wave has reached the far wall and the fluid has spread over the floor
     assert sim.positions[:, 0].max() > 1.5
+
+
+def test_dam_break_front_and_residual_column_against_the_experiments() -> None:
+    """Koshizuka & Oka's dam break, coarse (validation/dam_break.py: column a = 0.146 m wide,
+    2a high, tank 4a, 10 particles across a (200), DFSPH, free-slip walls) to Martin & Moyce's
+    T = n t sqrt(g/a) = 1.2 (t = 0.10 s).
+
+    The front Z = x/a at Koshizuka & Oka's points T = 0.38, 0.77, 1.15 lies within -5 % / +12 %
+    of theirs: measured -2.8, +3.1, +8.2 % (2026-12-03). The simulation leads the experiment
+    by a growing margin, as at every resolution and for every solver (the gate's opening in the
+    experiments, measured in validation/README.md: +11 % on average to T = 3 at 20 across); the
+    -5 % allows the coarse front's lattice step (r / a = 5 %). It never passes Ritter's
+    shallow-water front 1 + 2T (no front from a column at rest is faster), up to r / a for the
+    start-up's relaxation of the column's face. The residual column at the back wall,
+    H = h / (2a) against tau = t sqrt(g/a), is within 0.03 of Martin & Moyce's table at its
+    tau = 0.56 and 0.77 (measured 0.008; the table's H steps are 0.056, quarter-inch marks).
+    Measured 2.8 s in pytest single-threaded on the shared 2-core machine (4.9-8.4 s under
+    heavier load; 139 steps)."""
+    path = Path(__file__).resolve().parent.parent / "validation" / "dam_break.py"
+    spec = importlib.util.spec_from_file_location("dam_break_validation", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    sim = Simulation(mod.scene("dfsph", 10, "free-slip", 2.0))
+    out = mod.run(sim, 2.0, t_end=1.2)
+    assert out["T"][-1] >= 1.2
+    t, z = mod.reference("koshizuka_oka_1996_front.csv")
+    k = (t > 0) & (t <= 1.2)
+    err = np.interp(t[k], out["T"], out["Z"]) / z[k] - 1.0
+    assert len(err) == 3 and np.all(err > -0.05) and np.all(err < 0.12), err
+    assert np.all(out["Z"] <= 1.0 + 2.0 * out["T"] + 0.05), (out["Z"] - 2 * out["T"]).max()
+    tau, h = mod.reference("martin_moyce_1952_n2_2_height.csv")
+    k = (tau > 0) & (tau <= out["tau"][-1])
+    dh = np.abs(np.interp(tau[k], out["tau"], out["H"]) - h[k])
+    assert k.sum() >= 2 and dh.max() < 0.03, dh
 
 
 def _edited_copy(src: Path, tmp: Path) -> Path:
