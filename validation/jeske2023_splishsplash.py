@@ -89,14 +89,16 @@ base.cleanup()
 
 
 def splishsplash_scene(gamma: float, r: float, nu: float, dt_max: float, until: float,
-                       particle_file: str) -> dict:
+                       particle_file: str, fixed_dt: float = 0.0) -> dict:
     """The drop's scene in SPlisHSPlasH's format (DFSPH with its defaults, CFL step at most
-    ``dt_max`` [s], standard viscosity nu [m^2/s], surfaceTensionMethod 4 with ``gamma``)."""
+    ``dt_max`` [s], or the fixed step ``fixed_dt`` > 0 [s], standard viscosity nu [m^2/s],
+    surfaceTensionMethod 4 with ``gamma``)."""
     return {
         "Configuration": {
             "particleRadius": r, "gravitation": [0.0, 0.0, 0.0], "simulationMethod": 4,
             "stopAt": until, "enableVTKExport": False, "enablePartioExport": False,
-            "cflMethod": 1, "cflMaxTimeStepSize": dt_max, "timeStepSize": dt_max,
+            "cflMethod": 0 if fixed_dt > 0 else 1, "cflMaxTimeStepSize": dt_max,
+            "timeStepSize": fixed_dt if fixed_dt > 0 else dt_max,
             "kernel": 0, "gradKernel": 0, "boundaryHandlingMethod": 0,
         },
         "FluidModels": [{"id": "Fluid", "particleFile": particle_file}],
@@ -111,7 +113,8 @@ def splishsplash_scene(gamma: float, r: float, nu: float, dt_max: float, until: 
 
 
 def run(gamma: float, r: float, nu: float, dt_max: float, until: float, x: np.ndarray,
-        v: np.ndarray, rcut: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+        v: np.ndarray, rcut: float = np.inf,
+        fixed_dt: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """One SPlisHSPlasH run from positions x and velocities v (N, 3): the final positions and
     the per-step rows (time, dt, q, twist momentum, surface tension CG iterations, largest and
     rms speed, particles counted); q, the speeds and the
@@ -121,7 +124,7 @@ def run(gamma: float, r: float, nu: float, dt_max: float, until: float, x: np.nd
 
     folder = Path(tempfile.mkdtemp(prefix="sphkit-jeske-sps-"))
     write_bgeo(folder / "drop.bgeo", {"position": x})
-    scene = splishsplash_scene(gamma, r, nu, dt_max, until, str(folder / "drop.bgeo"))
+    scene = splishsplash_scene(gamma, r, nu, dt_max, until, str(folder / "drop.bgeo"), fixed_dt)
     (folder / "scene.json").write_text(json.dumps(scene))
     np.save(folder / "x.npy", x)
     np.save(folder / "v.npy", v)
@@ -173,6 +176,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--relax", type=float, default=0.4)
     ap.add_argument("--amp-mode2", type=float, default=0.8, help="A of the mode-2 kick [1/s]")
     ap.add_argument("--amp-twist", type=float, default=20.0, help="A of the twist [1/(m s)]")
+    ap.add_argument("--fixed-dt", type=float, default=0.0,
+                    help="a fixed time step [s] instead of the CFL step (cflMethod 0)")
     ap.add_argument("--relaxed", default=None,
                     help="a .npy file: the relaxed ball is read from it if it exists, else "
                          "written to it")
@@ -193,7 +198,8 @@ def main(argv: list[str] | None = None) -> int:
     else:
         x = jittered_ball(gamma, args.R, r, nu, dt_max, 0.05, args.seed)
         n = len(x)
-        xr, rows = run(gamma, r, nu, dt_max, args.relax, x, np.zeros_like(x))
+        xr, rows = run(gamma, r, nu, dt_max, args.relax, x, np.zeros_like(x), np.inf,
+                       args.fixed_dt)
         print(f"  relax: {time.perf_counter() - t0:.0f} s, {len(rows)} steps, CG iterations "
               f"{rows[1:, 4].mean():.1f}/step", file=sys.stderr)
         if cache is not None:
@@ -202,6 +208,10 @@ def main(argv: list[str] | None = None) -> int:
     rcut = 1.5 * Rv  # particles thrown off the drop while it relaxes are left out
     dist = np.linalg.norm(xr - np.median(xr, axis=0), axis=1)
     keep = dist < rcut
+    if keep.sum() < n // 2:
+        print(f"SPlisHSPlasH jeske2023: N = {n}, gamma = {gamma:g}: the drop broke up while it "
+              f"relaxed ({int(keep.sum())} particles within 1.5 R of the median)")
+        return 1
     y = xr - xr[keep].mean(axis=0)
     y[~keep] = 0.0  # no kick for particles off the drop
     print(f"SPlisHSPlasH jeske2023: N = {n}, R = {Rv:.4f} m, gamma = {gamma:g}, sigma_KB = "
@@ -214,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
         for a in (amp, -amp):
             v = a * np.stack([-y[:, 0], -y[:, 1], 2 * y[:, 2]], axis=1)
             t1 = time.perf_counter()
-            _, rw = run(gamma, r, nu, dt_max, until, xr, v, rcut)
+            _, rw = run(gamma, r, nu, dt_max, until, xr, v, rcut, args.fixed_dt)
             print(f"  mode2 {a:+g}: {time.perf_counter() - t1:.0f} s, {len(rw)} steps, CG "
                   f"iterations {rw[1:, 4].mean():.1f}/step; speeds in the drop: largest "
                   f"{rw[1:, 5].max():.3g} m/s (median over steps {np.median(rw[1:, 5]):.3g}), "
@@ -241,7 +251,7 @@ def main(argv: list[str] | None = None) -> int:
         until, nsamp, amp = 0.3, 120, args.amp_twist
         v = amp * np.stack([-y[:, 1] * y[:, 2], y[:, 0] * y[:, 2], np.zeros(n)], axis=1)
         t1 = time.perf_counter()
-        _, rw = run(gamma, r, nu, dt_max, until, xr, v, rcut)
+        _, rw = run(gamma, r, nu, dt_max, until, xr, v, rcut, args.fixed_dt)
         print(f"  twist: {time.perf_counter() - t1:.0f} s, {len(rw)} steps; speeds in the drop: "
               f"largest {rw[1:, 5].max():.3g} m/s (median over steps {np.median(rw[1:, 5]):.3g}),"
               f" rms {np.median(rw[1:, 6]):.3g} m/s", file=sys.stderr)
