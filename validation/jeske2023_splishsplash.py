@@ -1,21 +1,23 @@
 """SPlisHSPlasH's own Jeske et al. 2023 surface tension on the 3D drop of surface_tension.py.
 
-    python validation/jeske2023_splishsplash.py [--tests mode2 twist] [--gamma 300]
-                                                [--R 0.04] [--r 0.0025] [--seed 0]
+    python validation/jeske2023_splishsplash.py [--tests mode2 twist] [--gamma 210]
+        [--R 0.04] [--r 0.0025] [--seed 0] [--amp-mode2 0.8] [--amp-twist 20]
+        [--fixed-dt DT] [--relaxed FILE.npy]
 
 Runs the drop that ``validation/surface_tension.py`` runs for ``jeske2023`` (no gravity, DFSPH,
 r = 2.5 mm, h = 4r, cubic kernel, standard viscosity nu = 1e-3 m^2/s, the model's own viscosity
-0, gamma = 300, time step at most 0.7 x the capillary bound of sigma_KB; the lattice ball of
+0, gamma = 210 (Becker's kappa 0.3, sigma_KB 8.67 N/m), the CFL step at most 0.7 x the
+capillary bound of sigma_KB, or with ``--fixed-dt`` a fixed step; the lattice ball of
 radius R jittered by 0.05 particle spacings, seed 0, relaxed at rest for 0.4 s) in SPlisHSPlasH
 itself, through the ``pysplishsplash`` wheel in subprocesses (with the ``LD_PRELOAD`` its import
 needs on Linux, as benchmarks/vs_splishsplash.py). The jittered start is the very one sphkit's
 run uses (the same sampling and random offsets); SPlisHSPlasH relaxes it on its own. Then:
 
-* ``mode2``: the relaxed ball is kicked with ``v = +-A (-x, -y, 2z)`` (A = 0.8 1/s) and the
+* ``mode2``: the relaxed ball is kicked with ``v = +-A (-x, -y, 2z)`` (``--amp-mode2``) and the
   deformation ``q = <z^2> - (<x^2> + <y^2>)/2`` is sampled over 0.8 s; the part odd in A gives
   the period (like extrema and a damped-cosine fit, the functions of surface_tension.py),
   against Rayleigh's period with sigma_KB of gamma (``Jeske2023.equivalent_sigma``);
-* ``twist``: the relaxed ball is twisted, ``v = A (-y z, x z, 0)`` (A = 20 1/(m s)), and the twist
+* ``twist``: the relaxed ball is twisted, ``v = A (-y z, x z, 0)`` (``--amp-twist``), and the twist
   momentum ``T = sum m z (x v_y - y v_x)`` is sampled over 0.3 s: a liquid has no restoring force
   for this mode (T decays without a sign change), an elastic ball of shear modulus G rings with
   ``omega R / sqrt(G / rho) = 2.50``.
@@ -29,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -140,7 +143,10 @@ def run(gamma: float, r: float, nu: float, dt_max: float, until: float, x: np.nd
                          env=env, capture_output=True, text=True, timeout=1800)
     if res.returncode != 0 or not (folder / "rows.json").exists():
         raise SystemExit(f"pysplishsplash failed: {res.stderr.strip()[-500:]}")
-    return np.load(folder / "out.npy"), np.array(json.loads((folder / "rows.json").read_text()))
+    out = np.load(folder / "out.npy")
+    rows = np.array(json.loads((folder / "rows.json").read_text()))
+    shutil.rmtree(folder, ignore_errors=True)
+    return out, rows
 
 
 def jittered_ball(gamma: float, R: float, r: float, nu: float, dt_max: float, jitter: float,
@@ -168,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tests", nargs="+", default=["mode2", "twist"],
                     choices=("mode2", "twist"))
-    ap.add_argument("--gamma", type=float, default=300.0)
+    ap.add_argument("--gamma", type=float, default=210.0)
     ap.add_argument("--R", type=float, default=0.04)
     ap.add_argument("--r", type=float, default=0.0025)
     ap.add_argument("--nu", type=float, default=1e-3)
