@@ -1,5 +1,5 @@
 """Implicit surface tension of Jeske et al. 2023 (surface_tension/jeske2023.py): at rest it is
-Becker & Teschner's cohesion with kappa = gamma / rho0, the solve conserves momentum, the
+Becker & Teschner's cohesion with kappa = (10/7) gamma / rho0, the solve conserves momentum, the
 viscosity damps, the scene fields and the wheel's JWL+23 scenes (the long study is
 validation/surface_tension.py)."""
 
@@ -18,6 +18,7 @@ from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene
 from sphkit.scene.splishsplash import from_splishsplash
 from sphkit.surface_tension import BeckerTeschner2007, Jeske2023
+from sphkit.surface_tension.jeske2023 import COHESION_SCALE
 
 
 def _state(x: np.ndarray, r: float, v: np.ndarray | None = None) -> SimState:
@@ -52,7 +53,8 @@ def test_at_rest_it_is_becker_cohesion(dim: int) -> None:
     """With v = 0 and rho = rho0 the weight is ``F_ij = W_c / rho0`` and the implicit terms are
     of relative size dt^2 gamma sum_j F_ij (up to 5e-5 here: 3D, W(0)/rho0 ~ 320 1/kg, ~30
     neighbours), so the acceleration must be Becker & Teschner 2007's cohesion with
-    kappa = gamma / rho0 (module docstring) to 1e-4 of its largest value (measured 2e-6)."""
+    kappa = s gamma / rho0, s = 10/7 (module docstring; SPlisHSPlasH's factor of the cohesion
+    kernel), to 1e-4 of its largest value (measured 2e-6)."""
     r = 0.005
     x = _blob(dim, r)
     gamma, dt = 50.0, 1e-5
@@ -63,7 +65,8 @@ def test_at_rest_it_is_becker_cohesion(dim: int) -> None:
     model.apply(st, dt)
     a_j = st.fluid["a"].copy()
     st2 = _state(x, r)
-    bt = BeckerTeschner2007(gamma / 1000.0, 0.0)
+    assert COHESION_SCALE == pytest.approx(10.0 / 7.0, rel=1e-15)
+    bt = BeckerTeschner2007(COHESION_SCALE * gamma / 1000.0, 0.0)
     bt.init(st2)
     st2.fluid["a"][:] = 0.0
     bt.apply(st2, dt)
@@ -103,6 +106,28 @@ def test_solve_conserves_momentum_and_viscosity_damps(dim: int) -> None:
     vn = v + dt * st0.fluid["a"]
     rel = lambda u: ((u - u.mean(axis=1, keepdims=True)) ** 2).sum()  # noqa: E731
     assert rel(vn) < 0.95 * rel(v)
+
+
+def test_adhesion_pulls_towards_the_wall_s_end_of_step_position() -> None:
+    """The adhesion acts along ``x_ib + dt (u_i - v_b)``, the pair's distance at the end of the
+    step (SPlisHSPlasH's adhesion fix of 2024-03-06, ``x_ib - dt v_b`` in the right-hand side):
+    a particle at rest beside a resting wall particle is pulled towards it; if the wall particle
+    moves onto the particle's position within the step (``dt v_b = x_ib``), the adhesion
+    vanishes (exactly: right-hand side 0)."""
+    r, dt = 0.005, 1e-3
+    got = []
+    for vb in (0.0, -0.012 / dt):
+        st = _state(np.zeros((2, 1)), r)
+        b = st.boundary
+        b.add(np.array([[0.012, 0.0]]), V=(2 * r) ** 2, v=np.array([vb, 0.0]))
+        st.nl_fb = NeighborList(np.array([0, 1], np.int64), np.array([0], np.int32))
+        model = Jeske2023(0.0, 1.0, max_error=1e-12)
+        model.init(st)
+        st.fluid["a"][:] = 0.0
+        model.apply(st, dt)
+        got.append(st.fluid["a"][:, 0].copy())
+    assert got[0][0] > 0.0 and got[0][1] == 0.0
+    assert np.all(got[1] == 0.0)
 
 
 JWL_SCENES = ["SurfaceTension_CoveredSphere_JWL+23.json", "SurfaceTension_FluidChain_JWL+23.json",

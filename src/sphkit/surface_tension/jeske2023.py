@@ -2,14 +2,17 @@
 (survey Sec. 5.4, SPlisHSPlasH ``surfaceTensionMethod`` 4).
 
 Jeske et al. 2023, "Implicit Surface Tension for SPH Fluid Simulation", ACM TOG 42(6), as
-SPlisHSPlasH implements it (``SPlisHSPlasH/SurfaceTension/SurfaceTension_Jeske2023.cpp``, its
-plain (non-AVX) code path; read, re-derived and written anew here). The surface tension is a
+SPlisHSPlasH implements it (``SPlisHSPlasH/SurfaceTension/SurfaceTension_Jeske2023.cpp`` since
+its official version of 2023-11-24, both code paths, with the adhesion fix of 2024-03-06; read,
+re-derived and written anew here). The surface tension is a
 pair cohesion evaluated at the end of the step and linearized in the new velocity u, solved
 together with an optional viscosity as one linear system per step. With ``x_ij = x_i - x_j``,
 ``r = |x_ij|``, the particle diameter ``2r_p`` and the simulation kernel W:
 
-* the cohesion kernel ``W_c = min(W(r), W(2 r_p))`` (constant below one diameter) and its
-  gradient ``grad W_c = grad W_ij`` for ``r > 2 r_p`` (0 below);
+* the cohesion kernel ``W_c = s min(W(r), W(2 r_p))`` (constant below one diameter) and its
+  gradient ``grad W_c = s grad W_ij`` for ``r > 2 r_p`` (0 below), with the fixed factor
+  ``s = 10/7`` (:data:`COHESION_SCALE`) between fluid particles (SPlisHSPlasH's plain and AVX
+  builds alike, in 2D and 3D; the adhesion's kernel is unscaled);
 * the density rate ``D_i = sum_j m_j (v_i - v_j) . grad W_ij`` (current velocities v);
 * the first-order weight (constant during the solve, symmetric in i and j), with
   ``rho_ij = rho_i + rho_j``::
@@ -20,7 +23,7 @@ together with an optional viscosity as one linear system per step. With ``x_ij =
 * the accelerations, u the unknown new velocity::
 
       a_i = - gamma sum_j F_ij (x_ij + dt (u_i - u_j))                           (cohesion)
-            - beta sum_b F_ib (x_ib + dt u_i)                                     (adhesion)
+            - beta sum_b F_ib (x_ib + dt (u_i - v_b))                             (adhesion)
             + (1/rho_i) 2 (d + 2) mu sum_j (m_j/rho_j) ((u_i - u_j) . x_ij)
                 / (r^2 + 0.01 h^2) grad W_ij                                      (viscosity)
             + (1/rho_i) 2 (d + 2) mu_b sum_b (rho0 V_b/rho_i) ((u_i - v_b) . x_ib)
@@ -29,13 +32,15 @@ together with an optional viscosity as one linear system per step. With ``x_ij =
 
   with ``mu = nu rho0`` (``surfaceTensionViscosity`` nu [m^2/s]), ``mu_b`` likewise, the
   adhesion weight ``F_ib = ((m_i + m_b)/m_i) [W_c/rho_ib + dt grad W_c . (v_i - v_b)/rho_ib - dt
-  W_c D_i / rho_ib^2]`` of a boundary particle of mass ``m_b = rho0 V_b`` and density rho0, and
+  W_c D_i / rho_ib^2]`` (s = 1) of a boundary particle of mass ``m_b = rho0 V_b``, density rho0
+  and velocity v_b (its end-of-step position ``x_b + dt v_b``), and
   the XSPH factor c_x (``surfaceTensionXSPH``; SPlisHSPlasH's cubic kernel). Backward Euler,
   ``u = v + dt a(u)``, gives the linear system ``A u = b``::
 
       (A u)_i = u_i + dt^2 gamma sum_j F_ij (u_i - u_j) + dt^2 beta sum_b F_ib u_i
                 - (dt / rho_i) (viscosity and XSPH terms in u)
-      b_i = v_i - dt gamma sum_j F_ij x_ij - dt beta sum_b F_ib x_ib + (wall viscosity in v_b)
+      b_i = v_i - dt gamma sum_j F_ij x_ij - dt beta sum_b F_ib (x_ib - dt v_b)
+            + (wall viscosity in v_b)
 
   solved matrix-free by the shared conjugate gradient (:func:`sphkit.core.krylov.cg`, block
   Jacobi preconditioner of the per-particle diagonal blocks) to the relative residual
@@ -44,7 +49,7 @@ together with an optional viscosity as one linear system per step. With ``x_ij =
   applied as ``a_i += (u_i - v_i) / dt``.
 
 At rest (v = 0, rho = rho0) the cohesion is the pair force ``gamma m (W_c(r) / rho0) x_ij``,
-i.e. Becker & Teschner 2007's cohesion with ``kappa = gamma / rho0`` (the same clamp of the
+i.e. Becker & Teschner 2007's cohesion with ``kappa = s gamma / rho0`` (the same clamp of the
 kernel at one diameter): its Kirkwood-Buff tension and internal pressure are
 :meth:`sphkit.surface_tension.becker2007.BeckerTeschner2007.equivalent_sigma` of that kappa
 (:meth:`Jeske2023.equivalent_sigma`). The cohesion pair forces are equal and opposite (F_ij =
@@ -59,9 +64,7 @@ Differences from SPlisHSPlasH (documented, none changes a default run):
   particles, or the virtual particles of density/volume maps), and the adhesion and wall
   viscosity act on them. SPlisHSPlasH applies the adhesion only with volume maps (Bender 2019;
   its Akinci 2012 and density-map loops add nothing) and its wall viscosity on volume and
-  density maps samples four tangential points per map neighbour;
-* SPlisHSPlasH's AVX build multiplies W_c and grad W_c by 10/7 in the fluid terms (its plain
-  build does not); sphkit follows the plain build.
+  density maps samples four tangential points per map neighbour.
 
 Defaults (SPlisHSPlasH, ``reference/methods.md`` K5): gamma (``surfaceTension``) 0.05, beta
 (``surfaceTensionBoundary``) 0.01, nu (``surfaceTensionViscosity``) 0, nu_b 0, maxIter 100,
@@ -92,6 +95,9 @@ from sphkit.core.viscous import (
 
 _JIT = dict(cache=True, fastmath=True)
 EPS = 0.01  #: the Laplacian's regularisation, times h^2
+#: s: the factor of the cohesion kernel and its gradient between fluid particles (module
+#: docstring; SPlisHSPlasH's code applies it in every dimension, the adhesion excluded)
+COHESION_SCALE = 10.0 / 7.0
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -132,8 +138,9 @@ def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
-            F[k] = 2.0 * _weight(r, w0, w1, w2, d0, d1, d2, rho[i] + rho[j],
-                                 drate[i] + drate[j], wmin, diam, dt, h, kid, dim)
+            F[k] = 2.0 * COHESION_SCALE * _weight(r, w0, w1, w2, d0, d1, d2, rho[i] + rho[j],
+                                                  drate[i] + drate[j], wmin, diam, dt, h, kid,
+                                                  dim)
             s += F[k]
         Fsum[i] = s
         sb = 0.0
@@ -238,15 +245,16 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbs
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
-            b0 += beta * Fb[k] * d0
-            b1 += beta * Fb[k] * d1
-            b2 += beta * Fb[k] * d2
+            vb0, vb1, vb2 = point(bv, b, dim)
+            # the boundary particle's end-of-step position: x_ib - dt v_b
+            b0 += beta * Fb[k] * (d0 - dt * vb0)
+            b1 += beta * Fb[k] * (d1 - dt * vb1)
+            b2 += beta * Fb[k] * (d2 - dt * vb2)
             if cb > 0.0:
                 r2 = dot(d0, d1, d2, d0, d1, d2)
                 s = laplacian_diagonal_pair(cb * rho0 * bV[b] / rho[i], r2, eps, kid, h, dim)
                 g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11,
                                                          g12, g22)
-                vb0, vb1, vb2 = point(bv, b, dim)
                 t = s * dot(vb0, vb1, vb2, d0, d1, d2)
                 c0 += t * d0
                 c1 += t * d1
@@ -310,15 +318,15 @@ class Jeske2023(NonPressureForce):
     def equivalent_sigma(self, rho0: float, mass: float, r: float, h: float, kid: int,
                          dim: int) -> tuple[float, float]:
         """(sigma, p_int) of the cohesion at rest: Becker & Teschner 2007's Kirkwood-Buff
-        values for ``kappa = gamma / rho0`` (module docstring)."""
+        values for ``kappa = COHESION_SCALE gamma / rho0`` (module docstring)."""
 
         n = rho0 / mass
         diam = 2.0 * r
         wmin = float(kernel_w(kid, diam, h, dim))
 
         def f(s: float) -> float:  # attractive pair force magnitude [N]: m gamma W_c s / rho0
-            return self.coefficient / rho0 * mass * min(float(kernel_w(kid, s, h, dim)),
-                                                        wmin) * s
+            return (COHESION_SCALE * self.coefficient / rho0 * mass
+                    * min(float(kernel_w(kid, s, h, dim)), wmin) * s)
 
         brk = [diam, 0.5 * h]
         return kirkwood_buff(f, n, h, brk, dim)
@@ -377,4 +385,4 @@ class Jeske2023(NonPressureForce):
         add_velocity_change(v, sol.reshape(dim, n), 1.0 / dt, f["a"], dv, True)
 
 
-__all__ = ["Jeske2023"]
+__all__ = ["COHESION_SCALE", "Jeske2023"]
