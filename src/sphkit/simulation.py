@@ -31,6 +31,9 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
    step (``time.cfl`` off), a CFL number above ``configuration.max_cfl`` raise
    :class:`InstabilityError` with a diagnosis (which of them, step, time, max velocity, CFL
    number, density error).
+
+On a device (``device="cuda"``) the fields stay there between steps and each pass is a kernel
+body launched there (:mod:`sphkit.backend`); :meth:`Simulation.host` copies them back.
 """
 
 from __future__ import annotations
@@ -300,23 +303,14 @@ class Simulation:
 
     # -- user-facing state ----------------------------------------------------------------------
     def host(self) -> None:
-        """Bring the particle fields to the host (NumPy arrays) when the step runs on a device:
-        frames, checkpoints and the views below read them there; the next step takes them back
-        to the device. Nothing to do on the CPU."""
+        """The fields back on the host after steps on a device (frames, checkpoints, views)."""
         self.state.fluid.to("cpu")
         self.state.boundary.to("cpu")
 
     def _resident(self) -> None:
-        """The particle fields on :attr:`device` for the step (a copy there after :meth:`host`;
-        nothing to do when they are there already, or on the CPU)."""
-        st = self.state
-        if st.fluid.device != self.device:
-            if self._grid is None and st.fluid.n:
-                x = st.fluid["x"]
-                center = 0.5 * (x.min(axis=1) + x.max(axis=1))
-                self._grid = HashGrid(st.dim, st.h, hash_origin(center, st.h), self.device)
-            st.fluid.to(self.device)
-            st.boundary.to(self.device)
+        """The particle fields on :attr:`device` for the step (copied there after :meth:`host`)."""
+        self.state.fluid.to(self.device)
+        self.state.boundary.to(self.device)
 
     @property
     def fluid(self) -> ParticleSet:
@@ -369,6 +363,8 @@ class Simulation:
         if self._verlet is not None:  # configuration.neighbor_skin: lists reused across steps
             st.nl_ff = self._verlet.lists(x, st.h, st.periodic, rebuild=reordered)
         elif on_device(x):  # the hashed grid's passes as kernel bodies, where the fluid is
+            if self._grid is None:  # centred on the first step's fluid
+                self._grid = HashGrid(st.dim, st.h, hash_origin(to_host(x).mean(1), st.h), "cuda")
             self._grid.build(x)
             st.nl_ff = self._grid.query(x, exclude_self=True)
         else:
@@ -601,5 +597,4 @@ class Simulation:
                     on_frame(self, self._frame)
             if after_step is not None and after_step(self):
                 return False
-        self.host()
         return True

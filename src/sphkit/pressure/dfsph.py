@@ -61,8 +61,8 @@ import numba
 import numpy as np
 
 from sphkit.backend import launch
-from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core import arrays
+from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import surrounded
 from sphkit.core.solver import IterationControl, PairGradients, SolverStats, jacobi_ppe
 from sphkit.core.state import SimState
