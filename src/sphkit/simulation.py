@@ -46,8 +46,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sphkit.backend import on_device, to_host
 from sphkit.core import arrays
+from sphkit.core.arrays import on_device, to_host
 from sphkit.core.hashgrid import HashGrid, hash_origin
 from sphkit.core.krylov import KrylovStats
 from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation

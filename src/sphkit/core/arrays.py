@@ -22,8 +22,15 @@ from typing import Any
 import numba
 import numpy as np
 
-from sphkit.backend import device_of, launch, launch_reduce
+from sphkit.backend import device_of, launch, launch_reduce, on_device, to_host
 from sphkit.backend import empty as backend_empty
+
+#: the passes and helpers, and where arrays are (the step reaches the backend through core)
+__all__ = ["any_differs", "axpy", "axpy_into", "axpy_rows_body", "axpy_rows_into_body",
+           "differs_body", "divide_body", "divided", "divided_by", "empty", "empty_like", "fill",
+           "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body", "gather_rows_body",
+           "gathered", "multiplied", "multiply_body", "on_device", "quotient_body", "reciprocal",
+           "reciprocal_body", "scale_body", "scaled", "to_host", "zeros"]
 
 _BODY = dict(cache=True, inline="always")
 
