@@ -183,6 +183,23 @@ SCRIPT = textwrap.dedent(
         assert same_sets(walls.query(xd), Grid(bx, h).query(x), 60)
         print("hash grid", dim, "ok")
 
+    # a particle set moved to the device and back: fields registered and filled there, a
+    # permutation gathered there (the z-order of the step below), a second round trip
+    from sphkit.core.particles import ParticleSet
+
+    ps = ParticleSet(3)
+    ps.add(rng.uniform(size=(5, 3)))
+    x0 = ps["x"].copy()
+    ps.to("cuda")
+    ps.register("w", fill=2.0)
+    ps["id"] = 7
+    ps.permute(np.array([4, 3, 2, 1, 0]))
+    ps.to("cpu")
+    ps.to("cuda")
+    ps.to("cpu")
+    assert np.array_equal(ps["x"], x0[:, ::-1]) and np.all(ps["w"] == 2.0)
+    assert np.all(ps["id"] == 7) and type(ps["x"]) is np.ndarray
+
     # one whole DFSPH step (Akinci walls, mirrored boundary pressure, standard viscosity, CFL,
     # symplectic Euler, z-order) through Simulation on the device against the CPU: a 3 x 3 x 3
     # block thrown at the floor of a box, so that both solves have work (2 and 1 iterations)
