@@ -162,7 +162,7 @@ SCRIPT = textwrap.dedent(
     from sphkit.backend.cuda import THREADS
 
     counts = rng.integers(0, 5, 2 * THREADS + 44)  # three blocks: their totals are scanned too
-    out = cuda.device_array(301, np.int64)
+    out = cuda.device_array(counts.shape[0] + 1, np.int64)
     assert exclusive_scan(to_device(counts, "cuda"), out, device="cuda") == counts.sum()
     assert np.array_equal(out.copy_to_host(), np.concatenate([[0], np.cumsum(counts)]))
 
