@@ -62,7 +62,7 @@ def finite_speed2_body(i, v, dim):
     s = 0.0
     for d in range(dim):
         s += v[d, i] * v[d, i]
-    return s if np.isfinite(s) else 0.0
+    return s if math.isfinite(s) else 0.0
 
 
 @numba.njit(cache=True, inline="always")
@@ -71,7 +71,7 @@ def nonfinite_body(i, v, dim):
     s = 0.0
     for d in range(dim):
         s += v[d, i] * v[d, i]
-    return 0.0 if np.isfinite(s) else 1.0
+    return 0.0 if math.isfinite(s) else 1.0
 
 
 def max_speed(v: np.ndarray, a: np.ndarray | None = None, dt: float = 0.0) -> float:
@@ -107,7 +107,7 @@ def outside_body(i, x, dim, lo0, lo1, lo2, hi0, hi1, hi2):
 def nonfinite_point_body(i, x, dim):
     """1 where a coordinate of point i is NaN or infinite, else 0 (no fast math)."""
     for d in range(dim):
-        if not np.isfinite(x[d, i]):
+        if not math.isfinite(x[d, i]):
             return 1.0
     return 0.0
 
