@@ -2,7 +2,7 @@
 that run as kernel bodies today (issue 18).
 
     python benchmarks/gpu.py [--sizes 1e6 4e6 16e6] [--cpu-size 1e6] [--repeat 5]
-                             [--iterations 5] [--json FILE]
+                             [--iterations 5] [--steps K] [--json FILE]
 
 On a 3D block of fluid on a lattice (spacing 2r, jittered by 0.1 r, h = 4r, about 33
 neighbours) over a floor of two layers of boundary particles, every pass that the time step will
@@ -22,11 +22,15 @@ own fields once, and per pair its index and the neighbour's gathered fields) aga
 device's copy bandwidth measured here (a device-to-device copy of 1 GB; ``--peak`` for a spec
 value instead), the GPU memory per particle (the device's free memory before and after the set-up),
 and a *ported-pass step*: search + density+grads + diagonal + viscosity + ``--iterations``
-Jacobi iterations of each of the two DFSPH solves, as particle-steps/s. That is not yet the whole
-DFSPH step (the integration, the CFL step, the boundary pressure and the solves' Python control
-still run on the CPU: ``sphkit run --device cuda`` refuses every scene), so these are bounds of
-the passes, not of the simulator. The same passes then run on the CPU (``--cpu-size``
-particles, NUMBA_NUM_THREADS threads) for the ratio.
+Jacobi iterations of each of the two DFSPH solves, as particle-steps/s: a bound from the passes
+alone (the whole step, with its glue and iteration control: ``--steps``). The same passes then
+run on the CPU (``--cpu-size`` particles, NUMBA_NUM_THREADS threads) for the ratio.
+
+``--steps K`` also times K whole DFSPH steps (after a warm-up step) of a 3D dam break at each
+size through ``Simulation(..., device="cuda")``, with every field resident on the device
+(:func:`dam_scene`: DFSPH, Akinci walls with mirrored boundary pressure, standard viscosity),
+and on the CPU at ``--cpu-size``: steps/s, particle-steps/s, iterations per step and GPU memory
+per particle.
 
 Without a GPU (numba-cuda finds none) only the CPU rows run. Under ``NUMBA_ENABLE_CUDASIM=1`` the
 script runs the simulator for a check of the script itself (``--sizes 300 --cpu-size 300``).
@@ -231,6 +235,60 @@ def run_size(n_target: int, device: str, repeat: int, iterations: int) -> dict:
     return row
 
 
+def dam_scene(n_target: int) -> dict:
+    """A 3D dam break of about ``n_target`` fluid particles (a column a x 2a x a in the corner
+    of a box 4a x 3a x a, spacing 2r) with the methods that run on the device: DFSPH, Akinci
+    walls with mirrored boundary pressure, the standard viscosity (float64; no relaxation of
+    the start, which would cost minutes on the CPU at 16M particles)."""
+    k = max(2, round((n_target / 2) ** (1 / 3)))
+    a = k * 2 * R
+    return {"name": "dambreak-gpu",
+            "configuration": {"dim": 3, "particle_radius": R,
+                              "pressure": {"method": "dfsph"},
+                              "boundary": {"method": "akinci2012", "pressure": "mirror"},
+                              "start": {"relax": False}},
+            "materials": [{"viscosity": {"method": "standard", "coefficient": 1e-6}}],
+            "fluid_blocks": [{"start": [0, 0, 0], "end": [a, 2 * a, a]}],
+            "boxes": [{"min": [0, 0, 0], "max": [4 * a, 3 * a, a]}]}
+
+
+def run_steps(n_target: int, device: str, steps: int) -> dict:
+    """Whole DFSPH time steps of :func:`dam_scene` through ``Simulation(device=...)`` (the
+    fields resident on the device): one warm-up step (compiles), then ``steps`` timed."""
+    from sphkit.scene.schema import Scene
+    from sphkit.simulation import Simulation
+
+    free0 = free_memory() if device == "cuda" else None
+    t0 = time.perf_counter()
+    sim = Simulation(Scene.model_validate(dam_scene(n_target)), device=device)
+    build = time.perf_counter() - t0
+    sim.step()
+    free1 = free_memory() if device == "cuda" else None
+    its, its_v = [], []
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        st = sim.step()
+        its.append(st.iterations)
+        its_v.append(st.divergence_iterations)
+    t = (time.perf_counter() - t0) / steps  # each step reads its iterations' errors back: synced
+    n = sim.state.fluid.n
+    return {"device": device, "particles": n, "boundary": sim.state.boundary.n,
+            "build_s": build, "step_s": t, "steps_per_s": 1.0 / t, "particle_steps_per_s": n / t,
+            "iterations": float(np.mean(its)), "divergence_iterations": float(np.mean(its_v)),
+            "memory_per_particle": None if free0 is None or free1 is None
+            else (free0 - free1) / n}
+
+
+def show_steps(row: dict) -> None:
+    """Print one whole-step row."""
+    mem = row["memory_per_particle"]
+    print(f"{row['device']}: {row['particles']:,} fluid + {row['boundary']:,} boundary "
+          f"particles (built in {row['build_s']:.0f} s): {row['step_s'] * 1e3:.1f} ms a step, "
+          f"{row['steps_per_s']:.2f} steps/s, {row['particle_steps_per_s']:.3e} particle-steps/s, "
+          f"{row['iterations']:.1f} + {row['divergence_iterations']:.1f} iterations a step"
+          + (f", {mem:,.0f} B of GPU memory per particle" if mem is not None else ""))
+
+
 def show(row: dict, bandwidth: float | None) -> None:
     """Print one size's rows."""
     n = row["particles"]
@@ -261,6 +319,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--peak", type=float, default=None,
                     help="device bandwidth [B/s] for the fraction (default: the measured copy)")
     ap.add_argument("--json", type=str, default=None, help="write the rows to this file")
+    ap.add_argument("--steps", type=int, default=0,
+                    help="also time this many whole DFSPH steps of a dam break at each size "
+                    "(Simulation(device=...)), after the passes")
     args = ap.parse_args(argv)
     rows = []
     gpu = cuda_available()
@@ -292,6 +353,19 @@ def main(argv: list[str] | None = None) -> int:
                   + ", ".join(f"{name} {row['seconds'][name] / g['seconds'][name]:.1f}x"
                               for name in PASSES)
                   + f"; ported-pass step {row['ported_step_s'] / g['ported_step_s']:.1f}x")
+    if args.steps > 0:
+        print(f"\nwhole DFSPH steps of a 3D dam break ({args.steps} timed after one warm-up):")
+        for n in (args.sizes if gpu else []):
+            rows.append(run_steps(int(n), "cuda", args.steps))
+            show_steps(rows[-1])
+        if args.cpu_size > 0:
+            rows.append(run_steps(int(args.cpu_size), "cpu", args.steps))
+            show_steps(rows[-1])
+            same = [r for r in rows if r["device"] == "cuda" and "step_s" in r
+                    and abs(r["particles"] - rows[-1]["particles"]) <= 0.01 * r["particles"]]
+            if same:
+                print(f"GPU / CPU whole step at the same size: "
+                      f"{rows[-1]['step_s'] / same[0]['step_s']:.1f}x")
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(rows, fh, indent=1)

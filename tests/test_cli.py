@@ -122,7 +122,7 @@ def test_tiny_run_writes_frames_and_manifest(tiny_run: dict) -> None:
     assert [f["frame"] for f in frames] == [0, 1, 2]
     assert frames[-1]["time"] >= 0.05 - 1e-9
     assert manifest["scene"]["name"] == "tiny"
-    assert manifest["device"] == "cpu"  # --device auto: no method of it runs on the GPU yet
+    assert manifest["device"] == "cpu"  # --device auto: WCSPH and MLS do not run on the GPU yet
     assert manifest["last_step"]["step"] == frames[-1]["step"] > 0
     for rec in frames:
         assert rec["files"] == [f"frame_{rec['frame']:05d}.vtu", f"frame_{rec['frame']:05d}.ply"]

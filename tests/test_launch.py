@@ -59,15 +59,18 @@ def test_unknown_device_is_an_error() -> None:
 
 
 def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) -> None:
-    """``Simulation(device=...)`` / ``sphkit run --device``: no method has the registry's
-    ``gpu`` capability yet, so ``cuda`` is refused with the fields and names of the scene's
-    methods (never a silent CPU fallback), before anything is built; ``auto`` runs on the CPU
-    without probing for a GPU, and an unknown device names the choices. (The manifest's record
-    of the device: tests/test_cli.py's tiny run.)"""
+    """``Simulation(device=...)`` / ``sphkit run --device``: a scene whose methods lack the
+    registry's ``gpu`` capability (here WCSPH) is refused on ``cuda`` with the fields and names
+    of those methods (never a silent CPU fallback), before anything is built; ``auto`` runs it
+    on the CPU without probing for a GPU, and an unknown device names the choices. DFSPH with
+    Akinci walls, mirrored boundary pressure and the standard viscosity is accepted (the whole
+    step on the device: tests/test_cuda_simulator.py), unless a feature of the scene that the
+    device step lacks (an emitter, float32) is named. (The manifest's record of the device:
+    tests/test_cli.py's tiny run.)"""
     from sphkit.cli import main
     from sphkit.scene.checks import check_device, methods_in_use
     from sphkit.scene.files import load_scene
-    from sphkit.scene.schema import SceneError
+    from sphkit.scene.schema import Emitter, SceneError
 
     scene = load_scene("dambreak-2d")
     used = methods_in_use(scene)
@@ -83,6 +86,19 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
         check_device(scene, "cuda", lambda: True)
     with pytest.raises(SceneError, match="expected one of auto, cpu, cuda"):
         check_device(scene, "gpu", lambda: True)
+    cfg = scene.configuration
+    cfg.pressure.method, cfg.boundary.pressure = "dfsph", "mirror"
+    scene.materials[0].viscosity.method = "standard"
+    assert check_device(scene, "cuda", lambda: True) == "cuda"
+    assert check_device(scene, "auto", lambda: True) == "cuda"
+    assert check_device(scene, "auto", lambda: False) == "cpu"
+    cfg.boundary.pressure = "mls"
+    with pytest.raises(SceneError, match="configuration.boundary.pressure 'mls'"):
+        check_device(scene, "cuda", lambda: True)
+    cfg.boundary.pressure, cfg.precision = "mirror", "float32"
+    scene.emitters.append(Emitter(position=[0.3, 0.4], width=0.12))
+    with pytest.raises(SceneError, match=r"precision 'float32', emitters\[0\]"):
+        check_device(scene, "cuda", lambda: True)
     assert main(["run", "dambreak-2d", "--device", "cuda", "--quiet",
                  "--out", str(tmp_path / "refused")]) == 2
     assert not (tmp_path / "refused").exists()

@@ -21,7 +21,10 @@ Capabilities (keyword flags of :func:`register`):
 * ``multiphase``: a pressure solver or boundary model that reads each particle's own rest
   density (several fluid materials in one scene, :mod:`sphkit.multiphase`); the non-pressure
   forces of each material act within its phase whatever their flags;
-* ``gpu``: runs on ``--device cuda`` (none yet: the time step runs on the CPU);
+* ``gpu``: its part of the time step runs on ``--device cuda`` with the fields resident on the
+  device (DFSPH, Akinci boundary particles with mirrored boundary pressure, the standard
+  viscosity so far; the scene features the device step lacks are refused by
+  :func:`sphkit.scene.checks.check_device`);
 * ``boundary`` (boundary-pressure models): the boundary kinds it acts on (``particles`` or
   ``maps``, the ``kind`` of the boundary model).
 
@@ -195,7 +198,7 @@ register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
 register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
          paper="Bender & Koschier 2015/2017, Divergence-free SPH",
          summary="constant-density and divergence-free solvers with warm starts",
-         periodic=True, dynamic_bodies=True, multiphase=True)
+         periodic=True, dynamic_bodies=True, multiphase=True, gpu=True)
 register("pressure", "pf", "sphkit.pressure.pf:PF", splishsplash=5,
          paper="Weiler, Koschier & Bender 2016, Projective fluids",
          summary="projective dynamics: local density-constraint projections, global CG; "
@@ -208,7 +211,7 @@ register("pressure", "icsph", "sphkit.pressure.icsph:ICSPH", splishsplash=6,
 register("boundary", "akinci2012", "sphkit.boundary.akinci2012:Akinci2012", splishsplash=0,
          paper="Akinci et al. 2012, Versatile rigid-fluid coupling for incompressible SPH",
          summary="boundary particles with volumes 1 / sum W", kind="particles",
-         boundary_pressure="mls", multiphase=True)
+         boundary_pressure="mls", multiphase=True, gpu=True)
 register("boundary", "koschier2017", "sphkit.boundary.koschier2017:Koschier2017",
          splishsplash=1, paper="Koschier & Bender 2017, Density maps for improved SPH "
          "boundary handling", summary="density maps on signed distance fields", kind="maps",
@@ -222,7 +225,7 @@ register("boundary", "bender2019", "sphkit.boundary.bender2019:Bender2019", spli
 register("boundary_pressure", "mirror", None,
          paper="Akinci et al. 2012 (p_b = p_i); SPlisHSPlasH's boundary term for maps",
          summary="the fluid particle's pressure mirrored to the boundary",
-         boundary=("particles", "maps"), periodic=True)
+         boundary=("particles", "maps"), periodic=True, gpu=True)
 register("boundary_pressure", "mls", "sphkit.boundary.band2018:MLSPressureExtrapolation",
          paper="Band et al. 2018, Pressure boundaries for implicit incompressible SPH",
          summary="moving-least-squares extrapolation of the fluid pressure to the boundary "
@@ -235,7 +238,7 @@ register("boundary_pressure", "hydrostatic", None,
 # viscosity: SPlisHSPlasH viscosityMethod (XSPH is its separate per-material filter)
 register("viscosity", "standard", "sphkit.viscosity.standard:StandardViscosity",
          splishsplash=1, paper="Morris et al. 1997; Monaghan 2005 (vector Laplacian)",
-         summary="explicit Laplacian viscosity, kinematic nu", periodic=True)
+         summary="explicit Laplacian viscosity, kinematic nu", periodic=True, gpu=True)
 register("viscosity", "xsph", "sphkit.viscosity.xsph:XSPH",
          paper="Monaghan 1989/1992, XSPH", summary="velocity smoothing")
 register("viscosity", "weiler2018", "sphkit.viscosity.weiler2018:Weiler2018", splishsplash=6,

@@ -31,6 +31,9 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
    step (``time.cfl`` off), a CFL number above ``configuration.max_cfl`` raise
    :class:`InstabilityError` with a diagnosis (which of them, step, time, max velocity, CFL
    number, density error).
+
+On a device (``device="cuda"``) the fields stay there between steps and each pass is a kernel
+body launched there (:mod:`sphkit.backend`); :meth:`Simulation.host` copies them back.
 """
 
 from __future__ import annotations
@@ -43,6 +46,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sphkit.core import arrays
+from sphkit.core.arrays import on_device, to_host
+from sphkit.core.hashgrid import HashGrid, hash_origin
 from sphkit.core.krylov import KrylovStats
 from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
@@ -51,6 +57,7 @@ from sphkit.core.solver import PairGradients, SolverStats
 from sphkit.core.timestep import (
     cfl_time_step,
     max_speed,
+    nonfinite_count,
     outside_count,
     speed_check,
     symplectic_euler,
@@ -146,6 +153,7 @@ class Simulation:
         skin = self.scene.configuration.neighbor_skin
         #: Verlet lists of the fluid (``configuration.neighbor_skin`` > 0), else None
         self._verlet = VerletLists(skin) if skin > 0.0 else None
+        self._grid: HashGrid | None = None  # the fluid's search on a device
         if settle and world.settle is not None:
             rep = world.start
             rep.settle_steps, rep.settle_time, rep.settle_speed = self.settle(world.settle)
@@ -164,6 +172,7 @@ class Simulation:
         try:
             while self.time < plan.max_time:
                 s = self.step()
+                self.host()
                 steps += 1
                 v = f["v"]
                 v *= math.exp(-plan.gamma * s.dt)
@@ -223,6 +232,7 @@ class Simulation:
         :mod:`sphkit.io.checkpoint`); ``extra`` is stored for the caller."""
         from sphkit.io.checkpoint import write_checkpoint
 
+        self.host()
         return write_checkpoint(path, {"fluid": self.state.fluid, "boundary": self.state.boundary},
                                 self.checkpoint_state(), self.scene.model_dump(mode="json"),
                                 extra=extra, keep=keep)
@@ -249,6 +259,7 @@ class Simulation:
         from sphkit.io.checkpoint import CheckpointError
 
         st = self.state
+        self.host()
         if self._verlet is not None:  # the lists are searched afresh after a restore
             self._verlet = VerletLists(self._verlet.skin)
         sets = ck.meta["sets"]
@@ -291,14 +302,26 @@ class Simulation:
             solid.init(st)
 
     # -- user-facing state ----------------------------------------------------------------------
+    def host(self) -> None:
+        """The fields back on the host after steps on a device (frames, checkpoints, views)."""
+        self.state.fluid.to("cpu")
+        self.state.boundary.to("cpu")
+
+    def _resident(self) -> None:
+        """The particle fields on :attr:`device` for the step (copied there after :meth:`host`)."""
+        self.state.fluid.to(self.device)
+        self.state.boundary.to(self.device)
+
     @property
     def fluid(self) -> ParticleSet:
-        """The fluid particles (fields x, v, a, m, rho, p, id)."""
+        """The fluid particles (fields x, v, a, m, rho, p, id), on the host."""
+        self.host()
         return self.state.fluid
 
     @property
     def boundary(self) -> ParticleSet:
-        """The boundary particles (fields x, V, v, id)."""
+        """The boundary particles (fields x, V, v, id), on the host."""
+        self.host()
         return self.state.boundary
 
     @property
@@ -328,15 +351,22 @@ class Simulation:
 
     # -- stepping -------------------------------------------------------------------------------
     def _neighbors(self) -> None:
+        self._resident()
         st = self.state
         k = self.scene.configuration.zsort_every
         reordered = bool(k and self.step_count % k == 0)
-        if reordered:
-            st.fluid.permute(zorder_permutation(st.fluid["x"], st.h))
+        if reordered:  # on a device: the order is found on the host, the fields gathered there
+            st.fluid.permute(zorder_permutation(to_host(st.fluid["x"]), st.h))
         # the last step's lists go before the search builds the new ones (a lower peak)
         st.nl_ff = NeighborList.empty(0)
+        x = st.fluid["x"]
         if self._verlet is not None:  # configuration.neighbor_skin: lists reused across steps
-            st.nl_ff = self._verlet.lists(st.fluid["x"], st.h, st.periodic, rebuild=reordered)
+            st.nl_ff = self._verlet.lists(x, st.h, st.periodic, rebuild=reordered)
+        elif on_device(x):  # the hashed grid's passes as kernel bodies, where the fluid is
+            if self._grid is None:  # centred on the first step's fluid
+                self._grid = HashGrid(st.dim, st.h, hash_origin(to_host(x).mean(1), st.h), "cuda")
+            self._grid.build(x)
+            st.nl_ff = self._grid.query(x, exclude_self=True)
         else:
             st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic)
         self.boundary_model.update(st)
@@ -394,14 +424,15 @@ class Simulation:
             dt, lands = (land_at - self.time) / parts, parts == 1
         self.rigid.begin_step(st)  # this step's body frames
         self.pressure.pre_forces(st, dt)  # DFSPH: factors and the divergence-free solve
-        f["a"][:] = st.gravity[:, None]  # non-pressure forces
+        arrays.fill_rows(f["a"], st.gravity)  # non-pressure forces
         for force in self.forces:
             force.apply(st, dt)
         for solid in self.solids:  # elasticity of the solid materials
             solid.apply(st, dt)
         st.coupling.predict(st, dt)  # yielding bodies take their non-pressure velocity change
         ps = self.pressure.solve(st, dt)  # pressure
-        self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))  # its push on bodies
+        if self.rigid.bodies:  # the fluid's push on the bodies
+            self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))
         st.pair_grads = None  # positions change: the cache is stale
         symplectic_euler(f["x"], f["v"], f["a"], dt)  # integrate
         for solid in self.solids:  # pinned solid particles stay at rest
@@ -491,7 +522,7 @@ class Simulation:
         cfg = self.scene.configuration
         x = self.state.fluid["x"]
         what = advice = ""
-        if bad or not np.all(np.isfinite(x)):
+        if bad or nonfinite_count(x):
             what = f"{bad} particle(s) with NaN/inf velocity or position"
         elif s.max_velocity > cfg.max_velocity:
             what = (f"max velocity {s.max_velocity:.4g} m/s exceeds the limit "
@@ -550,6 +581,7 @@ class Simulation:
                 self.compute_density()
             self._frame = 0
             if on_frame:
+                self.host()
                 on_frame(self, 0)
         while self.time < until - 1e-12:
             stats = (self.step(min((self._frame + 1) / fps, until)) if exact_frames
@@ -561,6 +593,7 @@ class Simulation:
                 # the frames a long step passes over are skipped, not written all at once
                 self._frame = max(self._frame + 1, math.floor((self.time + 1e-9) * fps))
                 if on_frame:
+                    self.host()
                     on_frame(self, self._frame)
             if after_step is not None and after_step(self):
                 return False

@@ -5,14 +5,16 @@ imported only when a launch asks for it)."""
 from sphkit.backend.launch import (
     DEVICES,
     cuda_available,
+    device_of,
     empty,
     exclusive_scan,
     histogram,
     launch,
     launch_reduce,
+    on_device,
     to_device,
     to_host,
 )
 
-__all__ = ["DEVICES", "cuda_available", "empty", "exclusive_scan", "histogram", "launch",
-           "launch_reduce", "to_device", "to_host"]
+__all__ = ["DEVICES", "cuda_available", "device_of", "empty", "exclusive_scan", "histogram",
+           "launch", "launch_reduce", "on_device", "to_device", "to_host"]

@@ -30,11 +30,13 @@ from typing import Any
 
 import numba
 import numpy as np
-from numba import cuda
+from numba import config, cuda
 from numba.core.registry import CPUDispatcher
 
-#: threads per block (a power of two: the block reduction halves it)
-THREADS = 128
+#: threads per block (a power of two: the block reduction halves it). The simulator runs every
+#: thread of a block as a Python thread (about 0.5 ms each to start), so there a block has 16:
+#: a launch over a few dozen particles then starts a few dozen threads, not 128
+THREADS = 16 if config.ENABLE_CUDASIM else 128
 
 _device_functions: dict[Any, Any] = {}
 _kernels: dict[tuple[Any, int, bool], Any] = {}

@@ -28,7 +28,11 @@ the flags travel with it (the passes over cached pair values use
 
 Running it
 ----------
-``launch(body, n, *args, device="cpu")`` runs ``body(i, *args)`` for ``i = 0 .. n-1``:
+``launch(body, n, *args, device=None)`` runs ``body(i, *args)`` for ``i = 0 .. n-1`` on the
+device its arrays are on (:func:`device_of`: ``"cuda"`` as soon as one argument is a CUDA device
+array, else ``"cpu"``; a ``device`` given explicitly overrides it), so the code around a launch
+is the same for both devices: the data decide where it runs (DESIGN.md: the state stays on the
+device between steps, in the same ParticleSet fields):
 
 * ``device="cpu"`` (default): a ``numba.prange`` loop over i that calls the body. The loop (the
   *driver*) is generated once per body and number of arguments, with explicit parameters, and
@@ -160,9 +164,25 @@ def _check(device: str) -> None:
         raise ValueError(f"device: {device!r}; expected one of {', '.join(DEVICES)}")
 
 
-def launch(body: Any, n: int, *args: Any, device: str = "cpu") -> None:
-    """Run ``body(i, *args)`` for ``i`` in ``range(n)`` on ``device`` ("cpu" or "cuda"); see the
-    module docstring."""
+def on_device(a: Any) -> bool:
+    """Whether ``a`` is a CUDA device array (numba.cuda's, or the simulator's)."""
+    return hasattr(a, "copy_to_host")
+
+
+def device_of(*arrays: Any) -> str:
+    """``"cuda"`` when one of ``arrays`` is a device array, else ``"cpu"``: the device a launch
+    over them runs on."""
+    for a in arrays:
+        if hasattr(a, "copy_to_host"):
+            return "cuda"
+    return "cpu"
+
+
+def launch(body: Any, n: int, *args: Any, device: str | None = None) -> None:
+    """Run ``body(i, *args)`` for ``i`` in ``range(n)`` on ``device`` ("cpu" or "cuda"; None:
+    where the arrays are, :func:`device_of`); see the module docstring."""
+    if device is None:
+        device = device_of(*args)
     _check(device)
     if device == "cpu":
         cpu_driver(body, len(args), "each")(n, *args)
@@ -172,10 +192,13 @@ def launch(body: Any, n: int, *args: Any, device: str = "cpu") -> None:
         cuda.launch(body, n, args)
 
 
-def launch_reduce(body: Any, n: int, *args: Any, device: str = "cpu") -> tuple[float, float]:
-    """Run the value-returning ``body(i, *args)`` for ``i`` in ``range(n)`` on ``device`` and
-    return ``(sum, max)`` of its values (the maximum is 0 when there are none); see the module
-    docstring."""
+def launch_reduce(body: Any, n: int, *args: Any,
+                  device: str | None = None) -> tuple[float, float]:
+    """Run the value-returning ``body(i, *args)`` for ``i`` in ``range(n)`` on ``device`` (None:
+    where the arrays are) and return ``(sum, max)`` of its values (the maximum is 0 when there
+    are none); see the module docstring."""
+    if device is None:
+        device = device_of(*args)
     _check(device)
     if device == "cpu":
         tot, mx = cpu_driver(body, len(args), "sum_max")(n, *args)

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sphkit.backend import on_device, to_device, to_host
+from sphkit.core.hashgrid import HashGrid, hash_origin
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryModel
 from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists
@@ -82,6 +84,7 @@ class Akinci2012(BoundaryModel):
 
     def __init__(self) -> None:
         self.grid: Grid | None = None
+        self._hashed: HashGrid | None = None  # the walls' grid on a device (static walls)
 
     def init(self, state: SimState) -> None:
         """Compute the boundary volumes V_b and the boundary grid (static boundary)."""
@@ -97,6 +100,7 @@ class Akinci2012(BoundaryModel):
         """Rebuild the boundary grid after boundary particles moved (rigid bodies)."""
         bd = state.boundary
         self.grid = Grid(bd["x"], state.h) if bd.n else None
+        self._hashed = None
 
     def inside(self, state: SimState) -> tuple[np.ndarray, list[str]]:
         """Fluid particles closer than r to a boundary particle (their discs or spheres of
@@ -117,8 +121,21 @@ class Akinci2012(BoundaryModel):
         return out, names
 
     def update(self, state: SimState) -> None:
-        """Fluid-boundary neighbour lists for the current fluid positions."""
+        """Fluid-boundary neighbour lists for the current fluid positions (on a device: the
+        hashed grid's kernel bodies, :class:`sphkit.core.hashgrid.HashGrid`, of the walls
+        built there once; the lists hold the same pairs in another order)."""
+        x = state.fluid["x"]
         if self.grid is None:
             state.nl_fb = NeighborList.empty(state.fluid.n)
+            if on_device(x):
+                state.nl_fb = NeighborList(*(to_device(a, "cuda") for a in (
+                    state.nl_fb.offsets, state.nl_fb.indices)))
+        elif on_device(x):
+            if self._hashed is None:  # once: the walls are static (a copy back for the centre)
+                bx = to_host(state.boundary["x"])
+                origin = hash_origin(0.5 * (bx.min(axis=1) + bx.max(axis=1)), state.h)
+                self._hashed = HashGrid(state.dim, state.h, origin, "cuda")
+                self._hashed.build(state.boundary["x"])
+            state.nl_fb = self._hashed.query(x)
         else:
-            state.nl_fb = self.grid.query(state.fluid["x"], period=state.periodic)
+            state.nl_fb = self.grid.query(x, period=state.periodic)

@@ -37,6 +37,9 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
+from sphkit.backend import device_of
+from sphkit.core import arrays
+
 if TYPE_CHECKING:
     from sphkit.core.krylov import KrylovStats
     from sphkit.core.neighbors import NeighborList
@@ -374,7 +377,7 @@ class BoundaryCoupling:
         by 5-10 %."""
         b = state.boundary
         if self.symmetric:  # the symmetric term (see below)
-            return np.zeros(b.n, dtype=b.dtype)
+            return arrays.zeros(b.n, b.dtype, like=b["x"])
         m = self._mirror_field(state)
         if self.solved:  # the static walls' own pressure k_b instead (solved_walls)
             return np.where(self.solved_walls(state), 0.0, m).astype(b.dtype)
@@ -387,7 +390,7 @@ class BoundaryCoupling:
         b = state.boundary
         if "pressure_mirror" in b.specs and b["pressure_mirror"].shape[0] == b.n:
             return b["pressure_mirror"]
-        return np.zeros(b.n, dtype=b.dtype)
+        return arrays.zeros(b.n, b.dtype, like=b["x"])
 
     def boundary_kappa(self, state: SimState) -> BoundaryKappa:
         """The extrapolation ``k -> k_b`` of this step's pressure fields (see
@@ -453,8 +456,9 @@ class BoundaryCoupling:
         if self.yields:
             return self.moving.response(k, gwb)
         x = state.boundary["x"]
-        if self._still.shape != x.shape or self._still.dtype != x.dtype:
-            self._still = np.zeros_like(x)
+        if (self._still.shape != x.shape or self._still.dtype != x.dtype
+                or device_of(self._still) != device_of(x)):
+            self._still = arrays.zeros(x.shape, x.dtype, like=x)
         return self._still
 
     def take_impulse(self, state: SimState, k: np.ndarray, gwb: np.ndarray, dt: float) -> None:
@@ -484,7 +488,7 @@ class BoundaryKappa:
     def __init__(self, model: BoundaryPressure | None, state: SimState) -> None:
         self.model = model
         n = state.boundary.n if model is not None else 0
-        self.kb = np.zeros(n, dtype=state.fluid.dtype)
+        self.kb = arrays.zeros(n, state.fluid.dtype, like=state.fluid["x"])
 
     def __call__(self, k: np.ndarray) -> np.ndarray:
         """``k_b`` for the fluid field k."""

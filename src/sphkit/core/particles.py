@@ -10,6 +10,11 @@ Storage grows by capacity doubling: each field lives in a flat buffer of ``capac
 and ``ps[name]`` is a C-contiguous view of its first ``n`` (a (dim, n) view for vectors), so that
 appending particles every few steps (emitters) reallocates only when the capacity is exceeded.
 The views are replaced when particles are added: take ``ps[name]`` again after :meth:`add`.
+
+Device residency (:meth:`to`): on a GPU every field of the set is a device array in the same
+``fields`` (the time step's kernel bodies run where their arrays are, :mod:`sphkit.backend`);
+:meth:`to` ``("cpu")`` copies them back into the host buffers. Adding, resizing, compacting and
+checkpoint state need the set on the host.
 """
 
 from __future__ import annotations
@@ -17,6 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from sphkit.backend import to_device, to_host
+from sphkit.core import arrays
 
 
 @dataclass
@@ -61,6 +69,7 @@ class ParticleSet:
         self.fields: dict[str, np.ndarray] = {}
         self._buffers: dict[str, np.ndarray] = {}
         self.objects: list[ObjectRange] = []
+        self.device = "cpu"  #: where the fields are ("cpu", or "cuda": device arrays)
         self.register("x", "vector")
         self.register("id", "scalar", np.int64)
 
@@ -80,7 +89,30 @@ class ParticleSet:
         self.specs[name] = FieldSpec(name, kind, dt, fill)
         self._buffers[name] = np.full(self._width(kind) * self.capacity, fill, dtype=dt)
         self._view(name)
+        if self.device != "cpu":
+            self.fields[name] = to_device(self.fields[name], self.device)
         return self.fields[name]
+
+    def to(self, device: str) -> None:
+        """Make ``device`` ("cpu" or "cuda") hold the fields: copies every field there (device
+        arrays replace the host views in :attr:`fields`), or back into the host buffers."""
+        if device == self.device:
+            return
+        if device == "cpu":
+            for name in self.specs:
+                dev = self.fields[name]
+                self._view(name)
+                if self.n:
+                    self.fields[name][...] = to_host(dev)
+        else:
+            for name in self.specs:
+                self.fields[name] = to_device(self.fields[name], device)
+        self.device = device
+
+    def _on_host(self, what: str) -> None:
+        if self.device != "cpu":
+            raise RuntimeError(f"ParticleSet.{what}: the fields are on the device "
+                               f"{self.device!r}; move them to the host first (to('cpu'))")
 
     def _width(self, kind: str) -> int:
         return self.dim if kind == "vector" else 3 if kind == "vector3" else 1
@@ -127,7 +159,10 @@ class ParticleSet:
     def __setitem__(self, name: str, value: np.ndarray) -> None:
         if name not in self.specs:
             raise KeyError(f"field {name} is not registered")
-        self.fields[name][...] = value
+        if self.device != "cpu" and np.isscalar(value):
+            arrays.fill(self.fields[name], value)  # on the device, without a host array
+        else:
+            self.fields[name][...] = value
 
     def __contains__(self, name: str) -> bool:
         return name in self.fields
@@ -146,6 +181,7 @@ class ParticleSet:
         doubling (see the module docstring). Adds under the name of the last object, directly
         after it, extend its range instead of opening a new one (an emitter's layers).
         """
+        self._on_host("add")
         x = np.asarray(x, dtype=self.dtype)
         if x.ndim != 2 or x.shape[1] != self.dim:
             raise ValueError(f"{name}: positions of shape {x.shape}; expected (M, {self.dim})")
@@ -178,6 +214,7 @@ class ParticleSet:
         """Set the number of particles to ``n``, every field reallocated and zeroed (for sets
         rebuilt each step, such as the virtual boundary particles of density and volume maps;
         object ranges are cleared)."""
+        self._on_host("resize")
         n = int(n)
         if n < 0:
             raise ValueError(f"resize: {n} particles; expected a count >= 0")
@@ -195,6 +232,7 @@ class ParticleSet:
         particles it keeps (empty objects dropped). For a world being built (fluid removed from
         inside walls, :mod:`sphkit.world.startup`): ids are renumbered, so do not use it on a
         set whose ids have been written out."""
+        self._on_host("compact")
         keep = np.asarray(keep, dtype=bool)
         if keep.shape != (self.n,):
             raise ValueError(f"compact: mask of shape {keep.shape}; expected ({self.n},)")
@@ -231,7 +269,13 @@ class ParticleSet:
         return np.searchsorted(starts, ids, side="right") - 1
 
     def permute(self, perm: np.ndarray) -> None:
-        """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles."""
+        """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles.
+        On the device the fields are gathered there (``perm`` is copied to it)."""
+        if self.device != "cpu":
+            p = to_device(np.ascontiguousarray(perm, dtype=np.int64), self.device)
+            for fname in self.specs:
+                self.fields[fname] = arrays.gathered(self.fields[fname], p)
+            return
         for fname, spec in self.specs.items():
             a = self.fields[fname]
             a[...] = a[perm] if spec.kind == "scalar" else a[:, perm]
@@ -253,12 +297,14 @@ class ParticleSet:
                       for k, s in self.specs.items()},
             "objects": [[o.name, o.start, o.end] for o in self.objects],
         }
+        self._on_host("state")
         return meta, {k: self.fields[k].copy() for k in self.specs}
 
     def set_state(self, meta: dict, arrays: dict[str, np.ndarray]) -> None:
         """Replace every field, ids and object ranges by a :meth:`state` (fields the state has
         and this set lacks are registered; a field this set has and the state lacks is an error:
         the state was written by another configuration)."""
+        self._on_host("set_state")
         if int(meta["dim"]) != self.dim:
             raise ValueError(f"particle state of dimension {meta['dim']}; expected {self.dim}")
         missing = sorted(set(self.specs) - set(meta["specs"]))

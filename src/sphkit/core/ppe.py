@@ -60,6 +60,7 @@ import numba
 import numpy as np
 
 from sphkit.backend import launch, launch_reduce
+from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.pairs import (
     displaced_delta,
@@ -168,6 +169,21 @@ def neighbor_counts(off: np.ndarray, boff: np.ndarray) -> np.ndarray:
     return np.diff(off) + np.diff(boff)
 
 
+@numba.njit(cache=True, inline="always")
+def surrounded_body(i, off, boff, least, out):
+    """``out[i]``: particle i has at least ``least`` fluid plus boundary neighbours."""
+    out[i] = (off[i + 1] - off[i]) + (boff[i + 1] - boff[i]) >= least
+
+
+def surrounded(off: np.ndarray, boff: np.ndarray, least: int) -> np.ndarray:
+    """Which fluid particles have at least ``least`` neighbours (fluid plus boundary; bool (N,),
+    where the lists are)."""
+    n = off.shape[0] - 1
+    out = arrays.empty(n, np.bool_, like=off)
+    launch(surrounded_body, n, off, boff, int(least), out)
+    return out
+
+
 @numba.njit(parallel=True, **_JIT)
 def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb, L=0.0):
     """gw[:, k] = V_j grad W_ij for the k-th fluid pair, gwb[:, k] = V_b grad W_ib (``L`` > 0:
@@ -226,9 +242,9 @@ def density_pair_gradients(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: n
     through :func:`sphkit.backend.launch`."""
     n = x.shape[1]
     if V is None:
-        V = m * (1.0 / float(rho0))
+        V = arrays.scaled(m, 1.0 / float(rho0))
     if c is None:
-        c = np.ones(n, dtype=rho.dtype)
+        c = arrays.full(n, 1.0, rho.dtype, like=rho)
     launch(density_pair_gradients_body, n, x, m, off, idx, bx, bV, boff, bidx,
            float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, float(L), V, c)
 
@@ -277,7 +293,7 @@ def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.n
     None: one fluid. The pass is :func:`kappa_accel_body` through
     :func:`sphkit.backend.launch`."""
     if inv_c is None:
-        inv_c = np.ones(k.shape[0], dtype=a.dtype)
+        inv_c = arrays.full(k.shape[0], 1.0, a.dtype, like=a)
     launch(kappa_accel_body, k.shape[0], k, kb, off, idx, boff, bidx, bmirror, gw, gwb, int(dim),
            a, inv_c)
 
@@ -298,8 +314,8 @@ def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror
     within 0.1 s in a 2D column of rest densities 1000 and 100)."""
     n = off.shape[0] - 1
     if idx is None or c is None or inv_c is None:
-        ones = np.ones(n, dtype=out.dtype)
-        idx, c, inv_c = np.zeros(0, dtype=np.int32) if idx is None else idx, ones, ones
+        ones = arrays.full(n, 1.0, out.dtype, like=out)
+        idx, c, inv_c = arrays.zeros(0, np.int32, like=out) if idx is None else idx, ones, ones
         weighted = False
     else:
         weighted = True

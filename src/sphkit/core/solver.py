@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sphkit.core import arrays
 from sphkit.core.ppe import (
     density_pair_gradients,
     diagonal_cached,
@@ -151,8 +152,9 @@ class PairGradients:
         volumes ``V0`` (ICSPH's current volumes ``m_j / rho_j``); not with ``with_density``."""
         f, b = state.fluid, state.boundary
         nl, nb = state.nl_ff, state.nl_fb
-        self.gw = np.empty((state.dim, nl.indices.shape[0]), dtype=f.dtype)
-        self.gwb = np.empty((state.dim, nb.indices.shape[0]), dtype=f.dtype)
+        x = f["x"]
+        self.gw = arrays.empty((state.dim, nl.indices.shape[0]), f.dtype, like=x)
+        self.gwb = arrays.empty((state.dim, nb.indices.shape[0]), f.dtype, like=x)
         if with_density:
             rest = state.rest()
             density_pair_gradients(f["x"], rest.mu, nl.offsets, nl.indices, b["x"], b["V"],
@@ -176,7 +178,7 @@ class PairGradients:
         """``D_i`` of :func:`sphkit.core.ppe.diagonal_cached` (DFSPH's 1/alpha, IISPH's
         -a_ii rho^2); ``mirror_shift`` is added to the mirror weights (ICSPH's psi - 1)."""
         st = self.state
-        out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
+        out = arrays.empty(st.fluid.n, st.fluid.dtype, like=self.gw)
         rest = st.rest()
         mirror = st.coupling.mirror(st, diagonal=True)
         if mirror_shift:
@@ -212,7 +214,7 @@ class PairGradients:
     def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
         """``D rho_hat / Dt`` of the velocities v (boundary velocities from the state)."""
         st = self.state
-        out = np.empty(st.fluid.n, dtype=st.fluid.dtype)
+        out = arrays.empty(st.fluid.n, st.fluid.dtype, like=v)
         pair_divergence_cached(v, st.boundary["v"], st.nl_ff.offsets, st.nl_ff.indices,
                                st.nl_fb.offsets, st.nl_fb.indices, self.gw, self.gwb, st.dim,
                                out)
@@ -259,15 +261,15 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     nl, nb = state.nl_ff, state.nl_fb
     g = PairGradients(state) if grads is None else grads
     dim = state.dim
-    a = np.empty_like(x)
+    a = arrays.empty_like(x)
     coupling = state.coupling
 
     # several fluids: the weighted variable carries the rest-density ratio c (the neighbour
     # weight rho0_j / rho0_i of the pressure sums, sphkit.core.state.RestArrays); c = 1 for one
     rest = state.rest()
     if not rest.uniform:
-        w = w * rest.c
-    k = w * q  # the weighted variable; jacobi_sweep keeps it up to date
+        w = arrays.multiplied(w, rest.c)
+    k = arrays.multiplied(w, q)  # the weighted variable; jacobi_sweep keeps it up to date
     if mirror is None:
         mirror = coupling.mirror(state)
     kb = coupling.boundary_kappa(state)
@@ -290,7 +292,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     lo = 0.0 if clamp else -1e300
 
     def own(k: np.ndarray) -> np.ndarray:  # k of each particle's own rest density
-        return k if rest.uniform else k * rest.inv_c
+        return k if rest.uniform else arrays.multiplied(k, rest.inv_c)
 
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,

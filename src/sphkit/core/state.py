@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sphkit.core import arrays
 from sphkit.core.methods import BoundaryCoupling
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.particles import ParticleSet
@@ -49,21 +50,21 @@ class RestArrays:
     @cached_property
     def V(self) -> np.ndarray:  # noqa: N802 - the rest volume, as the formulas name it
         """``m_i * (1 / rho0_i)``: the rest volume [m^dim] (N,), computed when first asked."""
-        return self.m * (1.0 / self.rho0)
+        return arrays.multiplied(self.m, arrays.reciprocal(self.rho0))
 
     @staticmethod
     def of(fluid: ParticleSet, rho0_ref: float) -> RestArrays:
-        """The arrays of a fluid set (fields ``rho0`` and ``m``)."""
+        """The arrays of a fluid set (fields ``rho0`` and ``m``), on the set's device."""
         rho0 = fluid["rho0"]
         ref = fluid.dtype.type(rho0_ref)
-        uniform = bool(np.all(rho0 == ref))
+        uniform = not arrays.any_differs(rho0, float(ref))
         if uniform:
-            c = np.ones(fluid.n, dtype=fluid.dtype)
+            c = arrays.full(fluid.n, 1.0, fluid.dtype, like=rho0)
             mu = fluid["m"]
         else:
-            c = rho0 / ref
-            mu = fluid["m"] / c
-        inv_c = c if uniform else 1.0 / c
+            c = arrays.divided(rho0, float(ref))
+            mu = arrays.divided_by(fluid["m"], c)
+        inv_c = c if uniform else arrays.reciprocal(c)
         return RestArrays(c=c, inv_c=inv_c, mu=mu, rho0=rho0, m=fluid["m"], uniform=uniform)
 
 
@@ -101,11 +102,24 @@ class SimState:
     #: how the boundary reaches the pressure solvers: mirror weights, the boundary pressure of
     #: a boundary pressure model (MLS), the response of moving bodies (strong coupling)
     coupling: BoundaryCoupling = field(default_factory=BoundaryCoupling)
+    _rest: tuple | None = field(default=None, repr=False)  # this step's RestArrays on a device
 
     def rest(self) -> RestArrays:
         """The fluid's rest quantities per particle (:class:`RestArrays`) from its fields
-        ``rho0`` and ``m``, relative to the reference :attr:`rho0`."""
-        return RestArrays.of(self.fluid, self.rho0)
+        ``rho0`` and ``m``, relative to the reference :attr:`rho0`. On a device they are made
+        once per step (and set of fields): the test of uniformity reads a scalar back."""
+        f = self.fluid
+        if f.device == "cpu":
+            return RestArrays.of(f, self.rho0)
+        key = (self.step, f.n, id(f["rho0"]), id(f["m"]))
+        if self._rest is None or self._rest[0] != key:
+            self._rest = (key, RestArrays.of(f, self.rho0))
+        return self._rest[1]
+
+    @property
+    def device(self) -> str:
+        """Where the fluid's fields are ("cpu" or "cuda"): the step's passes run there."""
+        return self.fluid.device
 
     @property
     def periodic(self) -> tuple[float, float] | None:

@@ -62,7 +62,7 @@ def finite_speed2_body(i, v, dim):
     s = 0.0
     for d in range(dim):
         s += v[d, i] * v[d, i]
-    return s if np.isfinite(s) else 0.0
+    return s if math.isfinite(s) else 0.0
 
 
 @numba.njit(cache=True, inline="always")
@@ -71,7 +71,7 @@ def nonfinite_body(i, v, dim):
     s = 0.0
     for d in range(dim):
         s += v[d, i] * v[d, i]
-    return 0.0 if np.isfinite(s) else 1.0
+    return 0.0 if math.isfinite(s) else 1.0
 
 
 def max_speed(v: np.ndarray, a: np.ndarray | None = None, dt: float = 0.0) -> float:
@@ -91,18 +91,25 @@ def speed_check(v: np.ndarray) -> tuple[float, int]:
     return math.sqrt(m), int(bad)
 
 
-@numba.njit(parallel=True, cache=True)
-def _outside(x, lo, hi):
-    n = x.shape[1]
-    dim = x.shape[0]
-    count = 0
-    for i in numba.prange(n):
-        out = 0
-        for d in range(dim):
-            if x[d, i] < lo[d] or x[d, i] > hi[d]:
-                out = 1
-        count += out
-    return count
+@numba.njit(cache=True, inline="always")
+def outside_body(i, x, dim, lo0, lo1, lo2, hi0, hi1, hi2):
+    """1 where point i of x lies outside the box ``[lo, hi]`` (bounds may be infinite: no fast
+    math), else 0."""
+    out = x[0, i] < lo0 or x[0, i] > hi0
+    if dim > 1:
+        out = out or x[1, i] < lo1 or x[1, i] > hi1
+    if dim > 2:
+        out = out or x[2, i] < lo2 or x[2, i] > hi2
+    return 1.0 if out else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def nonfinite_point_body(i, x, dim):
+    """1 where a coordinate of point i is NaN or infinite, else 0 (no fast math)."""
+    for d in range(dim):
+        if not math.isfinite(x[d, i]):
+            return 1.0
+    return 0.0
 
 
 def outside_count(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
@@ -110,7 +117,17 @@ def outside_count(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
     infinite)."""
     if x.shape[1] == 0:
         return 0
-    return int(_outside(x, np.asarray(lo, np.float64), np.asarray(hi, np.float64)))
+    b = [float(t) for t in lo] + [0.0] * 3
+    t = [float(u) for u in hi] + [0.0] * 3
+    return int(launch_reduce(outside_body, x.shape[1], x, x.shape[0], b[0], b[1], b[2], t[0],
+                             t[1], t[2])[0])
+
+
+def nonfinite_count(x: np.ndarray) -> int:
+    """The number of points of ``x`` ((dim, N)) with a NaN or infinite coordinate."""
+    if x.shape[1] == 0:
+        return 0
+    return int(launch_reduce(nonfinite_point_body, x.shape[1], x, x.shape[0])[0])
 
 
 def cfl_time_step(vmax: float, r: float, factor: float, dt_min: float, dt_max: float) -> float:

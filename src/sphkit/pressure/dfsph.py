@@ -61,8 +61,9 @@ import numba
 import numpy as np
 
 from sphkit.backend import launch
+from sphkit.core import arrays
 from sphkit.core.methods import BoundaryReaction, PressureSolver
-from sphkit.core.ppe import neighbor_counts
+from sphkit.core.ppe import surrounded
 from sphkit.core.solver import IterationControl, PairGradients, SolverStats, jacobi_ppe
 from sphkit.core.state import SimState
 
@@ -95,6 +96,14 @@ def divergence_source_body(i, div, active, dt, kprev, inv_c, s, kappa):
     else:
         s[i] = 0.0
         kappa[i] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def pressure_body(i, kappa, kappa_v, with_v, rho, rho0, p):
+    """The reported pressure ``p_i = (kappa_i + kappa^v_i) rho_i^2 / rho0_i`` (``with_v``
+    False: kappa alone; no fast math: NumPy's operations in NumPy's order)."""
+    t = kappa[i] + kappa_v[i] if with_v else kappa[i]
+    p[i] = t * (rho[i] * rho[i]) / rho0[i]
 
 
 #: Jacobi relaxation of both solves: SPlisHSPlasH's ``p_rho2_i = max(p_rho2_i - 0.5 (s_i -
@@ -152,22 +161,22 @@ class DFSPH(PressureSolver):
         if not self.divergence_solver:
             return
         div = self._grads.velocity_divergence(f["v"])
-        active = neighbor_counts(state.nl_ff.offsets, state.nl_fb.offsets) >= (
-            20 if state.dim == 3 else 7)
-        s = np.empty_like(div)
-        kappa = np.empty_like(div)
+        active = surrounded(state.nl_ff.offsets, state.nl_fb.offsets,
+                            20 if state.dim == 3 else 7)
+        s = arrays.empty_like(div)
+        kappa = arrays.empty_like(div)
         launch(divergence_source_body, f.n, div, active, dt, f["dfsph_kappa_v"],
                state.rest().inv_c, s, kappa)
-        ones = np.ones_like(div)
+        ones = arrays.full(f.n, 1.0, div.dtype, like=div)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
-                                           alpha / dt, dt, OMEGA, active, error_factor=dt,
-                                           grads=self._grads,
+                                           arrays.divided(alpha, dt), dt, OMEGA, active,
+                                           error_factor=dt, grads=self._grads,
                                            **self._grads.wall_args(f["v"], 1.0, "dfsph_v", dt))
-        f["v"] += dt * a
+        arrays.axpy(f["v"], dt, a)
         # strong coupling: a boundary that yielded to kappa^v in the solve takes its velocity
         # change too, so that the density solve sees the bodies as the fluid does
         state.coupling.take_impulse(state, kappa, self._grads.gwb, dt)
-        f["dfsph_kappa_v"] = kappa * dt
+        arrays.scaled(kappa, dt, out=f["dfsph_kappa_v"])
         self._kappa_v = kappa
         self._div_stats = (its, avg)
 
@@ -177,24 +186,25 @@ class DFSPH(PressureSolver):
         alpha = f["dfsph_alpha"]
         if self._grads is None:  # solve() without pre_forces(): build this step's cache
             self.pre_forces(state, dt)
-        v_star = f["v"] + dt * f["a"]
+        v_star = arrays.axpy_into(f["v"], dt, f["a"])
         div = self._grads.velocity_divergence(v_star)
-        s = np.empty_like(div)
-        kappa = np.empty_like(div)
-        launch(density_source_body, f.n, f["rho"], 1.0 / f["rho0"], div, dt, f["dfsph_kappa"],
-               state.rest().inv_c, s, kappa)
-        ones = np.ones_like(div)
-        active = np.ones(f.n, dtype=np.bool_)
+        s = arrays.empty_like(div)
+        kappa = arrays.empty_like(div)
+        launch(density_source_body, f.n, f["rho"], arrays.reciprocal(f["rho0"]), div, dt,
+               f["dfsph_kappa"], state.rest().inv_c, s, kappa)
+        ones = arrays.full(f.n, 1.0, div.dtype, like=div)
+        active = arrays.full(f.n, True, np.bool_, like=div)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
-                                         alpha / (dt * dt), dt * dt, OMEGA, active,
+                                         arrays.divided(alpha, dt * dt), dt * dt, OMEGA, active,
                                          grads=self._grads,
                                          **self._grads.wall_args(v_star, dt, "dfsph", dt * dt))
         self._grads = None
-        f["a"] += a
-        f["dfsph_kappa"] = kappa * (dt * dt)
+        arrays.axpy(f["a"], 1.0, a)
+        arrays.scaled(kappa, dt * dt, out=f["dfsph_kappa"])
         # both solves apply pressure impulses in this step: the pressure is their sum
-        total = kappa if self._kappa_v is None else kappa + self._kappa_v
-        f["p"] = total * f["rho"] ** 2 / f["rho0"]
+        with_v = self._kappa_v is not None
+        launch(pressure_body, f.n, kappa, self._kappa_v if with_v else kappa, with_v, f["rho"],
+               f["rho0"], f["p"])
         its_v, err_v = self._div_stats
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            divergence_iterations=its_v, divergence_error=err_v, converged=ok)

@@ -298,26 +298,51 @@ def methods_in_use(scene: Scene) -> list[tuple[str, str, str]]:
     return [(f, role, name) for f, role, name in used if name not in (None, "none")]
 
 
+def device_features(scene: Scene) -> list[str]:
+    """The scene's fields that the step on a device does not run yet (empty: none), each as
+    ``field value`` or ``field (what)``."""
+    cfg = scene.configuration
+    out = []
+    if cfg.precision != "float64":
+        out.append(f"configuration.precision {cfg.precision!r}")
+    if cfg.periodic_x is not None:
+        out.append("configuration.periodic_x (periodic)")
+    if cfg.neighbor_skin > 0.0:
+        out.append("configuration.neighbor_skin (Verlet lists)")
+    if cfg.boundary.solved:
+        out.append("configuration.boundary.solved (solved walls)")
+    if len(scene.materials) > 1:
+        out.append("materials (several fluids)")
+    out += [f"emitters[{k}]" for k in range(len(scene.emitters))]
+    out += [f"animation_fields[{k}]" for k in range(len(scene.animation_fields))]
+    out += [f"joints[{k}]" for k in range(len(scene.joints))]
+    out += [f"meshes[{k}] (moving body)" for k, m in enumerate(scene.meshes)
+            if m.dynamic or m.velocity is not None or m.angular_velocity is not None]
+    return out
+
+
 def check_device(scene: Scene, device: str, gpu_found: Callable[[], bool]) -> str:
     """The device the scene runs on for the asked ``device`` (one of
     :data:`sphkit.registry.DEVICE_CHOICES`).
 
-    ``cuda`` needs a GPU (``gpu_found()``) and every method in use to have the registry's
-    ``gpu`` capability; a method without it is named in the error (no silent CPU fallback in
-    the step). ``auto`` is ``cuda`` where both hold, else ``cpu``; ``gpu_found`` is asked only
-    once every method runs on the GPU (it imports numba.cuda)."""
+    ``cuda`` needs a GPU (``gpu_found()``), every method in use to have the registry's
+    ``gpu`` capability and none of the scene features that the device step lacks
+    (:func:`device_features`); each that is missing is named in the error (no silent CPU
+    fallback in the step). ``auto`` is ``cuda`` where all hold, else ``cpu``; ``gpu_found`` is
+    asked only once the whole step runs on the GPU (it imports numba.cuda)."""
     if device not in registry.DEVICE_CHOICES:
         raise SceneError(f"device: {device!r}; expected one of "
                          f"{', '.join(registry.DEVICE_CHOICES)}")
     if device == "cpu":
         return "cpu"
     cpu_only = [f"{field} {name!r}" for field, role, name in methods_in_use(scene)
-                if not registry.get(role, name).has("gpu")]
+                if not registry.get(role, name).has("gpu")] + device_features(scene)
     if device == "auto":
         return "cuda" if not cpu_only and gpu_found() else "cpu"
     if cpu_only:
-        raise SceneError("device 'cuda': the time step of these methods does not run on the GPU "
-                         f"yet: {', '.join(cpu_only)}; expected device 'cpu' (or 'auto')")
+        raise SceneError("device 'cuda': the time step of these methods and features does not "
+                         f"run on the GPU yet: {', '.join(cpu_only)}; expected device 'cpu' "
+                         "(or 'auto')")
     if not gpu_found():
         raise SceneError("device 'cuda': no CUDA GPU found (numba.cuda.is_available() is False); "
                          "expected device 'cpu' (or 'auto')")

@@ -1,0 +1,222 @@
+"""Element-wise passes over particle arrays as kernel bodies: the glue of a time step (fills,
+copies, ``y += a x``, products and quotients of fields, gathers) written once for the CPU and
+the GPU (:func:`sphkit.backend.launch` runs them where their arrays are).
+
+The bodies are compiled *without* fast math: each does exactly the IEEE operations NumPy's
+element-wise expression of the same formula does, in the same order (``v + dt * a`` is one
+product and one sum, both rounded, never a fused multiply-add; ``x / d`` a true division, never
+a product with a reciprocal), so replacing a NumPy expression by its body leaves the CPU's
+results unchanged to the last bit. A scalar factor is passed in the array's own precision, as
+NumPy casts a Python float for a float32 array, so float32 fields are computed in float32 as
+there. (On a GPU the compiler may still fuse a product and a sum:
+results agree with the CPU's to rounding.)
+
+The allocating helpers (:func:`empty`, :func:`zeros`, :func:`full`) put the array on the device
+of ``like`` (NumPy's own functions on the CPU).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numba
+import numpy as np
+
+from sphkit.backend import device_of, launch, launch_reduce, on_device, to_host
+from sphkit.backend import empty as backend_empty
+
+#: the passes and helpers, and where arrays are (the step reaches the backend through core)
+__all__ = ["any_differs", "axpy", "axpy_into", "axpy_rows_body", "axpy_rows_into_body",
+           "differs_body", "divide_body", "divided", "divided_by", "empty", "empty_like", "fill",
+           "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body", "gather_rows_body",
+           "gathered", "multiplied", "multiply_body", "on_device", "quotient_body", "reciprocal",
+           "reciprocal_body", "scale_body", "scaled", "to_host", "zeros"]
+
+_BODY = dict(cache=True, inline="always")
+
+
+@numba.njit(**_BODY)
+def fill_body(i, out, value):
+    """``out[i] = value``."""
+    out[i] = value
+
+
+@numba.njit(**_BODY)
+def fill_rows_body(i, out, v0, v1, v2, dim):
+    """``out[:, i] = (v0, v1, v2)[:dim]`` (gravity into the accelerations)."""
+    out[0, i] = v0
+    if dim > 1:
+        out[1, i] = v1
+    if dim > 2:
+        out[2, i] = v2
+
+
+@numba.njit(**_BODY)
+def axpy_rows_body(i, y, alpha, x, dim):
+    """``y[:, i] += alpha * x[:, i]``."""
+    for d in range(dim):
+        y[d, i] += alpha * x[d, i]
+
+
+@numba.njit(**_BODY)
+def axpy_rows_into_body(i, y, alpha, x, out, dim):
+    """``out[:, i] = y[:, i] + alpha * x[:, i]``."""
+    for d in range(dim):
+        out[d, i] = y[d, i] + alpha * x[d, i]
+
+
+@numba.njit(**_BODY)
+def scale_body(i, x, alpha, out):
+    """``out[i] = x[i] * alpha``."""
+    out[i] = x[i] * alpha
+
+
+@numba.njit(**_BODY)
+def divide_body(i, x, d, out):
+    """``out[i] = x[i] / d``."""
+    out[i] = x[i] / d
+
+
+@numba.njit(**_BODY)
+def multiply_body(i, x, y, out):
+    """``out[i] = x[i] * y[i]``."""
+    out[i] = x[i] * y[i]
+
+
+@numba.njit(**_BODY)
+def reciprocal_body(i, x, out):
+    """``out[i] = 1 / x[i]``."""
+    out[i] = 1.0 / x[i]
+
+
+@numba.njit(**_BODY)
+def differs_body(i, x, value):
+    """1 where ``x[i] != value``, else 0 (reduced: does any entry differ)."""
+    return 1.0 if x[i] != value else 0.0
+
+
+@numba.njit(**_BODY)
+def gather_body(i, src, perm, out):
+    """``out[i] = src[perm[i]]``."""
+    out[i] = src[perm[i]]
+
+
+@numba.njit(**_BODY)
+def gather_rows_body(i, src, perm, out, rows):
+    """``out[:, i] = src[:, perm[i]]``."""
+    j = perm[i]
+    for d in range(rows):
+        out[d, i] = src[d, j]
+
+
+def empty(shape: int | tuple[int, ...], dtype: Any, like: Any) -> Any:
+    """An uninitialised array on the device of ``like`` (an empty one on the GPU too)."""
+    dev = device_of(like)
+    if dev == "cpu":
+        return np.empty(shape, dtype=dtype)
+    shape = (shape,) if isinstance(shape, int | np.integer) else tuple(shape)
+    if 0 in shape:  # a zero-size allocation on the device: slice one of a single entry
+        one = backend_empty(tuple(max(s, 1) for s in shape), dtype, dev)
+        return one[tuple(slice(0, s) for s in shape)]
+    return backend_empty(shape, dtype, dev)
+
+
+def empty_like(a: Any) -> Any:
+    """An uninitialised array of ``a``'s shape and dtype, where ``a`` is."""
+    return empty(a.shape, a.dtype, a)
+
+
+def fill(a: Any, value: float) -> None:
+    """Every entry of the C-contiguous ``a`` (on either device) set to ``value``."""
+    if a.size:
+        launch(fill_body, a.size, a.reshape(a.size), value)
+
+
+def full(shape: int | tuple[int, ...], value: float, dtype: Any, like: Any) -> Any:
+    """An array of ``value`` on the device of ``like`` (``np.full`` on the CPU)."""
+    if device_of(like) == "cpu":
+        return np.full(shape, value, dtype=dtype)
+    out = empty(shape, dtype, like)
+    fill(out, value)
+    return out
+
+
+def zeros(shape: int | tuple[int, ...], dtype: Any, like: Any) -> Any:
+    """Zeros on the device of ``like``."""
+    return full(shape, 0, dtype, like)
+
+
+def fill_rows(a: Any, values: np.ndarray) -> None:
+    """``a[:, i] = values`` for every column of ``a`` (dim, N)."""
+    v = [float(t) for t in values] + [0.0] * (3 - len(values))
+    launch(fill_rows_body, a.shape[1], a, v[0], v[1], v[2], a.shape[0])
+
+
+def axpy(y: Any, alpha: float, x: Any) -> None:
+    """``y += alpha * x`` for (dim, N) arrays (``y += x`` with alpha 1, exactly)."""
+    launch(axpy_rows_body, y.shape[1], y, y.dtype.type(alpha), x, y.shape[0])
+
+
+def axpy_into(y: Any, alpha: float, x: Any) -> Any:
+    """A new (dim, N) array ``y + alpha * x``."""
+    out = empty_like(y)
+    launch(axpy_rows_into_body, y.shape[1], y, y.dtype.type(alpha), x, out, y.shape[0])
+    return out
+
+
+def scaled(x: Any, alpha: float, out: Any = None) -> Any:
+    """``x * alpha`` (N,) into ``out`` (new when None)."""
+    out = empty_like(x) if out is None else out
+    launch(scale_body, x.shape[0], x, x.dtype.type(alpha), out)
+    return out
+
+
+def divided(x: Any, d: float) -> Any:
+    """A new (N,) array ``x / d``."""
+    out = empty_like(x)
+    launch(divide_body, x.shape[0], x, x.dtype.type(d), out)
+    return out
+
+
+def multiplied(x: Any, y: Any) -> Any:
+    """A new (N,) array ``x * y``."""
+    out = empty_like(x)
+    launch(multiply_body, x.shape[0], x, y, out)
+    return out
+
+
+def reciprocal(x: Any) -> Any:
+    """A new (N,) array ``1 / x``."""
+    out = empty_like(x)
+    launch(reciprocal_body, x.shape[0], x, out)
+    return out
+
+
+def any_differs(x: Any, value: float) -> bool:
+    """Whether an entry of the (N,) array ``x`` differs from ``value`` (one scalar read back
+    from the device)."""
+    return launch_reduce(differs_body, x.shape[0], x, value)[1] > 0.0
+
+
+def gathered(a: Any, perm: Any) -> Any:
+    """A new array of ``a`` (N,) or (rows, N) with its columns taken at ``perm`` (N,)."""
+    out = empty_like(a)
+    n = perm.shape[0]
+    if a.ndim == 1:
+        launch(gather_body, n, a, perm, out)
+    else:
+        launch(gather_rows_body, n, a, perm, out, a.shape[0])
+    return out
+
+
+@numba.njit(**_BODY)
+def quotient_body(i, x, y, out):
+    """``out[i] = x[i] / y[i]``."""
+    out[i] = x[i] / y[i]
+
+
+def divided_by(x: Any, y: Any) -> Any:
+    """A new (N,) array ``x / y`` (element-wise)."""
+    out = empty_like(x)
+    launch(quotient_body, x.shape[0], x, y, out)
+    return out
