@@ -9,6 +9,7 @@ would be shot off the walls.
 
 from __future__ import annotations
 
+import json
 import logging
 from functools import cache
 
@@ -165,6 +166,16 @@ def test_iteration_limit_is_a_logged_warning(caplog: pytest.LogCaptureFixture) -
     msgs = [r.getMessage() for r in caplog.records]
     assert any("no convergence in 1 iterations at step" in m for m in msgs), msgs
     assert not sim.last_solver.converged
+    # DFSPH's step bound (its module docstring, "Time step"; the rule itself is tested with
+    # IISPH below): the unconverged solve set it to 0.8 of its step, and it goes through a
+    # checkpoint (exact: a float product and a JSON round trip)
+    from sphkit.pressure.dfsph import DFSPH, DT_FLOOR
+
+    bound = sim.pressure.step_bound.value
+    assert bound == max(0.8 * sim.dt, DT_FLOOR), (bound, sim.dt)
+    t = DFSPH()
+    t.restore_checkpoint_state(json.loads(json.dumps(sim.pressure.checkpoint_state())))
+    assert t.step_bound.value == bound
 
 
 def test_iisph_step_bound_rule_and_checkpoint() -> None:
@@ -174,8 +185,6 @@ def test_iisph_step_bound_rule_and_checkpoint() -> None:
     unchanged after a converged but hard one; never below the floor (the default dt_min);
     dropped above 1 s; the same through a JSON checkpoint round trip. Exact comparisons: the
     rule is a few float products."""
-    import json
-
     from sphkit.pressure.iisph import DT_FLOOR, IISPH
 
     def restored(s: IISPH) -> IISPH:

@@ -243,6 +243,18 @@ def _pack(xb, Vb, vb, mbody, fid, off, bx, bV, bv, bbody, bid, idx):
 
 
 @numba.njit(parallel=True, **_JIT)
+def _pack_share(Vb, share, off, out):
+    """``share`` (k, N) packed as :func:`_pack` packs the virtual particles."""
+    k, n = Vb.shape
+    for i in numba.prange(n):
+        q = off[i]
+        for m in range(k):
+            if Vb[m, i] > 0.0:
+                out[q] = share[m, i]
+                q += 1
+
+
+@numba.njit(parallel=True, **_JIT)
 def _inside(x, phi, lo, cell, res, dim, extend_axis, top, m, out):
     """``out[i] = m`` where point i of x lies on the grid with map distance ``phi <= 0``."""
     for i in numba.prange(x.shape[1]):
@@ -432,7 +444,13 @@ class MapBoundaryModel(BoundaryModel):
             if "rigid_body" in bd.fields:
                 bd.fields["rigid_body"][...] = bbody
             if self.hydrostatic and "pressure_mirror" in bd.fields:
-                bd.fields["pressure_mirror"][...] = np.where(bbody == 0, 1.0, 0.0)
+                share = self._mirror_shares(state, f["x"], Vb)
+                if share is not None:  # the method's mirrored share per virtual particle
+                    packed = np.empty(bV.shape[0])
+                    _pack_share(Vb, share, nl.offsets, packed)
+                    share = packed
+                bd.fields["pressure_mirror"][...] = np.where(
+                    bbody == 0, 1.0 if share is None else share, 0.0)
         state.nl_fb = nl
 
     def boundary_at(self, state: SimState, dx: np.ndarray
@@ -523,6 +541,13 @@ class MapBoundaryModel(BoundaryModel):
                                        state.dim, ax, top, state.h, state.kid, g[0], g[1], g[2],
                                        xb[m], Vb[m], f["a"]))
         return n
+
+    def _mirror_shares(self, state: SimState, x: np.ndarray, Vb: np.ndarray
+                       ) -> np.ndarray | None:
+        """With :attr:`hydrostatic`: the mirrored share ``m_b`` in [0, 1] of each static map's
+        virtual particle (k, N) for the fluid at x (dim, N), or None for 1 everywhere (density
+        maps: their virtual particle gives the map's own density gradient)."""
+        return None
 
     def _solid_weight(self, state: SimState) -> tuple[Callable[[float], float], float, float,
                                                        float]:

@@ -32,7 +32,9 @@ precomputed on one more map field with the method's own solid weight (:func:`mom
 ``-(T (I - n n) + N n n) g / rho_hat_i`` is added with the non-pressure forces
 (:class:`WallMomentForce`), before the pressure solve. Measured (2D, same tank): the wall
 column's excess drops to about +8 % (density maps) and -4 % (volume maps). Moving bodies' maps
-keep SPlisHSPlasH's term (their wall acceleration would enter ``p_b``).
+keep SPlisHSPlasH's term (their wall acceleration would enter ``p_b``). The mirrored share may
+be less than 1 where a method's virtual particle overstates the map's own density gradient
+(volume maps at edges and corners, ``MapBoundaryModel._mirror_shares``).
 
 :class:`sphkit.boundary.maps.MapBoundaryModel` builds the normal moment map of each static
 geometry with :func:`moment_nodes` (``init``) and adds the moment term with

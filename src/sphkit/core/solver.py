@@ -137,6 +137,28 @@ class StepBound:
         self.value = math.inf if b is None else float(b)
 
 
+
+class StepBounded:
+    """The pressure-solver hooks of a solver that holds a :class:`StepBound` in
+    ``self.step_bound`` (PCISPH, IISPH, DFSPH): the bound as the solver's largest time step,
+    kept in checkpoints. Put it before the solver's role in the bases."""
+
+    step_bound: StepBound
+
+    def max_time_step(self, state: SimState) -> float:
+        """The adaptive bound [s] (inf: none; see :class:`StepBound`)."""
+        return self.step_bound.value
+
+    def checkpoint_state(self) -> dict:
+        """The adaptive step bound, for checkpoints (JSON-ready; None for no bound)."""
+        return self.step_bound.checkpoint_state()
+
+    def restore_checkpoint_state(self, state: dict) -> None:
+        """Take the bound back from :meth:`checkpoint_state` (no bound when absent: checkpoints
+        written before the bound existed)."""
+        self.step_bound.restore(state)
+
+
 class PairGradients:
     """``V_j grad W_ij`` for every fluid and boundary pair of the current neighbour lists,
     computed once per step and shared by all Jacobi iterations of the step.

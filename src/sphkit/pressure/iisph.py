@@ -51,6 +51,7 @@ from sphkit.core.solver import (
     PairGradients,
     SolverStats,
     StepBound,
+    StepBounded,
     jacobi_ppe,
 )
 from sphkit.core.state import SimState
@@ -71,7 +72,7 @@ def _setup(rho, inv_rho0, div, D, dt, tiny, s, w, scale):
         scale[i] = rh * rh / (D[i] * dt * dt) if D[i] > tiny else 0.0
 
 
-class IISPH(PressureSolver):
+class IISPH(StepBounded, PressureSolver):
     """Implicit incompressible SPH with relaxed Jacobi (omega = 0.5) and warm start."""
 
     uses_pair_gradients = True  #: the simulation computes them with the densities
@@ -95,20 +96,6 @@ class IISPH(PressureSolver):
     def init(self, state: SimState) -> None:
         """Register the pressure field (p [Pa]; the warm start reads it back)."""
         state.fluid.register("p")
-
-    def max_time_step(self, state: SimState) -> float:
-        """The adaptive bound: none until a solve stops at ``max_iterations`` above the
-        tolerance, then 0.8 times that step, raised by 2 % per solve that converges within half
-        of them (see the module docstring, "Time step")."""
-        return self.step_bound.value
-
-    def checkpoint_state(self) -> dict:
-        """The adaptive step bound, for checkpoints (JSON-ready; None for no bound)."""
-        return self.step_bound.checkpoint_state()
-
-    def restore_checkpoint_state(self, state: dict) -> None:
-        """Take the bound back from :meth:`checkpoint_state` (no bound when absent)."""
-        self.step_bound.restore(state)
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Pressure solve on v_adv = v + dt a; adds the pressure acceleration to a."""

@@ -104,7 +104,7 @@ import numpy as np
 
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import density_at, diagonal_cached, kappa_accel_cached, lattice_diagonal
-from sphkit.core.solver import IterationControl, PairGradients, SolverStats, StepBound
+from sphkit.core.solver import IterationControl, PairGradients, SolverStats, StepBound, StepBounded
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -231,7 +231,7 @@ def diagonal_cap(state: SimState, g: PairGradients, d0: float) -> np.ndarray | N
     return out if _cap(d, CAP * d0, out) else None
 
 
-class PCISPH(PressureSolver):
+class PCISPH(StepBounded, PressureSolver):
     """Predictive-corrective incompressible SPH with SPlisHSPlasH's template scaling factor."""
 
     uses_pair_gradients = True  #: the simulation computes them with the densities
@@ -264,21 +264,6 @@ class PCISPH(PressureSolver):
         if V > 0:
             self.d0 = lattice_diagonal(2.0 * state.r, state.h, state.kid, state.dim, V)
             self.delta = 0.5 / self.d0
-
-    def max_time_step(self, state: SimState) -> float:
-        """The adaptive bound: halved after a solve that stopped at ``max_iterations`` above the
-        tolerance, raised by 10 % per step after solves that converged within half of them (see
-        the module docstring, "Time step")."""
-        return self.step_bound.value
-
-    def checkpoint_state(self) -> dict:
-        """The adaptive step bound, for checkpoints (JSON-ready; None for no bound)."""
-        return self.step_bound.checkpoint_state()
-
-    def restore_checkpoint_state(self, state: dict) -> None:
-        """Take the bound back from :meth:`checkpoint_state` (no bound when absent: checkpoints
-        written before the bound existed)."""
-        self.step_bound.restore(state)
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Predict-correct loop on the current non-pressure accelerations; adds a_p to a."""
