@@ -98,7 +98,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     run.add_argument("--precision", choices=("float64", "float32"),
                      help="floating-point type of the particle fields and the cached pair "
                           "values (default: the scene's configuration.precision, float64); "
-                          "float32 halves their memory")
+                          "float32 halves their memory (also on --device cuda)")
     run.add_argument("--device", choices=DEVICE_CHOICES, default="auto",
                      help="where the time step runs: cpu, cuda (refused, naming the methods, "
                           "while a method of the scene does not run on the GPU; today none "

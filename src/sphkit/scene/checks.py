@@ -303,8 +303,6 @@ def device_features(scene: Scene) -> list[str]:
     ``field value`` or ``field (what)``."""
     cfg = scene.configuration
     out = []
-    if cfg.precision != "float64":
-        out.append(f"configuration.precision {cfg.precision!r}")
     if cfg.periodic_x is not None:
         out.append("configuration.periodic_x (periodic)")
     if cfg.neighbor_skin > 0.0:
