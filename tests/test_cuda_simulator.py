@@ -10,11 +10,11 @@ neighbour search whose passes are bodies (:class:`sphkit.core.hashgrid.HashGrid`
 and the histogram of the counting sort; in 2D) against the CPU grid's lists, and one whole DFSPH
 time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
 viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on
-the device, in float64 and in float32 (against the CPU's float64 step). Each kernel launch
-under the simulator starts a Python thread per particle, so the cases are as small as their
-checks allow. Where a CUDA GPU is present the same script also runs on it (skipped otherwise,
-e.g. in CI). The subprocess also checks that importing sphkit and running on the CPU does not
-import numba.cuda.
+the device, in float64 and in float32 (the device's default; against the CPU's float64
+step). Each kernel launch under the simulator starts a Python thread per particle, so the
+cases are as small as their checks allow. Where a CUDA GPU is present the same script also runs
+on it (skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and
+running on the CPU does not import numba.cuda.
 """
 
 from __future__ import annotations
@@ -230,11 +230,13 @@ SCRIPT = textwrap.dedent(
 
     res = {}
     for device in ("cpu", "cuda", "cuda32"):
-        scene["configuration"]["precision"] = "float32" if device == "cuda32" else "float64"
+        scene["configuration"]["precision"] = "float64"
+        if device == "cuda32":  # unset: float32, the default on the device
+            del scene["configuration"]["precision"]
         sim = Simulation(Scene.model_validate(scene), device=device[:4])
         if device == "cuda32":  # float32 on the device against the CPU's float64
             f = sim.fluid
-            assert f["x"].dtype == np.float32
+            assert f["x"].dtype == np.float32 and sim.scene.configuration.precision == "float32"
             sim.step()
             assert sim._grid.sorted_x.dtype == np.float32
             f = sim.fluid
