@@ -64,7 +64,6 @@ from sphkit.core.timestep import (
     wrap_periodic,
 )
 from sphkit.core.verlet import VerletLists
-from sphkit.scene.checks import device_precision
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world, resolve_device
 from sphkit.world.settle import SettlePlan
@@ -126,17 +125,10 @@ class Simulation:
         (:mod:`sphkit.world.settle`; ``configuration.start.settle``). ``device``: ``auto``,
         ``cpu`` or ``cuda`` (:func:`sphkit.world.resolve_device`: ``cuda`` is refused,
         naming the methods, while a method of the scene does not run on the GPU; ``auto`` then
-        runs on the CPU); the device it runs on is :attr:`device`. A scene that does not set
-        ``configuration.precision`` runs in float32 on the GPU, float64 on the CPU
-        (:func:`sphkit.scene.checks.device_precision`)."""
+        runs on the CPU); the device it runs on is :attr:`device`."""
         #: the device the time step runs on ("cpu" or "cuda")
         self.device = resolve_device(scene.scene if isinstance(scene, World) else scene, device)
-        if not isinstance(scene, World):  # float32 by default on the GPU (a copy of the scene)
-            precision = device_precision(scene, self.device)
-            if precision != scene.configuration.precision:
-                scene = scene.model_copy(deep=True)
-                scene.configuration.precision = precision
-        world = scene if isinstance(scene, World) else build_world(scene)
+        world = scene if isinstance(scene, World) else build_world(scene, self.device)
         self.world = world
         self.scene = world.scene
         self.dim = world.state.dim
