@@ -10,10 +10,11 @@ neighbour search whose passes are bodies (:class:`sphkit.core.hashgrid.HashGrid`
 and the histogram of the counting sort; in 2D) against the CPU grid's lists, and one whole DFSPH
 time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
 viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on
-the device. Each kernel launch under the simulator starts a Python thread per particle, so the
-cases are as small as their checks allow. Where a CUDA GPU is
-present the same script also runs on it (skipped otherwise, e.g. in CI). The subprocess also
-checks that importing sphkit and running on the CPU does not import numba.cuda.
+the device, in float64 and in float32 (the device's default; against the CPU's float64
+step). Each kernel launch under the simulator starts a Python thread per particle, so the
+cases are as small as their checks allow. Where a CUDA GPU is present the same script also runs
+on it (skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and
+running on the CPU does not import numba.cuda.
 """
 
 from __future__ import annotations
@@ -228,8 +229,22 @@ SCRIPT = textwrap.dedent(
         return host_copy(a, *args, **kw)
 
     res = {}
-    for device in ("cpu", "cuda"):
-        sim = Simulation(Scene.model_validate(scene), device=device)
+    for device in ("cpu", "cuda", "cuda32"):
+        scene["configuration"]["precision"] = "float64"
+        if device == "cuda32":  # unset: float32, the default on the device
+            del scene["configuration"]["precision"]
+        sim = Simulation(Scene.model_validate(scene), device=device[:4])
+        if device == "cuda32":  # float32 on the device against the CPU's float64
+            f = sim.fluid
+            assert f["x"].dtype == np.float32 and sim.scene.configuration.precision == "float32"
+            sim.step()
+            assert sim._grid.sorted_x.dtype == np.float32
+            f = sim.fluid
+            o = f.order_by_id()
+            e = rel(f["rho"][o], res["cpu"][0]["rho"])
+            assert e <= 1e-5, ("float32 step", "rho", e)
+            print("float32 step ok", e, [rel(f[k][..., o], res["cpu"][0][k]) for k in "xvp"])
+            continue
         Device.copy_to_host = counted
         st = sim.step()
         Device.copy_to_host = host_copy
@@ -267,7 +282,15 @@ def test_bodies_match_cpu_under_cuda_simulator() -> None:
     (1e-16 measured); the pressure solves divide that by their source ``1 - rho_hat - dt div``,
     a difference of nearly equal numbers, which amplifies it: measured 6e-16 for velocities and
     4e-16 for pressures of the thrown 8-particle block, 3e-14 for a thrown 27-particle block,
-    3e-12 for a 48-particle block at rest (sources of 1e-4), which is why the scene throws it."""
+    3e-12 for a 48-particle block at rest (sources of 1e-4), which is why the scene throws it.
+
+    The float32 step on the device against the CPU's float64 step: densities to 1e-5 relative
+    (the issue's bound). Positions and masses are stored in float32 (rounding 6e-8 relative),
+    the pair terms are computed from them (in float64 where a float64 scalar such as h, or a
+    kernel constant, enters, as on the CPU) and the density is stored in float32, so it carries
+    a few float32 roundings (7e-8 measured); the bound leaves room for a denser neighbourhood and
+    for the solver's pressures feeding back into the positions, which are not compared (2e-6
+    for v and p measured: the pressure solve amplifies the density's rounding, see above)."""
     _run_script(dict(os.environ, NUMBA_ENABLE_CUDASIM="1"))
 
 
@@ -282,7 +305,7 @@ def _run_script(env: dict) -> None:
     assert res.returncode == 0, res.stdout + res.stderr
     assert "dim 2 ok" in res.stdout and "dim 3 ok" in res.stdout
     assert "hash grid 2 ok" in res.stdout
-    assert "step ok" in res.stdout
+    assert "step ok" in res.stdout and "float32 step ok" in res.stdout
 
 
 def _cuda_gpu() -> bool:

@@ -65,8 +65,8 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
     on the CPU without probing for a GPU, and an unknown device names the choices. DFSPH with
     Akinci walls, mirrored boundary pressure and the standard viscosity is accepted (the whole
     step on the device: tests/test_cuda_simulator.py), unless a feature of the scene that the
-    device step lacks (an emitter, float32) is named. (The manifest's record of the device:
-    tests/test_cli.py's tiny run.)"""
+    device step lacks (an emitter) is named; float32 is accepted (and the default there). (The
+    manifest's record of the device: tests/test_cli.py's tiny run.)"""
     from sphkit.cli import main
     from sphkit.scene.checks import check_device, methods_in_use
     from sphkit.scene.files import load_scene
@@ -96,8 +96,19 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
     with pytest.raises(SceneError, match="configuration.boundary.pressure 'mls'"):
         check_device(scene, "cuda", lambda: True)
     cfg.boundary.pressure, cfg.precision = "mirror", "float32"
+    assert check_device(scene, "cuda", lambda: True) == "cuda"  # float32 runs there too
+    # the precision of a run: the scene's where it sets one, else float32 on the GPU only
+    from sphkit.scene.checks import device_precision
+    from sphkit.scene.schema import Scene
+
+    unset = Scene.model_validate({})
+    assert device_precision(unset, "cuda") == "float32"
+    assert device_precision(unset, "cpu") == "float64"
+    assert device_precision(Scene.model_validate({"configuration": {"precision": "float64"}}),
+                            "cuda") == "float64"
+    assert device_precision(scene, "cpu") == "float32"
     scene.emitters.append(Emitter(position=[0.3, 0.4], width=0.12))
-    with pytest.raises(SceneError, match=r"precision 'float32', emitters\[0\]"):
+    with pytest.raises(SceneError, match=r"GPU yet: emitters\[0\]; expected"):
         check_device(scene, "cuda", lambda: True)
     assert main(["run", "dambreak-2d", "--device", "cuda", "--quiet",
                  "--out", str(tmp_path / "refused")]) == 2

@@ -128,7 +128,7 @@ class Simulation:
         runs on the CPU); the device it runs on is :attr:`device`."""
         #: the device the time step runs on ("cpu" or "cuda")
         self.device = resolve_device(scene.scene if isinstance(scene, World) else scene, device)
-        world = scene if isinstance(scene, World) else build_world(scene)
+        world = scene if isinstance(scene, World) else build_world(scene, self.device)
         self.world = world
         self.scene = world.scene
         self.dim = world.state.dim

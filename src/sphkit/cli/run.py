@@ -97,8 +97,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                           f"configuration.max_particles, {MAX_PARTICLES:,})")
     run.add_argument("--precision", choices=("float64", "float32"),
                      help="floating-point type of the particle fields and the cached pair "
-                          "values (default: the scene's configuration.precision, float64); "
-                          "float32 halves their memory")
+                          "values (default: the scene's configuration.precision; unset: float32 "
+                          "on the GPU, float64 on the CPU); "
+                          "float32 halves their memory (also on --device cuda)")
     run.add_argument("--device", choices=DEVICE_CHOICES, default="auto",
                      help="where the time step runs: cpu, cuda (refused, naming the methods, "
                           "while a method of the scene does not run on the GPU; today none "
@@ -213,7 +214,7 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
     except KeyboardInterrupt:
         error("interrupted while building the simulation")
         return EXIT_INTERRUPTED
-    return scene, sim
+    return sim.scene, sim  # the scene as run (its precision resolved for the device)
 
 
 def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:

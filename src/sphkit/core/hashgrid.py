@@ -102,12 +102,13 @@ class HashGrid:
         self._origin = to_device(self.origin, device)
         self._rows = None
         self.n = -1
+        self.sorted_x = None
 
     def build(self, x) -> None:
         """Sort the points ``x`` (dim, N), an array on the grid's device, into the grid."""
         n = x.shape[1]
         dev = self.device
-        if n != self.n:
+        if n != self.n or self.sorted_x.dtype != x.dtype:
             size = 1
             while size < 2 * max(n, 1):
                 size *= 2
@@ -119,7 +120,7 @@ class HashGrid:
             self.bucket_start = empty(size + 1, np.int64, dev)
             self.sorted_index = empty(n, np.int32, dev)
             self.sorted_key = empty(n, np.int64, dev)
-            self.sorted_x = empty((3, n), np.float64, dev)
+            self.sorted_x = empty((3, n), x.dtype, dev)  # the positions' precision (as Grid)
         launch(cell_key_body, n, x, self.dim, 1.0 / self.h, self._origin, self.mask, self.keys,
                self.buckets, device=dev)
         histogram(self.buckets, self.counts, self.rank, device=dev)

@@ -303,8 +303,6 @@ def device_features(scene: Scene) -> list[str]:
     ``field value`` or ``field (what)``."""
     cfg = scene.configuration
     out = []
-    if cfg.precision != "float64":
-        out.append(f"configuration.precision {cfg.precision!r}")
     if cfg.periodic_x is not None:
         out.append("configuration.periodic_x (periodic)")
     if cfg.neighbor_skin > 0.0:
@@ -347,3 +345,14 @@ def check_device(scene: Scene, device: str, gpu_found: Callable[[], bool]) -> st
         raise SceneError("device 'cuda': no CUDA GPU found (numba.cuda.is_available() is False); "
                          "expected device 'cpu' (or 'auto')")
     return "cuda"
+
+
+def device_precision(scene: Scene, device: str) -> str:
+    """The floating-point type of a run of ``scene`` on the resolved ``device`` ("cpu" or
+    "cuda"): ``configuration.precision`` where the scene (or ``--precision``) sets it, else
+    float32 on the GPU (half the memory traffic of the memory-bound step) and float64 on the
+    CPU."""
+    cfg = scene.configuration
+    if device == "cuda" and "precision" not in cfg.model_fields_set:
+        return "float32"
+    return cfg.precision

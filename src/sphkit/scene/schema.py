@@ -970,7 +970,8 @@ class Configuration(_Model):
     precision: Literal["float64", "float32"] = Field(
         "float64", description="floating-point type of the particle fields and of the cached "
         "pair values (pair gradients, MLS coefficients): float32 halves their memory (sphkit "
-        "run --precision); the accuracy of each is in validation/README.md, 'float32'")
+        "run --precision); unset, float32 on the GPU and float64 on the CPU; the accuracy of "
+        "each is in validation/README.md, 'float32'")
     time: TimeConfig = TimeConfig()
     pressure: PressureConfig = PressureConfig()
     boundary: BoundaryConfig = BoundaryConfig()

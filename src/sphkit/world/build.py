@@ -31,7 +31,7 @@ from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.geometry import GeometryError
 from sphkit.multiphase import PhaseForce
-from sphkit.scene.checks import check_budget, check_device, check_scene
+from sphkit.scene.checks import check_budget, check_device, check_scene, device_precision
 from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.animation import AnimationField
 from sphkit.world.bodies import rigid_bodies
@@ -199,9 +199,23 @@ def resolve_device(scene: Scene, device: str) -> str:
     return check_device(scene, device, cuda_available)
 
 
-def build_world(scene: Scene) -> World:
-    """Build the world of a scene (raises :class:`~sphkit.scene.schema.SceneError` naming the
-    field when the scene cannot be built)."""
+def scene_for_device(scene: Scene, device: str) -> Scene:
+    """``scene`` as it runs on the resolved ``device``: a copy in float32 on the GPU when it
+    leaves ``configuration.precision`` unset (:func:`sphkit.scene.checks.device_precision`),
+    else ``scene`` itself."""
+    precision = device_precision(scene, device)
+    if precision == scene.configuration.precision:
+        return scene
+    scene = scene.model_copy(deep=True)
+    scene.configuration.precision = precision
+    return scene
+
+
+def build_world(scene: Scene, device: str = "cpu") -> World:
+    """Build the world of a scene for the resolved ``device`` (its precision:
+    :func:`scene_for_device`; raises :class:`~sphkit.scene.schema.SceneError` naming the field
+    when the scene cannot be built)."""
+    scene = scene_for_device(scene, device)
     try:
         return _build(scene)
     except GeometryError as e:  # a mesh that cannot be loaded or sampled: the user's input
