@@ -12,9 +12,12 @@ from sphkit.simulation import Simulation
 R = 0.01  # particle radius [m]; h = 4R
 
 
-def _brute(xq: np.ndarray, xs: np.ndarray, h: float, L: float, self_set: bool) -> list[set]:
+def _brute(xq: np.ndarray, xs: np.ndarray, h: float, L: float, self_set: bool,
+           Ly: float = 0.0) -> list[set]:
     d = xq[:, :, None] - xs[:, None, :]
     d[0] -= L * np.round(d[0] / L)
+    if Ly > 0.0:
+        d[1] -= Ly * np.round(d[1] / Ly)
     r2 = (d * d).sum(axis=0)
     hit = r2 < h * h
     if self_set:
@@ -22,31 +25,38 @@ def _brute(xq: np.ndarray, xs: np.ndarray, h: float, L: float, self_set: bool) -
     return [set(np.flatnonzero(row)) for row in hit]
 
 
-@pytest.mark.parametrize("dim", [2, 3])
-def test_neighbor_lists_across_the_seam_equal_minimum_image_brute_force(dim: int) -> None:
-    """Random points in a periodic box (period 5h along x): the CSR lists of the self query and
-    of a query against another set equal the brute-force lists with minimum-image distances,
-    with no duplicates; many pairs cross the seam, so the wrap is exercised."""
+@pytest.mark.parametrize("dim, ly", [(2, 0.0), (3, 0.0), (2, 0.3)])
+def test_neighbor_lists_across_the_seam_equal_minimum_image_brute_force(dim: int,
+                                                                        ly: float) -> None:
+    """Random points in a periodic box (period 5h along x; with ``ly``, also 3h along y from
+    y = 0.1, so pairs cross both seams and the corners): the CSR lists of the self query and of
+    a query against another set equal the brute-force lists with minimum-image distances, with
+    no duplicates; many pairs cross the seam, so the wrap is exercised."""
     rng = np.random.default_rng(dim)
     h = 0.1
-    lo, L = -0.2, 0.5
+    lo, L, lo_y = -0.2, 0.5, 0.1
     n = 400 if dim == 2 else 900
     ext = np.array([L, 0.3, 0.3][:dim])
+    period = (lo, L) if ly == 0.0 else ((lo, L), (lo_y, ly))
     x = rng.uniform(0.0, 1.0, (dim, n)) * ext[:, None]
     x[0] += lo
-    nl = neighbor_lists(x, h, (lo, L))
-    ref = _brute(x, x, h, L, True)
+    x[1] += lo_y
+    nl = neighbor_lists(x, h, period)
+    ref = _brute(x, x, h, L, True, ly)
     crossing = 0
     for i in range(n):
         got = nl.neighbors(i)
         assert len(got) == len(set(got.tolist()))
         assert set(got.tolist()) == ref[i]
         crossing += int(np.sum(np.abs(x[0, got] - x[0, i]) > h))
+        if ly:
+            crossing += int(np.sum(np.abs(x[1, got] - x[1, i]) > h))
     assert crossing > 0.02 * sum(len(r) for r in ref)
     y = rng.uniform(0.0, 1.0, (dim, 300)) * ext[:, None]
     y[0] += lo
-    nq = Grid(x, h).query(y, period=(lo, L))
-    ref2 = _brute(y, x, h, L, False)
+    y[1] += lo_y
+    nq = Grid(x, h).query(y, period=period)
+    ref2 = _brute(y, x, h, L, False, ly)
     for i in range(y.shape[1]):
         assert sorted(nq.neighbors(i).tolist()) == sorted(ref2[i])
 

@@ -66,6 +66,7 @@ from sphkit.core.pairs import (
     displaced_point,
     distance,
     norm,
+    period_arg,
     point,
     separation,
     set_vector,
@@ -230,7 +231,7 @@ def density_pair_gradients(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: n
     if c is None:
         c = np.ones(n, dtype=rho.dtype)
     launch(density_pair_gradients_body, n, x, m, off, idx, bx, bV, boff, bidx,
-           float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, float(L), V, c)
+           float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, period_arg(L), V, c)
 
 
 @numba.njit(**_JIT_GATHER, inline="always")
