@@ -17,8 +17,8 @@ Adding a method: write its module (one paper per file), register it here with on
 Capabilities (keyword flags of :func:`register`):
 
 * ``periodic``: its pair loops take minimum-image distances (``configuration.periodic_x``);
-* ``periodic_y``: also along a periodic y (``configuration.periodic_y``): its pair loops take
-  the state's ``pair_period`` and it has been run on a doubly periodic flow;
+* ``periodic_y``: also along a periodic y (``configuration.periodic_y``): its pair loops are
+  passed the state's ``pair_period`` (validation/taylor_green.py);
 * ``dynamic_bodies``: a pressure solver whose pressure moves dynamic rigid bodies;
 * ``multiphase``: a pressure solver or boundary model that reads each particle's own rest
   density (several fluid materials in one scene, :mod:`sphkit.multiphase`); the non-pressure
