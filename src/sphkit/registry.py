@@ -17,6 +17,8 @@ Adding a method: write its module (one paper per file), register it here with on
 Capabilities (keyword flags of :func:`register`):
 
 * ``periodic``: its pair loops take minimum-image distances (``configuration.periodic_x``);
+* ``periodic_y``: also along a periodic y (``configuration.periodic_y``): its pair loops are
+  passed the state's ``pair_period`` (validation/taylor_green.py);
 * ``dynamic_bodies``: a pressure solver whose pressure moves dynamic rigid bodies;
 * ``multiphase``: a pressure solver or boundary model that reads each particle's own rest
   density (several fluid materials in one scene, :mod:`sphkit.multiphase`); the non-pressure
@@ -62,7 +64,8 @@ INTERFACE_ROLES: tuple[str, ...] = ("interface_viscosity", "interface_tension")
 #: elasticity is built and stepped apart from the fluid forces (``World.solids``)
 SOLID_ROLES: tuple[str, ...] = ("elasticity",)
 #: the capability flags a method may have
-CAPABILITIES: tuple[str, ...] = ("periodic", "dynamic_bodies", "multiphase", "gpu")
+CAPABILITIES: tuple[str, ...] = ("periodic", "periodic_y", "dynamic_bodies", "multiphase",
+                                  "gpu")
 #: the devices a simulation runs on (``Simulation(device=...)``, ``sphkit run --device``):
 #: ``auto`` takes the GPU when one is found and every method of the scene has ``gpu``
 DEVICE_CHOICES: tuple[str, ...] = ("auto", "cpu", "cuda")
@@ -114,7 +117,7 @@ _METHODS: dict[str, dict[str, Method]] = {role: {} for role in ROLES}
 
 
 def register(role: str, name: str, target: str | None, *, paper: str, summary: str,
-             splishsplash: int | None = None, periodic: bool = False,
+             splishsplash: int | None = None, periodic: bool = False, periodic_y: bool = False,
              dynamic_bodies: bool = False, multiphase: bool = False, gpu: bool = False,
              boundary: tuple[str, ...] = (), kind: str = "",
              boundary_pressure: str = "", boundary_pressure_moving: str = "") -> Method:
@@ -126,7 +129,8 @@ def register(role: str, name: str, target: str | None, *, paper: str, summary: s
     if splishsplash is not None and any(m.splishsplash == splishsplash
                                         for m in _METHODS[role].values()):
         raise ValueError(f"registry: {role} number {splishsplash} registered twice")
-    caps = frozenset(c for c, on in (("periodic", periodic), ("dynamic_bodies", dynamic_bodies),
+    caps = frozenset(c for c, on in (("periodic", periodic), ("periodic_y", periodic_y),
+                                     ("dynamic_bodies", dynamic_bodies),
                                      ("multiphase", multiphase), ("gpu", gpu)) if on)
     if role == "boundary" and not boundary_pressure:
         raise ValueError(f"registry: boundary model {name!r} names no default boundary_pressure")
@@ -183,7 +187,7 @@ def with_capability(role: str, capability: str) -> tuple[str, ...]:
 register("pressure", "wcsph", "sphkit.pressure.wcsph:WCSPH", splishsplash=0,
          paper="Becker & Teschner 2007, Weakly compressible SPH for free surface flows",
          summary="state equation (Tait or linear), symmetric pressure force",
-         periodic=True, dynamic_bodies=True, multiphase=True)
+         periodic=True, periodic_y=True, dynamic_bodies=True, multiphase=True)
 register("pressure", "pcisph", "sphkit.pressure.pcisph:PCISPH", splishsplash=1,
          paper="Solenthaler & Pajarola 2009, Predictive-corrective incompressible SPH",
          summary="predict-correct loop with a template scaling factor", dynamic_bodies=True,
@@ -198,7 +202,7 @@ register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
 register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
          paper="Bender & Koschier 2015/2017, Divergence-free SPH",
          summary="constant-density and divergence-free solvers with warm starts",
-         periodic=True, dynamic_bodies=True, multiphase=True, gpu=True)
+         periodic=True, periodic_y=True, dynamic_bodies=True, multiphase=True, gpu=True)
 register("pressure", "pf", "sphkit.pressure.pf:PF", splishsplash=5,
          paper="Weiler, Koschier & Bender 2016, Projective fluids",
          summary="projective dynamics: local density-constraint projections, global CG; "
@@ -238,12 +242,13 @@ register("boundary_pressure", "hydrostatic", None,
 # viscosity: SPlisHSPlasH viscosityMethod (XSPH is its separate per-material filter)
 register("viscosity", "standard", "sphkit.viscosity.standard:StandardViscosity",
          splishsplash=1, paper="Morris et al. 1997; Monaghan 2005 (vector Laplacian)",
-         summary="explicit Laplacian viscosity, kinematic nu", periodic=True, gpu=True)
+         summary="explicit Laplacian viscosity, kinematic nu", periodic=True, periodic_y=True,
+         gpu=True)
 register("viscosity", "xsph", "sphkit.viscosity.xsph:XSPH",
          paper="Monaghan 1989/1992, XSPH", summary="velocity smoothing")
 register("viscosity", "weiler2018", "sphkit.viscosity.weiler2018:Weiler2018", splishsplash=6,
          paper="Weiler et al. 2018, A physically consistent implicit viscosity solver for SPH",
-         summary="implicit, block-Jacobi CG, kinematic nu", periodic=True)
+         summary="implicit, block-Jacobi CG, kinematic nu", periodic=True, periodic_y=True)
 register("viscosity", "bender2017", "sphkit.viscosity.bender2017:Bender2017", splishsplash=2,
          paper="Bender & Koschier 2017, Divergence-free SPH for incompressible and viscous "
          "fluids", summary="implicit strain-rate constraints (Jacobi), factor", periodic=True)

@@ -383,7 +383,7 @@ class Simulation:
             rest = st.rest()
             density_cpu(f["x"], rest.mu, st.nl_ff.offsets, st.nl_ff.indices, b["x"], b["V"],
                         st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h, st.kid, st.dim,
-                        f["rho"], st.period, c=rest.c)
+                        f["rho"], st.pair_period, c=rest.c)
         st.coupling.prepare(st)  # a boundary pressure model's view of this step (MLS)
 
     def _time_step(self) -> float:
@@ -438,8 +438,8 @@ class Simulation:
         for solid in self.solids:  # pinned solid particles stay at rest
             solid.constrain(st)
         self.rigid.advance(st, dt, self.time)  # move the bodies (the boundary follows)
-        if st.period > 0.0:  # periodic domain along x
-            wrap_periodic(f["x"], st.period_lo, st.period)
+        for a, lo, L in st.periodic_axes:  # periodic domain along x (and y)
+            wrap_periodic(f["x"], lo, L, a)
         for em in self.emitters:
             em.animate(f, self.time + dt, dt)
         for an in self.world.animation_fields:  # regions imposing a field (SPlisHSPlasH's)

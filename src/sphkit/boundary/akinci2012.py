@@ -21,7 +21,7 @@ from sphkit.backend import on_device, to_device, to_host
 from sphkit.core.hashgrid import HashGrid, hash_origin
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryModel
-from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists
+from sphkit.core.neighbors import Grid, NeighborList, Period, neighbor_lists, pair_period
 from sphkit.core.pairs import distance, point
 from sphkit.core.state import SimState
 
@@ -55,7 +55,7 @@ def _nearest(x, off, idx, bx, dim, L, dist, near):
 
 
 def boundary_volumes(x: np.ndarray, h: float, kid: int, dim: int,
-                     period: tuple[float, float] | None = None,
+                     period: Period = None,
                      out: np.ndarray | None = None) -> np.ndarray:
     """The volumes of Eq. (4), ``V_b = 1 / sum_k W_bk``, of the boundary particles x (dim, N)
     among themselves (k over x, self included).
@@ -65,7 +65,8 @@ def boundary_volumes(x: np.ndarray, h: float, kid: int, dim: int,
         h: kernel support radius [m].
         kid: kernel id (:func:`sphkit.core.kernels.kernel_id`).
         dim: 2 or 3.
-        period: ``(lo, L)`` of a periodic x axis (minimum-image distances), or None.
+        period: the periodic axes (:meth:`sphkit.core.neighbors.Grid.query`: ``(lo, L)`` of
+            x, or one ``(lo, L)`` per axis; minimum-image distances), or None.
         out: (N,) array to write the volumes to; by default a new one of x's dtype.
 
     Returns:
@@ -73,7 +74,7 @@ def boundary_volumes(x: np.ndarray, h: float, kid: int, dim: int,
     """
     nl = neighbor_lists(x, h, period)
     V = np.empty(x.shape[1], dtype=x.dtype) if out is None else out
-    _volumes(x, nl.offsets, nl.indices, h, kid, dim, 0.0 if period is None else period[1], V)
+    _volumes(x, nl.offsets, nl.indices, h, kid, dim, pair_period(period), V)
     return V
 
 
@@ -113,7 +114,7 @@ class Akinci2012(BoundaryModel):
         nl = self.grid.query(f["x"], period=state.periodic)
         dist = np.empty(f.n, dtype=f.dtype)
         near = np.empty(f.n, dtype=np.int64)
-        _nearest(f["x"], nl.offsets, nl.indices, bd["x"], state.dim, state.period, dist, near)
+        _nearest(f["x"], nl.offsets, nl.indices, bd["x"], state.dim, state.pair_period, dist, near)
         hit = dist < state.r
         names = [o.name for o in bd.objects]
         if hit.any() and names:

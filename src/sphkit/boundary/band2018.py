@@ -234,7 +234,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.coef = np.empty(self.tfluid.shape[0], dtype=f.dtype)
         rho_hat = f["rho"] / f["rho0"]
         mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.use, state.h,
-                         state.kid, state.dim, state.period, self.ridge, self.coef)
+                         state.kid, state.dim, state.pair_period, self.ridge, self.coef)
 
     def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:
         """For a state-equation solver (WCSPH) whose boundary term mirrored ``p_b = p_i``:
@@ -247,7 +247,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
                          state.nl_fb.offsets,
                          state.nl_fb.indices, self.use, kb, state.h, state.kid, state.dim,
-                         state.period, a)
+                         state.pair_period, a)
 
     def extrapolate(self, k: np.ndarray, out: np.ndarray) -> None:
         """``out[b] = p_b / rho0`` of the fluid field k (see :func:`mls_extrapolate`)."""

@@ -46,6 +46,10 @@ _START = np.int32
 _BITS = 21
 _LIMIT = (1 << _BITS) - 2  # largest relative cell coordinate (one cell kept free on each side)
 
+#: the periodic axes of a search (:meth:`Grid.query`): None, ``(lo, L)`` of x, or ``(lo, L)``
+#: per axis from x on
+Period = tuple[float, float] | tuple[tuple[float, float], ...] | None
+
 
 @numba.njit(cache=True, inline="always")
 def _pack(ix, iy, iz):
@@ -405,13 +409,14 @@ class Grid:
                        self.sorted_key, self.sorted_x)
 
     def query(self, xq: np.ndarray, exclude_self: bool = False,
-              period: tuple[float, float] | None = None) -> NeighborList:
+              period: Period = None) -> NeighborList:
         """Neighbours (distance < h) in this grid's set of every column of ``xq`` (dim, M).
 
         ``exclude_self`` drops ``j == i``; use it when ``xq`` is the set the grid was built on.
         ``period = (lo, L)``: the domain is periodic along x with period L > 2h, all points
-        (grid and queries) lying in ``[lo, lo + L)``; neighbours are found by the minimum-image
-        distance (see :func:`_periodic_query`).
+        (grid and queries) lying in ``[lo, lo + L)``; ``period = ((lo_x, L_x), (lo_y, L_y))``:
+        periodic along x and y the same way (L = 0: that axis is not). Neighbours are found by
+        the minimum-image distance (see :func:`_periodic_query`).
         """
         if xq.shape[0] != self.dim:
             raise ValueError(f"query positions: dim {xq.shape[0]} != grid dim {self.dim}")
@@ -419,8 +424,9 @@ class Grid:
         if m == 0 or self.n == 0:
             return NeighborList.empty(m)
         xq = np.ascontiguousarray(xq, dtype=self.sorted_x.dtype)
-        if period is not None and period[1] > 0.0:
-            return _periodic_query(self, xq, exclude_self, float(period[0]), float(period[1]))
+        axes = periodic_axes(period)
+        if axes:
+            return _periodic_query(self, xq, exclude_self, axes)
         cap = self.capacity
         while True:
             if self.dense:
@@ -440,8 +446,7 @@ class Grid:
     capacity: int = 64
 
 
-def neighbor_lists(x: np.ndarray, h: float,
-                   period: tuple[float, float] | None = None) -> NeighborList:
+def neighbor_lists(x: np.ndarray, h: float, period: Period = None) -> NeighborList:
     """Neighbour lists of a point set (dim, N) with itself, self excluded (``period``: see
     :meth:`Grid.query`)."""
     return Grid(x, h).query(x, exclude_self=True, period=period)
@@ -484,34 +489,65 @@ def _merge_rows(off_a, idx_a, off_b, idx_b, row_b):
     return offsets, indices
 
 
-def _periodic_query(grid: Grid, xq: np.ndarray, exclude_self: bool, lo: float,
-                    L: float) -> NeighborList:
-    """Neighbour lists of ``xq`` in ``grid`` with period L along x (all points in [lo, lo+L)).
+def periodic_axes(period: Period) -> list[tuple[int, float, float]]:
+    """``(axis, lo, L)`` of each periodic axis of a search's ``period`` (:meth:`Grid.query`)."""
+    if period is None:
+        return []
+    pairs = period if isinstance(period[0], tuple) else (period,)
+    return [(a, float(lo), float(L)) for a, (lo, L) in enumerate(pairs) if L > 0.0]
 
-    The query cells wrap around in x: a query point closer than h to the lower end of the
-    period also scans the cells around its image ``x + L``, one closer than h to the upper end
-    those around ``x - L``; the hits of that second scan are appended to its row. With
-    ``L > 2h`` a point sees each neighbour through exactly one image (the minimum image, whose
-    distance the pair loops then use), so no pair is listed twice. Away from the seam the
-    search is the plain one.
+
+def pair_period(period: Period) -> float | tuple[float, float]:
+    """The pair loops' period argument (:func:`sphkit.core.pairs.axis_period`) of a search's
+    ``period``: the float L_x when at most x is periodic, else ``(L_x, L_y)``."""
+    if period is None:
+        return 0.0
+    if isinstance(period[0], tuple):
+        return tuple(float(L) for _lo, L in period)
+    return float(period[1])
+
+
+def _periodic_query(grid: Grid, xq: np.ndarray, exclude_self: bool,
+                    axes: list[tuple[int, float, float]]) -> NeighborList:
+    """Neighbour lists of ``xq`` in ``grid`` with periods L along the ``(axis, lo, L)`` of
+    ``axes`` (all points in [lo, lo+L) along each).
+
+    The query cells wrap around: a query point closer than h to the lower end of a period also
+    scans the cells around its image ``x + L``, one closer than h to the upper end those around
+    ``x - L``; near a corner of two periodic axes, also the image shifted along both. The hits
+    of these scans are appended to its row (x, then y, then both). With ``L > 2h`` a point sees
+    each neighbour through exactly one image (the minimum image, whose distance the pair loops
+    then use), so no pair is listed twice. Away from the seams the search is the plain one.
     """
     h = grid.h
-    if not L > 2.0 * h:
-        raise ValueError(f"period: {L!r} m along x; expected more than 2h = {2.0 * h!r} m")
-    base = grid.query(xq, exclude_self)
-    x0 = xq[0]
-    shift = np.where(x0 < lo + h, L, np.where(x0 >= lo + L - h, -L, 0.0))
-    sel = np.flatnonzero(shift != 0.0)
-    if sel.size == 0:
-        return base
-    xs = np.ascontiguousarray(xq[:, sel])
-    xs[0] += shift[sel]
-    # the image of a point is never its own neighbour (L > 2h): no self exclusion needed
-    seam = grid.query(xs, False)
-    row_b = np.full(xq.shape[1], -1, dtype=np.int64)
-    row_b[sel] = np.arange(sel.size)
-    off, idx = _merge_rows(base.offsets, base.indices, seam.offsets, seam.indices, row_b)
-    return NeighborList(off, idx)
+    shifts = []
+    for a, lo, L in axes:
+        if not L > 2.0 * h:
+            raise ValueError(f"period: {L!r} m along {'xyz'[a]}; expected more than 2h = "
+                             f"{2.0 * h!r} m")
+        xa = xq[a]
+        shifts.append((a, np.where(xa < lo + h, L, np.where(xa >= lo + L - h, -L, 0.0))))
+    images = [[s] for s in shifts]
+    if len(shifts) == 2:  # the corners: shifted along both axes
+        images.append(shifts)
+    out = grid.query(xq, exclude_self)
+    for image in images:
+        moved = np.ones(xq.shape[1], dtype=bool)
+        for _a, s in image:
+            moved &= s != 0.0
+        sel = np.flatnonzero(moved)
+        if sel.size == 0:
+            continue
+        xs = np.ascontiguousarray(xq[:, sel])
+        for a, s in image:
+            xs[a] += s[sel]
+        # the image of a point is never its own neighbour (L > 2h): no self exclusion needed
+        seam = grid.query(xs, False)
+        row_b = np.full(xq.shape[1], -1, dtype=np.int64)
+        row_b[sel] = np.arange(sel.size)
+        off, idx = _merge_rows(out.offsets, out.indices, seam.offsets, seam.indices, row_b)
+        out = NeighborList(off, idx)
+    return out
 
 
 @numba.njit(cache=True, inline="always")

@@ -37,7 +37,15 @@ import numpy as np
 from sphkit.backend import launch
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import NeighborList
-from sphkit.core.pairs import add_vector, delta, distance, point, separation, set_vector
+from sphkit.core.pairs import (
+    add_vector,
+    delta,
+    distance,
+    period_arg,
+    point,
+    separation,
+    set_vector,
+)
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -125,7 +133,7 @@ def density_cpu(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: np.ndarray, 
     of :class:`sphkit.core.state.RestArrays` (None: one fluid, c = 1)."""
     c = _per_particle(c, x.shape[1], 1.0, rho.dtype)
     launch(density_body, x.shape[1], x, m, off, idx, bx, bV, boff, bidx, float(rho0),
-           float(h), int(kid), int(dim), rho, float(L), c)
+           float(h), int(kid), int(dim), rho, period_arg(L), c)
 
 
 def pressure_accel_cpu(x: np.ndarray, m: np.ndarray, rho: np.ndarray, p: np.ndarray,
@@ -141,7 +149,7 @@ def pressure_accel_cpu(x: np.ndarray, m: np.ndarray, rho: np.ndarray, p: np.ndar
     c = _per_particle(c, n, 1.0, rho.dtype)
     inv_c = _per_particle(inv_c, n, 1.0, rho.dtype)
     launch(pressure_accel_body, n, x, m, rho, p, off, idx, bx, bV, boff, bidx, float(rho0),
-           float(h), int(kid), int(dim), a, float(L), c, inv_c)
+           float(h), int(kid), int(dim), a, period_arg(L), c, inv_c)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,13 +1,18 @@
 """Inline pair helpers: the preamble of every pair loop, written once.
 
 A pair loop visits, for particle i, the neighbours j of its CSR list and needs the difference
-``x_ij = x_i - y_j`` (minimum image along x when the scene is periodic), the distance ``r_ij``
+``x_ij = x_i - y_j`` (minimum image along the periodic axes), the distance ``r_ij``
 and the kernel ``W(r_ij)`` or its gradient ``grad_i W_ij = W'(r_ij) / r_ij x_ij``. These scalar
 helpers are compiled with ``inline="always"``: Numba splices them into the caller before type
 inference, so a loop written with them compiles to the same machine code as the hand-written
 preamble (coordinates of i hoisted into scalars, loop-invariant ``dim`` branches, no arrays
 allocated). They take and return scalars only, so the same calls compile inside CUDA device
 functions (DESIGN.md, "Compute backend").
+
+The period ``L`` of the helpers is the scene's :attr:`sphkit.core.state.SimState.pair_period`:
+a float, the period along x (0: none), or a tuple ``(L_x, L_y)`` when y is periodic too
+(:func:`axis_period`; Numba compiles each kind once, and the float kind is the code of a scene
+periodic along x at most, unchanged).
 
 Vectors are passed as three scalars ``(c0, c1, c2)``; components beyond ``dim`` are 0, so
 2D and 3D share one source (1D: only ``c0``).
@@ -47,11 +52,30 @@ def min_image(d: float, L: float) -> float:
     return d
 
 
-def min_image_rows(d: np.ndarray, L: float) -> np.ndarray:
-    """:func:`min_image` of the x row of an array of differences ``d`` (dim, M), in place, for
-    NumPy code outside the pair loops (start-up); ``d`` unchanged when L <= 0."""
-    if L > 0.0:
-        d[0] -= L * np.floor(d[0] / L + 0.5)
+@numba.njit(**_INLINE)
+def axis_period(L, a):
+    """The period along axis ``a`` (0 or 1) of the pair loops' period argument ``L``: a float
+    is the period along x (none along y), a tuple ``(L_x, L_y)`` gives both (0: not periodic).
+    The branch is decided at compile time (``isinstance`` of the argument's type)."""
+    if isinstance(L, tuple):
+        return L[a]
+    return L if a == 0 else 0.0
+
+
+def period_arg(L: float | tuple[float, ...]) -> float | tuple[float, ...]:
+    """The period argument of a pair loop as the wrappers pass it (:func:`axis_period`): a float,
+    or a tuple of floats."""
+    return tuple(float(v) for v in L) if isinstance(L, tuple) else float(L)
+
+
+def min_image_rows(d: np.ndarray, L: float | tuple[float, float]) -> np.ndarray:
+    """:func:`min_image` of an array of differences ``d`` (dim, M) along the periodic axes of
+    ``L`` (:func:`axis_period`), in place, for NumPy code outside the pair loops (start-up);
+    ``d`` unchanged when L <= 0."""
+    periods = L if isinstance(L, tuple) else (L,)
+    for a, La in enumerate(periods):
+        if La > 0.0:
+            d[a] -= La * np.floor(d[a] / La + 0.5)
     return d
 
 
@@ -66,9 +90,9 @@ def point(x, i, dim):
 
 @numba.njit(**_INLINE)
 def delta(xi0, xi1, xi2, y, j, dim, L):
-    """``x_i - y_j`` (minimum image along x with period ``L`` > 0) as three scalars."""
-    d0 = min_image(xi0 - y[0, j], L)
-    d1 = xi1 - y[1, j] if dim > 1 else 0.0
+    """``x_i - y_j`` (minimum image along the periodic axes of ``L``) as three scalars."""
+    d0 = min_image(xi0 - y[0, j], axis_period(L, 0))
+    d1 = min_image(xi1 - y[1, j], axis_period(L, 1)) if dim > 1 else 0.0
     d2 = xi2 - y[2, j] if dim > 2 else 0.0
     return d0, d1, d2
 
@@ -79,11 +103,11 @@ def delta2(xi0, xi1, xi2, y, ui0, ui1, ui2, u, j, dim, L):
     difference of a vector field (velocities, no minimum image) to neighbour j, loaded under one
     dim branch per component for both (two calls of :func:`delta` branch twice as often, which
     made the standard viscosity's pair loop about 5 % slower)."""
-    d0 = min_image(xi0 - y[0, j], L)
+    d0 = min_image(xi0 - y[0, j], axis_period(L, 0))
     w0 = ui0 - u[0, j]
     d1 = d2 = w1 = w2 = 0.0
     if dim > 1:
-        d1 = xi1 - y[1, j]
+        d1 = min_image(xi1 - y[1, j], axis_period(L, 1))
         w1 = ui1 - u[1, j]
     if dim > 2:
         d2 = xi2 - y[2, j]
@@ -119,7 +143,7 @@ def separation(xi0, xi1, xi2, y, j, dim, L):
 
 @numba.njit(**_INLINE)
 def distance(xi0, xi1, xi2, y, j, dim, L):
-    """``|x_i - y_j|`` (minimum image along x with period ``L`` > 0)."""
+    """``|x_i - y_j|`` (minimum image along the periodic axes of ``L``)."""
     d0, d1, d2 = delta(xi0, xi1, xi2, y, j, dim, L)
     return math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
 
@@ -137,9 +161,9 @@ def displaced_point(x, dx, i, dim):
 @numba.njit(**_INLINE)
 def displaced_delta(xi0, xi1, xi2, y, dy, j, dim, L):
     """``x_i - (y_j + dy_j)``, evaluated as ``(x_i - y_j) - dy_j``, to a displaced neighbour
-    (minimum image along x with period ``L`` > 0) as three scalars."""
-    d0 = min_image(xi0 - y[0, j] - dy[0, j], L)
-    d1 = xi1 - y[1, j] - dy[1, j] if dim > 1 else 0.0
+    (minimum image along the periodic axes of ``L``) as three scalars."""
+    d0 = min_image(xi0 - y[0, j] - dy[0, j], axis_period(L, 0))
+    d1 = min_image(xi1 - y[1, j] - dy[1, j], axis_period(L, 1)) if dim > 1 else 0.0
     d2 = xi2 - y[2, j] - dy[2, j] if dim > 2 else 0.0
     return d0, d1, d2
 

@@ -67,6 +67,7 @@ from sphkit.core.pairs import (
     displaced_point,
     distance,
     norm,
+    period_arg,
     point,
     separation,
     set_vector,
@@ -246,7 +247,7 @@ def density_pair_gradients(x: np.ndarray, m: np.ndarray, off: np.ndarray, idx: n
     if c is None:
         c = arrays.full(n, 1.0, rho.dtype, like=rho)
     launch(density_pair_gradients_body, n, x, m, off, idx, bx, bV, boff, bidx,
-           float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, float(L), V, c)
+           float(rho0), float(h), int(kid), int(dim), rho, gw, gwb, period_arg(L), V, c)
 
 
 @numba.njit(**_JIT_GATHER, inline="always")

@@ -32,6 +32,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sphkit.core.pairs import period_arg
 from sphkit.core.projection import constraint_correction, constraint_lambda
 
 _JIT = dict(cache=True, fastmath=True)
@@ -54,13 +55,13 @@ def relax_pass(x: np.ndarray, V: np.ndarray, target: np.ndarray, nl_ff, nl_fb,
     dx = np.zeros_like(x)
     avg, mx = constraint_lambda(x, dx, V, target, nl_ff.offsets, nl_ff.indices, bx, bV,
                                 nl_fb.offsets, nl_fb.indices, float(h), int(kid), int(dim),
-                                float(L), EPSILON, float(tol), lam, rho_hat)
+                                period_arg(L), EPSILON, float(tol), lam, rho_hat)
     if mx > 0.0:
         out = np.empty_like(x)
         ones = np.ones(n, dtype=x.dtype)  # a geometric relaxation: lambdas unweighted
         constraint_correction(x, dx, V, lam, nl_ff.offsets, nl_ff.indices, bx, bV,
                               nl_fb.offsets, nl_fb.indices, float(h), int(kid), int(dim),
-                              float(L), False, 0.0, 0.0, 1.0, 0.0, out, ones, ones)
+                              period_arg(L), False, 0.0, 0.0, 1.0, 0.0, out, ones, ones)
         a = np.sqrt((out * out).sum(axis=0))
         dx = out * np.where(a > cap, cap / np.where(a > 0.0, a, 1.0), 1.0)
     return float(avg), float(mx), dx

@@ -181,13 +181,13 @@ class PairGradients:
             rest = state.rest()
             density_pair_gradients(f["x"], rest.mu, nl.offsets, nl.indices, b["x"], b["V"],
                                    nb.offsets, nb.indices, state.rho0, state.h, state.kid,
-                                   state.dim, f["rho"], self.gw, self.gwb, state.period,
+                                   state.dim, f["rho"], self.gw, self.gwb, state.pair_period,
                                    V=rest.V, c=rest.c)
         else:
             V = f["V0"] if volumes is None else volumes
             pair_gradients(f["x"], V, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets,
                            nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb,
-                           state.period)
+                           state.pair_period)
         self.state = state
 
     @staticmethod

@@ -99,6 +99,10 @@ class SimState:
     #: periodic. Pair loops take minimum-image x differences ``d - L round(d / L)`` [m]
     period_lo: float = 0.0
     period: float = 0.0
+    #: periodic along y too (``configuration.periodic_y``): ``[period_lo_y, period_lo_y +
+    #: period_y)``; 0: not periodic along y. Pair loops then take :attr:`pair_period`
+    period_lo_y: float = 0.0
+    period_y: float = 0.0
     #: how the boundary reaches the pressure solvers: mirror weights, the boundary pressure of
     #: a boundary pressure model (MLS), the response of moving bodies (strong coupling)
     coupling: BoundaryCoupling = field(default_factory=BoundaryCoupling)
@@ -122,6 +126,27 @@ class SimState:
         return self.fluid.device
 
     @property
-    def periodic(self) -> tuple[float, float] | None:
-        """``(lo, L)`` of the periodic x axis for the neighbour search, or None."""
+    def periodic(self) -> tuple[float, float] | tuple[tuple[float, float], ...] | None:
+        """The periodic axes for the neighbour search (:meth:`sphkit.core.neighbors.Grid.query`):
+        ``(lo, L)`` of x when only x is periodic, ``((lo_x, L_x), (lo_y, L_y))`` when y is
+        (L = 0: that axis is not periodic), None when no axis is."""
+        if self.period_y > 0.0:
+            return ((self.period_lo, self.period), (self.period_lo_y, self.period_y))
         return (self.period_lo, self.period) if self.period > 0.0 else None
+
+    @property
+    def pair_period(self) -> float | tuple[float, float]:
+        """The period argument ``L`` of the pair loops (:mod:`sphkit.core.pairs`): the period
+        along x [m] (0: none) when y is not periodic (every scene before ``periodic_y``, so
+        their compiled loops are unchanged), else the tuple ``(L_x, L_y)`` [m]."""
+        if self.period_y > 0.0:
+            return (float(self.period), float(self.period_y))
+        return self.period
+
+    @property
+    def periodic_axes(self) -> list[tuple[int, float, float]]:
+        """``(axis, lo, L)`` of every periodic axis (NumPy code outside the pair loops)."""
+        out = [(0, self.period_lo, self.period)] if self.period > 0.0 else []
+        if self.period_y > 0.0:
+            out.append((1, self.period_lo_y, self.period_y))
+        return out

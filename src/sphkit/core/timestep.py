@@ -35,15 +35,16 @@ def symplectic_euler(x: np.ndarray, v: np.ndarray, a: np.ndarray, dt: float) -> 
 
 
 @numba.njit(parallel=True, **_JIT)
-def wrap_periodic(x, lo, L):
-    """Map the x coordinates (row 0 of x, (dim, N)) into ``[lo, lo + L)`` (periodic along x)."""
+def wrap_periodic(x, lo, L, a=0):
+    """Map the coordinates along axis ``a`` (row a of x, (dim, N); x by default) into
+    ``[lo, lo + L)`` (periodic along that axis)."""
     for i in numba.prange(x.shape[1]):
-        t = (x[0, i] - lo) / L
-        x[0, i] -= L * np.floor(t)
-        if x[0, i] >= lo + L:  # round-off at the upper end
-            x[0, i] -= L
-        if x[0, i] < lo:
-            x[0, i] = lo
+        t = (x[a, i] - lo) / L
+        x[a, i] -= L * np.floor(t)
+        if x[a, i] >= lo + L:  # round-off at the upper end
+            x[a, i] -= L
+        if x[a, i] < lo:
+            x[a, i] = lo
 
 
 @numba.njit(inline="always", **_JIT)

@@ -16,7 +16,7 @@ import math
 import numba
 import numpy as np
 
-from sphkit.core.neighbors import NeighborList, csr_offsets, neighbor_lists
+from sphkit.core.neighbors import NeighborList, Period, csr_offsets, neighbor_lists, pair_period
 from sphkit.core.pairs import delta, point
 
 
@@ -47,12 +47,15 @@ def _within(x, off, idx, h, dim, L):
     return offsets, indices
 
 
-def within(x: np.ndarray, lists: NeighborList, h: float, period: float = 0.0) -> NeighborList:
+def within(x: np.ndarray, lists: NeighborList, h: float,
+           period: float | tuple[float, float] = 0.0) -> NeighborList:
     """The pairs of ``lists`` (of the point set x (dim, N) with itself) closer than ``h``, in
-    the order of ``lists`` (``period`` > 0: minimum-image distances along x)."""
+    the order of ``lists`` (``period``: the pair loops' period, minimum-image distances along
+    its periodic axes, :func:`sphkit.core.pairs.axis_period`)."""
     if x.shape[1] == 0:
         return NeighborList.empty(0)
-    off, idx = _within(x, lists.offsets, lists.indices, float(h), x.shape[0], float(period))
+    L = period if isinstance(period, tuple) else float(period)
+    off, idx = _within(x, lists.offsets, lists.indices, float(h), x.shape[0], L)
     return NeighborList(off, idx)
 
 
@@ -75,7 +78,7 @@ class VerletLists:
         self.x0: np.ndarray | None = None
         self.builds = 0  #: searches so far
 
-    def lists(self, x: np.ndarray, h: float, period: tuple[float, float] | None,
+    def lists(self, x: np.ndarray, h: float, period: Period,
               rebuild: bool = False) -> NeighborList:
         """This step's lists (pairs closer than h) of the point set x (dim, N)."""
         x0 = self.x0
@@ -85,7 +88,7 @@ class VerletLists:
             self.candidates = neighbor_lists(x, h * (1.0 + self.skin), period)
             self.x0 = x.copy()
             self.builds += 1
-        return within(x, self.candidates, h, period[1] if period else 0.0)
+        return within(x, self.candidates, h, pair_period(period))
 
 
 @numba.njit(cache=True, parallel=True, fastmath=True)

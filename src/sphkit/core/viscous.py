@@ -192,7 +192,7 @@ def kernel_sum_solve(state: SimState, diag: np.ndarray, rhs: np.ndarray, guess: 
 
     def matvec(u: np.ndarray, out: np.ndarray) -> None:
         kernel_sum_matvec(x, m, nl.offsets, nl.indices, diag, state.h, state.kid, state.dim,
-                          state.period, u, out)
+                          state.pair_period, u, out)
 
     pre = JacobiPreconditioner(diag)
     out = np.empty(rhs.shape)
@@ -214,7 +214,7 @@ def target_gradients(state: SimState, xi: float, spin: bool) -> tuple[np.ndarray
     n, dim = f.n, state.dim
     G = np.empty((dim * dim, n))
     velocity_gradient(f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets, state.nl_ff.indices,
-                      state.h, state.kid, dim, state.period, True, G)
+                      state.h, state.kid, dim, state.pair_period, True, G)
     T = np.empty_like(G)
     decompose_target(G, f["rho"], state.rho0, xi, dim, spin, T)
     return G, T
@@ -230,9 +230,9 @@ def reconstruct_velocity(state: SimState, T: np.ndarray, tol: float, max_iter: i
     nl, nb = state.nl_ff, state.nl_fb
     diag = np.empty(n)
     kernel_sum_diagonal(x, m, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
-                        state.rho0, True, state.h, state.kid, dim, state.period, diag)
+                        state.rho0, True, state.h, state.kid, dim, state.pair_period, diag)
     rhs = np.empty((dim, n))
-    target_gradient_rhs(x, m, nl.offsets, nl.indices, T, state.h, state.kid, dim, state.period,
+    target_gradient_rhs(x, m, nl.offsets, nl.indices, T, state.h, state.kid, dim, state.pair_period,
                         rhs)
     return kernel_sum_solve(state, diag, rhs, f["v"], tol, max_iter, name)
 

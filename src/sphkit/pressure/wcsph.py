@@ -6,7 +6,12 @@ Becker & Teschner 2007, "Weakly compressible SPH for free surface flows", SCA:
   gamma = 7;
 * linear state equation (SESPH; survey Eq. 27): ``p_i = k (rho_i - rho0)`` with k [m^2/s^2];
 * densities are clamped to ``rho_i >= rho0`` before the state equation, so pressure is never
-  negative (no tensile clumping at the free surface; SPlisHSPlasH issue #36);
+  negative (no tensile clumping at the free surface; SPlisHSPlasH issue #36); with a
+  background pressure ``p_b > 0`` (``pressure.background_pressure``, for flows without a free
+  surface, e.g. doubly periodic ones) the density is not clamped and ``p_i = p_b + `` the state
+  equation, so a rarefied particle keeps a pressure (down to 0 at a deficit of p_b / c^2) and
+  the flow's low-pressure regions (vortex cores) are resolved (Morris et al. 1997, Sec. 3; Adami
+  et al. 2013);
 * symmetric pressure acceleration (survey Eq. 19, momentum conserving) with Akinci 2012 pressure
   mirroring at boundary neighbours: :func:`sphkit.core.operators.pressure_accel_body`.
 
@@ -53,19 +58,22 @@ STIFFNESS_CFL = 0.8
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def state_equation(rho, rho0, equation, stiffness, exponent, p):
-    """Clamped state equation for all particles (``rho0`` (N,): each particle's rest density);
-    returns (mean, max) compression."""
+def state_equation(rho, rho0, equation, stiffness, exponent, p, pb=0.0):
+    """State equation for all particles (``rho0`` (N,): each particle's rest density), clamped
+    to ``rho >= rho0`` unless the background pressure ``pb`` [Pa] is > 0 (then ``p_b +`` the
+    unclamped equation); returns (mean, max) compression."""
     n = rho.shape[0]
     tot = 0.0
     mx = 0.0
     for i in numba.prange(n):
         r0 = rho0[i]
-        r = max(rho[i], r0)
+        r = max(rho[i], r0) if pb <= 0.0 else rho[i]
         if equation == TAIT:
             p[i] = stiffness * ((r / r0) ** exponent - 1.0)
         else:
             p[i] = stiffness * (r - r0)
+        if pb > 0.0:
+            p[i] += pb
         e = (r - r0) / r0
         tot += e
         mx = max(mx, e)
@@ -123,10 +131,11 @@ class WCSPH(PressureSolver):
     def from_config(cls, p: Any) -> WCSPH:
         """The WCSPH of a scene's ``configuration.pressure`` (scene model)."""
         return cls(equation=p.equation, stiffness=p.stiffness, exponent=p.exponent,
-                   acoustic_cfl=p.acoustic_cfl)
+                   acoustic_cfl=p.acoustic_cfl, background_pressure=p.background_pressure)
 
     def __init__(self, equation: str = "tait", stiffness: float = 50000.0,
-                 exponent: float = 7.0, acoustic_cfl: bool = True) -> None:
+                 exponent: float = 7.0, acoustic_cfl: bool = True,
+                 background_pressure: float = 0.0) -> None:
         if equation not in ("tait", "linear"):
             raise ValueError(f"pressure.equation: {equation!r}; expected 'tait' or 'linear'")
         if not stiffness >= 0:  # 0: no pressure (elastic solids only, scene.checks)
@@ -135,6 +144,10 @@ class WCSPH(PressureSolver):
         self.stiffness = float(stiffness)
         self.exponent = float(exponent)
         self.acoustic_cfl = acoustic_cfl
+        if not background_pressure >= 0:
+            raise ValueError(f"pressure.background_pressure: {background_pressure!r}; expected "
+                             "a number >= 0 [Pa]")
+        self.background_pressure = float(background_pressure)  #: p_b [Pa] (module docstring)
 
     def init(self, state: SimState) -> None:
         """Register the pressure field."""
@@ -172,7 +185,7 @@ class WCSPH(PressureSolver):
                                   state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["V"],
                                   state.nl_fb.offsets, state.nl_fb.indices, float(state.rho0),
                                   float(state.h), int(state.kid), int(state.dim),
-                                  float(state.period), rest.c, rest.inv_c, self.equation,
+                                  state.pair_period, rest.c, rest.inv_c, self.equation,
                                   self.stiffness, self.exponent)
             if w2 > 0.0:
                 dt = min(dt, STIFFNESS_CFL / math.sqrt(w2))
@@ -183,11 +196,11 @@ class WCSPH(PressureSolver):
         f, b = state.fluid, state.boundary
         rest = state.rest()
         avg, mx = state_equation(f["rho"], rest.rho0, self.equation, self.stiffness,
-                                 self.exponent, f["p"])
+                                 self.exponent, f["p"], self.background_pressure)
         pressure_accel_cpu(f["x"], f["m"], f["rho"], f["p"], state.nl_ff.offsets,
                            state.nl_ff.indices, b["x"], b["V"], state.nl_fb.offsets,
                            state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim, f["a"],
-                           state.period, c=rest.c, inv_c=rest.inv_c)
+                           state.pair_period, c=rest.c, inv_c=rest.inv_c)
         state.coupling.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
 

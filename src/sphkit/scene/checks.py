@@ -23,7 +23,7 @@ from collections.abc import Callable, Sequence
 from sphkit import registry
 from sphkit.scene.schema import Box, Material, Scene, SceneError
 
-#: the roles whose methods must support ``configuration.periodic_x``
+#: the roles whose methods must support ``configuration.periodic_x`` (and ``periodic_y``)
 PERIODIC_ROLES = ("pressure", "viscosity", "vorticity", "surface_tension", "drag")
 
 
@@ -55,23 +55,25 @@ def fluid_material(scene: Scene) -> Material:
     return fluid_materials(scene)[0]
 
 
-def _periodic(scene: Scene, mat: Material) -> None:
+def _periodic(scene: Scene, mat: Material, axis: str = "x") -> None:
+    """The methods of ``mat`` support a periodic ``axis`` (x: capability ``periodic``, y:
+    ``periodic_y``); no moving bodies."""
     cfg = scene.configuration
     k = scene.materials.index(mat)
+    field, cap = f"configuration.periodic_{axis}", "periodic" if axis == "x" else "periodic_y"
     for role in PERIODIC_ROLES:
         if role == "pressure":
             where, name = "configuration.pressure.method", cfg.pressure.method
         else:
             where, name = f"materials[{k}].{role}.method", getattr(mat, role).method
-        ok = registry.with_capability(role, "periodic")
+        ok = registry.with_capability(role, cap)
         if name != "none" and name not in ok:
             expected = sorted(ok) if role == "pressure" else sorted(("none", *ok))
-            raise SceneError(f"{where}: {name!r} does not support configuration.periodic_x yet; "
+            raise SceneError(f"{where}: {name!r} does not support {field} yet; "
                              f"expected one of {expected}")
     if any(mb.moving for mb in scene.meshes):
         k = next(k for k, mb in enumerate(scene.meshes) if mb.moving)
-        raise SceneError(f"meshes[{k}]: moving rigid bodies do not support "
-                         "configuration.periodic_x yet")
+        raise SceneError(f"meshes[{k}]: moving rigid bodies do not support {field} yet")
 
 
 def _boundary_pressure(scene: Scene) -> None:
@@ -244,9 +246,10 @@ def check_scene(scene: Scene) -> list[Material]:
     """Check the scene across its fields; returns the materials of its fluid (the first is
     the reference of the rest densities)."""
     mats = fluid_materials(scene)
-    if scene.configuration.periodic_x is not None:
-        for mat in mats:
-            _periodic(scene, mat)
+    for axis in ("x", "y"):
+        if getattr(scene.configuration, f"periodic_{axis}") is not None:
+            for mat in mats:
+                _periodic(scene, mat, axis)
     _boundary_pressure(scene)
     _lattices(scene)
     _bodies(scene)
@@ -267,9 +270,11 @@ def _solids(scene: Scene) -> None:
             | {b.material for b in scene.fluid_meshes}
             | {e.material for e in scene.emitters}) or {scene.materials[0].id}
     for k, m in enumerate(scene.materials):
-        if m.elastic and cfg.periodic_x is not None:
-            raise SceneError(f"materials[{k}].elasticity.method: {m.elasticity.method!r} does "
-                             "not support configuration.periodic_x; expected 'none'")
+        for axis in ("x", "y"):
+            if m.elastic and getattr(cfg, f"periodic_{axis}") is not None:
+                raise SceneError(f"materials[{k}].elasticity.method: {m.elasticity.method!r} "
+                                 f"does not support configuration.periodic_{axis}; "
+                                 "expected 'none'")
     p = cfg.pressure
     if p.method == "wcsph" and p.stiffness == 0.0:
         fluids = sorted(mid for mid in used if not scene.material(mid).elastic)
@@ -303,8 +308,9 @@ def device_features(scene: Scene) -> list[str]:
     ``field value`` or ``field (what)``."""
     cfg = scene.configuration
     out = []
-    if cfg.periodic_x is not None:
-        out.append("configuration.periodic_x (periodic)")
+    for axis in ("x", "y"):
+        if getattr(cfg, f"periodic_{axis}") is not None:
+            out.append(f"configuration.periodic_{axis} (periodic)")
     if cfg.neighbor_skin > 0.0:
         out.append("configuration.neighbor_skin (Verlet lists)")
     if cfg.boundary.solved:

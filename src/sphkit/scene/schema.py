@@ -103,6 +103,11 @@ class PressureConfig(_Model):
         "(0, no pressure, only when every material is an elastic solid)",
     )
     exponent: float = Field(7.0, ge=1.0, description="gamma of the Tait equation (dimensionless)")
+    background_pressure: float = Field(
+        0.0, ge=0, description="wcsph: background pressure p_b [Pa]; 0: densities are clamped to "
+        "rho >= rho0 (free surfaces); > 0: p = p_b + the unclamped state equation, for flows "
+        "without a free surface (doubly periodic flows: vortex cores keep a pressure)",
+    )
     acoustic_cfl: bool = Field(
         True,
         description="wcsph: also bound dt by 0.4 h / c with the speed of sound c of the state "
@@ -1012,23 +1017,31 @@ class Configuration(_Model):
         "so a box spanning [xmin, xmax] in x keeps only its walls across the other axes. "
         "Supported with the wcsph and dfsph pressure solvers",
     )
+    periodic_y: list[float] | None = Field(
+        None,
+        description="[ymin, ymax] [m]: periodic along y as periodic_x along x (2D and 3D; with "
+        "periodic_x too, a doubly periodic domain). Supported with the wcsph and dfsph "
+        "pressure solvers and the standard and weiler2018 viscosities",
+    )
 
     @model_validator(mode="after")
     def _periodic(self) -> Configuration:
-        p = self.periodic_x
-        if p is None:
-            return self
-        if len(p) != 2:
-            raise ValueError(f"periodic_x {p}: expected two numbers [xmin, xmax]")
-        lo, hi = p
-        if not (abs(lo) < float("inf") and abs(hi) < float("inf")) or not hi > lo:
-            raise ValueError(f"periodic_x {p}: expected finite xmin < xmax")
-        h = 4.0 * self.particle_radius
-        if not hi - lo > 2.0 * h:
-            raise ValueError(
-                f"periodic_x {p}: the period {hi - lo:g} m must exceed twice the kernel support "
-                f"2h = 8 * particle_radius = {2.0 * h:g} m"
-            )
+        for axis in ("x", "y"):
+            p = getattr(self, f"periodic_{axis}")
+            if p is None:
+                continue
+            name = f"periodic_{axis}"
+            if len(p) != 2:
+                raise ValueError(f"{name} {p}: expected two numbers [{axis}min, {axis}max]")
+            lo, hi = p
+            if not (abs(lo) < float("inf") and abs(hi) < float("inf")) or not hi > lo:
+                raise ValueError(f"{name} {p}: expected finite {axis}min < {axis}max")
+            h = 4.0 * self.particle_radius
+            if not hi - lo > 2.0 * h:
+                raise ValueError(
+                    f"{name} {p}: the period {hi - lo:g} m must exceed twice the kernel support "
+                    f"2h = 8 * particle_radius = {2.0 * h:g} m"
+                )
         return self
 
 

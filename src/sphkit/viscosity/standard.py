@@ -124,4 +124,4 @@ class StandardViscosity(NonPressureForce):
         launch(standard_body, f.n, f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets,
                state.nl_ff.indices, b["x"], b["v"], b["V"], b["wall_normal"], b["wall_distance"],
                state.nl_fb.offsets, state.nl_fb.indices, self.nu, self.nu_boundary, self.beta_max,
-               self.eps, state.rho0, state.h, state.kid, state.dim, state.period, f["a"])
+               self.eps, state.rho0, state.h, state.kid, state.dim, state.pair_period, f["a"])

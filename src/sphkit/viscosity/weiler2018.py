@@ -201,12 +201,12 @@ class Weiler2018(NonPressureForce):
         blocks = np.empty((dim, dim, n))
         _rhs_blocks(x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"], bn, bd,
                     nb.offsets, nb.indices, cf, cb, bm, self.eps, state.rho0, state.h,
-                    state.kid, dim, state.period, dt, rhs, blocks)
+                    state.kid, dim, state.pair_period, dt, rhs, blocks)
 
         def matvec(u: np.ndarray, out: np.ndarray) -> None:
             _matvec(x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], bn, bd, nb.offsets,
                     nb.indices, u.reshape(dim, n), cf, cb, bm, self.eps, state.rho0, state.h,
-                    state.kid, dim, state.period, dt, out.reshape(dim, n))
+                    state.kid, dim, state.pair_period, dt, out.reshape(dim, n))
 
         dv = f["weiler_dv"]
         x0 = (v + dv).ravel()

@@ -111,6 +111,9 @@ def _state(scene: Scene, mats: list[Material]) -> SimState:
     if cfg.periodic_x is not None:
         state.period_lo = float(cfg.periodic_x[0])
         state.period = float(cfg.periodic_x[1] - cfg.periodic_x[0])
+    if cfg.periodic_y is not None:
+        state.period_lo_y = float(cfg.periodic_y[0])
+        state.period_y = float(cfg.periodic_y[1] - cfg.periodic_y[0])
     return state
 
 

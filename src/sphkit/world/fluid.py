@@ -27,11 +27,11 @@ def _phase(fluid: ParticleSet, scene: Scene, mat: Material) -> dict:
 
 
 def periodic_clip(state: SimState, pts: np.ndarray) -> np.ndarray:
-    """The points inside ``[lo, lo + L)`` along a periodic x axis (all of them otherwise)."""
-    if state.period <= 0.0:
-        return pts
-    lo, r = state.period_lo, state.r
-    return pts[(pts[:, 0] >= lo - 1e-9 * r) & (pts[:, 0] < lo + state.period - 1e-9 * r)]
+    """The points inside ``[lo, lo + L)`` along each periodic axis (all of them otherwise)."""
+    r = state.r
+    for a, lo, L in state.periodic_axes:
+        pts = pts[(pts[:, a] >= lo - 1e-9 * r) & (pts[:, a] < lo + L - 1e-9 * r)]
+    return pts
 
 
 def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:

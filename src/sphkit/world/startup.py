@@ -32,7 +32,7 @@ and bounces ("breathes") for seconds. The start-up, in this order
    starts and left the 2D column's slope 5 % steep for seconds). Fluid under a body starts with the
    pressure of its own column below the body; a column that does not rest on a wall (its
    lowest particle has no boundary neighbour below it: fluid in the air) starts at p = 0, and
-   so does all fluid when gravity has a component along a periodic x axis (a driven flow).
+   so does all fluid when gravity has a component along a periodic axis (a driven flow).
 3. **Relaxation** (``start.relax``, default on): Jacobi sweeps of the position projection of
    the clamped density constraint (:func:`sphkit.core.relaxation.relax_pass`, PBF's, without
    gravity or time; bodies held still) move the particles that sit in a wall's range out of
@@ -321,7 +321,7 @@ def resting_on_walls(state: SimState) -> np.ndarray:
         return out
     up = -np.asarray(state.gravity, float) / float(np.linalg.norm(state.gravity))
     rows = np.repeat(np.arange(f.n), counts)
-    d = min_image_rows(f["x"][:, rows] - b["x"][:, nl.indices], state.period)
+    d = min_image_rows(f["x"][:, rows] - b["x"][:, nl.indices], state.pair_period)
     below = (up @ d) > 0.5 * np.sqrt((d * d).sum(axis=0))
     out[rows[below]] = True
     return out
@@ -332,7 +332,8 @@ def start_density(state: SimState, lists: _Lists, pressure: PressureSolver,
     """The start pressure p [Pa] and density [kg/m^3] of every fluid particle."""
     f = state.fluid
     rho0 = f["rho0"]
-    along_period = state.period > 0.0 and state.gravity[0] != 0.0  # a flow, not a column
+    # a flow, not a column
+    along_period = any(state.gravity[a] != 0.0 for a, _lo, _L in state.periodic_axes)
     if not hydrostatic or not np.any(state.gravity) or along_period:
         return np.zeros(f.n), rho0.astype(float).copy()
     lists.update(state)
@@ -378,7 +379,7 @@ def _density(state: SimState, m: np.ndarray, out: np.ndarray) -> np.ndarray:
     mu = m if rest.uniform else m / rest.c
     density_cpu(f["x"], mu, state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["V"],
                 state.nl_fb.offsets, state.nl_fb.indices, state.rho0, state.h, state.kid,
-                state.dim, out, state.period, c=rest.c)
+                state.dim, out, state.pair_period, c=rest.c)
     return out
 
 
@@ -407,7 +408,7 @@ def relax(state: SimState, lists: _Lists, target: np.ndarray, iterations: int,
         lists.update(state)
         b = state.boundary
         avg, mx, dx = relax_pass(f["x"], V, target, state.nl_ff, state.nl_fb, b["x"], b["V"],
-                                 state.h, state.kid, state.dim, state.period,
+                                 state.h, state.kid, state.dim, state.pair_period,
                                  RELAX_STEP * state.r, tol=1e-6)
         if k == 0:
             report.sampled_error = (avg, mx)
@@ -416,9 +417,9 @@ def relax(state: SimState, lists: _Lists, target: np.ndarray, iterations: int,
         if mx <= RELAX_TOLERANCE or k == iterations:
             break
         f["x"] += dx
-        if state.period > 0.0:
-            wrap_periodic(f["x"], state.period_lo, state.period)
-    d = min_image_rows(f["x"] - x0, state.period)
+        for a, lo, L in state.periodic_axes:
+            wrap_periodic(f["x"], lo, L, a)
+    d = min_image_rows(f["x"] - x0, state.pair_period)
     report.max_displacement = float(np.sqrt((d * d).sum(axis=0)).max()) if f.n else 0.0
 
 

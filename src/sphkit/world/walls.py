@@ -122,7 +122,7 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     """The region the fluid must stay in, for the step's stability guard: the bounding box of
     the static boundaries (boxes, static meshes, map geometries, emitter housings) widened by
     ``configuration.domain_margin`` kernel supports h, unbounded above the walls (against
-    gravity: fluid thrown up comes back) and along a periodic x. None: no check (the margin is
+    gravity: fluid thrown up comes back) and along a periodic axis. None: no check (the margin is
     null, or the scene has no static wall: only moving bodies or emitter housings)."""
     margin = scene.configuration.domain_margin
     dim = state.dim
@@ -152,6 +152,6 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
             box_hi[up] = np.inf
         else:
             box_lo[up] = -np.inf
-    if state.period > 0.0:
-        box_lo[0], box_hi[0] = -np.inf, np.inf
+    for a, _lo, _L in state.periodic_axes:
+        box_lo[a], box_hi[a] = -np.inf, np.inf
     return box_lo, box_hi
