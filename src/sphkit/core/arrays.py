@@ -24,6 +24,7 @@ import numpy as np
 
 from sphkit.backend import device_of, launch, launch_reduce, on_device, to_host
 from sphkit.backend import empty as backend_empty
+from sphkit.core.pairs import set_vector
 
 #: the passes and helpers, and where arrays are (the step reaches the backend through core)
 __all__ = ["any_differs", "axpy", "axpy_into", "axpy_rows_body", "axpy_rows_into_body",
@@ -44,11 +45,7 @@ def fill_body(i, out, value):
 @numba.njit(**_BODY)
 def fill_rows_body(i, out, v0, v1, v2, dim):
     """``out[:, i] = (v0, v1, v2)[:dim]`` (gravity into the accelerations)."""
-    out[0, i] = v0
-    if dim > 1:
-        out[1, i] = v1
-    if dim > 2:
-        out[2, i] = v2
+    set_vector(out, i, dim, v0, v1, v2)
 
 
 @numba.njit(**_BODY)
