@@ -49,7 +49,8 @@ corner is within reach: the interpolated distance smooths the kink (cells of abo
 0.5-0.6 where fluid rests at the 3D tank's vertical edges. With the full mirror there, the
 doubled push through a gradient the density does not have drove a circulation in the edge
 columns that kept 3D columns from coming to rest (validation/README.md, "Volume maps: the
-mirrored share at edges").
+mirrored share at edges"). It acts in 3D only: in 2D the tank has no edge columns, and at the
+floor corners of a coarse 2D column it made the pressure slope worse (0.999 -> 0.970).
 
 Moving rigid bodies (paper, Sec. 5): the map of a kinematic or dynamic body is computed once in
 the body's frame and queried there, and the virtual particle goes back to the world with the
