@@ -14,10 +14,11 @@ x = 0.25 on the beam's axis, 0.2490 at its faces: the benchmark's free length is
 Measured: the displacement of point A (the tip's midpoint, x = L, y = 0), linearly
 extrapolated from the mean displacements of the last two particle layers (centres at L - r and
 L - 3r) to x = L; the oscillation's periods between successive downward crossings of u_y (u_x)
-through the middle of its range; per complete period the mean ``(max + min) / 2`` and the
-amplitude ``(max - min) / 2`` (the benchmark's measure), averaged over the periods; the
-frequency 1 / (mean period). The reference (``validation/data/turek_hron_csm3.csv``): u_x =
--14.305 +- 14.305, u_y = -63.607 +- 65.160 [1e-3 m], 1.0995 Hz for both.
+through the middle of its range; the mean ``(max + min) / 2`` and the amplitude
+``(max - min) / 2`` of the last complete period (the benchmark's measure; the table's last
+lines give them per period); the frequency 1 / (mean period). The reference
+(``validation/data/turek_hron_csm3.csv``): u_x = -14.305 +- 14.305, u_y = -63.607 +- 65.160
+[1e-3 m], 1.0995 Hz for both.
 
 Models (``--methods``): ``becker2009`` (explicit corotated SPH at its bound 0.4 * 2r / c, c the
 P-wave speed), ``peer2018`` (implicit corotated, the same discretisation and energy) and
@@ -124,11 +125,13 @@ def run(method: str, layers: int, until: float, dt_factor: float, clamp: str, al
             "t": ts, "u": ua, "wall": wall}
 
 
-def oscillation(t: np.ndarray, u: np.ndarray) -> tuple[float, float, float, int]:
-    """Mean ``(max + min) / 2`` and amplitude ``(max - min) / 2`` averaged over the complete
-    periods, the frequency 1 / (mean period), and the number of periods; the periods between
-    successive downward crossings of the middle of u's range (crossings closer than 0.4 of
-    the first-mode period estimate are the superposed higher modes' and are skipped)."""
+def oscillation(t: np.ndarray, u: np.ndarray) -> dict:
+    """The periods of u between successive downward crossings of the middle of its range
+    (crossings closer than 0.4 s, about 0.4 of the first mode's period, are the superposed
+    higher modes' and are skipped); per complete period the mean ``(max + min) / 2`` and the
+    amplitude ``(max - min) / 2``. Returns the last complete period's mean and amplitude (the
+    benchmark's measure), the frequency 1 / (mean period), the number of periods and the
+    per-period means and amplitudes."""
     mid = 0.5 * (u.max() + u.min())
     down = np.flatnonzero((u[:-1] > mid) & (u[1:] <= mid))
     tc = t[down] + (u[down] - mid) * (t[down + 1] - t[down]) / (u[down] - u[down + 1])
@@ -137,15 +140,18 @@ def oscillation(t: np.ndarray, u: np.ndarray) -> tuple[float, float, float, int]
         if not keep or c - tc[keep[-1]] > 0.4:
             keep.append(i)
     tc, idx = tc[keep], down[keep]
+    nan = float("nan")
     if len(tc) < 2:
-        return float("nan"), float("nan"), float("nan"), 0
+        return {"mean": nan, "amplitude": nan, "frequency": nan, "periods": 0, "means": [],
+                "amplitudes": []}
     means, amps = [], []
     for a, b in zip(idx[:-1], idx[1:], strict=True):
         seg = u[a:b + 2]
         means.append(0.5 * (seg.max() + seg.min()))
         amps.append(0.5 * (seg.max() - seg.min()))
-    return (float(np.mean(means)), float(np.mean(amps)), 1.0 / float(np.mean(np.diff(tc))),
-            len(tc) - 1)
+    return {"mean": means[-1], "amplitude": amps[-1],
+            "frequency": 1.0 / float(np.mean(np.diff(tc))), "periods": len(tc) - 1,
+            "means": means, "amplitudes": amps}
 
 
 def _order(errs: list[float], layers: list[int]) -> str:
@@ -193,7 +199,8 @@ def main() -> None:
         a.methods, a.layers, a.until = ["becker2009"], [4], 2.2
     ref = reference()
     print(f"Turek & Hron CSM3 (L {L} m, H {H} m, E {E / 1e6:g} MPa, nu {NU}, g {G} m/s^2, plane "
-          f"strain), clamp {a.clamp}, alpha {a.alpha:g}, {a.until:g} s; reference: u_x "
+          f"strain), clamp {a.clamp}, alpha {a.alpha:g}, "
+          + ("saved runs" if a.load else f"{a.until:g} s") + f"; reference: u_x "
           f"{1e3 * ref['ux'][0]:.3f} +- {1e3 * ref['ux'][1]:.3f} mm, u_y {1e3 * ref['uy'][0]:.3f}"
           f" +- {1e3 * ref['uy'][1]:.3f} mm, {ref['uy'][2]:.4f} Hz")
     print("| model | layers | particles | dt [s] | steps | periods | u_x mean [mm] | u_x ampl. "
@@ -211,7 +218,9 @@ def main() -> None:
                 res[k] = float(res[k])
     else:
         jobs = [(m, n) for m in a.methods for n in a.layers]
-    runs, errors = [], {}
+    runs: list[dict] = []
+    errors: dict = {}
+    per_period: list[str] = []
     for job in jobs:
         if isinstance(job, dict):
             res = job
@@ -228,14 +237,20 @@ def main() -> None:
         runs.append(res)
         ox = oscillation(res["t"], res["u"][:, 0])
         oy = oscillation(res["t"], res["u"][:, 1])
-        e = [ox[0] / ref["ux"][0] - 1, ox[1] / ref["ux"][1] - 1,
-             oy[0] / ref["uy"][0] - 1, oy[1] / ref["uy"][1] - 1, oy[2] / ref["uy"][2] - 1]
+        e = [ox["mean"] / ref["ux"][0] - 1, ox["amplitude"] / ref["ux"][1] - 1,
+             oy["mean"] / ref["uy"][0] - 1, oy["amplitude"] / ref["uy"][1] - 1,
+             oy["frequency"] / ref["uy"][2] - 1]
         errors.setdefault(m, []).append((n, e))
-        print(f"| {label} | {n} | {res['n']} | {res['dt']:.3g} | {res['steps']} | {oy[3]} | "
-              f"{1e3 * ox[0]:.3f} | {1e3 * ox[1]:.3f} | {ox[2]:.4f} | {1e3 * oy[0]:.3f} | "
-              f"{1e3 * oy[1]:.3f} | {oy[2]:.4f} | "
+        print(f"| {label} | {n} | {res['n']} | {res['dt']:.3g} | {res['steps']} | "
+              f"{oy['periods']} | {1e3 * ox['mean']:.3f} | {1e3 * ox['amplitude']:.3f} | "
+              f"{ox['frequency']:.4f} | {1e3 * oy['mean']:.3f} | {1e3 * oy['amplitude']:.3f} | "
+              f"{oy['frequency']:.4f} | "
               + " | ".join(f"{100 * x:+.1f} %" for x in e) + f" | {res['wall']:.0f} |",
               flush=True)
+        per_period.append(f"{label}, {n} across: u_y mean per period "
+                          + ", ".join(f"{1e3 * x:.3f}" for x in oy["means"]) + " mm; amplitude "
+                          + ", ".join(f"{1e3 * x:.3f}" for x in oy["amplitudes"]) + " mm")
+    print("\n".join(per_period))
     names = ("u_x mean", "u_x amplitude", "u_y mean", "u_y amplitude", "frequency")
     for m, rows in errors.items():
         if len(rows) < 2:
