@@ -159,7 +159,7 @@ def _order(errs: list[float], layers: list[int]) -> str:
     out = []
     for k in range(len(errs) - 1):
         (e1, n1), (e2, n2) = (errs[k], layers[k]), (errs[k + 1], layers[k + 1])
-        if e1 and e2 and e1 * e2 > 0:
+        if n1 != n2 and e1 and e2 and e1 * e2 > 0:
             out.append(f"{math.log(abs(e1 / e2)) / math.log(n2 / n1):.2f}")
         else:
             out.append("n/a")
@@ -233,14 +233,14 @@ def main() -> None:
             if a.save:
                 Path(a.save).mkdir(parents=True, exist_ok=True)
                 np.savez(Path(a.save) / f"{m}_{n}.npz", **res)
-        m, n, label = res["method"], res["layers"], res["label"]
+        n, label = res["layers"], res["label"]
         runs.append(res)
         ox = oscillation(res["t"], res["u"][:, 0])
         oy = oscillation(res["t"], res["u"][:, 1])
         e = [ox["mean"] / ref["ux"][0] - 1, ox["amplitude"] / ref["ux"][1] - 1,
              oy["mean"] / ref["uy"][0] - 1, oy["amplitude"] / ref["uy"][1] - 1,
              oy["frequency"] / ref["uy"][2] - 1]
-        errors.setdefault(m, []).append((n, e))
+        errors.setdefault(label, []).append((n, e))
         print(f"| {label} | {n} | {res['n']} | {res['dt']:.3g} | {res['steps']} | "
               f"{oy['periods']} | {1e3 * ox['mean']:.3f} | {1e3 * ox['amplitude']:.3f} | "
               f"{ox['frequency']:.4f} | {1e3 * oy['mean']:.3f} | {1e3 * oy['amplitude']:.3f} | "
