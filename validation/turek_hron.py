@@ -276,11 +276,11 @@ def _plot(runs: list[dict], ref: dict, path: str) -> None:
         mean, amp, _f = ref[q]
         for res in runs:
             ax.plot(res["t"], 1e3 * res["u"][:, k], lw=0.7,
-                    label=f"{res['method']} {res['layers']}")
+                    label=f"{res['label']}, {res['layers']} across")
         for y in (mean - amp, mean, mean + amp):
             ax.axhline(1e3 * y, color="k", lw=0.6, ls="--")
         ax.set_ylabel(f"{q} of A [mm]")
-    axes[0].legend(fontsize=7, ncol=3)
+    axes[0].legend(fontsize=6, ncol=2)
     axes[1].set_xlabel("t [s]")
     axes[0].set_title("Turek & Hron CSM3 (dashed: reference mean and mean +- amplitude)")
     fig.tight_layout()
