@@ -36,7 +36,7 @@ Run::
         [--layers 4 6 8] [--until 5] [--clamp face|particles] [--alpha 1]
         [--dt-factor becker2009=1 peer2018=4 kee2023=10] [--plot validation/turek_hron.png]
 
-``--quick``: becker2009 at 4 layers for 1.2 s (one period).
+``--quick``: becker2009 at 4 layers for 2.2 s (two periods; about 4 min on one loaded core).
 """
 
 from __future__ import annotations
