@@ -181,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         print("matplotlib not installed: no plot")
         return 0
-    fig, axs = plt.subplots(1, 2 * len(args.re), figsize=(5 * len(args.re), 4), squeeze=False)
+    fig, axs = plt.subplots(1, 2 * len(args.re), figsize=(9 * len(args.re), 4), squeeze=False)
     for k, re in enumerate(args.re):
         yg, ug, xg, vg = ghia(re)
         a, b = axs[0, 2 * k], axs[0, 2 * k + 1]

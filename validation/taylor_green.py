@@ -31,10 +31,15 @@ at t = 0); velocities set to the field above at t = 0. Cases:
 * ``dfsph/standard``: DFSPH (sphkit's defaults: 0.01 % density, 0.1 % divergence error) with the
   standard viscosity, CFL step (``0.4 * 2r / max|v|``, at most 5 ms, and the explicit
   viscosity's bound).
+* ``wcsph/tvf``: ``wcsph/standard`` with the transport velocity of Adami, Hu & Adams 2013
+  (``configuration.transport: adami2013``, :mod:`sphkit.transport.adami2013`) and their
+  choices: background pressure ``p_b = rho0 c^2`` in the transport velocity, none in the state
+  equation (a tiny one, ``1e-6 rho0 U^2``, only switches the clamp off: ``p = c^2 (rho - rho0)``
+  goes negative in the vortex cores).
 
 Run ``python validation/taylor_green.py`` (``--n 12 26 45``: particles per row, from
 :data:`LATTICES`; ``--quick``: 12 and 26; ``--cases``; ``--re 1 --t-end 0.5``: the Stokes
-limit of validation/README.md). It prints the errors per case and
+limit of validation/README.md; ``--sound``: c [m/s]). It prints the errors per case and
 resolution and the observed order of the rate error between successive resolutions, and saves
 ``validation/taylor_green.png`` when matplotlib is installed.
 """
@@ -191,10 +196,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES),
                     choices=[c[0] for c in CASES])
     ap.add_argument("--t-end", type=float, default=T_END, help="end of the fit window [s]")
+    ap.add_argument("--sound", type=float, default=SOUND,
+                    help="WCSPH: speed of sound c [m/s] (default 10, Mach 0.1; with the transport "
+                    "velocity p_b = rho0 c^2 follows it)")
     ap.add_argument("--re", type=float, default=RE,
                     help="Reynolds number U L / nu (default 100; 1: the Stokes limit, where "
                     "the decay only tests the viscous operator)")
     args = ap.parse_args(argv)
+    global SOUND
+    SOUND = args.sound
     set_reynolds(args.re)
     ns = [12, 26] if args.quick else args.n
     cases = [c for c in CASES if c[0] in args.cases]
