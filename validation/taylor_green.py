@@ -189,6 +189,7 @@ def run(sim: Simulation, t_end: float = T_END, t0: float = T0, samples: int = 40
 
 
 def main(argv: list[str] | None = None) -> int:
+    global SOUND
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=[12, 26, 45],
                     choices=sorted(LATTICES), help="particles per row (default 12 26 45)")
@@ -203,7 +204,6 @@ def main(argv: list[str] | None = None) -> int:
                     help="Reynolds number U L / nu (default 100; 1: the Stokes limit, where "
                     "the decay only tests the viscous operator)")
     args = ap.parse_args(argv)
-    global SOUND
     SOUND = args.sound
     set_reynolds(args.re)
     ns = [12, 26] if args.quick else args.n
