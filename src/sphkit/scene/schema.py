@@ -184,8 +184,8 @@ class TransportConfig(_Model):
     method: TransportMethod = "none"
     background_pressure: float | None = Field(
         None, gt=0, description="adami2013: background pressure p_b [Pa] of the transport "
-        "velocity; unset: rho0 c^2 with the speed of sound c of the WCSPH state equation (Adami "
-        "et al. 2013, PySPH)",
+        "velocity; unset: rho0 c^2 with the speed of sound c of the WCSPH state equation (PySPH's "
+        "choice in its implementation of Adami et al. 2013)",
     )
 
 

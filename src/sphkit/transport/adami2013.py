@@ -5,7 +5,7 @@ stagnation points (the Taylor-Green vortex, a lid-driven cavity) the particles t
 along the stretching direction and clump across it, and the disorder of the neighbour sets
 costs accuracy and energy. Adami et al. advect the particles with a transport velocity ``v~``
 instead, which adds to the momentum velocity the acceleration of a constant background pressure
-``p_b`` (their Eq. 13 with the same kernel, written for a time step dt):
+``p_b`` (with the kernel of the other sums, written for a time step dt):
 
     v~_i = v_i + dt a^b_i,   a^b_i = -(p_b / m_i) sum_j (V_i^2 + V_j^2) grad W_ij
 
@@ -13,24 +13,25 @@ instead, which adds to the momentum velocity the acceleration of a constant back
 wall pushes the fluid next to it as fluid would). On an ordered, uniform neighbour set the sum
 vanishes; where the particles clump or leave holes it moves them back towards uniform spacing,
 at no cost to the momentum (the shift is not a force on v). The momentum equation of a fluid
-moving with ``v~`` gains the divergence of the stress ``A = rho v (v~ - v)`` (their Eqs. 6, 8,
-10), discretised as their Eq. 10's second term:
+moving with ``v~`` gains the divergence of the stress ``A = rho v (v~ - v)``, discretised in
+the paper's inter-particle-averaged form, ``(V_i^2 + V_j^2)`` as in its pressure term:
 
     a_i += (1 / m_i) sum_j (V_i^2 + V_j^2) (A_i + A_j) / 2 . grad W_ij,
     (A . grad W)_a = rho v_a ((v~ - v) . grad W)
 
-over fluid neighbours (as their Eq. 10; the walls have no transport velocity). Both sums are
-antisymmetric in the pair, so the linear momentum is conserved to round-off.
+over fluid neighbours (the walls have no transport velocity; as PySPH's implementation). Both
+sums are antisymmetric in the pair, so the linear momentum is conserved to round-off.
 
 In sphkit's symplectic Euler (:meth:`sphkit.simulation.Simulation.step`) the particles move by
 ``dt v~ = dt v^{n+1} + dt^2 a^b``: :meth:`Adami2013.apply` evaluates ``a^b`` at the step's
 positions and adds the A term with ``v~ - v = dt a^b``, and :meth:`Adami2013.advect` adds the
-shift ``dt^2 a^b`` after the integration. Background pressure: Adami et al. and PySPH's TVF
-scheme take ``p_b = p0 = rho0 c^2`` with the state equation's speed of sound c
-(``configuration.transport.background_pressure`` unset); the shift per step is then a fixed
-fraction of the spacing at the acoustic step ``dt ~ h / c``. The state equation itself keeps
-no background pressure in the paper (``p = c^2 (rho - rho0)``): in sphkit that is WCSPH's
-linear equation with a small ``pressure.background_pressure`` (which switches the clamp off).
+shift ``dt^2 a^b`` after the integration. Background pressure: PySPH's TVF scheme (an
+implementation of the paper) takes ``p_b = p0 = rho0 c^2`` with the state equation's speed of
+sound c, as sphkit does when ``configuration.transport.background_pressure`` is unset; the
+shift per step is then a fixed fraction of the spacing at the acoustic step ``dt ~ h / c``.
+Its state equation keeps no background pressure (``p = c^2 (rho - rho0)``): in sphkit that is
+WCSPH's linear equation with a small ``pressure.background_pressure`` (which switches the clamp
+off).
 """
 
 from __future__ import annotations
