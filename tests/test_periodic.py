@@ -192,8 +192,8 @@ def test_transport_velocity_restores_the_lattice_and_conserves_momentum() -> Non
     doubly periodic 10 x 10 square lattice: (1) on the exact lattice the background-pressure
     acceleration a^b vanishes (every particle sees the same symmetric neighbourhood; 1e-9 of
     p_b / (rho0 dx), round-off of sums of O(1) terms); (2) a particle moved 0.2 dx off its
-    site is pushed back towards it (a^b_x < 0, and its shift dt^2 a^b after the step points
-    back), and (3) with random velocities both the background term and the stress term
+    site is pushed back towards it (a^b_x < 0, and its shift (dt^2 / 2) a^b after the step
+    points back), and (3) with random velocities both the background term and the stress term
     A = rho v (v~ - v) are pair-antisymmetric: sum_i m_i a_i is zero to 1e-12 of sum_i m_i |a_i|
     (round-off). A transport velocity with another pressure solver is refused by name."""
     from sphkit.transport.adami2013 import Adami2013
@@ -227,7 +227,7 @@ def test_transport_velocity_restores_the_lattice_and_conserves_momentum() -> Non
         assert np.abs((m * acc).sum(axis=1)).max() < 1e-12 * (m * np.abs(acc).sum(axis=0)).sum()
     x0 = f["x"][0, k]
     tv.advect(st, dt)
-    assert f["x"][0, k] - x0 == pytest.approx(dt * dt * ab[0, k], rel=1e-12)
+    assert f["x"][0, k] - x0 == pytest.approx(0.5 * dt * dt * ab[0, k], rel=1e-12)
     sc["configuration"]["pressure"] = {"method": "dfsph"}
     with pytest.raises(SceneError, match=r"configuration.transport.method: 'adami2013'.*dfsph"):
         Simulation(Scene.model_validate(sc))

@@ -5,9 +5,10 @@ stagnation points (the Taylor-Green vortex, a lid-driven cavity) the particles t
 along the stretching direction and clump across it, and the disorder of the neighbour sets
 costs accuracy and energy. Adami et al. advect the particles with a transport velocity ``v~``
 instead, which adds to the momentum velocity the acceleration of a constant background pressure
-``p_b`` (with the kernel of the other sums, written for a time step dt):
+``p_b`` (with the kernel of the other sums; the half-step kick of the paper's kick-drift-kick
+integration, as its Eq. 15 in PySPH's ``TransportVelocityStep``, for a time step dt):
 
-    v~_i = v_i + dt a^b_i,   a^b_i = -(p_b / m_i) sum_j (V_i^2 + V_j^2) grad W_ij
+    v~_i = v_i + (dt / 2) a^b_i,   a^b_i = -(p_b / m_i) sum_j (V_i^2 + V_j^2) grad W_ij
 
 (``V = m / rho`` the particle volumes; boundary particles with their volume ``V_b``, so that a
 wall pushes the fluid next to it as fluid would). On an ordered, uniform neighbour set the sum
@@ -23,9 +24,11 @@ over fluid neighbours (the walls have no transport velocity; as PySPH's implemen
 sums are antisymmetric in the pair, so the linear momentum is conserved to round-off.
 
 In sphkit's symplectic Euler (:meth:`sphkit.simulation.Simulation.step`) the particles move by
-``dt v~ = dt v^{n+1} + dt^2 a^b``: :meth:`Adami2013.apply` evaluates ``a^b`` at the step's
-positions and adds the A term with ``v~ - v = dt a^b``, and :meth:`Adami2013.advect` adds the
-shift ``dt^2 a^b`` after the integration. Background pressure: PySPH's TVF scheme (an
+``dt v~ = dt v^{n+1} + (dt^2 / 2) a^b``: :meth:`Adami2013.apply` evaluates ``a^b`` at the step's
+positions and adds the A term with ``v~ - v = (dt / 2) a^b``, and :meth:`Adami2013.advect` adds
+the shift ``(dt^2 / 2) a^b`` after the integration (the paper's shift per step; a full ``dt``
+kick, twice as strong, made the lid-driven cavity at Re 1000 violently unstable through the A
+term, validation/README.md). Background pressure: PySPH's TVF scheme (an
 implementation of the paper) takes ``p_b = p0 = rho0 c^2`` with the state equation's speed of
 sound c, as sphkit does when ``configuration.transport.background_pressure`` is unset; the
 shift per step is then a fixed fraction of the spacing at the acoustic step ``dt ~ h / c``.
@@ -77,9 +80,10 @@ def background_body(i, x, m, rho, off, idx, bx, bV, boff, bidx, pb, h, kid, dim,
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
-def stress_body(i, x, v, m, rho, off, idx, ab, dt, h, kid, dim, L, a):
+def stress_body(i, x, v, m, rho, off, idx, ab, kick, h, kid, dim, L, a):
     """Add ``(1 / m_i) sum_j (V_i^2 + V_j^2) (A_i + A_j) / 2 . grad W_ij`` with
-    ``A = rho v (v~ - v)``, ``v~ - v = dt ab``, to ``a[:, i]`` (module docstring)."""
+    ``A = rho v (v~ - v)``, ``v~ - v = kick ab`` (``kick = dt / 2``), to ``a[:, i]`` (module
+    docstring)."""
     xi0, xi1, xi2 = point(x, i, dim)
     vi0, vi1, vi2 = point(v, i, dim)
     ti0, ti1, ti2 = point(ab, i, dim)
@@ -102,13 +106,13 @@ def stress_body(i, x, v, m, rho, off, idx, ab, dt, h, kid, dim, L, a):
         a0 += s * (si * vi0 + sj * vj0)
         a1 += s * (si * vi1 + sj * vj1)
         a2 += s * (si * vi2 + sj * vj2)
-    c = 0.5 * dt / m[i]
+    c = 0.5 * kick / m[i]
     add_vector(a, i, dim, c * a0, c * a1, c * a2)
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def shift_positions(x, ab, dt2):
-    """``x += dt^2 ab``: the transport velocity's share of the step's displacement."""
+    """``x += dt2 ab``: the transport velocity's share of the step's displacement."""
     dim, n = x.shape
     for i in numba.prange(n):
         for d in range(dim):
@@ -146,12 +150,12 @@ class Adami2013(NonPressureForce):
                self.background_pressure, state.h, state.kid, state.dim, state.pair_period,
                self.ab)
         launch(stress_body, f.n, f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets,
-               state.nl_ff.indices, self.ab, float(dt), state.h, state.kid, state.dim,
+               state.nl_ff.indices, self.ab, 0.5 * float(dt), state.h, state.kid, state.dim,
                state.pair_period, f["a"])
 
     def advect(self, state: SimState, dt: float) -> None:
-        """Move the fluid by the transport velocity's share ``dt^2 a^b`` after the step's
+        """Move the fluid by the transport velocity's share ``(dt^2 / 2) a^b`` after the step's
         ``x += dt v``."""
         if self.ab is not None and self.ab.shape == state.fluid["x"].shape:
-            shift_positions(state.fluid["x"], self.ab, float(dt) * float(dt))
+            shift_positions(state.fluid["x"], self.ab, 0.5 * float(dt) * float(dt))
         self.ab = None
