@@ -18,7 +18,7 @@ SRC = Path(__file__).resolve().parent.parent / "src" / "sphkit"
 
 #: the method packages (one paper per file); they import only core and geometry
 METHODS = {"pressure", "viscosity", "vorticity", "surface_tension", "drag", "boundary",
-           "solids", "multiphase"}
+           "solids", "multiphase", "transport"}
 
 #: top-level package -> the other top-level packages it may import (DESIGN.md, "Who may import
 #: whom"; see docs/architecture.md for the two additions: the simulation builds its world from
@@ -90,7 +90,8 @@ def test_minimum_image_only_in_pairs() -> None:
 BASES = {"pressure": PressureSolver, "boundary": BoundaryModel, "viscosity": NonPressureForce,
          "vorticity": NonPressureForce, "surface_tension": NonPressureForce,
          "drag": NonPressureForce, "interface_viscosity": NonPressureForce,
-         "interface_tension": NonPressureForce, "elasticity": Elasticity}
+         "interface_tension": NonPressureForce, "elasticity": Elasticity,
+         "transport": NonPressureForce}
 #: the package of a role's methods, where it is not named as the role
 PACKAGES = {"elasticity": "solids", "interface_viscosity": "multiphase",
             "interface_tension": "multiphase"}
@@ -122,13 +123,14 @@ def test_schema_choices_are_the_registry() -> None:
               "drag": (schema.DragConfig, "method"),
               "interface_viscosity": (schema.InterfaceViscosityConfig, "method"),
               "interface_tension": (schema.InterfaceTensionConfig, "method"),
-              "elasticity": (schema.ElasticityConfig, "method")}
+              "elasticity": (schema.ElasticityConfig, "method"),
+              "transport": (schema.TransportConfig, "method")}
     assert set(fields) == set(registry.ROLES)
     for role, (model, name) in fields.items():
         choices = typing.get_args(model.model_fields[name].annotation)
         expected = registry.names(role)
         if (role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES
-                or role in registry.INTERFACE_ROLES):
+                or role in registry.INTERFACE_ROLES or role in registry.CONFIGURATION_ROLES):
             expected = ("none", *expected)
         assert choices == expected, (role, choices, expected)
 

@@ -31,10 +31,15 @@ at t = 0); velocities set to the field above at t = 0. Cases:
 * ``dfsph/standard``: DFSPH (sphkit's defaults: 0.01 % density, 0.1 % divergence error) with the
   standard viscosity, CFL step (``0.4 * 2r / max|v|``, at most 5 ms, and the explicit
   viscosity's bound).
+* ``wcsph/tvf``: ``wcsph/standard`` with the transport velocity of Adami, Hu & Adams 2013
+  (``configuration.transport: adami2013``, :mod:`sphkit.transport.adami2013`) and their
+  choices: background pressure ``p_b = rho0 c^2`` in the transport velocity, none in the state
+  equation (a tiny one, ``1e-6 rho0 U^2``, only switches the clamp off: ``p = c^2 (rho - rho0)``
+  goes negative in the vortex cores).
 
 Run ``python validation/taylor_green.py`` (``--n 12 26 45``: particles per row, from
 :data:`LATTICES`; ``--quick``: 12 and 26; ``--cases``; ``--re 1 --t-end 0.5``: the Stokes
-limit of validation/README.md). It prints the errors per case and
+limit of validation/README.md; ``--sound``: c [m/s]). It prints the errors per case and
 resolution and the observed order of the rate error between successive resolutions, and saves
 ``validation/taylor_green.png`` when matplotlib is installed.
 """
@@ -67,11 +72,17 @@ CG_TOL = 1e-7  # weiler2018: relative residual
 #: (particles per row nx, rows ny): ny even and ny sqrt(3)/2 within 0.07 % of nx
 LATTICES = {12: (12, 14), 26: (26, 30), 45: (45, 52), 71: (71, 82), 97: (97, 112),
             123: (123, 142)}
-#: (label, pressure solver, viscosity)
-CASES = (("wcsph/standard", "wcsph", "standard"), ("wcsph/weiler2018", "wcsph", "weiler2018"),
-         ("dfsph/standard", "dfsph", "standard"))
+#: TVF: the transport velocity's background pressure / (rho0 c^2) (Adami et al. 2013: 1) and
+#: the state equation's background pressure / (rho0 U^2) (only to unclamp it: p ~ c^2 (rho - rho0))
+TVF_BACKGROUND = 1.0
+TVF_EOS_BACKGROUND = 1e-6
+#: (label, pressure solver, viscosity, transport velocity)
+CASES = (("wcsph/standard", "wcsph", "standard", "none"),
+         ("wcsph/weiler2018", "wcsph", "weiler2018", "none"),
+         ("dfsph/standard", "dfsph", "standard", "none"),
+         ("wcsph/tvf", "wcsph", "standard", "adami2013"))
 #: the cases run by default (the others on request, ``--cases``; validation/README.md)
-DEFAULT_CASES = ("wcsph/standard",)
+DEFAULT_CASES = ("wcsph/standard", "wcsph/tvf")
 
 
 def set_reynolds(re: float) -> None:
@@ -95,7 +106,7 @@ def pressure_field(x: np.ndarray, t: float) -> np.ndarray:
 
 
 def vortex(nx: int, pressure: str = "wcsph", viscosity: str = "standard",
-           t_end: float = T_END) -> Simulation:
+           t_end: float = T_END, transport: str = "none") -> Simulation:
     """The Taylor-Green vortex on the ``nx`` lattice of :data:`LATTICES` (module docstring)."""
     from sphkit.core.kernels import Kernel
     from sphkit.core.particles import ParticleSet
@@ -110,9 +121,13 @@ def vortex(nx: int, pressure: str = "wcsph", viscosity: str = "standard",
     cfg = {"dim": 2, "particle_radius": r, "gravity": [0.0, 0.0], "kernel": "quintic",
            "precision": "float64", "periodic_x": [0.0, LENGTH], "periodic_y": [0.0, LENGTH],
            "start": {"relax": False, "hydrostatic": False}}
+    if transport != "none":  # Adami et al. 2013: p_b = rho0 c^2
+        cfg["transport"] = {"method": transport,
+                            "background_pressure": TVF_BACKGROUND * RHO0 * c * c}
     if pressure == "wcsph":
+        eos_pb = (TVF_EOS_BACKGROUND if transport != "none" else BACKGROUND) * RHO0 * SPEED**2
         cfg["pressure"] = {"method": "wcsph", "equation": "linear", "stiffness": c * c,
-                           "background_pressure": BACKGROUND * RHO0 * SPEED**2}
+                           "background_pressure": eos_pb}
         cfg["time"] = {"dt": 0.4 * spacing / c, "cfl": False}
     else:
         cfg["pressure"] = {"method": pressure}
@@ -174,6 +189,7 @@ def run(sim: Simulation, t_end: float = T_END, t0: float = T0, samples: int = 40
 
 
 def main(argv: list[str] | None = None) -> int:
+    global SOUND
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=[12, 26, 45],
                     choices=sorted(LATTICES), help="particles per row (default 12 26 45)")
@@ -181,10 +197,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES),
                     choices=[c[0] for c in CASES])
     ap.add_argument("--t-end", type=float, default=T_END, help="end of the fit window [s]")
+    ap.add_argument("--sound", type=float, default=SOUND,
+                    help="WCSPH: speed of sound c [m/s] (default 10, Mach 0.1; with the transport "
+                    "velocity p_b = rho0 c^2 follows it)")
     ap.add_argument("--re", type=float, default=RE,
                     help="Reynolds number U L / nu (default 100; 1: the Stokes limit, where "
                     "the decay only tests the viscous operator)")
     args = ap.parse_args(argv)
+    SOUND = args.sound
     set_reynolds(args.re)
     ns = [12, 26] if args.quick else args.n
     cases = [c for c in CASES if c[0] in args.cases]
@@ -195,17 +215,17 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'case':<18}{'nx x ny':>9}{'N':>7}{'rate [1/s]':>12}{'rate err':>10}"
           f"{'E(T) err':>10}{'L2(T)':>9}{'steps':>7}{'time [s]':>9}")
     results = {}
-    for label, pressure, viscosity in cases:
+    for label, pressure, viscosity, transport in cases:
         for n in ns:
             t0 = time.perf_counter()
-            res = run(vortex(n, pressure, viscosity), args.t_end)
+            res = run(vortex(n, pressure, viscosity, transport=transport), args.t_end)
             wall = time.perf_counter() - t0
             results[(label, n)] = res
             nx, ny = LATTICES[n]
             print(f"{label:<18}{f'{nx}x{ny}':>9}{nx * ny:>7}{res['rate']:12.5f}"
                   f"{100 * res['rate_err']:9.2f}%{100 * res['end_err']:9.2f}%"
                   f"{100 * res['l2']:8.2f}%{res['steps']:>7}{wall:9.1f}", flush=True)
-    for label, _p, _v in cases:  # observed order of the rate error between resolutions
+    for label, _p, _v, _t in cases:  # observed order of the rate error between resolutions
         for a, b in zip(ns, ns[1:], strict=False):
             ea, eb = abs(results[(label, a)]["rate_err"]), abs(results[(label, b)]["rate_err"])
             # spacing ratio from the particle counts (the rows are not exactly nx)
@@ -224,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
     fig, ax = plt.subplots(figsize=(6, 4))
     tt = np.linspace(0.0, args.t_end, 200)
     ax.semilogy(tt, np.exp(-RATE * tt), "k-", lw=1.0, label="exp(-4 nu k^2 t)")
-    for (label, _p, _v), ls in zip(cases, ("-", "--", ":"), strict=False):
+    for (label, _p, _v, _t), ls in zip(cases, ("-", "--", ":", "-."), strict=False):
         for n, mk in zip(ns, ("o", "s", "^", "v", "d"), strict=False):
             res = results[(label, n)]
             ax.semilogy(res["t"], res["E"] / res["E"][0], ls, marker=mk, ms=3, lw=0.8,

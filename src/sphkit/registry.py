@@ -51,10 +51,14 @@ from typing import Any
 #: the roles, in the order of a time step (DESIGN.md, "One time step")
 ROLES: tuple[str, ...] = ("boundary", "boundary_pressure", "viscosity", "vorticity",
                           "surface_tension", "drag", "interface_viscosity", "interface_tension",
-                          "elasticity", "pressure")
+                          "elasticity", "transport", "pressure")
 
 #: the roles a material may leave out (scene value ``"none"``)
 OPTIONAL_ROLES: tuple[str, ...] = ("viscosity", "vorticity", "surface_tension", "drag")
+
+#: the roles set once for the whole fluid in ``configuration`` (scene value ``"none"``: off):
+#: the transport velocity (``configuration.transport``, package :mod:`sphkit.transport`)
+CONFIGURATION_ROLES: tuple[str, ...] = ("transport",)
 
 #: the roles of an interface between two fluid materials (``interfaces[]``, scene value
 #: ``"none"``: off); package :mod:`sphkit.multiphase`
@@ -337,3 +341,10 @@ register("elasticity", "kee2023", "sphkit.solids.kee2023:Kee2023", splishsplash=
          "hyperelastic solids",
          summary="hyperelastic (corotated or stable neo-Hookean) backward Euler as a "
          "minimisation: projected Newton with CG, or L-BFGS on a pre-factorised Hessian")
+
+# transport velocities: configuration.transport (no SPlisHSPlasH counterpart)
+register("transport", "adami2013", "sphkit.transport.adami2013:Adami2013",
+         paper="Adami, Hu & Adams 2013, A transport-velocity formulation for smoothed particle "
+         "hydrodynamics", summary="particles advected with a background-pressure transport "
+         "velocity, plus the stress term A = rho v (v~ - v); WCSPH only",
+         periodic=True, periodic_y=True)

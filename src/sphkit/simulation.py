@@ -8,8 +8,7 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
    :class:`sphkit.core.verlet.VerletLists`), fluid-boundary lists from the boundary model;
 2. densities ``rho_i = rho0_i (sum_j V0_j W_ij + sum_b V_b W_ib)`` (number densities of the
    particles' own rest densities, Solenthaler & Pajarola 2008; with the solver's cached pair
-   gradients in the same pass where it uses them), and the boundary pressure model's view of
-   the step (``state.coupling``);
+   gradients in the same pass where it uses them), the boundary pressure's view (``coupling``);
 3. time step: CFL ``cfl_factor * 0.4 * 2r / max|v|`` (fluid and moving boundary) clamped to
    [dt_min, dt_max], and the pressure solver's own limit (WCSPH: acoustic and local stiffness);
 4. the pressure solver's ``pre_forces`` (DFSPH: factors and the divergence-free solve on the
@@ -17,11 +16,11 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 5. accelerations: gravity, then the non-pressure forces (viscosity, vorticity, surface tension,
    drag, the boundary model's own, the elasticity of solid materials), then the pressure
    solver, which adds the pressure acceleration (PBF: the acceleration that lands on its
-   corrected positions); bodies that yield
-   to the pressure take their non-pressure velocity change before the solve (strong coupling);
+   corrected positions); bodies that yield to the pressure take their non-pressure velocity
+   change before the solve (strong coupling);
 6. the fluid's force on the rigid bodies from the solver's boundary share of its pressure;
-7. symplectic Euler (pinned solid particles are put back at rest), then the bodies move (the
-   boundary model follows them);
+7. symplectic Euler (pinned solid particles are put back at rest; a transport velocity's
+   shift, :mod:`sphkit.transport`), then the bodies move (the boundary model follows them);
 8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it;
    animation fields (:mod:`sphkit.world.animation`) set their particle field inside their
    regions; then the emitters' layers due by the new time are added;
@@ -162,10 +161,9 @@ class Simulation:
         """Run the start-up's settling ``plan`` before t = 0 (:mod:`sphkit.world.settle`): the
         step with every velocity damped by ``exp(-gamma dt)``, the fluid of columns in the air
         held in place, until the fluid's root mean square speed is below ``plan.speed`` (after
-        at least ``plan.min_time``) or ``plan.max_time``; then the
-        velocities are zeroed and the clock reset. Returns (steps, settled time [s], root mean
-        square speed at the end [m/s]); (0, 0, nan) when it became unstable and was undone
-        (with a warning)."""
+        at least ``plan.min_time``) or ``plan.max_time``; then the velocities are zeroed and the
+        clock reset. Returns (steps, settled time [s], root mean square speed at the end
+        [m/s]); (0, 0, nan) when it became unstable and was undone (with a warning)."""
         f = self.state.fluid
         saved = {name: arr.copy() for name, arr in f.fields.items()}
         steps, speed = 0, math.inf
@@ -435,6 +433,8 @@ class Simulation:
             self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))
         st.pair_grads = None  # positions change: the cache is stale
         symplectic_euler(f["x"], f["v"], f["a"], dt)  # integrate
+        for force in self.forces:  # a transport velocity's share of the displacement
+            force.advect(st, dt)
         for solid in self.solids:  # pinned solid particles stay at rest
             solid.constrain(st)
         self.rigid.advance(st, dt, self.time)  # move the bodies (the boundary follows)

@@ -10,7 +10,8 @@ Simulation.step`) calls every entry point of every method without asking ``hasat
   of its pressure acceleration, which moving bodies feel as the fluid force), and for the
   hydrostatic start ``compressed_density`` (the density that carries a pressure);
 * :class:`NonPressureForce` -- ``init``, ``apply`` (adds to ``state.fluid["a"]``), ``stats``
-  (an implicit solver's last solve);
+  (an implicit solver's last solve), ``advect`` (moves the fluid after the integration: the
+  transport velocity of :mod:`sphkit.transport`);
 * :class:`BoundaryModel` -- ``init``, ``update`` (this step's fluid-boundary neighbours),
   ``rebuild`` (after boundary particles moved), ``bind_bodies``, ``forces``, ``inside`` (the
   fluid that starts inside the model's solid);
@@ -145,6 +146,11 @@ class NonPressureForce(Protocol):
     @abstractmethod
     def apply(self, state: SimState, dt: float) -> None:
         """Add this force's acceleration to ``state.fluid["a"]``."""
+
+    def advect(self, state: SimState, dt: float) -> None:
+        """Move the fluid after the step's ``x += dt v`` (a transport velocity's share of the
+        displacement, :mod:`sphkit.transport`); none by default."""
+        return None
 
 
 @runtime_checkable

@@ -23,6 +23,11 @@ from collections.abc import Callable, Sequence
 from sphkit import registry
 from sphkit.scene.schema import Box, Material, Scene, SceneError
 
+#: the pressure solvers a transport velocity (``configuration.transport``) works with: its
+#: shift assumes the explicit step of a state equation (the iterative solvers correct positions
+#: or velocities towards rest density on their own, which the shift would undo)
+TRANSPORT_PRESSURE = ("wcsph",)
+
 #: the roles whose methods must support ``configuration.periodic_x`` (and ``periodic_y``)
 PERIODIC_ROLES = ("pressure", "viscosity", "vorticity", "surface_tension", "drag")
 
@@ -251,11 +256,27 @@ def check_scene(scene: Scene) -> list[Material]:
             for mat in mats:
                 _periodic(scene, mat, axis)
     _boundary_pressure(scene)
+    _transport(scene, mats)
     _lattices(scene)
     _bodies(scene)
     _solids(scene)
     scene_warnings(scene)
     return mats
+
+
+def _transport(scene: Scene, mats: list[Material]) -> None:
+    """A transport velocity runs with the solvers of :data:`TRANSPORT_PRESSURE`, one fluid."""
+    cfg = scene.configuration
+    name = cfg.transport.method
+    if name == "none":
+        return
+    if cfg.pressure.method not in TRANSPORT_PRESSURE:
+        raise SceneError(f"configuration.transport.method: {name!r} does not support "
+                         f"configuration.pressure.method {cfg.pressure.method!r} yet; expected "
+                         f"one of {list(TRANSPORT_PRESSURE)} (or transport 'none')")
+    if len(mats) > 1:
+        raise SceneError(f"configuration.transport.method: {name!r} does not support several "
+                         f"fluid materials yet ({sorted(m.id for m in mats)}); expected 'none'")
 
 
 def _solids(scene: Scene) -> None:
@@ -291,7 +312,8 @@ def methods_in_use(scene: Scene) -> list[tuple[str, str, str]]:
     cfg = scene.configuration
     used = [("configuration.pressure.method", "pressure", cfg.pressure.method),
             ("configuration.boundary.method", "boundary", cfg.boundary.method),
-            ("configuration.boundary.pressure", "boundary_pressure", cfg.boundary.pressure)]
+            ("configuration.boundary.pressure", "boundary_pressure", cfg.boundary.pressure),
+            ("configuration.transport.method", "transport", cfg.transport.method)]
     for k, mat in enumerate(scene.materials):
         for role in (*registry.OPTIONAL_ROLES, *registry.SOLID_ROLES):
             used.append((f"materials[{k}].{role}.method", role, getattr(mat, role).method))

@@ -34,7 +34,7 @@ def _choices(role: str) -> Any:
     ``"none"`` first for the optional non-pressure forces."""
     names = registry.names(role)
     if (role in registry.OPTIONAL_ROLES or role in registry.SOLID_ROLES
-            or role in registry.INTERFACE_ROLES):
+            or role in registry.INTERFACE_ROLES or role in registry.CONFIGURATION_ROLES):
         names = ("none", *names)
     return Literal[names]  # type: ignore[valid-type]
 
@@ -53,6 +53,7 @@ InterfaceTensionMethod = _choices("interface_tension")
 ElasticityMethod = _choices("elasticity")
 BoundaryMethod = _choices("boundary")
 BoundaryPressureMethod = _choices("boundary_pressure")
+TransportMethod = _choices("transport")
 
 
 class _Model(BaseModel):
@@ -169,6 +170,22 @@ class PressureConfig(_Model):
         1e-10, gt=0, lt=1,
         description="pf: relative residual |b - A x| / |b| of the global step that ends the "
         "local/global iterations (SPlisHSPlasH 1e-10)",
+    )
+
+
+class TransportConfig(_Model):
+    """Transport velocity (``method``: ``none`` or ``adami2013``, Adami, Hu & Adams 2013,
+    :mod:`sphkit.transport.adami2013`): the particles move with their velocity plus the
+    acceleration of a background pressure times the step, which keeps them evenly spaced in
+    flows that stretch the particle lattice (Taylor-Green vortex, lid-driven cavity); the
+    momentum equation gains the stress term ``A = rho v (v~ - v)``. WCSPH only; no free
+    surfaces (the background pressure pulls a surface particle into the fluid)."""
+
+    method: TransportMethod = "none"
+    background_pressure: float | None = Field(
+        None, gt=0, description="adami2013: background pressure p_b [Pa] of the transport "
+        "velocity; unset: rho0 c^2 with the speed of sound c of the WCSPH state equation (PySPH's "
+        "choice in its implementation of Adami et al. 2013)",
     )
 
 
@@ -979,6 +996,7 @@ class Configuration(_Model):
         "each is in validation/README.md, 'float32'")
     time: TimeConfig = TimeConfig()
     pressure: PressureConfig = PressureConfig()
+    transport: TransportConfig = TransportConfig()
     boundary: BoundaryConfig = BoundaryConfig()
     start: StartConfig = StartConfig()
     neighbor_skin: float = Field(

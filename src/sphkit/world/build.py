@@ -263,6 +263,12 @@ def _build(scene: Scene) -> World:
     else:
         model = model_cls()
     forces, roles = _forces(scene, mats)
+    if cfg.transport.method != "none":  # a transport velocity (:mod:`sphkit.transport`)
+        pb = cfg.transport.background_pressure  # unset: rho0 c^2 of the state equation
+        pb = state.rho0 * pressure.acoustic_speed(state) ** 2 if pb is None else pb
+        tv = registry.get("transport", cfg.transport.method).load()
+        forces.append(tv.from_config((cfg.transport, pb)))
+        roles.append("transport")
     between, between_roles = _interfaces(scene, mats)
     forces += between
     roles += between_roles
