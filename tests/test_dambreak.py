@@ -8,12 +8,12 @@ r under a splash's impact is still in front of the wall, while a leak puts centr
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import shutil
 from pathlib import Path
 
 import numpy as np
+from _validation import load_validation
 from _wheel import wheel_scene
 
 from sphkit.cli import main
@@ -61,10 +61,7 @@ def test_dam_break_front_and_residual_column_against_the_experiments() -> None:
     tau = 0.56 and 0.77 (measured 0.008; the table's H steps are 0.056, quarter-inch marks).
     Measured 2.8 s in pytest single-threaded on the shared 2-core machine (4.9-8.4 s under
     heavier load; 139 steps)."""
-    path = Path(__file__).resolve().parent.parent / "validation" / "dam_break.py"
-    spec = importlib.util.spec_from_file_location("dam_break_validation", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_validation("dam_break.py")
     sim = Simulation(mod.scene("dfsph", 10, "free-slip", 2.0))
     out = mod.run(sim, 2.0, t_end=1.2)
     assert out["T"][-1] >= 1.2

@@ -4,11 +4,11 @@ against quadrature references, and the pressure along the side walls of a settle
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _validation import load_validation
 from scipy import integrate
 
 from sphkit.boundary.bender2019 import Bender2019
@@ -228,11 +228,7 @@ def test_hydrostatic_boundary_pressure_needs_maps() -> None:
 
 def _maps_validation():
     """validation/maps.py (its column, layer errors and interpolated pressure)."""
-    path = Path(__file__).resolve().parent.parent / "validation" / "maps.py"
-    spec = importlib.util.spec_from_file_location("maps_validation", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_validation("maps.py")
 
 
 def test_interpolated_pressure_is_linear_exact_and_filters_the_row_mode() -> None:

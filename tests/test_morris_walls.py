@@ -4,11 +4,9 @@ Morris et al.'s setup (the long study is validation/poiseuille.py)."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from _validation import load_validation
 
 from sphkit.core.viscous import morris_beta
 from sphkit.scene.files import scene_from_dict
@@ -95,11 +93,7 @@ def test_linear_shear_has_no_viscous_force_next_to_morris_walls(method: str) -> 
 
 
 def _poiseuille():
-    path = Path(__file__).resolve().parent.parent / "validation" / "poiseuille.py"
-    spec = importlib.util.spec_from_file_location("poiseuille_validation", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_validation("poiseuille.py")
 
 
 def test_poiseuille_start_up_with_morris_walls_matches_the_series_solution() -> None:
@@ -145,11 +139,7 @@ def test_bad_boundary_velocity_is_a_named_scene_error() -> None:
 
 
 def _couette_validation():
-    path = Path(__file__).resolve().parent.parent / "validation" / "couette.py"
-    spec = importlib.util.spec_from_file_location("couette_validation", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_validation("couette.py")
 
 
 def test_couette_start_up_with_a_moving_wall_matches_the_series_solution() -> None:

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from _validation import load_validation
 
 from sphkit.core.neighbors import Grid, neighbor_lists
 from sphkit.scene.schema import Scene, SceneError
@@ -161,11 +160,7 @@ def test_periodic_scene_errors_name_the_field() -> None:
 
 
 def _taylor_green_validation():
-    path = Path(__file__).resolve().parent.parent / "validation" / "taylor_green.py"
-    spec = importlib.util.spec_from_file_location("taylor_green_validation", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_validation("taylor_green.py")
 
 
 def test_taylor_green_vortex_periodic_in_x_and_y_decays_at_the_viscous_rate() -> None:

@@ -4,18 +4,13 @@ validation/surface_tension.py)."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from _validation import load_validation
 
 from sphkit.simulation import Simulation
 
-_PATH = Path(__file__).resolve().parent.parent / "validation" / "surface_tension.py"
-_spec = importlib.util.spec_from_file_location("surface_tension_validation", _PATH)
-val = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(val)
+val = load_validation("surface_tension.py")
 
 R_P = 0.005
 

@@ -4,11 +4,9 @@ study is validation/surface_tension.py)."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from _validation import load_validation
 
 from sphkit import registry
 from sphkit.core.kernels import kernel_id
@@ -20,10 +18,7 @@ from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
 from sphkit.surface_tension.mueller2003 import SURFACE, THRESHOLD, Mueller2003, curvature_cpu
 
-_PATH = Path(__file__).resolve().parent.parent / "validation" / "surface_tension.py"
-_spec = importlib.util.spec_from_file_location("surface_tension_validation_csf", _PATH)
-val = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(val)
+val = load_validation("surface_tension.py", "surface_tension_validation_csf")
 
 
 def _disc(R: float, dx: float) -> np.ndarray:

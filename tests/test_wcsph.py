@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _validation import load_validation
 
 from sphkit.core.kernels import lattice_volume
 from sphkit.scene.schema import Scene
@@ -119,7 +119,6 @@ def test_lone_particle_bounces_off_a_volume_map_wall_without_gaining_speed(tmp_p
     stiffness bound keeps omega dt <= 0.8: measured 7.01 m/s (1.17x). Bound 1.3x: the step
     that enters the wall's range is not resolved (the particle carries no pressure before it),
     so some gain remains."""
-    from pathlib import Path
 
     box = Path(__file__).resolve().parent.parent / "benchmarks" / "scenes" / "UnitBox.obj"
     r = 0.015
@@ -158,10 +157,7 @@ def test_elliptical_drop_semi_axis_follows_the_incompressible_solution() -> None
     1 %: the centre pressure 5 MPa over rho0 c^2 gives 0.26 % (measured 0.19 %). Measured 0.4 s
     warm (pytest, after test_free_blob; 0.6 s as a second call in a loaded process; 2.6 s when
     it is the first to load the compiled kernels)."""
-    path = Path(__file__).resolve().parent.parent / "validation" / "elliptical_drop.py"
-    spec = importlib.util.spec_from_file_location("elliptical_drop_validation", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_validation("elliptical_drop.py")
     out = mod.run(mod.drop("wcsph", 0.05))
     assert abs(out["b_exact"][-1] / 1.9445 - 1.0) < 1e-3  # the exact solution's end state
     assert out["err_mom"] < 0.025, out["err_mom"]

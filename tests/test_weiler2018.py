@@ -4,11 +4,9 @@ scene mapping, and a fast Poiseuille start-up (the long study is validation/pois
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from _validation import load_validation
 
 from sphkit.scene.files import scene_from_dict
 from sphkit.scene.schema import Scene
@@ -152,11 +150,7 @@ def test_splishsplash_material_maps_to_weiler2018() -> None:
 
 
 def _poiseuille():
-    path = Path(__file__).resolve().parent.parent / "validation" / "poiseuille.py"
-    spec = importlib.util.spec_from_file_location("poiseuille_validation", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_validation("poiseuille.py")
 
 
 def test_poiseuille_start_up_implicit_matches_explicit_and_interior_curvature() -> None:
