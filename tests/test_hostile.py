@@ -316,6 +316,10 @@ def test_fluid_through_the_floor_exits_3(tmp_path: Path,
      "fluid_blocks[0].velocity[0]"),
     ("configuration.pressure", {"stiffness": math.inf}, "configuration.pressure.stiffness"),
     ("configuration.time", {"dt": -math.inf}, "configuration.time.dt"),
+    ("configuration.pressure", {"background_pressure": math.nan},
+     "configuration.pressure.background_pressure"),
+    ("configuration.transport", {"method": "adami2013", "background_pressure": math.inf},
+     "configuration.transport.background_pressure"),
 ])
 def test_non_finite_numbers_are_refused_naming_the_field(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], path: str, value: object,
