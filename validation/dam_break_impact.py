@@ -23,8 +23,9 @@ m_j / rho_j, the simulation's kernel and support; the sensor reads 0 (dry) while
 of DualSPHysics' MeasureTool and TrixiParticles' interpolated pressure. Sampled after every
 step. Measures per sensor: the peak of the raw series and of its 2 ms running mean (the same
 mean applied to the experiment; SPH impact peaks are single-step spikes), their times T, and
-the mean over 3 <= T <= 4 (the wall loaded by the run-up, after the first impact), the first impact's impulse (the integral of p dT over 2.3 <= T <= 3.2); at sensor 1
-the arrival time (first p > 0.1 rho g H).
+the mean over 3 <= T <= 4 (the wall loaded by the run-up, after the first impact), the first
+impact's impulse (the integral of p dT over 2.3 <= T <= 3.2); at sensor 1 the arrival time
+(first p > 0.1 rho g H).
 
 Run ``python validation/dam_break_impact.py`` (``--per-h 10 20 40``, ``--solvers dfsph
 wcsph``, ``--t-end 7``, ``--quick``: 10 and 20 across to T = 4). Prints the table and saves
