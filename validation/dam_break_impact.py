@@ -307,20 +307,23 @@ def _plot(results: dict, dim: int) -> None:
     if not results:
         return
     T, p = experiment()
-    fig, axes = plt.subplots(2, 2, figsize=(13, 8))
-    for k, ax in enumerate(axes.ravel()):
-        ax.plot(T, p[k], "k-", lw=0.6, label="Lobovsky 2014 (one event)")
-        for (solver, _d, per_h), o in sorted(results.items()):
-            ax.plot(o["T"], running_mean(o["T"], o["p"][k], PLOT_WINDOW), lw=0.8,
-                    label=f"{solver} H/2r={per_h} ({PLOT_WINDOW * 1e3:g} ms mean)")
-        ax.set_xlim(2.0, max(o["T"][-1] for o in results.values()))
-        ax.set_ylim(-0.1, 2.0 * p[k].max() + 0.5)
-        ax.set_title(f"sensor {k + 1}: {SENSORS[k] * 1e3:g} mm above the floor ({dim}D)",
-                     fontsize=9)
-        ax.set_xlabel("T = t sqrt(g/H)")
-        ax.set_ylabel("p / (rho g H)")
-        if k == 0:
-            ax.legend(fontsize=6)
+    solvers = sorted({k[0] for k in results})
+    fig, axes = plt.subplots(len(solvers), 4, figsize=(18, 3.6 * len(solvers)), squeeze=False)
+    for row, solver in zip(axes, solvers, strict=True):
+        for k, ax in enumerate(row):
+            ax.plot(T, p[k], "k-", lw=0.8, label="Lobovsky 2014 (one event)")
+            for (s, _d, per_h), o in sorted(results.items()):
+                if s == solver:
+                    ax.plot(o["T"], running_mean(o["T"], o["p"][k], PLOT_WINDOW), lw=0.7,
+                            label=f"{solver} H/2r={per_h} ({PLOT_WINDOW * 1e3:g} ms mean)")
+            ax.set_xlim(2.0, max(o["T"][-1] for o in results.values()))
+            ax.set_ylim(-0.1, 2.0 * p[k].max() + 0.5)
+            ax.set_title(f"{solver}, sensor {k + 1}: {SENSORS[k] * 1e3:g} mm above the floor "
+                         f"({dim}D)", fontsize=8)
+            ax.set_xlabel("T = t sqrt(g/H)")
+            ax.set_ylabel("p / (rho g H)")
+            if k == 0:
+                ax.legend(fontsize=6)
     path = Path(__file__).with_name(f"dam_break_impact{'_3d' if dim == 3 else ''}.png")
     fig.savefig(path, dpi=110, bbox_inches="tight")
     print(f"plot: {path}")

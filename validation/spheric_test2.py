@@ -132,19 +132,37 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--r", type=float, nargs="+", default=[0.025], help="particle radii [m]")
     ap.add_argument("--t-end", type=float, default=2.0)
+    ap.add_argument("--save", type=Path, help="write the runs' gauges to this .npz")
+    ap.add_argument("--load", type=Path, nargs="*", default=[],
+                    help="print and plot runs saved with --save (runs nothing)")
     args = ap.parse_args(argv)
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     te, he = experiment()
-    results = {}
+    results: dict = {}
+    loaded: dict = {}
+    for path in args.load:
+        with np.load(path) as d:
+            for name in d.files:
+                r, f = name.split("|")
+                loaded.setdefault(float(r), {})[f] = d[name]
     with tempfile.TemporaryDirectory() as tmp:
-        for r in args.r:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                sim = Simulation(scene(r, Path(tmp)))
-            t0 = time.perf_counter()
-            o = run(sim, args.t_end)
-            o["wall"] = time.perf_counter() - t0
+        for r in sorted(loaded) if args.load else args.r:
+            if args.load:
+                o = loaded[r]
+                o["n"], o["steps"], o["wall"] = (int(o["info"][0]), int(o["info"][1]),
+                                                 float(o["info"][2]))
+            else:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    sim = Simulation(scene(r, Path(tmp)))
+                t0 = time.perf_counter()
+                o = run(sim, args.t_end)
+                o["wall"] = time.perf_counter() - t0
+                o["info"] = np.array([o["n"], o["steps"], o["wall"]])
             results[r] = o
+            if args.save:
+                np.savez_compressed(args.save, **{f"{q}|{f}": v[f] for q, v in results.items()
+                                                  for f in ("t", "h", "info")})
             print(f"r = {r} m: {o['n']} fluid particles, {o['steps']} steps, {o['wall']:.0f} s")
             keep = te <= o["t"][-1]
             print(f"{'t':>6s}" + "".join(f"{'x=' + str(x):>16s}" for x in GAUGES)
