@@ -90,8 +90,8 @@ def test_dam_break_impact_on_the_downstream_wall_against_lobovsky() -> None:
     (measured 0.87, 0.96, 0.88 on 2026-12-03; 1.08, 1.49, 1.05 at 20 across): the impulse is
     the surge's momentum brought to the wall, robust where the peak is not (the coarse DFSPH
     peaks are single-step spikes 2-4 times the experiment's), and one event of a repeated
-    experiment scatters; the band is wide for that. Measured about 1.5 s (570 steps) in
-    pytest single-threaded."""
+    experiment scatters; the band is wide for that. Measured 1.1 s of CPU time after
+    compilation (561 steps; 4.9 s wall under a load of 7.7 on the shared 2 cores)."""
     mod = load_validation("dam_break_impact.py")
     sim = Simulation(mod.scene("dfsph", 10))
     out = mod.run(sim, 3.2)
