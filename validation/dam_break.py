@@ -51,8 +51,11 @@ spline, h = 4r, CFL step 0.4 * 2r / max|v|; hydrostatic start.
 
 Run ``python validation/dam_break.py`` (``--per-a 10 20 40`` particles across a,
 ``--solvers ...``, ``--walls free-slip no-slip``, ``--columns 2 1``, ``--gate`` adds the
-gate-speed runs, ``--quick``: DFSPH, free-slip, 10 and 20). It prints the tables and saves
-``validation/dam_break.png`` when matplotlib is installed.
+gate-speed runs, ``--quick``: DFSPH, free-slip, 10 and 20; ``--dim 3``: the column in a
+channel 0.5 a wide between side walls, y up, z across; ``--solved-walls``:
+``configuration.boundary.solved``, wall pressures solved in the PPE, which the 3D runs need).
+It prints the tables and saves ``validation/dam_break.png`` (``dam_break_3d.png``) when
+matplotlib is installed. No settling before t = 0 (``start.settle: false``).
 """
 
 from __future__ import annotations
