@@ -325,7 +325,7 @@ def _plot(results: dict, dim: int) -> None:
             if k == 0:
                 ax.legend(fontsize=6)
     path = Path(__file__).with_name(f"dam_break_impact{'_3d' if dim == 3 else ''}.png")
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    fig.savefig(path, dpi=80, bbox_inches="tight")
     print(f"plot: {path}")
 
 
