@@ -26,9 +26,9 @@ def _inside(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, r: float) -> bool:
 
 
 def test_builtin_dambreak_2d_stays_in_tank() -> None:
-    """`sphkit run dambreak-2d --until 1.5`: tank [0, 2] x [0, 1.2], checked at 25 frames/s
-    (the surge hits the far wall at about 0.45 s and runs up and back; 1.5 s instead of 2 s
-    pays for the dam-break validation test below)."""
+    """`sphkit run dambreak-2d --until 1.4`: tank [0, 2] x [0, 1.2], checked at 25 frames/s
+    (the surge hits the far wall at about 0.45 s and runs up and back; 1.4 s instead of 2 s
+    pays for the two dam-break validation tests below)."""
     sim = Simulation.from_scene("dambreak-2d")
     lo, hi = np.array([0.0, 0.0]), np.array([2.0, 1.2])
     bad: list[float] = []
@@ -37,8 +37,8 @@ def test_builtin_dambreak_2d_stays_in_tank() -> None:
         if not _inside(s.positions, lo, hi, 0.01):
             bad.append(s.time)
 
-    sim.run(until=1.5, fps=25, on_frame=check)
-    assert sim.time >= 1.5
+    sim.run(until=1.4, fps=25, on_frame=check)
+    assert sim.time >= 1.4
     assert not bad, f"particles left the tank at t = {bad}"
     assert np.all(np.isfinite(sim.positions))
     # the wave has reached the far wall and the fluid has spread over the floor
@@ -74,6 +74,33 @@ def test_dam_break_front_and_residual_column_against_the_experiments() -> None:
     k = (tau > 0) & (tau <= out["tau"][-1])
     dh = np.abs(np.interp(tau[k], out["tau"], out["H"]) - h[k])
     assert k.sum() >= 2 and dh.max() < 0.03, dh
+
+
+def test_dam_break_impact_on_the_downstream_wall_against_lobovsky() -> None:
+    """Lobovsky et al. 2014's dam break (validation/dam_break_impact.py: H = 0.3 m, column
+    2H long, tank 1.61 m), coarse: 10 particles across H (200), DFSPH, free-slip walls, to
+    T = t sqrt(g/H) = 3.2 (the first impact); Shepard pressure probes on the downstream wall
+    at the sensors 3, 15, 30 mm above the floor, against one measured event.
+
+    The surge reaches sensor 1 (p > 0.1 rho g H) within 0.1 of the experiment's T = 2.445
+    (measured 2.471: the simulated front leads Martin & Moyce by ~12 % over the run-out but
+    starts from the column's face 0.1 H later at this resolution; 0.1 is 4 % of the run-out
+    time). The first impact's pressure impulse, the integral of p / (rho g H) dT over
+    2.3 <= T <= 3.2, is within 0.6-1.6 of the experiment's at each of the three sensors
+    (measured 0.87, 0.96, 0.88 on 2026-12-03; 1.08, 1.49, 1.05 at 20 across): the impulse is
+    the surge's momentum brought to the wall, robust where the peak is not (the coarse DFSPH
+    peaks are single-step spikes 2-4 times the experiment's), and one event of a repeated
+    experiment scatters; the band is wide for that. Measured 1.1 s of CPU time after
+    compilation (561 steps; 4.9 s wall under a load of 7.7 on the shared 2 cores)."""
+    mod = load_validation("dam_break_impact.py")
+    sim = Simulation(mod.scene("dfsph", 10))
+    out = mod.run(sim, 3.2)
+    assert out["T"][-1] >= 3.2
+    sim_m = mod.measures(out["T"], out["p"])
+    ref = mod.reference_measures()
+    assert abs(sim_m[0]["arrival"] - ref[0]["arrival"]) < 0.1, sim_m[0]["arrival"]
+    ratio = [sim_m[k]["impulse"] / ref[k]["impulse"] for k in range(3)]
+    assert all(0.6 < q < 1.6 for q in ratio), ratio
 
 
 def _edited_copy(src: Path, tmp: Path) -> Path:

@@ -51,8 +51,11 @@ spline, h = 4r, CFL step 0.4 * 2r / max|v|; hydrostatic start.
 
 Run ``python validation/dam_break.py`` (``--per-a 10 20 40`` particles across a,
 ``--solvers ...``, ``--walls free-slip no-slip``, ``--columns 2 1``, ``--gate`` adds the
-gate-speed runs, ``--quick``: DFSPH, free-slip, 10 and 20). It prints the tables and saves
-``validation/dam_break.png`` when matplotlib is installed.
+gate-speed runs, ``--quick``: DFSPH, free-slip, 10 and 20; ``--dim 3``: the column in a
+channel 0.5 a wide between side walls, y up, z across; ``--solved-walls``:
+``configuration.boundary.solved``, wall pressures solved in the PPE, which the 3D runs need).
+It prints the tables and saves ``validation/dam_break.png`` (``dam_break_3d.png``) when
+matplotlib is installed. No settling before t = 0 (``start.settle: false``).
 """
 
 from __future__ import annotations
@@ -78,6 +81,7 @@ A = 0.146  # column width a [m] (Koshizuka & Oka's L)
 TANK = 4.0  # tank length [a]
 T_END = 3.2  # end of the run, Martin & Moyce's T
 Z_MAX = 3.9  # compare while the experimental front is inside the tank [a]
+WIDTH_3D = 0.5  # the 3D channel's width [a]
 SOLVERS = ("wcsph", "pcisph", "pbf", "iisph", "dfsph")
 WALLS = ("free-slip", "no-slip")
 DATA = Path(__file__).resolve().parent / "data"
@@ -112,8 +116,11 @@ def _gate_obj(folder: Path, a: float, n2: float, width: float) -> Path:
 
 
 def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: float = A,
-          gate_speed: float | None = None, gate_dir: Path | None = None) -> Scene:
-    """The dam break of the module docstring: ``per_a`` particles across the column."""
+          gate_speed: float | None = None, gate_dir: Path | None = None, dim: int = 2,
+          solved_walls: bool = False) -> Scene:
+    """The dam break of the module docstring: ``per_a`` particles across the column; ``dim``
+    3: the same in a channel WIDTH_3D a wide (y up, z across; walls on both sides);
+    ``solved_walls``: ``configuration.boundary.solved`` (walls that do no work)."""
     r = a / (2 * per_a)
     height = n2 * a
     pressure: dict = {"method": solver}
@@ -123,17 +130,24 @@ def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: 
     visc: dict = {"method": "standard", "coefficient": NU}
     if wall == "no-slip":
         visc.update(boundary_coefficient=NU, boundary_velocity="morris1997")
+    lo, hi, start, end = [0.0, 0.0], [TANK * a, height + a], [0.0, 0.0], [a, height]
+    if dim == 3:
+        lo, hi = lo + [0.0], hi + [WIDTH_3D * a]
+        start, end = start + [0.0], end + [WIDTH_3D * a]
     data: dict = {
         "name": f"dam-break-{solver}",
         "configuration": {
-            "dim": 2, "particle_radius": r, "gravity": [0.0, -G],
+            "dim": dim, "particle_radius": r, "gravity": [0.0, -G] + [0.0] * (dim - 2),
             "pressure": pressure,
             "time": {"dt": 1e-4, "dt_min": 1e-7, "dt_max": 1e-3},
+            "boundary": {"solved": solved_walls},
+            # no settling before t = 0: the column is not at rest ("auto" settled the 3D
+            # column of a narrow channel, i.e. let it collapse, damped, before the clock)
+            "start": {"settle": False},
         },
         "materials": [{"density0": RHO0, "viscosity": visc}],
-        "fluid_blocks": [{"start": [0.0, 0.0], "end": [a, height]}],
-        "boxes": [{"min": [0.0, 0.0], "max": [TANK * a, height + a], "layers": 2,
-                   "open_top": True}],
+        "fluid_blocks": [{"start": start, "end": end}],
+        "boxes": [{"min": lo, "max": hi, "layers": 2, "open_top": True}],
     }
     if gate_speed is not None:
         path = _gate_obj(gate_dir, a, n2, 8.0 * r)
@@ -225,11 +239,12 @@ def order(runs: dict[int, dict]) -> list[tuple[int, int, float, float]]:
 
 
 def simulate(solver: str, per_a: int, wall: str, n2: float, gate: float | None = None,
-             folder: Path | None = None) -> dict | str:
+             folder: Path | None = None, dim: int = 2, solved: bool = False) -> dict | str:
     """One run; an error message if it blew up."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sim = Simulation(scene(solver, per_a, wall, n2, gate_speed=gate, gate_dir=folder))
+        sim = Simulation(scene(solver, per_a, wall, n2, gate_speed=gate, gate_dir=folder,
+                               dim=dim, solved_walls=solved))
     t0 = time.perf_counter()
     try:
         out = run(sim, n2)
@@ -314,6 +329,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="gate speeds V [m/s] (DFSPH, free-slip, n^2 = 2, the middle "
                     "resolution); without values 0.6 1.2 2.4")
     ap.add_argument("--quick", action="store_true", help="DFSPH, free-slip, 10 and 20 across")
+    ap.add_argument("--dim", type=int, default=2, choices=(2, 3),
+                    help="3: the column in a channel 0.5 a wide between side walls (no gate)")
+    ap.add_argument("--solved-walls", action="store_true",
+                    help="configuration.boundary.solved: wall pressures solved in the PPE")
     ap.add_argument("--save", type=Path, help="write the runs' curves to this .npz")
     ap.add_argument("--load", type=Path, nargs="*", default=[],
                     help="print and plot runs saved with --save (runs nothing but --gate)")
@@ -321,10 +340,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.quick:
         args.solvers, args.walls, args.per_a = ["dfsph"], ["free-slip"], [10, 20]
     logging.getLogger("sphkit").setLevel(logging.ERROR)
-    print(f"2D dam break, a = {A} m, tank {TANK} a, nu = {NU} m^2/s; front Z = x/a against "
-          "T = n t sqrt(g/a); errors (Z_sim/Z_exp - 1): mean (signed) / max |.|; 'MM 2g/a': "
-          "against MM a = 2.25 in on T = t sqrt(2g/a); T0: fitted time shift and the errors "
-          "after it; dH: mean |H - H_exp| (MM a = 2.25 in); gate: its speed [m/s]")
+    walls = "solved" if args.solved_walls else "MLS"
+    print(f"{args.dim}D dam break ({walls} walls), a = {A} m, tank {TANK} a, nu = {NU} m^2/s; "
+          "front Z = x/a "
+          "against T = n t sqrt(g/a); errors (Z_sim/Z_exp - 1): mean (signed) / max |.|; "
+          "'MM 2g/a': against MM a = 2.25 in on T = t sqrt(2g/a); T0: fitted time shift and the "
+          "errors after it; dH: mean |H - H_exp| (MM a = 2.25 in); gate: its speed [m/s]")
     print(f"{'solver':7s}{'walls':>10s}{'n2':>4s}{'a/2r':>5s}{'gate':>6s}{'N':>6s}{'steps':>6s}"
           + "".join(f"{r:>16s}" for r in REFERENCES) + f"{'MM 2g/a':>16s}{'T0 (MM)':>8s}"
           + f"{'after':>14s}{'T0 (K&O)':>9s}{'after':>14s}{'dH':>7s}{'Z(T=1)':>7s}{'wall':>7s}")
@@ -344,7 +365,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for key in cases:
             n2, solver, wall, per_a, gate = key
-            o = simulate(solver, per_a, wall, n2, gate, Path(tmp))
+            o = simulate(solver, per_a, wall, n2, gate, Path(tmp), args.dim, args.solved_walls)
             print(row(key, o), flush=True)
             if not isinstance(o, str):
                 print(depth_row(o), flush=True)
@@ -358,11 +379,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"self-convergence {solver} {wall} n2 = {n2:g}: " + "; ".join(
                 f"{a}->{b}: {e:.4f}" + (f" (order {p:.2f})" if p == p else "")
                 for a, b, e, p in order(runs)))
-    _plot(results)
+    _plot(results, args.dim)
     return 0
 
 
-def _plot(results: dict) -> None:
+def _plot(results: dict, dim: int = 2) -> None:
     try:
         import matplotlib
 
@@ -416,7 +437,7 @@ def _plot(results: dict) -> None:
     cx.set_ylabel("mean (Z_sim / Z_exp - 1) against K&O")
     cx.set_title("Front error against resolution (n2 = 2)", fontsize=9)
     cx.legend(fontsize=6)
-    path = Path(__file__).with_suffix(".png")
+    path = Path(__file__).with_name(f"dam_break{'_3d' if dim == 3 else ''}.png")
     fig.savefig(path, dpi=120, bbox_inches="tight")
     print(f"plot: {path}")
 
