@@ -28,16 +28,19 @@ keeps shearing into hexagonal grains for 1-2 s, and a column released earlier dr
 ``"auto"`` settles only what settling does not change in kind: a solver with a speed of sound
 (:meth:`sphkit.core.methods.PressureSolver.acoustic_speed`: WCSPH), gravity, fluid resting on
 walls, and every resting particle deeper than h below its free surface either with a full
-neighbourhood as sampled or with a wall within 2h -- fluid in a container, also when written a
-few r off its walls; a dam break's free face (a resting particle deep in its column with an
-empty side and no wall near) would flow while it settles, so such a scene is not settled. Moving
-bodies, emitters, elastic solids and animation fields, which the step moves by their own clocks,
-are not settled either (with ``settle: true`` they are named in a warning). A settling that
-becomes unstable is undone (the run then starts from the unsettled state, with a warning).
+neighbourhood as sampled or with a wall within 2h across its empty side (within 20 degrees of
+the direction away from its neighbours) -- fluid in a container, also when written a few r off
+its walls; a side wall along a face, as in a narrow channel, does not contain it; a dam break's
+free face (a resting particle deep in its column with an empty side and no wall near) would
+flow while it settles, so such a scene is not settled. Moving bodies, emitters, elastic solids
+and animation fields, which the step moves by their own clocks, are not settled either (with
+``settle: true`` they are named in a warning). A settling that becomes unstable is undone (the
+run then starts from the unsettled state, with a warning).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import warnings
 from dataclasses import dataclass
@@ -45,12 +48,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from sphkit.core.methods import PressureSolver
+from sphkit.core.pairs import min_image_rows
 from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene
 
 #: a resting particle with an empty side is at a free face unless a wall lies within this many
-#: support radii h (a block written a few r off its container's walls is still contained)
+#: support radii h (a block written a few r off its container's walls is still contained) ...
 FACE_GAP = 2.0
+#: ... across that side: within this angle [degrees] of the direction away from its neighbours
+#: (a side wall along the face, as in a narrow channel, does not contain it)
+FACE_CONE = 20.0
 
 # The settling's loop is the simulation's (:meth:`sphkit.simulation.Simulation.settle`): it
 # steps the simulation, which the world does not import.
@@ -87,6 +94,36 @@ def _moving_parts(scene: Scene) -> list[str]:
     return parts
 
 
+def _ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """The concatenated index ranges ``starts[q] .. starts[q] + counts[q] - 1``."""
+    return np.arange(counts.sum()) + np.repeat(starts - (np.cumsum(counts) - counts), counts)
+
+
+def _walled(state: SimState, k: np.ndarray) -> np.ndarray:
+    """Whether a wall lies across the empty side of each fluid particle ``k``: a boundary
+    particle within ``FACE_GAP`` h of it and within ``FACE_CONE`` of the direction away from
+    its fluid neighbours' centroid (where its neighbourhood is empty)."""
+    from scipy.spatial import cKDTree
+
+    x = state.fluid["x"]
+    nl = state.nl_ff
+    counts = np.diff(nl.offsets)[k]
+    rows = np.repeat(np.arange(k.size), counts)
+    d = x[:, nl.indices[_ranges(nl.offsets[k], counts)]] - x[:, k[rows]]
+    d = min_image_rows(d, state.pair_period)
+    away = -np.stack([np.bincount(rows, weights=da, minlength=k.size) for da in d])
+    away /= np.maximum(np.linalg.norm(away, axis=0), 1e-300)
+    near = cKDTree(state.boundary.view("x")).query_ball_point(
+        x[:, k].T, FACE_GAP * state.h, return_sorted=False)
+    lens = np.fromiter(map(len, near), dtype=np.int64, count=k.size)
+    b = np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64, count=int(lens.sum()))
+    owner = np.repeat(np.arange(k.size), lens)
+    e = min_image_rows(state.boundary["x"][:, b] - x[:, k[owner]], state.pair_period)
+    dist = np.maximum(np.linalg.norm(e, axis=0), 1e-300)
+    ahead = np.einsum("dm,dm->m", e, away[:, owner]) >= math.cos(math.radians(FACE_CONE)) * dist
+    return np.bincount(owner, weights=ahead, minlength=k.size) > 0
+
+
 def plan_settle(state: SimState, scene: Scene, pressure: PressureSolver, p: np.ndarray,
                 depth: np.ndarray, full: np.ndarray) -> SettlePlan | None:
     """The settling of the started fluid (module docstring), or None when there is none:
@@ -109,11 +146,8 @@ def plan_settle(state: SimState, scene: Scene, pressure: PressureSolver, p: np.n
         walls = np.diff(state.nl_fb.offsets) > 0
         free = resting & (depth > state.h) & ~full & ~walls
         if free.any() and state.boundary.n:  # a gap to a wall is not a free face
-            from scipy.spatial import cKDTree
-
-            d, _ = cKDTree(state.boundary.view("x")).query(
-                f.view("x")[free], distance_upper_bound=FACE_GAP * state.h)
-            free[np.flatnonzero(free)[np.isfinite(d)]] = False
+            k = np.flatnonzero(free)
+            free[k[_walled(state, k)]] = False
         if free.any():
             why = (f"{int(free.sum())} resting fluid particles deeper than h below the free "
                    "surface have an empty side and no wall (a free face that would flow)")
