@@ -27,9 +27,10 @@ def _inside(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, r: float) -> bool:
 
 
 def test_builtin_dambreak_2d_stays_in_tank() -> None:
-    """`sphkit run dambreak-2d --until 1.5`: tank [0, 2] x [0, 1.2], checked at 25 frames/s
-    (the surge hits the far wall at about 0.45 s and runs up and back; 1.5 s instead of 2 s
-    pays for the dam-break validation test below)."""
+    """`sphkit run dambreak-2d --until 1.2`: tank [0, 2] x [0, 1.2], checked at 25 frames/s
+    (the surge hits the far wall at about 0.45 s and runs up it; 1.5 s instead of 2 s paid for
+    the dam-break validation test below, 1.2 s instead of 1.5 s for the sloshing test: 6641
+    steps instead of 8301, 20 % of this test's time, about 6 times the sloshing test's)."""
     sim = Simulation.from_scene("dambreak-2d")
     lo, hi = np.array([0.0, 0.0]), np.array([2.0, 1.2])
     bad: list[float] = []
@@ -38,8 +39,8 @@ def test_builtin_dambreak_2d_stays_in_tank() -> None:
         if not _inside(s.positions, lo, hi, 0.01):
             bad.append(s.time)
 
-    sim.run(until=1.5, fps=25, on_frame=check)
-    assert sim.time >= 1.5
+    sim.run(until=1.2, fps=25, on_frame=check)
+    assert sim.time >= 1.2
     assert not bad, f"particles left the tank at t = {bad}"
     assert np.all(np.isfinite(sim.positions))
     # the wave has reached the far wall and the fluid has spread over the floor
@@ -78,25 +79,28 @@ def test_dam_break_front_and_residual_column_against_the_experiments() -> None:
 
 
 def test_sloshing_wall_elevation_follows_linear_theory() -> None:
-    """validation/sloshing.py, coarse: tank L = 1 m, depth 0.5 m, 30 particles along L (450),
+    """validation/sloshing.py, coarse: tank L = 1 m, depth 0.5 m, 24 particles along L (288),
     DFSPH, swaying eta = A (1 - cos omega t), omega = 0.7 omega_1, A = 2 cm, to t = 0.5 s
     (the first crest at the left wall, 14.3 mm at 0.42 s in the theory's strip mean).
 
-    The wall elevation (the strip measure, antisymmetric part) follows the linear modal
-    solution within an RMS of 12 % of its largest value: measured 6.3 % (to 0.6 s,
-    2026-12-03; the particle quantum of the strip measure is 1.4 % of that value, the rest is
-    the coarse fluid's lag and overshoot, validation/README.md). The crest is above 75 % of
-    the theory's (a tank that does not move, or moves the fluid late, stays near 0)."""
+    The wall elevation (the strip measure's antisymmetric part) follows the linear modal
+    solution within an RMS of 12 % of the theory's largest value: measured 6.1 % (2026-12-03;
+    one particle's volume over the strip's width is 17 mm here, the strip's weight ramps so
+    that particles enter it gradually, and the coarse fluid overshoots the crest). The crest
+    is between 0.75 and 1.4 times the theory's (measured 1.13; 1.19 at 30 across): a tank
+    that does not move the fluid, or moves it late, stays near 0, one that pumps energy in
+    runs over. 251 steps, about 1.5 s
+    single-threaded on the shared 2-core machine (4.0 s under a load of 8)."""
     mod = load_validation("sloshing.py")
     omega, amp = 0.7 * mod.OMEGA1, 0.02
-    sim = Simulation(mod.scene("dfsph", 30))
+    sim = Simulation(mod.scene("dfsph", 24))
     out = mod.run(sim, omega, amp, 0.5)
     assert out["t"][-1] >= 0.5
     zt = mod.theory(out["t"], omega, amp)[0]
     peak = np.abs(zt).max()
     rms = float(np.sqrt(np.mean((out["zeta"] - zt) ** 2)))
     assert rms < 0.12 * peak, (rms, peak)
-    assert out["zeta"].max() > 0.75 * peak, (out["zeta"].max(), peak)
+    assert 0.75 * peak < out["zeta"].max() < 1.4 * peak, (out["zeta"].max(), peak)
 
 
 def _edited_copy(src: Path, tmp: Path) -> Path:
