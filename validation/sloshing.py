@@ -27,7 +27,7 @@ a forced part at the tank's frequency and a free part at each natural frequency,
 the forced one in mode 1 (no damping in the theory). Quasi-static check: sum_n 4 / (L k_n^2) over
 odd n is L / 2, the wall rises by eta'' L / (2 g), the tilted plane's. The measured elevation is
 the mean over a strip 0 <= s <= w at the wall, so the theory is averaged over it too (each mode
-by sin(k_n w) / (k_n w)); 200 odd modes.
+by its weighted mean of cos(k_n s), :func:`strip_factor`); 200 odd modes.
 
 SPH measure: the strip s < W2 at the wall weighted by phi(s) (1 to W1 = 0.05 m, a cos^2 ramp
 to 0 at W2 = 0.15 m, in the tank's frame), ``Z(t) = sum_i V0_i phi(s_i) / int phi ds``: the
@@ -37,8 +37,8 @@ jumping the sum). The elevation is its change since t = 0, antisymmetric part:
 ``zeta_w = ((Z_left(t) - Z_left(0)) - (Z_right(t) - Z_right(0))) / 2`` (the right wall's strip
 mirrored). Sway excites only the odd modes, antisymmetric about the centre, so the theory's
 zeta_w is the left wall's; the symmetric part that this removes is what the particles'
-packing does at both walls alike (the left strip alone drifts by -5 to -20 mm over the run at
-30 across, validation/README.md) and the even modes of second order. Column ``top``: the
+packing presumably does at both walls alike (the left strip alone drifts below the theory,
+validation/README.md) and the even modes of second order. Column ``top``: the
 highest particle's top within 2 spacings of the left wall against the theory at s = 0 (a
 wave-probe measure; run-up along the wall and splashes spike it).
 Peak: the largest |zeta_w| of the run against the theory's.
@@ -66,18 +66,21 @@ at rest, gravity (-eta''(t), -g)), exactly equivalent for a rigid translation; a
 the moving walls.
 
 Solvers: DFSPH and IISPH (SPlisHSPlasH's tolerances, CFL step clamped to dt_max = 2 ms), WCSPH
-(Tait, c = 10 sqrt(g h), 1 % compression at the floor). Start: sphkit's default (hydrostatic,
+(Tait, c = 10 sqrt(g h), 1 % compression at the floor; unstable in this tank, see
+validation/README.md). Start: sphkit's default (hydrostatic,
 relaxed; WCSPH settles before t = 0).
 
-Cases (``--cases``): ``off`` omega = 0.7 omega_1, A = 0.02 m (forced response 2.2 cm at the
-wall, k_1 zeta ~ 0.07: linear to ~0.5 % in the first harmonic); ``near`` omega = 0.9
+Cases (``--cases``): ``off`` omega = 0.7 omega_1, A = 0.02 m (forced response 2.4 cm in the
+strip, crests to 4.7 cm with the free part, k_1 zeta 0.07-0.15: linear to 0.5-2 % in the
+first harmonic); ``near`` omega = 0.9
 omega_1, A = 0.005 m (forced 2.5 cm, the free and forced parts beat with period
 2 pi / (omega_1 - omega) = 10 T_1: linear theory's limit is amplitude growth at resonance,
 which damping and nonlinearity cap in a real tank).
 
-Run ``python validation/sloshing.py`` (``--per-l 40 80 160`` particles along L, ``--solvers
-dfsph iisph wcsph``, ``--periods`` of the forcing, ``--quick``: DFSPH at 40 and 80). It prints
-the table and saves ``validation/sloshing.png`` when matplotlib is installed.
+Run ``python validation/sloshing.py`` (``--per-l 30 60 120`` particles along L, ``--solvers
+dfsph iisph wcsph``, ``--periods`` of the forcing (4), ``--quick``: DFSPH at 30 and 60,
+``--save DIR`` / ``--load FILES`` the runs' time series). It prints the table and saves
+``validation/sloshing.png`` when matplotlib is installed.
 """
 
 from __future__ import annotations
