@@ -348,12 +348,13 @@ def main(argv: list[str] | None = None) -> int:
               f"{1000 * forced:.2f} mm, mode-1 free {1000 * abs(free):.2f} mm")
         for solver in sorted({k[1] for k in results if k[0] == case}):
             runs = sorted((k[2], results[k]) for k in results if k[:2] == (case, solver))
-            if len(runs) > 2:
-                e = [abs(measures(o, case)["amp"]) for _, o in runs]
-                orders = [math.log(e[i] / e[i + 1]) / math.log(runs[i + 1][0] / runs[i][0])
-                          for i in range(len(e) - 1) if e[i + 1] > 0]
-                print(f"observed order of |amp err| {case} {solver}: "
-                      + ", ".join(f"{p:.2f}" for p in orders))
+            if len(runs) > 1:
+                for name in ("amp", "rms"):
+                    e = [abs(measures(o, case)[name]) for _, o in runs]
+                    orders = [math.log(e[i] / e[i + 1]) / math.log(runs[i + 1][0] / runs[i][0])
+                              for i in range(len(e) - 1) if e[i + 1] > 0]
+                    print(f"  observed order of |{name} err| {solver}: "
+                          + ", ".join(f"{p:.2f}" for p in orders))
     _plot(results)
     return 0
 
