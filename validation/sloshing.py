@@ -155,8 +155,10 @@ def theory(t: np.ndarray, omega: float, amp: float, at_wall: bool = False
     return z, float(c.sum()), float(c[0])
 
 
-def scene(solver: str, per_l: int, frame: str = "moving", dt_max: float = 2e-3) -> Scene:
-    """The tank of the module docstring: ``per_l`` particles along L."""
+def scene(solver: str, per_l: int, frame: str = "moving", dt_max: float = 2e-3,
+          nu: float = NU) -> Scene:
+    """The tank of the module docstring: ``per_l`` particles along L; ``nu`` the kinematic
+    viscosity [m^2/s]."""
     r = LENGTH / (2 * per_l)
     pressure: dict = {"method": solver}
     if solver == "wcsph":
@@ -170,7 +172,7 @@ def scene(solver: str, per_l: int, frame: str = "moving", dt_max: float = 2e-3) 
             "time": {"dt": 1e-4, "dt_min": 1e-7, "dt_max": dt_max},
         },
         "materials": [{"density0": RHO0, "viscosity": {"method": "standard",
-                                                       "coefficient": NU}}],
+                                                       "coefficient": nu}}],
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [LENGTH, DEPTH]}],
         "boxes": [{"min": [0.0, 0.0], "max": [LENGTH, DEPTH + 0.3], "layers": 2,
                    "open_top": True}],
@@ -246,14 +248,14 @@ def fit(t: np.ndarray, z: np.ndarray, omega: float) -> dict:
             "mean": float(c[0])}
 
 
-def simulate(solver: str, per_l: int, case: str, periods: float, frame: str = "moving"
-             ) -> dict | str:
+def simulate(solver: str, per_l: int, case: str, periods: float, frame: str = "moving",
+             nu: float = NU) -> dict | str:
     """One run; an error message if it blew up."""
     ratio, amp = CASES[case]
     omega = ratio * OMEGA1
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sim = Simulation(scene(solver, per_l, frame))
+        sim = Simulation(scene(solver, per_l, frame, nu=nu))
     t0 = time.perf_counter()
     try:
         out = run(sim, omega, amp, periods * 2.0 * math.pi / omega, frame)
@@ -300,6 +302,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--periods", type=float, default=4.0, help="forcing periods to run (default 4)")
     ap.add_argument("--frame", choices=("moving", "tank"), default="moving",
                     help="moving walls (default) or walls at rest under gravity (-eta'', -g)")
+    ap.add_argument("--nu", type=float, default=NU,
+                    help=f"kinematic viscosity [m^2/s] (default {NU:g}, water)")
     ap.add_argument("--quick", action="store_true", help="DFSPH at 30 and 60 along L")
     ap.add_argument("--save", type=Path, help="folder to write each run's time series to (.npz)")
     ap.add_argument("--load", type=Path, nargs="*", default=[],
@@ -330,9 +334,11 @@ def main(argv: list[str] | None = None) -> int:
                                   for solver in args.solvers for per_l in args.per_l]
     for key in cases:
         case, solver, per_l = key
-        o = simulate(solver, per_l, case, args.periods, args.frame)
+        o = simulate(solver, per_l, case, args.periods, args.frame, args.nu)
         if args.frame == "tank":  # the label of the runs in the tank's frame
             key = (case, f"{solver}/tank", per_l)
+        if args.nu != NU:
+            key = (key[0], f"{key[1]}/nu{args.nu:g}", per_l)
         print(row(key, o), flush=True)
         if isinstance(o, str):
             continue
@@ -404,6 +410,7 @@ def _plot(results: dict) -> None:
         ax.set_xlabel("particles along L")
         ax.set_ylabel("error [%]")
         ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
     path = Path(__file__).with_suffix(".png")
     fig.savefig(path, dpi=120, bbox_inches="tight")
     print(f"plot: {path}")
