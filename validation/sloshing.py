@@ -329,7 +329,8 @@ def main(argv: list[str] | None = None) -> int:
         key = (str(o.pop("case")), str(o.pop("solver")), int(o.pop("per_l")))
         o.update(steps=int(o["steps"]), n=int(o["n"]), wall=float(o["wall"]))
         results[key] = o
-        print(row(key, o), flush=True)
+    for key in sorted(results):
+        print(row(key, results[key]), flush=True)
     cases = [] if args.load else [(case, solver, per_l) for case in args.cases
                                   for solver in args.solvers for per_l in args.per_l]
     for key in cases:
