@@ -24,10 +24,11 @@ and from rest, with eta'' = A omega^2 cos(omega t),
     F_n = (omega_n^2 / g) (4 / (L k_n^2)) A omega^2:
 
 a forced part at the tank's frequency and a free part at each natural frequency, as large as
-the forced one in mode 1 (no damping in the theory). Quasi-static check: sum_n 4 / (L k_n^2) over
-odd n is L / 2, the wall rises by eta'' L / (2 g), the tilted plane's. The measured elevation is
-the mean over a strip 0 <= s <= w at the wall, so the theory is averaged over it too (each mode
-by its weighted mean of cos(k_n s), :func:`strip_factor`); 200 odd modes.
+the forced one in mode 1 (no damping in the theory). Quasi-static check: sum_n 4 / (L k_n^2)
+over odd n is L / 2, the wall rises by eta'' L / (2 g), the tilted plane's. The measured
+elevation is a weighted mean over a strip at the wall (below), so the theory is averaged with
+the same weight (each mode by its weighted mean of cos(k_n s), :func:`strip_factor`); 200 odd
+modes.
 
 SPH measure: the strip s < W2 at the wall weighted by phi(s) (1 to W1 = 0.05 m, a cos^2 ramp
 to 0 at W2 = 0.15 m, in the tank's frame), ``Z(t) = sum_i V0_i phi(s_i) / int phi ds``: the
@@ -43,16 +44,16 @@ highest particle's top within 2 spacings of the left wall against the theory at 
 wave-probe measure; run-up along the wall and splashes spike it).
 Peak: the largest |zeta_w| of the run against the theory's.
 
-Amplitude and phase: a least-squares fit of zeta_w(t) over the run to
-``c0 + a cos(omega t) + b sin(omega t) + e^(-gamma t) (p cos(W t) + q sin(W t))`` (W and gamma
-by a grid search, the rest linear): the forced response's amplitude sqrt(a^2 + b^2) against
-the theory's ``sum_n F_n s_n / (omega_n^2 - omega^2)`` (s_n the strip factor), its phase
-atan2(b, a) (theory 0: in phase with the acceleration below resonance), the first mode's
-frequency W against omega_1, its amplitude sqrt(p^2 + q^2) against the theory's free part
-(mostly mode 1) and its decay rate gamma (theory 0; with free-slip walls the fluid's viscosity
-damps mode 1 at 2 nu k_1^2 = 2e-5 1/s, so what the fit finds is numerical dissipation; the fit's
-grid is 0.025 1/s). Also the RMS of zeta_sim - zeta_theory over the run, over the theory's
-largest |zeta|.
+Amplitude and phase: a least-squares fit of zeta_w(t) over the run to ``c0 + a cos(omega t) + b
+sin(omega t) + e^(-gamma t) (p cos(W t) + q sin(W t))`` (W and gamma by a grid search, W in
+steps of 0.2 % of omega_1, gamma of 0.025 1/s; the rest linear): the forced response's amplitude
+sqrt(a^2 + b^2) against the theory's ``sum_n F_n s_n / (omega_n^2 - omega^2)`` (s_n the strip
+factor), its phase atan2(b, a) (theory 0: in phase with the acceleration below resonance), the
+first mode's frequency W against omega_1, its amplitude sqrt(p^2 + q^2) against the theory's
+free part (mostly mode 1) and its decay rate gamma (theory 0; with free-slip walls the fluid's
+viscosity damps mode 1 at 2 nu k_1^2 = 2e-5 1/s, so what the fit finds is numerical dissipation;
+the fit's grid is 0.025 1/s). Also the RMS of zeta_sim - zeta_theory over the run, over the
+theory's largest |zeta|.
 
 Setup: a box of boundary particles (``boxes``, 2 layers, open top, walls to h + 0.3 m),
 Akinci walls, free-slip (the standard viscosity without its wall term), cubic spline, h = 4r.
@@ -134,7 +135,7 @@ def window(s: np.ndarray) -> np.ndarray:
 
 def strip_factor(k: np.ndarray) -> np.ndarray:
     """The weighted mean of cos(k s) over the strip, int phi cos(k s) ds / int phi ds (trapezoid
-    rule on 4001 points); 1 for the wall point (``W2 = 0``)."""
+    rule on 4001 points)."""
     s = np.linspace(0.0, W2, 4001)
     phi = window(s)
     return np.trapezoid(phi[None, :] * np.cos(np.outer(k, s)), s, axis=1) / np.trapezoid(phi, s)
@@ -155,8 +156,7 @@ def theory(t: np.ndarray, omega: float, amp: float, at_wall: bool = False
     return z, float(c.sum()), float(c[0])
 
 
-def scene(solver: str, per_l: int, frame: str = "moving", dt_max: float = 2e-3,
-          nu: float = NU) -> Scene:
+def scene(solver: str, per_l: int, dt_max: float = 2e-3, nu: float = NU) -> Scene:
     """The tank of the module docstring: ``per_l`` particles along L; ``nu`` the kinematic
     viscosity [m^2/s]."""
     r = LENGTH / (2 * per_l)
@@ -255,7 +255,7 @@ def simulate(solver: str, per_l: int, case: str, periods: float, frame: str = "m
     omega = ratio * OMEGA1
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sim = Simulation(scene(solver, per_l, frame, nu=nu))
+        sim = Simulation(scene(solver, per_l, nu=nu))
     t0 = time.perf_counter()
     try:
         out = run(sim, omega, amp, periods * 2.0 * math.pi / omega, frame)
