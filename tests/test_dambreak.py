@@ -1,4 +1,5 @@
-"""Dam breaks stay in their tanks: the built-in 2D scene and SPlisHSPlasH's DamBreakModel.json.
+"""Dam breaks stay in their tanks: the built-in 2D scene and SPlisHSPlasH's DamBreakModel.json;
+the fast variants of the free-surface validations in tanks (dam break, sloshing).
 
 "Inside" means every fluid particle centre lies inside the tank's inner wall surfaces at every
 output frame, up to r/2: the first layer of boundary particles sits r behind the surface (box
@@ -26,9 +27,10 @@ def _inside(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, r: float) -> bool:
 
 
 def test_builtin_dambreak_2d_stays_in_tank() -> None:
-    """`sphkit run dambreak-2d --until 1.4`: tank [0, 2] x [0, 1.2], checked at 25 frames/s
-    (the surge hits the far wall at about 0.45 s and runs up and back; 1.4 s instead of 2 s
-    pays for the two dam-break validation tests below)."""
+    """`sphkit run dambreak-2d --until 1.2`: tank [0, 2] x [0, 1.2], checked at 25 frames/s
+    (the surge hits the far wall at about 0.45 s and runs up it; 1.5 s instead of 2 s paid for
+    the dam-break validation test below, 1.2 s instead of 1.5 s for the impact and sloshing
+    tests: 6641 steps instead of 8301, 20 % of this test's time)."""
     sim = Simulation.from_scene("dambreak-2d")
     lo, hi = np.array([0.0, 0.0]), np.array([2.0, 1.2])
     bad: list[float] = []
@@ -37,8 +39,8 @@ def test_builtin_dambreak_2d_stays_in_tank() -> None:
         if not _inside(s.positions, lo, hi, 0.01):
             bad.append(s.time)
 
-    sim.run(until=1.4, fps=25, on_frame=check)
-    assert sim.time >= 1.4
+    sim.run(until=1.2, fps=25, on_frame=check)
+    assert sim.time >= 1.2
     assert not bad, f"particles left the tank at t = {bad}"
     assert np.all(np.isfinite(sim.positions))
     # the wave has reached the far wall and the fluid has spread over the floor
@@ -101,6 +103,31 @@ def test_dam_break_impact_on_the_downstream_wall_against_lobovsky() -> None:
     assert abs(sim_m[0]["arrival"] - ref[0]["arrival"]) < 0.1, sim_m[0]["arrival"]
     ratio = [sim_m[k]["impulse"] / ref[k]["impulse"] for k in range(3)]
     assert all(0.6 < q < 1.6 for q in ratio), ratio
+
+
+def test_sloshing_wall_elevation_follows_linear_theory() -> None:
+    """validation/sloshing.py, coarse: tank L = 1 m, depth 0.5 m, 24 particles along L (288),
+    DFSPH, swaying eta = A (1 - cos omega t), omega = 0.7 omega_1, A = 2 cm, to t = 0.5 s
+    (the first crest at the left wall, 14.3 mm at 0.42 s in the theory's strip mean).
+
+    The wall elevation (the strip measure's antisymmetric part) follows the linear modal
+    solution within an RMS of 12 % of the theory's largest value: measured 6.1 % (2026-12-03;
+    one particle's volume over the strip's width is 17 mm here, the strip's weight ramps so
+    that particles enter it gradually, and the coarse fluid overshoots the crest). The crest
+    is between 0.75 and 1.4 times the theory's (measured 1.13; 1.19 at 30 across): a tank
+    that does not move the fluid, or moves it late, stays near 0, one that pumps energy in
+    runs over. 251 steps: 0.56 s on one Numba thread (as the suite's workers run) on the shared
+    2-core machine at a load of 3 (4.4 s with Numba's default two threads there)."""
+    mod = load_validation("sloshing.py")
+    omega, amp = 0.7 * mod.OMEGA1, 0.02
+    sim = Simulation(mod.scene("dfsph", 24))
+    out = mod.run(sim, omega, amp, 0.5)
+    assert out["t"][-1] >= 0.5
+    zt = mod.theory(out["t"], omega, amp)[0]
+    peak = np.abs(zt).max()
+    rms = float(np.sqrt(np.mean((out["zeta"] - zt) ** 2)))
+    assert rms < 0.12 * peak, (rms, peak)
+    assert 0.75 * peak < out["zeta"].max() < 1.4 * peak, (out["zeta"].max(), peak)
 
 
 def _edited_copy(src: Path, tmp: Path) -> Path:
