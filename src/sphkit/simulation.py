@@ -533,11 +533,11 @@ class Simulation:
             advice = ("Switch time.cfl on, or make time.dt smaller (the fixed step moves the "
                       "fastest particle more than the limit's share of a particle diameter).")
         elif self._domain is not None and (n := outside_count(x, *self._domain)):
-            lo, hi = self._domain
-            box = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(lo, hi, strict=True))
+            d = self._domain
+            box = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(d.lo, d.hi, strict=True))
             what = (f"{n} fluid particle(s) left the domain {box} m (the static walls' bounding "
-                    f"box plus configuration.domain_margin = {cfg.domain_margin:g} h): the fluid "
-                    "leaked through a wall")
+                    f"box plus configuration.domain_margin = {cfg.domain_margin:g} h, not checked"
+                    f" above the walls' top): the fluid leaked through a wall, or fell beside it")
             advice = ("Make the pressure stiffer or use an iterative pressure solver, a smaller "
                       "time step (time.dt_max, time.cfl_factor), thicker walls (boxes[].layers), "
                       "or set configuration.domain_margin to null if fluid may leave the walls.")

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -93,9 +94,12 @@ def speed_check(v: np.ndarray) -> tuple[float, int]:
 
 
 @numba.njit(cache=True, inline="always")
-def outside_body(i, x, dim, lo0, lo1, lo2, hi0, hi1, hi2):
+def outside_body(i, x, dim, lo0, lo1, lo2, hi0, hi1, hi2, up, top, sgn):
     """1 where point i of x lies outside the box ``[lo, hi]`` (bounds may be infinite: no fast
-    math), else 0."""
+    math) and not above the walls' top (``up`` >= 0: ``sgn (x_up - top) > 0``, fluid flying
+    over the walls of an open box, not through them), else 0."""
+    if up >= 0 and sgn * (x[up, i] - top) > 0.0:
+        return 0.0
     out = x[0, i] < lo0 or x[0, i] > hi0
     if dim > 1:
         out = out or x[1, i] < lo1 or x[1, i] > hi1
@@ -113,15 +117,30 @@ def nonfinite_point_body(i, x, dim):
     return 0.0
 
 
-def outside_count(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
+class Domain(NamedTuple):
+    """The region the fluid must stay in (the step's leak check, :func:`outside_count`): the box
+    ``[lo, hi]`` (bounds may be infinite) and, with ``up`` >= 0, the walls' top ``top`` [m] along
+    axis ``up`` (``sgn`` +1: up is +x_up): fluid above it is not checked (it flies over the
+    walls of an open box, not through them)."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    up: int = -1
+    top: float = 0.0
+    sgn: float = 1.0
+
+
+def outside_count(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, up: int = -1,
+                  top: float = 0.0, sgn: float = 1.0) -> int:
     """The number of points of ``x`` ((dim, N)) outside the box ``[lo, hi]`` (bounds may be
-    infinite)."""
+    infinite) and not above the walls' top (``up`` >= 0: ``sgn (x_up - top) > 0``; see
+    :class:`Domain`)."""
     if x.shape[1] == 0:
         return 0
     b = [float(t) for t in lo] + [0.0] * 3
     t = [float(u) for u in hi] + [0.0] * 3
     return int(launch_reduce(outside_body, x.shape[1], x, x.shape[0], b[0], b[1], b[2], t[0],
-                             t[1], t[2])[0])
+                             t[1], t[2], int(up), float(top), float(sgn))[0])
 
 
 def nonfinite_count(x: np.ndarray) -> int:

@@ -29,6 +29,7 @@ from sphkit.core.methods import (
 from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
+from sphkit.core.timestep import Domain
 from sphkit.geometry import GeometryError
 from sphkit.multiphase import PhaseForce
 from sphkit.scene.checks import check_budget, check_device, check_scene, device_precision
@@ -65,8 +66,9 @@ class World:
     forces: list[NonPressureForce] = field(default_factory=list)
     force_roles: list[str] = field(default_factory=list)
     #: the box (lo, hi) [m] the fluid must stay in (the static walls' bounding box plus
-    #: ``configuration.domain_margin`` h; infinite bounds are open); None: not checked
-    domain: tuple[np.ndarray, np.ndarray] | None = None
+    #: ``configuration.domain_margin`` h; infinite bounds are open; fluid above the walls' top
+    #: is not checked, :class:`~sphkit.core.timestep.Domain`); None: not checked
+    domain: Domain | None = None
     #: what the start-up did (:mod:`sphkit.world.startup`): removed particles, relaxation,
     #: masses, the start density error
     start: StartReport = field(default_factory=StartReport)

@@ -15,6 +15,7 @@ import numpy as np
 from sphkit.boundary.maps import MapGeometry
 from sphkit.boundary.rigid import inset_depth, inset_samples
 from sphkit.core.state import SimState
+from sphkit.core.timestep import Domain
 from sphkit.geometry.mesh_sampling import sample_mesh_surface
 from sphkit.geometry.meshes import section_segments
 from sphkit.geometry.sampling import box_wall_distance, box_walls
@@ -118,12 +119,15 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
 
 
 def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
-               emitters: list) -> tuple[np.ndarray, np.ndarray] | None:
+               emitters: list) -> Domain | None:
     """The region the fluid must stay in, for the step's stability guard: the bounding box of
     the static boundaries (boxes, static meshes, map geometries, emitter housings) widened by
     ``configuration.domain_margin`` kernel supports h, unbounded above the walls (against
-    gravity: fluid thrown up comes back) and along a periodic axis. None: no check (the margin is
-    null, or the scene has no static wall: only moving bodies or emitter housings)."""
+    gravity: fluid thrown up comes back) and along a periodic axis; fluid above the walls' top
+    (the bounding box's, against gravity) is not checked at all: a splash thrown over the top of
+    an open box flies beside it, not through a wall (validation/README.md, "Where WCSPH's
+    dam-break impact lost a particle"). None: no check (the margin is null, or the scene has no
+    static wall: only moving bodies or emitter housings)."""
     margin = scene.configuration.domain_margin
     dim = state.dim
     bodies = moving_meshes(scene)
@@ -146,12 +150,17 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     pad = margin * state.h
     box_lo, box_hi = np.min(lo, axis=0) - pad, np.max(hi, axis=0) + pad
     g = state.gravity
+    up, top, sgn = -1, 0.0, 1.0
     if np.any(g):
         up = gravity_axis(state)
         if g[up] < 0:
             box_hi[up] = np.inf
+            top = float(np.max(hi, axis=0)[up])
         else:
             box_lo[up] = -np.inf
+            top, sgn = float(np.min(lo, axis=0)[up]), -1.0
     for a, _lo, _L in state.periodic_axes:
         box_lo[a], box_hi[a] = -np.inf, np.inf
-    return box_lo, box_hi
+        if a == up:
+            up = -1
+    return Domain(box_lo, box_hi, up, top, sgn)
