@@ -67,8 +67,9 @@ at rest, gravity (-eta''(t), -g)), exactly equivalent for a rigid translation; a
 the moving walls.
 
 Solvers: DFSPH and IISPH (SPlisHSPlasH's tolerances, CFL step clamped to dt_max = 2 ms), WCSPH
-(Tait, c = 10 sqrt(g h), 1 % compression at the floor; unstable in this tank, see
-validation/README.md). Start: sphkit's default (hydrostatic,
+(Tait, c = 10 sqrt(g h), 1 % compression at the floor; ``boundary.symmetric``: the wall term
+V_b k_i, which does no work; with the default mirrored wall term it was unstable in this tank,
+also at rest, see validation/README.md). Start: sphkit's default (hydrostatic,
 relaxed; WCSPH settles before t = 0).
 
 Cases (``--cases``): ``off`` omega = 0.7 omega_1, A = 0.02 m (forced response 2.4 cm in the
