@@ -228,12 +228,22 @@ class WCSPH(PressureSolver):
         cp = state.coupling
         if cp.symmetric or cp.solved:  # the wall term V_b k_i (module docstring)
             launch(unmirror_body, f.n, f["x"], f["p"], b["x"], b["V"], state.nl_fb.offsets,
-                   state.nl_fb.indices, cp.mirror(state).astype(f.dtype), float(state.rho0),
+                   state.nl_fb.indices, self._kept_mirror(state), float(state.rho0),
                    float(state.h), int(state.kid), int(state.dim), f["a"], state.pair_period,
                    rest.c, rest.inv_c)
         else:
             cp.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
+
+    @staticmethod
+    def _kept_mirror(state: SimState) -> np.ndarray:
+        """Per boundary particle, the mirrored share that stays: 0 everywhere with
+        ``boundary.symmetric``; with ``solved`` 0 on the static walls, 1 on rigid bodies (their
+        reaction, :meth:`boundary_reaction`, is the mirrored term's)."""
+        b, cp = state.boundary, state.coupling
+        if cp.symmetric:
+            return np.zeros(b.n, dtype=state.fluid.dtype)
+        return (~cp.solved_walls(state)).astype(state.fluid.dtype)
 
     def compressed_density(self, p: np.ndarray, rho0: np.ndarray) -> np.ndarray:
         """The density of the state equation at pressure p >= 0 [Pa]: Tait
@@ -247,7 +257,10 @@ class WCSPH(PressureSolver):
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.operators.pressure_accel_body`:
-        ``k_i = rho0_i (p_i / rho_i^2 + p_i / rho0_i^2)``, without the mirror share."""
+        ``k_i = rho0_i (p_i / rho_i^2 + p_i / rho0_i^2)``, without the mirror share;
+        ``k_i = rho0_i p_i / rho_i^2`` with ``boundary.symmetric`` (:func:`unmirror_body`)."""
         f = state.fluid
         p, rho, rho0 = f["p"], f["rho"], f["rho0"]
+        if state.coupling.symmetric:
+            return BoundaryReaction(rho0 * p / rho ** 2, 0.0)
         return BoundaryReaction(rho0 * (p / rho ** 2 + p / rho0 ** 2), 0.0)
