@@ -67,8 +67,9 @@ at rest, gravity (-eta''(t), -g)), exactly equivalent for a rigid translation; a
 the moving walls.
 
 Solvers: DFSPH and IISPH (SPlisHSPlasH's tolerances, CFL step clamped to dt_max = 2 ms), WCSPH
-(Tait, c = 10 sqrt(g h), 1 % compression at the floor; unstable in this tank, see
-validation/README.md). Start: sphkit's default (hydrostatic,
+(Tait, c = 10 sqrt(g h), 1 % compression at the floor; ``boundary.symmetric``: the wall term
+V_b k_i, which does no work; with the default mirrored wall term it was unstable in this tank,
+also at rest, see validation/README.md). Start: sphkit's default (hydrostatic,
 relaxed; WCSPH settles before t = 0).
 
 Cases (``--cases``): ``off`` omega = 0.7 omega_1, A = 0.02 m (forced response 2.4 cm in the
@@ -170,6 +171,9 @@ def scene(solver: str, per_l: int, dt_max: float = 2e-3, nu: float = NU) -> Scen
             "dim": 2, "particle_radius": r, "gravity": [0.0, -G],
             "pressure": pressure,
             "time": {"dt": 1e-4, "dt_min": 1e-7, "dt_max": dt_max},
+            # WCSPH: the energy-consistent wall term (the mirrored one pumped energy into the
+            # tank at rest until it blew up, validation/README.md)
+            "boundary": {"symmetric": solver == "wcsph"},
         },
         "materials": [{"density0": RHO0, "viscosity": {"method": "standard",
                                                        "coefficient": nu}}],

@@ -871,7 +871,9 @@ class BoundaryConfig(_Model):
         "boundary term V_b k_i alone (no mirrored share, no extrapolated boundary pressure): "
         "the only form that keeps their operator symmetric positive; needed for a light fluid "
         "under a heavy one between walls (density ratio 1:10), where the other forms make it "
-        "indefinite and the Jacobi iterations diverge (validation/README.md, 'Several fluids')",
+        "indefinite and the Jacobi iterations diverge (validation/README.md, 'Several fluids'); "
+        "WCSPH then uses the same term, which does no work on the fluid (the mirrored one "
+        "pumped energy into water at rest, validation/README.md, 'WCSPH in the tank at rest')",
     )
     solved: bool = Field(
         False, description="the static wall particles (boxes, static meshes) get a pressure of "
