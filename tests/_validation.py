@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -14,6 +15,8 @@ def load_validation(script: str, name: str | None = None) -> ModuleType:
     changes the module's settings changes no other test's), named ``name`` (default: the
     script's stem plus ``_validation``)."""
     path = VALIDATION / script
+    if str(VALIDATION) not in sys.path:  # the scripts import their shared helpers (_plotting)
+        sys.path.append(str(VALIDATION))
     spec = importlib.util.spec_from_file_location(name or f"{path.stem}_validation", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

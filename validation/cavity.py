@@ -40,6 +40,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.core.kernels import Kernel
 from sphkit.scene.schema import Scene
@@ -173,13 +174,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"{100 * res['v_rms']:7.2f}%"
                   f"{100 * res['ke_change']:8.2f}%{res['steps']:>7}"
                   f"{time.perf_counter() - t0:9.1f}", flush=True)
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return 0
     fig, axs = plt.subplots(1, 2 * len(args.re), figsize=(9 * len(args.re), 4), squeeze=False)
     for k, re in enumerate(args.re):

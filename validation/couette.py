@@ -55,6 +55,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.simulation import Simulation
 
@@ -153,13 +154,8 @@ def main(argv: list[str] | None = None) -> int:
             orders = [math.log(results[(case, a)][t][1] / results[(case, b)][t][1])
                       / math.log(b / a) for t in TIMES]
             print(f"order {case} n {a}->{b}: " + " ".join(f"{o:5.2f}" for o in orders))
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return 0
     fig, ax = plt.subplots(figsize=(6, 4))
     yy = np.linspace(0.0, WIDTH, 200)

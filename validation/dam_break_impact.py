@@ -45,6 +45,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.core.kernels import Kernel
 from sphkit.scene.schema import Scene
@@ -301,13 +302,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _plot(results: dict, dim: int) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return
     if not results:
         return

@@ -70,6 +70,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 from scipy.integrate import solve_ivp
 
 from sphkit.scene.schema import Scene
@@ -251,13 +252,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"{o['end_mom']:+8.2%}{o['err_max']:10.2%}{o['end_max']:+8.2%}"
                   f"{o['err_in']:9.2%}{o['end_in']:+8.2%}{o['err_a']:10.2%}"
                   f"{o['area']:+9.2%}{o['rho_max']:+8.2%}{wall:7.1f}", flush=True)
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return 0
     fig, ax = plt.subplots(figsize=(6, 4))
     tt = np.linspace(0.0, args.until, 200)

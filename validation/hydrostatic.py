@@ -61,6 +61,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit import registry
 from sphkit.scene.schema import Scene
@@ -369,13 +370,8 @@ def _dambreaks(args: argparse.Namespace, rows: list[tuple[str, str]], cache: str
 def _plot(curves: list) -> None:
     if not curves:
         return
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("(matplotlib not installed: no plot)")
+    plt = pyplot()
+    if plt is None:
         return
     fig, ax = plt.subplots(figsize=(6, 4))
     for name, res in curves:

@@ -65,6 +65,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
@@ -275,13 +276,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{label:<38}{method:<12}"
                   + "".join(f"{100 * res[f][0]:8.2f}%" for f in FRACTIONS)
                   + f"{100 * res[STEADY][0]:8.2f}%{k:8.3f}{wall:9.1f}", flush=True)
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return 0
     fig, ax = plt.subplots(figsize=(6, 4))
     yy = np.linspace(0.0, WIDTH, 200)

@@ -96,6 +96,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.scene.schema import Scene
 from sphkit.simulation import InstabilityError, Simulation
@@ -371,13 +372,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _plot(results: dict) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return
     if not results:
         return

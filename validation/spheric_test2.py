@@ -35,6 +35,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.core.kernels import Kernel
 from sphkit.scene.schema import Scene
@@ -180,13 +181,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _plot(results: dict, te: np.ndarray, he: dict) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return
     fig, axes = plt.subplots(2, 2, figsize=(12, 7))
     for i, (x, ax) in enumerate(zip(GAUGES, axes.ravel(), strict=True)):

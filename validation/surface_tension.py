@@ -88,6 +88,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.core.kernels import _dw_array
 from sphkit.core.neighbors import NeighborList, neighbor_lists
@@ -1079,13 +1080,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{d3['p'] * q:.3f} ({d3['p_std'] * q:.3f}) | {d3['pJ'] * q:.3f} |")
     if "zorilla2020" in chosen:
         zorilla_study(args.quick, args.skip_2d, args.skip_3d, r, until, args.zr_large)
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("(matplotlib not installed: no plot)")
+    plt = pyplot()
+    if plt is None:
         return 0
     if not (rows or csf or rays):  # e.g. zorilla2020 alone: keep the last full run's figure
         return 0

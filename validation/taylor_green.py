@@ -53,6 +53,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
@@ -233,13 +234,8 @@ def main(argv: list[str] | None = None) -> int:
             hb = 1.0 / math.sqrt(np.prod(LATTICES[b]))
             order = math.log(ea / eb) / math.log(ha / hb) if ea > 0 and eb > 0 else float("nan")
             print(f"order {label} nx {a}->{b}: rate error {order:5.2f}")
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return 0
     fig, ax = plt.subplots(figsize=(6, 4))
     tt = np.linspace(0.0, args.t_end, 200)

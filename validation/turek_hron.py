@@ -48,6 +48,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
@@ -263,13 +264,8 @@ def main() -> None:
 
 
 def _plot(runs: list[dict], ref: dict, path: str) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib not installed: no plot")
+    plt = pyplot()
+    if plt is None:
         return
     fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     for k, (ax, q) in enumerate(zip(axes, ("ux", "uy"), strict=True)):

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _plotting import pyplot
 
 from sphkit.scene.schema import Scene
 from sphkit.simulation import Simulation
@@ -82,13 +83,8 @@ def main(argv: list[str] | None = None) -> int:
     for name, (_t, e) in results.items():
         print(f"| {name} | " + " | ".join(f"{e[i]:.4f}" for i in picks)
               + f" | {e[late].mean():.4f} |")
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("(matplotlib not installed: no plot)")
+    plt = pyplot()
+    if plt is None:
         return 0
     fig, ax = plt.subplots(figsize=(6, 4))
     for name, (t, e) in results.items():
