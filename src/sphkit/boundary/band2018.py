@@ -49,9 +49,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
-from sphkit.core.pairs import add_vector, point, separation
+from sphkit.core.operators import replace_mirrored
+from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -171,30 +172,6 @@ def mls_extrapolate(k, toff, tfluid, coef, out):
         out[b] = max(s, 0.0)
 
 
-@numba.njit(parallel=True, **_JIT)
-def replace_mirrored(x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, h, kid, dim, L, a):
-    """WCSPH: swap the mirrored boundary pressure ``p_b = p_i`` of the boundary term
-    ``-sum_b rho0_i V_b (p_i / rho_i^2 + p_b / rho0_i^2) grad W_ib`` for the extrapolated one,
-    ``a_i -= sum_b V_b (k_b / c_i - p_i / rho0_i) grad W_ib`` over the samples with ``use[b]``
-    (``k_b = p_b / rho0_ref``; ``rho0`` (N,) each particle's rest density, ``inv_c`` =
-    ``rho0_ref / rho0_i``, :class:`sphkit.core.state.RestArrays`)."""
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = point(x, i, dim)
-        ki = p[i] / rho0[i]
-        ici = inv_c[i]
-        a0 = a1 = a2 = 0.0
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            if not use[b]:
-                continue
-            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-            s = -bV[b] * (kb[b] * ici - ki) * kernel_dw(kid, r, h, dim)
-            a0 += s * d0
-            a1 += s * d1
-            a2 += s * d2
-        add_vector(a, i, dim, a0, a1, a2)
-
-
 class MLSPressureExtrapolation(BoundaryPressure):
     """Boundary pressure by MLS extrapolation (Band et al. 2018) for the iterative solvers.
 
@@ -238,7 +215,8 @@ class MLSPressureExtrapolation(BoundaryPressure):
 
     def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:
         """For a state-equation solver (WCSPH) whose boundary term mirrored ``p_b = p_i``:
-        add to ``a`` the change to the extrapolated boundary pressure (:func:`replace_mirrored`)."""
+        add to ``a`` the change to the extrapolated boundary pressure
+        (:func:`sphkit.core.operators.replace_mirrored`)."""
         f, b = state.fluid, state.boundary
         kb = np.empty(b.n, dtype=f.dtype)
         rest = state.rest()

@@ -16,10 +16,11 @@ Becker & Teschner 2007, "Weakly compressible SPH for free surface flows", SCA:
   mirroring at boundary neighbours: :func:`sphkit.core.operators.pressure_accel_body`.
   With ``configuration.boundary.symmetric`` (or ``solved``: the static walls) the wall term
   is ``V_b k_i`` alone, ``-sum_b rho0_i V_b p_i / rho_i^2 grad W_ib``, without the mirrored
-  share and the extrapolated boundary pressure (:func:`unmirror_body`): the derivative of the
-  elastic energy ``sum_i m_i e(rho_i)`` of the summation density along x_i, so the walls do no
-  work. The mirrored and extrapolated terms are not such a derivative and pumped energy into
-  fluid at rest without dissipation (validation/README.md, "WCSPH in the tank at rest").
+  share and the extrapolated boundary pressure (:func:`sphkit.core.operators.replace_mirrored`
+  with p_b = 0): the derivative of the elastic energy ``sum_i m_i e(rho_i)`` of the summation
+  density along x_i, so the walls do no work. The mirrored and extrapolated terms are not such
+  a derivative and pumped energy into fluid at rest without dissipation (validation/README.md,
+  "WCSPH in the tank at rest").
 
 The speed of sound of the state equation, ``c = sqrt(dp/drho) = sqrt(B gamma / rho0)`` (Tait) or
 ``sqrt(k)`` (linear), bounds the time step by ``0.4 h_s / c`` with the smoothing length
@@ -49,11 +50,11 @@ from typing import Any
 import numba
 import numpy as np
 
-from sphkit.backend import launch, launch_reduce
+from sphkit.backend import launch_reduce
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import BoundaryReaction, PressureSolver
-from sphkit.core.operators import pressure_accel_cpu
-from sphkit.core.pairs import add_vector, point, separation
+from sphkit.core.operators import pressure_accel_cpu, replace_mirrored
+from sphkit.core.pairs import point, separation
 from sphkit.core.solver import SolverStats
 from sphkit.core.state import SimState
 
@@ -126,24 +127,6 @@ def stiffness_body(i, x, mu, rho, off, idx, bx, bV, boff, bidx, rho0, h, kid, di
     g = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
     q = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
     return cs2 * g * q / (ri * ri)
-
-
-@numba.njit(cache=True, fastmath=True, inline="always")
-def unmirror_body(i, x, p, bx, bV, boff, bidx, keep, rho0, h, kid, dim, a, L, c, inv_c):
-    """Take the mirrored share ``-sum_b (1 - keep_b) rho0_i V_b p_i / rho0_i^2 grad W_ib`` of
-    :func:`sphkit.core.operators.pressure_accel_body`'s wall term back out of ``a[:, i]``
-    (``keep_b``: the mirror weight that stays, 0 for the symmetric term ``V_b k_i``)."""
-    xi0, xi1, xi2 = point(x, i, dim)
-    sh = p[i] * inv_c[i] / rho0  # rho0_i p_i / rho0_i^2
-    a0 = a1 = a2 = 0.0
-    for k in range(boff[i], boff[i + 1]):
-        b = bidx[k]
-        d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-        s = (1.0 - keep[b]) * sh * bV[b] * kernel_dw(kid, r, h, dim)
-        a0 += s * d0
-        a1 += s * d1
-        a2 += s * d2
-    add_vector(a, i, dim, a0, a1, a2)
 
 
 class WCSPH(PressureSolver):
@@ -226,24 +209,24 @@ class WCSPH(PressureSolver):
                            state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim, f["a"],
                            state.pair_period, c=rest.c, inv_c=rest.inv_c)
         cp = state.coupling
-        if cp.symmetric or cp.solved:  # the wall term V_b k_i (module docstring)
-            launch(unmirror_body, f.n, f["x"], f["p"], b["x"], b["V"], state.nl_fb.offsets,
-                   state.nl_fb.indices, self._kept_mirror(state), float(state.rho0),
-                   float(state.h), int(state.kid), int(state.dim), f["a"], state.pair_period,
-                   rest.c, rest.inv_c)
+        if cp.symmetric or cp.solved:  # the wall term V_b k_i (module docstring): p_b = 0
+            replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
+                             state.nl_fb.offsets, state.nl_fb.indices, self._unmirrored(state),
+                             np.zeros(b.n, dtype=f.dtype), state.h, state.kid, state.dim,
+                             state.pair_period, f["a"])
         else:
             cp.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
 
     @staticmethod
-    def _kept_mirror(state: SimState) -> np.ndarray:
-        """Per boundary particle, the mirrored share that stays: 0 everywhere with
-        ``boundary.symmetric``; with ``solved`` 0 on the static walls, 1 on rigid bodies (their
+    def _unmirrored(state: SimState) -> np.ndarray:
+        """Per boundary particle, whether its mirrored share goes: all with
+        ``boundary.symmetric``; with ``solved`` the static walls, not rigid bodies (their
         reaction, :meth:`boundary_reaction`, is the mirrored term's)."""
-        b, cp = state.boundary, state.coupling
+        cp = state.coupling
         if cp.symmetric:
-            return np.zeros(b.n, dtype=state.fluid.dtype)
-        return (~cp.solved_walls(state)).astype(state.fluid.dtype)
+            return np.ones(state.boundary.n, dtype=np.bool_)
+        return cp.solved_walls(state)
 
     def compressed_density(self, p: np.ndarray, rho0: np.ndarray) -> np.ndarray:
         """The density of the state equation at pressure p >= 0 [Pa]: Tait
@@ -258,7 +241,7 @@ class WCSPH(PressureSolver):
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.operators.pressure_accel_body`:
         ``k_i = rho0_i (p_i / rho_i^2 + p_i / rho0_i^2)``, without the mirror share;
-        ``k_i = rho0_i p_i / rho_i^2`` with ``boundary.symmetric`` (:func:`unmirror_body`)."""
+        ``k_i = rho0_i p_i / rho_i^2`` with ``boundary.symmetric`` (module docstring)."""
         f = state.fluid
         p, rho, rho0 = f["p"], f["rho"], f["rho0"]
         if state.coupling.symmetric:
