@@ -312,6 +312,15 @@ class NeighborList:
         """Number of neighbours of every point."""
         return np.diff(self.offsets)
 
+    def rows(self, index: np.ndarray) -> NeighborList:
+        """The lists of the points ``index`` only (row k = point ``index[k]``; the neighbour
+        indices unchanged)."""
+        counts = np.diff(self.offsets)[index]
+        off = np.zeros(index.shape[0] + 1, dtype=self.offsets.dtype)
+        np.cumsum(counts, out=off[1:])
+        pos = np.repeat(self.offsets[index] - off[:-1], counts) + np.arange(int(off[-1]))
+        return NeighborList(off, self.indices[pos])
+
     @staticmethod
     def empty(n: int) -> NeighborList:
         """Lists with no neighbours for ``n`` points."""

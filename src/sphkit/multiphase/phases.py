@@ -42,16 +42,6 @@ def phase_lists(nl: NeighborList, member: np.ndarray) -> NeighborList:
     return NeighborList(off, new[nl.indices[keep]].astype(nl.indices.dtype))
 
 
-def _rows(nl: NeighborList, index: np.ndarray) -> NeighborList:
-    """The rows ``index`` of the CSR lists (the columns unchanged: boundary neighbours)."""
-    counts = np.diff(nl.offsets)[index]
-    off = np.zeros(index.shape[0] + 1, dtype=nl.offsets.dtype)
-    np.cumsum(counts, out=off[1:])
-    starts = nl.offsets[index]
-    pos = np.repeat(starts - off[:-1], counts) + np.arange(int(off[-1]))
-    return NeighborList(off, nl.indices[pos])
-
-
 def phase_state(state: SimState, index: np.ndarray, rho0: float) -> SimState:
     """The state of the fluid particles ``index`` (sorted) alone: a new fluid set holding their
     fields, their fluid neighbours among themselves, their boundary neighbours, rest density
@@ -68,7 +58,7 @@ def phase_state(state: SimState, index: np.ndarray, rho0: float) -> SimState:
     member = np.zeros(f.n, dtype=bool)
     member[index] = True
     return replace(state, fluid=sub, rho0=float(rho0), nl_ff=phase_lists(state.nl_ff, member),
-                   nl_fb=_rows(state.nl_fb, index), pair_grads=None)
+                   nl_fb=state.nl_fb.rows(index), pair_grads=None)
 
 
 def pair_table(table: Any, name: str) -> np.ndarray:

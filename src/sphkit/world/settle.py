@@ -94,11 +94,6 @@ def _moving_parts(scene: Scene) -> list[str]:
     return parts
 
 
-def _ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """The concatenated index ranges ``starts[q] .. starts[q] + counts[q] - 1``."""
-    return np.arange(counts.sum()) + np.repeat(starts - (np.cumsum(counts) - counts), counts)
-
-
 def _walled(state: SimState, k: np.ndarray) -> np.ndarray:
     """Whether a wall lies across the empty side of each fluid particle ``k``: a boundary
     particle within ``FACE_GAP`` h of it and within ``FACE_CONE`` of the direction away from
@@ -106,10 +101,9 @@ def _walled(state: SimState, k: np.ndarray) -> np.ndarray:
     from scipy.spatial import cKDTree
 
     x = state.fluid["x"]
-    nl = state.nl_ff
-    counts = np.diff(nl.offsets)[k]
-    rows = np.repeat(np.arange(k.size), counts)
-    d = x[:, nl.indices[_ranges(nl.offsets[k], counts)]] - x[:, k[rows]]
+    nl = state.nl_ff.rows(k)
+    rows = np.repeat(np.arange(k.size), nl.counts())
+    d = x[:, nl.indices] - x[:, k[rows]]
     d = min_image_rows(d, state.pair_period)
     away = -np.stack([np.bincount(rows, weights=da, minlength=k.size) for da in d])
     away /= np.maximum(np.linalg.norm(away, axis=0), 1e-300)
