@@ -45,11 +45,12 @@ import tempfile
 import time
 from pathlib import Path
 
+from sphkit.scene.splishsplash import wheel
+
 HERE = Path(__file__).resolve().parent
 SCENES = HERE / "scenes"
 DEFAULT_SCENES = [SCENES / f"dambreak_{m}.json" for m in ("wcsph", "pcisph", "pbf", "iisph",
                                                           "dfsph", "dfsph_volumemaps")]
-GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
 TIMEOUT_S = 1800  # per code and scene
 
 
@@ -74,9 +75,7 @@ def _summary(raw: dict) -> dict:
 
 def run_splishsplash(scene: Path, threads: int) -> dict:
     """Run the scene in SPlisHSPlasH; ``{"error": ...}`` when the wheel is missing or fails."""
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
-    if sys.platform.startswith("linux") and Path(GL_PRELOAD).exists():
-        env["LD_PRELOAD"] = GL_PRELOAD
+    env = wheel.subprocess_env(str(threads))
     try:
         res = subprocess.run([sys.executable, str(HERE / "_splishsplash_runner.py"), str(scene)],
                              env=env, capture_output=True, text=True, timeout=TIMEOUT_S)

@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-import importlib.metadata
 from pathlib import Path
 
 import pytest
 
+from sphkit.scene.splishsplash import wheel
+
 
 def wheel_scene(name: str) -> Path:
     """Path of ``data/Scenes/<name>`` in the installed pysplishsplash wheel, or skip the test."""
-    try:
-        dist = importlib.metadata.distribution("pysplishsplash")
-    except importlib.metadata.PackageNotFoundError:
+    if wheel.version() is None:
         pytest.skip("pysplishsplash is not installed: its scene files are not available")
-    for f in dist.files or []:
-        if str(f).replace("\\", "/").endswith(f"data/Scenes/{name}"):
-            return Path(dist.locate_file(f)).resolve()
-    pytest.skip(f"the pysplishsplash wheel ships no data/Scenes/{name}")
+    path = wheel.scene_file(name)
+    if path is None:
+        pytest.skip(f"the pysplishsplash wheel ships no data/Scenes/{name}")
+    return path

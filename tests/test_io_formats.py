@@ -5,7 +5,6 @@ from __future__ import annotations
 import gzip
 import importlib.util
 import json
-import os
 import subprocess
 import sys
 import warnings
@@ -27,6 +26,7 @@ from sphkit.io.particle_files import (
 )
 from sphkit.scene.files import load_scene, scene_from_dict
 from sphkit.scene.schema import SceneError
+from sphkit.scene.splishsplash import wheel
 
 DATA = Path(__file__).parent / "data" / "splishsplash"
 
@@ -173,16 +173,10 @@ def test_frame_attributes_select_fields(tmp_path: Path) -> None:
 
 # -- the wheel itself -------------------------------------------------------------------------
 def _wheel_data() -> Path:
-    try:
-        import importlib.metadata as md
-
-        dist = md.distribution("pysplishsplash")
-    except Exception:
-        pytest.skip("pysplishsplash is not installed")
-    for f in dist.files or []:
-        if str(f).replace("\\", "/").endswith("data/models/UnitBox.obj"):
-            return Path(dist.locate_file(f)).resolve().parent.parent
-    pytest.skip("the pysplishsplash wheel ships no data folder")
+    folder = wheel.data_folder()
+    if folder is None:
+        pytest.skip("pysplishsplash is not installed, or its wheel ships no data folder")
+    return folder
 
 
 _RUNNER = """
@@ -196,12 +190,8 @@ base.run()
 
 def _run_splishsplash(scene: Path, out: Path) -> list[Path]:
     _wheel_data()
-    env = dict(os.environ)
-    glvnd = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
-    if Path(glvnd).exists():
-        env["LD_PRELOAD"] = glvnd
     res = subprocess.run([sys.executable, "-c", _RUNNER, str(scene.resolve()), str(out)],
-                         env=env, capture_output=True, text=True, timeout=120)
+                         env=wheel.subprocess_env(), capture_output=True, text=True, timeout=120)
     files = sorted((out / "partio").glob("*.bgeo"))
     if res.returncode != 0 and not files:
         pytest.skip(f"the pysplishsplash wheel did not run here: {res.stderr[-300:]}")

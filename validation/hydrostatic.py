@@ -235,12 +235,11 @@ def measure(scene: Scene, until: float = 2.5, average: float = 1.0,
 def dambreak(method: str, boundary: str, bp: str, dim: int, cache: str,
              until: float = 2.0) -> dict:
     """SPlisHSPlasH's dam break of the wheel with this solver, boundary model and pressure."""
-    import importlib.metadata
+    from sphkit.scene.splishsplash import wheel
 
-    name = "DamBreakModel_2D.json" if dim == 2 else "DamBreakModel.json"
-    dist = importlib.metadata.distribution("pysplishsplash")
-    path = next(Path(dist.locate_file(f)).resolve() for f in dist.files or []
-                if str(f).replace("\\", "/").endswith(f"data/Scenes/{name}"))
+    path = wheel.scene_file("DamBreakModel_2D.json" if dim == 2 else "DamBreakModel.json")
+    if path is None:
+        raise SystemExit("the SPlisHSPlasH scenes need the pysplishsplash wheel")
     data = json.loads(path.read_text())
     c = data["Configuration"]
     c["simulationMethod"] = SIM_NUMBER[method]

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -40,8 +39,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sphkit.scene.splishsplash import wheel
+
 HERE = Path(__file__).resolve().parent
-GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
 RHO0 = 1000.0
 
 #: the child: loads the scene, overwrites positions and velocities, runs, samples every step
@@ -136,9 +136,7 @@ def run(gamma: float, r: float, nu: float, dt_max: float, until: float, x: np.nd
            "rows": str(folder / "rows.json")}
     (folder / "cfg.json").write_text(json.dumps(cfg))
     (folder / "run.py").write_text(RUNNER)
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    if sys.platform.startswith("linux") and Path(GL_PRELOAD).exists():
-        env["LD_PRELOAD"] = GL_PRELOAD
+    env = wheel.subprocess_env("1")
     res = subprocess.run([sys.executable, str(folder / "run.py"), str(folder / "cfg.json")],
                          env=env, capture_output=True, text=True, timeout=1800)
     if res.returncode != 0 or not (folder / "rows.json").exists():

@@ -23,7 +23,6 @@ step times), over the steps after the spin-up.
 from __future__ import annotations
 
 import argparse
-import importlib.metadata
 import json
 import math
 import os
@@ -37,18 +36,15 @@ from pathlib import Path
 import numpy as np
 
 from sphkit.scene.files import load_scene
+from sphkit.scene.splishsplash import wheel
 from sphkit.simulation import Simulation
 
 
 def scene_path(name: str) -> Path:
-    dist = importlib.metadata.distribution("pysplishsplash")
-    for f in dist.files or []:
-        if str(f).replace("\\", "/").endswith(f"data/Scenes/{name}.json"):
-            return Path(dist.locate_file(f)).resolve()
-    raise SystemExit(f"the pysplishsplash wheel ships no data/Scenes/{name}.json")
-
-
-GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
+    path = wheel.scene_file(name)
+    if path is None:
+        raise SystemExit(f"the pysplishsplash wheel ships no data/Scenes/{name}.json")
+    return path
 
 
 def _child(name: str, until: float, out: str) -> None:
@@ -80,9 +76,7 @@ def _child(name: str, until: float, out: str) -> None:
 
 def splishsplash(name: str, until: float) -> np.ndarray:
     """(steps, 4): SPlisHSPlasH's time and the paddle's angular velocity (:func:`_child`)."""
-    env = dict(os.environ, OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "2"))
-    if sys.platform.startswith("linux") and Path(GL_PRELOAD).exists():
-        env["LD_PRELOAD"] = GL_PRELOAD
+    env = wheel.subprocess_env(os.environ.get("OMP_NUM_THREADS", "2"))
     with tempfile.TemporaryDirectory() as tmp:
         out = str(Path(tmp) / "w.npy")
         subprocess.run([sys.executable, __file__, "--child", name, str(until), out], env=env,

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
@@ -31,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
+from sphkit.scene.splishsplash import wheel
+
 SCENE = "Beam_Kee23_validation.json"
 SLABS = np.arange(-2.0, 2.0, 0.25)
 
@@ -78,9 +78,7 @@ def run_splishsplash(folder: Path, steps: int, threads: int) -> dict:
     work = Path(tempfile.mkdtemp(prefix="sphkit-kee23-"))
     (work / "scene.json").write_text(json.dumps(data))
     (work / "run.py").write_text(RUNNER)
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
-    if sys.platform.startswith("linux") and Path(GL_PRELOAD).exists():
-        env["LD_PRELOAD"] = GL_PRELOAD
+    env = wheel.subprocess_env(str(threads))
     res = subprocess.run([sys.executable, str(work / "run.py"), str(work / "scene.json")],
                          env=env, capture_output=True, text=True, timeout=3600)
     for line in res.stdout.splitlines():

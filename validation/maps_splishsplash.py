@@ -27,7 +27,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import maps  # noqa: E402
 
-GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
+from sphkit.scene.splishsplash import wheel  # noqa: E402
+
 R, W, H, DT = 0.01, 0.6, 0.5, 0.002
 
 
@@ -87,9 +88,7 @@ def main() -> None:
     if args.child:
         _child(int(args.child[0]), args.until, args.child[1])
         return
-    env = dict(os.environ, OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"))
-    if sys.platform.startswith("linux") and Path(GL_PRELOAD).exists():
-        env["LD_PRELOAD"] = GL_PRELOAD
+    env = wheel.subprocess_env(os.environ.get("OMP_NUM_THREADS", "1"))
     names = {0: "Akinci 2012", 1: "density maps", 2: "volume maps"}
     print(f"SPlisHSPlasH 2D column ({args.until} s)")
     print("| boundary | particles | slope / rho0 g | profile error [% rho0 g H] | "

@@ -16,14 +16,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
+from sphkit.scene.splishsplash import wheel
+
 HERE = Path(__file__).resolve().parent
-GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
 
 RUNNER = r"""
 import sys, json, tempfile
@@ -57,9 +57,7 @@ def run(boundary: str, until: float) -> list:
     folder = Path(tempfile.mkdtemp(prefix="sphkit-pcisph-sps-"))
     (folder / "scene.json").write_text(json.dumps(scene))
     (folder / "run.py").write_text(RUNNER)
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    if sys.platform.startswith("linux") and Path(GL_PRELOAD).exists():
-        env["LD_PRELOAD"] = GL_PRELOAD
+    env = wheel.subprocess_env("1")
     res = subprocess.run([sys.executable, str(folder / "run.py"), str(folder / "scene.json")],
                          env=env, capture_output=True, text=True, timeout=600)
     line = next((s for s in res.stdout.splitlines() if s.startswith("SPHKIT-ROWS ")), None)

@@ -20,7 +20,6 @@ the command says so and exits 0.
 from __future__ import annotations
 
 import argparse
-import importlib.metadata
 import json
 import time
 import warnings
@@ -32,29 +31,8 @@ from typing import Any
 
 from sphkit.cli.common import EXIT_OK, EXIT_USAGE, positive
 from sphkit.io.atomic import atomic_write_text
-
-WHEEL = "pysplishsplash"
-
-
-def wheel_scene_folder() -> Path | None:
-    """``data/Scenes`` of the installed pysplishsplash wheel, or None without the wheel."""
-    try:
-        dist = importlib.metadata.distribution(WHEEL)
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    for f in dist.files or []:
-        parts = str(f).replace("\\", "/").split("/")
-        if len(parts) >= 3 and parts[-3:-1] == ["data", "Scenes"] and parts[-1].endswith(".json"):
-            return Path(dist.locate_file(f)).resolve().parent
-    return None
-
-
-def wheel_version() -> str | None:
-    """The installed pysplishsplash version, or None."""
-    try:
-        return importlib.metadata.version(WHEEL)
-    except importlib.metadata.PackageNotFoundError:
-        return None
+from sphkit.scene.splishsplash.wheel import scene_folder as wheel_scene_folder
+from sphkit.scene.splishsplash.wheel import version as wheel_version
 
 
 @dataclass
