@@ -24,9 +24,12 @@ m_j / rho_j, the simulation's kernel and support; the sensor reads 0 (dry) while
 of DualSPHysics' MeasureTool and TrixiParticles' interpolated pressure. Sampled after every
 step. Measures per sensor: the peak of the raw series and of its 2 ms running mean (the same
 mean applied to the experiment; SPH impact peaks are single-step spikes), their times T, and
-the mean over 3 <= T <= 4 (the wall loaded by the run-up, after the first impact), the first
-impact's impulse (the integral of p dT over 2.3 <= T <= 3.2); at sensor 1 the arrival time
-(first p > 0.1 rho g H).
+the time-weighted mean over 3 <= T <= 4 (the wall loaded by the run-up, after the first
+impact; the experiment's record is not evenly sampled), the first impact's impulse (the
+integral of p dT over 2.3 <= T <= 3.2); at sensor 1 the arrival time (first p > 0.1 rho g H).
+Sensor 4 (y = 0.267 H) is also compared with Buchner 2002's sensor P1
+(``validation/data/buchner2002_p1_pressure.csv``: the same tank and column in units of H,
+the same height): the means over 3-4 and 4-5.3 and the second impact's peak (T 5.3-6.5).
 
 Run ``python validation/dam_break_impact.py`` (``--per-h 10 20 40``, ``--solvers dfsph
 wcsph``, ``--t-end 7``, ``--quick``: 10 and 20 across to T = 4). Prints the table and saves
@@ -65,6 +68,11 @@ PLOT_WINDOW = 0.01  # the plot's running mean [s]: the SPH wall pressures are sp
 PLATEAU = (3.0, 4.0)  # mean pressure window in T
 IMPULSE = (2.3, 3.2)  # the first impact's pressure impulse: integral of p dT over this window
 DATA = Path(__file__).resolve().parent / "data" / "lobovsky2014_h300_event5_pressure.csv"
+#: Buchner 2002's sensor P1 (MARIN, H = 0.6 m, the same tank in units of H), at sensor 4's height
+DATA_P1 = DATA.with_name("buchner2002_p1_pressure.csv")
+#: sensor 4 (y = 0.267 H) against both experiments: the windows of its means, in T
+S4_WINDOWS = ((3.0, 4.0), (4.0, 5.3))
+S4_SECOND = (5.3, 6.5)  # the second impact (the plunging wave's return) is looked for here
 
 
 def experiment() -> tuple[np.ndarray, np.ndarray]:
@@ -72,6 +80,53 @@ def experiment() -> tuple[np.ndarray, np.ndarray]:
     rows = [s for s in DATA.read_text().splitlines() if s and not s.startswith("#")]
     d = np.array([[float(v) for v in s.split(",")] for s in rows[1:]])
     return d[:, 0], d[:, 1:].T
+
+
+def experiment_p1() -> tuple[np.ndarray, np.ndarray]:
+    """T and p / (rho g H) of Buchner 2002's sensor P1 (digitised, irregular samples)."""
+    rows = [s for s in DATA_P1.read_text().splitlines() if s and not s.startswith("#")]
+    d = np.array([[float(v) for v in s.split(",")] for s in rows[1:]])
+    return d[:, 0], d[:, 1]
+
+
+def window_mean(T: np.ndarray, p: np.ndarray, a: float, b: float) -> float:
+    """Mean of the piecewise-linear interpolant of p over a <= T <= b (irregular samples
+    weighted by the time they cover); NaN when the series does not span the window."""
+    if T[0] > a or T[-1] < b:
+        return math.nan
+    t = np.concatenate([[a], T[(T > a) & (T < b)], [b]])
+    q = np.interp(t, T, p)
+    return float(np.sum(0.5 * (q[1:] + q[:-1]) * np.diff(t)) / (b - a))
+
+
+def sensor4_measures(T: np.ndarray, p: np.ndarray) -> list[float]:
+    """Sensor 4 / P1: the means over :data:`S4_WINDOWS`, the peak of the plot's running mean
+    (:data:`PLOT_WINDOW`, the same span in T for every series) within :data:`S4_SECOND` and its
+    T (NaN where the series ends earlier)."""
+    out = [window_mean(T, p, a, b) for a, b in S4_WINDOWS]
+    sel = (T >= S4_SECOND[0]) & (T <= S4_SECOND[1])
+    if T[-1] < S4_SECOND[1] or sel.sum() < 2:
+        return [*out, math.nan, math.nan]
+    q = running_mean(T, p, PLOT_WINDOW)[sel]
+    return [*out, float(q.max()), float(T[sel][q.argmax()])]
+
+
+def sensor4_table(results: dict) -> list[str]:
+    """Sensor 4 (y = 0.267 H) of every run against Lobovsky's sensor 4 and Buchner's P1."""
+    (a1, b1), (a2, b2) = S4_WINDOWS
+    lines = [f"sensor 4 (y = 0.267 H) against two experiments at that height: mean over "
+             f"{a1:g}-{b1:g} and {a2:g}-{b2:g}, peak of the {PLOT_WINDOW * 1e3:g} ms running "
+             f"mean (dT = {PLOT_WINDOW * math.sqrt(G / H):.3f}) within {S4_SECOND[0]:g} <= T "
+             f"<= {S4_SECOND[1]:g} (the second impact) and its T",
+             f"{'series':24s}{'mean1':>8s}{'mean2':>8s}{'peak2':>8s}{'T':>7s}"]
+    T, p = experiment()
+    series = [("Lobovsky 2014 sensor 4", T, p[3]), ("Buchner 2002 P1", *experiment_p1())]
+    series += [(f"{s} {d}D H/2r={n}", o["T"], o["p"][3])
+               for (s, d, n), o in sorted(results.items())]
+    for name, t, q in series:
+        m = sensor4_measures(t, q)
+        lines.append(f"{name:24s}{m[0]:8.3f}{m[1]:8.3f}{m[2]:8.3f}{m[3]:7.3f}")
+    return lines
 
 
 def scene(solver: str, per_h: int, dim: int = 2, wall: str = "free-slip",
@@ -174,7 +229,7 @@ def measures(T: np.ndarray, p: np.ndarray, t_first: float | None = None) -> list
         q_i, T_i = p[k][imp], T[imp]
         out.append({"peak": float(q.max()), "T_peak": float(T[keep][q.argmax()]),
                     "peak_s": float(qs.max()), "T_peak_s": float(T[keep][qs.argmax()]),
-                    "plateau": float(p[k][plat].mean()) if plat.sum() > 2 else math.nan,
+                    "plateau": window_mean(T, p[k], *PLATEAU) if plat.sum() > 2 else math.nan,
                     "impulse": float(np.sum(0.5 * (q_i[1:] + q_i[:-1]) * np.diff(T_i))),
                     "arrival": float(T[np.argmax(p[k] > 0.1)]) if (p[k] > 0.1).any()
                     else math.nan})
@@ -297,6 +352,8 @@ def main(argv: list[str] | None = None) -> int:
                 results[key] = o
                 if args.save:
                     save(args.save, results)
+    for line in sensor4_table(results):
+        print(line)
     _plot(results, args.dim)
     return 0
 
@@ -313,6 +370,8 @@ def _plot(results: dict, dim: int) -> None:
     for row, solver in zip(axes, solvers, strict=True):
         for k, ax in enumerate(row):
             ax.plot(T, p[k], "k-", lw=0.8, label="Lobovsky 2014 (one event)")
+            if k == 3:
+                ax.plot(*experiment_p1(), "-", color="0.55", lw=0.8, label="Buchner 2002 P1")
             for (s, _d, per_h), o in sorted(results.items()):
                 if s == solver:
                     ax.plot(o["T"], running_mean(o["T"], o["p"][k], PLOT_WINDOW), lw=0.7,
@@ -323,7 +382,7 @@ def _plot(results: dict, dim: int) -> None:
                          f"({dim}D)", fontsize=8)
             ax.set_xlabel("T = t sqrt(g/H)")
             ax.set_ylabel("p / (rho g H)")
-            if k == 0:
+            if k in (0, 3):
                 ax.legend(fontsize=6)
     path = Path(__file__).with_name(f"dam_break_impact{'_3d' if dim == 3 else ''}.png")
     fig.savefig(path, dpi=80, bbox_inches="tight")
