@@ -183,20 +183,23 @@ def test_laplace_jump_of_rough_balls(R: float, monkeypatch: pytest.MonkeyPatch) 
 
 def test_3d_drop_oscillates_with_the_rayleigh_frequency() -> None:
     """Issue 6: a 3D drop (R = 0.04 m = 5 h, r = 2 mm, 4169 particles, sigma = 5 N/m,
-    nu = 1e-3 m^2/s, no gravity, DFSPH) relaxes at rest for 0.4 s from a lattice ball jittered by
+    nu = 1e-3 m^2/s, no gravity, DFSPH) relaxes at rest for 0.3 s from a lattice ball jittered by
     0.05 particle spacings (seed 0) and is kicked with the mode-2 flow ``v = A (-x, -y, 2z)``,
-    A = 0.8 1/s; the signal is ``q = <z^2> - (<x^2> + <y^2>)/2``. Its period must be Rayleigh's
-    ``2 pi / sqrt(8 sigma / (rho R^3))`` within 15 % (the issue's target on omega, here held on
-    the period, which is stricter for a slow drop). Measured 1.109 (like extrema; damped-cosine
-    fit 1.115); the part of q odd in A, from kicks with +A and -A (1.6 s simulated instead of
-    1.0; validation/surface_tension.py keeps it), 1.108 / 1.111; seed 2: 1.109, the lattice
-    start 1.098; resolution study 4 / 5 / 6 / 7 h: 1.156 / 1.108 / 1.076 / 1.051 (the
-    remaining excess is the force acting in a band under the surface, an O(h/R) lever;
-    validation/README.md). The fit must also be a decaying cosine (damping > 0, residual < 5 %
-    of the amplitude: measured 1.70 1/s and 2.8 %; odd part 1.64 1/s and 1.8 %): the earlier
-    curvature estimator fed energy into finer drops."""
-    res = val.rayleigh_3d(5.0, 0.04, 0.002, 0.6, 0.8, 200.0, nu=1e-3, nsamp=120,
-                          name="mueller2003", relax=0.4, jitter=0.05, seed=0, solver="dfsph",
+    A = 0.8 1/s; the signal is ``q = <z^2> - (<x^2> + <y^2>)/2``, sampled every 5 ms for 0.5 s
+    (1.8 periods: maxima at 0.07 and 0.35 s, minima at 0.22 and 0.49 s). Its period must be
+    Rayleigh's ``2 pi / sqrt(8 sigma / (rho R^3))`` within 15 % (the issue's target on omega,
+    here held on the period, which is stricter for a slow drop). Measured 1.115 (like extrema;
+    damped-cosine fit 1.119); without the last minimum (one gap of maxima) 1.122. Relaxed
+    0.4 s and sampled 0.6 s (this test's earlier, longer form): 1.109 (fit 1.115; fitted over
+    its first 0.5 s, 1.114); relaxed 0.4 s in validation/surface_tension.py: the part of q odd
+    in A, from kicks with +A and -A, 1.108 / 1.111; seed 2: 1.109, the lattice start 1.098;
+    resolution study 4 / 5 / 6 / 7 h: 1.156 / 1.108 / 1.076 / 1.051 (the remaining excess is
+    the force acting in a band under the surface, an O(h/R) lever; validation/README.md). The
+    fit must also be a decaying cosine (damping > 0, residual < 5 % of the amplitude: measured
+    1.90 1/s and 2.7 %; the longer form 1.70 1/s and 2.8 %, odd part 1.64 1/s and 1.8 %): the
+    earlier curvature estimator fed energy into finer drops."""
+    res = val.rayleigh_3d(5.0, 0.04, 0.002, 0.5, 0.8, 200.0, nu=1e-3, nsamp=100,
+                          name="mueller2003", relax=0.3, jitter=0.05, seed=0, solver="dfsph",
                           dt_max=0.7 * val.capillary_dt(5.0, 0.002), antisym=False)
     ratio = res["T_extrema"] / res["T_rayleigh"]
     assert abs(ratio - 1.0) <= 0.15, ratio
@@ -220,16 +223,20 @@ def test_tangent_plane_moment_of_the_cubic_spline() -> None:
 
 def test_drop_holds_the_laplace_pressure() -> None:
     """A 2D square (0.20 m, 400 particles, r = 5 mm, sigma = 1 N, no gravity, WCSPH linear
-    k = 200, random start velocities of std 0.01 m/s, seed 0) relaxes for 2 s to a circle of
-    R = 0.113 m = 5.6 h. Its interior pressure (particles deeper than 2h, last third) must be
-    sigma/R within the 15 % target of issue 6: measured p R/sigma = 1.030 here; in
-    validation/surface_tension.py 0.95-1.08 over R = 3.95-7.9 h, three solvers and three seeds
-    (seed spread <= 0.02), the spread coming from how the interior particles pack into shells
-    (validation/README.md); 15 % is the issue's target, and this drop sits 3 % from 1. The
-    force's own jump (p_jump, integrated along the radius; measured 1.025 here, 0.98-1.07 in the
-    validation) must be within 5 %: that part does not depend on the pressure solver. (At
-    nu = 0.005 the drop's surface row buckles after 4-5 s; 2 s is before that.)"""
-    e = val.drop_2d_csf(1.0, 0.20, 0.005, 2.0, nsamp=30, seed=0)
+    k = 200, random start velocities of std 0.01 m/s, seed 0) relaxes for 1.2 s to a circle of
+    R = 0.113 m = 5.6 h (roundness max(d)/R 0.955 at 1.2 s; p R/sigma is past 0.93 from 0.27 s
+    on and then rises slowly, 0.96 at 0.6 s, 1.03 at 1.2 s, so the average over the last third,
+    0.8-1.2 s, is of the relaxed drop). Its interior
+    pressure (particles deeper than 2h, last third) must be sigma/R within the 15 % target of
+    issue 6: measured p R/sigma = 1.025 here (1.060 averaged over 1.33-2 s of a 2 s run, the
+    earlier end: it creeps up by about 0.05 per second); in validation/surface_tension.py
+    0.95-1.08 over R = 3.95-7.9 h, three solvers and three seeds (seed spread <= 0.02), the
+    spread coming from how the interior particles pack into shells (validation/README.md); 15 %
+    is the issue's target. The force's own jump (p_jump, integrated along the radius; measured
+    1.010 here, 1.042 over 1.33-2 s, 0.98-1.07 in the validation) must be within 5 %: that part
+    does not depend on the pressure solver. (At nu = 0.005 the drop's surface row buckles after
+    4-5 s; 1.2 s is well before that.)"""
+    e = val.drop_2d_csf(1.0, 0.20, 0.005, 1.2, nsamp=18, seed=0)
     assert e["roundness"] < 1.0  # the outer particles lie within R: the square is gone
     assert abs(e["p"] * e["R"] - 1.0) < 0.15, e["p"] * e["R"]
     assert abs(e["pJ"] * e["R"] - 1.0) < 0.05, e["pJ"] * e["R"]

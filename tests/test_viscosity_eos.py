@@ -77,11 +77,13 @@ def test_boundary_viscosity_drags_along_static_walls(method: str, coeff: float) 
 
 
 def test_linear_state_equation_hydrostatic_column() -> None:
-    """SESPH with p = k (rho - rho0), k = 1000 m^2/s^2 (c = 31.6 m/s). The soft column keeps a
-    slow breathing oscillation (slope swinging between 0.5 and 1.3 rho0 g from frame to frame,
-    measured) that nu = 0.01 damps only slowly, so pressure and height are averaged per particle
-    over t = 1..2 s: that mean slope over the middle 80 % of the column is within 5 % of rho0 g
-    (measured 1.04) and the compression about g H / (2 k) = 0.25 % (bound 1 %)."""
+    """SESPH with p = k (rho - rho0), k = 1000 m^2/s^2 (c = 31.6 m/s). The soft column is
+    settled before t = 0 (``start.settle`` "auto"), but its slope still breathes from step to
+    step, so pressure and height are averaged per particle over t = 0.25..0.75 s (about 2,000
+    steps; the means over each 0.05 s from 0 to 2 s measured 0.98-1.03 rho0 g): that mean slope
+    over the middle 80 % of the column is within 5 % of rho0 g (measured 1.003; over 1..2 s,
+    the earlier window, 1.011) and the compression about g H / (2 k) = 0.25 % (measured
+    0.249 %, bound 1 %)."""
     sc = Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": 0.01, "gravity": [0.0, -G],
                           "pressure": {"method": "wcsph", "equation": "linear",
@@ -91,7 +93,7 @@ def test_linear_state_equation_hydrostatic_column() -> None:
         "boxes": [{"min": [0.0, 0.0], "max": [0.2, 0.6], "layers": 2}],
     })
     sim = Simulation(sc)
-    sim.run(until=1.0)
+    sim.run(until=0.25)
     n = sim.fluid.n
     p_sum, y_sum, comp, steps = np.zeros(n), np.zeros(n), [], [0]
 
@@ -102,7 +104,7 @@ def test_linear_state_equation_hydrostatic_column() -> None:
         comp.append(np.maximum(s.densities - 1000.0, 0.0).mean() / 1000.0)
         steps[0] += 1
 
-    sim.run(until=2.0, on_step=accumulate)
+    sim.run(until=0.75, on_step=accumulate)
     y, p = y_sum / steps[0], p_sum / steps[0]
     top = y.max()
     sel = (y > 0.1 * top) & (y < 0.9 * top)
