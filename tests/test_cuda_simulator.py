@@ -1,20 +1,20 @@
 """The GPU path: kernel bodies run through ``sphkit.backend.launch(..., device="cuda")``.
 
-Runs in a subprocess with NUMBA_ENABLE_CUDASIM=1 (the simulator must be chosen before numba.cuda
-is imported), on a small 2D and 3D case (a jittered block over a wall shell), and compares the
-density, the pressure acceleration, the fused density and pair gradients, one Jacobi pass of
-the iterative solvers (kappa acceleration, then the sweep with its (sum, max) reduction), the PPE
+Runs in a subprocess with NUMBA_ENABLE_CUDASIM=1 (the simulator must be chosen before numba.cuda is
+imported), on a small 2D and 3D case (a jittered block over a wall shell), and compares the
+density, the pressure acceleration, the fused density and pair gradients, one Jacobi pass of the
+iterative solvers (kappa acceleration, then the sweep with its (sum, max) reduction), the PPE
 diagonal and pair divergence, DFSPH's factor and sources, the standard and XSPH viscosities, the
-symplectic Euler step and the CFL speed with the same bodies launched on the CPU, and the
-neighbour search whose passes are bodies (:class:`sphkit.core.hashgrid.HashGrid`, with the scan
-and the histogram of the counting sort; in 2D) against the CPU grid's lists, and one whole DFSPH
-time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
-viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on
-the device, in float64 and in float32 (the device's default; against the CPU's float64
-step). Each kernel launch under the simulator starts a Python thread per particle, so the
-cases are as small as their checks allow. Where a CUDA GPU is present the same script also runs
-on it (skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and
-running on the CPU does not import numba.cuda.
+symplectic Euler step, the CFL speed and the leak check's count with the same bodies launched on
+the CPU, and the neighbour search whose passes are bodies (:class:`sphkit.core.hashgrid.HashGrid`,
+with the scan and the histogram of the counting sort; in 2D) against the CPU grid's lists, and one
+whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
+viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on the
+device, in float64 and in float32 (the device's default; against the CPU's float64 step). Each
+kernel launch under the simulator starts a Python thread per particle, so the cases are as small as
+their checks allow. Where a CUDA GPU is present the same script also runs on it (skipped otherwise,
+e.g. in CI). The subprocess also checks that importing sphkit and running on the CPU does not
+import numba.cuda.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ SCRIPT = textwrap.dedent(
                                  jacobi_body, kappa_accel_body)
     from sphkit.pressure.dfsph import (alpha_body, density_source_body,
                                        divergence_source_body)
-    from sphkit.core.timestep import euler_body, speed2_body
+    from sphkit.core.timestep import euler_body, outside_body, speed2_body
     from sphkit.viscosity.standard import standard_body
     from sphkit.viscosity.xsph import xsph_body
 
@@ -138,6 +138,11 @@ SCRIPT = textwrap.dedent(
             launch(euler_body, N, xe, ve, av, 1e-3, dim, device=device)
             out["xe"], out["ve"] = back(xe), back(ve)
             out["vmax"] = launch_reduce(speed2_body, N, ve, av, 1e-3, dim, device=device)
+            # the leak check: a box that ends at the block's middle along x, with the walls' top
+            # at its middle along the last axis (the particles above it are not counted)
+            mid = 0.5 * (x.min(axis=1) + x.max(axis=1))
+            out["outside"] = launch_reduce(outside_body, N, on(x), dim, -1.0, -1.0, -1.0, mid[0],
+                                           9.0, 9.0, dim - 1, mid[dim - 1], 1.0, device=device)
             return out
 
         cpu = run("cpu")
@@ -147,8 +152,10 @@ SCRIPT = textwrap.dedent(
         assert cuda.is_available()
         gpu = run("cuda")
         assert cpu["err"][0] > 0.0 and cpu["err"][1] > 0.0, cpu["err"]
+        assert 0 < cpu["outside"][0] < N / 2, cpu["outside"]  # beyond the middle, not above
         for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k", "D", "alpha", "div",
-                    "dens_s", "dens_k", "divs_s", "divs_k", "av", "xe", "ve", "vmax"):
+                    "dens_s", "dens_k", "divs_s", "divs_k", "av", "xe", "ve", "vmax",
+                    "outside"):
             e = rel(gpu[key], cpu[key])
             assert e <= 1e-12, (dim, key, e)
         assert rel(gpu["err"], cpu["err"]) <= 1e-12, (dim, gpu["err"], cpu["err"])
