@@ -110,7 +110,10 @@ def test_2d_momentum_exchange(tmp_path: Path, boundary: str) -> None:
 def test_2d_floating_square(tmp_path: Path, boundary: str) -> None:
     """Archimedes in 2D: a 0.1 m square of density 500 floats half submerged. It starts 40 %
     submerged; the fraction (points of a 40^2 grid in the rotated square below the water level
-    of the columns away from it) is averaged over t in [1, 2] s. Tolerance +-5 %, as in 3D: the
+    of the columns away from it) is averaged over t in [1, 1.6] s, about one period of its
+    heave (upward crossings of v_y at 0.31, 0.89, 1.47 s with Akinci particles, 0.28, 0.82,
+    1.32 s with density maps; [1, 2] s until 2026-12-03: 0.475 and 0.496 there, 0.483 and 0.494
+    over [1, 1.6] s). Tolerance +-5 %, as in 3D: the
     fluid's rest distance to the body (r, set by the insets ``rigid.INSET_2D`` and
     ``koschier2017.MOVING_INSET_2D``, measured at a 2D floor, and ``bender2019.MOVING_INSET``,
     measured in 3D; not fitted here) is uncertain by a fraction of r = 5 % of the side.
@@ -130,7 +133,7 @@ def test_2d_floating_square(tmp_path: Path, boundary: str) -> None:
     s = (np.arange(40) + 0.5) / 40 * side - side / 2
     grid = np.stack(np.meshgrid(s, s, [0.0], indexing="ij")).reshape(3, -1)
     frac = []
-    while sim.time < 2.0:
+    while sim.time < 1.6:
         sim.step()
         if sim.time > 1.0:
             x = sim.fluid["x"]
