@@ -403,6 +403,15 @@ class BoundaryCoupling:
         :class:`BoundaryKappa`)."""
         return BoundaryKappa(None if self.symmetric or self.solved else self.pressure, state)
 
+    def symmetric_walls(self, state: SimState) -> np.ndarray:
+        """Which boundary particles take the symmetric term ``V_b k_i`` (no mirrored share, no
+        extrapolated ``k_b``): all with ``symmetric``; with ``solved`` the static walls
+        (:meth:`solved_walls`), not rigid bodies; none otherwise. The mask of :meth:`mirror`'s
+        zeros for WCSPH, whose boundary term mirrors every boundary particle otherwise."""
+        if self.symmetric:
+            return np.ones(state.boundary.n, dtype=np.bool_)
+        return self.solved_walls(state)
+
     def solved_walls(self, state: SimState) -> np.ndarray:
         """Which boundary particles carry a pressure of their own that the PPE solvers solve
         for (scene ``configuration.boundary.solved``; static walls, not rigid bodies; all

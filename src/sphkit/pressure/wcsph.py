@@ -211,22 +211,12 @@ class WCSPH(PressureSolver):
         cp = state.coupling
         if cp.symmetric or cp.solved:  # the wall term V_b k_i (module docstring): p_b = 0
             replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
-                             state.nl_fb.offsets, state.nl_fb.indices, self._unmirrored(state),
+                             state.nl_fb.offsets, state.nl_fb.indices, cp.symmetric_walls(state),
                              np.zeros(b.n, dtype=f.dtype), state.h, state.kid, state.dim,
                              state.pair_period, f["a"])
         else:
             cp.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
-
-    @staticmethod
-    def _unmirrored(state: SimState) -> np.ndarray:
-        """Per boundary particle, whether its mirrored share goes: all with
-        ``boundary.symmetric``; with ``solved`` the static walls, not rigid bodies (their
-        reaction, :meth:`boundary_reaction`, is the mirrored term's)."""
-        cp = state.coupling
-        if cp.symmetric:
-            return np.ones(state.boundary.n, dtype=np.bool_)
-        return cp.solved_walls(state)
 
     def compressed_density(self, p: np.ndarray, rho0: np.ndarray) -> np.ndarray:
         """The density of the state equation at pressure p >= 0 [Pa]: Tait

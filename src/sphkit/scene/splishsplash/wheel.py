@@ -22,28 +22,27 @@ WHEEL = "pysplishsplash"
 GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
 
 
-def _data_file(suffix: str) -> Path | None:
-    """The wheel's file whose path ends with ``suffix`` (``/``-separated), or None."""
+def _files() -> list[tuple[str, Path]]:
+    """Every file of the installed wheel: its ``/``-separated path in the distribution and where
+    it lies; empty without the wheel."""
     try:
         dist = importlib.metadata.distribution(WHEEL)
     except importlib.metadata.PackageNotFoundError:
-        return None
-    for f in dist.files or []:
-        if str(f).replace("\\", "/").endswith(suffix):
-            return Path(dist.locate_file(f)).resolve()
-    return None
+        return []
+    return [(str(f).replace("\\", "/"), Path(dist.locate_file(f))) for f in dist.files or []]
+
+
+def _data_file(suffix: str) -> Path | None:
+    """The wheel's file whose path ends with ``suffix`` (``/``-separated), or None."""
+    return next((where.resolve() for name, where in _files() if name.endswith(suffix)), None)
 
 
 def scene_folder() -> Path | None:
     """``data/Scenes`` of the installed wheel, or None without the wheel."""
-    try:
-        dist = importlib.metadata.distribution(WHEEL)
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    for f in dist.files or []:
-        parts = str(f).replace("\\", "/").split("/")
+    for name, where in _files():
+        parts = name.split("/")
         if len(parts) >= 3 and parts[-3:-1] == ["data", "Scenes"] and parts[-1].endswith(".json"):
-            return Path(dist.locate_file(f)).resolve().parent
+            return where.resolve().parent
     return None
 
 
