@@ -127,7 +127,7 @@ def test_compressed_density_inverts_the_state_equation(equation: str) -> None:
     rho = solver.compressed_density(p, np.full(50, RHO0))
     out = np.empty(50)
     state_equation(rho, np.full(50, RHO0), solver.equation, solver.stiffness, solver.exponent,
-                   out)
+                   out, 0.0)
     np.testing.assert_allclose(out, p, rtol=1e-9, atol=1e-7)
 
 

@@ -57,13 +57,14 @@ def _fields(x: np.ndarray, r: float):
     density_cpu(x, m, nl.offsets, nl.indices, bx, bV, e.offsets, e.indices, 1000.0, h, kid, dim,
                 rho)
     n = np.empty((dim, N))
-    surface_normals_cpu(x, m, rho, nl.offsets, nl.indices, 1.0, h, kid, dim, n)
+    # the period L = 0.0 passed as the simulation passes it: no second compiled signature
+    surface_normals_cpu(x, m, rho, nl.offsets, nl.indices, 1.0, h, kid, dim, n, 0.0)
     k = np.empty(N)
     curvature_cpu(x, m, rho, n, nl.offsets, nl.indices, SURFACE / h, THRESHOLD / h, h, kid, dim,
-                  k)
+                  k, 0.0)
     c = np.empty(N)
     color_field_cpu(x, m, rho, nl.offsets, nl.indices, bx, bV, e.offsets, e.indices, h, kid, dim,
-                    c)
+                    c, 0.0)
     lap = laplacian(x, m / rho, c, nl, h, kid)
     return m, rho, n, k, lap, h
 

@@ -340,7 +340,8 @@ def curl(x: np.ndarray, m: np.ndarray, rho: np.ndarray, A: np.ndarray, nl: Neigh
     if x.shape[0] != 3:
         raise ValueError(f"curl: needs 3D positions, got dim {x.shape[0]}")
     out = np.empty_like(x)
-    _curl(x, m, rho, A, nl.offsets, nl.indices, h, kid, out)
+    # one compiled layout for every caller's field (a transposed view would compile again)
+    _curl(x, m, rho, np.ascontiguousarray(A), nl.offsets, nl.indices, h, kid, out)
     return out
 
 

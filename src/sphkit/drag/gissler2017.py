@@ -67,7 +67,7 @@ C_D = 5.0
 C_B = 0.5
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(inline="always", cache=True, fastmath=True)
 def gissler_body(i, x, v, m, off, idx, boff, va, coeff, y_coeff, L, diam, n_full23, dim, a):
     """Add the drag acceleration of fluid particle i to ``a[:, i]``."""
     u0 = va[0] - v[0, i]

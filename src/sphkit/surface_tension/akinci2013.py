@@ -81,7 +81,7 @@ def adhesion_kernel(r: float, h: float) -> float:
     return 0.007 / h**3.25 * arg**0.25
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(inline="always", cache=True, fastmath=True)
 def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a,
                 L=0.0):
     """Add the cohesion, curvature and adhesion acceleration of fluid particle i to ``a[:, i]``."""

@@ -49,7 +49,7 @@ from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(inline="always", cache=True, fastmath=True)
 def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho0, h, kid, dim,
                 a, L=0.0):
     """Add the cohesion and boundary adhesion acceleration of fluid particle i to ``a[:, i]``."""

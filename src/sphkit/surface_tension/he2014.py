@@ -56,7 +56,7 @@ def _grad_c2_cpu(x, m, rho, c, off, idx, h, kid, dim, g2, L=0.0):
         g2[i] = (s0 * s0 + s1 * s1 + s2 * s2) * inv * inv
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(inline="always", cache=True, fastmath=True)
 def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a,
             L=0.0):
     """Add the colour-field surface tension acceleration of fluid particle i to ``a[:, i]``."""

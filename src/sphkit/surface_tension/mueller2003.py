@@ -140,7 +140,7 @@ SMOOTHING = 2
 NEIGHBOUR = 0.4
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(inline="always", cache=True, fastmath=True)
 def curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L=0.0):
     """``kappa_i = -div(n/|n|)`` at fluid particle i from the tangential derivatives of the unit
     normal over the neighbours with ``|n_j| >= thr`` (0 where ``|n_i| < thr`` or the neighbours

@@ -58,7 +58,7 @@ def _vorticity_cpu(x, v, m, rho, off, idx, h, kid, dim, omega, norm):
         norm[i] = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) * inv
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(inline="always", cache=True, fastmath=True)
 def confinement_body(i, x, m, rho, omega, norm, off, idx, eps, h, kid, dim, a):
     """Add ``eps N_i x omega_i`` to ``a[:, i]`` (``N_i`` = unit gradient of ``|omega|``)."""
     xi0, xi1, xi2 = point(x, i, dim)

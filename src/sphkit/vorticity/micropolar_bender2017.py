@@ -80,7 +80,7 @@ from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(inline="always", cache=True, fastmath=True)
 def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu_t, zeta,
                     inv_theta, inv_dt, rho0, h, kid, dim, a, alpha):
     """Particle i: add ``nu_t curl(omega)`` to ``a[:, i]`` and write ``alpha[:, i]``."""

@@ -46,7 +46,7 @@ from sphkit.geometry.rotations import rotation_matrix
 CLEAR_AHEAD = 0.25
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(inline="always", cache=True, fastmath=True)
 def animate_body(i, x, v, dim, x0, R, lo, hi, hy, hz, circle, r2, vel, dt):
     """Move particle ``i`` rigidly with ``vel`` if it lies in the emitter region (local
     coordinates ``u = R^T (x - x0)``: ``lo <= u0 <= hi`` and ``|u1| <= hy, |u2| <= hz`` (box) or
