@@ -249,25 +249,49 @@ def test_resume_falls_back_to_the_older_checkpoint(checkpointed: Path, tmp_path:
     assert read_manifest(out)["resumed"][-1]["checkpoint"].endswith(old.name)
 
 
-@pytest.mark.parametrize("content", ["random", "nan"])
+class _Opens:
+    """Unpickling this opens (creates) ``path``: the trace a loaded pickle would leave."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self) -> tuple:
+        return open, (str(self.path), "w")
+
+
+@pytest.mark.parametrize("content", ["random", "nan", "pickled"])
 def test_resume_without_a_readable_checkpoint_exits_2(checkpointed: Path, tmp_path: Path,
                                                       content: str,
                                                       capsys: pytest.CaptureFixture[str]
                                                       ) -> None:
     out, found = _copy(checkpointed, tmp_path / "o")
+    unpickled = tmp_path / "unpickled"
     for path in found:
         if content == "random":
             path.write_bytes(np.random.default_rng(1).bytes(4000))
-        else:  # a well-formed checkpoint whose positions are NaN
+        else:  # a well-formed checkpoint whose positions are NaN, or an object array
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
-            arrays["fluid/x"] = np.full_like(arrays["fluid/x"], np.nan)
+            if content == "nan":
+                arrays["fluid/x"] = np.full_like(arrays["fluid/x"], np.nan)
+            else:
+                arrays["fluid/v"] = np.array([_Opens(unpickled)], dtype=object)
             with open(path, "wb") as f:
                 np.savez(f, **arrays)
     code, text, seconds = _run(capsys, "run", "--resume", str(out))
     _refused(code, text, seconds, found[-1].name)
     assert "allow_pickle" not in text
-    assert ("NaN" in text) if content == "nan" else ("not an .npz" in text)
+    assert {"nan": "NaN", "random": "not an .npz", "pickled": "pickled data"}[content] in text
+    assert not unpickled.exists()  # never unpickled
+
+
+def test_unwritable_output_folder_exits_1(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    # README's exit code 1: the output folder cannot be made (a file has its name)
+    (tmp_path / "o").write_text("not a folder")
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, TINY)), "--out",
+                               str(tmp_path / "o"), "--quiet")
+    _refused(code, text, seconds, "output folder", str(tmp_path / "o"), expect=1)
 
 
 # -- 5. a fixed step far too large ---------------------------------------------------------------
