@@ -402,6 +402,36 @@ def test_ctrl_c_during_the_imports_exits_130(tmp_path: Path, delay: float) -> No
     assert "Traceback" not in err and "interrupted" in err
 
 
+def test_a_swallowed_ctrl_c_stops_before_the_world_is_built(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    # a Ctrl-C that lands in an import scipy or trimesh wraps in ``except BaseException`` is
+    # recorded but swallowed; the command used to notice it only after building the world (5 s
+    # later on a loaded machine); here the signal lands while the scene is read
+    import sphkit.scene.files
+    import sphkit.simulation
+    from sphkit.cli.common import Interrupts
+
+    load = sphkit.scene.files.load_scene
+
+    def load_scene(*a: object, **k: object) -> object:
+        Interrupts.received = signal.SIGINT  # what the handler records before raising
+        return load(*a, **k)
+
+    built = []
+
+    def from_scene(*a: object, **k: object) -> None:
+        built.append(a)  # (main() reports any error after a Ctrl-C as the interrupt)
+        raise RuntimeError("the world is built after the Ctrl-C")
+
+    monkeypatch.setattr(sphkit.scene.files, "load_scene", load_scene)
+    monkeypatch.setattr(sphkit.simulation.Simulation, "from_scene", from_scene)
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, TINY)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "interrupted", expect=130)
+    assert not built
+
+
 @pytest.mark.parametrize("where", ["llvmlite/binding/executionengine.py",
                                    "numba/core/compiler_machinery.py"])
 def test_ctrl_c_while_compiling_ends_the_process_at_once(where: str) -> None:

@@ -203,6 +203,10 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
             scene.configuration.max_particles = args.max_particles
         if args.precision is not None:
             scene.configuration.precision = args.precision
+        # a Ctrl-C that a library swallowed while the modules above were imported (scipy and
+        # trimesh catch every exception around some imports): stop before building the world
+        # (seconds of sampling, start-up and compiling) rather than after it
+        Interrupts.check()
         sim = Simulation.from_scene(scene, device=getattr(args, "device", "auto"))
         Interrupts.check()  # a Ctrl-C that a library swallowed while the world was built
     except SceneError as e:
