@@ -7,9 +7,13 @@ Each probe writes its scene (or damages a run folder) in a temporary folder, sta
 where the probe is a signal, sends it after a delay. The table gives the exit code, the wall
 time, the child's own peak resident memory (``os.wait4``: ``ru_maxrss`` of that process, not
 the maximum over all children), whether stderr holds a traceback, and the first line of the
-message (an error's first two lines when the first only names the scene). A probe passes when
+message (an error's lines joined while one ends with ':', a heading). A probe passes when
 its exit code is the expected one, it ended within 10 s, its peak RSS is under 1 GB, nothing
 printed ``Traceback`` and the message names the field (or flag, or file) listed for it.
+
+A Ctrl-C that lands before the first line of the ``sphkit`` script runs (the interpreter's own
+start-up: before it installs its SIGINT handler, or while it imports ``site`` and its ``.pth``
+files) is CPython's, out of sphkit's reach: such a probe is shown as void, not counted.
 
 The runs that simulate compile with Numba on the first use of a checkout (minutes): run this
 twice, or after the tests, to time them warm. Exit code 0 when every probe passes, 1 otherwise.
@@ -494,6 +498,11 @@ def measure(probe: Probe, folder: Path) -> Result:
         # the first line of sphkit's code or of the sphkit script: CPython's own start-up
         res.void = "landed in CPython's start-up (import of site), before sphkit's code"
         return res
+    if probe.signum == signal.SIGINT and res.code == -signal.SIGINT and not text:
+        # killed by the signal's default action: before the interpreter installed its own
+        # handler (which it does before any Python code runs)
+        res.void = "landed before the interpreter installed its SIGINT handler"
+        return res
     if probe.after is not None:
         try:
             problem = probe.after(folder, text)
@@ -505,19 +514,22 @@ def measure(probe: Probe, folder: Path) -> Result:
 
 
 def first_line(text: str) -> str:
-    """The message's first line: an error's (with the next when the first ends with ':'), else
-    a warning's, else stderr's first line; cut to 110 characters."""
+    """The message's first line: an error's (with the next while one ends with ':'), else
+    a warning's, else stderr's first line; cut to 150 characters."""
     lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
-    pick = next((i for i, ln in enumerate(lines) if ln.startswith("sphkit: error:")), None)
+    pick = next(
+        (i for i, ln in enumerate(lines) if ln.startswith("sphkit") and ": error:" in ln), None
+    )
     if pick is None:
         pick = next((i for i, ln in enumerate(lines) if "warning" in ln.lower()), 0)
     if not lines:
         return ""
     line = lines[pick]
-    if line.endswith(":") and pick + 1 < len(lines):
-        line += " " + lines[pick + 1]
+    while line.endswith(":") and pick + 1 < len(lines):
+        pick += 1
+        line += " " + lines[pick]
     line = line.replace("|", "/")
-    return line if len(line) <= 110 else line[:107] + "..."
+    return line if len(line) <= 150 else line[:147] + "..."
 
 
 def main() -> int:
