@@ -161,6 +161,16 @@ def _checkpointed(base: Path) -> Path:
     return _CHECKPOINTED
 
 
+class _Opens:
+    """Unpickling this opens (creates) ``path``: the trace a loaded pickle would leave."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self) -> tuple:
+        return open, (str(self.path), "w")
+
+
 def _damaged(folder: Path, how: str) -> list[str]:
     out = folder / "run"
     shutil.copytree(_checkpointed(folder.parent), out)
@@ -176,10 +186,13 @@ def _damaged(folder: Path, how: str) -> list[str]:
             path.write_bytes(b"")
         elif how == "random":
             path.write_bytes(np.random.default_rng(1).bytes(4000))
-        elif how == "nan":
+        elif how in ("nan", "pickled"):
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
-            arrays["fluid/x"] = np.full_like(arrays["fluid/x"], np.nan)
+            if how == "nan":
+                arrays["fluid/x"] = np.full_like(arrays["fluid/x"], np.nan)
+            else:  # an object array, stored pickled
+                arrays["fluid/v"] = np.array([_Opens(folder / "unpickled")], dtype=object)
             with open(path, "wb") as f:
                 np.savez(f, **arrays)
     (folder / "names.txt").write_text("\n".join(p.name for p in found))
@@ -192,6 +205,13 @@ def _newest_named(folder: Path, err: str) -> str:
     if "allow_pickle" in err:
         problems.append("repeats numpy's allow_pickle advice")
     return "; ".join(problems)
+
+
+def _not_unpickled(folder: Path, err: str) -> str:
+    problem = _newest_named(folder, err)
+    if (folder / "unpickled").exists():
+        problem += "; the pickle was loaded"
+    return problem.lstrip("; ")
 
 
 def _fell_back(folder: Path, err: str) -> str:
@@ -410,6 +430,14 @@ def probes() -> list[Probe]:
             for t in (0.02, 0.1, 0.2, 0.35, 0.5, 0.8, 1.5, 3.0)
         ],
         Probe(8, "random-bytes STL", _junk_stl, 2, ("junk.stl",)),
+        Probe(
+            8,
+            "--resume, every checkpoint holds a pickled object array",
+            lambda f: _damaged(f, "pickled"),
+            2,
+            ("pickled data",),
+            after=_not_unpickled,
+        ),
         Probe(
             8,
             "--resume, every checkpoint random bytes",
