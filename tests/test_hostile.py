@@ -135,8 +135,9 @@ def test_error_messages_do_not_echo_huge_input(tmp_path: Path,
 def test_a_bad_scene_is_reported_before_the_simulation_is_imported(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
-    # Numba, SciPy and trimesh are most of the command's start-up (on a loaded machine, a NaN
-    # field took 4.9-5.7 s to report with them imported first, 1.7-2.2 s without): the scene is
+    # Numba, SciPy and trimesh are most of the command's start-up (on a loaded machine, an
+    # infinite particle_radius took 4.9-5.7 s to report with them imported first, 1.7-2.2 s
+    # without; validation/README.md): the scene is
     # read and checked before sphkit.simulation is imported (here: cannot be)
     monkeypatch.setitem(sys.modules, "sphkit.simulation", None)
     code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, _with(
