@@ -6,10 +6,10 @@ in a box mesh) gets one to three mutations: a field set to a value of a random t
 Infinity, huge, tiny, negative, zero, strings, lists, objects, ...), a field deleted, an unknown
 field added, or an optional field added (methods, emitters, periodic domains, ...) with a
 plausible or a hostile value. :func:`run_example` runs ``sphkit run`` on it in-process with its
-output captured, a few steps at most, and :func:`check` states what must hold: exit code 0 (ran),
-3 (the stability guard stopped it), 130 (stopped by the harness after a few steps: time steps
-too small to reach ``--until``) or 2 with a message naming one of the mutated fields, and never
-an exception out of the command.
+output captured, a few steps at most, with a particle budget of 100,000, and :func:`check`
+states what must hold: exit code 0 (ran), 3 (the stability guard stopped it), 130 (stopped by
+the harness after a few steps: time steps too small to reach ``--until``) or 2 with a message
+naming one of the mutated fields, and never an exception out of the command.
 """
 
 from __future__ import annotations
@@ -32,6 +32,12 @@ from hypothesis import strategies as st
 MAX_STEPS = 4
 #: simulated time an example runs (``--until``) [s]
 UNTIL = "0.003"
+#: the particle budget of an example (``--max-particles``): the base scenes have about 100
+#: particles; a hostile value that needs more than this is refused (exit 2, naming the part).
+#: The default budget (20 million) let a fluid block reaching down to y = -128768 m (3.2
+#: million rows of 5) be sampled: 16 million particles, over 5 GB before the harness was
+#: stopped
+MAX_PARTICLES = 100_000
 
 OWN = {
     "name": "fuzz",
@@ -340,7 +346,7 @@ def run_example(ex: Example, folder: Path) -> tuple[int | None, str, BaseExcepti
             mock.patch.object(Simulation, "step", lambda sim: limit(sim)):
         try:
             code = main(["run", str(path), "--out", str(folder / "out"), "--until", UNTIL,
-                         "--quiet"])
+                         "--max-particles", str(MAX_PARTICLES), "--quiet"])
         except BaseException as e:  # noqa: B036 -- anything escaping is the failure we look for
             escaped = e
     return code, out.getvalue(), escaped

@@ -14,7 +14,10 @@ import pytest
 
 pytest.importorskip("hypothesis")
 
-from _fuzz import check, examples, run_example  # noqa: E402
+import copy  # noqa: E402
+import tracemalloc  # noqa: E402
+
+from _fuzz import OWN, Example, check, examples, run_example  # noqa: E402
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 
 
@@ -30,3 +33,23 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_generated_scenes_run_or_name_a_field(folder: Path, ex) -> None:
     code, text, escaped = run_example(ex, folder / "example")
     check(ex, code, text, escaped)
+
+
+def test_a_block_of_millions_is_refused_by_the_budget(folder: Path) -> None:
+    # found by the long run: a fluid block from y = -128768 m to 0.3 m needs 16 million
+    # particles, under the default budget of 20 million; the harness's budget (100,000) refuses
+    # it before anything is allocated (it had grown past 5 GB)
+    import sphkit.simulation  # noqa: F401 -- imported before tracing (tracemalloc slows it)
+
+    scene = copy.deepcopy(OWN)
+    scene["fluid_blocks"][0]["start"][1] = -128768
+    ex = Example("own", scene, ["fluid_blocks", "start"], ["set fluid_blocks.0.start.1"])
+    tracemalloc.start()
+    try:
+        code, text, escaped = run_example(ex, folder / "budget")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    check(ex, code, text, escaped)
+    assert code == 2 and "fluid_blocks[0]: needs about 1.61e+07" in text, text
+    assert peak < 100 * 2**20  # bytes: nothing was sampled

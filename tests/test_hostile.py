@@ -132,6 +132,19 @@ def test_error_messages_do_not_echo_huge_input(tmp_path: Path,
     assert len(text) < 3000
 
 
+def test_a_bad_scene_is_reported_before_the_simulation_is_imported(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    # Numba, SciPy and trimesh are most of the command's start-up (on a loaded machine, an
+    # infinite particle_radius took 4.9-5.7 s to report with them imported first, 1.7-2.2 s
+    # without; validation/README.md): the scene is
+    # read and checked before sphkit.simulation is imported (here: cannot be)
+    monkeypatch.setitem(sys.modules, "sphkit.simulation", None)
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, _with(
+        "configuration.gravity", [math.nan, -9.81]))), "--out", str(tmp_path / "o"))
+    _refused(code, text, seconds, "configuration.gravity[0]")
+
+
 # -- 2. frame rates ------------------------------------------------------------------------------
 def test_infinite_fps_in_the_scene_is_refused(tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
@@ -249,25 +262,49 @@ def test_resume_falls_back_to_the_older_checkpoint(checkpointed: Path, tmp_path:
     assert read_manifest(out)["resumed"][-1]["checkpoint"].endswith(old.name)
 
 
-@pytest.mark.parametrize("content", ["random", "nan"])
+class _Opens:
+    """Unpickling this opens (creates) ``path``: the trace a loaded pickle would leave."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self) -> tuple:
+        return open, (str(self.path), "w")
+
+
+@pytest.mark.parametrize("content", ["random", "nan", "pickled"])
 def test_resume_without_a_readable_checkpoint_exits_2(checkpointed: Path, tmp_path: Path,
                                                       content: str,
                                                       capsys: pytest.CaptureFixture[str]
                                                       ) -> None:
     out, found = _copy(checkpointed, tmp_path / "o")
+    unpickled = tmp_path / "unpickled"
     for path in found:
         if content == "random":
             path.write_bytes(np.random.default_rng(1).bytes(4000))
-        else:  # a well-formed checkpoint whose positions are NaN
+        else:  # a well-formed checkpoint whose positions are NaN, or an object array
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
-            arrays["fluid/x"] = np.full_like(arrays["fluid/x"], np.nan)
+            if content == "nan":
+                arrays["fluid/x"] = np.full_like(arrays["fluid/x"], np.nan)
+            else:
+                arrays["fluid/v"] = np.array([_Opens(unpickled)], dtype=object)
             with open(path, "wb") as f:
                 np.savez(f, **arrays)
     code, text, seconds = _run(capsys, "run", "--resume", str(out))
     _refused(code, text, seconds, found[-1].name)
     assert "allow_pickle" not in text
-    assert ("NaN" in text) if content == "nan" else ("not an .npz" in text)
+    assert {"nan": "NaN", "random": "not an .npz", "pickled": "pickled data"}[content] in text
+    assert not unpickled.exists()  # never unpickled
+
+
+def test_unwritable_output_folder_exits_1(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    # README's exit code 1: the output folder cannot be made (a file has its name)
+    (tmp_path / "o").write_text("not a folder")
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, TINY)), "--out",
+                               str(tmp_path / "o"), "--quiet")
+    _refused(code, text, seconds, "output folder", str(tmp_path / "o"), expect=1)
 
 
 # -- 5. a fixed step far too large ---------------------------------------------------------------
@@ -376,6 +413,36 @@ def test_ctrl_c_during_the_imports_exits_130(tmp_path: Path, delay: float) -> No
         _, err = proc.communicate()
     assert proc.returncode == 130, err
     assert "Traceback" not in err and "interrupted" in err
+
+
+def test_a_swallowed_ctrl_c_stops_before_the_world_is_built(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    # a Ctrl-C that lands in an import scipy or trimesh wraps in ``except BaseException`` is
+    # recorded but swallowed; the command used to notice it only after building the world (5 s
+    # later on a loaded machine); here the signal lands while the scene is read
+    import sphkit.scene.files
+    import sphkit.simulation
+    from sphkit.cli.common import Interrupts
+
+    load = sphkit.scene.files.load_scene
+
+    def load_scene(*a: object, **k: object) -> object:
+        Interrupts.received = signal.SIGINT  # what the handler records before raising
+        return load(*a, **k)
+
+    built = []
+
+    def from_scene(*a: object, **k: object) -> None:
+        built.append(a)  # (main() reports any error after a Ctrl-C as the interrupt)
+        raise RuntimeError("the world is built after the Ctrl-C")
+
+    monkeypatch.setattr(sphkit.scene.files, "load_scene", load_scene)
+    monkeypatch.setattr(sphkit.simulation.Simulation, "from_scene", from_scene)
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, TINY)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "interrupted", expect=130)
+    assert not built
 
 
 @pytest.mark.parametrize("where", ["llvmlite/binding/executionengine.py",

@@ -187,7 +187,6 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
     code after printing the error."""
     from sphkit.scene.files import load_scene
     from sphkit.scene.schema import SceneError
-    from sphkit.simulation import Simulation
 
     name = args.scene or DEFAULT_SCENE
     try:
@@ -203,6 +202,14 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
             scene.configuration.max_particles = args.max_particles
         if args.precision is not None:
             scene.configuration.precision = args.precision
+        # the simulation's modules (Numba, SciPy, trimesh: most of the command's start-up) are
+        # imported once the scene has been read, so that an error in it is reported at once
+        from sphkit.simulation import Simulation
+
+        # a Ctrl-C that a library swallowed while the modules were imported (scipy and trimesh
+        # catch every exception around some imports): stop before building the world (seconds
+        # of sampling, start-up and compiling) rather than after it
+        Interrupts.check()
         sim = Simulation.from_scene(scene, device=getattr(args, "device", "auto"))
         Interrupts.check()  # a Ctrl-C that a library swallowed while the world was built
     except SceneError as e:
@@ -219,8 +226,6 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
 
 def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     """``sphkit run``: simulate, write frames and the manifest; return the exit code."""
-    from sphkit.simulation import InstabilityError
-
     resume = None
     if getattr(args, "resume", None) is not None:
         resume = prepare_resume(args, argv)
@@ -233,6 +238,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
             return built
         scene, sim = built
         out_dir = args.out or Path(scene.output.directory or Path("out") / scene.name)
+    from sphkit.simulation import InstabilityError  # imported by now
 
     if Interrupts.received is not None:  # a Ctrl-C that a library swallowed while starting
         error("interrupted while building the simulation")

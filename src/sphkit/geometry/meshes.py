@@ -67,7 +67,8 @@ def _check_stl(p: Path) -> None:
     if n < 0 or size != 84 + 50 * n:
         raise GeometryError(
             f"mesh file {str(p)!r}: not an STL file: neither ASCII ('solid ...') nor binary "
-            f"({size} bytes; a binary STL of {max(n, 0)} triangles has {84 + 50 * max(n, 0)})")
+            f"({size} bytes; a binary STL of {max(n, 0)} triangles has "
+            f"{84 + 50 * max(n, 0)} bytes)")
 
 
 def load_mesh(
