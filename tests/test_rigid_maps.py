@@ -218,8 +218,8 @@ def test_density_map_inset_is_the_shell_it_keeps_fluid_out_of() -> None:
     ``delta = integral_0^inf (rho_B(d) - F(d)) dd``: the map's density (``0.8 integral
     gamma(phi) W``, f = 5) less the kernel's share beyond the wall ``F(d)``, which fluid filling
     the half-space up to the wall would miss (cubic kernel, h = 4 r, through the kernel's 1D
-    marginal). Tolerance 0.01 r: the constant is rounded to 0.4 r; the quadrature gives 0.403 r
-    (a 3D lattice of 201^3 points agrees to 1e-3 r)."""
+    marginal). Tolerance 0.01 r: the constant is rounded to 0.4 r; this quadrature gives 0.401 r
+    (a 3D lattice of 201^3 points: 0.403 r)."""
     from sphkit.boundary import koschier2017 as k
     from sphkit.core.kernels import KERNEL_IDS, kernel_w
 
