@@ -211,7 +211,7 @@ def lattice_lower_bound(f, origin, spacing, shape, dim, p0, p1, p2):
     return f[(i0 * shape[1] + i1) * shape[2] + i2] - math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
 
 
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def map_query_point(x, i, dim, extend_axis, top):
     """The lookup point of point i of x (dim, N), e.g. a fluid particle's in a boundary map: its
     position, clamped to ``top`` along ``extend_axis`` (a grid open along +axis, e.g. an open

@@ -150,7 +150,7 @@ def strain_rate(x, v, m, rho, off, idx, h, kid, dim, L, scale, out):
             out[2, i] = s * e3
 
 
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _invert(P, Pinv, i, n):
     """Gauss-Jordan inverse of the n x n matrix P[:, :, i] into Pinv[:, :, i] (P is destroyed);
     returns the determinant (0 when a pivot vanishes)."""
