@@ -19,5 +19,6 @@ def load_validation(script: str, name: str | None = None) -> ModuleType:
         sys.path.append(str(VALIDATION))
     spec = importlib.util.spec_from_file_location(name or f"{path.stem}_validation", path)
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up there while it executes
     spec.loader.exec_module(mod)
     return mod

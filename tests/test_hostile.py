@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _validation import load_validation
 
 from sphkit.cli import main
 from sphkit.io.checkpoint import list_checkpoints
@@ -85,12 +86,7 @@ def _with(path: str, value: object) -> dict:
 
 
 # -- 1. YAML aliases -----------------------------------------------------------------------------
-def _laughs(levels: int) -> str:
-    lines = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
-    for k in range(1, levels + 1):
-        lines.append(f"a{k}: &a{k} [" + ", ".join([f"*a{k - 1}"] * 9) + "]")
-    lines.append(f"name: *a{levels}")
-    return "\n".join(lines) + "\n"
+_laughs = load_validation("hostile.py").laughs  # the document hostile.py runs
 
 
 @pytest.mark.parametrize("levels", [7, 9])

@@ -103,7 +103,9 @@ def _with(changes: dict) -> dict:
     return scene
 
 
-def _laughs(levels: int) -> str:
+def laughs(levels: int) -> str:
+    """A YAML file of ``levels`` nested aliases, each nine times the one before (a "billion
+    laughs" document; also the input of tests/test_hostile.py)."""
     lines = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
     for k in range(1, levels + 1):
         lines.append(f"a{k}: &a{k} [" + ", ".join([f"*a{k - 1}"] * 9) + "]")
@@ -276,14 +278,14 @@ def probes() -> list[Probe]:
         Probe(
             1,
             "YAML billion laughs, 9 levels (700 bytes)",
-            _run_scene(_laughs(9), "laughs.yaml"),
+            _run_scene(laughs(9), "laughs.yaml"),
             2,
             ("laughs.yaml", "aliases"),
         ),
         Probe(
             1,
             "YAML billion laughs, 7 levels (the 39 MB error)",
-            _run_scene(_laughs(7), "laughs.yaml"),
+            _run_scene(laughs(7), "laughs.yaml"),
             2,
             ("laughs.yaml", "aliases"),
         ),
