@@ -146,12 +146,11 @@ def test_2d_floating_square(tmp_path: Path, boundary: str) -> None:
 
 def test_2d_kinematic_paddle_torque(tmp_path: Path) -> None:
     """A 0.1 x 0.02 m paddle turning at pi rad/s (about z) in a 2D tank: the fluid's torque on
-    it opposes the rotation (sign, averaged over the second half of 0.3 s; measured -0.08 N m
-    per metre of depth, -0.14 with DFSPH's one-sided Jacobi update used before 2026-11-26) and
-    the fluid the paddle sweeps (within 0.06 m of the axis; the blade reaches 0.05 m) turns
-    with it: its angular momentum about the axis is positive (measured +0.038 N m s per metre,
-    before +0.021). The whole tank's angular momentum is not tested: the return flow along the
-    walls and the slosh of the free surface dominate it (measured -0.028, before +0.070); the
+    it opposes the rotation (sign, averaged over the second half of 0.3 s; measured -0.0081 N m
+    per metre of depth, one thread, 2026-12-03) and the fluid the paddle sweeps (within 0.06 m
+    of the axis; the blade reaches 0.05 m) turns with it: its angular momentum about the axis is
+    positive (measured +0.0187 N m s per metre). The whole tank's angular momentum is not
+    tested: the return flow along the walls and the slosh of the free surface dominate it; the
     paddle turned by omega t."""
     f = tmp_path / "paddle.obj"
     trimesh.creation.box(extents=[0.1, 0.02, 0.5]).export(f)
