@@ -108,7 +108,7 @@ def test_heavy_box_rests_on_floor(tmp_path: Path, method: str) -> None:
     Gauss-Seidel residual), it does not drift more than r, and it comes to rest (|v| < 0.05 m/s
     at the end, the fluid's sloshing speed here). Measured (lowest corner, drift, final speed):
     DFSPH -0.000 mm, 0.000 mm, 0.0000 m/s; IISPH -0.000 mm, 0.000 mm, 0.0000 m/s; PCISPH
-    -0.000 mm, 0.07-0.12 mm (2 and 1 threads), 0.0000 m/s. PCISPH predicts the body's
+    -0.000 mm, 0.000 mm (1 and 2 threads, 2026-12-03), 0.0000 m/s. PCISPH predicts the body's
     particles in its sweeps as it does the fluid (strong coupling, since 2026-12-01); with the
     body as a prescribed wall in the prediction it needed 17.7 iterations per step instead of
     10.9, and the fluid's vertical force on the body was -11.1 N against IISPH's -13.6 N (now
