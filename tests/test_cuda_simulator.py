@@ -10,7 +10,8 @@ the CPU, and the neighbour search whose passes are bodies (:class:`sphkit.core.h
 with the scan and the histogram of the counting sort; in 2D) against the CPU grid's lists, and one
 whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
 viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on the
-device, in float64 and in float32 (the device's default; against the CPU's float64 step). Each
+device, in float64 and in float32 (the device's default; against the CPU's float64 step), and one
+whole WCSPH and IISPH step (their per-particle passes bodies too) likewise in float64. Each
 kernel launch under the simulator starts a Python thread per particle, so the cases are as small as
 their checks allow. Where a CUDA GPU is present the same script also runs on it (skipped otherwise,
 e.g. in CI). The subprocess also checks that importing sphkit and running on the CPU does not
@@ -273,6 +274,30 @@ SCRIPT = textwrap.dedent(
         e = rel(res["cuda"][0][key], res["cpu"][0][key])
         assert e <= 1e-12, ("step", key, e)
     print("step ok", n, "particles", res["cpu"][1], "iterations")
+
+    # one whole step of WCSPH (state equation, pressure force) and of IISPH (its setup and the
+    # Jacobi solve), the rest as above, on both devices in float64
+    scene["configuration"]["precision"] = "float64"
+    scene["configuration"]["start"] = {"settle": False}  # hundreds of steps under the simulator
+    for method in ("wcsph", "iisph"):
+        scene["configuration"]["pressure"] = (
+            {"method": "wcsph", "stiffness": 1000.0} if method == "wcsph"
+            else {"method": method, "max_error": 0.5})
+        out, its = {}, {}
+        for device in ("cpu", "cuda"):
+            sim = Simulation(Scene.model_validate(scene), device=device)
+            its[device] = sim.step().iterations
+            if device == "cuda":
+                assert hasattr(sim.state.fluid["p"], "copy_to_host")
+            f = sim.fluid
+            o = f.order_by_id()
+            out[device] = {k: f[k][..., o] for k in ("x", "v", "rho", "p")}
+        assert out["cpu"]["p"].max() > 0.0  # the walls compress the block: the pressure acts
+        assert its["cuda"] == its["cpu"], (method, its)
+        for key in ("x", "v", "rho", "p"):
+            e = rel(out["cuda"][key], out["cpu"][key])
+            assert e <= 1e-12, (method, "step", key, e)
+        print(method, "step ok", float(out["cpu"]["p"].max()), "Pa", its["cpu"], "iterations")
     """
 )
 
@@ -313,6 +338,7 @@ def _run_script(env: dict) -> None:
     assert "dim 2 ok" in res.stdout and "dim 3 ok" in res.stdout
     assert "hash grid 2 ok" in res.stdout
     assert "step ok" in res.stdout and "float32 step ok" in res.stdout
+    assert "wcsph step ok" in res.stdout and "iisph step ok" in res.stdout
 
 
 def _cuda_gpu() -> bool:

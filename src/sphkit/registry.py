@@ -191,7 +191,7 @@ def with_capability(role: str, capability: str) -> tuple[str, ...]:
 register("pressure", "wcsph", "sphkit.pressure.wcsph:WCSPH", splishsplash=0,
          paper="Becker & Teschner 2007, Weakly compressible SPH for free surface flows",
          summary="state equation (Tait or linear), symmetric pressure force",
-         periodic=True, periodic_y=True, dynamic_bodies=True, multiphase=True)
+         periodic=True, periodic_y=True, dynamic_bodies=True, multiphase=True, gpu=True)
 register("pressure", "pcisph", "sphkit.pressure.pcisph:PCISPH", splishsplash=1,
          paper="Solenthaler & Pajarola 2009, Predictive-corrective incompressible SPH",
          summary="predict-correct loop with a template scaling factor", dynamic_bodies=True,
@@ -202,7 +202,7 @@ register("pressure", "pbf", "sphkit.pressure.pbf:PBF", splishsplash=2,
 register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
          paper="Ihmsen et al. 2014, Implicit incompressible SPH",
          summary="relaxed Jacobi on the pressure Poisson equation", dynamic_bodies=True,
-         multiphase=True)
+         multiphase=True, gpu=True)
 register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
          paper="Bender & Koschier 2015/2017, Divergence-free SPH",
          summary="constant-density and divergence-free solvers with warm starts",

@@ -45,6 +45,8 @@ from typing import Any
 import numba
 import numpy as np
 
+from sphkit.backend import launch
+from sphkit.core import arrays
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.solver import (
     IterationControl,
@@ -62,14 +64,15 @@ from sphkit.core.state import SimState
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.8, 1.02, 1e-4, 1.0
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _setup(rho, inv_rho0, div, D, dt, tiny, s, w, scale):
-    for i in numba.prange(rho.shape[0]):
-        rh = rho[i] * inv_rho0[i]
-        s[i] = 1.0 - (rh + dt * div[i])
-        w[i] = 1.0 / (rh * rh)
-        # omega / (a_ii dt^2) with a_ii = -D / rho_hat^2; the engine applies -omega * scale
-        scale[i] = rh * rh / (D[i] * dt * dt) if D[i] > tiny else 0.0
+@numba.njit(cache=True, fastmath=True, inline="always")
+def setup_body(i, rho, inv_rho0, div, D, dt, tiny, s, w, scale):
+    """Particle i's source ``s_i = 1 - rho_hat_adv,i``, weight ``w_i = 1 / rho_hat_i^2`` and
+    Jacobi scale ``rho_hat_i^2 / (D_i dt^2)`` (0 where ``D_i <= tiny``)."""
+    rh = rho[i] * inv_rho0[i]
+    s[i] = 1.0 - (rh + dt * div[i])
+    w[i] = 1.0 / (rh * rh)
+    # omega / (a_ii dt^2) with a_ii = -D / rho_hat^2; the engine applies -omega * scale
+    scale[i] = rh * rh / (D[i] * dt * dt) if D[i] > tiny else 0.0
 
 
 class IISPH(StepBounded, PressureSolver):
@@ -102,21 +105,21 @@ class IISPH(StepBounded, PressureSolver):
         f = state.fluid
         n = f.n
         grads = PairGradients.of(state)
-        v_star = f["v"] + dt * f["a"]
+        v_star = arrays.axpy_into(f["v"], dt, f["a"])
         div = grads.velocity_divergence(v_star)
         D = grads.diagonal()
-        s = np.empty(n, dtype=f.dtype)
-        w = np.empty(n, dtype=f.dtype)
-        scale = np.empty(n, dtype=f.dtype)
-        _setup(f["rho"], 1.0 / f["rho0"], div, D, dt, 1e-9 / state.h ** 2, s, w, scale)
-        p = 0.5 * f["p"] / f["rho0"]  # warm start, normalized pressure
-        active = np.ones(n, dtype=np.bool_)
+        s, w, scale = (arrays.empty_like(div) for _ in range(3))
+        launch(setup_body, n, f["rho"], arrays.reciprocal(f["rho0"]), div, D, dt,
+               1e-9 / state.h ** 2, s, w, scale)
+        # warm start, normalized pressure 0.5 p / rho0
+        p = arrays.divided_by(arrays.scaled(f["p"], 0.5), f["rho0"])
+        active = arrays.full(n, True, np.bool_, like=div)
         a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
                                          self.omega, active, grads=grads,
                                          **grads.wall_args(v_star, dt, "iisph"))
         self.step_bound.update(dt, its, self.control.max_iterations, ok)
-        f["a"] += a
-        f["p"] = p * f["rho0"]
+        arrays.axpy(f["a"], 1.0, a)
+        launch(arrays.multiply_body, n, p, f["rho0"], f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
 

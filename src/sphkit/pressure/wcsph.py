@@ -64,26 +64,29 @@ LINEAR = 1
 STIFFNESS_CFL = 0.8
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def state_equation(rho, rho0, equation, stiffness, exponent, p, pb=0.0):
-    """State equation for all particles (``rho0`` (N,): each particle's rest density), clamped
-    to ``rho >= rho0`` unless the background pressure ``pb`` [Pa] is > 0 (then ``p_b +`` the
-    unclamped equation); returns (mean, max) compression."""
+@numba.njit(cache=True, fastmath=True, inline="always")
+def state_equation_body(i, rho, rho0, equation, stiffness, exponent, p, pb):
+    """``p[i]`` from the state equation (``rho0[i]``: particle i's rest density), clamped to
+    ``rho >= rho0`` unless the background pressure ``pb`` [Pa] is > 0 (then ``p_b +`` the
+    unclamped equation); returns the compression ``(rho_i - rho0_i) / rho0_i``."""
+    r0 = rho0[i]
+    r = max(rho[i], r0) if pb <= 0.0 else rho[i]
+    if equation == TAIT:
+        p[i] = stiffness * ((r / r0) ** exponent - 1.0)
+    else:
+        p[i] = stiffness * (r - r0)
+    if pb > 0.0:
+        p[i] += pb
+    return (r - r0) / r0
+
+
+def state_equation(rho: Any, rho0: Any, equation: int, stiffness: float, exponent: float,
+                   p: Any, pb: float = 0.0) -> tuple[float, float]:
+    """:func:`state_equation_body` for all particles, on the device the arrays are on; returns
+    (mean, max) compression (the maximum at least 0)."""
     n = rho.shape[0]
-    tot = 0.0
-    mx = 0.0
-    for i in numba.prange(n):
-        r0 = rho0[i]
-        r = max(rho[i], r0) if pb <= 0.0 else rho[i]
-        if equation == TAIT:
-            p[i] = stiffness * ((r / r0) ** exponent - 1.0)
-        else:
-            p[i] = stiffness * (r - r0)
-        if pb > 0.0:
-            p[i] += pb
-        e = (r - r0) / r0
-        tot += e
-        mx = max(mx, e)
+    tot, mx = launch_reduce(state_equation_body, n, rho, rho0, int(equation), float(stiffness),
+                            float(exponent), p, float(pb))
     return tot / max(n, 1), mx
 
 
@@ -172,7 +175,9 @@ class WCSPH(PressureSolver):
         if self.stiffness == 0.0:
             return float("inf")
         f = state.fluid
-        return self.sound_speed(float(f["rho0"].min()) if f.n else state.rho0)
+        if not f.n or state.rest().uniform:  # every particle at the reference rest density
+            return self.sound_speed(state.rho0)
+        return self.sound_speed(float(f["rho0"].min()))
 
     def max_time_step(self, state: SimState) -> float:
         """Acoustic time-step limit ``0.4 * 2r / c``, and the local stiffness bound
