@@ -11,7 +11,8 @@ with the scan and the histogram of the counting sort; in 2D) against the CPU gri
 whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
 viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on the
 device, in float64 and in float32 (the device's default; against the CPU's float64 step), and one
-whole WCSPH and IISPH step (their per-particle passes bodies too) likewise in float64. Each
+whole WCSPH and IISPH step (their per-particle passes bodies too) likewise in float64, and a DFSPH
+step with static density maps and with volume maps (their queries and packing as bodies). Each
 kernel launch under the simulator starts a Python thread per particle, so the cases are as small as
 their checks allow. Where a CUDA GPU is present the same script also runs on it (skipped otherwise,
 e.g. in CI). The subprocess also checks that importing sphkit and running on the CPU does not
@@ -303,6 +304,41 @@ SCRIPT = textwrap.dedent(
             e = rel(out["cuda"][key], out["cpu"][key])
             assert e <= 1e-12, (method, "step", key, e)
         print(method, "step ok", float(out["cpu"]["p"].max()), "Pa", its["cpu"], "iterations")
+
+    # one whole DFSPH step with static density and volume maps (mirrored pressure): the maps'
+    # queries, the packing of the virtual particles into the boundary set and their lists run
+    # on the device; a 3 x 3 x 3 block thrown at the floor of a box
+    maps = {"configuration": {
+                "dim": 3, "particle_radius": 0.05, "zsort_every": 1, "precision": "float64",
+                "start": {"settle": False},
+                "pressure": {"method": "dfsph", "max_error": 0.5, "max_error_v": 5.0}},
+            "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
+            "fluid_blocks": [{"start": [0, 0, 0], "end": [0.3, 0.3, 0.3],
+                              "velocity": [0.3, -3.0, 0.2]}],
+            "boxes": [{"min": [-0.06, -0.06, -0.06], "max": [0.36, 0.5, 0.36]}]}
+    for bnd in ("koschier2017", "bender2019"):
+        maps["configuration"]["boundary"] = {"method": bnd, "pressure": "mirror"}
+        out, nbs = {}, {}
+        for device in ("cpu", "cuda"):
+            sim = Simulation(Scene.model_validate(maps), device=device)
+            copies.clear()
+            Device.copy_to_host = counted
+            sim.step()
+            Device.copy_to_host = host_copy
+            nbs[device] = sim.state.boundary.n
+            if device == "cuda":
+                assert hasattr(sim.state.boundary["x"], "copy_to_host")
+                n = sim.state.fluid.n
+                big = sorted(c for c in copies if np.prod(c) > 2)
+                assert big == [(3, n), (3, n)], (bnd, big)  # z-order and the grid's centre
+            f = sim.fluid
+            o = f.order_by_id()
+            out[device] = {k: f[k][..., o] for k in ("x", "v", "rho", "p")}
+        assert nbs["cpu"] > 0 and nbs["cuda"] == nbs["cpu"], (bnd, nbs)
+        for key in ("x", "v", "rho", "p"):
+            e = rel(out["cuda"][key], out["cpu"][key])
+            assert e <= 1e-12, (bnd, "step", key, e)
+        print(bnd, "step ok", nbs["cpu"], "virtual particles")
     """
 )
 
@@ -344,6 +380,7 @@ def _run_script(env: dict) -> None:
     assert "hash grid 2 ok" in res.stdout
     assert "step ok" in res.stdout and "float32 step ok" in res.stdout
     assert "wcsph step ok" in res.stdout and "iisph step ok" in res.stdout
+    assert "koschier2017 step ok" in res.stdout and "bender2019 step ok" in res.stdout
 
 
 def _cuda_gpu() -> bool:

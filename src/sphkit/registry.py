@@ -223,11 +223,12 @@ register("boundary", "akinci2012", "sphkit.boundary.akinci2012:Akinci2012", spli
 register("boundary", "koschier2017", "sphkit.boundary.koschier2017:Koschier2017",
          splishsplash=1, paper="Koschier & Bender 2017, Density maps for improved SPH "
          "boundary handling", summary="density maps on signed distance fields", kind="maps",
-         boundary_pressure="hydrostatic", boundary_pressure_moving="mirror", multiphase=True)
+         boundary_pressure="hydrostatic", boundary_pressure_moving="mirror", multiphase=True,
+         gpu=True)
 register("boundary", "bender2019", "sphkit.boundary.bender2019:Bender2019", splishsplash=2,
          paper="Bender et al. 2019, Volume maps: an implicit boundary representation for SPH",
          summary="volume maps on signed distance fields", kind="maps",
-         boundary_pressure="hydrostatic", multiphase=True)
+         boundary_pressure="hydrostatic", multiphase=True, gpu=True)
 
 # boundary pressure: what p_b the pressure terms of the boundary use
 register("boundary_pressure", "mirror", None,

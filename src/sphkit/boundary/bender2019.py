@@ -65,7 +65,9 @@ import math
 import numba
 import numpy as np
 
+from sphkit.backend import launch, launch_reduce
 from sphkit.boundary.maps import BoundaryMap, MapBoundaryModel
+from sphkit.core import arrays
 from sphkit.core.state import SimState
 from sphkit.geometry.grids import (
     ball_quadrature,
@@ -121,36 +123,37 @@ def _volumes(nodes, phi, o, s, shape, dim, qp, qw, h, f, out):
         out[m] = SCALE * acc
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _query(x, v, phi, vol, lo, cell, res, spacing, shape, dim, extend_axis, top, h, r, xb, Vb):
-    pushed = 0
-    for i in numba.prange(x.shape[1]):
-        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
-        if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
-            continue  # far from the surface (phi is 1-Lipschitz)
-        d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
-        if not ok:
-            continue
-        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        if d > 0.0 and d < h:
-            V = grid_eval(vol, lo, cell, res, dim, p0, p1, p2)[0]
-            if V > 0.0 and nl > 1e-9:
-                t = max(d + 0.5 * r, 2.0 * r) / nl
-                xb[0, i] = x[0, i] - t * n0
-                xb[1, i] = x[1, i] - t * n1
-                if dim == 3:
-                    xb[2, i] = x[2, i] - t * n2
-                Vb[i] = V
-        elif d <= 0.0 and nl > 1e-5:
-            delta = min(2.0 * r - d, 0.1 * r) / nl
-            x[0, i] += delta * n0
-            x[1, i] += delta * n1
+@numba.njit(cache=True, fastmath=True, inline="always")
+def query_body(i, x, v, phi, vol, lo, cell, res, spacing, shape, dim, extend_axis, top, h, r,
+               xb, Vb):
+    """Fluid particle i's virtual particle of one volume map (``xb[:, i]``, ``Vb[i]``), or its
+    push out of the solid (x and v changed; returns 1, else 0)."""
+    p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
+    if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
+        return 0.0  # far from the surface (phi is 1-Lipschitz)
+    d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
+    if not ok:
+        return 0.0
+    nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if d > 0.0 and d < h:
+        V = grid_eval(vol, lo, cell, res, dim, p0, p1, p2)[0]
+        if V > 0.0 and nl > 1e-9:
+            t = max(d + 0.5 * r, 2.0 * r) / nl
+            xb[0, i] = x[0, i] - t * n0
+            xb[1, i] = x[1, i] - t * n1
             if dim == 3:
-                x[2, i] += delta * n2
-            for k in range(dim):
-                v[k, i] = 0.0
-            pushed += 1
-    return pushed
+                xb[2, i] = x[2, i] - t * n2
+            Vb[i] = V
+    elif d <= 0.0 and nl > 1e-5:
+        delta = min(2.0 * r - d, 0.1 * r) / nl
+        x[0, i] += delta * n0
+        x[1, i] += delta * n1
+        if dim == 3:
+            x[2, i] += delta * n2
+        for k in range(dim):
+            v[k, i] = 0.0
+        return 1.0
+    return 0.0
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -181,24 +184,23 @@ def _mirror_share(x, phi, lo, cell, res, dim, extend_axis, top, r, Vb, out):
             out[i] = max(2.0 * q - 1.0, 0.0)
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _follow(x, dx, bx, off, idx, dim, out):
+@numba.njit(cache=True, fastmath=True, inline="always")
+def follow_body(i, x, dx, bx, off, idx, dim, out):
     """out[:, b] = bx[:, b] + (I - n n) dx[:, i] for the virtual particles b of fluid particle
     i, n = (x_i - x_b) / |x_i - x_b|."""
-    for i in numba.prange(x.shape[1]):
-        for k in range(off[i], off[i + 1]):
-            b = idx[k]
-            nn = 0.0
-            for d in range(dim):
-                nn += (x[d, i] - bx[d, b]) ** 2
-            nn = math.sqrt(nn)
-            if nn <= 0.0:
-                continue
-            dn = 0.0
-            for d in range(dim):
-                dn += dx[d, i] * (x[d, i] - bx[d, b]) / nn
-            for d in range(dim):
-                out[d, b] = bx[d, b] + dx[d, i] - dn * (x[d, i] - bx[d, b]) / nn
+    for k in range(off[i], off[i + 1]):
+        b = idx[k]
+        nn = 0.0
+        for d in range(dim):
+            nn += (x[d, i] - bx[d, b]) ** 2
+        nn = math.sqrt(nn)
+        if nn <= 0.0:
+            continue
+        dn = 0.0
+        for d in range(dim):
+            dn += dx[d, i] * (x[d, i] - bx[d, b]) / nn
+        for d in range(dim):
+            out[d, b] = bx[d, b] + dx[d, i] - dn * (x[d, i] - bx[d, b]) / nn
 
 
 class Bender2019(MapBoundaryModel):
@@ -234,9 +236,10 @@ class Bender2019(MapBoundaryModel):
         step's forces use."""
         nb = state.nl_fb
         bx = state.boundary["x"]
-        out = bx.copy()
+        out = arrays.copied(bx)
         if bx.shape[1]:
-            _follow(state.fluid["x"], dx, bx, nb.offsets, nb.indices, state.dim, out)
+            launch(follow_body, state.fluid.n, state.fluid["x"], dx, bx, nb.offsets,
+                   nb.indices, state.dim, out)
         return out, state.boundary["V"], nb
 
     def _integrate(self, state: SimState):
@@ -274,5 +277,6 @@ class Bender2019(MapBoundaryModel):
                xb: np.ndarray, Vb: np.ndarray) -> int:
         ax = bmap.geometry.extend_axis
         top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
-        return _query(x, v, bmap.phi, bmap.values, bmap.lo, bmap.cell, bmap.res,
-                      bmap.spacing, bmap.shape, state.dim, ax, top, state.h, state.r, xb, Vb)
+        phi, vol, lo, cell, res, spacing, shape = bmap.on(x)
+        return int(launch_reduce(query_body, x.shape[1], x, v, phi, vol, lo, cell, res, spacing,
+                                 shape, state.dim, ax, top, state.h, state.r, xb, Vb)[0])

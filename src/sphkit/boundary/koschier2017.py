@@ -70,6 +70,7 @@ import math
 import numba
 import numpy as np
 
+from sphkit.backend import launch_reduce
 from sphkit.boundary.maps import BoundaryMap, MapBoundaryModel
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.state import SimState
@@ -138,50 +139,50 @@ def virtual_distance(ratio: float, h: float, kid: int, dim: int) -> float:
     return 0.5 * (a + b)
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _query(x, v, phi, rho_b, lo, cell, res, spacing, shape, dim, extend_axis, top, h, r, kid,
-           xb, Vb):
-    pushed = 0
-    for i in numba.prange(x.shape[1]):
-        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
-        if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
-            continue
-        d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
-        if not ok:
-            continue
-        if d > 0.0 and d < h:
-            rho, g0, g1, g2, _ok = grid_eval(rho_b, lo, cell, res, dim, p0, p1, p2)
-            if rho > 1e-6:
-                gl = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
-                s = virtual_distance(gl / rho, h, kid, dim)
-                w = kernel_w(kid, s, h, dim)
-                if w > 0.0:
-                    t = s / gl if gl > 0.0 else 0.0
-                    xb[0, i] = x[0, i] + t * g0
-                    xb[1, i] = x[1, i] + t * g1
-                    if dim == 3:
-                        xb[2, i] = x[2, i] + t * g2
-                    Vb[i] = rho / w
-        elif d < 0.0:
-            nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-            if nl > 1e-5:
-                n0 /= nl
-                n1 /= nl
-                n2 /= nl
-                delta = min(-d, 0.1 * r)
-                x[0, i] += delta * n0
-                x[1, i] += delta * n1
-                vn = v[0, i] * n0 + v[1, i] * n1
+@numba.njit(cache=True, fastmath=True, inline="always")
+def query_body(i, x, v, phi, rho_b, lo, cell, res, spacing, shape, dim, extend_axis, top, h, r,
+               kid, xb, Vb):
+    """Fluid particle i's virtual particle of one density map (``xb[:, i]``, ``Vb[i]``), or
+    its push out of the solid (x and v changed; returns 1, else 0)."""
+    p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
+    if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
+        return 0.0
+    d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
+    if not ok:
+        return 0.0
+    if d > 0.0 and d < h:
+        rho, g0, g1, g2, _ok = grid_eval(rho_b, lo, cell, res, dim, p0, p1, p2)
+        if rho > 1e-6:
+            gl = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+            s = virtual_distance(gl / rho, h, kid, dim)
+            w = kernel_w(kid, s, h, dim)
+            if w > 0.0:
+                t = s / gl if gl > 0.0 else 0.0
+                xb[0, i] = x[0, i] + t * g0
+                xb[1, i] = x[1, i] + t * g1
                 if dim == 3:
-                    x[2, i] += delta * n2
-                    vn += v[2, i] * n2
-                c = 0.05 - vn
-                v[0, i] += c * n0
-                v[1, i] += c * n1
-                if dim == 3:
-                    v[2, i] += c * n2
-                pushed += 1
-    return pushed
+                    xb[2, i] = x[2, i] + t * g2
+                Vb[i] = rho / w
+    elif d < 0.0:
+        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        if nl > 1e-5:
+            n0 /= nl
+            n1 /= nl
+            n2 /= nl
+            delta = min(-d, 0.1 * r)
+            x[0, i] += delta * n0
+            x[1, i] += delta * n1
+            vn = v[0, i] * n0 + v[1, i] * n1
+            if dim == 3:
+                x[2, i] += delta * n2
+                vn += v[2, i] * n2
+            c = 0.05 - vn
+            v[0, i] += c * n0
+            v[1, i] += c * n1
+            if dim == 3:
+                v[2, i] += c * n2
+            return 1.0
+    return 0.0
 
 
 class Koschier2017(MapBoundaryModel):
@@ -218,6 +219,7 @@ class Koschier2017(MapBoundaryModel):
                xb: np.ndarray, Vb: np.ndarray) -> int:
         ax = bmap.geometry.extend_axis
         top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
-        return _query(x, v, bmap.phi, bmap.values, bmap.lo, bmap.cell, bmap.res,
-                      bmap.spacing, bmap.shape, state.dim, ax, top, state.h, state.r, state.kid,
-                      xb, Vb)
+        phi, rho_b, lo, cell, res, spacing, shape = bmap.on(x)
+        return int(launch_reduce(query_body, x.shape[1], x, v, phi, rho_b, lo, cell, res,
+                                 spacing, shape, state.dim, ax, top, state.h, state.r,
+                                 state.kid, xb, Vb)[0])

@@ -63,14 +63,17 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from sphkit.backend import device_of, exclusive_scan, launch, to_device
 from sphkit.boundary.maps_hydrostatic import (
     WallMomentForce,
     gamma_table,
     moment_nodes,
     wall_moment_accel,
 )
+from sphkit.core import arrays
 from sphkit.core.methods import BoundaryModel
 from sphkit.core.neighbors import NeighborList
+from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.geometry.cache import cache_folder, cached_arrays
 from sphkit.geometry.grids import (
@@ -135,6 +138,18 @@ class BoundaryMap:
         self.phi = np.ascontiguousarray(phi, dtype=np.float64).ravel()
         self.values = np.ascontiguousarray(values, dtype=np.float64).ravel()
         self.hi = self.lo + self.cell * self.res
+
+    def on(self, like: object) -> tuple:
+        """``(phi, values, lo, cell, res, spacing, shape)`` on the device of ``like`` (the
+        arrays themselves on the CPU; copied to a device once and kept there)."""
+        dev = device_of(like)
+        fields = (self.phi, self.values, self.lo, self.cell, self.res, self.spacing, self.shape)
+        if dev == "cpu":
+            return fields
+        cache = self.__dict__.setdefault("_on", {})
+        if dev not in cache:
+            cache[dev] = tuple(to_device(np.ascontiguousarray(a), dev) for a in fields)
+        return cache[dev]
 
     def eval_phi(self, p: np.ndarray) -> np.ndarray:
         """Interpolated map distance at points p (dim, M) (tests and diagnostics)."""
@@ -214,32 +229,31 @@ def build_map(geom: MapGeometry, h: float, offset: float, method: str, params: l
 # per-step assembly and the shared model
 
 
-@numba.njit(parallel=True, **_JIT)
-def _count(Vb, counts):
-    k, n = Vb.shape
-    for i in numba.prange(n):
-        c = 0
-        for m in range(k):
-            if Vb[m, i] > 0.0:
-                c += 1
-        counts[i + 1] = c
+@numba.njit(cache=True, inline="always")
+def count_body(i, Vb, counts):
+    """``counts[i]``: how many maps give fluid particle i a virtual particle (``Vb[m, i] > 0``)."""
+    c = 0
+    for m in range(Vb.shape[0]):
+        if Vb[m, i] > 0.0:
+            c += 1
+    counts[i] = c
 
 
-@numba.njit(parallel=True, **_JIT)
-def _pack(xb, Vb, vb, mbody, fid, off, bx, bV, bv, bbody, bid, idx):
-    k, dim, n = xb.shape
-    for i in numba.prange(n):
-        q = off[i]
-        for m in range(k):
-            if Vb[m, i] > 0.0:
-                for d in range(dim):
-                    bx[d, q] = xb[m, d, i]
-                    bv[d, q] = vb[m, d, i]
-                bV[q] = Vb[m, i]
-                bbody[q] = mbody[m]
-                bid[q] = fid[i]
-                idx[q] = q
-                q += 1
+@numba.njit(cache=True, inline="always")
+def pack_body(i, xb, Vb, vb, mbody, fid, off, bx, bV, bv, bbody, bid, idx):
+    """Fluid particle i's virtual particles (``Vb[m, i] > 0``, map order) into the packed
+    boundary arrays from ``off[i]`` on, each listed as its own neighbour ``idx[q] = q``."""
+    q = off[i]
+    for m in range(xb.shape[0]):
+        if Vb[m, i] > 0.0:
+            for d in range(xb.shape[1]):
+                bx[d, q] = xb[m, d, i]
+                bv[d, q] = vb[m, d, i]
+            bV[q] = Vb[m, i]
+            bbody[q] = mbody[m]
+            bid[q] = fid[i]
+            idx[q] = q
+            q += 1
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -427,33 +441,26 @@ class MapBoundaryModel(BoundaryModel):
 
     def update(self, state: SimState) -> None:
         """Virtual boundary particles and fluid-boundary lists for the current fluid positions
-        (fluid found inside a solid is pushed out, :attr:`pushed`)."""
+        (fluid found inside a solid is pushed out, :attr:`pushed`), packed into
+        ``state.boundary``'s fields where they are (on a device: there)."""
         f = state.fluid
         xb, Vb, vb, mbody, pushed = self._virtual_particles(state, f["x"], f["v"])
         self.pushed += pushed
         if self.hydrostatic:  # the wall moment reads this step's virtual particles
             self._virtual = (xb, Vb)
-        nl, bx, bV, bv, bbody, bid = self._packed(state, xb, Vb, vb, mbody)
         bd = state.boundary
-        bd.resize(bV.shape[0])
-        if bV.shape[0]:
-            bd.fields["x"][...] = bx
-            bd.fields["V"][...] = bV
-            bd.fields["id"][...] = bid
-            bd.fields["v"][...] = bv
-            if "rigid_body" in bd.fields:
-                bd.fields["rigid_body"][...] = bbody
-            if self.hydrostatic and "pressure_mirror" in bd.fields:
-                # 3D only: a 2D column at SPlisHSPlasH's coarse defaults (r = 2 cm, 10 rows)
-                # rested at a slope 0.970 with the share at its floor corners, 0.999 without
-                # (validation/README.md, "Volume maps: the mirrored share at edges")
-                share = self._mirror_shares(state, f["x"], Vb) if state.dim == 3 else None
-                if share is not None:  # the method's mirrored share per virtual particle
-                    packed = np.empty(bV.shape[0])
-                    _pack_share(Vb, share, nl.offsets, packed)
-                    share = packed
-                bd.fields["pressure_mirror"][...] = np.where(
-                    bbody == 0, 1.0 if share is None else share, 0.0)
+        nl, _bx, bV, _bv, bbody, _bid = self._packed(state, xb, Vb, vb, mbody, into=bd)
+        if bV.shape[0] and self.hydrostatic and "pressure_mirror" in bd.fields:
+            # 3D only: a 2D column at SPlisHSPlasH's coarse defaults (r = 2 cm, 10 rows)
+            # rested at a slope 0.970 with the share at its floor corners, 0.999 without
+            # (validation/README.md, "Volume maps: the mirrored share at edges")
+            share = self._mirror_shares(state, f["x"], Vb) if state.dim == 3 else None
+            if share is not None:  # the method's mirrored share per virtual particle
+                packed = np.empty(bV.shape[0])
+                _pack_share(Vb, share, nl.offsets, packed)
+                share = packed
+            bd.fields["pressure_mirror"][...] = np.where(
+                bbody == 0, 1.0 if share is None else share, 0.0)
         state.nl_fb = nl
 
     def boundary_at(self, state: SimState, dx: np.ndarray
@@ -463,7 +470,8 @@ class MapBoundaryModel(BoundaryModel):
         iteration), leaving the state as it is and pushing nothing: a predicted position
         inside a solid gets no virtual particle."""
         f = state.fluid
-        xb, Vb, vb, mbody, _ = self._virtual_particles(state, f["x"] + dx, f["v"].copy())
+        xb, Vb, vb, mbody, _ = self._virtual_particles(state, arrays.axpy_into(f["x"], 1.0, dx),
+                                                       arrays.copied(f["v"]))
         nl, bx, bV, _, _, _ = self._packed(state, xb, Vb, vb, mbody)
         return bx, bV, nl
 
@@ -471,13 +479,15 @@ class MapBoundaryModel(BoundaryModel):
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
         """Per map and fluid particle the virtual particle (xb (k, dim, N), Vb (k, N), its
         surface velocity vb (k, dim, N)), each map's body number and the pushed count, for
-        fluid positions and velocities x, v (dim, N), which the queries' push-out changes."""
+        fluid positions and velocities x, v (dim, N), which the queries' push-out changes.
+        Where x is (a device, :func:`sphkit.backend.launch`) the queries run and the arrays
+        are; moving bodies' maps only on the CPU (``scene.checks.device_features``)."""
         n, dim = state.fluid.n, state.dim
         pushed = 0
         k = len(self.maps)
-        xb = np.zeros((k, dim, n))
-        Vb = np.zeros((k, n))
-        vb = np.zeros((k, dim, n))
+        xb = arrays.zeros((k, dim, n), np.float64, like=x)
+        Vb = arrays.zeros((k, n), np.float64, like=x)
+        vb = arrays.zeros((k, dim, n), np.float64, like=x)
         mbody = np.zeros(k, np.int64)
         for m, bmap in enumerate(self.maps):
             kb = bmap.geometry.body
@@ -498,29 +508,36 @@ class MapBoundaryModel(BoundaryModel):
             pushed += int(self._query(bmap, state, xl, ul, xb[m], Vb[m]))
             from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb[m], xb[m], vb[m], x, v)
             mbody[m] = kb
-        return xb, Vb, vb, mbody, pushed
+        return xb, Vb, vb, to_device(mbody, device_of(x)), pushed
 
     @staticmethod
     def _packed(state: SimState, xb: np.ndarray, Vb: np.ndarray, vb: np.ndarray,
-                mbody: np.ndarray
+                mbody: np.ndarray, into: ParticleSet | None = None
                 ) -> tuple[NeighborList, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                            np.ndarray]:
         """The virtual particles with V_b > 0 packed per fluid particle: the lists and the
-        boundary arrays x, V, v, rigid_body, id (the fluid particle's id)."""
+        boundary arrays x, V, v, rigid_body, id (the fluid particle's id), on the device of
+        ``Vb``; ``into``: a boundary particle set resized to them and packed into (its fields
+        x, V, v, id, and rigid_body where registered), else new arrays."""
         n, dim = state.fluid.n, state.dim
-        counts = np.zeros(n + 1, np.int64)
-        if len(Vb):
-            _count(Vb, counts)
-        off = np.cumsum(counts)
-        total = int(off[-1])
-        idx = np.empty(total, np.int32)
-        bid = np.empty(total, np.int64)
-        bx = np.empty((dim, total))
-        bV = np.empty(total)
-        bv = np.empty((dim, total))
-        bbody = np.empty(total, np.int64)
+        counts = arrays.empty(n, np.int64, like=Vb)
+        off = arrays.empty(n + 1, np.int64, like=Vb)
+        launch(count_body, n, Vb, counts)
+        total = exclusive_scan(counts, off, device=device_of(Vb))
+        idx = arrays.empty(total, np.int32, like=Vb)
+        if into is None:
+            bx = arrays.empty((dim, total), np.float64, like=Vb)
+            bv = arrays.empty((dim, total), np.float64, like=Vb)
+            bV = arrays.empty(total, np.float64, like=Vb)
+            bid = arrays.empty(total, np.int64, like=Vb)
+        else:
+            into.resize(total)
+            bx, bV, bv, bid = (into.fields[k] for k in ("x", "V", "v", "id"))
+        bbody = (into.fields["rigid_body"] if into is not None and "rigid_body" in into.fields
+                 else arrays.empty(total, np.int64, like=Vb))
         if total:
-            _pack(xb, Vb, vb, mbody, state.fluid["id"], off, bx, bV, bv, bbody, bid, idx)
+            launch(pack_body, n, xb, Vb, vb, mbody, state.fluid["id"], off, bx, bV, bv, bbody,
+                   bid, idx)
         return NeighborList(off, idx), bx, bV, bv, bbody, bid
 
     def wall_moment(self, state: SimState) -> int:

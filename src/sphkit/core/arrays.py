@@ -27,11 +27,12 @@ from sphkit.backend import empty as backend_empty
 from sphkit.core.pairs import set_vector
 
 #: the passes and helpers, and where arrays are (the step reaches the backend through core)
-__all__ = ["any_differs", "axpy", "axpy_into", "axpy_rows_body", "axpy_rows_into_body",
-           "differs_body", "divide_body", "divided", "divided_by", "empty", "empty_like", "fill",
-           "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body", "gather_rows_body",
-           "gathered", "multiplied", "multiply_body", "on_device", "quotient_body", "reciprocal",
-           "reciprocal_body", "scale_body", "scaled", "to_host", "zeros"]
+__all__ = ["any_differs", "axpy", "axpy_into", "axpy_rows_body", "axpy_rows_into_body", "copied",
+           "copy_body", "differs_body", "divide_body", "divided", "divided_by", "empty",
+           "empty_like", "fill", "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body",
+           "gather_rows_body", "gathered", "multiplied", "multiply_body", "on_device",
+           "quotient_body", "reciprocal", "reciprocal_body", "scale_body", "scaled", "to_host",
+           "zeros"]
 
 _BODY = dict(cache=True, inline="always")
 
@@ -193,6 +194,20 @@ def any_differs(x: Any, value: float) -> bool:
     """Whether an entry of the (N,) array ``x`` differs from ``value`` (one scalar read back
     from the device)."""
     return launch_reduce(differs_body, x.shape[0], x, value)[1] > 0.0
+
+
+@numba.njit(**_BODY)
+def copy_body(i, src, out):
+    """``out[i] = src[i]``."""
+    out[i] = src[i]
+
+
+def copied(a: Any) -> Any:
+    """A copy of the C-contiguous ``a`` (any shape), where ``a`` is."""
+    out = empty_like(a)
+    if a.size:
+        launch(copy_body, a.size, a.reshape(a.size), out.reshape(out.size))
+    return out
 
 
 def gathered(a: Any, perm: Any) -> Any:

@@ -99,6 +99,10 @@ class ParticleSet:
         if device == self.device:
             return
         if device == "cpu":
+            if self.n > self.capacity:  # resized on the device (resize) beyond the buffers
+                self.capacity = self.n
+                for name, spec in self.specs.items():
+                    self._buffers[name] = np.empty(self._width(spec.kind) * self.n, spec.dtype)
             for name in self.specs:
                 dev = self.fields[name]
                 self._view(name)
@@ -213,16 +217,21 @@ class ParticleSet:
     def resize(self, n: int) -> None:
         """Set the number of particles to ``n``, every field reallocated and zeroed (for sets
         rebuilt each step, such as the virtual boundary particles of density and volume maps;
-        object ranges are cleared)."""
-        self._on_host("resize")
+        object ranges are cleared); on a device the fields stay there."""
         n = int(n)
         if n < 0:
             raise ValueError(f"resize: {n} particles; expected a count >= 0")
         for fname, spec in self.specs.items():
-            if self.fields[fname].shape != self._shape(spec.kind, n):
+            a = self.fields[fname]
+            if self.device != "cpu":
+                if a.shape != self._shape(spec.kind, n):
+                    a = arrays.empty(self._shape(spec.kind, n), spec.dtype, like=a)
+                    self.fields[fname] = a
+                arrays.fill(a, 0)
+            elif a.shape != self._shape(spec.kind, n):
                 self.fields[fname] = np.zeros(self._shape(spec.kind, n), dtype=spec.dtype)
             else:
-                self.fields[fname][...] = 0
+                a[...] = 0
         self.n = n
         self.objects = []
 
