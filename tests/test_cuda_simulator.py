@@ -12,7 +12,8 @@ whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akin
 viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on the
 device, in float64 and in float32 (the device's default; against the CPU's float64 step), and one
 whole WCSPH and IISPH step (their per-particle passes bodies too) likewise in float64, and a DFSPH
-step with static density maps and with volume maps (their queries and packing as bodies). Each
+step with static density maps and with volume maps (their queries and packing as bodies), and
+three steps with an emitter (its layers appended to the fields on the device). Each
 kernel launch under the simulator starts a Python thread per particle, so the cases are as small as
 their checks allow. Where a CUDA GPU is present the same script also runs on it (skipped otherwise,
 e.g. in CI). The subprocess also checks that importing sphkit and running on the CPU does not
@@ -339,6 +340,34 @@ SCRIPT = textwrap.dedent(
             e = rel(out["cuda"][key], out["cpu"][key])
             assert e <= 1e-12, (bnd, "step", key, e)
         print(bnd, "step ok", nbs["cpu"], "virtual particles")
+
+    # an emitter on the device: three DFSPH steps of 20 ms, its layers of 4 particles added to
+    # the resident fields (t = 0.02 and 0.06 s) and its region animated, against the CPU
+    emit = {"configuration": {
+                "dim": 3, "particle_radius": 0.05, "zsort_every": 1, "precision": "float64",
+                "start": {"settle": False}, "time": {"dt": 0.02, "cfl": False},
+                "pressure": {"method": "dfsph", "max_error": 0.5, "max_error_v": 5.0},
+                "boundary": {"method": "akinci2012", "pressure": "mirror"}},
+            "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
+            "fluid_blocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}],
+            "emitters": [{"position": [0.1, 0.5, 0.1], "width": 0.2, "velocity": 2.0,
+                          "rotation_axis": [0, 0, 1], "rotation_angle": -np.pi / 2}],
+            "boxes": [{"min": [0, 0, 0], "max": [0.2, 0.8, 0.2]}]}
+    out = {}
+    for device in ("cpu", "cuda"):
+        sim = Simulation(Scene.model_validate(emit), device=device)
+        for _ in range(3):
+            sim.step()
+        if device == "cuda":
+            assert hasattr(sim.state.fluid["x"], "copy_to_host")
+        f = sim.fluid
+        o = f.order_by_id()
+        out[device] = {k: f[k][..., o] for k in ("x", "v", "rho", "p", "id")}
+    assert out["cpu"]["id"].shape[0] == 16 and out["cuda"]["id"].shape[0] == 16  # 8 + 2 layers
+    for key in ("x", "v", "rho", "p", "id"):
+        e = rel(out["cuda"][key], out["cpu"][key])
+        assert e <= 1e-12, ("emitter", key, e)
+    print("emitter ok", out["cpu"]["id"].shape[0], "particles")
     """
 )
 
@@ -381,6 +410,7 @@ def _run_script(env: dict) -> None:
     assert "step ok" in res.stdout and "float32 step ok" in res.stdout
     assert "wcsph step ok" in res.stdout and "iisph step ok" in res.stdout
     assert "koschier2017 step ok" in res.stdout and "bender2019 step ok" in res.stdout
+    assert "emitter ok" in res.stdout
 
 
 def _cuda_gpu() -> bool:

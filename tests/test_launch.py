@@ -60,19 +60,20 @@ def test_unknown_device_is_an_error() -> None:
 
 def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) -> None:
     """``Simulation(device=...)`` / ``sphkit run --device``: a scene whose methods lack the
-    registry's ``gpu`` capability (here WCSPH) is refused on ``cuda`` with the fields and names
-    of those methods (never a silent CPU fallback), before anything is built; ``auto`` runs it
-    on the CPU without probing for a GPU, and an unknown device names the choices. DFSPH with
-    Akinci walls, mirrored boundary pressure and the standard viscosity is accepted (the whole
-    step on the device: tests/test_cuda_simulator.py), unless a feature of the scene that the
-    device step lacks (an emitter) is named; float32 is accepted (and the default there). (The
-    manifest's record of the device: tests/test_cli.py's tiny run.)"""
+    registry's ``gpu`` capability (here projective fluids) is refused on ``cuda`` with the
+    fields and names of those methods (never a silent CPU fallback), before anything is built;
+    ``auto`` runs it on the CPU without probing for a GPU, and an unknown device names the
+    choices. DFSPH with Akinci walls, mirrored boundary pressure and the standard viscosity is
+    accepted (the whole step on the device: tests/test_cuda_simulator.py), unless a feature of
+    the scene that the device step lacks (Verlet lists) is named; float32 is accepted (and the
+    default there). (The manifest's record of the device: tests/test_cli.py's tiny run.)"""
     from sphkit.cli import main
     from sphkit.scene.checks import check_device, methods_in_use
     from sphkit.scene.files import load_scene
-    from sphkit.scene.schema import Emitter, SceneError
+    from sphkit.scene.schema import SceneError
 
     scene = load_scene("dambreak-2d")
+    scene.configuration.pressure.method = "pf"
     used = methods_in_use(scene)
     assert ("configuration.pressure.method", "pressure", scene.configuration.pressure.method) \
         in used
@@ -82,7 +83,7 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
 
     assert check_device(scene, "auto", no_probe) == "cpu"
     assert check_device(scene, "cpu", no_probe) == "cpu"
-    with pytest.raises(SceneError, match="configuration.pressure.method 'wcsph'"):
+    with pytest.raises(SceneError, match="configuration.pressure.method 'pf'"):
         check_device(scene, "cuda", lambda: True)
     with pytest.raises(SceneError, match="expected one of auto, cpu, cuda"):
         check_device(scene, "gpu", lambda: True)
@@ -107,8 +108,9 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
     assert device_precision(Scene.model_validate({"configuration": {"precision": "float64"}}),
                             "cuda") == "float64"
     assert device_precision(scene, "cpu") == "float32"
-    scene.emitters.append(Emitter(position=[0.3, 0.4], width=0.12))
-    with pytest.raises(SceneError, match=r"GPU yet: emitters\[0\]; expected"):
+    scene.configuration.neighbor_skin = 0.2
+    with pytest.raises(SceneError, match=r"GPU yet: configuration.neighbor_skin \(Verlet lists\); "
+                       "expected"):
         check_device(scene, "cuda", lambda: True)
     assert main(["run", "dambreak-2d", "--device", "cuda", "--quiet",
                  "--out", str(tmp_path / "refused")]) == 2

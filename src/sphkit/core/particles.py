@@ -14,17 +14,32 @@ The views are replaced when particles are added: take ``ps[name]`` again after :
 Device residency (:meth:`to`): on a GPU every field of the set is a device array in the same
 ``fields`` (the time step's kernel bodies run where their arrays are, :mod:`sphkit.backend`);
 :meth:`to` ``("cpu")`` copies them back into the host buffers. Adding, resizing, compacting and
-checkpoint state need the set on the host.
+checkpoint state need the set on the host; :meth:`add` and :meth:`resize` work on the device too
+(an emitter's layers, the virtual particles of maps).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
-from sphkit.backend import to_device, to_host
+from sphkit.backend import launch, launch_reduce, to_device, to_host
 from sphkit.core import arrays
+
+
+@numba.njit(cache=True, inline="always")
+def _append_body(i, old, new, n, w, out):
+    """Column i of ``old`` (w, n) followed by ``new`` (w, M) into ``out`` (w, n + M)."""
+    for d in range(w):
+        out[d, i] = old[d, i] if i < n else new[d, i - n]
+
+
+@numba.njit(cache=True, inline="always")
+def _id_body(i, ids):
+    """Particle i's id, for the largest (a reduction)."""
+    return float(ids[i])
 
 
 @dataclass
@@ -185,27 +200,30 @@ class ParticleSet:
         doubling (see the module docstring). Adds under the name of the last object, directly
         after it, extend its range instead of opening a new one (an emitter's layers).
         """
-        self._on_host("add")
         x = np.asarray(x, dtype=self.dtype)
         if x.ndim != 2 or x.shape[1] != self.dim:
             raise ValueError(f"{name}: positions of shape {x.shape}; expected (M, {self.dim})")
+        for fname in values:
+            if fname not in self.specs:
+                raise KeyError(f"field {fname} is not registered")
         m = x.shape[0]
         start = self.n
         if self.n:
-            self.next_id = max(self.next_id, int(self.fields["id"].max()) + 1)
+            self.next_id = max(self.next_id, self._max_id() + 1)
         next_id = self.next_id
-        self._grow(m)
-        self.fields["x"][:, start:] = x.T
-        self.fields["id"][start:] = np.arange(next_id, next_id + m)
+        if self.device != "cpu":
+            self._append_on_device(x, next_id, values)
+        else:
+            self._grow(m)
+            self.fields["x"][:, start:] = x.T
+            self.fields["id"][start:] = np.arange(next_id, next_id + m)
+            for fname, val in values.items():
+                arr = np.asarray(val, dtype=self.specs[fname].dtype)
+                if self.specs[fname].kind != "scalar":
+                    self.fields[fname][:, start:] = arr.reshape(-1, 1) if arr.ndim == 1 else arr.T
+                else:
+                    self.fields[fname][start:] = arr
         self.next_id = next_id + m
-        for fname, val in values.items():
-            if fname not in self.specs:
-                raise KeyError(f"field {fname} is not registered")
-            arr = np.asarray(val, dtype=self.specs[fname].dtype)
-            if self.specs[fname].kind != "scalar":
-                self.fields[fname][:, start:] = arr.reshape(-1, 1) if arr.ndim == 1 else arr.T
-            else:
-                self.fields[fname][start:] = arr
         last = self.objects[-1] if self.objects else None
         if last is not None and last.name == name and last.end == next_id:
             last.end = next_id + m  # repeated adds of one object (an emitter) extend its range
@@ -213,6 +231,37 @@ class ParticleSet:
         rng = ObjectRange(name, next_id, next_id + m)
         self.objects.append(rng)
         return rng
+
+    def _max_id(self) -> int:
+        """The largest id of the set (n > 0; on a device one scalar read back)."""
+        if self.device == "cpu":
+            return int(self.fields["id"].max())
+        return int(launch_reduce(_id_body, self.n, self.fields["id"])[1])
+
+    def _append_on_device(self, x: np.ndarray, next_id: int, values: dict) -> None:
+        """:meth:`add` on a device: each field reallocated there for ``n + M`` particles, the
+        old columns copied on the device and the new ones (built on the host: positions, ids,
+        ``values``, else the field's fill) copied in (the buffers' capacity is the host's)."""
+        m, n = x.shape[0], self.n
+        for fname, spec in self.specs.items():
+            w = self._width(spec.kind)
+            new = np.full((w, m), spec.fill, dtype=spec.dtype)
+            if fname == "x":
+                new[...] = x.T
+            elif fname == "id":
+                new[0] = np.arange(next_id, next_id + m)
+            elif fname in values:
+                arr = np.asarray(values[fname], dtype=spec.dtype)
+                if spec.kind == "scalar":
+                    new[0] = arr
+                else:
+                    new[...] = arr.reshape(-1, 1) if arr.ndim == 1 else arr.T
+            old = self.fields[fname]
+            out = arrays.empty(self._shape(spec.kind, n + m), spec.dtype, like=old)
+            launch(_append_body, n + m, old.reshape(w, n), to_device(new, self.device), n, w,
+                   out.reshape(w, n + m))
+            self.fields[fname] = out
+        self.n = n + m
 
     def resize(self, n: int) -> None:
         """Set the number of particles to ``n``, every field reallocated and zeroed (for sets

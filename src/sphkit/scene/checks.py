@@ -341,7 +341,6 @@ def device_features(scene: Scene) -> list[str]:
         out.append("configuration.boundary.symmetric (WCSPH's symmetric wall term)")
     if len(scene.materials) > 1:
         out.append("materials (several fluids)")
-    out += [f"emitters[{k}]" for k in range(len(scene.emitters))]
     out += [f"animation_fields[{k}]" for k in range(len(scene.animation_fields))]
     out += [f"joints[{k}]" for k in range(len(scene.joints))]
     out += [f"meshes[{k}] (moving body)" for k, m in enumerate(scene.meshes)

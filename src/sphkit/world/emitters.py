@@ -21,7 +21,7 @@ scene fields (:class:`sphkit.scene.schema.Emitter`):
   of being integrated (``ParticleState::AnimatedByEmitter``); before ``start_time`` they are
   pushed out at ``10 r / 0.25 s``. Here this is applied after the integration: a particle found
   in the region gets ``v = v_e`` and ``x = x_new - dt (v_new - v_e)``, which is ``x_old + dt v_e``
-  for the symplectic Euler step (an allocation-free compiled body, :func:`animate_body`);
+  for the symplectic Euler step (a kernel body, :func:`animate_body`, run where the fluid is);
 * housing: a box (cylinder) of boundary particles around the emitter, ``2h`` long along d and
   centred on ``x0``, open towards d (SPlisHSPlasH's ``EmitterBox.obj``/``EmitterCylinder.obj``
   scaled by ``Emitter::getSize``), unless ``housing`` is false.
@@ -39,6 +39,7 @@ import math
 import numba
 import numpy as np
 
+from sphkit.backend import launch, to_device
 from sphkit.core.particles import ParticleSet
 from sphkit.geometry.rotations import rotation_matrix
 
@@ -69,12 +70,6 @@ def animate_body(i, x, v, dim, x0, R, lo, hi, hy, hz, circle, r2, vel, dt):
     for d in range(dim):
         x[d, i] -= dt * (v[d, i] - vel[d])
         v[d, i] = vel[d]
-
-
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _animate_cpu(x, v, dim, x0, R, lo, hi, hy, hz, circle, r2, vel, dt):
-    for i in numba.prange(x.shape[1]):
-        animate_body(i, x, v, dim, x0, R, lo, hi, hy, hz, circle, r2, vel, dt)
 
 
 class FluidEmitter:
@@ -169,9 +164,11 @@ class FluidEmitter:
         h = self.h
         half = 0.5 * self.size
         r_cyl = half[1]
-        _animate_cpu(fluid["x"], fluid["v"], self.dim, self.x0, self.R, -0.5 * h, 1.5 * h,
-                     half[1], half[2], self.circle, r_cyl * r_cyl, vel.astype(fluid.dtype),
-                     float(dt))
+        dev = fluid.device
+        launch(animate_body, fluid.n, fluid["x"], fluid["v"], self.dim, to_device(self.x0, dev),
+               to_device(self.R, dev), -0.5 * h, 1.5 * h, float(half[1]), float(half[2]),
+               self.circle, float(r_cyl * r_cyl), to_device(vel.astype(fluid.dtype), dev),
+               float(dt))
 
     def housing_mesh(self):
         """The housing as a triangle mesh (trimesh), open towards the emit direction: a box
