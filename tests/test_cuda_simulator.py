@@ -306,7 +306,8 @@ SCRIPT = textwrap.dedent(
             assert e <= 1e-12, (method, "step", key, e)
         print(method, "step ok", float(out["cpu"]["p"].max()), "Pa", its["cpu"], "iterations")
 
-    # one whole DFSPH step with static density and volume maps (mirrored pressure): the maps'
+    # one whole DFSPH step with static density maps (mirrored pressure) and volume maps
+    # (hydrostatic boundary pressure: the mirrored shares and the walls' moment too): the maps'
     # queries, the packing of the virtual particles into the boundary set and their lists run
     # on the device; a 3 x 3 x 3 block thrown at the floor of a box
     maps = {"configuration": {
@@ -317,8 +318,8 @@ SCRIPT = textwrap.dedent(
             "fluid_blocks": [{"start": [0, 0, 0], "end": [0.3, 0.3, 0.3],
                               "velocity": [0.3, -3.0, 0.2]}],
             "boxes": [{"min": [-0.06, -0.06, -0.06], "max": [0.36, 0.5, 0.36]}]}
-    for bnd in ("koschier2017", "bender2019"):
-        maps["configuration"]["boundary"] = {"method": bnd, "pressure": "mirror"}
+    for bnd, bp in (("koschier2017", "mirror"), ("bender2019", "hydrostatic")):
+        maps["configuration"]["boundary"] = {"method": bnd, "pressure": bp}
         out, nbs = {}, {}
         for device in ("cpu", "cuda"):
             sim = Simulation(Scene.model_validate(maps), device=device)

@@ -69,6 +69,8 @@ CASES = {
     "dfsph_dmap": dict(method="dfsph", bnd="koschier2017"),
     "pcisph_dmap": dict(method="pcisph", bnd="koschier2017"),
     "dfsph_hydro": dict(method="dfsph", bnd="bender2019", bp="hydrostatic"),
+    "dfsph_hydro3": dict(method="dfsph", bnd="bender2019", bp="hydrostatic", dim=3),
+    "dfsph_dmap_hydro3": dict(method="dfsph", bnd="koschier2017", bp="hydrostatic", dim=3),
     "dfsph_weiler_st": dict(method="dfsph", visc="weiler2018", st="akinci2013",
                             vort="micropolar", drag="macklin2014"),
     "wcsph_st": dict(method="wcsph", st="becker2007", vort="confinement", drag="gissler2017"),

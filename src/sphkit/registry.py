@@ -242,7 +242,7 @@ register("boundary_pressure", "mls", "sphkit.boundary.band2018:MLSPressureExtrap
 register("boundary_pressure", "hydrostatic", None,
          paper="Adami et al. 2012, A generalized wall boundary condition for SPH",
          summary="maps: p_b = p_i + rho_i g . (x_b - x_i), the walls' tangential moment",
-         boundary=("maps",))
+         boundary=("maps",), gpu=True)
 
 # viscosity: SPlisHSPlasH viscosityMethod (XSPH is its separate per-material filter)
 register("viscosity", "standard", "sphkit.viscosity.standard:StandardViscosity",

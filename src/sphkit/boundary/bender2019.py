@@ -44,7 +44,7 @@ across one particle diameter along the normal (1 at a plane wall), the map's den
 ``V_B W(phi + 0.5 r)`` changes about q times as fast along n as the virtual particle's
 ``V_b grad W`` says, so the continuum push ``-2 k_i grad rho_B`` is ``-2 q k_i V_b grad W``; the
 base term (SPlisHSPlasH's, one ``k_i V_b grad W``) stays, and the mirror supplies the rest,
-``m_b = max(2 q - 1, 0)`` (:func:`_mirror_share`; 1 at a plane wall). q < 1 where an edge or a
+``m_b = max(2 q - 1, 0)`` (:func:`mirror_share_body`; 1 at a plane wall). q < 1 where an edge or a
 corner is within reach: the interpolated distance smooths the kink (cells of about h), q about
 0.5-0.6 where fluid rests at the 3D tank's vertical edges. With the full mirror there, the
 doubled push through a gradient the density does not have drove a circulation in the edge
@@ -156,32 +156,31 @@ def query_body(i, x, v, phi, vol, lo, cell, res, spacing, shape, dim, extend_axi
     return 0.0
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _mirror_share(x, phi, lo, cell, res, dim, extend_axis, top, r, Vb, out):
+@numba.njit(cache=True, fastmath=True, inline="always")
+def mirror_share_body(i, x, phi, lo, cell, res, dim, extend_axis, top, r, Vb, out):
     """``out[i]``: the mirrored share of fluid particle i's virtual particle (V_b = Vb[i] > 0),
     ``max(2 q - 1, 0)`` with q the map distance's change across one particle diameter along the
     unit normal n, ``q = (phi(x_i + r n) - phi(x_i - r n)) / (2 r)`` (module docstring,
     "Hydrostatic boundary pressure"); 1 where q is within 1e-9 of 1 or above (a plane wall, where
     the interpolated distance is linear) and where it cannot be evaluated."""
-    for i in numba.prange(x.shape[1]):
-        out[i] = 1.0
-        if Vb[i] <= 0.0:
-            continue
-        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
-        _d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
-        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        if not ok or nl < 1e-9:
-            continue
-        e = r / nl
-        up, _a, _b, _c, ok1 = grid_eval(phi, lo, cell, res, dim, p0 + e * n0, p1 + e * n1,
-                                        p2 + e * n2)
-        down, _a, _b, _c, ok2 = grid_eval(phi, lo, cell, res, dim, p0 - e * n0, p1 - e * n1,
-                                          p2 - e * n2)
-        if not (ok1 and ok2):
-            continue
-        q = (up - down) / (2.0 * r)
-        if q < 1.0 - 1e-9:
-            out[i] = max(2.0 * q - 1.0, 0.0)
+    out[i] = 1.0
+    if Vb[i] <= 0.0:
+        return
+    p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
+    _d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
+    nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if not ok or nl < 1e-9:
+        return
+    e = r / nl
+    up, _a, _b, _c, ok1 = grid_eval(phi, lo, cell, res, dim, p0 + e * n0, p1 + e * n1,
+                                    p2 + e * n2)
+    down, _a, _b, _c, ok2 = grid_eval(phi, lo, cell, res, dim, p0 - e * n0, p1 - e * n1,
+                                      p2 - e * n2)
+    if not (ok1 and ok2):
+        return
+    q = (up - down) / (2.0 * r)
+    if q < 1.0 - 1e-9:
+        out[i] = max(2.0 * q - 1.0, 0.0)
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
@@ -261,16 +260,17 @@ class Bender2019(MapBoundaryModel):
         return (lambda d: gamma(d, h, f)), -3.0 * h, h / f, SCALE
 
     def _mirror_shares(self, state: SimState, x: np.ndarray, Vb: np.ndarray) -> np.ndarray:
-        """The mirrored share of each static map's virtual particles (:func:`_mirror_share`;
+        """The mirrored share of each static map's virtual particles (:func:`mirror_share_body`;
         moving maps' rows are not read: their virtual particles are not mirrored)."""
-        out = np.ones_like(Vb)
+        out = arrays.full(Vb.shape, 1.0, Vb.dtype, like=Vb)
         for m, bmap in enumerate(self.maps):
             if bmap.geometry.body != 0:
                 continue
             ax = bmap.geometry.extend_axis
             top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
-            _mirror_share(x, bmap.phi, bmap.lo, bmap.cell, bmap.res, state.dim, ax, top,
-                          state.r, Vb[m], out[m])
+            phi, _v, lo, cell, res, _s, _n = bmap.on(x)
+            launch(mirror_share_body, x.shape[1], x, phi, lo, cell, res, state.dim, ax, top,
+                   state.r, Vb[m], out[m])
         return out
 
     def _query(self, bmap: BoundaryMap, state: SimState, x: np.ndarray, v: np.ndarray,

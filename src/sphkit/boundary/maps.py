@@ -63,12 +63,12 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from sphkit.backend import device_of, exclusive_scan, launch, to_device
+from sphkit.backend import device_of, exclusive_scan, launch, launch_reduce, to_device
 from sphkit.boundary.maps_hydrostatic import (
     WallMomentForce,
     gamma_table,
     moment_nodes,
-    wall_moment_accel,
+    wall_moment_body,
 )
 from sphkit.core import arrays
 from sphkit.core.methods import BoundaryModel
@@ -256,16 +256,19 @@ def pack_body(i, xb, Vb, vb, mbody, fid, off, bx, bV, bv, bbody, bid, idx):
             q += 1
 
 
-@numba.njit(parallel=True, **_JIT)
-def _pack_share(Vb, share, off, out):
-    """``share`` (k, N) packed as :func:`_pack` packs the virtual particles."""
-    k, n = Vb.shape
-    for i in numba.prange(n):
-        q = off[i]
-        for m in range(k):
-            if Vb[m, i] > 0.0:
-                out[q] = share[m, i]
-                q += 1
+@numba.njit(cache=True, inline="always")
+def mirror_pack_body(i, Vb, share, with_share, mbody, off, out):
+    """The mirrored share of fluid particle i's virtual particles packed as :func:`pack_body`
+    packs them: ``share[m, i]`` (1 without ``with_share``) for static maps, 0 for moving bodies'
+    maps."""
+    q = off[i]
+    for m in range(Vb.shape[0]):
+        if Vb[m, i] > 0.0:
+            if mbody[m] != 0:
+                out[q] = 0.0
+            else:
+                out[q] = share[m, i] if with_share else 1.0
+            q += 1
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -449,18 +452,14 @@ class MapBoundaryModel(BoundaryModel):
         if self.hydrostatic:  # the wall moment reads this step's virtual particles
             self._virtual = (xb, Vb)
         bd = state.boundary
-        nl, _bx, bV, _bv, bbody, _bid = self._packed(state, xb, Vb, vb, mbody, into=bd)
+        nl, _bx, bV, _bv, _bbody, _bid = self._packed(state, xb, Vb, vb, mbody, into=bd)
         if bV.shape[0] and self.hydrostatic and "pressure_mirror" in bd.fields:
             # 3D only: a 2D column at SPlisHSPlasH's coarse defaults (r = 2 cm, 10 rows)
             # rested at a slope 0.970 with the share at its floor corners, 0.999 without
             # (validation/README.md, "Volume maps: the mirrored share at edges")
             share = self._mirror_shares(state, f["x"], Vb) if state.dim == 3 else None
-            if share is not None:  # the method's mirrored share per virtual particle
-                packed = np.empty(bV.shape[0])
-                _pack_share(Vb, share, nl.offsets, packed)
-                share = packed
-            bd.fields["pressure_mirror"][...] = np.where(
-                bbody == 0, 1.0 if share is None else share, 0.0)
+            launch(mirror_pack_body, f.n, Vb, Vb if share is None else share, share is not None,
+                   mbody, nl.offsets, bd.fields["pressure_mirror"])
         state.nl_fb = nl
 
     def boundary_at(self, state: SimState, dx: np.ndarray
@@ -556,10 +555,11 @@ class MapBoundaryModel(BoundaryModel):
                 continue
             ax = bmap.geometry.extend_axis
             top = bmap.hi[ax] - 1e-6 * bmap.cell[ax] if ax >= 0 else 0.0
-            n += int(wall_moment_accel(f["x"], f["rho"], f["rho0"], bmap.phi, nmap.values,
-                                       bmap.lo, bmap.cell, bmap.res, bmap.spacing, bmap.shape,
-                                       state.dim, ax, top, state.h, state.kid, g[0], g[1], g[2],
-                                       xb[m], Vb[m], f["a"]))
+            phi, _v, lo, cell, res, _s, _n = bmap.on(f["x"])
+            n += int(launch_reduce(wall_moment_body, f.n, f["x"], f["rho"], f["rho0"], phi,
+                                   nmap.on(f["x"])[1], lo, cell, res, state.dim, ax, top,
+                                   state.h, state.kid, float(g[0]), float(g[1]), float(g[2]),
+                                   xb[m], Vb[m], f["a"])[0])
         return n
 
     def _mirror_shares(self, state: SimState, x: np.ndarray, Vb: np.ndarray

@@ -38,7 +38,7 @@ be less than 1 where a method's virtual particle overstates the map's own densit
 
 :class:`sphkit.boundary.maps.MapBoundaryModel` builds the normal moment map of each static
 geometry with :func:`moment_nodes` (``init``) and adds the moment term with
-:func:`wall_moment_accel` (``wall_moment``).
+:func:`wall_moment_body` (``wall_moment``).
 """
 
 from __future__ import annotations
@@ -134,40 +134,37 @@ def moment_nodes(nodes, phi, o, s, shape, dim, qp, qw, h, kid, t_lo, t_step, tab
         out[m] = scale * mnn
 
 
-@numba.njit(parallel=True, **_JIT)
-def wall_moment_accel(x, rho, rho0, phi, N, lo, cell, res, spacing, shape, dim, extend_axis, top,
-                      h, kid, g0, g1, g2, xb, Vb, a):
-    """Add ``-(T (I - n n) + N n n) g / rho_hat_i`` to a for the fluid particles with a virtual
-    neighbour (xb, Vb) of this map: the moment term ``-M grad k_b`` of the hydrostatic boundary
-    pressure ``p_b(x) = p_i + rho_i g . (x - x_i)`` (Adami et al. 2012, Eq. 27, static wall),
-    ``grad k_b = g / rho_hat_i`` in the kappa units of :mod:`sphkit.core.ppe`, with the
+@numba.njit(inline="always", **_JIT)
+def wall_moment_body(i, x, rho, rho0, phi, N, lo, cell, res, dim, extend_axis, top, h, kid, g0,
+                     g1, g2, xb, Vb, a):
+    """Add ``-(T (I - n n) + N n n) g / rho_hat_i`` to ``a[:, i]`` if fluid particle i has a
+    virtual neighbour (xb, Vb) of this map: the moment term ``-M grad k_b`` of the hydrostatic
+    boundary pressure ``p_b(x) = p_i + rho_i g . (x - x_i)`` (Adami et al. 2012, Eq. 27, static
+    wall), ``grad k_b = g / rho_hat_i`` in the kappa units of :mod:`sphkit.core.ppe`, with the
     tangential part T the neighbour's density contribution ``V_b W(|x_i - x_b|)`` and the normal
     part N from the map (module docstring); ``rho0`` (N,): each particle's rest density.
-    Returns how many particles it acted on."""
-    count = 0
-    for i in numba.prange(x.shape[1]):
-        if Vb[i] <= 0.0:
-            continue
-        p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
-        d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
-        nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        if not ok or nl < 1e-9:
-            continue
-        n0 /= nl
-        n1 /= nl
-        n2 /= nl
-        xi0, xi1, xi2 = point(x, i, dim)
-        _e0, _e1, _e2, r = separation(xi0, xi1, xi2, xb, i, dim, 0.0)
-        t = Vb[i] * kernel_w(kid, r, h, dim)
-        nn = grid_eval(N, lo, cell, res, dim, p0, p1, p2)[0]
-        gn = g0 * n0 + g1 * n1 + g2 * n2
-        c = rho0[i] / rho[i]
-        a[0, i] -= c * (t * (g0 - gn * n0) + nn * gn * n0)
-        a[1, i] -= c * (t * (g1 - gn * n1) + nn * gn * n1)
-        if dim == 3:
-            a[2, i] -= c * (t * (g2 - gn * n2) + nn * gn * n2)
-        count += 1
-    return count
+    Returns 1 where it acted, else 0 (summed: the particles it acted on)."""
+    if Vb[i] <= 0.0:
+        return 0.0
+    p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
+    d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
+    nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if not ok or nl < 1e-9:
+        return 0.0
+    n0 /= nl
+    n1 /= nl
+    n2 /= nl
+    xi0, xi1, xi2 = point(x, i, dim)
+    _e0, _e1, _e2, r = separation(xi0, xi1, xi2, xb, i, dim, 0.0)
+    t = Vb[i] * kernel_w(kid, r, h, dim)
+    nn = grid_eval(N, lo, cell, res, dim, p0, p1, p2)[0]
+    gn = g0 * n0 + g1 * n1 + g2 * n2
+    c = rho0[i] / rho[i]
+    a[0, i] -= c * (t * (g0 - gn * n0) + nn * gn * n0)
+    a[1, i] -= c * (t * (g1 - gn * n1) + nn * gn * n1)
+    if dim == 3:
+        a[2, i] -= c * (t * (g2 - gn * n2) + nn * gn * n2)
+    return 1.0
 
 
 class WallMomentForce(NonPressureForce):
