@@ -47,7 +47,7 @@ import numpy as np
 
 from sphkit.core import arrays
 from sphkit.core.arrays import on_device, to_host
-from sphkit.core.hashgrid import HashGrid, hash_origin
+from sphkit.core.hashgrid import HashGrid, hash_origin, zorder_on_device
 from sphkit.core.krylov import KrylovStats
 from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
@@ -153,6 +153,7 @@ class Simulation:
         #: Verlet lists of the fluid (``configuration.neighbor_skin`` > 0), else None
         self._verlet = VerletLists(skin) if skin > 0.0 else None
         self._grid: HashGrid | None = None  # the fluid's search on a device
+        self._center: np.ndarray | None = None  # its centre (the first step's fluid's)
         if settle and world.settle is not None:
             rep = world.start
             rep.settle_steps, rep.settle_time, rep.settle_speed = self.settle(world.settle)
@@ -353,16 +354,19 @@ class Simulation:
         st = self.state
         k = self.scene.configuration.zsort_every
         reordered = bool(k and self.step_count % k == 0)
-        if reordered:  # on a device: the order is found on the host, the fields gathered there
-            st.fluid.permute(zorder_permutation(to_host(st.fluid["x"]), st.h))
+        x = st.fluid["x"]
+        if on_device(x) and self._grid is None:  # the device's grid, centred on the first
+            self._center = to_host(x).mean(1)  # step's fluid (its positions read back once)
+            self._grid = HashGrid(st.dim, st.h, hash_origin(self._center, st.h), "cuda")
+        if reordered:  # on a device the permutation is found and applied there
+            st.fluid.permute(zorder_on_device(x, st.h, self._center, "cuda") if on_device(x)
+                             else zorder_permutation(x, st.h))
         # the last step's lists go before the search builds the new ones (a lower peak)
         st.nl_ff = NeighborList.empty(0)
         x = st.fluid["x"]
         if self._verlet is not None:  # configuration.neighbor_skin: lists reused across steps
             st.nl_ff = self._verlet.lists(x, st.h, st.periodic, rebuild=reordered)
         elif on_device(x):  # the hashed grid's passes as kernel bodies, where the fluid is
-            if self._grid is None:  # centred on the first step's fluid
-                self._grid = HashGrid(st.dim, st.h, hash_origin(to_host(x).mean(1), st.h), "cuda")
             self._grid.build(x)
             st.nl_ff = self._grid.query(x, exclude_self=True)
         else:

@@ -10,11 +10,13 @@ the CPU grid's :func:`sphkit.core.neighbors._scan`, and the cell keys and bucket
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
 from sphkit.backend import empty, exclusive_scan, histogram, launch, launch_reduce, to_device
-from sphkit.core.neighbors import _BITS, NeighborList, _bucket, _cell, _pack, _scan
+from sphkit.core.neighbors import _BITS, NeighborList, _bucket, _cell, _pack, _scan, _spread
 
 
 @numba.njit(cache=True, inline="always")
@@ -59,6 +61,67 @@ def compact_body(i, rows, cap, offsets, indices):
     o = offsets[i]
     for k in range(offsets[i + 1] - o):
         indices[o + k] = rows[i * cap + k]
+
+
+@numba.njit(cache=True, inline="always")
+def extent_body(i, x, d, center):
+    """``|x[d, i] - center|``, whose largest value is the points' half extent about ``center``
+    along axis d."""
+    return abs(x[d, i] - center)
+
+
+@numba.njit(cache=True, inline="always")
+def morton_key_body(i, x, dim, inv_c, origin, bits, keys):
+    """The z-order key of point i: the Morton code of its cell of size ``1 / inv_c``, cell
+    coordinates relative to ``origin`` (dim,) wrapped to ``bits`` bits each."""
+    m = (np.int64(1) << bits) - 1
+    code = np.int64(0)
+    for d in range(dim):
+        c = (np.int64(math.floor(x[d, i] * inv_c)) - origin[d]) & m
+        code |= _spread(c, dim) << d
+    keys[i] = code
+
+
+@numba.njit(cache=True, inline="always")
+def order_body(i, keys, start, rank, perm):
+    """Point i to its place ``start[key_i] + rank_i`` of the z-order permutation."""
+    perm[start[keys[i]] + rank[i]] = i
+
+
+#: the most bits per axis of :func:`zorder_on_device`'s keys, in 1D, 2D and 3D (2^21 bins)
+ZORDER_MAX_BITS = (21, 10, 7)
+
+
+def zorder_on_device(x, h: float, center: np.ndarray, device: str = "cpu"):  # noqa: ANN201
+    """A permutation (N,) int64, on ``device``, that orders the points ``x`` (dim, N) there along
+    a z-order curve, without copying them to the host (where :func:`sphkit.core.neighbors.
+    zorder_permutation` sorts the Morton codes of the cells of size h): a counting sort
+    (:func:`sphkit.backend.histogram`, :func:`sphkit.backend.exclusive_scan`) by the Morton code
+    of cells of size ``h 2^s``, with ``b`` bits per axis (about as many bins as points, at most
+    2^21) and s the least that makes the points' extent about ``center`` (dim,) (three
+    reductions, three scalars read back) fit ``2^b`` cells. Within a cell the order is the
+    index order on the CPU and that of the atomic increments on the GPU."""
+    dim, n = x.shape
+    perm = empty(n, np.int64, device)
+    if n == 0:
+        return perm
+    ext = max(launch_reduce(extent_body, n, x, d, float(center[d]), device=device)[1]
+              for d in range(dim))
+    bits = min(ZORDER_MAX_BITS[dim - 1], max(1, math.ceil(math.log2(max(n, 2)) / dim)))
+    s = 0
+    while h * 2.0 ** (s + bits) < 2.0 * ext + 2.0 * h:
+        s += 1
+    cell = h * 2.0 ** s
+    origin = np.floor((np.asarray(center[:dim], np.float64) - ext - h) / cell).astype(np.int64)
+    keys, rank = empty(n, np.int64, device), empty(n, np.int64, device)
+    size = 1 << (dim * bits)
+    counts, start = empty(size, np.int64, device), empty(size + 1, np.int64, device)
+    launch(morton_key_body, n, x, dim, 1.0 / cell, to_device(origin, device), bits, keys,
+           device=device)
+    histogram(keys, counts, rank, device=device)
+    exclusive_scan(counts, start, device=device)
+    launch(order_body, n, keys, start, rank, perm, device=device)
+    return perm
 
 
 def hash_origin(center: np.ndarray, h: float) -> np.ndarray:

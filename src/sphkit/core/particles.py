@@ -328,9 +328,11 @@ class ParticleSet:
 
     def permute(self, perm: np.ndarray) -> None:
         """Reorder every field by ``perm`` (new[i] = old[perm[i]]); ids travel with particles.
-        On the device the fields are gathered there (``perm`` is copied to it)."""
+        On the device the fields are gathered there (``perm`` is copied to it, unless it is
+        there already)."""
         if self.device != "cpu":
-            p = to_device(np.ascontiguousarray(perm, dtype=np.int64), self.device)
+            p = perm if arrays.on_device(perm) else to_device(
+                np.ascontiguousarray(perm, dtype=np.int64), self.device)
             for fname in self.specs:
                 self.fields[fname] = arrays.gathered(self.fields[fname], p)
             return
