@@ -11,7 +11,8 @@ with the scan and the histogram of the counting sort; in 2D) against the CPU gri
 whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
 viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on the
 device, in float64 and in float32 (the device's default; against the CPU's float64 step), and one
-whole WCSPH and IISPH step (their per-particle passes bodies too) likewise in float64. Each
+whole WCSPH and IISPH step (their per-particle passes bodies too) likewise in float64, and one
+DFSPH step of a material with XSPH, Akinci 2013 surface tension and micropolar vorticity. Each
 kernel launch under the simulator starts a Python thread per particle, so the cases are as small as
 their checks allow. Where a CUDA GPU is present the same script also runs on it (skipped otherwise,
 e.g. in CI). The subprocess also checks that importing sphkit and running on the CPU does not
@@ -303,6 +304,40 @@ SCRIPT = textwrap.dedent(
             e = rel(out["cuda"][key], out["cpu"][key])
             assert e <= 1e-12, (method, "step", key, e)
         print(method, "step ok", float(out["cpu"]["p"].max()), "Pa", its["cpu"], "iterations")
+
+    # one whole DFSPH step with the non-pressure forces the device runs besides the standard
+    # viscosity: XSPH, Akinci 2013 surface tension and adhesion (with its colour-gradient
+    # normals) and the micropolar model (omega advanced on the device), against the CPU
+    scene["configuration"]["pressure"] = {"method": "dfsph", "max_error": 0.5,
+                                          "max_error_v": 5.0}
+    scene["materials"] = [{
+        "viscosity": {"method": "xsph", "coefficient": 0.1, "boundary_coefficient": 0.1},
+        "surface_tension": {"method": "akinci2013", "coefficient": 0.5,
+                            "boundary_coefficient": 0.5},
+        "vorticity": {"method": "micropolar", "coefficient": 0.01}}]
+    keys = ("x", "v", "rho", "p", "omega", "normal")
+    out, its = {}, {}
+    for device in ("cpu", "cuda"):
+        sim = Simulation(Scene.model_validate(scene), device=device)
+        copies.clear()
+        Device.copy_to_host = counted
+        st = sim.step()
+        Device.copy_to_host = host_copy
+        its[device] = (st.iterations, st.divergence_iterations)
+        if device == "cuda":  # resident, and only scalars and the z-order read back
+            assert hasattr(sim.state.fluid["omega"], "copy_to_host")
+            big = sorted(c for c in copies if np.prod(c) > 2)
+            assert big == [(3, n), (3, n), (3, nb)], ("forces", big)
+        f = sim.fluid
+        o = f.order_by_id()
+        out[device] = {k: f[k][..., o] for k in keys}
+    # the forces act: the walls spin the block up, its surface has normals
+    assert np.abs(out["cpu"]["omega"]).max() > 0.0 and np.abs(out["cpu"]["normal"]).max() > 0.0
+    assert its["cuda"] == its["cpu"], ("forces", its)
+    for key in keys:
+        e = rel(out["cuda"][key], out["cpu"][key])
+        assert e <= 1e-12, ("forces", "step", key, e)
+    print("forces step ok", its["cpu"], "iterations")
     """
 )
 
@@ -344,6 +379,7 @@ def _run_script(env: dict) -> None:
     assert "hash grid 2 ok" in res.stdout
     assert "step ok" in res.stdout and "float32 step ok" in res.stdout
     assert "wcsph step ok" in res.stdout and "iisph step ok" in res.stdout
+    assert "forces step ok" in res.stdout
 
 
 def _cuda_gpu() -> bool:
