@@ -24,8 +24,9 @@ Capabilities (keyword flags of :func:`register`):
   density (several fluid materials in one scene, :mod:`sphkit.multiphase`); the non-pressure
   forces of each material act within its phase whatever their flags;
 * ``gpu``: its part of the time step runs on ``--device cuda`` with the fields resident on the
-  device (DFSPH, Akinci boundary particles with mirrored boundary pressure, the standard
-  viscosity so far; the scene features the device step lacks are refused by
+  device (DFSPH, IISPH, WCSPH, Akinci boundary particles with mirrored boundary pressure, the
+  standard, XSPH and Weiler 2018 viscosities, Akinci 2013 surface tension and micropolar
+  vorticity so far; the scene features the device step lacks are refused by
   :func:`sphkit.scene.checks.check_device`);
 * ``boundary`` (boundary-pressure models): the boundary kinds it acts on (``particles`` or
   ``maps``, the ``kind`` of the boundary model).
@@ -252,7 +253,8 @@ register("viscosity", "xsph", "sphkit.viscosity.xsph:XSPH",
          paper="Monaghan 1989/1992, XSPH", summary="velocity smoothing", gpu=True)
 register("viscosity", "weiler2018", "sphkit.viscosity.weiler2018:Weiler2018", splishsplash=6,
          paper="Weiler et al. 2018, A physically consistent implicit viscosity solver for SPH",
-         summary="implicit, block-Jacobi CG, kinematic nu", periodic=True, periodic_y=True)
+         summary="implicit, block-Jacobi CG, kinematic nu", periodic=True, periodic_y=True,
+         gpu=True)
 register("viscosity", "bender2017", "sphkit.viscosity.bender2017:Bender2017", splishsplash=2,
          paper="Bender & Koschier 2017, Divergence-free SPH for incompressible and viscous "
          "fluids", summary="implicit strain-rate constraints (Jacobi), factor", periodic=True)
