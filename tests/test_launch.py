@@ -1,5 +1,6 @@
 """sphkit.backend.launch on the CPU: a body runs once per particle, the (sum, max) reduction,
-argument checks. The CUDA side is tested against it in tests/test_cuda_simulator.py."""
+the sum alone, argument checks. The CUDA side is tested against it in
+tests/test_cuda_simulator.py."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numba
 import numpy as np
 import pytest
 
-from sphkit.backend import launch, launch_reduce
+from sphkit.backend import launch, launch_reduce, launch_sum
 from sphkit.backend.launch import cpu_driver
 
 
@@ -41,6 +42,29 @@ def test_launch_reduce_returns_sum_and_max_of_the_values() -> None:
     assert tot == pytest.approx(e.sum(), rel=1e-14)
     assert mx == e.max()
     assert launch_reduce(_error_body, 0, x, active) == (0.0, 0.0)
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _product_body(i, a, b):
+    return a[i] * b[i]
+
+
+@numba.njit(parallel=True, cache=True, fastmath=True)
+def _dot_by_hand(a, b):
+    s = 0.0
+    for i in numba.prange(a.shape[0]):
+        s += a[i] * b[i]
+    return s
+
+
+def test_launch_sum_is_the_hand_written_prange_sum() -> None:
+    """Values of either sign; bit for bit the hand-written fast-math ``prange`` sum (the CG's dot
+    products, core/krylov.py, keep their last bits). Exact equality: the same loop, compiled
+    with the same flags, in the same thread count (this process's)."""
+    rng = np.random.default_rng(2)
+    a, b = rng.normal(size=12345), rng.normal(size=12345)
+    assert launch_sum(_product_body, a.shape[0], a, b) == _dot_by_hand(a, b)
+    assert launch_sum(_product_body, 0, a, b) == 0.0
 
 
 def test_the_driver_is_built_once_per_body_and_arity() -> None:

@@ -11,7 +11,7 @@ from _validation import load_validation
 from sphkit import registry
 from sphkit.core.kernels import kernel_id
 from sphkit.core.neighbors import NeighborList, neighbor_lists
-from sphkit.core.operators import color_field_cpu, density_cpu, laplacian, surface_normals_cpu
+from sphkit.core.operators import color_field_cpu, density_cpu, laplacian, surface_normals
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene
@@ -58,7 +58,7 @@ def _fields(x: np.ndarray, r: float):
                 rho)
     n = np.empty((dim, N))
     # the period L = 0.0 passed as the simulation passes it: no second compiled signature
-    surface_normals_cpu(x, m, rho, nl.offsets, nl.indices, 1.0, h, kid, dim, n, 0.0)
+    surface_normals(x, m, rho, nl.offsets, nl.indices, 1.0, h, kid, dim, n, 0.0)
     k = np.empty(N)
     curvature_cpu(x, m, rho, n, nl.offsets, nl.indices, SURFACE / h, THRESHOLD / h, h, kid, dim,
                   k, 0.0)

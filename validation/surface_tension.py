@@ -90,13 +90,14 @@ from pathlib import Path
 import numpy as np
 from _plotting import pyplot
 
+from sphkit.backend import launch
 from sphkit.core.kernels import _dw_array
 from sphkit.core.neighbors import NeighborList, neighbor_lists
 from sphkit.core.operators import (
     color_field_cpu,
     density_cpu,
     pressure_accel_cpu,
-    surface_normals_cpu,
+    surface_normals,
 )
 from sphkit.pressure.wcsph import LINEAR, state_equation
 from sphkit.scene.schema import Scene
@@ -109,7 +110,7 @@ from sphkit.surface_tension import (
     Mueller2003,
     ZorillaRitter2020,
 )
-from sphkit.surface_tension.akinci2013 import _akinci_cpu
+from sphkit.surface_tension.akinci2013 import akinci_body
 from sphkit.surface_tension.becker2007 import _becker_cpu
 from sphkit.surface_tension.he2014 import _grad_c2_cpu, _he_cpu
 from sphkit.surface_tension.jeske2023 import COHESION_SCALE as JESKE_SCALE
@@ -201,7 +202,7 @@ def cut_tension(sim: Simulation, planes: np.ndarray) -> tuple[float, float]:
         coef = JESKE_SCALE * coef / st.rho0
     if isinstance(model, Akinci2013):
         nrm = np.empty((dim, n))
-        surface_normals_cpu(x, m, rho, nl.offsets, nl.indices, h, h, kid, dim, nrm, L)
+        surface_normals(x, m, rho, nl.offsets, nl.indices, h, h, kid, dim, nrm, L)
     elif isinstance(model, He2014):
         c = np.empty(n)
         g2 = np.empty(n)
@@ -219,8 +220,8 @@ def cut_tension(sim: Simulation, planes: np.ndarray) -> tuple[float, float]:
             _becker_cpu(x, m, cl.offsets, cl.indices, bx, bV, nb.offsets, nb.indices, coef, 0.0,
                         2.0 * st.r, st.rho0, h, kid, dim, a, L)
         elif isinstance(model, Akinci2013):
-            _akinci_cpu(x, m, rho, nrm, cl.offsets, cl.indices, bx, bV, nb.offsets, nb.indices,
-                        coef, 0.0, st.rho0, h, dim, a, L)
+            launch(akinci_body, n, x, m, rho, nrm, cl.offsets, cl.indices, bx, bV, nb.offsets,
+                   nb.indices, coef, 0.0, st.rho0, h, dim, a, L)
         else:
             _he_cpu(x, m, rho, g2, cl.offsets, cl.indices, bx, bV, nb.offsets, nb.indices, coef,
                     0.0, h, kid, dim, a, L)

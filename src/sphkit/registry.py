@@ -24,8 +24,9 @@ Capabilities (keyword flags of :func:`register`):
   density (several fluid materials in one scene, :mod:`sphkit.multiphase`); the non-pressure
   forces of each material act within its phase whatever their flags;
 * ``gpu``: its part of the time step runs on ``--device cuda`` with the fields resident on the
-  device (DFSPH, Akinci boundary particles with mirrored boundary pressure, the standard
-  viscosity so far; the scene features the device step lacks are refused by
+  device (DFSPH, IISPH, WCSPH, Akinci boundary particles with mirrored boundary pressure, the
+  standard, XSPH and Weiler 2018 viscosities, Akinci 2013 surface tension and micropolar
+  vorticity so far; the scene features the device step lacks are refused by
   :func:`sphkit.scene.checks.check_device`);
 * ``boundary`` (boundary-pressure models): the boundary kinds it acts on (``particles`` or
   ``maps``, the ``kind`` of the boundary model).
@@ -250,10 +251,11 @@ register("viscosity", "standard", "sphkit.viscosity.standard:StandardViscosity",
          summary="explicit Laplacian viscosity, kinematic nu", periodic=True, periodic_y=True,
          gpu=True)
 register("viscosity", "xsph", "sphkit.viscosity.xsph:XSPH",
-         paper="Monaghan 1989/1992, XSPH", summary="velocity smoothing")
+         paper="Monaghan 1989/1992, XSPH", summary="velocity smoothing", gpu=True)
 register("viscosity", "weiler2018", "sphkit.viscosity.weiler2018:Weiler2018", splishsplash=6,
          paper="Weiler et al. 2018, A physically consistent implicit viscosity solver for SPH",
-         summary="implicit, block-Jacobi CG, kinematic nu", periodic=True, periodic_y=True)
+         summary="implicit, block-Jacobi CG, kinematic nu", periodic=True, periodic_y=True,
+         gpu=True)
 register("viscosity", "bender2017", "sphkit.viscosity.bender2017:Bender2017", splishsplash=2,
          paper="Bender & Koschier 2017, Divergence-free SPH for incompressible and viscous "
          "fluids", summary="implicit strain-rate constraints (Jacobi), factor", periodic=True)
@@ -272,7 +274,7 @@ register("viscosity", "peer2016", "sphkit.viscosity.peer2016:Peer2016", splishsp
 register("vorticity", "micropolar", "sphkit.vorticity.micropolar_bender2017:"
          "MicropolarBender2017", splishsplash=1,
          paper="Bender et al. 2017, Turbulent micropolar SPH fluids with foam",
-         summary="micropolar model: angular velocity field")
+         summary="micropolar model: angular velocity field", gpu=True)
 register("vorticity", "confinement", "sphkit.vorticity.confinement:VorticityConfinement",
          splishsplash=2, paper="Macklin & Müller 2013, Position based fluids (vorticity "
          "confinement)", summary="vorticity confinement force")
@@ -284,7 +286,8 @@ register("surface_tension", "becker2007", "sphkit.surface_tension.becker2007:"
          summary="cohesion and adhesion forces", periodic=True)
 register("surface_tension", "akinci2013", "sphkit.surface_tension.akinci2013:Akinci2013",
          splishsplash=2, paper="Akinci et al. 2013, Versatile surface tension and adhesion for "
-         "SPH fluids", summary="cohesion, curvature and boundary adhesion", periodic=True)
+         "SPH fluids", summary="cohesion, curvature and boundary adhesion", periodic=True,
+         gpu=True)
 register("surface_tension", "he2014", "sphkit.surface_tension.he2014:He2014", splishsplash=3,
          paper="He et al. 2014, Robust simulation of sparsely sampled thin features in SPH-based "
          "free surface flows", summary="surface energy of the colour field gradient",

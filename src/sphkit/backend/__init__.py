@@ -11,10 +11,11 @@ from sphkit.backend.launch import (
     histogram,
     launch,
     launch_reduce,
+    launch_sum,
     on_device,
     to_device,
     to_host,
 )
 
 __all__ = ["DEVICES", "cuda_available", "device_of", "empty", "exclusive_scan", "histogram",
-           "launch", "launch_reduce", "on_device", "to_device", "to_host"]
+           "launch", "launch_reduce", "launch_sum", "on_device", "to_device", "to_host"]

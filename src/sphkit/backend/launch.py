@@ -61,7 +61,10 @@ and returns ``(sum_i e_i, max(0, max_i e_i))`` as Python floats. On the CPU the 
 maximum are reduced in the same ``prange`` loop (no per-particle array, no second pass over
 memory); on the GPU each block reduces its values in shared memory and adds them to the result
 with one atomic operation per block. The two sums are added in different orders, so they agree
-to rounding, not bit for bit.
+to rounding, not bit for bit. ``launch_sum(body, n, *args)`` returns the sum alone, of values
+of any sign (a dot product: :mod:`sphkit.core.krylov`); on the CPU its loop holds only the sum,
+which the compiler vectorises as it does a hand-written ``prange`` sum (with the maximum in the
+same loop it does not: the last bits of a long sum differ).
 
 Primitives that are not per-particle bodies
 -------------------------------------------
@@ -106,7 +109,14 @@ def driver(n, {params}):
         mx = max(mx, e)
     return tot, mx
 """
-_TEMPLATES = {"each": _EACH, "sum_max": _SUM_MAX}
+_SUM = """
+def driver(n, {params}):
+    tot = 0.0
+    for i in numba.prange(n):
+        tot += body(i, {params})
+    return tot
+"""
+_TEMPLATES = {"each": _EACH, "sum_max": _SUM_MAX, "sum": _SUM}
 _codes: dict[tuple[str, int], types.CodeType] = {}
 _drivers: dict[tuple[Any, str, int], Any] = {}
 
@@ -124,8 +134,8 @@ def _template(kind: str, nargs: int) -> types.CodeType:
 
 def cpu_driver(body: Any, nargs: int, kind: str = "each") -> Any:
     """The compiled CPU driver of ``body`` for ``nargs`` arguments after i (``kind`` ``"each"``:
-    :func:`launch`, ``"sum_max"``: :func:`launch_reduce`), built on first use and kept for the
-    process.
+    :func:`launch`, ``"sum_max"``: :func:`launch_reduce`, ``"sum"``: :func:`launch_sum`), built
+    on first use and kept for the process.
 
     The driver is the template's code with ``body`` bound as a global (not a closure) and with
     the body's file, first line and name (plus ``__launch_<kind>``), so that Numba's cache stores
@@ -206,6 +216,21 @@ def launch_reduce(body: Any, n: int, *args: Any,
     from sphkit.backend import cuda
 
     return cuda.launch_reduce(body, n, args)
+
+
+def launch_sum(body: Any, n: int, *args: Any, device: str | None = None) -> float:
+    """The sum of the value-returning ``body(i, *args)`` over ``i`` in ``range(n)`` (values of
+    any sign; None: where the arrays are). On the CPU the loop holds the sum alone, as a
+    hand-written ``prange`` sum would (the maximum of :func:`launch_reduce` in the same loop
+    changes how the compiler vectorises the sum, and so its last bits)."""
+    if device is None:
+        device = device_of(*args)
+    _check(device)
+    if device == "cpu":
+        return float(cpu_driver(body, len(args), "sum")(n, *args))
+    from sphkit.backend import cuda
+
+    return cuda.launch_reduce(body, n, args)[0]
 
 
 @numba.njit(cache=True)

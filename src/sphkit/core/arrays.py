@@ -28,11 +28,11 @@ from sphkit.core.pairs import set_vector
 
 #: the passes and helpers, and where arrays are (the step reaches the backend through core)
 __all__ = ["any_differs", "axpy", "axpy_into", "axpy_rows_body", "axpy_rows_into_body", "copied",
-           "copy_body", "differs_body", "divide_body", "divided", "divided_by", "empty",
-           "empty_like", "fill", "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body",
-           "gather_rows_body", "gathered", "multiplied", "multiply_body", "on_device",
-           "quotient_body", "reciprocal", "reciprocal_body", "scale_body", "scaled", "to_host",
-           "zeros"]
+           "copy_body", "copy_into", "differs_body", "divide_body", "divided", "divided_by",
+           "empty", "empty_like", "fill", "fill_body", "fill_rows", "fill_rows_body", "full",
+           "gather_body", "gather_rows_body", "gathered", "multiplied", "multiply_body",
+           "on_device", "quotient_body", "reciprocal", "reciprocal_body", "scale_body", "scaled",
+           "to_host", "zeros"]
 
 _BODY = dict(cache=True, inline="always")
 
@@ -91,6 +91,12 @@ def reciprocal_body(i, x, out):
 def differs_body(i, x, value):
     """1 where ``x[i] != value``, else 0 (reduced: does any entry differ)."""
     return 1.0 if x[i] != value else 0.0
+
+
+@numba.njit(**_BODY)
+def copy_body(i, x, out):
+    """``out[i] = x[i]`` (converted to ``out``'s type)."""
+    out[i] = x[i]
 
 
 @numba.njit(**_BODY)
@@ -196,17 +202,19 @@ def any_differs(x: Any, value: float) -> bool:
     return launch_reduce(differs_body, x.shape[0], x, value)[1] > 0.0
 
 
-@numba.njit(**_BODY)
-def copy_body(i, src, out):
-    """``out[i] = src[i]``."""
-    out[i] = src[i]
-
-
-def copied(a: Any) -> Any:
-    """A copy of the C-contiguous ``a`` (any shape), where ``a`` is."""
-    out = empty_like(a)
+def copy_into(out: Any, a: Any) -> None:
+    """``out[...] = a`` for C-contiguous arrays of the same size (``out[:] = a``)."""
     if a.size:
         launch(copy_body, a.size, a.reshape(a.size), out.reshape(out.size))
+
+
+def copied(a: Any, dtype: Any = None) -> Any:
+    """A C-contiguous copy of ``a`` (of ``dtype``; None: ``a``'s), where ``a`` is
+    (``np.array(a, dtype=dtype)`` on the CPU)."""
+    if device_of(a) == "cpu":
+        return np.array(a, dtype=dtype)
+    out = empty(a.shape, a.dtype if dtype is None else dtype, a)
+    copy_into(out, a)
     return out
 
 

@@ -13,6 +13,13 @@ compiled pass over the step's neighbour lists that writes ``A x`` into ``out``.
 * :class:`BlockJacobiPreconditioner` -- ``M`` = the dim x dim diagonal blocks of A (one per
   particle), as SPlisHSPlasH's ``BlockJacobiPreconditioner3D`` for the implicit viscosity.
 
+Devices: the vector operations and the block-Jacobi preconditioner are kernel bodies
+(:func:`sphkit.backend.launch`; dot products :func:`sphkit.backend.launch_sum`), so :func:`cg`
+with :class:`BlockJacobiPreconditioner` runs where ``b`` is (a CUDA device array: on the GPU,
+reading back only the dot products, float64 there too); each has the fast-math flags of the
+``prange`` loop it replaced, so the CPU's results are unchanged to the last bit.
+:class:`JacobiPreconditioner` and :func:`bicgstab` still allocate with NumPy (CPU only).
+
 Vector unknowns are (dim, N) fields flattened row-major (``x.reshape(dim, N)`` gives them back
 without a copy), so particle i's components are ``x[d * N + i]``.
 
@@ -33,6 +40,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from sphkit.backend import launch, launch_sum
+from sphkit.core import arrays
+
 log = logging.getLogger("sphkit")
 
 _JIT = dict(cache=True, fastmath=True)
@@ -52,50 +62,73 @@ class KrylovStats:
 
 
 # ---------------------------------------------------------------------------------------------
-# compiled vector operations (no temporaries)
+# vector operations: kernel bodies (:func:`sphkit.backend.launch`, where the vectors are), with
+# the fast-math flags of the prange loops they replace
 
 
-@numba.njit(parallel=True, **_JIT)
-def _dot(a, b):
-    s = 0.0
-    for i in numba.prange(a.shape[0]):
-        s += a[i] * b[i]
-    return s
+@numba.njit(inline="always", **_JIT)
+def dot_body(i, a, b):
+    """``a[i] * b[i]`` (summed by :func:`sphkit.backend.launch_sum`)."""
+    return a[i] * b[i]
 
 
-@numba.njit(parallel=True, **_JIT)
-def _axpy(alpha, x, y):
+@numba.njit(inline="always", **_JIT)
+def axpy_body(i, alpha, x, y):
+    """``y[i] += alpha x[i]``."""
+    y[i] += alpha * x[i]
+
+
+@numba.njit(inline="always", **_JIT)
+def xpby_body(i, x, beta, y):
+    """``y[i] = x[i] + beta y[i]``."""
+    y[i] = x[i] + beta * y[i]
+
+
+@numba.njit(inline="always", **_JIT)
+def sub_body(i, a, b, out):
+    """``out[i] = a[i] - b[i]``."""
+    out[i] = a[i] - b[i]
+
+
+@numba.njit(inline="always", **_JIT)
+def bicg_p_body(i, r, beta, omega, v, p):
+    """``p[i] = r[i] + beta (p[i] - omega v[i])``."""
+    p[i] = r[i] + beta * (p[i] - omega * v[i])
+
+
+@numba.njit(inline="always", **_JIT)
+def scale_body(i, d, r, z):
+    """``z[i] = d[i] * r[i]``."""
+    z[i] = d[i] * r[i]
+
+
+def _dot(a, b) -> float:
+    return launch_sum(dot_body, a.shape[0], a, b)
+
+
+def _axpy(alpha: float, x, y) -> None:
     """y += alpha x"""
-    for i in numba.prange(x.shape[0]):
-        y[i] += alpha * x[i]
+    launch(axpy_body, x.shape[0], alpha, x, y)
 
 
-@numba.njit(parallel=True, **_JIT)
-def _xpby(x, beta, y):
+def _xpby(x, beta: float, y) -> None:
     """y = x + beta y"""
-    for i in numba.prange(x.shape[0]):
-        y[i] = x[i] + beta * y[i]
+    launch(xpby_body, x.shape[0], x, beta, y)
 
 
-@numba.njit(parallel=True, **_JIT)
-def _sub(a, b, out):
+def _sub(a, b, out) -> None:
     """out = a - b"""
-    for i in numba.prange(a.shape[0]):
-        out[i] = a[i] - b[i]
+    launch(sub_body, a.shape[0], a, b, out)
 
 
-@numba.njit(parallel=True, **_JIT)
-def _bicg_p(r, beta, omega, v, p):
+def _bicg_p(r, beta: float, omega: float, v, p) -> None:
     """p = r + beta (p - omega v)"""
-    for i in numba.prange(r.shape[0]):
-        p[i] = r[i] + beta * (p[i] - omega * v[i])
+    launch(bicg_p_body, r.shape[0], r, beta, omega, v, p)
 
 
-@numba.njit(parallel=True, **_JIT)
-def _scale(d, r, z):
+def _scale(d, r, z) -> None:
     """z = d * r (elementwise)"""
-    for i in numba.prange(r.shape[0]):
-        z[i] = d[i] * r[i]
+    launch(scale_body, r.shape[0], d, r, z)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -114,66 +147,63 @@ class JacobiPreconditioner:
         _scale(self.inv, r, z)
 
 
-@numba.njit(parallel=True, **_JIT)
-def _invert_blocks(B, out):
+@numba.njit(inline="always", **_JIT)
+def invert_blocks_body(i, B, out, dim):
     """out[:, :, i] = B[:, :, i]^-1 for dim x dim blocks (dim <= 3), closed form; a block whose
-    determinant is tiny relative to its scale falls back to the inverse of its diagonal."""
-    dim = B.shape[0]
-    for i in numba.prange(B.shape[2]):
+    determinant is tiny relative to its scale falls back to the inverse of its diagonal (a
+    kernel body)."""
+    for d in range(dim):
+        for e in range(dim):
+            out[d, e, i] = 0.0
+    if dim == 1:
+        det = B[0, 0, i]
+        scale = abs(B[0, 0, i])
+    elif dim == 2:
+        det = B[0, 0, i] * B[1, 1, i] - B[0, 1, i] * B[1, 0, i]
+        scale = abs(B[0, 0, i] * B[1, 1, i]) + abs(B[0, 1, i] * B[1, 0, i])
+    else:
+        c00 = B[1, 1, i] * B[2, 2, i] - B[1, 2, i] * B[2, 1, i]
+        c01 = B[1, 2, i] * B[2, 0, i] - B[1, 0, i] * B[2, 2, i]
+        c02 = B[1, 0, i] * B[2, 1, i] - B[1, 1, i] * B[2, 0, i]
+        det = B[0, 0, i] * c00 + B[0, 1, i] * c01 + B[0, 2, i] * c02
+        scale = abs(B[0, 0, i] * B[1, 1, i] * B[2, 2, i]) + abs(B[0, 0, i] * c00) + 1e-300
+    if abs(det) <= 1e-12 * scale or not math.isfinite(det):
         for d in range(dim):
-            for e in range(dim):
-                out[d, e, i] = 0.0
-        if dim == 1:
-            det = B[0, 0, i]
-            scale = abs(B[0, 0, i])
-        elif dim == 2:
-            det = B[0, 0, i] * B[1, 1, i] - B[0, 1, i] * B[1, 0, i]
-            scale = abs(B[0, 0, i] * B[1, 1, i]) + abs(B[0, 1, i] * B[1, 0, i])
-        else:
-            c00 = B[1, 1, i] * B[2, 2, i] - B[1, 2, i] * B[2, 1, i]
-            c01 = B[1, 2, i] * B[2, 0, i] - B[1, 0, i] * B[2, 2, i]
-            c02 = B[1, 0, i] * B[2, 1, i] - B[1, 1, i] * B[2, 0, i]
-            det = B[0, 0, i] * c00 + B[0, 1, i] * c01 + B[0, 2, i] * c02
-            scale = abs(B[0, 0, i] * B[1, 1, i] * B[2, 2, i]) + abs(B[0, 0, i] * c00) + 1e-300
-        if abs(det) <= 1e-12 * scale or not math.isfinite(det):
-            for d in range(dim):
-                out[d, d, i] = 1.0 / B[d, d, i] if B[d, d, i] != 0.0 else 1.0
-            continue
-        inv = 1.0 / det
-        if dim == 1:
-            out[0, 0, i] = inv
-        elif dim == 2:
-            out[0, 0, i] = B[1, 1, i] * inv
-            out[0, 1, i] = -B[0, 1, i] * inv
-            out[1, 0, i] = -B[1, 0, i] * inv
-            out[1, 1, i] = B[0, 0, i] * inv
-        else:
-            out[0, 0, i] = c00 * inv
-            out[1, 0, i] = c01 * inv
-            out[2, 0, i] = c02 * inv
-            out[0, 1, i] = (B[0, 2, i] * B[2, 1, i] - B[0, 1, i] * B[2, 2, i]) * inv
-            out[1, 1, i] = (B[0, 0, i] * B[2, 2, i] - B[0, 2, i] * B[2, 0, i]) * inv
-            out[2, 1, i] = (B[0, 1, i] * B[2, 0, i] - B[0, 0, i] * B[2, 1, i]) * inv
-            out[0, 2, i] = (B[0, 1, i] * B[1, 2, i] - B[0, 2, i] * B[1, 1, i]) * inv
-            out[1, 2, i] = (B[0, 2, i] * B[1, 0, i] - B[0, 0, i] * B[1, 2, i]) * inv
-            out[2, 2, i] = (B[0, 0, i] * B[1, 1, i] - B[0, 1, i] * B[1, 0, i]) * inv
+            out[d, d, i] = 1.0 / B[d, d, i] if B[d, d, i] != 0.0 else 1.0
+        return
+    inv = 1.0 / det
+    if dim == 1:
+        out[0, 0, i] = inv
+    elif dim == 2:
+        out[0, 0, i] = B[1, 1, i] * inv
+        out[0, 1, i] = -B[0, 1, i] * inv
+        out[1, 0, i] = -B[1, 0, i] * inv
+        out[1, 1, i] = B[0, 0, i] * inv
+    else:
+        out[0, 0, i] = c00 * inv
+        out[1, 0, i] = c01 * inv
+        out[2, 0, i] = c02 * inv
+        out[0, 1, i] = (B[0, 2, i] * B[2, 1, i] - B[0, 1, i] * B[2, 2, i]) * inv
+        out[1, 1, i] = (B[0, 0, i] * B[2, 2, i] - B[0, 2, i] * B[2, 0, i]) * inv
+        out[2, 1, i] = (B[0, 1, i] * B[2, 0, i] - B[0, 0, i] * B[2, 1, i]) * inv
+        out[0, 2, i] = (B[0, 1, i] * B[1, 2, i] - B[0, 2, i] * B[1, 1, i]) * inv
+        out[1, 2, i] = (B[0, 2, i] * B[1, 0, i] - B[0, 0, i] * B[1, 2, i]) * inv
+        out[2, 2, i] = (B[0, 0, i] * B[1, 1, i] - B[0, 1, i] * B[1, 0, i]) * inv
 
 
-@numba.njit(parallel=True, **_JIT)
-def _apply_blocks(Binv, r, z):
-    # r, z: (dim, N) views of the flattened vectors
-    dim = Binv.shape[0]
-    for i in numba.prange(r.shape[1]):
-        r0 = r[0, i]
-        r1 = r[1, i] if dim > 1 else 0.0
-        r2 = r[2, i] if dim > 2 else 0.0
-        for d in range(dim):
-            s = Binv[d, 0, i] * r0
-            if dim > 1:
-                s += Binv[d, 1, i] * r1
-            if dim > 2:
-                s += Binv[d, 2, i] * r2
-            z[d, i] = s
+@numba.njit(inline="always", **_JIT)
+def apply_blocks_body(i, Binv, r, z, dim):
+    """``z[:, i] = Binv[:, :, i] r[:, i]`` for (dim, N) views r, z of the flat vectors."""
+    r0 = r[0, i]
+    r1 = r[1, i] if dim > 1 else 0.0
+    r2 = r[2, i] if dim > 2 else 0.0
+    for d in range(dim):
+        s = Binv[d, 0, i] * r0
+        if dim > 1:
+            s += Binv[d, 1, i] * r1
+        if dim > 2:
+            s += Binv[d, 2, i] * r2
+        z[d, i] = s
 
 
 class BlockJacobiPreconditioner:
@@ -188,11 +218,14 @@ class BlockJacobiPreconditioner:
             raise ValueError(f"blocks: shape {blocks.shape}; expected (dim, dim, N), dim <= 3")
         self.dim = blocks.shape[0]
         self.n = blocks.shape[2]
-        self.inv = np.empty_like(blocks, dtype=np.float64)
-        _invert_blocks(np.ascontiguousarray(blocks, dtype=np.float64), self.inv)
+        if not arrays.on_device(blocks):  # on a device: float64 and contiguous already
+            blocks = np.ascontiguousarray(blocks, dtype=np.float64)
+        self.inv = arrays.empty(blocks.shape, np.float64, like=blocks)
+        launch(invert_blocks_body, self.n, blocks, self.inv, self.dim)
 
     def __call__(self, r: np.ndarray, z: np.ndarray) -> None:
-        _apply_blocks(self.inv, r.reshape(self.dim, self.n), z.reshape(self.dim, self.n))
+        launch(apply_blocks_body, self.n, self.inv, r.reshape(self.dim, self.n),
+               z.reshape(self.dim, self.n), self.dim)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -200,13 +233,16 @@ class BlockJacobiPreconditioner:
 
 
 def _start(matvec: MatVec, b: np.ndarray, x0: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    b = np.ascontiguousarray(b, dtype=np.float64).ravel()
-    x = np.zeros_like(b) if x0 is None else np.array(x0, dtype=np.float64).ravel()
+    if not arrays.on_device(b):  # on a device: float64 and contiguous already (as the method
+        b = np.ascontiguousarray(b, dtype=np.float64).ravel()  # allocates it)
+    b = b.ravel()
+    x = (arrays.zeros(b.shape, np.float64, like=b) if x0 is None
+         else arrays.copied(x0, np.float64).ravel())
     if x.shape != b.shape:
         raise ValueError(f"x0: {x.shape[0]} unknowns, b has {b.shape[0]}")
-    r = np.empty_like(b)
+    r = arrays.empty_like(b)
     if x0 is None:
-        r[:] = b
+        arrays.copy_into(r, b)
     else:
         matvec(x, r)
         _sub(b, r, r)
@@ -235,18 +271,18 @@ def cg(matvec: MatVec, b: np.ndarray, x0: np.ndarray | None = None, *,
     x, r = _start(matvec, b, x0)
     bb = _dot(b.ravel(), b.ravel()) if b.size else 0.0
     if bb == 0.0:  # the solution of A x = 0 is 0
-        return np.zeros_like(x), KrylovStats(0, 0.0, True)
+        return arrays.zeros(x.shape, x.dtype, like=x), KrylovStats(0, 0.0, True)
     thresh = tol * tol * bb
     rr = _dot(r, r)
     if rr <= thresh:
         return x, KrylovStats(0, math.sqrt(rr / bb), True)
-    z = np.empty_like(r)
+    z = arrays.empty_like(r)
     if precond is None:
-        z[:] = r
+        arrays.copy_into(z, r)
     else:
         precond(r, z)
-    p = z.copy()
-    q = np.empty_like(r)
+    p = arrays.copied(z)
+    q = arrays.empty_like(r)
     rz = _dot(r, z)
     it = 0
     while it < max_iter:
@@ -262,7 +298,7 @@ def cg(matvec: MatVec, b: np.ndarray, x0: np.ndarray | None = None, *,
         if rr <= thresh:
             break
         if precond is None:
-            z[:] = r
+            arrays.copy_into(z, r)
         else:
             precond(r, z)
         rz_new = _dot(r, z)

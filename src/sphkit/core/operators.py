@@ -35,6 +35,7 @@ import numba
 import numpy as np
 
 from sphkit.backend import launch
+from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.pairs import (
@@ -381,7 +382,7 @@ def color_field_cpu(x, m, rho, off, idx, bx, bV, boff, bidx, h, kid, dim, c, L=0
 def color_gradient_sum(i, x, m, rho, c, off, idx, h, kid, dim, L):
     """``sum_j (m_j/rho_j) c_j grad W_ij`` of particle i over its fluid neighbours, as three
     scalars; an empty ``c`` means ``c_j = 1``, the gradient of the colour field (the
-    unnormalized surface normal of :func:`surface_normals_cpu`). He et al. 2014 weight it with
+    unnormalized surface normal of :func:`surface_normals`). He et al. 2014 weight it with
     the colour itself (:mod:`sphkit.surface_tension.he2014`). ``L`` > 0: periodic along x with
     period L [m]."""
     weighted = c.shape[0] > 0
@@ -400,19 +401,26 @@ def color_gradient_sum(i, x, m, rho, c, off, idx, h, kid, dim, L):
     return n0, n1, n2
 
 
-@numba.njit(parallel=True, **_JIT)
-def surface_normals_cpu(x, m, rho, off, idx, scale, h, kid, dim, n, L=0.0):
-    """Unnormalized surface normals ``n_i = scale * sum_j (m_j/rho_j) grad W_ij`` (fluid only).
+@numba.njit(inline="always", **_JIT)
+def surface_normals_body(i, x, m, rho, c, off, idx, scale, h, kid, dim, n, L):
+    """``n[:, i] = scale * sum_j (m_j/rho_j) c_j grad W_ij`` (a kernel body,
+    :func:`sphkit.backend.launch`; ``c`` empty: the colour gradient, :func:`surface_normals`)."""
+    n0, n1, n2 = color_gradient_sum(i, x, m, rho, c, off, idx, h, kid, dim, L)
+    set_vector(n, i, dim, scale * n0, scale * n1, scale * n2)
+
+
+def surface_normals(x, m, rho, off, idx, scale: float, h: float, kid: int, dim: int, n,
+                    L: float = 0.0) -> None:
+    """Unnormalized surface normals ``n_i = scale * sum_j (m_j/rho_j) grad W_ij`` (fluid only),
+    on the device the arrays are on.
 
     This is the gradient of the colour field: it vanishes in a full neighbourhood and at a free
     surface it points *into* the fluid with length about ``scale / h`` times a kernel-dependent
     constant. Akinci et al. 2013 use ``scale = h`` so that ``n`` is dimensionless. ``L`` > 0:
     periodic along x with period L [m].
     """
-    ones = np.empty(0, dtype=rho.dtype)
-    for i in numba.prange(x.shape[1]):
-        n0, n1, n2 = color_gradient_sum(i, x, m, rho, ones, off, idx, h, kid, dim, L)
-        set_vector(n, i, dim, scale * n0, scale * n1, scale * n2)
+    ones = arrays.empty(0, rho.dtype, like=rho)  # no weights: c_j = 1
+    launch(surface_normals_body, x.shape[1], x, m, rho, ones, off, idx, scale, h, kid, dim, n, L)
 
 
 def kirkwood_buff(force, n: float, h: float, breaks: list[float], dim: int

@@ -43,6 +43,7 @@ import math
 import numba
 import numpy as np
 
+from sphkit.backend import launch
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.krylov import JacobiPreconditioner, KrylovStats, cg
 from sphkit.core.pairs import delta, distance, dot, point, separation
@@ -166,16 +167,21 @@ def wall_friction(x, v, rho, bx, bv, bV, boff, bidx, c, rho0, h, kid, dim, L, in
             a[2, i] -= f2
 
 
-@numba.njit(parallel=True, **_JIT)
-def add_velocity_change(v, vnew, inv_dt, a, dv, keep):
-    """``a += (v_new - v) / dt``; with ``keep`` also ``dv = v_new - v`` (next warm start)."""
-    dim = v.shape[0]
-    for i in numba.prange(v.shape[1]):
-        for d in range(dim):
-            t = vnew[d, i] - v[d, i]
-            a[d, i] += t * inv_dt
-            if keep:
-                dv[d, i] = t
+@numba.njit(inline="always", **_JIT)
+def velocity_change_body(i, v, vnew, inv_dt, a, dv, keep, dim):
+    """``a[:, i] += (v_new - v)[:, i] / dt``; with ``keep`` also ``dv[:, i] = (v_new - v)[:, i]``
+    (a kernel body, :func:`add_velocity_change`)."""
+    for d in range(dim):
+        t = vnew[d, i] - v[d, i]
+        a[d, i] += t * inv_dt
+        if keep:
+            dv[d, i] = t
+
+
+def add_velocity_change(v, vnew, inv_dt: float, a, dv, keep: bool) -> None:
+    """``a += (v_new - v) / dt``; with ``keep`` also ``dv = v_new - v`` (next warm start); on the
+    device the arrays are on."""
+    launch(velocity_change_body, v.shape[1], v, vnew, inv_dt, a, dv, keep, v.shape[0])
 
 
 # ---------------------------------------------------------------------------------------------

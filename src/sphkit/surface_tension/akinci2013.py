@@ -8,7 +8,7 @@ SurfaceTension_Akinci2013.cpp``, kernels in ``SPHKernels.h``). With ``x_ij = x_i
 
 * surface normals (Eq. 5): ``n_i = h sum_j (m_j / rho_j) grad W_ij`` (dimensionless; zero in a
   full neighbourhood, pointing into the fluid at a surface; :func:`core.operators.
-  surface_normals_cpu`);
+  surface_normals`);
 * cohesion kernel (Eq. 2): ``C(r) = 32/(pi h^9) (h - r)^3 r^3`` for ``h/2 < r <= h``,
   ``32/(pi h^9) (2 (h - r)^3 r^3 - h^6/64)`` for ``0 < r <= h/2`` (attraction beyond h/2,
   repulsion below);
@@ -49,8 +49,9 @@ from typing import Any
 
 import numba
 
+from sphkit.backend import launch
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.operators import kirkwood_buff, surface_normals_cpu
+from sphkit.core.operators import kirkwood_buff, surface_normals
 from sphkit.core.pairs import delta, dot, point
 from sphkit.core.state import SimState
 
@@ -82,9 +83,9 @@ def adhesion_kernel(r: float, h: float) -> float:
 
 
 @numba.njit(inline="always", cache=True, fastmath=True)
-def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a,
-                L=0.0):
-    """Add the cohesion, curvature and adhesion acceleration of fluid particle i to ``a[:, i]``."""
+def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a, L):
+    """Add the cohesion, curvature and adhesion acceleration of fluid particle i to ``a[:, i]``
+    (a kernel body, :func:`sphkit.backend.launch`)."""
     xi0, xi1, xi2 = point(x, i, dim)
     ni0, ni1, ni2 = point(nrm, i, dim)
     rhoi = rho[i]
@@ -122,14 +123,6 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
     a[1, i] += a1
     if dim == 3:
         a[2, i] += a2
-
-
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _akinci_cpu(x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim, a,
-                L=0.0):
-    for i in numba.prange(x.shape[1]):
-        akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rho0, h, dim,
-                    a, L)
 
 
 def _coefficient(what: str, value: float) -> float:
@@ -176,12 +169,11 @@ class Akinci2013(NonPressureForce):
         if "normal" not in f or "V" not in b:
             self.init(state)
         nl = state.nl_ff
-        surface_normals_cpu(f["x"], f["m"], f["rho"], nl.offsets, nl.indices, state.h, state.h,
-                            state.kid, state.dim, f["normal"], state.period)
-        _akinci_cpu(f["x"], f["m"], f["rho"], f["normal"], nl.offsets, nl.indices, b["x"], b["V"],
-                    state.nl_fb.offsets, state.nl_fb.indices, self.coefficient,
-                    self.boundary_coefficient, state.rho0, state.h, state.dim, f["a"],
-                    state.period)
+        surface_normals(f["x"], f["m"], f["rho"], nl.offsets, nl.indices, state.h, state.h,
+                        state.kid, state.dim, f["normal"], state.period)
+        launch(akinci_body, f.n, f["x"], f["m"], f["rho"], f["normal"], nl.offsets, nl.indices,
+               b["x"], b["V"], state.nl_fb.offsets, state.nl_fb.indices, self.coefficient,
+               self.boundary_coefficient, state.rho0, state.h, state.dim, f["a"], state.period)
 
     def cohesion_sigma(self, rho0: float, mass: float, h: float, dim: int) -> tuple[float, float]:
         """(sigma, p_int) of the cohesion term alone for a uniform continuum of particles of

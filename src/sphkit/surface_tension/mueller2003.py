@@ -114,7 +114,7 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.operators import interpolate, surface_normals_cpu
+from sphkit.core.operators import interpolate, surface_normals
 from sphkit.core.pairs import distance, point, separation
 from sphkit.core.state import SimState
 
@@ -443,7 +443,7 @@ class Mueller2003(NonPressureForce):
         dim = state.dim
         thr = THRESHOLD / h
         x, m, rho, nrm = f["x"], f["m"], f["rho"], f["normal"]
-        surface_normals_cpu(x, m, rho, nl.offsets, nl.indices, 1.0, h, state.kid, dim, nrm,
+        surface_normals(x, m, rho, nl.offsets, nl.indices, 1.0, h, state.kid, dim, nrm,
                             state.period)
         nd = self.smoothed_directions(state)
         curvature_cpu(x, m, rho, nd, nl.offsets, nl.indices, SURFACE / h, NEIGHBOUR / h, h,

@@ -51,6 +51,8 @@ from typing import Any
 import numba
 import numpy as np
 
+from sphkit.backend import launch
+from sphkit.core import arrays
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import delta, delta2, dot, point
@@ -71,77 +73,77 @@ from sphkit.core.viscous import (
 _JIT = dict(cache=True, fastmath=True)
 
 
-@numba.njit(parallel=True, **_JIT)
-def _matvec(x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, beta_max, epsf, rho0, h,
-            kid, dim, L, dt, out):
-    """out = (I - dt/rho_i L) u for flat (dim, N) vectors u, out (as 2D views)."""
+@numba.njit(inline="always", **_JIT)
+def matvec_body(i, x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, beta_max, epsf,
+                rho0, h, kid, dim, L, dt, out):
+    """``out[:, i] = ((I - dt/rho L) u)_i`` for (dim, N) views u, out of the flat CG vectors (a
+    kernel body, :func:`sphkit.backend.launch`)."""
     eps = epsf * h * h
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = point(x, i, dim)
-        ui0, ui1, ui2 = point(u, i, dim)
-        a0 = a1 = a2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, ui0, ui1, ui2, u, j, dim, L)
-            r2 = dot(d0, d1, d2, d0, d1, d2)
-            s = cf * m[j] / rho[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim)
+    xi0, xi1, xi2 = point(x, i, dim)
+    ui0, ui1, ui2 = point(u, i, dim)
+    a0 = a1 = a2 = 0.0
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, ui0, ui1, ui2, u, j, dim, L)
+        r2 = dot(d0, d1, d2, d0, d1, d2)
+        s = cf * m[j] / rho[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim)
+        a0 += s * d0
+        a1 += s * d1
+        a2 += s * d2
+    if cb > 0.0:
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
+            s = (beta * cb * rho0 * bV[b] / rho[i]
+                 * laplacian_pair(kid, ui0, ui1, ui2, d0, d1, d2, r2, eps, h, dim))
             a0 += s * d0
             a1 += s * d1
             a2 += s * d2
-        if cb > 0.0:
-            for k in range(boff[i], boff[i + 1]):
-                b = bidx[k]
-                d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
-                s = (beta * cb * rho0 * bV[b] / rho[i]
-                     * laplacian_pair(kid, ui0, ui1, ui2, d0, d1, d2, r2, eps, h, dim))
-                a0 += s * d0
-                a1 += s * d1
-                a2 += s * d2
-        f = dt / rho[i]
-        out[0, i] = ui0 - f * a0
-        if dim > 1:
-            out[1, i] = ui1 - f * a1
-        if dim > 2:
-            out[2, i] = ui2 - f * a2
+    f = dt / rho[i]
+    out[0, i] = ui0 - f * a0
+    if dim > 1:
+        out[1, i] = ui1 - f * a1
+    if dim > 2:
+        out[2, i] = ui2 - f * a2
 
 
-@numba.njit(parallel=True, **_JIT)
-def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, beta_max, epsf,
-                rho0, h, kid, dim, L, dt, rhs, blocks):
-    """rhs_i = v_i - dt/rho_i B_i v_b and the diagonal blocks of the system matrix."""
+@numba.njit(inline="always", **_JIT)
+def rhs_blocks_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, beta_max,
+                    epsf, rho0, h, kid, dim, L, dt, rhs, blocks):
+    """``rhs_i = v_i - dt/rho_i B_i v_b`` and the diagonal block of the system matrix of
+    particle i (a kernel body)."""
     eps = epsf * h * h
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = point(x, i, dim)
-        g00 = g01 = g02 = 0.0
-        g11 = g12 = g22 = 0.0
-        b0 = b1 = b2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
-            r2 = dot(d0, d1, d2, d0, d1, d2)
-            s = laplacian_diagonal_pair(cf * m[j] / rho[j], r2, eps, kid, h, dim)
-            g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11, g12,
-                                                     g22)
-        if cb > 0.0:
-            for k in range(boff[i], boff[i + 1]):
-                b = bidx[k]
-                d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
-                s = laplacian_diagonal_pair(beta * cb * rho0 * bV[b] / rho[i], r2, eps, kid, h,
-                                            dim)
-                g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11,
-                                                         g12, g22)
-                vb0, vb1, vb2 = point(bv, b, dim)
-                t = s * dot(vb0, vb1, vb2, d0, d1, d2)
-                b0 += t * d0
-                b1 += t * d1
-                b2 += t * d2
-        f = dt / rho[i]
-        rhs[0, i] = v[0, i] - f * b0
-        if dim > 1:
-            rhs[1, i] = v[1, i] - f * b1
-        if dim > 2:
-            rhs[2, i] = v[2, i] - f * b2
-        write_blocks(blocks, i, 1.0, f, g00, g01, g02, g11, g12, g22, dim)
+    xi0, xi1, xi2 = point(x, i, dim)
+    g00 = g01 = g02 = 0.0
+    g11 = g12 = g22 = 0.0
+    b0 = b1 = b2 = 0.0
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
+        r2 = dot(d0, d1, d2, d0, d1, d2)
+        s = laplacian_diagonal_pair(cf * m[j] / rho[j], r2, eps, kid, h, dim)
+        g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11, g12,
+                                                 g22)
+    if cb > 0.0:
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
+            s = laplacian_diagonal_pair(beta * cb * rho0 * bV[b] / rho[i], r2, eps, kid, h,
+                                        dim)
+            g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11,
+                                                     g12, g22)
+            vb0, vb1, vb2 = point(bv, b, dim)
+            t = s * dot(vb0, vb1, vb2, d0, d1, d2)
+            b0 += t * d0
+            b1 += t * d1
+            b2 += t * d2
+    f = dt / rho[i]
+    rhs[0, i] = v[0, i] - f * b0
+    if dim > 1:
+        rhs[1, i] = v[1, i] - f * b1
+    if dim > 2:
+        rhs[2, i] = v[2, i] - f * b2
+    write_blocks(blocks, i, 1.0, f, g00, g01, g02, g11, g12, g22, dim)
 
 
 class Weiler2018(NonPressureForce):
@@ -197,21 +199,23 @@ class Weiler2018(NonPressureForce):
         nl, nb = state.nl_ff, state.nl_fb
         register_wall_fields(b)
         bn, bd, bm = b["wall_normal"], b["wall_distance"], self.beta_max
-        rhs = np.empty((dim, n))
-        blocks = np.empty((dim, dim, n))
-        _rhs_blocks(x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"], bn, bd,
-                    nb.offsets, nb.indices, cf, cb, bm, self.eps, state.rho0, state.h,
-                    state.kid, dim, state.pair_period, dt, rhs, blocks)
+        rhs = arrays.empty((dim, n), np.float64, like=v)
+        blocks = arrays.empty((dim, dim, n), np.float64, like=v)
+        launch(rhs_blocks_body, n, x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"],
+               bn, bd, nb.offsets, nb.indices, cf, cb, bm, self.eps, state.rho0, state.h,
+               state.kid, dim, state.pair_period, dt, rhs, blocks)
 
         def matvec(u: np.ndarray, out: np.ndarray) -> None:
-            _matvec(x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], bn, bd, nb.offsets,
-                    nb.indices, u.reshape(dim, n), cf, cb, bm, self.eps, state.rho0, state.h,
-                    state.kid, dim, state.pair_period, dt, out.reshape(dim, n))
+            launch(matvec_body, n, x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], bn, bd,
+                   nb.offsets, nb.indices, u.reshape(dim, n), cf, cb, bm, self.eps, state.rho0,
+                   state.h, state.kid, dim, state.pair_period, dt, out.reshape(dim, n))
 
         dv = f["weiler_dv"]
-        x0 = (v + dv).ravel()
+        x0 = arrays.axpy_into(v, 1.0, dv).ravel()  # v + dv: the warm start
         sol, self.stats = cg(matvec, rhs.ravel(), x0, precond=BlockJacobiPreconditioner(blocks),
                              tol=self.max_error, max_iter=self.max_iterations,
                              name="Weiler 2018 viscosity", step=state.step)
-        vnew = sol.reshape(dim, n).astype(v.dtype, copy=False)
+        vnew = sol.reshape(dim, n)
+        if vnew.dtype != v.dtype:
+            vnew = arrays.copied(vnew, v.dtype)
         add_velocity_change(v, vnew, 1.0 / dt, f["a"], dv, True)

@@ -74,6 +74,8 @@ from typing import Any
 import numba
 import numpy as np
 
+from sphkit.backend import launch
+from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import point, separation
@@ -83,7 +85,8 @@ from sphkit.core.state import SimState
 @numba.njit(inline="always", cache=True, fastmath=True)
 def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu_t, zeta,
                     inv_theta, inv_dt, rho0, h, kid, dim, a, alpha):
-    """Particle i: add ``nu_t curl(omega)`` to ``a[:, i]`` and write ``alpha[:, i]``."""
+    """Particle i: add ``nu_t curl(omega)`` to ``a[:, i]`` and write ``alpha[:, i]`` (a kernel
+    body, :func:`sphkit.backend.launch`; ``omega`` is advanced after every particle's pass)."""
     xi0, xi1, xi2 = point(x, i, dim)
     vi0, vi1, vi2 = point(v, i, dim)
     wi0 = omega[0, i] if dim == 3 else 0.0
@@ -158,19 +161,6 @@ def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu
     alpha[2, i] = c_ang * cv2 - c_xs * xs2 - c_rel * wi2
 
 
-@numba.njit(parallel=True, cache=True, fastmath=True)
-def _micropolar_cpu(x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu_t, zeta, inv_theta,
-                    dt, rho0, h, kid, dim, a, alpha):
-    inv_dt = 1.0 / dt
-    for i in numba.prange(x.shape[1]):
-        micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu_t, zeta,
-                        inv_theta, inv_dt, rho0, h, kid, dim, a, alpha)
-    for i in numba.prange(x.shape[1]):
-        omega[0, i] += dt * alpha[0, i]
-        omega[1, i] += dt * alpha[1, i]
-        omega[2, i] += dt * alpha[2, i]
-
-
 def _nonneg(name: str, value: float) -> float:
     value = float(value)
     if not (math.isfinite(value) and value >= 0.0):
@@ -223,11 +213,14 @@ class MicropolarBender2017(NonPressureForce):
             self.init(state)
         if not dt > 0.0:
             raise ValueError(f"micropolar model: time step {dt!r}; expected dt > 0")
-        _micropolar_cpu(f["x"], f["v"], f["m"], f["rho"], f["omega"], state.nl_ff.offsets,
-                        state.nl_ff.indices, b["x"], b["v"], b["V"], state.nl_fb.offsets,
-                        state.nl_fb.indices, self.vorticity, self.viscosity_omega,
-                        self.inertia_inverse, float(dt), state.rho0, state.h, state.kid,
-                        state.dim, f["a"], f["angular_acceleration"])
+        dt = float(dt)
+        alpha = f["angular_acceleration"]
+        launch(micropolar_body, f.n, f["x"], f["v"], f["m"], f["rho"], f["omega"],
+               state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["v"], b["V"],
+               state.nl_fb.offsets, state.nl_fb.indices, self.vorticity, self.viscosity_omega,
+               self.inertia_inverse, 1.0 / dt, state.rho0, state.h, state.kid, state.dim, f["a"],
+               alpha)
+        arrays.axpy(f["omega"], dt, alpha)  # omega += dt alpha (explicit Euler)
 
     def angular_momentum(self, state: SimState) -> np.ndarray:
         """Total angular momentum about the origin, ``sum_i m_i (x_i x v_i + Theta omega_i)``
