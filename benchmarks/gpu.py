@@ -28,9 +28,13 @@ run on the CPU (``--cpu-size`` particles, NUMBA_NUM_THREADS threads) for the rat
 
 ``--steps K`` also times K whole DFSPH steps (after a warm-up step) of a 3D dam break at each
 size through ``Simulation(..., device="cuda")``, with every field resident on the device
-(:func:`dam_scene`: DFSPH, Akinci walls with mirrored boundary pressure, standard viscosity),
-and on the CPU at ``--cpu-size``: steps/s, particle-steps/s, iterations per step and GPU memory
-per particle.
+(:func:`dam_scene`: DFSPH, Akinci walls with mirrored boundary pressure, standard viscosity; in
+each device's default precision, float32 on the GPU, unless ``--precision``), and on the CPU at
+``--cpu-size`` with ``--cpu-threads`` threads (2: the issue's two cores): steps/s,
+particle-steps/s, iterations per step, the modelled bytes a step moves per second and their
+fraction of the copy bandwidth, GPU memory per particle, and issue 18's targets (2e8 fluid
+particle-steps/s at 16M particles, 50x the two-core CPU at 1M) met or missed. The issue's run on
+a GPU machine: ``python benchmarks/gpu.py --steps 10 --json gpu.json``.
 
 Without a GPU (numba-cuda finds none) only the CPU rows run. Under ``NUMBA_ENABLE_CUDASIM=1`` the
 script runs the simulator for a check of the script itself (``--sizes 300 --cpu-size 300``).
@@ -162,17 +166,27 @@ class Passes:
                              self.w, self.k, 0.0, 0.0, device=self.device)
 
     def bytes_moved(self, name: str) -> float:
-        """A model of the bytes a pass reads and writes: its per-particle fields once, and per
-        pair the neighbour index (4 B) and the fields it gathers (8 B each)."""
-        n, p, pb = self.n, self.pairs, self.bpairs
-        per = {  # (bytes per particle, bytes per fluid pair, bytes per boundary pair)
-            "search": (3 * 8 * 3 + 8 * 6 + 64 * 4 + 8 * 2, 4 + 24, 4 + 24),
-            "density+grads": (3 * 8 + 8 * 4 + 16, 4 + 32 + 24, 4 + 32 + 24),
-            "diagonal": (8 * 3 + 16, 4 + 24 + 8, 4 + 24 + 8),
-            "viscosity": (3 * 8 * 3 + 8 * 2 + 16, 4 + 24 + 24 + 16, 4 + 24 + 24 + 8 + 32),
-            "jacobi": (3 * 8 * 2 + 8 * 10 + 16, 2 * (4 + 24 + 8 + 24), 2 * (4 + 24 + 8)),
-        }[name]
-        return n * per[0] + p * per[1] + pb * per[2]
+        """:func:`pass_bytes` of this block (float64 fields)."""
+        return pass_bytes(name, self.n, self.pairs, self.bpairs, 8)
+
+
+#: the bytes model of each pass: (float words, int bytes) per particle, per fluid pair and per
+#: boundary pair -- its per-particle fields once, and per pair the neighbour index (4 B) and the
+#: fields it gathers or writes
+_MODEL = {
+    "search": ((9, 48 + 256 + 16), (3, 4), (3, 4)),
+    "density+grads": ((7, 16), (7, 4), (7, 4)),
+    "diagonal": ((3, 16), (4, 4), (4, 4)),
+    "viscosity": ((11, 16), (8, 4), (11, 4)),
+    "jacobi": ((16, 16), (14, 8), (8, 8)),
+}
+
+
+def pass_bytes(name: str, n: int, pairs: int, bpairs: int, word: int) -> float:
+    """A model of the bytes pass ``name`` reads and writes for ``n`` particles with ``pairs``
+    fluid and ``bpairs`` boundary neighbours, with ``word``-byte floats (8: float64)."""
+    (fp, ip), (fq, iq), (fb, ib) = _MODEL[name]
+    return n * (fp * word + ip) + pairs * (fq * word + iq) + bpairs * (fb * word + ib)
 
 
 def timed(fn, sync, repeat: int) -> float:  # noqa: ANN001 - a pass and the device's wait
@@ -235,33 +249,39 @@ def run_size(n_target: int, device: str, repeat: int, iterations: int) -> dict:
     return row
 
 
-def dam_scene(n_target: int) -> dict:
+def dam_scene(n_target: int, precision: str | None = None) -> dict:
     """A 3D dam break of about ``n_target`` fluid particles (a column a x 2a x a in the corner
     of a box 4a x 3a x a, spacing 2r) with the methods that run on the device: DFSPH, Akinci
-    walls with mirrored boundary pressure, the standard viscosity (float64 set explicitly, the
-    GPU's default being float32, so that both devices run the same arithmetic; no relaxation of
-    the start, which would cost minutes on the CPU at 16M particles)."""
+    walls with mirrored boundary pressure, the standard viscosity; ``precision`` None: each
+    device's default (float32 on the GPU, float64 on the CPU). No relaxation of the start,
+    which would cost minutes on the CPU at 16M particles."""
     k = max(2, round((n_target / 2) ** (1 / 3)))
     a = k * 2 * R
+    cfg = {"dim": 3, "particle_radius": R, "pressure": {"method": "dfsph"},
+           "boundary": {"method": "akinci2012", "pressure": "mirror"},
+           "start": {"relax": False}}
+    if precision is not None:
+        cfg["precision"] = precision
     return {"name": "dambreak-gpu",
-            "configuration": {"dim": 3, "particle_radius": R, "precision": "float64",
-                              "pressure": {"method": "dfsph"},
-                              "boundary": {"method": "akinci2012", "pressure": "mirror"},
-                              "start": {"relax": False}},
+            "configuration": cfg,
             "materials": [{"viscosity": {"method": "standard", "coefficient": 1e-6}}],
             "fluid_blocks": [{"start": [0, 0, 0], "end": [a, 2 * a, a]}],
             "boxes": [{"min": [0, 0, 0], "max": [4 * a, 3 * a, a]}]}
 
 
-def run_steps(n_target: int, device: str, steps: int) -> dict:
+def run_steps(n_target: int, device: str, steps: int, precision: str | None = None,
+              bandwidth: float | None = None) -> dict:
     """Whole DFSPH time steps of :func:`dam_scene` through ``Simulation(device=...)`` (the
-    fields resident on the device): one warm-up step (compiles), then ``steps`` timed."""
+    fields resident on the device): one warm-up step (compiles), then ``steps`` timed. The
+    bytes a step moves are modelled as its passes' (:func:`pass_bytes`: the search, the density
+    with the pair gradients, the diagonal, the viscosity and one Jacobi iteration per iteration
+    of the two solves; the glue between them left out, so the model is a lower bound)."""
     from sphkit.scene.schema import Scene
     from sphkit.simulation import Simulation
 
     free0 = free_memory() if device == "cuda" else None
     t0 = time.perf_counter()
-    sim = Simulation(Scene.model_validate(dam_scene(n_target)), device=device)
+    sim = Simulation(Scene.model_validate(dam_scene(n_target, precision)), device=device)
     build = time.perf_counter() - t0
     sim.step()
     free1 = free_memory() if device == "cuda" else None
@@ -272,10 +292,18 @@ def run_steps(n_target: int, device: str, steps: int) -> dict:
         its.append(st.iterations)
         its_v.append(st.divergence_iterations)
     t = (time.perf_counter() - t0) / steps  # each step reads its iterations' errors back: synced
-    n = sim.state.fluid.n
-    return {"device": device, "particles": n, "boundary": sim.state.boundary.n,
+    st = sim.state
+    n = st.fluid.n
+    pairs, bpairs = int(st.nl_ff.indices.shape[0]), int(st.nl_fb.indices.shape[0])
+    word = np.dtype(st.fluid["x"].dtype).itemsize
+    model = sum(pass_bytes(name, n, pairs, bpairs, word) for name in PASSES[:-1]) + (
+        np.mean(its) + np.mean(its_v)) * pass_bytes("jacobi", n, pairs, bpairs, word)
+    return {"device": device, "particles": n, "boundary": st.boundary.n,
+            "precision": str(np.dtype(st.fluid["x"].dtype)),
             "build_s": build, "step_s": t, "steps_per_s": 1.0 / t, "particle_steps_per_s": n / t,
             "iterations": float(np.mean(its)), "divergence_iterations": float(np.mean(its_v)),
+            "model_bytes_per_step": float(model), "model_bandwidth": float(model / t),
+            "bandwidth_fraction": None if bandwidth is None else float(model / t / bandwidth),
             "memory_per_particle": None if free0 is None or free1 is None
             else (free0 - free1) / n}
 
@@ -283,10 +311,14 @@ def run_steps(n_target: int, device: str, steps: int) -> dict:
 def show_steps(row: dict) -> None:
     """Print one whole-step row."""
     mem = row["memory_per_particle"]
-    print(f"{row['device']}: {row['particles']:,} fluid + {row['boundary']:,} boundary "
-          f"particles (built in {row['build_s']:.0f} s): {row['step_s'] * 1e3:.1f} ms a step, "
-          f"{row['steps_per_s']:.2f} steps/s, {row['particle_steps_per_s']:.3e} particle-steps/s, "
-          f"{row['iterations']:.1f} + {row['divergence_iterations']:.1f} iterations a step"
+    frac = row["bandwidth_fraction"]
+    print(f"{row['device']} ({row['precision']}): {row['particles']:,} fluid + "
+          f"{row['boundary']:,} boundary particles (built in {row['build_s']:.0f} s): "
+          f"{row['step_s'] * 1e3:.1f} ms a step, {row['steps_per_s']:.2f} steps/s, "
+          f"{row['particle_steps_per_s']:.3e} particle-steps/s, {row['iterations']:.1f} + "
+          f"{row['divergence_iterations']:.1f} iterations a step, "
+          f"{row['model_bandwidth'] / 1e9:.1f} GB/s (model)"
+          + (f" = {frac:.0%} of the copy bandwidth" if frac is not None else "")
           + (f", {mem:,.0f} B of GPU memory per particle" if mem is not None else ""))
 
 
@@ -323,8 +355,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=0,
                     help="also time this many whole DFSPH steps of a dam break at each size "
                     "(Simulation(device=...)), after the passes")
+    ap.add_argument("--precision", choices=("float32", "float64"), default=None,
+                    help="of the whole steps (default: each device's, float32 on the GPU)")
+    ap.add_argument("--cpu-threads", type=int, default=2,
+                    help="threads of the CPU rows (the issue's ratio is against two cores)")
     args = ap.parse_args(argv)
     rows = []
+    bw = None
     gpu = cuda_available()
     if gpu:
         from numba import cuda
@@ -343,6 +380,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.cpu_size > 0:
         import numba
 
+        numba.set_num_threads(max(1, min(args.cpu_threads, numba.config.NUMBA_NUM_THREADS)))
         print(f"\nCPU: {numba.get_num_threads()} thread(s)")
         row = run_size(int(args.cpu_size), "cpu", max(1, min(args.repeat, 3)), args.iterations)
         show(row, None)
@@ -357,16 +395,26 @@ def main(argv: list[str] | None = None) -> int:
     if args.steps > 0:
         print(f"\nwhole DFSPH steps of a 3D dam break ({args.steps} timed after one warm-up):")
         for n in (args.sizes if gpu else []):
-            rows.append(run_steps(int(n), "cuda", args.steps))
+            rows.append(run_steps(int(n), "cuda", args.steps, args.precision, bw))
             show_steps(rows[-1])
+        ratio = None
         if args.cpu_size > 0:
-            rows.append(run_steps(int(args.cpu_size), "cpu", args.steps))
+            rows.append(run_steps(int(args.cpu_size), "cpu", args.steps, args.precision))
             show_steps(rows[-1])
             same = [r for r in rows if r["device"] == "cuda" and "step_s" in r
                     and abs(r["particles"] - rows[-1]["particles"]) <= 0.01 * r["particles"]]
             if same:
-                print(f"GPU / CPU whole step at the same size: "
-                      f"{rows[-1]['step_s'] / same[0]['step_s']:.1f}x")
+                ratio = rows[-1]["step_s"] / same[0]["step_s"]
+                print(f"GPU / CPU whole step at the same size: {ratio:.1f}x")
+        steps = [r for r in rows if r["device"] == "cuda" and "step_s" in r]
+        if steps:  # issue 18's targets
+            big = max(steps, key=lambda r: r["particles"])
+            print(f"targets: {big['particle_steps_per_s']:.2e} particle-steps/s at "
+                  f"{big['particles']:,} particles (target 2e8 at 16M: "
+                  f"{'met' if big['particle_steps_per_s'] >= 2e8 else 'missed'}); "
+                  + ("no CPU ratio" if ratio is None else
+                     f"{ratio:.1f}x the CPU at {rows[-1]['particles']:,} (target 50x at 1M: "
+                     f"{'met' if ratio >= 50 else 'missed'})"))
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(rows, fh, indent=1)
