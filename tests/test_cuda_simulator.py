@@ -11,14 +11,14 @@ with the scan and the histogram of the counting sort; in 2D) against the CPU gri
 whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
 viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on the
 device, in float64 and in float32 (the device's default; against the CPU's float64 step), and one
-whole WCSPH and IISPH step (their per-particle passes bodies too) likewise in float64, one DFSPH
-step of a material with Weiler 2018 viscosity (its CG on the device), Akinci 2013 surface tension
-and micropolar vorticity, a DFSPH step with static density maps and with volume maps (their
-queries and packing as bodies), and three steps with an emitter (its layers appended to the
-fields on the device). Each kernel launch under the simulator starts a Python thread per
-particle, so the cases are as small as their checks allow. Where a CUDA GPU is present the same
-script also runs on it (skipped otherwise, e.g. in CI). The subprocess also checks that
-importing sphkit and running on the CPU does not import numba.cuda.
+whole WCSPH, IISPH, PCISPH and PBF step (their per-particle passes bodies too) likewise in float64,
+one DFSPH step of a material with Weiler 2018 viscosity (its CG on the device), Akinci 2013 surface
+tension and micropolar vorticity, a DFSPH step with static density maps and with volume maps (their
+queries and packing as bodies), and three steps with an emitter (its layers appended to the fields
+on the device). Each kernel launch under the simulator starts a Python thread per particle, so the
+cases are as small as their checks allow. Where a CUDA GPU is present the same script also runs on
+it (skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
+the CPU does not import numba.cuda.
 """
 
 from __future__ import annotations
@@ -292,14 +292,16 @@ SCRIPT = textwrap.dedent(
         assert e <= 1e-12, ("step", key, e)
     print("step ok", n, "particles", res["cpu"][1], "iterations")
 
-    # one whole step of WCSPH (state equation, pressure force) and of IISPH (its setup and the
-    # Jacobi solve), the rest as above, on both devices in float64
+    # one whole step of WCSPH (state equation, pressure force), IISPH (its setup and the Jacobi
+    # solve), PCISPH (prediction, density at x*, the factor's cap check (no particle capped
+    # here), pressure update) and PBF (prediction, the two projection passes with the artificial
+    # pressure, the velocity update), the rest as above, on both devices in float64
     scene["configuration"]["precision"] = "float64"
     scene["configuration"]["start"] = {"settle": False}  # hundreds of steps under the simulator
-    for method in ("wcsph", "iisph"):
-        scene["configuration"]["pressure"] = (
-            {"method": "wcsph", "stiffness": 1000.0} if method == "wcsph"
-            else {"method": method, "max_error": 0.5})
+    pressure = {"wcsph": {"stiffness": 1000.0}, "iisph": {"max_error": 0.5},
+                "pcisph": {"max_error": 0.5}, "pbf": {"max_error": 0.5, "pbf_s_corr": True}}
+    for method in ("wcsph", "iisph", "pcisph", "pbf"):
+        scene["configuration"]["pressure"] = {"method": method, **pressure[method]}
         out, its = {}, {}
         for device in ("cpu", "cuda"):
             sim = Simulation(Scene.model_validate(scene), device=device)
@@ -467,7 +469,8 @@ def _run_script(env: dict) -> None:
     assert "dim 2 ok" in res.stdout and "dim 3 ok" in res.stdout
     assert "hash grid 2 ok" in res.stdout and "z-order ok" in res.stdout
     assert "step ok" in res.stdout and "float32 step ok" in res.stdout
-    assert "wcsph step ok" in res.stdout and "iisph step ok" in res.stdout
+    for method in ("wcsph", "iisph", "pcisph", "pbf"):
+        assert f"{method} step ok" in res.stdout, method
     assert "koschier2017 step ok" in res.stdout and "bender2019 step ok" in res.stdout
     assert "emitter ok" in res.stdout
     assert "forces step ok" in res.stdout

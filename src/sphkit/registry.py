@@ -196,10 +196,10 @@ register("pressure", "wcsph", "sphkit.pressure.wcsph:WCSPH", splishsplash=0,
 register("pressure", "pcisph", "sphkit.pressure.pcisph:PCISPH", splishsplash=1,
          paper="Solenthaler & Pajarola 2009, Predictive-corrective incompressible SPH",
          summary="predict-correct loop with a template scaling factor", dynamic_bodies=True,
-         multiphase=True)
+         multiphase=True, gpu=True)
 register("pressure", "pbf", "sphkit.pressure.pbf:PBF", splishsplash=2,
          paper="Macklin & Müller 2013, Position based fluids",
-         summary="density constraints solved on positions", multiphase=True)
+         summary="density constraints solved on positions", multiphase=True, gpu=True)
 register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
          paper="Ihmsen et al. 2014, Implicit incompressible SPH",
          summary="relaxed Jacobi on the pressure Poisson equation", dynamic_bodies=True,

@@ -27,12 +27,12 @@ from sphkit.backend import empty as backend_empty
 from sphkit.core.pairs import set_vector
 
 #: the passes and helpers, and where arrays are (the step reaches the backend through core)
-__all__ = ["any_differs", "axpy", "axpy_into", "axpy_rows_body", "axpy_rows_into_body", "copied",
-           "copy_body", "copy_into", "differs_body", "divide_body", "divided", "divided_by",
-           "empty", "empty_like", "fill", "fill_body", "fill_rows", "fill_rows_body", "full",
-           "gather_body", "gather_rows_body", "gathered", "multiplied", "multiply_body",
-           "on_device", "quotient_body", "reciprocal", "reciprocal_body", "scale_body", "scaled",
-           "to_host", "zeros"]
+__all__ = ["above_body", "any_above", "any_differs", "axpy", "axpy_body", "axpy_into",
+           "axpy_rows_body", "axpy_rows_into_body", "copied", "copy_body", "copy_into",
+           "differs_body", "divide_body", "divided", "divided_by", "empty", "empty_like", "fill",
+           "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body", "gather_rows_body",
+           "gathered", "multiplied", "multiply_body", "on_device", "quotient_body", "reciprocal",
+           "reciprocal_body", "scale_body", "scaled", "to_host", "zeros"]
 
 _BODY = dict(cache=True, inline="always")
 
@@ -54,6 +54,12 @@ def axpy_rows_body(i, y, alpha, x, dim):
     """``y[:, i] += alpha * x[:, i]``."""
     for d in range(dim):
         y[d, i] += alpha * x[d, i]
+
+
+@numba.njit(**_BODY)
+def axpy_body(i, y, alpha, x):
+    """``y[i] += alpha * x[i]``."""
+    y[i] += alpha * x[i]
 
 
 @numba.njit(**_BODY)
@@ -97,6 +103,12 @@ def differs_body(i, x, value):
 def copy_body(i, x, out):
     """``out[i] = x[i]`` (converted to ``out``'s type)."""
     out[i] = x[i]
+
+
+@numba.njit(**_BODY)
+def above_body(i, x, value):
+    """1 where ``x[i] > value``, else 0 (reduced: is any entry above)."""
+    return 1.0 if x[i] > value else 0.0
 
 
 @numba.njit(**_BODY)
@@ -157,8 +169,11 @@ def fill_rows(a: Any, values: np.ndarray) -> None:
 
 
 def axpy(y: Any, alpha: float, x: Any) -> None:
-    """``y += alpha * x`` for (dim, N) arrays (``y += x`` with alpha 1, exactly)."""
-    launch(axpy_rows_body, y.shape[1], y, y.dtype.type(alpha), x, y.shape[0])
+    """``y += alpha * x`` for (dim, N) or (N,) arrays (``y += x`` with alpha 1, exactly)."""
+    if y.ndim == 1:
+        launch(axpy_body, y.shape[0], y, y.dtype.type(alpha), x)
+    else:
+        launch(axpy_rows_body, y.shape[1], y, y.dtype.type(alpha), x, y.shape[0])
 
 
 def axpy_into(y: Any, alpha: float, x: Any) -> Any:
@@ -216,6 +231,12 @@ def copied(a: Any, dtype: Any = None) -> Any:
     out = empty(a.shape, a.dtype if dtype is None else dtype, a)
     copy_into(out, a)
     return out
+
+
+def any_above(x: Any, value: float) -> bool:
+    """Whether an entry of the (N,) array ``x`` is above ``value`` (``np.any(x > value)``; one
+    scalar read back from the device)."""
+    return launch_reduce(above_body, x.shape[0], x, value)[1] > 0.0
 
 
 def gathered(a: Any, perm: Any) -> Any:

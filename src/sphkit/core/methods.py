@@ -488,8 +488,8 @@ class BoundaryCoupling:
         """Predicted displacement of the yielding boundary particles under the field k,
         ``dt (v_b + dt a_b(k))`` where the boundary yields and 0 elsewhere (PCISPH's predicted
         positions); an empty array when nothing yields (the static boundary stays put)."""
-        if not self.yields:
-            return np.zeros((state.dim, 0), dtype=state.boundary.dtype)
+        if not self.yields:  # where the boundary is (a device array on the device)
+            return arrays.empty((state.dim, 0), state.boundary.dtype, like=state.boundary["x"])
         ab = self.moving.response(k, gwb)
         return np.where(self.moving.yielding(state), dt * (state.boundary["v"] + dt * ab), 0.0)
 

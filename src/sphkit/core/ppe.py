@@ -48,8 +48,10 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
   wall particle, its Jacobi scale, and its clamped update (serial passes over the
   fluid-boundary pairs).
 
-:func:`density_pair_gradients`, :func:`kappa_accel_cached` and :func:`jacobi_sweep` are per-particle
-bodies (``density_pair_gradients_body``, ``kappa_accel_body``, ``jacobi_body``) run through
+:func:`density_pair_gradients`, :func:`kappa_accel_cached`, :func:`jacobi_sweep`,
+:func:`diagonal_cached`, :func:`pair_divergence_cached` and :func:`density_at` are per-particle
+bodies (``density_pair_gradients_body``, ``kappa_accel_body``, ``jacobi_body``,
+``diagonal_body``, ``divergence_body``, ``density_at_body``) run through
 :func:`sphkit.backend.launch` / :func:`sphkit.backend.launch_reduce`: a ``prange`` loop on the
 CPU, a CUDA kernel with ``device="cuda"``; the bodies carry their fast-math flags.
 """
@@ -136,8 +138,31 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
     return tot / max(n, 1), mx
 
 
-@numba.njit(parallel=True, **_JIT)
-def density_at(x, dx, m, off, idx, bx, bdx, bV, boff, bidx, rho0, h, kid, dim, out):
+@numba.njit(**_JIT, inline="always")
+def density_at_body(i, x, dx, m, off, idx, bx, bdx, bV, boff, bidx, rho0, h, kid, dim, out):
+    """Particle i of :func:`density_at`: ``out[i]``."""
+    moving = bdx.shape[1] > 0
+    xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
+    s = m[i] / rho0 * kernel_w(kid, 0.0, h, dim)
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
+        s += m[j] / rho0 * kernel_w(kid, norm(d0, d1, d2), h, dim)
+    for k in range(boff[i], boff[i + 1]):
+        b = bidx[k]
+        if moving:
+            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, bx, bdx, b, dim, 0.0)
+            rb = norm(d0, d1, d2)
+        else:
+            rb = distance(xi0, xi1, xi2, bx, b, dim, 0.0)
+        s += bV[b] * kernel_w(kid, rb, h, dim)
+    out[i] = s
+
+
+def density_at(x: np.ndarray, dx: np.ndarray, m: np.ndarray, off: np.ndarray, idx: np.ndarray,
+               bx: np.ndarray, bdx: np.ndarray, bV: np.ndarray, boff: np.ndarray,
+               bidx: np.ndarray, rho0: float, h: float, kid: int, dim: int,
+               out: np.ndarray) -> None:
     """Normalized density at displaced positions ``x + dx`` with the neighbour lists of x
     (PCISPH's prediction): ``sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x*_b)``, self
     included (``V_j = m_j / rho0``; several fluids: pass ``mu = m / c`` of
@@ -145,24 +170,10 @@ def density_at(x, dx, m, off, idx, bx, bdx, bV, boff, bidx, rho0, h, kid, dim, o
     number density ``rho_i / rho0_i`` with ``V_j = m_j / rho0_j``), with the boundary
     displaced by ``bdx`` (boundary particles that yield to the pressure,
     :meth:`sphkit.core.methods.BoundaryCoupling.displacement`); an empty bdx (dim, 0) leaves
-    the boundary where it is."""
-    moving = bdx.shape[1] > 0
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
-        s = m[i] / rho0 * kernel_w(kid, 0.0, h, dim)
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
-            s += m[j] / rho0 * kernel_w(kid, norm(d0, d1, d2), h, dim)
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            if moving:
-                d0, d1, d2 = displaced_delta(xi0, xi1, xi2, bx, bdx, b, dim, 0.0)
-                rb = norm(d0, d1, d2)
-            else:
-                rb = distance(xi0, xi1, xi2, bx, b, dim, 0.0)
-            s += bV[b] * kernel_w(kid, rb, h, dim)
-        out[i] = s
+    the boundary where it is. The pass is :func:`density_at_body` through
+    :func:`sphkit.backend.launch`."""
+    launch(density_at_body, x.shape[1], x, dx, m, off, idx, bx, bdx, bV, boff, bidx,
+           float(rho0), float(h), int(kid), int(dim), out)
 
 
 def neighbor_counts(off: np.ndarray, boff: np.ndarray) -> np.ndarray:

@@ -15,21 +15,27 @@ positions ``x + dx`` and a target ``t_i`` per particle (1 for PBF):
   W_ij + lambda_i sum_b V_b grad W_ib`` (Eq. 12/14, Akinci boundary as SPlisHSPlasH), with the
   optional artificial pressure ``s_corr,ij = -k (W_ij / W(dq))^n d0_inv`` (Eq. 13).
 
-The pair loops use :mod:`sphkit.core.pairs` (minimum image along x with a period L > 0).
+The pair loops use :mod:`sphkit.core.pairs` (minimum image along x with a period L > 0). Both
+passes are per-particle bodies (``constraint_lambda_body``, ``constraint_correction_body``) run
+through :func:`sphkit.backend.launch_reduce` / :func:`sphkit.backend.launch`: a ``prange`` loop
+on the CPU, a CUDA kernel where the arrays are on the device.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 
+from sphkit.backend import launch, launch_reduce
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.pairs import (
     displaced_delta,
     displaced_point,
     dot,
     norm,
+    period_arg,
     separation,
     set_vector,
 )
@@ -37,82 +43,99 @@ from sphkit.core.pairs import (
 _JIT = dict(cache=True, fastmath=True)
 
 
-@numba.njit(parallel=True, **_JIT)
-def constraint_lambda(x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid, dim, L, eps, tol,
-                      lam, rho_hat):
+@numba.njit(**_JIT, inline="always")
+def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid, dim, L, eps,
+                           tol, lam, rho_hat):
+    """Particle i of :func:`constraint_lambda`: ``rho_hat[i]``, ``lam[i]``; returns the clamped
+    ``C_i`` (0 where the constraint is met)."""
+    xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
+    rho = V[i] * kernel_w(kid, 0.0, h, dim)
+    g0 = g1 = g2 = 0.0
+    sq = 0.0
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, L)
+        r2 = dot(d0, d1, d2, d0, d1, d2)
+        rr = math.sqrt(r2)
+        rho += V[j] * kernel_w(kid, rr, h, dim)
+        f = V[j] * kernel_dw(kid, rr, h, dim)
+        g0 += f * d0
+        g1 += f * d1
+        g2 += f * d2
+        sq += f * f * r2
+    for k in range(boff[i], boff[i + 1]):
+        b = bidx[k]
+        d0, d1, d2, rr = separation(xi0, xi1, xi2, bx, b, dim, L)
+        rho += bV[b] * kernel_w(kid, rr, h, dim)
+        f = bV[b] * kernel_dw(kid, rr, h, dim)
+        g0 += f * d0
+        g1 += f * d1
+        g2 += f * d2
+    rho_hat[i] = rho
+    c = rho / t[i] - 1.0
+    if c > tol:
+        lam[i] = -c / (sq + g0 * g0 + g1 * g1 + g2 * g2 + eps)
+        return c
+    lam[i] = 0.0
+    return 0.0
+
+
+def constraint_lambda(x: Any, dx: Any, V: Any, t: Any, off: Any, idx: Any, bx: Any, bV: Any,
+                      boff: Any, bidx: Any, h: float, kid: int, dim: int,
+                      L: float | tuple[float, ...], eps: float, tol: float, lam: Any,
+                      rho_hat: Any) -> tuple[float, float]:
     """Density ``rho_hat`` at ``x + dx`` and ``lambda`` of the clamped constraints (module
-    docstring); returns (mean, max) of the clamped ``C``."""
+    docstring); returns (mean, max) of the clamped ``C``. The pass is
+    :func:`constraint_lambda_body` through :func:`sphkit.backend.launch_reduce`."""
     n = x.shape[1]
-    tot = 0.0
-    mx = 0.0
-    w0 = kernel_w(kid, 0.0, h, dim)
-    for i in numba.prange(n):
-        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
-        rho = V[i] * w0
-        g0 = g1 = g2 = 0.0
-        sq = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, L)
-            r2 = dot(d0, d1, d2, d0, d1, d2)
-            rr = math.sqrt(r2)
-            rho += V[j] * kernel_w(kid, rr, h, dim)
-            f = V[j] * kernel_dw(kid, rr, h, dim)
-            g0 += f * d0
-            g1 += f * d1
-            g2 += f * d2
-            sq += f * f * r2
-        for k in range(boff[i], boff[i + 1]):
-            b = bidx[k]
-            d0, d1, d2, rr = separation(xi0, xi1, xi2, bx, b, dim, L)
-            rho += bV[b] * kernel_w(kid, rr, h, dim)
-            f = bV[b] * kernel_dw(kid, rr, h, dim)
-            g0 += f * d0
-            g1 += f * d1
-            g2 += f * d2
-        rho_hat[i] = rho
-        c = rho / t[i] - 1.0
-        if c > tol:
-            lam[i] = -c / (sq + g0 * g0 + g1 * g1 + g2 * g2 + eps)
-        else:
-            lam[i] = 0.0
-            c = 0.0
-        tot += c
-        mx = max(mx, c)
+    tot, mx = launch_reduce(constraint_lambda_body, n, x, dx, V, t, off, idx, bx, bV, boff, bidx,
+                            float(h), int(kid), int(dim), period_arg(L), float(eps), float(tol),
+                            lam, rho_hat)
     return tot / max(n, 1), mx
 
 
-@numba.njit(parallel=True, **_JIT)
-def constraint_correction(x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, L, s_corr,
-                          k_corr, n_corr, w_dq, d0_inv, out, c, inv_c):
-    """``out_i`` = the position correction of the module docstring at ``x + dx``
-    (``s_corr``: with the artificial pressure term). Several fluids: the neighbour's lambda
-    weighs ``rho0_j / rho0_i = c_j inv_c_i`` (SPlisHSPlasH's ``TimeStepPBF``; c, inv_c of
-    :class:`sphkit.core.state.RestArrays`, ones for one fluid)."""
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
-        li = lam[i]
-        ici = inv_c[i]
-        c0 = c1 = c2 = 0.0
-        for k in range(off[i], off[i + 1]):
-            j = idx[k]
-            s = li + lam[j] * (c[j] * ici)
-            if not s_corr and s == 0.0:
-                continue
-            d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, L)
-            rr = norm(d0, d1, d2)
-            if s_corr:
-                s -= k_corr * (kernel_w(kid, rr, h, dim) / w_dq) ** n_corr * d0_inv
-            f = s * V[j] * kernel_dw(kid, rr, h, dim)
+@numba.njit(**_JIT, inline="always")
+def constraint_correction_body(i, x, dx, V, lam, off, idx, bx, bV, boff, bidx, h, kid, dim, L,
+                               s_corr, k_corr, n_corr, w_dq, d0_inv, out, c, inv_c):
+    """Particle i of :func:`constraint_correction`: ``out[:, i]``."""
+    xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
+    li = lam[i]
+    ici = inv_c[i]
+    c0 = c1 = c2 = 0.0
+    for k in range(off[i], off[i + 1]):
+        j = idx[k]
+        s = li + lam[j] * (c[j] * ici)
+        if not s_corr and s == 0.0:
+            continue
+        d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, L)
+        rr = norm(d0, d1, d2)
+        if s_corr:
+            s -= k_corr * (kernel_w(kid, rr, h, dim) / w_dq) ** n_corr * d0_inv
+        f = s * V[j] * kernel_dw(kid, rr, h, dim)
+        c0 += f * d0
+        c1 += f * d1
+        c2 += f * d2
+    if li != 0.0:
+        for k in range(boff[i], boff[i + 1]):
+            b = bidx[k]
+            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+            f = li * bV[b] * kernel_dw(kid, r, h, dim)
             c0 += f * d0
             c1 += f * d1
             c2 += f * d2
-        if li != 0.0:
-            for k in range(boff[i], boff[i + 1]):
-                b = bidx[k]
-                d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-                f = li * bV[b] * kernel_dw(kid, r, h, dim)
-                c0 += f * d0
-                c1 += f * d1
-                c2 += f * d2
-        set_vector(out, i, dim, c0, c1, c2)
+    set_vector(out, i, dim, c0, c1, c2)
+
+
+def constraint_correction(x: Any, dx: Any, V: Any, lam: Any, off: Any, idx: Any, bx: Any,
+                          bV: Any, boff: Any, bidx: Any, h: float, kid: int, dim: int,
+                          L: float | tuple[float, ...], s_corr: bool, k_corr: float,
+                          n_corr: float, w_dq: float, d0_inv: float, out: Any, c: Any,
+                          inv_c: Any) -> None:
+    """``out_i`` = the position correction of the module docstring at ``x + dx``
+    (``s_corr``: with the artificial pressure term). Several fluids: the neighbour's lambda
+    weighs ``rho0_j / rho0_i = c_j inv_c_i`` (SPlisHSPlasH's ``TimeStepPBF``; c, inv_c of
+    :class:`sphkit.core.state.RestArrays`, ones for one fluid). The pass is
+    :func:`constraint_correction_body` through :func:`sphkit.backend.launch`."""
+    launch(constraint_correction_body, x.shape[1], x, dx, V, lam, off, idx, bx, bV, boff, bidx,
+           float(h), int(kid), int(dim), period_arg(L), bool(s_corr), float(k_corr),
+           float(n_corr), float(w_dq), float(d0_inv), out, c, inv_c)

@@ -66,16 +66,64 @@ velocity update; gravity enters the prediction in both.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
+import numba
 import numpy as np
 
+from sphkit.backend import launch
+from sphkit.core import arrays
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import PressureSolver
 from sphkit.core.ppe import lattice_diagonal
 from sphkit.core.projection import constraint_correction, constraint_lambda
 from sphkit.core.solver import IterationControl, SolverStats
 from sphkit.core.state import SimState
+
+#: the bodies of the prediction and the velocity update are compiled without fast math: each
+#: does the IEEE operations of the NumPy expression it replaced, in its order and in the
+#: fields' precision (the scalars are passed in it), so the CPU's results are those of the
+#: NumPy expressions to the last bit (as :mod:`sphkit.core.arrays`)
+_EXACT = dict(cache=True, inline="always")
+
+
+@numba.njit(**_EXACT)
+def predict_body(i, v, a, dt, dim, dx):
+    """``dx[:, i] = x*_i - x_old,i = dt (v_i + dt a_i)``."""
+    for d in range(dim):
+        dx[d, i] = dt * (v[d, i] + dt * a[d, i])
+
+
+@numba.njit(**_EXACT)
+def first_order_body(i, v, dx, dt, dt2, dim, a):
+    """``a[:, i] = (dx_i - dt v_i) / dt^2`` (``dt2 = dt^2``): the acceleration that carries
+    ``x_old`` to ``x*`` with ``v = dx / dt``."""
+    for d in range(dim):
+        a[d, i] = (dx[d, i] - dt * v[d, i]) / dt2
+
+
+@numba.njit(**_EXACT)
+def second_order_body(i, x, v, dx, last, dt, c15, c05, dim, a):
+    """BDF2: ``v_new = (1.5 dx - 0.5 (x_old - x_oldold)) / dt`` (``dx / dt`` where
+    ``x_oldold`` is NaN; ``c15``, ``c05``: 1.5 and 0.5 in the fields' precision); then
+    ``last = x_old``, ``x = x_old + (dx - dt v_new)`` and ``a = (v_new - v) / dt``."""
+    for d in range(dim):
+        xo = x[d, i]
+        lo = last[d, i]
+        if math.isnan(lo):
+            vn = dx[d, i] / dt
+        else:
+            vn = (c15 * dx[d, i] - c05 * (xo - lo)) / dt
+        last[d, i] = xo
+        x[d, i] = xo + (dx[d, i] - dt * vn)
+        a[d, i] = (vn - v[d, i]) / dt
+
+
+@numba.njit(**_EXACT)
+def pressure_body(i, rho0, lam_sum, dt2, p):
+    """The equivalent pressure ``p_i = -rho0_i / dt^2 * Lambda_i`` (``dt2 = dt^2``)."""
+    p[i] = -rho0[i] / dt2 * lam_sum[i]
 
 
 class PBF(PressureSolver):
@@ -132,14 +180,17 @@ class PBF(PressureSolver):
         nl = state.nl_ff
         x, v, a, V = f["x"], f["v"], f["a"], f["V0"]
         n = f.n
-        dx = dt * (v + dt * a)  # x* - x_old
-        lam = np.empty(n, dtype=f.dtype)
-        lam_sum = np.zeros(n, dtype=f.dtype)
-        rho_hat = np.empty(n, dtype=f.dtype)
-        corr = np.empty_like(x)
+        dim = int(state.dim)
+        t = x.dtype.type  # the scalars in the fields' precision (as NumPy casts them)
+        dx = arrays.empty_like(x)  # x* - x_old
+        launch(predict_body, n, v, a, t(dt), dim, dx)
+        lam = arrays.empty(n, f.dtype, like=x)
+        lam_sum = arrays.zeros(n, f.dtype, like=x)
+        rho_hat = arrays.empty(n, f.dtype, like=x)
+        corr = arrays.empty_like(x)
         w_dq = float(kernel_w(state.kid, self.s_corr_dq * state.h, state.h, state.dim))
 
-        target = np.ones(n, dtype=f.dtype)  # C_i = rho_hat_i - 1
+        target = arrays.full(n, 1.0, f.dtype, like=x)  # C_i = rho_hat_i - 1
         rest = state.rest()  # several fluids: lambda_j weighs rho0_j / rho0_i
 
         def sweep(_k: int) -> tuple[float, float]:
@@ -151,20 +202,19 @@ class PBF(PressureSolver):
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
                                   self._d0_inv, corr, rest.c, rest.inv_c)
-            dx[...] += corr
-            lam_sum[...] += lam
+            arrays.axpy(dx, 1.0, corr)
+            arrays.axpy(lam_sum, 1.0, lam)
             return avg, mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
         if self.second_order:
-            last = f["pbf_x_last"]
-            # v_new = (1.5 x* - 2 x_old + 0.5 x_oldold)/dt = (1.5 dx - 0.5 (x_old - x_oldold))/dt
-            v_new = np.where(np.isnan(last), dx, 1.5 * dx - 0.5 * (x - last)) / dt
-            last[...] = x
-            x[...] += dx - dt * v_new  # the integration x += dt v_new then lands on x*
-            a[...] = (v_new - v) / dt
+            # v_new = (1.5 x* - 2 x_old + 0.5 x_oldold)/dt = (1.5 dx - 0.5 (x_old - x_oldold))/dt;
+            # x_oldold <- x_old; x <- x_old + dx - dt v_new: the integration x += dt v_new then
+            # lands on x*
+            launch(second_order_body, n, x, v, dx, f["pbf_x_last"], t(dt), t(1.5), t(0.5), dim,
+                   a)
         else:
-            a[...] = (dx - dt * v) / (dt * dt)
-        f["p"] = -f["rho0"] / (dt * dt) * lam_sum
+            launch(first_order_body, n, v, dx, t(dt), t(dt * dt), dim, a)
+        launch(pressure_body, n, f["rho0"], lam_sum, t(dt * dt), f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)

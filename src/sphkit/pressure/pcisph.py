@@ -100,8 +100,9 @@ from __future__ import annotations
 from typing import Any
 
 import numba
-import numpy as np
 
+from sphkit.backend import launch, launch_reduce
+from sphkit.core import arrays
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import density_at, diagonal_cached, kappa_accel_cached, lattice_diagonal
 from sphkit.core.solver import IterationControl, PairGradients, SolverStats, StepBound, StepBounded
@@ -121,52 +122,43 @@ DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
 CAP = 3.0
 
 
-@numba.njit(parallel=True, **_JIT)
-def _predict(v, a, ap, dt, dx):
-    """dx = x* - x = dt (v + dt (a + ap))."""
-    dim = v.shape[0]
-    for i in numba.prange(v.shape[1]):
-        for d in range(dim):
-            dx[d, i] = dt * (v[d, i] + dt * (a[d, i] + ap[d, i]))
+@numba.njit(**_JIT, inline="always")
+def predict_body(i, v, a, ap, dt, dim, dx):
+    """``dx[:, i] = x*_i - x_i = dt (v_i + dt (a_i + ap_i))``."""
+    for d in range(dim):
+        dx[d, i] = dt * (v[d, i] + dt * (a[d, i] + ap[d, i]))
 
 
-@numba.njit(parallel=True, **_JIT)
-def _pressure_update(rho_hat, factor, p):
-    """p_i += factor (max(rho_hat_i, 1) - 1); returns (mean, max) of the compression
-    ``max(rho_hat_i - 1, 0)`` before the update."""
-    n = rho_hat.shape[0]
-    tot = 0.0
-    mx = 0.0
-    for i in numba.prange(n):
-        e = max(rho_hat[i] - 1.0, 0.0)
+@numba.njit(**_JIT, inline="always")
+def pressure_update_body(i, rho_hat, factor, factors, each, p):
+    """``p_i += f_i max(rho_hat_i - 1, 0)`` with ``f_i = factors[i]`` if ``each`` (several
+    fluids, capped factors), else ``factor``; returns the compression ``max(rho_hat_i - 1, 0)``
+    before the update."""
+    e = max(rho_hat[i] - 1.0, 0.0)
+    if each:
+        p[i] += factors[i] * e
+    else:
         p[i] += factor * e
-        tot += e
-        mx = max(mx, e)
-    return tot / max(n, 1), mx
+    return e
 
 
-@numba.njit(parallel=True, **_JIT)
-def _pressure_update_each(rho_hat, factor, p):
-    """:func:`_pressure_update` with a factor per particle (several fluids)."""
-    n = rho_hat.shape[0]
-    tot = 0.0
-    mx = 0.0
-    for i in numba.prange(n):
-        e = max(rho_hat[i] - 1.0, 0.0)
-        p[i] += factor[i] * e
-        tot += e
-        mx = max(mx, e)
-    return tot / max(n, 1), mx
+@numba.njit(**_JIT, inline="always")
+def ratio_scale_body(i, plain, weighted, out):
+    """``out_i = plain_i / weighted_i`` (1 where the weighted diagonal vanishes)."""
+    out[i] = plain[i] / weighted[i] if weighted[i] > 0.0 else 1.0
 
 
-@numba.njit(parallel=True, **_JIT)
-def _ratio_scale(plain, weighted, out):
-    """out_i = plain_i / weighted_i (1 where the weighted diagonal vanishes)."""
-    for i in numba.prange(out.shape[0]):
-        out[i] = plain[i] / weighted[i] if weighted[i] > 0.0 else 1.0
+@numba.njit(**_JIT, inline="always")
+def cap_body(i, d, limit, out):
+    """``out_i = min(1, limit / d_i)``; returns 1 where that is below 1, else 0."""
+    if d[i] > limit:
+        out[i] = limit / d[i]
+        return 1.0
+    out[i] = 1.0
+    return 0.0
 
 
-def phase_factor(state: SimState, g: PairGradients) -> np.ndarray:
+def phase_factor(state: SimState, g: PairGradients) -> Any:
     """Per-particle correction of the template factor for several fluids (N,).
 
     In the own variable ``p~_i = p_i / rho0_i`` the PPE diagonal of particle i is
@@ -180,33 +172,21 @@ def phase_factor(state: SimState, g: PairGradients) -> np.ndarray:
     step where every neighbour is of the particle's own phase."""
     st = state
     n = st.fluid.n
+    x = st.fluid["x"]
     mirror = st.coupling.mirror(st, diagonal=True)
     rest = st.rest()
-    plain = np.empty(n, dtype=st.fluid.dtype)
-    weighted = np.empty(n, dtype=st.fluid.dtype)
+    plain = arrays.empty(n, st.fluid.dtype, like=x)
+    weighted = arrays.empty(n, st.fluid.dtype, like=x)
     diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices, mirror, g.gw, g.gwb,
                     st.dim, plain)
     diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices, mirror, g.gw, g.gwb,
                     st.dim, weighted, st.nl_ff.indices, rest.c, rest.inv_c)
-    out = np.empty(n, dtype=st.fluid.dtype)
-    _ratio_scale(plain, weighted, out)
+    out = arrays.empty(n, st.fluid.dtype, like=x)
+    launch(ratio_scale_body, n, plain, weighted, out)
     return out
 
 
-@numba.njit(parallel=True, **_JIT)
-def _cap(d, limit, out):
-    """out_i = min(1, limit / d_i); returns how many are below 1."""
-    k = 0
-    for i in numba.prange(out.shape[0]):
-        if d[i] > limit:
-            out[i] = limit / d[i]
-            k += 1
-        else:
-            out[i] = 1.0
-    return k
-
-
-def diagonal_cap(state: SimState, g: PairGradients, d0: float) -> np.ndarray | None:
+def diagonal_cap(state: SimState, g: PairGradients, d0: float) -> Any:
     """Per-particle cap of the template factor, ``min(1, CAP d0 / D_i)`` with the particle's
     own PPE diagonal ``D_i`` (:func:`sphkit.core.ppe.diagonal_cached`, boundary and mirror
     included) from the step start; None where no particle exceeds ``CAP d0``.
@@ -224,11 +204,13 @@ def diagonal_cap(state: SimState, g: PairGradients, d0: float) -> np.ndarray | N
         return None
     st = state
     n = st.fluid.n
-    d = np.empty(n, dtype=st.fluid.dtype)
+    x = st.fluid["x"]
+    d = arrays.empty(n, st.fluid.dtype, like=x)
     diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
                     st.coupling.mirror(st, diagonal=True), g.gw, g.gwb, st.dim, d)
-    out = np.empty(n, dtype=st.fluid.dtype)
-    return out if _cap(d, CAP * d0, out) else None
+    out = arrays.empty(n, st.fluid.dtype, like=x)
+    capped, _ = launch_reduce(cap_body, n, d, CAP * d0, out)  # the one scalar read back
+    return out if capped else None
 
 
 class PCISPH(StepBounded, PressureSolver):
@@ -271,29 +253,31 @@ class PCISPH(StepBounded, PressureSolver):
         nl, nb = state.nl_ff, state.nl_fb
         x, v, a = f["x"], f["v"], f["a"]
         n = f.n
-        p = np.zeros(n, dtype=f.dtype)
-        ap = np.zeros_like(x)
-        dx = np.empty_like(x)
-        rho_hat = np.empty(n, dtype=f.dtype)
+        p = arrays.zeros(n, f.dtype, like=x)
+        ap = arrays.zeros(x.shape, x.dtype, like=x)
+        dx = arrays.empty_like(x)
+        rho_hat = arrays.empty(n, f.dtype, like=x)
         factor = self.delta / (dt * dt)
         coupling = state.coupling
         mirror = coupling.mirror(state)
         kb = coupling.boundary_kappa(state)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
         rest = state.rest()  # several fluids: the pressure sums weigh p~_j by rho0_j / rho0_i
-        pc = p if rest.uniform else np.empty_like(p)
+        pc = p if rest.uniform else arrays.empty_like(p)
         # several fluids: each particle's own step (phase_factor); one fluid: the template's;
         # both capped where the particle's own diagonal exceeds the template's (diagonal_cap)
         scale = diagonal_cap(state, g, self.d0)
         if not rest.uniform:
-            scale = phase_factor(state, g) if scale is None else scale * phase_factor(state, g)
-        factors = None if scale is None else factor * scale
+            phase = phase_factor(state, g)
+            scale = phase if scale is None else arrays.multiplied(scale, phase)
+        each = scale is not None
+        factors = arrays.scaled(scale, factor) if each else arrays.empty(0, f.dtype, like=x)
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
-        still = np.empty((state.dim, 0), dtype=x.dtype)  # no boundary displacement
+        still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
 
         def sweep(_k: int) -> tuple[float, float]:
-            _predict(v, a, ap, dt, dx)
+            launch(predict_body, n, v, a, ap, float(dt), int(state.dim), dx)
             # density maps are queried at x* (their lists), with or without yielding bodies;
             # the step's boundary particles take the bodies' predicted displacement
             bx, bV, nbp = coupling.boundary_at(state, dx)
@@ -303,23 +287,21 @@ class PCISPH(StepBounded, PressureSolver):
             density_at(x, dx, rest.mu, nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat)
-            if factors is None:
-                avg, mx = _pressure_update(rho_hat, factor, p)
-            else:
-                avg, mx = _pressure_update_each(rho_hat, factors, p)
+            tot, mx = launch_reduce(pressure_update_body, n, rho_hat, float(factor), factors,
+                                    each, p)
             if not rest.uniform:
-                np.multiply(p, rest.c, out=pc)
+                launch(arrays.multiply_body, n, p, rest.c, pc)
             kappa_accel_cached(pc, kb(pc), nl.offsets, nl.indices, nb.offsets, nb.indices,
                                mirror, g.gw, g.gwb, state.dim, ap, rest.inv_c)
             bdx[0] = coupling.displacement(state, p, g.gwb, dt)
-            return avg, mx
+            return tot / max(n, 1), mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
         # fluid under pressure at the first step: the steps grow from the scene's initial one
         self.step_bound.update(dt, its, self.control.max_iterations, ok,
-                               start=state.step == 1 and bool(np.any(p > 0.0)))
-        a += ap
-        f["p"] = p * f["rho0"]
+                               start=state.step == 1 and arrays.any_above(p, 0.0))
+        arrays.axpy(a, 1.0, ap)
+        launch(arrays.multiply_body, n, p, f["rho0"], f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
 
