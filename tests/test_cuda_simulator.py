@@ -14,7 +14,7 @@ device, in float64 and in float32 (the device's default; against the CPU's float
 whole WCSPH, IISPH, PCISPH and PBF step (their per-particle passes bodies too) likewise in float64,
 one DFSPH step of a material with Weiler 2018 viscosity (its CG on the device), Akinci 2013 surface
 tension and micropolar vorticity, a DFSPH step with static density maps and with volume maps (their
-queries and packing as bodies), and three steps with an emitter (its layers appended to the fields
+queries and packing as bodies), and two steps with an emitter (its layers appended to the fields
 on the device). Each kernel launch under the simulator starts a Python thread per particle, so the
 cases are as small as their checks allow. Where a CUDA GPU is present the same script also runs on
 it (skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
@@ -200,16 +200,17 @@ SCRIPT = textwrap.dedent(
         print("hash grid", dim, "ok")
 
     # the z-order permutation found on the device (a counting sort by coarse Morton keys): a
-    # permutation whose consecutive points are close (z-order keeps neighbours together: the
-    # mean step along it is a fraction of a random order's, 0.66 for the unit cube)
+    # permutation whose consecutive points are close (z-order keeps neighbours together: for 64
+    # points in the unit cube the mean step along the exact z-order of the host is 0.33-0.35,
+    # along a random order 0.65-0.69; the bound lies between)
     from sphkit.core.hashgrid import zorder_on_device
 
-    xz = rng.uniform(0.0, 1.0, (3, 300))
+    xz = rng.uniform(0.0, 1.0, (3, 64))
     for dev in ("cpu", "cuda"):
-        pz = to_host(zorder_on_device(to_device(xz, dev), 0.05, xz.mean(1), dev))
-        assert np.array_equal(np.sort(pz), np.arange(300)), dev
+        pz = to_host(zorder_on_device(to_device(xz, dev), 0.1, xz.mean(1), dev))
+        assert np.array_equal(np.sort(pz), np.arange(64)), dev
         step = np.linalg.norm(np.diff(xz[:, pz], axis=1), axis=0).mean()
-        assert step < 0.35, (dev, step)
+        assert step < 0.45, (dev, step)
     print("z-order ok", step)
 
     # a particle set moved to the device and back: fields registered and filled there, a
@@ -399,22 +400,25 @@ SCRIPT = textwrap.dedent(
             assert e <= 1e-12, (bnd, "step", key, e)
         print(bnd, "step ok", nbs["cpu"], "virtual particles")
 
-    # an emitter on the device: three DFSPH steps of 20 ms, its layers of 4 particles added to
-    # the resident fields (t = 0.02 and 0.06 s) and its region animated, against the CPU
+    # an emitter on the device: two DFSPH steps of 30 ms, its layers of 4 particles added to
+    # the resident fields (due at t = 0 and 0.05 s) and its region animated, against the CPU
+    # (a loose tolerance: the layer lands close to the block, and 100 iterations under the
+    # simulator would take seconds; the comparison is of the two devices)
     emit = {"configuration": {
                 "dim": 3, "particle_radius": 0.05, "zsort_every": 1, "precision": "float64",
-                "start": {"settle": False}, "time": {"dt": 0.02, "cfl": False},
-                "pressure": {"method": "dfsph", "max_error": 0.5, "max_error_v": 5.0},
+                "start": {"settle": False}, "time": {"dt": 0.03, "cfl": False},
+                "pressure": {"method": "dfsph", "max_error": 5.0, "max_error_v": 5.0},
                 "boundary": {"method": "akinci2012", "pressure": "mirror"}},
             "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
             "fluid_blocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}],
             "emitters": [{"position": [0.1, 0.5, 0.1], "width": 0.2, "velocity": 2.0,
-                          "rotation_axis": [0, 0, 1], "rotation_angle": -np.pi / 2}],
+                          "rotation_axis": [0, 0, 1], "rotation_angle": -np.pi / 2,
+                          "housing": False}],
             "boxes": [{"min": [0, 0, 0], "max": [0.2, 0.8, 0.2]}]}
     out = {}
     for device in ("cpu", "cuda"):
         sim = Simulation(Scene.model_validate(emit), device=device)
-        for _ in range(3):
+        for _ in range(2):
             sim.step()
         if device == "cuda":
             assert hasattr(sim.state.fluid["x"], "copy_to_host")
