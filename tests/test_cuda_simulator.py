@@ -263,7 +263,7 @@ SCRIPT = textwrap.dedent(
             f = sim.fluid
             assert f["x"].dtype == np.float32 and sim.scene.configuration.precision == "float32"
             sim.step()
-            assert sim._grid.sorted_x.dtype == np.float32
+            assert sim._search.grid.sorted_x.dtype == np.float32
             f = sim.fluid
             o = f.order_by_id()
             e = rel(f["rho"][o], res["cpu"][0]["rho"])

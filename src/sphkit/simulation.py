@@ -46,8 +46,8 @@ from pathlib import Path
 import numpy as np
 
 from sphkit.core import arrays
-from sphkit.core.arrays import on_device, to_host
-from sphkit.core.hashgrid import HashGrid, hash_origin, zorder_on_device
+from sphkit.core.arrays import on_device
+from sphkit.core.hashgrid import DeviceSearch
 from sphkit.core.krylov import KrylovStats
 from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.operators import density_cpu
@@ -152,8 +152,7 @@ class Simulation:
         skin = self.scene.configuration.neighbor_skin
         #: Verlet lists of the fluid (``configuration.neighbor_skin`` > 0), else None
         self._verlet = VerletLists(skin) if skin > 0.0 else None
-        self._grid: HashGrid | None = None  # the fluid's search on a device
-        self._center: np.ndarray | None = None  # its centre (the first step's fluid's)
+        self._search = DeviceSearch(self.state.dim, self.state.h)  # the fluid's, on a device
         if settle and world.settle is not None:
             rep = world.start
             rep.settle_steps, rep.settle_time, rep.settle_speed = self.settle(world.settle)
@@ -355,11 +354,8 @@ class Simulation:
         k = self.scene.configuration.zsort_every
         reordered = bool(k and self.step_count % k == 0)
         x = st.fluid["x"]
-        if on_device(x) and self._grid is None:  # the device's grid, centred on the first
-            self._center = to_host(x).mean(1)  # step's fluid (its positions read back once)
-            self._grid = HashGrid(st.dim, st.h, hash_origin(self._center, st.h), "cuda")
         if reordered:  # on a device the permutation is found and applied there
-            st.fluid.permute(zorder_on_device(x, st.h, self._center, "cuda") if on_device(x)
+            st.fluid.permute(self._search.zorder(x) if on_device(x)
                              else zorder_permutation(x, st.h))
         # the last step's lists go before the search builds the new ones (a lower peak)
         st.nl_ff = NeighborList.empty(0)
@@ -367,8 +363,7 @@ class Simulation:
         if self._verlet is not None:  # configuration.neighbor_skin: lists reused across steps
             st.nl_ff = self._verlet.lists(x, st.h, st.periodic, rebuild=reordered)
         elif on_device(x):  # the hashed grid's passes as kernel bodies, where the fluid is
-            self._grid.build(x)
-            st.nl_ff = self._grid.query(x, exclude_self=True)
+            st.nl_ff = self._search.lists(x)
         else:
             st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic)
         self.boundary_model.update(st)

@@ -15,7 +15,15 @@ import math
 import numba
 import numpy as np
 
-from sphkit.backend import empty, exclusive_scan, histogram, launch, launch_reduce, to_device
+from sphkit.backend import (
+    empty,
+    exclusive_scan,
+    histogram,
+    launch,
+    launch_reduce,
+    to_device,
+    to_host,
+)
 from sphkit.core.neighbors import _BITS, NeighborList, _bucket, _cell, _pack, _scan, _spread
 
 
@@ -218,3 +226,30 @@ class HashGrid:
         indices = empty(max(total, 1), np.int32, dev)[:total]
         launch(compact_body, m, rows, cap, offsets, indices, device=dev)
         return NeighborList(offsets, indices)
+
+
+class DeviceSearch:
+    """The fluid's neighbour search of a time step on a device: a :class:`HashGrid` centred on
+    the first positions it is given (read back once; later positions stay on the device) and
+    the z-order permutation found there (:func:`zorder_on_device`)."""
+
+    def __init__(self, dim: int, h: float, device: str = "cuda") -> None:
+        self.dim, self.h, self.device = dim, float(h), device
+        self.center: np.ndarray | None = None  #: the grid's centre [m] (dim,)
+        self.grid: HashGrid | None = None
+
+    def _start(self, x) -> None:  # noqa: ANN001 - a device array
+        if self.grid is None:
+            self.center = to_host(x).mean(1)
+            self.grid = HashGrid(self.dim, self.h, hash_origin(self.center, self.h), self.device)
+
+    def zorder(self, x):  # noqa: ANN001, ANN201 - device arrays
+        """The z-order permutation of the points ``x`` (dim, N), on the device."""
+        self._start(x)
+        return zorder_on_device(x, self.h, self.center, self.device)
+
+    def lists(self, x) -> NeighborList:  # noqa: ANN001 - a device array
+        """The points' neighbour lists among themselves (self excluded), on the device."""
+        self._start(x)
+        self.grid.build(x)
+        return self.grid.query(x, exclude_self=True)
