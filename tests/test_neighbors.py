@@ -331,3 +331,18 @@ def test_particleset_permute_keeps_fields_with_their_particles() -> None:
     back = ps.order_by_id()
     np.testing.assert_array_equal(ps["x"][:, back], x0)
     np.testing.assert_array_equal(ps["id"][back], ids0)
+
+
+def test_particleset_add_after_resize_keeps_the_resized_values() -> None:
+    """A set resized (the maps' virtual particles) and then added to keeps what was written after
+    the resize: the buffers that add grows are the resized fields (they were the old buffers)."""
+    ps = ParticleSet(2)
+    ps.register("V")
+    ps.add(np.zeros((40, 2)))  # a capacity of at least 40
+    ps.resize(3)
+    ps["x"][...] = np.arange(6.0).reshape(2, 3)
+    ps["V"][...] = [1.0, 2.0, 3.0]
+    ps.add(np.full((2, 2), 9.0), V=5.0)
+    np.testing.assert_array_equal(ps["x"], [[0, 1, 2, 9, 9], [3, 4, 5, 9, 9]])
+    np.testing.assert_array_equal(ps["V"], [1, 2, 3, 5, 5])
+

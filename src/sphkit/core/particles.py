@@ -281,6 +281,10 @@ class ParticleSet:
                 self.fields[fname] = np.zeros(self._shape(spec.kind, n), dtype=spec.dtype)
             else:
                 a[...] = 0
+            if self.device == "cpu":  # the buffers hold the fields (a later add grows them)
+                self._buffers[fname] = self.fields[fname].reshape(-1)
+        if self.device == "cpu":
+            self.capacity = n
         self.n = n
         self.objects = []
 
