@@ -197,9 +197,9 @@ def divided(x: Any, d: float) -> Any:
     return out
 
 
-def multiplied(x: Any, y: Any) -> Any:
-    """A new (N,) array ``x * y``."""
-    out = empty_like(x)
+def multiplied(x: Any, y: Any, out: Any = None) -> Any:
+    """``x * y`` (N,) into ``out`` (new when None)."""
+    out = empty_like(x) if out is None else out
     launch(multiply_body, x.shape[0], x, y, out)
     return out
 

@@ -214,15 +214,11 @@ class ParticleSet:
         if self.device != "cpu":
             self._append_on_device(x, next_id, values)
         else:
-            self._grow(m)
-            self.fields["x"][:, start:] = x.T
-            self.fields["id"][start:] = np.arange(next_id, next_id + m)
-            for fname, val in values.items():
-                arr = np.asarray(val, dtype=self.specs[fname].dtype)
-                if self.specs[fname].kind != "scalar":
-                    self.fields[fname][:, start:] = arr.reshape(-1, 1) if arr.ndim == 1 else arr.T
-                else:
-                    self.fields[fname][start:] = arr
+            self._grow(m)  # the new columns hold each field's fill
+            for fname in ("x", "id", *values):
+                w = self._width(self.specs[fname].kind)
+                self.fields[fname].reshape(w, start + m)[:, start:] = self._new_columns(
+                    fname, x, next_id, values)
         self.next_id = next_id + m
         last = self.objects[-1] if self.objects else None
         if last is not None and last.name == name and last.end == next_id:
@@ -238,28 +234,35 @@ class ParticleSet:
             return int(self.fields["id"].max())
         return int(launch_reduce(_id_body, self.n, self.fields["id"])[1])
 
+    def _new_columns(self, fname: str, x: np.ndarray, next_id: int, values: dict) -> np.ndarray:
+        """Field ``fname``'s (w, M) columns of the particles :meth:`add` appends at ``x`` (M,
+        dim): the positions, the ids from ``next_id``, ``values[fname]`` (broadcast), else the
+        field's fill."""
+        spec, m = self.specs[fname], x.shape[0]
+        new = np.full((self._width(spec.kind), m), spec.fill, dtype=spec.dtype)
+        if fname == "x":
+            new[...] = x.T
+        elif fname == "id":
+            new[0] = np.arange(next_id, next_id + m)
+        elif fname in values:
+            arr = np.asarray(values[fname], dtype=spec.dtype)
+            if spec.kind == "scalar":
+                new[0] = arr
+            else:
+                new[...] = arr.reshape(-1, 1) if arr.ndim == 1 else arr.T
+        return new
+
     def _append_on_device(self, x: np.ndarray, next_id: int, values: dict) -> None:
         """:meth:`add` on a device: each field reallocated there for ``n + M`` particles, the
-        old columns copied on the device and the new ones (built on the host: positions, ids,
-        ``values``, else the field's fill) copied in (the buffers' capacity is the host's)."""
+        old columns copied on the device and the new ones (:meth:`_new_columns`, built on the
+        host) copied in (the buffers' capacity is the host's)."""
         m, n = x.shape[0], self.n
         for fname, spec in self.specs.items():
             w = self._width(spec.kind)
-            new = np.full((w, m), spec.fill, dtype=spec.dtype)
-            if fname == "x":
-                new[...] = x.T
-            elif fname == "id":
-                new[0] = np.arange(next_id, next_id + m)
-            elif fname in values:
-                arr = np.asarray(values[fname], dtype=spec.dtype)
-                if spec.kind == "scalar":
-                    new[0] = arr
-                else:
-                    new[...] = arr.reshape(-1, 1) if arr.ndim == 1 else arr.T
+            new = to_device(self._new_columns(fname, x, next_id, values), self.device)
             old = self.fields[fname]
             out = arrays.empty(self._shape(spec.kind, n + m), spec.dtype, like=old)
-            launch(_append_body, n + m, old.reshape(w, n), to_device(new, self.device), n, w,
-                   out.reshape(w, n + m))
+            launch(_append_body, n + m, old.reshape(w, n), new, n, w, out.reshape(w, n + m))
             self.fields[fname] = out
         self.n = n + m
 
@@ -271,19 +274,15 @@ class ParticleSet:
         if n < 0:
             raise ValueError(f"resize: {n} particles; expected a count >= 0")
         for fname, spec in self.specs.items():
-            a = self.fields[fname]
-            if self.device != "cpu":
-                if a.shape != self._shape(spec.kind, n):
-                    a = arrays.empty(self._shape(spec.kind, n), spec.dtype, like=a)
-                    self.fields[fname] = a
+            a, shape = self.fields[fname], self._shape(spec.kind, n)
+            if a.shape != shape:  # zeros where the field is (NumPy's on the CPU)
+                self.fields[fname] = arrays.zeros(shape, spec.dtype, like=a)
+            elif self.device != "cpu":
                 arrays.fill(a, 0)
-            elif a.shape != self._shape(spec.kind, n):
-                self.fields[fname] = np.zeros(self._shape(spec.kind, n), dtype=spec.dtype)
             else:
                 a[...] = 0
-            if self.device == "cpu":  # the buffers hold the fields (a later add grows them)
-                self._buffers[fname] = self.fields[fname].reshape(-1)
-        if self.device == "cpu":
+        if self.device == "cpu":  # the buffers hold the fields (a later add grows them)
+            self._buffers = {f: a.reshape(-1) for f, a in self.fields.items()}
             self.capacity = n
         self.n = n
         self.objects = []

@@ -119,7 +119,7 @@ class IISPH(StepBounded, PressureSolver):
                                          **grads.wall_args(v_star, dt, "iisph"))
         self.step_bound.update(dt, its, self.control.max_iterations, ok)
         arrays.axpy(f["a"], 1.0, a)
-        launch(arrays.multiply_body, n, p, f["rho0"], f["p"])
+        arrays.multiplied(p, f["rho0"], out=f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
 

@@ -290,7 +290,7 @@ class PCISPH(StepBounded, PressureSolver):
             tot, mx = launch_reduce(pressure_update_body, n, rho_hat, float(factor), factors,
                                     each, p)
             if not rest.uniform:
-                launch(arrays.multiply_body, n, p, rest.c, pc)
+                arrays.multiplied(p, rest.c, out=pc)
             kappa_accel_cached(pc, kb(pc), nl.offsets, nl.indices, nb.offsets, nb.indices,
                                mirror, g.gw, g.gwb, state.dim, ap, rest.inv_c)
             bdx[0] = coupling.displacement(state, p, g.gwb, dt)
@@ -301,7 +301,7 @@ class PCISPH(StepBounded, PressureSolver):
         self.step_bound.update(dt, its, self.control.max_iterations, ok,
                                start=state.step == 1 and arrays.any_above(p, 0.0))
         arrays.axpy(a, 1.0, ap)
-        launch(arrays.multiply_body, n, p, f["rho0"], f["p"])
+        arrays.multiplied(p, f["rho0"], out=f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
 
