@@ -96,12 +96,6 @@ def bicg_p_body(i, r, beta, omega, v, p):
     p[i] = r[i] + beta * (p[i] - omega * v[i])
 
 
-@numba.njit(inline="always", **_JIT)
-def scale_body(i, d, r, z):
-    """``z[i] = d[i] * r[i]``."""
-    z[i] = d[i] * r[i]
-
-
 def _dot(a, b) -> float:
     return launch_sum(dot_body, a.shape[0], a, b)
 
@@ -126,11 +120,6 @@ def _bicg_p(r, beta: float, omega: float, v, p) -> None:
     launch(bicg_p_body, r.shape[0], r, beta, omega, v, p)
 
 
-def _scale(d, r, z) -> None:
-    """z = d * r (elementwise)"""
-    launch(scale_body, r.shape[0], d, r, z)
-
-
 # ---------------------------------------------------------------------------------------------
 # preconditioners
 
@@ -144,7 +133,7 @@ class JacobiPreconditioner:
         self.inv = np.where(ok, 1.0 / np.where(ok, d, 1.0), 1.0)
 
     def __call__(self, r: np.ndarray, z: np.ndarray) -> None:
-        _scale(self.inv, r, z)
+        arrays.multiplied(self.inv, r, out=z)  # z = inv * r, element-wise
 
 
 @numba.njit(inline="always", **_JIT)
