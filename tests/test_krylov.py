@@ -124,10 +124,11 @@ def test_iteration_limit_warns(caplog: pytest.LogCaptureFixture) -> None:
 
 
 def test_ldlt_matches_scipy_on_spd_matrix() -> None:
-    """core.ldlt's symmetric factorisation and compiled solves against scipy's direct solve on
-    a small SPD matrix (the 2D Laplacian's pattern, random symmetric weights, strictly diagonally
-    dominant), one and three right-hand sides. Tolerance 1e-12 relative: both are direct solves of a
-    well-conditioned system (condition number below 1e2), so they differ by round-off only."""
+    """core.ldlt's factorisations (SuperLU's L D L^T and the envelope's L L^T) and compiled
+    solves against scipy's direct solve on a small SPD matrix (the 2D Laplacian's pattern,
+    random symmetric weights, strictly diagonally dominant), one, two and three right-hand
+    sides. Tolerance 1e-12 relative: both are direct solves of a well-conditioned system
+    (condition number below 1e2), so they differ by round-off only."""
     rng = np.random.default_rng(3)
     k = 12
     lap = sp.kronsum(sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(k, k)),
@@ -135,10 +136,20 @@ def test_ldlt_matches_scipy_on_spd_matrix() -> None:
     W = sp.triu(lap, 1).multiply(rng.uniform(0.5, 1.5, lap.shape))
     A = (W + W.T - sp.diags(np.asarray(abs(W + W.T).sum(axis=1)).ravel() + 1.0)) * -1.0
     A = sp.csc_matrix(A)
-    fac = LDLT(A)
-    assert fac.symmetric
-    for b in (rng.normal(size=k * k), rng.normal(size=(k * k, 3))):
-        x = fac.solve(b)
-        ref = spla.spsolve(A, b)
-        assert x.shape == b.shape
-        assert np.max(np.abs(x - ref)) <= 1e-12 * np.max(np.abs(ref))
+    for method, kind in (("sparse", "ldlt"), ("envelope", "envelope"), ("auto", "envelope")):
+        fac = LDLT(A, method=method)
+        assert fac.symmetric and fac.kind == kind  # the grid's envelope: 2 entries per nonzero
+        for b in (rng.normal(size=k * k), rng.normal(size=(k * k, 3)),
+                  rng.normal(size=(k * k, 2))):
+            x = fac.solve(b)
+            ref = spla.spsolve(A, b)
+            assert x.shape == b.shape
+            assert np.max(np.abs(x - ref)) <= 1e-12 * np.max(np.abs(ref))
+    # indefinite (a negative pivot): the envelope is refused and SuperLU's factor solves it;
+    # the shifted matrix's condition number is below 1e2 as well (measured: 11)
+    B = sp.csc_matrix(A - 10.0 * sp.eye(k * k))
+    fac = LDLT(B, method="envelope")
+    assert fac.kind in ("ldlt", "lu")
+    b = rng.normal(size=k * k)
+    ref = spla.spsolve(B, b)
+    assert np.max(np.abs(fac.solve(b) - ref)) <= 1e-12 * np.max(np.abs(ref))

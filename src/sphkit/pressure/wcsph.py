@@ -209,10 +209,11 @@ class WCSPH(PressureSolver):
         rest = state.rest()
         avg, mx = state_equation(f["rho"], rest.rho0, self.equation, self.stiffness,
                                  self.exponent, f["p"], self.background_pressure)
-        pressure_accel_cpu(f["x"], f["m"], f["rho"], f["p"], state.nl_ff.offsets,
-                           state.nl_ff.indices, b["x"], b["V"], state.nl_fb.offsets,
-                           state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim, f["a"],
-                           state.pair_period, c=rest.c, inv_c=rest.inv_c)
+        if self.stiffness > 0.0 or self.background_pressure > 0.0:  # else p = 0: no force
+            pressure_accel_cpu(f["x"], f["m"], f["rho"], f["p"], state.nl_ff.offsets,
+                               state.nl_ff.indices, b["x"], b["V"], state.nl_fb.offsets,
+                               state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim,
+                               f["a"], state.pair_period, c=rest.c, inv_c=rest.inv_c)
         cp = state.coupling
         if cp.symmetric or cp.solved:  # the wall term V_b k_i (module docstring): p_b = 0
             replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],

@@ -34,8 +34,9 @@ The constant matrix ``A = M / dt^2 + 2 mu K + alpha E H_z`` (one scalar n x n ma
 material, the pinned particles eliminated; the objects of one material, such as
 DeformableBunnies' two bunnies, are its uncoupled diagonal blocks, which SuperLU's ordering
 keeps apart; SPlisHSPlasH factorises each object on its own) is factorised once per time-step
-size as ``L D L^T`` (:class:`sphkit.core.ldlt.LDLT`: SuperLU's symmetric mode through scipy,
-with compiled triangular solves; the issue asked for CHOLMOD through scikit-sparse, which is a
+size (:class:`sphkit.core.ldlt.LDLT`: a Cholesky factor in the reverse Cuthill-McKee envelope
+for the narrow bodies, else ``L D L^T`` from SuperLU's symmetric mode through scipy, each with
+compiled triangular solves; the issue asked for CHOLMOD through scikit-sparse, which is a
 source package needing the system's SuiteSparse, not installed here, so not a dependency);
 :attr:`Kugelstadt2021.factor_stats` reports the factorisation's time and memory. SPlisHSPlasH
 factorises with its own AVX Cholesky and caches it on disk. The matrix is refactorised when
@@ -120,31 +121,76 @@ def _extract_rotations(A, qw, qv, pos, iterations, R):
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _deformation_gradients(indptr, indices, Dd, y, dim, F):
-    """``F[i, a, c] = (D_c y_a)_i`` for a, c < dim (the rest of F untouched)."""
+    """``F[i, a, c] = (D_c y_a)_i`` for a, c < dim (the rest of F untouched); one sweep over
+    row i's entries accumulates all dim^2 sums (each in the entries' order)."""
     for i in numba.prange(indptr.shape[0] - 1):
-        for a in range(dim):
-            for c in range(dim):
-                s = 0.0
-                for k in range(indptr[i], indptr[i + 1]):
-                    s += Dd[c, k] * y[a, indices[k]]
-                F[i, a, c] = s
+        f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            d0 = Dd[0, k]
+            d1 = Dd[1, k] if dim > 1 else 0.0
+            d2 = Dd[2, k] if dim > 2 else 0.0
+            y0 = y[0, j]
+            f00 += d0 * y0
+            f01 += d1 * y0
+            f02 += d2 * y0
+            if dim > 1:
+                y1 = y[1, j]
+                f10 += d0 * y1
+                f11 += d1 * y1
+                f12 += d2 * y1
+            if dim > 2:
+                y2 = y[2, j]
+                f20 += d0 * y2
+                f21 += d1 * y2
+                f22 += d2 * y2
+        Fi = F[i]
+        Fi[0, 0] = f00
+        if dim > 1:
+            Fi[0, 1] = f01
+            Fi[1, 0] = f10
+            Fi[1, 1] = f11
+        if dim > 2:
+            Fi[0, 2] = f02
+            Fi[1, 2] = f12
+            Fi[2, 0] = f20
+            Fi[2, 1] = f21
+            Fi[2, 2] = f22
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
-def _stretch_rhs(tindptr, tindices, tperm, Dd, V0, Rs, xt, m, inv_dt2, two_mu, dim, b):
+def _stretch_rhs(tindptr, tindices, DdT, V0, Rs, xt, m, inv_dt2, two_mu, dim, b):
     """``b[a] = m xt[a] / dt^2 + 2 mu sum_c D_c^T (V0 Rs[:, a, c])`` (the stretch solve's
-    right-hand side before the pinned particles are eliminated)."""
+    right-hand side before the pinned particles are eliminated; ``DdT``: the D_c's entries on
+    the transposed pattern)."""
     for j in numba.prange(tindptr.shape[0] - 1):
-        for a in range(dim):
-            s = 0.0
-            for k in range(tindptr[j], tindptr[j + 1]):
-                i = tindices[k]
-                kk = tperm[k]
-                r = 0.0
-                for c in range(dim):
-                    r += Dd[c, kk] * Rs[i, a, c]
-                s += V0[i] * r
-            b[a, j] = m[j] * xt[a, j] * inv_dt2 + two_mu * s
+        s0 = s1 = s2 = 0.0
+        for k in range(tindptr[j], tindptr[j + 1]):
+            i = tindices[k]
+            Ri = Rs[i]
+            d0 = DdT[0, k]
+            d1 = DdT[1, k] if dim > 1 else 0.0
+            d2 = DdT[2, k] if dim > 2 else 0.0
+            v = V0[i]
+            r = d0 * Ri[0, 0]
+            if dim > 1:
+                r += d1 * Ri[0, 1]
+            if dim > 2:
+                r += d2 * Ri[0, 2]
+            s0 += v * r
+            if dim > 1:
+                r = d0 * Ri[1, 0] + d1 * Ri[1, 1]
+                if dim > 2:
+                    r += d2 * Ri[1, 2]
+                s1 += v * r
+            if dim > 2:
+                r = d0 * Ri[2, 0] + d1 * Ri[2, 1] + d2 * Ri[2, 2]
+                s2 += v * r
+        b[0, j] = m[j] * xt[0, j] * inv_dt2 + two_mu * s0
+        if dim > 1:
+            b[1, j] = m[j] * xt[1, j] * inv_dt2 + two_mu * s1
+        if dim > 2:
+            b[2, j] = m[j] * xt[2, j] * inv_dt2 + two_mu * s2
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -171,26 +217,45 @@ def _volume_system(indptr, indices, tindptr, tindices, Bd, BTd, x1, lv, md, pinn
     B_a[i, j]^2`` (pinned: g 0, diagonal 1)."""
     n = indptr.shape[0] - 1
     for i in numba.prange(n):
-        s = 0.0
-        for a in range(dim):
-            for k in range(indptr[i], indptr[i + 1]):
-                s += Bd[a, k] * x1[a, indices[k]]
-        t[i] = lv[i] * (s - dim - t0[i])
+        s0 = s1 = s2 = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            s0 += Bd[0, k] * x1[0, j]
+            if dim > 1:
+                s1 += Bd[1, k] * x1[1, j]
+            if dim > 2:
+                s2 += Bd[2, k] * x1[2, j]
+        t[i] = lv[i] * (s0 + s1 + s2 - dim - t0[i])
     for j in numba.prange(n):
-        for a in range(dim):
-            if pinned[j]:
+        if pinned[j]:
+            for a in range(dim):
                 g[a, j] = 0.0
                 diag[a, j] = 1.0
-                continue
-            s = 0.0
-            d = 0.0
-            for k in range(tindptr[j], tindptr[j + 1]):
-                b = BTd[a, k]
-                i = tindices[k]
-                s += b * t[i]
-                d += b * b * lv[i]
-            g[a, j] = -s
-            diag[a, j] = md[j] + d
+            continue
+        s0 = s1 = s2 = d0 = d1 = d2 = 0.0
+        for k in range(tindptr[j], tindptr[j + 1]):
+            i = tindices[k]
+            ti = t[i]
+            li = lv[i]
+            b = BTd[0, k]
+            s0 += b * ti
+            d0 += b * b * li
+            if dim > 1:
+                b = BTd[1, k]
+                s1 += b * ti
+                d1 += b * b * li
+            if dim > 2:
+                b = BTd[2, k]
+                s2 += b * ti
+                d2 += b * b * li
+        g[0, j] = -s0
+        diag[0, j] = md[j] + d0
+        if dim > 1:
+            g[1, j] = -s1
+            diag[1, j] = md[j] + d1
+        if dim > 2:
+            g[2, j] = -s2
+            diag[2, j] = md[j] + d2
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -260,9 +325,9 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         self._Afp = sp.csr_matrix((0, 0))
         self._dx = np.zeros(0)
         self._dx_prev = np.zeros(0)
-        #: per factorisation: ``{"n": unknowns, "nnz": matrix nonzeros, "factor_nnz": nonzeros
-        #: of the kept factor (L D L^T: strict lower L and D), "bytes": its memory [B],
-        #: "seconds": wall time, "dt": the step}``
+        #: per factorisation: ``{"n": unknowns, "nnz": matrix nonzeros, "factor_nnz": entries
+        #: of the kept factor (its envelope, or L D L^T's strict lower L and D), "bytes": its
+        #: memory [B], "seconds": wall time, "dt": the step}``
         self.factor_stats: list[dict[str, float]] = []
 
     def init(self, state: SimState) -> None:
@@ -303,6 +368,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         T = sp.csr_matrix((np.arange(1.0, D0.nnz + 1.0), D0.indices, D0.indptr),
                           shape=D0.shape).T.tocsr()
         self._tperm = (T.data - 1.0).astype(np.int64)
+        self._DdT = np.ascontiguousarray(self._Ddata[:, self._tperm])
         self._tindices, self._tindptr = T.indices.astype(np.int64), T.indptr.astype(np.int64)
         self._freew = np.where(rest.pinned, 0.0, 1.0)  #: 1 free, 0 pinned (the volume matvec)
         self._Bd = np.zeros((dim, D0.nnz))
@@ -328,7 +394,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         self.factor_stats.append(stats)
         log.info("kugelstadt2021: factorised %d unknowns (%d nonzeros -> %d in the factor, "
                  "%s, %.1f MB) in %.3f s", fr.size, Aff.nnz, fnnz,
-                 "L D L^T" if lu is None or lu.symmetric else "L U", stats["bytes"] / 1e6, secs)
+                 lu.kind if lu is not None else "none", stats["bytes"] / 1e6, secs)
 
     def max_time_step(self, state: SimState) -> float:
         """Implicit: no bound of its own."""
@@ -391,7 +457,7 @@ class Kugelstadt2021(ImplicitCorotatedSolid):
         ip, ix, tip, tix = self._indptr, self._indices, self._tindptr, self._tindices
         # stretch + zero-energy modes: one factorisation, the dim right-hand sides at once
         b = np.empty((dim, n))
-        _stretch_rhs(tip, tix, self._tperm, self._Ddata, V0, Rs, xt, m, inv_dt2,
+        _stretch_rhs(tip, tix, self._DdT, V0, Rs, xt, m, inv_dt2,
                      2.0 * self.mu, dim, b)
         if self._face:
             b += self._z0
