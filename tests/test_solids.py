@@ -521,16 +521,27 @@ def test_capped_rest_lists_stay_symmetric() -> None:
 
 
 def test_frames_carry_the_solid_fields(tmp_path) -> None:
-    """A solid's frames hold its stress, rest position and pinned flag besides the standard
-    fields (a fluid's frames do not change)."""
+    """A solid's frames hold its stress, rest position, displacement, pinned flag and object
+    index besides the standard fields (a fluid's frames do not change), and the preview can
+    colour by the solid's fields."""
     from sphkit.io.frames import frame_arrays
+    from sphkit.io.preview import color_values
 
     sim = _solid([0.2, 0.08], gravity=9.81, fixed=[{"min": [-1, -1], "max": [0.05, 1]}])
-    sim.step()
+    for _ in range(2):  # the stress is that of the step's start: zero in the first
+        sim.step()
     arrays = frame_arrays(sim.fluid)
-    assert {"stress", "rest_position", "fixed"} <= set(arrays)
+    assert {"stress", "rest_position", "fixed", "displacement", "object"} <= set(arrays)
     assert arrays["rest_position"].shape == arrays["position"].shape
     assert arrays["fixed"].sum() > 0
+    # the one block of the scene is object 0; the displacement is exact (a subtraction)
+    assert np.all(arrays["object"] == 0)
+    np.testing.assert_array_equal(arrays["displacement"],
+                                  arrays["position"] - arrays["rest_position"])
+    moved = np.linalg.norm(arrays["displacement"], axis=1)
+    assert moved[arrays["fixed"] == 0].max() > 0.0 and moved[arrays["fixed"] == 1].max() == 0.0
+    np.testing.assert_array_equal(color_values(arrays, "displacement"), moved)
+    assert color_values(arrays, "stress").max() > 0.0
 
 
 def test_kugelstadt2021_splishsplash_scenes_translate() -> None:

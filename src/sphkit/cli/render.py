@@ -2,7 +2,8 @@
 
 ::
 
-    sphkit render OUTDIR [--color velocity|pressure|density|phase] [--video auto|mp4|gif|none]
+    sphkit render OUTDIR [--color velocity|pressure|density|phase|stress|displacement|object]
+                         [--video auto|mp4|gif|none]
                          [--out DIR] [--fps F] [--size WxH] [--range LO,HI] [--cmap NAME]
                          [--surface auto|on|off] [--frames SPEC] [--quiet | --verbose]
 
@@ -91,8 +92,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     r.add_argument("outdir", type=Path, metavar="OUTDIR", help="the folder of a run")
     r.add_argument("--color", choices=COLOR_FIELDS, default="velocity",
-                   help="particle colour: speed |v|, pressure, density or phase (the material "
-                   "of a fluid of several; default velocity)")
+                   help="particle colour: speed |v|, pressure, density, phase (the material "
+                   "of a fluid of several), or an elastic solid's von Mises stress, "
+                   "|displacement| or object index (-1 for fluid); default velocity")
     r.add_argument("--video", choices=VIDEO_FORMATS, default="auto",
                    help="video format: auto (mp4 with ffmpeg, else gif), mp4, gif, none")
     r.add_argument("--out", type=Path, metavar="DIR", help="picture folder (default OUTDIR/render)")

@@ -101,10 +101,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                           "on the GPU, float64 on the CPU); "
                           "float32 halves their memory (also on --device cuda)")
     run.add_argument("--device", choices=DEVICE_CHOICES, default="auto",
-                     help="where the time step runs: cpu, cuda (refused, naming the methods, "
-                          "while a method of the scene does not run on the GPU; today none "
-                          "does) or auto (the GPU when one is found and every method runs "
-                          "there, else the CPU; default); the manifest records it")
+                     help="where the time step runs: cpu, cuda (refused, naming the method "
+                          "or field, when the scene uses one that does not run on the GPU; "
+                          "`sphkit methods` lists the ones that do) or auto (the GPU when one "
+                          "is found and every method runs there, else the CPU; default); the "
+                          "manifest records it")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="continue the run in output folder DIR from its newest checkpoint, "
                           "appending frames (only --until may change the scene)")

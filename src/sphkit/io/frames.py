@@ -27,9 +27,11 @@ pressure     (N,)       pressure [Pa]
 id           (N,)       particle id (int64 in VTK, int32 in PLY)
 ===========  =========  =========================================================
 
-Scenes with elastic solids also write their von Mises ``stress`` [Pa], ``rest_position`` (the
-displacement is ``position - rest_position``) and ``fixed`` (1: pinned) by default, and plastic
-solids (a ``yield_stress``) their equivalent ``plastic_strain`` (:data:`SOLID_FIELDS`). Extra
+Scenes with elastic solids also write their von Mises ``stress`` [Pa], ``rest_position``,
+``displacement`` (``position - rest_position``; zero for fluid particles), ``fixed`` (1: pinned)
+and ``object`` (the index of the scene object, fluid block or particle file, that made the
+particle; -1 for fluid) by default, and plastic solids (a ``yield_stress``) their equivalent
+``plastic_strain`` (:data:`SOLID_FIELDS`). Extra
 fields a method registered with the ParticleSet can be added with ``extra_fields``.
 ``attributes`` (the scene's ``output.attributes``, SPlisHSPlasH's ``particleAttributes``)
 replaces velocity, density and pressure by the named attributes: :data:`ATTRIBUTES` or any field
@@ -60,7 +62,7 @@ STANDARD_FIELDS: dict[str, str] = {"velocity": "v", "density": "rho", "pressure"
 #: written besides the standard fields when the particle set has them (elastic solids,
 #: :mod:`sphkit.solids.rest`): name in the frame file -> field
 SOLID_FIELDS: dict[str, str] = {"stress": "solid_stress", "rest_position": "solid_x0",
-                                "fixed": "solid_fixed",
+                                "fixed": "solid_fixed", "object": "solid_object",
                                 "plastic_strain": "solid_plastic_alpha"}
 
 #: attribute names a scene may ask for (SPlisHSPlasH's spelling included) -> (name in the frame
@@ -167,6 +169,11 @@ def frame_arrays(fluid: Any, extra_fields: Sequence[str] = (),
         else:
             a = np.ascontiguousarray(a)
         out[name] = a.astype(np.int64) if name == "id" else a
+    if attributes is None and "rest_position" in out and "solid_slot" in fluid:
+        slot = np.asarray(fluid["solid_slot"])
+        solid = (slot if order is None else slot[order]) >= 0
+        out["displacement"] = np.where(solid[:, None], out["position"] - out["rest_position"],
+                                       0.0)
     return out
 
 

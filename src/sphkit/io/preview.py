@@ -29,10 +29,12 @@ from sphkit.io.frames import read_frame
 
 logger = logging.getLogger("sphkit.io")
 
-COLOR_FIELDS = ("velocity", "pressure", "density", "phase")
+COLOR_FIELDS = ("velocity", "pressure", "density", "phase", "stress", "displacement",
+                "object")
 VIDEO_FORMATS = ("auto", "mp4", "gif", "none")
 _UNITS = {"velocity": "|v| [m/s]", "pressure": "pressure [Pa]", "density": "density [kg/m^3]",
-          "phase": "phase (material index)"}
+          "phase": "phase (material index)", "stress": "von Mises stress [Pa]",
+          "displacement": "|displacement| [m]", "object": "object (-1: fluid)"}
 
 
 class PlotUnavailable(ImportError):
@@ -64,8 +66,9 @@ def ffmpeg_path() -> str | None:
 
 
 def color_values(arrays: dict[str, np.ndarray], color: str, where: str = "") -> np.ndarray:
-    """The per-particle values of ``color`` (|velocity|, pressure, density or phase: the
-    material index that runs of several fluids write)."""
+    """The per-particle values of ``color`` (|velocity|, pressure, density, phase: the
+    material index that runs of several fluids write, or an elastic solid's von Mises stress,
+    |displacement| or object index, which scenes with solids write)."""
     if color not in COLOR_FIELDS:
         raise ValueError(f"--color: got {color!r}; expected one of {', '.join(COLOR_FIELDS)}")
     if color not in arrays:

@@ -17,7 +17,9 @@ is up to 1.65 times larger at the surface, where the kernel sum is cut, and make
 layer too stiff: a stretched bar 4 particles wide pulls with 1.19 of ``E eps A`` against 1.00003
 with the particle volume, measured), ``solid_qw``/``solid_q`` (the rotation of
 the corotated frame as a unit quaternion: its real part and its vector part) and
-``solid_stress`` (von Mises stress [Pa], for output). The rest neighbour lists are CSR over
+``solid_stress`` (von Mises stress [Pa], for output), ``solid_object`` (the index of the
+scene object, fluid block or particle file, in ``state.fluid.objects`` that made the particle;
+-1 for fluid; for output). The rest neighbour lists are CSR over
 slots, built from ``solid_x0`` by :meth:`RestConfiguration.build` (deterministic, so a restored
 checkpoint rebuilds the same lists). Each step ``pos[s]`` maps a slot to its current index.
 
@@ -71,6 +73,7 @@ FIELDS: dict[str, tuple[str, Any, float]] = {
     "solid_qw": ("scalar", None, 1.0),
     "solid_q": ("vector3", None, 0.0),
     "solid_stress": ("scalar", None, 0.0),
+    "solid_object": ("scalar", np.int64, -1),
 }
 
 
@@ -171,9 +174,12 @@ class RestConfiguration:
         slot = f["solid_slot"]
         ids = f["id"]
         mine = np.zeros(f.n, dtype=bool)
-        for o in f.objects:
+        obj = f["solid_object"]
+        for k, o in enumerate(f.objects):
             if o.name in self.objects:
-                mine |= (ids >= o.start) & (ids < o.end)
+                sel = (ids >= o.start) & (ids < o.end)
+                mine |= sel
+                obj[sel] = k  # the scene object that made the particle (frames' "object")
         if mine.any() and (slot[mine] < 0).all():  # first call: claim the particles
             others = slot[~mine]
             self.base = int(others.max()) + 1 if others.size and others.max() >= 0 else 0
