@@ -153,3 +153,6 @@ def test_ldlt_matches_scipy_on_spd_matrix() -> None:
     b = rng.normal(size=k * k)
     ref = spla.spsolve(B, b)
     assert np.max(np.abs(fac.solve(b) - ref)) <= 1e-12 * np.max(np.abs(ref))
+    # not symmetric: refused too (the envelope reads the lower triangle only)
+    N = sp.csc_matrix(A + sp.triu(W, 1) * 0.1)
+    assert LDLT(N, method="envelope").kind != "envelope"

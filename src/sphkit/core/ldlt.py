@@ -206,9 +206,12 @@ class LDLT:
 
     def _envelope(self, A: sp.csc_matrix, always: bool) -> bool:
         """Factorise in the reverse Cuthill-McKee envelope when it is small enough (or
-        ``always``) and A positive definite; false (nothing kept) otherwise."""
+        ``always``) and A symmetric positive definite; false (nothing kept) otherwise."""
         n = self.n
         Ar = sp.csr_matrix(A)
+        asym = abs(Ar - Ar.T)
+        if asym.nnz and asym.max() > SYMMETRY_TOLERANCE * abs(Ar).max():
+            return False  # the envelope reads the lower triangle only: A must be symmetric
         perm = reverse_cuthill_mckee(Ar, symmetric_mode=True).astype(np.int64)
         P = sp.tril(Ar[perm][:, perm]).tocsr()
         P.sort_indices()
