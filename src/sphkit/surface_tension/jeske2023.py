@@ -128,9 +128,16 @@ def _weight(r, w0, w1, w2, d0, d1, d2, rho_ij, drate, wmin, diam, dt, h, kid, di
 
 @numba.njit(parallel=True, **_JIT)
 def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam, dt, h, kid,
-             dim, L, F, Fb, Fsum, Fbsum):
+             dim, L, cf, xsph, F, Fb, Fsum, Fbsum, Sv, Sx):
     """The per-pair weights ``F_ij`` (in neighbour-list order) and ``F_ib``, and their sums per
-    particle (the diagonal of the cohesion and adhesion terms)."""
+    particle (the diagonal of the cohesion and adhesion terms); with them the velocity-free
+    factors of the viscosity and XSPH pair terms, constant during the solve: ``Sv[k] = cf m_j /
+    rho_j W'(r) / (r (r^2 + eps))`` (the projected Laplacian's,
+    :func:`sphkit.core.viscous.laplacian_diagonal_pair`) and ``Sx[k] = xsph m_j / rho_j
+    W_cubic(r) rho_i / dt`` (an empty Sv or Sx is not written: the term is off)."""
+    eps = EPS * h * h
+    visc = Sv.shape[0] > 0
+    xs = Sx.shape[0] > 0
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         vi0, vi1, vi2 = point(v, i, dim)
@@ -142,6 +149,10 @@ def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam
                                                   drate[i] + drate[j], wmin, diam, dt, h, kid,
                                                   dim)
             s += F[k]
+            if visc:
+                Sv[k] = laplacian_diagonal_pair(cf * m[j] / rho[j], r * r, eps, kid, h, dim)
+            if xs:
+                Sx[k] = xsph * m[j] / rho[j] * kernel_w(CUBIC, r, h, dim) * rho[i] / dt
         Fsum[i] = s
         sb = 0.0
         for k in range(boff[i], boff[i + 1]):
@@ -167,10 +178,13 @@ def _scale_boundary(m, bV, boff, bidx, rho0, Fb, Fbsum):
 
 
 @numba.njit(parallel=True, **_JIT)
-def _matvec(x, m, rho, off, idx, bx, bV, boff, bidx, F, Fsum, Fbsum, u, gamma, beta, cf, cb,
-            xsph, rho0, dt, h, kid, dim, L, out):
-    """``out = A u`` (module docstring) for (dim, N) views u, out."""
+def _matvec(x, rho, off, idx, bx, bV, boff, bidx, F, Fsum, Fbsum, Sv, Sx, u, gamma, beta, cb,
+            rho0, dt, h, kid, dim, L, out):
+    """``out = A u`` (module docstring) for (dim, N) views u, out; the viscosity and XSPH pair
+    terms through their factors Sv, Sx of :func:`_weights` (empty: the term is off)."""
     eps = EPS * h * h
+    visc = Sv.shape[0] > 0
+    xs = Sx.shape[0] > 0
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         ui0, ui1, ui2 = point(u, i, dim)
@@ -186,18 +200,15 @@ def _matvec(x, m, rho, off, idx, bx, bV, boff, bidx, F, Fsum, Fbsum, u, gamma, b
             o1 -= g * u[1, j]
             if dim == 3:
                 o2 -= g * u[2, j]
-            if cf > 0.0 or xsph > 0.0:
+            if visc or xs:
                 d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, ui0, ui1, ui2, u, j, dim, L)
-                r2 = dot(d0, d1, d2, d0, d1, d2)
-                if cf > 0.0:
-                    s = cf * m[j] / rho[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2,
-                                                            eps, h, dim)
+                if visc:
+                    s = Sv[k] * dot(w0, w1, w2, d0, d1, d2)
                     a0 += s * d0
                     a1 += s * d1
                     a2 += s * d2
-                if xsph > 0.0:
-                    t = (xsph * m[j] / rho[j] * kernel_w(CUBIC, math.sqrt(r2), h, dim)
-                         * rho[i] / dt)
+                if xs:
+                    t = Sx[k]
                     a0 -= t * w0
                     a1 -= t * w1
                     a2 -= t * w2
@@ -357,14 +368,18 @@ class Jeske2023(NonPressureForce):
         wmin = float(kernel_w(kid, diam, h, dim))
         drate = np.empty(n)
         _density_rate(x, v, m, nl.offsets, nl.indices, h, kid, dim, L, drate)
-        F = np.empty(nl.indices.shape[0])
-        Fb = np.empty(nb.indices.shape[0])
-        Fsum, Fbsum = np.empty(n), np.empty(n)
-        _weights(x, v, m, rho, drate, nl.offsets, nl.indices, b["x"], b["v"], nb.offsets,
-                 nb.indices, rho0, wmin, diam, dt, h, kid, dim, L, F, Fb, Fsum, Fbsum)
-        _scale_boundary(m, b["V"], nb.offsets, nb.indices, rho0, Fb, Fbsum)
         c = 2.0 * (dim + 2)
         cf, cb = c * self.viscosity * rho0, c * self.boundary_viscosity * rho0
+        npairs = nl.indices.shape[0]
+        F = np.empty(npairs)
+        Fb = np.empty(nb.indices.shape[0])
+        Fsum, Fbsum = np.empty(n), np.empty(n)
+        Sv = np.empty(npairs if cf > 0.0 else 0)
+        Sx = np.empty(npairs if self.xsph > 0.0 else 0)
+        _weights(x, v, m, rho, drate, nl.offsets, nl.indices, b["x"], b["v"], nb.offsets,
+                 nb.indices, rho0, wmin, diam, dt, h, kid, dim, L, cf, self.xsph, F, Fb, Fsum,
+                 Fbsum, Sv, Sx)
+        _scale_boundary(m, b["V"], nb.offsets, nb.indices, rho0, Fb, Fbsum)
         gamma, beta = self.coefficient, self.boundary_coefficient
         rhs = np.empty((dim, n))
         blocks = np.empty((dim, dim, n))
@@ -373,9 +388,9 @@ class Jeske2023(NonPressureForce):
                     kid, dim, L, rhs, blocks)
 
         def matvec(u: np.ndarray, out: np.ndarray) -> None:
-            _matvec(x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
-                    F, Fsum, Fbsum, u.reshape(dim, n), gamma, beta, cf, cb, self.xsph, rho0, dt,
-                    h, kid, dim, L, out.reshape(dim, n))
+            _matvec(x, rho, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices, F,
+                    Fsum, Fbsum, Sv, Sx, u.reshape(dim, n), gamma, beta, cb, rho0, dt, h, kid,
+                    dim, L, out.reshape(dim, n))
 
         dv = f["jeske_dv"]
         x0 = (v + dv).ravel()
