@@ -233,13 +233,17 @@ class PairGradients:
         return {"wall_source": -factor * self.wall_rate(v), "wall_key": key,
                 "wall_scale": scale}
 
-    def velocity_divergence(self, v: np.ndarray) -> np.ndarray:
-        """``D rho_hat / Dt`` of the velocities v (boundary velocities from the state)."""
+    def velocity_divergence(self, v: np.ndarray, fluid_only: bool = False) -> np.ndarray:
+        """``D rho_hat / Dt`` of the velocities v (boundary velocities from the state);
+        ``fluid_only``: the fluid neighbours' share alone, ``sum_j V_j (v_i - v_j) . grad
+        W_ij``."""
         st = self.state
         out = arrays.empty(st.fluid.n, st.fluid.dtype, like=v)
+        boff, bidx = st.nl_fb.offsets, st.nl_fb.indices
+        if fluid_only:  # empty boundary rows
+            boff = arrays.zeros(boff.shape[0], boff.dtype, like=boff)
         pair_divergence_cached(v, st.boundary["v"], st.nl_ff.offsets, st.nl_ff.indices,
-                               st.nl_fb.offsets, st.nl_fb.indices, self.gw, self.gwb, st.dim,
-                               out)
+                               boff, bidx, self.gw, self.gwb, st.dim, out)
         return out
 
 

@@ -343,11 +343,18 @@ def laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim):
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
+def laplacian_factor(c, r2, eps, dW):
+    """``c / (r2 + eps) dW``: :func:`laplacian_diagonal_pair` with the pair's ``dW = W'(r) / r``
+    already evaluated (a pass that needs it for another term too)."""
+    return c / (r2 + eps) * dW
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
 def laplacian_diagonal_pair(c, r2, eps, kid, h, dim):
     """``c / (r2 + eps) W'(r) / r`` with ``r = sqrt(r2)``: the pair's factor s of the diagonal
     block ``sum_j s x_ij x_ij^T`` of the Monaghan Laplacian (:func:`laplacian_pair` without the
     velocity; ``c``: the pair's coefficient, e.g. ``c_f m_j / rho_j``)."""
-    return c / (r2 + eps) * kernel_dw(kid, math.sqrt(r2), h, dim)
+    return laplacian_factor(c, r2, eps, kernel_dw(kid, math.sqrt(r2), h, dim))
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")

@@ -88,6 +88,7 @@ from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     add_velocity_change,
     laplacian_diagonal_pair,
+    laplacian_factor,
     laplacian_pair,
     outer_add,
     write_blocks,
@@ -115,14 +116,14 @@ def _density_rate(x, v, m, off, idx, h, kid, dim, L, out):
 
 
 @numba.njit(**_JIT)
-def _weight(r, w0, w1, w2, d0, d1, d2, rho_ij, drate, wmin, diam, dt, h, kid, dim):
+def _weight(W, dW, r, w0, w1, w2, d0, d1, d2, rho_ij, drate, wmin, diam, dt):
     """``W_c / rho_ij + dt grad W_c . (v_i - v_j) / rho_ij - dt W_c D / rho_ij^2`` (without
-    the factor 2, resp. (m_i + m_b)/m_i); ``w`` = v_i - v_j, ``d`` = x_ij, ``D`` the summed
-    density rates."""
-    wc = min(kernel_w(kid, r, h, dim), wmin)
+    the factor 2, resp. (m_i + m_b)/m_i) from the pair's kernel value ``W`` and ``dW = W'(r) /
+    r``; ``w`` = v_i - v_j, ``d`` = x_ij, ``D`` the summed density rates."""
+    wc = min(W, wmin)
     g = 0.0
     if r > diam:
-        g = kernel_dw(kid, r, h, dim) * dot(w0, w1, w2, d0, d1, d2)
+        g = dW * dot(w0, w1, w2, d0, d1, d2)
     return wc / rho_ij + dt * g / rho_ij - dt * wc * drate / (rho_ij * rho_ij)
 
 
@@ -145,12 +146,13 @@ def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam
         for k in range(off[i], off[i + 1]):
             j = idx[k]
             d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
-            F[k] = 2.0 * COHESION_SCALE * _weight(r, w0, w1, w2, d0, d1, d2, rho[i] + rho[j],
-                                                  drate[i] + drate[j], wmin, diam, dt, h, kid,
-                                                  dim)
+            dW = kernel_dw(kid, r, h, dim)  # W'(r) / r, for the weight and the viscosity
+            F[k] = 2.0 * COHESION_SCALE * _weight(kernel_w(kid, r, h, dim), dW, r, w0, w1, w2,
+                                                  d0, d1, d2, rho[i] + rho[j],
+                                                  drate[i] + drate[j], wmin, diam, dt)
             s += F[k]
             if visc:
-                Sv[k] = laplacian_diagonal_pair(cf * m[j] / rho[j], r * r, eps, kid, h, dim)
+                Sv[k] = laplacian_factor(cf * m[j] / rho[j], r * r, eps, dW)
             if xs:
                 Sx[k] = xsph * m[j] / rho[j] * kernel_w(CUBIC, r, h, dim) * rho[i] / dt
         Fsum[i] = s
@@ -160,8 +162,8 @@ def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam
             d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, bx, vi0, vi1, vi2, bv, b, dim,
                                                  L)
             # times (m_i + m_b) / m_i in _scale_boundary (needs V_b)
-            Fb[k] = _weight(r, w0, w1, w2, d0, d1, d2, rho[i] + rho0, drate[i], wmin, diam, dt,
-                            h, kid, dim)
+            Fb[k] = _weight(kernel_w(kid, r, h, dim), kernel_dw(kid, r, h, dim), r, w0, w1,
+                            w2, d0, d1, d2, rho[i] + rho0, drate[i], wmin, diam, dt)
             sb += Fb[k]
         Fbsum[i] = sb
 
@@ -230,10 +232,13 @@ def _matvec(x, rho, off, idx, bx, bV, boff, bidx, F, Fsum, Fbsum, Sv, Sx, u, gam
 
 
 @numba.njit(parallel=True, **_JIT)
-def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbsum, gamma, beta,
-                cf, cb, xsph, rho0, dt, h, kid, dim, L, rhs, blocks):
-    """``rhs = b`` and the diagonal blocks of A (module docstring)."""
+def _rhs_blocks(x, v, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbsum, Sv, Sx, gamma,
+                beta, cb, rho0, dt, h, kid, dim, L, rhs, blocks):
+    """``rhs = b`` and the diagonal blocks of A (module docstring); the viscosity and XSPH
+    diagonals from the pair factors Sv, Sx of :func:`_weights` (empty: the term is off)."""
     eps = EPS * h * h
+    visc = Sv.shape[0] > 0
+    xsph = Sx.shape[0] > 0
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         g00 = g01 = g02 = g11 = g12 = g22 = 0.0
@@ -245,13 +250,11 @@ def _rhs_blocks(x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbs
             b0 += gamma * F[k] * d0
             b1 += gamma * F[k] * d1
             b2 += gamma * F[k] * d2
-            r2 = dot(d0, d1, d2, d0, d1, d2)
-            r = math.sqrt(r2)
-            s = laplacian_diagonal_pair(cf * m[j] / rho[j], r2, eps, kid, h, dim)
-            g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11, g12,
-                                                     g22)
-            if xsph > 0.0:
-                xs += xsph * m[j] / rho[j] * kernel_w(CUBIC, r, h, dim) * rho[i] / dt
+            if visc:
+                g00, g01, g02, g11, g12, g22 = outer_add(Sv[k], d0, d1, d2, g00, g01, g02, g11,
+                                                         g12, g22)
+            if xsph:
+                xs += Sx[k]
         c0 = c1 = c2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
@@ -366,8 +369,14 @@ class Jeske2023(NonPressureForce):
         h, kid, L, rho0 = state.h, state.kid, state.period, state.rho0
         diam = 2.0 * state.r
         wmin = float(kernel_w(kid, diam, h, dim))
-        drate = np.empty(n)
-        _density_rate(x, v, m, nl.offsets, nl.indices, h, kid, dim, L, drate)
+        grads = state.pair_grads
+        if grads is not None and state.rest().uniform:
+            # this step's cached V_j grad W_ij (m_j = rho0 V_j): one multiply-add a pair
+            drate = grads.velocity_divergence(v, fluid_only=True)
+            drate *= rho0
+        else:
+            drate = np.empty(n)
+            _density_rate(x, v, m, nl.offsets, nl.indices, h, kid, dim, L, drate)
         c = 2.0 * (dim + 2)
         cf, cb = c * self.viscosity * rho0, c * self.boundary_viscosity * rho0
         npairs = nl.indices.shape[0]
@@ -383,9 +392,9 @@ class Jeske2023(NonPressureForce):
         gamma, beta = self.coefficient, self.boundary_coefficient
         rhs = np.empty((dim, n))
         blocks = np.empty((dim, dim, n))
-        _rhs_blocks(x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"], nb.offsets,
-                    nb.indices, F, Fb, Fsum, Fbsum, gamma, beta, cf, cb, self.xsph, rho0, dt, h,
-                    kid, dim, L, rhs, blocks)
+        _rhs_blocks(x, v, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"], nb.offsets,
+                    nb.indices, F, Fb, Fsum, Fbsum, Sv, Sx, gamma, beta, cb, rho0, dt, h, kid,
+                    dim, L, rhs, blocks)
 
         def matvec(u: np.ndarray, out: np.ndarray) -> None:
             _matvec(x, rho, nl.offsets, nl.indices, b["x"], b["V"], nb.offsets, nb.indices, F,
