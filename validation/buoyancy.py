@@ -110,7 +110,11 @@ def main() -> None:
     ap.add_argument("--solvers", nargs="+", default=["dfsph"], choices=list(startup.SOLVERS))
     ap.add_argument("--boundaries", nargs="+", default=list(startup.BOUNDARIES),
                     choices=list(startup.BOUNDARIES))
+    ap.add_argument("--body-map", type=int, default=startup.BODY_MAP,
+                    help="the body's map cells per axis (density and volume maps; default "
+                    f"{startup.BODY_MAP}, SPlisHSPlasH's own default is 20)")
     args = ap.parse_args()
+    startup.BODY_MAP = args.body_map
     radii = args.radius or [0.015 if args.dim == 3 else 0.01]
     folder = Path(tempfile.mkdtemp(prefix="sphkit-buoyancy-"))
     print(f"{args.dim}D float, density 500, last 1 s of {args.until} s; e_s, e_c, gap, p1 in r")

@@ -57,6 +57,7 @@ TANK = (0.8, 0.6, 0.4)  # width, height, depth [m]
 DAM = (0.3, 0.3)  # width, height [m]
 POOL, SIDE, DRAFT0 = 0.24, 0.12, 0.3  # water depth, cube side [m], start submerged fraction
 GAP = 0.2  # the blocks' distance from the side walls [r]
+BODY_MAP = 10  # the floating body's map cells per axis (SPlisHSPlasH's default is 20)
 
 
 def splishsplash_scene(folder: Path, case: str, solver: str, boundary: str, dim: int, r: float,
@@ -86,7 +87,7 @@ def splishsplash_scene(folder: Path, case: str, solver: str, boundary: str, dim:
                        "translation": [0.1, POOL - DRAFT0 * SIDE + SIDE / 2, 0],
                        "scale": [SIDE, SIDE, SIDE if dim == 3 else 1.0], "isDynamic": True,
                        "density": 500, "mapInvert": False,
-                       "mapResolution": [10, 10, 10 if dim == 3 else 1]})
+                       "mapResolution": [BODY_MAP, BODY_MAP, BODY_MAP if dim == 3 else 1]})
     scene = {"Configuration": cfg,
              "Materials": [{"id": "Fluid", "density0": 1000, "viscosityMethod": 1,
                             "Standard viscosity": {"viscosity": 0.01}}],
