@@ -8,13 +8,16 @@ the mesh's bounding box, keeping the points inside (signed distance, :mod:`sphki
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import trimesh
-from scipy.spatial import cKDTree
 
 from sphkit.geometry import GeometryError
 from sphkit.geometry.meshes import section_segments
 from sphkit.geometry.sampling import check_radius, lattice_count
+
+if TYPE_CHECKING:
+    import trimesh
 
 # Mesh sampling: interior points keep this distance (in units of the spacing 2r) from the
 # edges of their face, and no two samples are closer than it (1.5 r).
@@ -25,6 +28,8 @@ _CORNER_ANGLE = np.deg2rad(20.0)
 
 def _greedy_thin(points: np.ndarray, dmin: float) -> np.ndarray:
     """Keep points in order, dropping each point closer than ``dmin`` to an earlier kept one."""
+    from scipy.spatial import cKDTree
+
     if len(points) < 2:
         return points
     pairs = cKDTree(points).query_pairs(dmin, output_type="ndarray")
@@ -210,6 +215,8 @@ def sample_mesh_surface(mesh: trimesh.Trimesh, r: float, dim: int = 3) -> np.nda
 
 def _merge_points(p: np.ndarray, tol: float) -> np.ndarray:
     """Label points so that points closer than ``tol`` share a label (first index wins)."""
+    from scipy.spatial import cKDTree
+
     labels = np.arange(len(p))
     for i, j in sorted(cKDTree(p).query_pairs(tol)):
         root_i, root_j = labels[i], labels[j]

@@ -12,12 +12,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from sphkit.geometry import GeometryError
 from sphkit.geometry.rotations import rotation_matrix
+
+if TYPE_CHECKING:  # trimesh is imported where a mesh is read (35 MB, 1.6 s to import)
+    import trimesh
 
 ArrayLike = Sequence[float] | np.ndarray
 #: the farthest a placed mesh vertex may lie from the origin [m]
@@ -30,6 +33,8 @@ def _read_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
     ``trimesh.load(..., force="mesh")`` copies the visuals, which needs Pillow for textured OBJ
     files; reading the geometry (and a scene's node transforms) directly does not.
     """
+    import trimesh
+
     loaded = trimesh.load(path)
     if isinstance(loaded, trimesh.Trimesh):
         return np.array(loaded.vertices, dtype=np.float64), np.array(loaded.faces, dtype=np.int64)
@@ -98,6 +103,8 @@ def load_mesh(
         GeometryError: naming the file: missing, unreadable, without triangles, or a bad
             transform.
     """
+    import trimesh
+
     p = Path(path)
     if not p.is_file():
         raise GeometryError(f"mesh file {str(p)!r}: not found")
@@ -148,6 +155,8 @@ def load_mesh(
 
 def section_segments(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
     """The section of a mesh with the plane z = 0 as 2D segments a[e] -> b[e], each (E, 2)."""
+    import trimesh
+
     segs = trimesh.intersections.mesh_plane(mesh, plane_normal=[0.0, 0.0, 1.0],
                                             plane_origin=[0.0, 0.0, 0.0])
     if len(segs) == 0:
@@ -159,6 +168,8 @@ def section_segments(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
 def oriented_section(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
     """The section of a mesh with the plane z = 0 as 2D segments a -> b (E, 2), oriented so
     that the solid lies on their left (counter-clockwise loops), from the faces' normals."""
+    import trimesh
+
     segs, faces = trimesh.intersections.mesh_plane(mesh, plane_normal=[0.0, 0.0, 1.0],
                                                    plane_origin=[0.0, 0.0, 0.0],
                                                    return_faces=True)

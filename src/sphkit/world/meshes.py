@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from sphkit.geometry.meshes import load_mesh
 from sphkit.scene.paths import resolve_scene_path
 from sphkit.scene.schema import Scene
+
+if TYPE_CHECKING:
+    import trimesh
 
 
 class SceneMeshes:
