@@ -71,8 +71,8 @@ SENSOR_Z = BOX[0][2] + 0.176
 SENSORS = np.array([[BOX[1][0], y, SENSOR_Z] for y in (0.021, 0.061, 0.101, 0.141)]
                    + [[BOX[1][0] - d, BOX[1][1], SENSOR_Z] for d in (0.021, 0.061, 0.101, 0.141)])
 #: least sum_j V_j W at a sensor for it to read the fluid: a point on the box's face under water
-#: reaches only 0.05-0.09 here (r = 0.03 m; the fluid's first layer sits about h/2 off the face),
-#: against about 0.5 on dam_break_impact.py's walls, whose threshold 0.1 would read this face dry
+#: reaches only 0.05-0.12 here (medians over 0.5-0.7 s at r = 0.015-0.03 m), against about 0.5
+#: on dam_break_impact.py's walls, whose threshold 0.1 would read this face dry most of the time
 WET = 0.01
 DRY = 0.35  # the experiment's sensors are dry before this [s]: their offsets are the means here
 FIRST = (0.35, 0.6)  # the first impact's peak on the face is looked for here [s]
