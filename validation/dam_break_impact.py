@@ -16,8 +16,8 @@ null), cubic spline h = 4r, CFL step, hydrostatic start; ``per_h``
 particles across H (r = H / (2 per_h)). WCSPH: Tait, B = rho0 c^2 / 7 with c = 10 sqrt(2 g H)
 = 24.3 m/s (Mach 0.1 against Ritter's front speed 2 sqrt(g H)), as ``dam_break.py``.
 
-Pressure probe (one per sensor, at the sensor's point on the wall surface): the Shepard
-(kernel-normalised) average of the fluid pressure,
+Pressure probe (``validation/_probes.py``, one per sensor, at the sensor's point on the wall
+surface): the Shepard (kernel-normalised) average of the fluid pressure,
 ``p_s = sum_j p_j V_j W(x_s - x_j) / sum_j V_j W(x_s - x_j)``, fluid particles only, V_j =
 m_j / rho_j, the simulation's kernel and support; the sensor reads 0 (dry) while
 ``sum_j V_j W`` < 0.1 (a full neighbourhood gives 1, a point on a wall about 0.5): the probe
@@ -49,8 +49,8 @@ from pathlib import Path
 
 import numpy as np
 from _plotting import pyplot
+from _probes import Probe, window_mean
 
-from sphkit.core.kernels import Kernel
 from sphkit.scene.schema import Scene
 from sphkit.simulation import InstabilityError, Simulation
 
@@ -62,7 +62,6 @@ L = 0.6  # column length [m]
 TANK = 1.61  # tank length [m]
 WIDTH = 0.15  # tank width in 3D [m]
 SENSORS = (0.003, 0.015, 0.030, 0.080)  # sensor heights on the downstream wall [m]
-WET = 0.1  # least sum_j V_j W at the sensor for it to read the fluid
 WINDOW = 0.002  # running mean [s]
 PLOT_WINDOW = 0.01  # the plot's running mean [s]: the SPH wall pressures are spiky
 PLATEAU = (3.0, 4.0)  # mean pressure window in T
@@ -87,16 +86,6 @@ def experiment_p1() -> tuple[np.ndarray, np.ndarray]:
     rows = [s for s in DATA_P1.read_text().splitlines() if s and not s.startswith("#")]
     d = np.array([[float(v) for v in s.split(",")] for s in rows[1:]])
     return d[:, 0], d[:, 1]
-
-
-def window_mean(T: np.ndarray, p: np.ndarray, a: float, b: float) -> float:
-    """Mean of the piecewise-linear interpolant of p over a <= T <= b (irregular samples
-    weighted by the time they cover); NaN when the series does not span the window."""
-    if T[0] > a or T[-1] < b:
-        return math.nan
-    t = np.concatenate([[a], T[(T > a) & (T < b)], [b]])
-    q = np.interp(t, T, p)
-    return float(np.sum(0.5 * (q[1:] + q[:-1]) * np.diff(t)) / (b - a))
 
 
 def sensor4_measures(T: np.ndarray, p: np.ndarray) -> list[float]:
@@ -164,29 +153,6 @@ def scene(solver: str, per_h: int, dim: int = 2, wall: str = "free-slip",
         "boxes": [{"min": lo, "max": hi, "layers": 2, "open_top": True}],
     }
     return Scene.model_validate(data)
-
-
-class Probe:
-    """Shepard-averaged fluid pressure at fixed points (module docstring)."""
-
-    def __init__(self, points: np.ndarray, sim: Simulation) -> None:
-        self.points = np.asarray(points, dtype=np.float64)  # (S, dim)
-        st = sim.state
-        self.kernel = Kernel(st.kid, st.h, self.points.shape[1])
-        self.h = st.h
-
-    def __call__(self, sim: Simulation) -> np.ndarray:
-        """Pressure [Pa] at each point (0 where dry)."""
-        f = sim.fluid
-        x = np.asarray(f["x"])  # (dim, N)
-        near = np.abs(x[0] - self.points[0, 0]) < self.h  # every sensor is on one wall
-        x = x[:, near]
-        V = np.asarray(f["m"])[near] / np.asarray(f["rho"])[near]
-        p = np.asarray(f["p"])[near]
-        d = self.points[:, :, None] - x[None]  # (S, dim, n)
-        w = self.kernel.w(np.sqrt((d * d).sum(axis=1))) * V  # (S, n)
-        s = w.sum(axis=1)
-        return np.where(s >= WET, (w * p).sum(axis=1) / np.maximum(s, 1e-300), 0.0)
 
 
 def sensor_points(dim: int) -> np.ndarray:
