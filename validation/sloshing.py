@@ -551,11 +551,11 @@ def main(argv: list[str] | None = None) -> int:
     _plot({k: o for k, o in results.items() if not k[0].startswith("roll-")},
           Path(__file__).with_suffix(".png"))
     _plot({k: o for k, o in results.items() if k[0].startswith("roll-")},
-          Path(__file__).with_name("sloshing_roll.png"))
+          Path(__file__).with_name("sloshing_roll.png"), width=8.0, dpi=90)
     return 0
 
 
-def _plot(results: dict, path: Path) -> None:
+def _plot(results: dict, path: Path, width: float = 11.0, dpi: int = 120) -> None:
     plt = pyplot()
     if plt is None:
         return
@@ -565,7 +565,7 @@ def _plot(results: dict, path: Path) -> None:
     groups = {(k[0], k[1]) for k in results}
     conv = [g for g in sorted(groups) if sum(k[:2] == g for k in results) > 1]
     rows = len(cases) + bool(conv)
-    fig, axes = plt.subplots(rows, 1, figsize=(11, 3.6 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, 1, figsize=(width, 3.6 * width / 11.0 * rows), squeeze=False)
     for ax, case in zip(axes[:, 0], cases, strict=False):
         ratio, amp, roll = case_params(case)
         keys = sorted(k for k in results if k[0] == case)
@@ -599,7 +599,7 @@ def _plot(results: dict, path: Path) -> None:
         ax.set_ylabel("error [%]")
         ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=120, bbox_inches="tight")
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
     print(f"plot: {path}")
 
 
