@@ -107,8 +107,9 @@ theta'' = 0, Q_n = (2/L) int Omega(x, 0) cos(k_n s) dx = P_n lambda_n, so
 
 the sway equation with eta'' replaced by g theta (gravity's component along the tilted floor)
 plus lambda_n theta'' (the axis's arm to the still-water level, d theta'', and the water's
-rotational inertia, the Stokes-Joukowski share; Faltinsen & Timokha's modal equations for
-roll have this form). From rest, with p_n = -P_n = 4 / (L k_n^2),
+rotational inertia, the Stokes-Joukowski share; the structure of the linear modal
+equations of roll in Faltinsen et al. 2000 and Faltinsen & Timokha 2009, the coefficients
+derived here, not copied). From rest, with p_n = -P_n = 4 / (L k_n^2),
 
     beta_n(t) = p_n Theta (1 - cos(omega_n t)) + C_n (cos(omega t) - cos(omega_n t)),
     C_n = (omega_n^2 / g) p_n Theta (lambda_n omega^2 - g) / (omega_n^2 - omega^2):
