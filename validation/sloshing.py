@@ -131,9 +131,11 @@ above the floor here) mode 1 is driven by the tilt alone, as by a sway with eta'
 Case ``off`` (roll): omega = 0.7 omega_1, Theta = 0.02 rad about the floor's centre: forced
 amplitude 19.08 mm in the strip (20.90 mm at the wall), mode-1 free 9.46 mm, mean tilt 8.95
 mm, crests to 37.9 mm (k_1 zeta 0.12). The phase is the lag behind the theory's forced part.
-Not done for roll: ``--frame tank`` (in the tank's frame gravity turns with theta and the
-Euler, centrifugal and Coriolis accelerations depend on each particle's position and
-velocity; sphkit's only body force is the uniform ``state.gravity``).
+``--frame tank`` with roll: walls at rest, gravity turned by -theta, (-g sin theta, -g cos
+theta), set on ``state.gravity`` after every step, and the frame's Euler, centrifugal and
+Coriolis accelerations added to the fluid by a non-pressure force appended to the
+simulation's forces (:class:`RollFrame`, r from the axis, the rate and angular acceleration of
+the step's start); exactly equivalent to the rotating walls for the continuum, a cross-check.
 
 Run ``python validation/sloshing.py`` (``--per-l 30 60 120`` particles along L, ``--solvers
 dfsph iisph wcsph``, ``--periods`` of the forcing (4), ``--quick``: DFSPH at 30 and 60,
@@ -155,6 +157,8 @@ from pathlib import Path
 import numpy as np
 from _plotting import pyplot
 
+from sphkit.core.methods import NonPressureForce
+from sphkit.core.state import SimState
 from sphkit.scene.schema import Scene
 from sphkit.simulation import InstabilityError, Simulation
 
@@ -290,6 +294,28 @@ def scene(solver: str, per_l: int, dt_max: float = 2e-3, nu: float = NU) -> Scen
     return Scene.model_validate(data)
 
 
+class RollFrame(NonPressureForce):
+    """The rolling tank's frame's inertial accelerations on the fluid (``--frame tank`` with
+    roll; gravity turned by -theta is set on ``state.gravity``): Euler -theta'' z x r,
+    centrifugal theta'^2 r and Coriolis -2 theta' z x v, r from the axis (ox, oz), with the
+    rate and angular acceleration that :func:`run` sets for the step."""
+
+    name = "roll-frame"
+
+    def __init__(self, ox: float, oz: float) -> None:
+        self.ox, self.oz = ox, oz
+        self.rate = self.accel = 0.0
+
+    def apply(self, state: SimState, dt: float) -> None:
+        """Add the three accelerations to ``state.fluid['a']`` (whole arrays)."""
+        f = state.fluid
+        x, v, a = f["x"], f["v"], f["a"]
+        rx, rz = x[0] - self.ox, x[1] - self.oz
+        w, dw = self.rate, self.accel
+        a[0] += dw * rz + w * w * rx + 2.0 * w * v[1]
+        a[1] += -dw * rx + w * w * rz - 2.0 * w * v[0]
+
+
 def run(sim: Simulation, omega: float, amp: float, t_end: float, frame: str = "moving",
         roll_axis: float | None = None) -> dict:
     """Step to t_end moving the tank (``frame`` 'moving': the wall particles through the API;
@@ -297,16 +323,20 @@ def run(sim: Simulation, omega: float, amp: float, t_end: float, frame: str = "m
     measure), the left strip's change alone, the highest particle's top next to the left wall
     and the tank's displacement. ``roll_axis``: roll instead of sway, theta = amp (1 - cos
     omega t) [rad] about the point (L/2, roll_axis) (the height above the floor [m]), the
-    measures in the tank's coordinates (moving walls only)."""
+    measures in the tank's coordinates (frame 'tank': gravity (-g sin theta, -g cos theta)
+    and :class:`RollFrame`'s accelerations)."""
     st = sim.state
     f = sim.fluid
     b = st.boundary
     bx0 = b["x"].copy()
     bn0 = b["wall_normal"].copy() if "wall_normal" in b.fields else None
-    if roll_axis is not None and frame != "moving":
-        raise ValueError(f"frame: {frame!r} with roll; expected 'moving' (the tank's frame of a "
-                         "roll is not implemented)")
     ox, oz = 0.5 * LENGTH, 0.0 if roll_axis is None else float(roll_axis)
+    inertial = None
+    if roll_axis is not None and frame == "tank":  # the frame's accelerations on the fluid
+        inertial = RollFrame(ox, oz)
+        sim.forces.append(inertial)
+        if len(sim.world.force_roles) < len(sim.forces):  # the same list as the world's
+            sim.world.force_roles.append("frame")
 
     def strips(shift: float, angle: float = 0.0) -> tuple[float, float, float]:
         """Weighted rest volume in the strips at the left and right walls, and the top of
@@ -325,14 +355,19 @@ def run(sim: Simulation, omega: float, amp: float, t_end: float, frame: str = "m
 
     left0, right0, top0 = strips(0.0)
     ts, zs, zl, tops, etas = [0.0], [0.0], [0.0], [0.0], [0.0]
-    if frame == "tank":
+    if frame == "tank" and inertial is None:
         st.gravity[0] = -motion(0.0, omega, amp)[2]
+    elif inertial is not None:
+        inertial.accel = motion(0.0, omega, amp)[2]
     while sim.time < t_end - 1e-12:
         sim.step()
         t = sim.time
         x, v, a = motion(t, omega, amp)
         shift = angle = 0.0
-        if roll_axis is not None:  # rigid rotation by x about (ox, oz), angular velocity v
+        if inertial is not None:  # the tank's frame of the roll
+            st.gravity[0], st.gravity[1] = -G * math.sin(x), -G * math.cos(x)
+            inertial.rate, inertial.accel = v, a
+        elif roll_axis is not None:  # rigid rotation by x about (ox, oz), angular velocity v
             c, sn = math.cos(x), math.sin(x)
             dx, dz = bx0[0] - ox, bx0[1] - oz
             b["x"][0] = ox + c * dx - sn * dz
@@ -464,7 +499,8 @@ def main(argv: list[str] | None = None) -> int:
                     help=f"roll axis above the floor's centre [m] (default {ROLL_AXIS:g})")
     ap.add_argument("--periods", type=float, default=4.0, help="forcing periods to run (default 4)")
     ap.add_argument("--frame", choices=("moving", "tank"), default="moving",
-                    help="moving walls (default) or walls at rest under gravity (-eta'', -g)")
+                    help="moving walls (default) or walls at rest under gravity (-eta'', -g) "
+                    "(roll: gravity turned by -theta and the frame's inertial accelerations)")
     ap.add_argument("--nu", type=float, default=NU,
                     help=f"kinematic viscosity [m^2/s] (default {NU:g}, water)")
     ap.add_argument("--quick", action="store_true", help="DFSPH at 30 and 60 along L")
@@ -476,9 +512,6 @@ def main(argv: list[str] | None = None) -> int:
         bad = [c for c in args.cases if c not in ROLL_CASES]
         if bad:
             ap.error(f"--cases: {bad} with --motion roll; expected one of {list(ROLL_CASES)}")
-        if args.frame != "moving":
-            ap.error(f"--frame: {args.frame!r} with --motion roll; expected 'moving' (the "
-                     "tank's frame of a roll is not implemented)")
         args.cases = [f"roll-{c}" for c in args.cases]
     if args.quick:
         args.solvers, args.per_l = ["dfsph"], [30, 60]
