@@ -476,7 +476,7 @@ def measures(o: dict, case: str) -> dict:
 def row(key: tuple, o: dict | str) -> str:
     """One line of the table."""
     case, solver, per_l = key
-    head = f"{case:8s}{solver:>7s}{per_l:5d}"
+    head = f"{case:8s} {solver:>6s}{per_l:5d}"
     if isinstance(o, str):
         return f"{head}  {o}"
     m = measures(o, case)
