@@ -147,6 +147,7 @@ dfsph iisph wcsph``, ``--periods`` of the forcing (4), ``--quick``: DFSPH at 30 
 from __future__ import annotations
 
 import argparse
+import functools
 import logging
 import math
 import sys
@@ -207,6 +208,12 @@ def strip_factor(k: np.ndarray) -> np.ndarray:
     return np.trapezoid(phi[None, :] * np.cos(np.outer(k, s)), s, axis=1) / np.trapezoid(phi, s)
 
 
+@functools.cache
+def _odd_strip_factors() -> np.ndarray:
+    """:func:`strip_factor` of the theory's odd modes (computed once)."""
+    return strip_factor(np.arange(1, 2 * MODES, 2) * math.pi / LENGTH)
+
+
 def modes(omega: float, amp: float, at_wall: bool = False, roll_axis: float | None = None
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Linear theory's odd modes at the left wall (module docstring): omega_n, the constant
@@ -217,7 +224,7 @@ def modes(omega: float, amp: float, at_wall: bool = False, roll_axis: float | No
     n = np.arange(1, 2 * MODES, 2)
     k = n * math.pi / LENGTH
     wn = natural(n)
-    s = np.ones_like(k) if at_wall else strip_factor(k)
+    s = np.ones_like(k) if at_wall else _odd_strip_factors()
     p = 4.0 / (LENGTH * k**2)  # -P_n, the cosine coefficient of -(s - L/2)
     if roll_axis is None:
         m = np.zeros_like(k)
