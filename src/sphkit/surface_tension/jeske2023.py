@@ -372,8 +372,8 @@ class Jeske2023(NonPressureForce):
         grads = state.pair_grads
         if grads is not None and state.rest().uniform:
             # this step's cached V_j grad W_ij (m_j = rho0 V_j): one multiply-add a pair
-            drate = grads.velocity_divergence(v, fluid_only=True)
-            drate *= rho0
+            drate = np.asarray(grads.velocity_divergence(v, fluid_only=True), np.float64)
+            drate *= rho0  # float64 as the model's own pass (one compiled signature)
         else:
             drate = np.empty(n)
             _density_rate(x, v, m, nl.offsets, nl.indices, h, kid, dim, L, drate)
