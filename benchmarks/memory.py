@@ -18,7 +18,13 @@ about 0.1 s: before that it has no boundary neighbours) and measures one more st
   solve, so that temporaries inside compiled passes (which the walk cannot see) show as the
   phase's excess over the live arrays;
 * the process's resident memory before the world was built (Python, NumPy, Numba and the
-  compiled passes: the baseline) and its peak (``ru_maxrss``).
+  compiled passes: the baseline) and its peak (``ru_maxrss``);
+* where the resident memory lies at the entry of the pressure solve (``/proc/self/smaps``): the
+  main heap (``[heap]``: small and mid-sized allocations, and what the allocator keeps of them
+  after they are freed), anonymous mappings (large arrays, other threads' arenas) and
+  file-backed pages (shared libraries, the compiled passes' code), and how much of it the C
+  allocator gives back when asked after the step (``malloc_trim(0)``, glibc only): memory that
+  was freed but stayed resident.
 
 The table is the one in ``benchmarks/README.md`` ("Memory").
 """
@@ -60,6 +66,40 @@ def reset_peak() -> None:
         Path("/proc/self/clear_refs").write_text("5")
     except OSError:
         pass
+
+
+def resident_regions() -> dict[str, int]:
+    """Resident bytes by kind of mapping (``/proc/self/smaps``): the main ``heap``, ``anonymous``
+    mappings and ``file``-backed ones (Linux; empty elsewhere)."""
+    out = {"heap": 0, "anonymous": 0, "file": 0}
+    kind = None
+    try:
+        lines = Path("/proc/self/smaps").read_text().splitlines()
+    except OSError:
+        return {}
+    for line in lines:
+        head = line.split()
+        if head and "-" in head[0] and len(head) >= 5 and ":" in head[3]:  # a mapping's line
+            name = head[5] if len(head) > 5 else ""
+            kind = "heap" if name == "[heap]" else "anonymous" if not name else (
+                None if name.startswith("[") else "file")
+        elif line.startswith("Rss:") and kind is not None:
+            out[kind] += 1024 * int(head[1])
+    return out
+
+
+def malloc_trim() -> int | None:
+    """Ask glibc to return the free memory of its heaps (``malloc_trim(0)``); the resident bytes
+    released, or None where there is no glibc."""
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+    except OSError:
+        return None
+    before = rss()
+    libc.malloc_trim(0)
+    return before - rss()
 
 
 def _owner(a: np.ndarray) -> np.ndarray:
@@ -115,6 +155,7 @@ def measure(scene: Path, start: float, steps: int, precision: str | None) -> dic
         sim.step()
     phases: dict[str, int] = {}
     snap: dict[str, int] = {}
+    regions: dict[str, int] = {}
 
     def wrap(obj: object, attr: str, label: str, snapshot: bool = False) -> None:
         fn = getattr(obj, attr)
@@ -122,6 +163,7 @@ def measure(scene: Path, start: float, steps: int, precision: str | None) -> dic
         def inner(*a, **k):
             if snapshot:
                 snap.update(live_arrays(sim))
+                regions.update(resident_regions())
             reset_peak()
             try:
                 return fn(*a, **k)
@@ -139,11 +181,13 @@ def measure(scene: Path, start: float, steps: int, precision: str | None) -> dic
     if z:  # make the measured step one that reorders the fluid
         sim.step_count = (sim.step_count // z + 1) * z
     sim.step()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    trimmed = malloc_trim()
     return {"n_fluid": sim.fluid.n, "time": sim.time, "n_boundary": sim.boundary.n,
             "fluid_pairs": int(sim.state.nl_ff.indices.shape[0]),
             "boundary_pairs": int(sim.state.nl_fb.indices.shape[0]),
-            "baseline": base, "live": snap, "phases": phases,
-            "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}
+            "baseline": base, "live": snap, "phases": phases, "regions": regions,
+            "trimmed": trimmed, "peak": peak}
 
 
 def report(r: dict) -> None:
@@ -160,6 +204,11 @@ def report(r: dict) -> None:
     print(f"{'all live arrays':62s} {tot / 1e6:8.2f} {tot / n:8.1f}")
     print(f"{'process before the world (Python, NumPy, Numba, compiled code)':62s} "
           f"{r['baseline'] / 1e6:8.2f} {r['baseline'] / n:8.1f}")
+    for kind, b in r.get("regions", {}).items():
+        print(f"{'resident at the solve: ' + kind:62s} {b / 1e6:8.2f} {b / n:8.1f}")
+    if r.get("trimmed") is not None:
+        print(f"{'freed but resident after the step (malloc_trim gives back)':62s} "
+              f"{r['trimmed'] / 1e6:8.2f} {r['trimmed'] / n:8.1f}")
     print(f"{'peak resident memory of the phase':62s}")
     for label, b in r["phases"].items():
         print(f"  {label:60s} {b / 1e6:8.2f} {b / n:8.1f}")
