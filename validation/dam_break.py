@@ -51,7 +51,9 @@ spline, h = 4r, CFL step 0.4 * 2r / max|v|; hydrostatic start.
 
 Run ``python validation/dam_break.py`` (``--per-a 10 20 40`` particles across a,
 ``--solvers ...``, ``--walls free-slip no-slip``, ``--columns 2 1``, ``--gate`` adds the
-gate-speed runs, ``--quick``: DFSPH, free-slip, 10 and 20; ``--dim 3``: the column in a
+gate-speed runs, ``--wall-viscosity NU_B ...`` the runs with no-slip walls whose viscous term
+has the coefficient NU_B (wall friction as an eddy viscosity; DFSPH, the middle resolution),
+``--quick``: DFSPH, free-slip, 10 and 20; ``--dim 3``: the column in a
 channel 0.5 a wide between side walls, y up, z across; ``--solved-walls``:
 ``configuration.boundary.solved``, wall pressures solved in the PPE, which the 3D runs need).
 It prints the tables and saves ``validation/dam_break.png`` (``dam_break_3d.png``) when
@@ -129,8 +131,9 @@ def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: 
         c = 10.0 * math.sqrt(2.0 * G * height)
         pressure.update(equation="tait", exponent=7.0, stiffness=RHO0 * c * c / 7.0)
     visc: dict = {"method": "standard", "coefficient": NU}
-    if wall == "no-slip":
-        visc.update(boundary_coefficient=NU, boundary_velocity="morris1997")
+    if wall.startswith("no-slip"):  # "no-slip:<nu_b>": the wall term's own coefficient
+        nu_b = float(wall.split(":")[1]) if ":" in wall else NU
+        visc.update(boundary_coefficient=nu_b, boundary_velocity="morris1997")
     lo, hi, start, end = [0.0, 0.0], [TANK * a, height + a], [0.0, 0.0], [a, height]
     if dim == 3:
         lo, hi = lo + [0.0], hi + [WIDTH_3D * a]
@@ -329,6 +332,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--gate", type=float, nargs="*", default=None,
                     help="gate speeds V [m/s] (DFSPH, free-slip, n^2 = 2, the middle "
                     "resolution); without values 0.6 1.2 2.4")
+    ap.add_argument("--wall-viscosity", type=float, nargs="+", default=None, metavar="NU_B",
+                    help="no-slip walls whose viscous term has the coefficient NU_B [m^2/s] "
+                    "instead of nu (a rough, turbulent floor's friction as an eddy viscosity; "
+                    "DFSPH, n^2 = 2, the middle resolution)")
     ap.add_argument("--quick", action="store_true", help="DFSPH, free-slip, 10 and 20 across")
     ap.add_argument("--dim", type=int, default=2, choices=(2, 3),
                     help="3: the column in a channel 0.5 a wide between side walls (no gate)")
@@ -363,6 +370,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.gate is not None:
         per_a = sorted(args.per_a)[len(args.per_a) // 2]
         cases += [(2.0, "dfsph", "free-slip", per_a, v) for v in (args.gate or [0.6, 1.2, 2.4])]
+    if args.wall_viscosity:
+        if not all(v >= 0 for v in args.wall_viscosity):
+            ap.error(f"--wall-viscosity {args.wall_viscosity}: expected coefficients >= 0")
+        per_a = sorted(args.per_a)[len(args.per_a) // 2]
+        cases += [(2.0, "dfsph", f"no-slip:{v:g}", per_a, None) for v in args.wall_viscosity]
     with tempfile.TemporaryDirectory() as tmp:
         for key in cases:
             n2, solver, wall, per_a, gate = key
