@@ -25,7 +25,6 @@ fluid particle and its largest difference from the float64 vector form.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 import time
@@ -37,6 +36,9 @@ import numpy as np
 from sphkit.core.ppe import GATHER_FASTMATH
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from scaling import scene_at  # noqa: E402 - the scene copies live beside this script
+
 _F = dict(cache=False, fastmath=set(GATHER_FASTMATH), parallel=True)
 
 
@@ -105,16 +107,8 @@ def build(radius: float, solver: str):
     from sphkit.scene.files import load_scene
     from sphkit.simulation import Simulation
 
-    scene = HERE / "scenes" / f"dambreak_{solver}.json"
-    data = json.loads(scene.read_text())
-    data["Configuration"]["particleRadius"] = radius
-    for body in data.get("RigidBodies", []):
-        if body.get("geometryFile") and not Path(body["geometryFile"]).is_absolute():
-            body["geometryFile"] = str((scene.parent / body["geometryFile"]).resolve())
     with tempfile.TemporaryDirectory(prefix="sphkit-paircache-") as tmp:
-        path = Path(tmp) / scene.name
-        path.write_text(json.dumps(data))
-        sim = Simulation(load_scene(path))
+        sim = Simulation(load_scene(scene_at(solver, radius, None, Path(tmp))))
     for _ in range(3):
         sim.step()
     sim._neighbors()

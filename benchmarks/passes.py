@@ -43,6 +43,8 @@ import numba
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from scaling import scene_at  # noqa: E402 - the scene copies live beside this script
 
 
 @numba.njit(parallel=True, cache=False)
@@ -204,15 +206,8 @@ def main() -> int:
     env = dict(os.environ, NUMBA_NUM_THREADS=str(args.threads))
     with tempfile.TemporaryDirectory(prefix="sphkit-passes-") as tmp:
         for solver in args.solvers:
-            src = HERE / "scenes" / f"dambreak_{solver}.json"
             for radius in args.radii:
-                data = json.loads(src.read_text())
-                data["Configuration"]["particleRadius"] = radius
-                for body in data.get("RigidBodies", []):
-                    if body.get("geometryFile") and not Path(body["geometryFile"]).is_absolute():
-                        body["geometryFile"] = str((src.parent / body["geometryFile"]).resolve())
-                path = Path(tmp) / f"{solver}_{radius}.json"
-                path.write_text(json.dumps(data))
+                path = scene_at(solver, radius, None, Path(tmp))
                 out = Path(tmp) / f"{solver}_{radius}.out.json"
                 print(f"\n== {solver}, particle radius {radius} m", flush=True)
                 rc = subprocess.run([sys.executable, __file__, "--child", str(path),
