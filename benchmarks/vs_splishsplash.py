@@ -90,6 +90,9 @@ def run_splishsplash(scene: Path, threads: int) -> dict:
                      ("n_boundary", r"Number of boundary particles: (\d+)")):
         counts[key] = sum(int(m) for m in re.findall(pat, res.stdout))
     out = _summary({**json.loads(line), **counts})
+    # the wheel's own timers at exit ("Time sum: <part>: <ms> ms"), in seconds over the run
+    out["parts"] = {name: float(ms) / 1e3 for name, ms in
+                    re.findall(r"^Time sum: ([^:]+): ([0-9.eE+-]+) ms", res.stdout, re.M)}
     if out.get("method") == "WCSPH":
         out["iterations"] = None  # WCSPH does not iterate (SPlisHSPlasH reports 0)
     return out
