@@ -411,3 +411,34 @@ def test_dambreak_never_enters_sphere_obstacle(method: str, tmp_path: Path) -> N
     assert min(closest) > 0.995 * R, min(closest)
     assert np.all(np.abs(x[:, 0]) < 0.5) and np.all(x[:, 1] > -0.3)
     assert np.all(np.abs(x[:, 2]) < 0.2)
+
+
+def test_a_map_coarser_than_the_kernel_support_is_named_in_a_warning() -> None:
+    """SPlisHSPlasH's default 20 map cells are coarse at small particle radii: a 2D column with
+    PCISPH and density maps at r = 5 mm rested at a pressure slope of 1.40 rho0 g with cells
+    of 2.1-2.4 h and at 1.022 with 60 cells (validation/README.md, "The 2D columns at r = 5
+    mm"). The warning names the scene field, the cell size against h and the cells needed
+    (cells of h over the padded domain); a grid of cells below 1.5 h stays silent."""
+    from sphkit.world.walls import MAP_CELL_LIMIT, coarse_map_warnings
+
+    r = 0.005
+    scene = Scene.model_validate({
+        "configuration": {"dim": 2, "particle_radius": r,
+                          "boundary": {"method": "koschier2017", "map_resolution": [20, 20]}},
+        "fluid_blocks": [{"start": [0.1, 0.1], "end": [0.5, 0.5]}],
+        "boxes": [{"min": [0.0, 0.0], "max": [0.6, 0.8]}],
+    })
+    h = 4 * r
+    field = "configuration.boundary.map_resolution"
+    coarse = MapGeometry("boxes[0]", BoxDistance([0.0, 0.0], [0.6, 0.8]), invert=True,
+                         resolution=(20, 20))
+    with pytest.warns(UserWarning, match=r"map_resolution: \[20, 20\] gives boxes\[0\]"):
+        notes = coarse_map_warnings([coarse, coarse], [field, field], scene, h)
+    assert len(notes) == 1  # one warning per scene field
+    # the padded domain is 0.6 + 8h by 0.8 + 8h: cells of 0.76 / 20 and 0.96 / 20 m
+    assert f"{0.96 / 20 / h:.1f} times the kernel support" in notes[0]
+    assert "at least [38, 48] cells" in notes[0]
+    fine = MapGeometry("boxes[0]", BoxDistance([0.0, 0.0], [0.6, 0.8]), invert=True,
+                       resolution=(38, 48))
+    assert 0.96 / 48 <= MAP_CELL_LIMIT * h
+    assert coarse_map_warnings([fine], [field], scene, h) == []
