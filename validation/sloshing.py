@@ -38,9 +38,12 @@ no surface detection; the ramp keeps a column of particles crossing the strip's 
 jumping the sum). The elevation is its change since t = 0, antisymmetric part:
 ``zeta_w = ((Z_left(t) - Z_left(0)) - (Z_right(t) - Z_right(0))) / 2`` (the right wall's strip
 mirrored). Sway excites only the odd modes, antisymmetric about the centre, so the theory's
-zeta_w is the left wall's; the symmetric part that this removes is what the particles'
-packing presumably does at both walls alike (the left strip alone drifts below the theory,
-validation/README.md) and the even modes of second order. Column ``top``: the
+zeta_w is the left wall's; the symmetric part that this removes is the even modes of second
+order and the drift of the strips' packing at both walls alike: with the default (MLS) walls
+the tank at rest is stirred (``--at-rest``) and the particles next to each wall thin out, so
+the strips' rest volume falls by 1.5 particles' volume at 30 along L while the water does not
+fall (validation/README.md, "The strips' drift at 30 along L"); what the two walls do
+differently stays in zeta_w as noise. Column ``top``: the
 highest particle's top within 2 spacings of the left wall against the theory at s = 0 (a
 wave-probe measure; run-up along the wall and splashes spike it).
 Peak: the largest |zeta_w| of the run against the theory's.
@@ -140,7 +143,10 @@ the step's start); exactly equivalent to the rotating walls for the continuum, a
 Run ``python validation/sloshing.py`` (``--per-l 30 60 120`` particles along L, ``--solvers
 dfsph iisph wcsph``, ``--periods`` of the forcing (4), ``--quick``: DFSPH at 30 and 60,
 ``--save DIR`` / ``--load FILES`` the runs' time series; ``--motion roll``,
-``--roll-axis-height``). It prints the table and saves ``validation/sloshing.png`` (sway) and
+``--roll-axis-height``; ``--walls solved`` or ``symmetric``: the wall pressure
+``boundary.solved`` / ``boundary.symmetric`` instead of the default; ``--at-rest``: the tank at
+rest for the same time, its kinetic energy, centre of mass and the strips' drift). It prints
+the table and saves ``validation/sloshing.png`` (sway) and
 ``validation/sloshing_roll.png`` (roll) when matplotlib is installed.
 """
 
@@ -177,6 +183,7 @@ CASES = {"off": (0.7, 0.02), "near": (0.9, 0.005)}
 #: roll case: (omega / omega_1, Theta [rad]); run as ``--motion roll --cases off`` ("roll-off")
 ROLL_CASES = {"off": (0.7, 0.02)}
 ROLL_AXIS = 0.0  # default roll axis: the floor's centre (its height above the floor [m])
+WALLS = ("default", "solved", "symmetric")  # --walls: the wall pressure (scene())
 
 
 def natural(n: np.ndarray | int) -> np.ndarray:
@@ -274,9 +281,13 @@ def theory_checks() -> dict:
             "quasi": float((4.0 / (LENGTH * k**2)).sum() / (0.5 * LENGTH) - 1.0)}
 
 
-def scene(solver: str, per_l: int, dt_max: float = 2e-3, nu: float = NU) -> Scene:
+def scene(solver: str, per_l: int, dt_max: float = 2e-3, nu: float = NU,
+          walls: str = "default") -> Scene:
     """The tank of the module docstring: ``per_l`` particles along L; ``nu`` the kinematic
-    viscosity [m^2/s]."""
+    viscosity [m^2/s]; ``walls`` the wall pressure: "default" (MLS; WCSPH symmetric),
+    "solved" (``boundary.solved``) or "symmetric" (``boundary.symmetric``)."""
+    if walls not in WALLS:
+        raise ValueError(f"walls: {walls!r}; expected one of {list(WALLS)}")
     r = LENGTH / (2 * per_l)
     pressure: dict = {"method": solver}
     if solver == "wcsph":
@@ -290,7 +301,8 @@ def scene(solver: str, per_l: int, dt_max: float = 2e-3, nu: float = NU) -> Scen
             "time": {"dt": 1e-4, "dt_min": 1e-7, "dt_max": dt_max},
             # WCSPH: the energy-consistent wall term (the mirrored one pumped energy into the
             # tank at rest until it blew up, validation/README.md)
-            "boundary": {"symmetric": solver == "wcsph"},
+            "boundary": {"symmetric": solver == "wcsph" or walls == "symmetric",
+                         "solved": walls == "solved"},
         },
         "materials": [{"density0": RHO0, "viscosity": {"method": "standard",
                                                        "coefficient": nu}}],
@@ -404,6 +416,49 @@ def run(sim: Simulation, omega: float, amp: float, t_end: float, frame: str = "m
             "eta": np.array(etas), "steps": sim.step_count, "n": f.n}
 
 
+def at_rest(sim: Simulation, t_end: float) -> dict:
+    """The tank at rest (``--at-rest``) to t_end: per step the fluid's kinetic energy [J/m],
+    its centre of mass's height [m], the strip measure's change at the left and right walls
+    (:func:`run`'s ``left``, [m]), the particles within 2r of each side wall and those outside
+    the tank (behind a wall or below the floor)."""
+    f, r = sim.fluid, sim.state.r
+    v0 = f["V0"]
+
+    def sample() -> list[float]:
+        s, z = f["x"][0], f["x"][1]
+        return [sim.time, 0.5 * float(np.dot(f["m"], (f["v"] ** 2).sum(axis=0))),
+                float(np.dot(f["m"], z) / f["m"].sum()), float(np.dot(v0, window(s))) / AREA,
+                float(np.dot(v0, window(LENGTH - s))) / AREA,
+                0.5 * float((s < 2.0 * r).sum() + (LENGTH - s < 2.0 * r).sum()),
+                float(((s < 0.0) | (s > LENGTH) | (z < 0.0)).sum())]
+
+    rows = [sample()]
+    while sim.time < t_end - 1e-12:
+        sim.step()
+        rows.append(sample())
+    a = np.array(rows)
+    return {k: a[:, i] for i, k in enumerate(("t", "ke", "zcm", "left", "right", "column",
+                                               "outside"))}
+
+
+def rest_row(solver: str, per_l: int, walls: str, o: dict) -> str:
+    """One line of the at-rest table: means over t >= 1 s (the start-up's first second left
+    out) of the kinetic energy [J/m] (and its largest), the centre of mass's rise [mm], the
+    strips' symmetric change [mm] (what the antisymmetric measure removes) and the RMS and
+    largest antisymmetric change [mm] (what it keeps: the sway measure's noise at rest), the
+    particles within 2r of a side wall (at t = 0 and mean), and the most outside the tank."""
+    late = o["t"] >= 1.0
+    dl, dr = 1000.0 * (o["left"] - o["left"][0]), 1000.0 * (o["right"] - o["right"][0])
+    anti = 0.5 * (dl - dr)[late]
+    return (f"rest {solver:>6s}{per_l:5d} {walls:>9s}  KE {o['ke'][late].mean():7.3f} "
+            f"(max {o['ke'].max():7.3f}) J/m  zcm "
+            f"{1000 * (o['zcm'][late].mean() - o['zcm'][0]):+6.2f} mm  strips sym "
+            f"{0.5 * (dl + dr)[late].mean():+7.2f} mm  anti rms "
+            f"{np.sqrt(np.mean(anti**2)):5.2f} max {np.abs(anti).max():5.2f} mm  column "
+            f"{o['column'][0]:.0f} -> {o['column'][late].mean():5.2f}  outside "
+            f"{o['outside'].max():.0f}")
+
+
 def fit(t: np.ndarray, z: np.ndarray, omega: float) -> dict:
     """Least-squares fit of zeta(t) (module docstring): forced amplitude and phase [rad],
     free frequency W [rad/s], its amplitude and decay rate gamma [1/s]."""
@@ -437,14 +492,14 @@ def case_params(case: str) -> tuple[float, float, bool]:
 
 
 def simulate(solver: str, per_l: int, case: str, periods: float, frame: str = "moving",
-             nu: float = NU, roll_axis: float = ROLL_AXIS) -> dict | str:
+             nu: float = NU, roll_axis: float = ROLL_AXIS, walls: str = "default") -> dict | str:
     """One run; an error message if it blew up. A roll case (``roll-...``) turns about the
-    point ``roll_axis`` [m] above the floor's centre."""
+    point ``roll_axis`` [m] above the floor's centre; ``walls``: :func:`scene`."""
     ratio, amp, roll = case_params(case)
     omega = ratio * OMEGA1
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sim = Simulation(scene(solver, per_l, nu=nu))
+        sim = Simulation(scene(solver, per_l, nu=nu, walls=walls))
     t0 = time.perf_counter()
     try:
         out = run(sim, omega, amp, periods * 2.0 * math.pi / omega, frame,
@@ -510,6 +565,12 @@ def main(argv: list[str] | None = None) -> int:
                     "(roll: gravity turned by -theta and the frame's inertial accelerations)")
     ap.add_argument("--nu", type=float, default=NU,
                     help=f"kinematic viscosity [m^2/s] (default {NU:g}, water)")
+    ap.add_argument("--walls", choices=WALLS, default="default",
+                    help="wall pressure: default (MLS; WCSPH symmetric), solved "
+                    "(boundary.solved) or symmetric (boundary.symmetric)")
+    ap.add_argument("--at-rest", action="store_true",
+                    help="the tank at rest for --periods of case off: kinetic energy, centre "
+                    "of mass, the strips' drift (runs nothing else)")
     ap.add_argument("--quick", action="store_true", help="DFSPH at 30 and 60 along L")
     ap.add_argument("--save", type=Path, help="folder to write each run's time series to (.npz)")
     ap.add_argument("--load", type=Path, nargs="*", default=[],
@@ -523,6 +584,20 @@ def main(argv: list[str] | None = None) -> int:
     if args.quick:
         args.solvers, args.per_l = ["dfsph"], [30, 60]
     logging.getLogger("sphkit").setLevel(logging.ERROR)
+    if args.at_rest:
+        t_end = args.periods * 2.0 * math.pi / (CASES["off"][0] * OMEGA1)
+        print(f"tank at rest to {t_end:.2f} s; means over t >= 1 s")
+        for solver in args.solvers:
+            for per_l in args.per_l:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    sim = Simulation(scene(solver, per_l, nu=args.nu, walls=args.walls))
+                try:
+                    print(rest_row(solver, per_l, args.walls, at_rest(sim, t_end)), flush=True)
+                except InstabilityError as e:
+                    print(f"rest {solver:>6s}{per_l:5d} {args.walls:>9s}  unstable at t = "
+                          f"{sim.time:.3f} s: {str(e).splitlines()[0]}", flush=True)
+        return 0
     print(f"2D sloshing, tank L = {LENGTH} m, depth h = {DEPTH} m, omega_1 = {OMEGA1:.4f} "
           f"rad/s (T_1 = {2 * math.pi / OMEGA1:.4f} s); sway eta = A (1 - cos omega t) or roll "
           f"theta = Theta (1 - cos omega t) about the axis {args.roll_axis_height:g} m above "
@@ -552,11 +627,13 @@ def main(argv: list[str] | None = None) -> int:
     for key in cases:
         case, solver, per_l = key
         o = simulate(solver, per_l, case, args.periods, args.frame, args.nu,
-                     args.roll_axis_height)
+                     args.roll_axis_height, args.walls)
         if args.frame == "tank":  # the label of the runs in the tank's frame
             key = (case, f"{solver}/tank", per_l)
         if args.nu != NU:
             key = (key[0], f"{key[1]}/nu{args.nu:g}", per_l)
+        if args.walls != "default":
+            key = (key[0], f"{key[1]}/{args.walls}", per_l)
         print(row(key, o), flush=True)
         if isinstance(o, str):
             continue

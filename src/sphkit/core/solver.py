@@ -212,15 +212,17 @@ class PairGradients:
         return out
 
     def wall_rate(self, v: np.ndarray) -> np.ndarray:
-        """``D rho_hat_b / Dt = sum_f V_f v_f . grad_f W_fb`` of the fluid velocities v at each
-        solved wall particle (0 at the others; :func:`sphkit.core.ppe.wall_sums`)."""
+        """``D rho_hat_b / Dt = sum_f V_f (v_f - v_b) . grad_f W_fb`` of the fluid velocities v
+        relative to the wall particle's (walls moved through ``state.boundary``, as the fluid's
+        own divergence reads them) at each solved wall particle (0 at the others;
+        :func:`sphkit.core.ppe.wall_sums`)."""
         st = self.state
         b = st.boundary
         out = np.empty(b.n, dtype=st.fluid.dtype)
         rest = st.rest()
         Vf = st.fluid["V0"] if rest.uniform else rest.V
-        wall_sums(v, Vf, b["V"], st.nl_fb.offsets, st.nl_fb.indices, self.gwb, st.dim,
-                  st.coupling.solved_walls(st), out)
+        wall_sums(v, b["v"], True, Vf, b["V"], st.nl_fb.offsets, st.nl_fb.indices, self.gwb,
+                  st.dim, st.coupling.solved_walls(st), out)
         return out
 
     def wall_args(self, v: np.ndarray, factor: float, key: str, scale: float = 1.0) -> dict:
@@ -328,7 +330,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
                                dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo)
         if walls:  # the same accelerations: a Jacobi sweep over fluid and walls together
-            wall_sums(a, Vf, b["V"], nb.offsets, nb.indices, g.gwb, dim, use, wap)
+            wall_sums(a, a, False, Vf, b["V"], nb.offsets, nb.indices, g.gwb, dim, use, wap)
             wall_update(wap, wall_source, wd, ap_factor, omega, wk, k, nb.offsets, nb.indices,
                         WALL_CAP, wkmax)
         return avg * error_factor, mx * error_factor
