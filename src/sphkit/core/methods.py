@@ -437,7 +437,10 @@ class BoundaryCoupling:
         et al. 2018, "Pressure boundaries for implicit incompressible SPH" (ACM TOG 37(2)),
         whose extended PPE gives boundary samples a pressure of their own; the paper itself
         could not be read here: the constraint (the fluid density at the wall held, velocity
-        level) and its Jacobi update are sphkit's."""
+        level) and its Jacobi update are sphkit's. ``solved: "density"`` holds the density
+        itself at its rest value in the density solves (:meth:`wall_rest`); it does not make
+        the split of the support between ``k_b`` and the fluid's pressure unique
+        (validation/README.md, "Solved walls at density level")."""
         b = state.boundary
         if not self.solved:
             return np.zeros(b.n, dtype=np.bool_)

@@ -287,7 +287,9 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     :meth:`~sphkit.core.methods.BoundaryCoupling.solved_walls`): a solver that passes
     ``wall_source`` (N_boundary,), the source of the walls' constraint in the units of s (its
     velocity part: ``-dt D rho_hat_b / Dt`` of the predicted velocities where s is ``1 - rho_hat
-    - dt div``, ``-D rho_hat_b / Dt`` where s is ``-div``; :meth:`PairGradients.wall_rate`),
+    - dt div``, ``-D rho_hat_b / Dt`` where s is ``-div``; :meth:`PairGradients.wall_rate`;
+    with ``solved: "density"`` the density solves add ``rho_rest_b - rho_hat_b``,
+    :meth:`PairGradients.wall_args`),
     has the static walls' ``k_b`` (warm-started from the coupling's field ``wall_key``, which
     keeps ``k_b wall_scale``: DFSPH's dt^2 or dt, as its own warm starts) updated
     in every iteration from the same accelerations as the fluid's q:
