@@ -462,12 +462,12 @@ class BoundaryCoupling:
         they stand, so the start configuration satisfies every fluid row and every wall row
         at once, whatever the walls' shape (faces, edges, corners, meshes) and wherever the
         start-up's relaxation moved the first fluid row. A value from the wall geometry (the
-        box's interior sampling lattice) was measured 23 % above the start value at the 2D
-        column's walls (the relaxation moves the first row away from Akinci walls): the walls'
-        rows would be slack at rest. Why only covered wall particles: at a free surface or
-        where no fluid is at the start, the start value is a partial one; holding it would
-        push fluid that arrives later (sloshing, a dam break's far wall) away from the wall,
-        so those particles hold the rate only."""
+        box's interior sampling lattice) was measured against it at the 2D column's walls: the
+        start values were 0.76-0.78 of it along the side walls (the relaxation moves the first
+        row away from Akinci walls), so the walls' rows would be slack at rest. Why only
+        covered wall particles: at a free surface or where no fluid is at the start, the start
+        value is a partial one; holding it would push fluid that arrives later (sloshing, a
+        dam break's far wall) away from the wall, so those particles hold the rate only."""
         b = state.boundary
         if "wall_rest" not in b.specs:
             b.register("wall_rest", fill=-1.0)
