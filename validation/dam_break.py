@@ -55,7 +55,8 @@ gate-speed runs, ``--wall-viscosity NU_B ...`` the runs with no-slip walls whose
 has the coefficient NU_B (wall friction as an eddy viscosity; DFSPH, the middle resolution),
 ``--quick``: DFSPH, free-slip, 10 and 20; ``--dim 3``: the column in a
 channel 0.5 a wide between side walls, y up, z across; ``--solved-walls``:
-``configuration.boundary.solved``, wall pressures solved in the PPE, which the 3D runs need).
+``configuration.boundary.solved``, wall pressures solved in the PPE, which the 3D runs need;
+``--solved-walls density``: at density level).
 It prints the tables and saves ``validation/dam_break.png`` (``dam_break_3d.png``) when
 matplotlib is installed. No settling before t = 0 (``start.settle: false``).
 """
@@ -120,7 +121,7 @@ def _gate_obj(folder: Path, a: float, n2: float, width: float) -> Path:
 
 def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: float = A,
           gate_speed: float | None = None, gate_dir: Path | None = None, dim: int = 2,
-          solved_walls: bool = False) -> Scene:
+          solved_walls: bool | str = False) -> Scene:
     """The dam break of the module docstring: ``per_a`` particles across the column; ``dim``
     3: the same in a channel WIDTH_3D a wide (y up, z across; walls on both sides);
     ``solved_walls``: ``configuration.boundary.solved`` (walls that do no work)."""
@@ -243,7 +244,8 @@ def order(runs: dict[int, dict]) -> list[tuple[int, int, float, float]]:
 
 
 def simulate(solver: str, per_a: int, wall: str, n2: float, gate: float | None = None,
-             folder: Path | None = None, dim: int = 2, solved: bool = False) -> dict | str:
+             folder: Path | None = None, dim: int = 2, solved: bool | str = False
+             ) -> dict | str:
     """One run; an error message if it blew up."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -339,8 +341,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="DFSPH, free-slip, 10 and 20 across")
     ap.add_argument("--dim", type=int, default=2, choices=(2, 3),
                     help="3: the column in a channel 0.5 a wide between side walls (no gate)")
-    ap.add_argument("--solved-walls", action="store_true",
-                    help="configuration.boundary.solved: wall pressures solved in the PPE")
+    ap.add_argument("--solved-walls", nargs="?", const=True, default=False,
+                    choices=["velocity", "density"],
+                    help="configuration.boundary.solved: wall pressures solved in the PPE "
+                         "(alone or 'velocity': the rate held; 'density': the density held)")
     ap.add_argument("--save", type=Path, help="write the runs' curves to this .npz")
     ap.add_argument("--load", type=Path, nargs="*", default=[],
                     help="print and plot runs saved with --save (runs nothing but --gate)")
@@ -348,7 +352,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.quick:
         args.solvers, args.walls, args.per_a = ["dfsph"], ["free-slip"], [10, 20]
     logging.getLogger("sphkit").setLevel(logging.ERROR)
-    walls = "solved" if args.solved_walls else "MLS"
+    walls = ("solved (density level)" if args.solved_walls == "density"
+             else "solved" if args.solved_walls else "MLS")
     print(f"{args.dim}D dam break ({walls} walls), a = {A} m, tank {TANK} a, nu = {NU} m^2/s; "
           "front Z = x/a "
           "against T = n t sqrt(g/a); errors (Z_sim/Z_exp - 1): mean (signed) / max |.|; "

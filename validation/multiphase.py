@@ -3,7 +3,7 @@
     python validation/multiphase.py [--solvers pcisph pbf iisph dfsph] [--radius 0.01]
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
-        [--interface-viscosity 0.01] [--interface-tension 1.0] [--solved-walls]
+        [--interface-viscosity 0.01] [--interface-tension 1.0] [--solved-walls [density]]
         [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
@@ -71,7 +71,7 @@ LAYER = 0.3
 
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
           viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
-          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool = False,
+          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool | str = False,
           interface_tension: float = 0.0) -> Scene:
     """Two layers LAYER m high in a box WIDTH m wide (and ``depth`` m deep in 3D; module
     docstring)."""
@@ -101,6 +101,11 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
                            if interface_tension > 0 else {})}]
         if interface_viscosity > 0 or interface_tension > 0 else [],
     })
+
+
+def _level(solved: bool | str) -> str:
+    """The level of the solved walls' constraint for the headings ("" for ``solved: true``)."""
+    return f" ({solved} level)" if isinstance(solved, str) else ""
 
 
 def mixing(sim: Simulation) -> tuple[int, int, float]:
@@ -166,14 +171,14 @@ def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
 
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
            viscosity: float, symmetric: bool = False, dim: int = 2, depth: float = 0.2,
-           interface_viscosity: float = 0.0, solved: bool = False,
+           interface_viscosity: float = 0.0, solved: bool | str = False,
            every: float = 0.0, interface_tension: float = 0.0) -> None:
     """Heavy over light (module docstring, ``layers``); ``every`` > 0: a line every ``every``
     s with the counts and the light stragglers of :func:`stragglers`."""
     print(f"\nheavy over light, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
           f"jitter {jitter} r, viscosity {viscosity} m^2/s"
           + (", symmetric wall term" if symmetric else "")
-          + (", solved wall pressures" if solved else "")
+          + (f", solved wall pressures{_level(solved)}" if solved else "")
           + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else "")
           + (f", interface tension {interface_tension} N" if interface_tension else ""))
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
@@ -210,9 +215,10 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
 
 def hydrostatic(methods: list[str], r: float, settle: float, average: float,
                 ratio: float, viscosity: float, symmetric: bool = False, dim: int = 2,
-                depth: float = 0.2, solved: bool = False) -> None:
+                depth: float = 0.2, solved: bool | str = False) -> None:
     print(f"\nlight over heavy at rest, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
-          f"units of the layer's rho0 g, averaged {settle}-{settle + average} s")
+          f"units of the layer's rho0 g, averaged {settle}-{settle + average} s"
+          + (f", solved wall pressures{_level(solved)}" if solved else ""))
     print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'jump/rho_l g H_l':>17s} "
           f"{'vmax':>6s} {'ms/step':>8s}  note")
     for method in methods:
@@ -262,7 +268,7 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
 
 
 def rest(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
-         symmetric: bool = False, dim: int = 2, depth: float = 0.2, solved: bool = False,
+         symmetric: bool = False, dim: int = 2, depth: float = 0.2, solved: bool | str = False,
          every: float = 1.0) -> None:
     """Light over heavy at rest for ``until`` s: the interface should stay sharp (module
     docstring, ``rest``)."""
@@ -325,14 +331,14 @@ def _bubble_world(scene: Scene, blob: int, ratio: float) -> tuple[World, dict[st
 
 
 def bubbles(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
-            blob: int, symmetric: bool = False, solved: bool = False,
+            blob: int, symmetric: bool = False, solved: bool | str = False,
             every: float = 0.5) -> None:
     """Blobs of ``blob`` light particles in a heavy column at rest (module docstring,
     ``bubbles``; 2D)."""
     print(f"\nbubbles of {blob} light particle(s) in a heavy column, 2D, r = {r} m, rho0 1000 / "
           f"{1000 / ratio:g}, viscosity {viscosity} m^2/s"
           + (", symmetric wall term" if symmetric else "")
-          + (", solved wall pressures" if solved else "")
+          + (f", solved wall pressures{_level(solved)}" if solved else "")
           + f"; the blob's mean height [r] every {every} s (heavy top at {LAYER / r:.0f} r)")
     for method in methods:
         sc = scene(method, r, False, ratio, viscosity, symmetric, solved=solved)
@@ -377,8 +383,10 @@ def main() -> None:
     ap.add_argument("--viscosity", type=float, default=0.01)
     ap.add_argument("--symmetric-walls", action="store_true",
                     help="configuration.boundary.symmetric: the walls' term V_b k_i alone")
-    ap.add_argument("--solved-walls", action="store_true",
-                    help="configuration.boundary.solved: the walls' pressures solved in the PPE")
+    ap.add_argument("--solved-walls", nargs="?", const=True, default=False,
+                    choices=["velocity", "density"],
+                    help="configuration.boundary.solved: the walls' pressures solved in the PPE "
+                         "(alone or 'velocity': the rate held; 'density': the density held)")
     ap.add_argument("--dim", type=int, default=2, choices=[2, 3])
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,

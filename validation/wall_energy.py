@@ -1,7 +1,7 @@
 """Mechanical energy of fluid at rest in a small closed box, per wall pressure term.
 
     python validation/wall_energy.py [--dim 3] [--n 5] [--solver iisph] [--until 0.01]
-        [--dt 0.0005] [--walls mls mirror symmetric]
+        [--dt 0.0005] [--walls mls mirror symmetric solved density]
 
 A cube (square in 2D) of ``n`` particles per side, r = 2 cm, fills a closed ``boxes`` container
 of the same width and twice its height (one wall layer, Akinci volumes, sphkit's start-up:
@@ -16,7 +16,10 @@ kappa_accel_cached``: ``a_i = ... - sum_b V_b ((1 + m_b) k_i + k_b) grad W_ib``)
 * ``mirror``: ``p_b = p_i`` mirrored fully (``m_b = 1``, ``k_b = 0``);
 * ``symmetric``: ``V_b k_i`` alone (``boundary.symmetric``), SPlisHSPlasH's term: the only one
   that is the transpose of the density constraint's wall part (the force of a Lagrange
-  multiplier), so the only one that does no work on a flow that keeps the constraint.
+  multiplier), so the only one that does no work on a flow that keeps the constraint;
+* ``solved``: the static walls' own pressures solved in the PPE (``boundary.solved: true``,
+  the fluid's density rate at each wall particle held); ``density``: the same with the
+  density itself held at its start value (``boundary.solved: "density"``).
 
 the table gives, at ``--until``: the largest speed, KE, the change of E, and the work done by
 the wall term's share beyond the symmetric one (``-sum_b V_b (m_b k_i + k_b) grad W_ib`` times
@@ -48,7 +51,8 @@ def scene(dim: int, n: int, solver: str, walls: str, dt: float) -> Scene:
     """The closed box of the module docstring."""
     L = 2 * R * n
     z, zl = ([0.0], [L]) if dim == 3 else ([], [])
-    boundary: dict = {"symmetric": walls == "symmetric", "solved": walls == "solved"}
+    boundary: dict = {"symmetric": walls == "symmetric",
+                      "solved": "density" if walls == "density" else walls == "solved"}
     if walls == "mirror":
         boundary["pressure"] = "mirror"
     return Scene.model_validate({
@@ -131,7 +135,7 @@ def main() -> None:
     ap.add_argument("--until", type=float, default=0.01)
     ap.add_argument("--dt", type=float, default=0.0005)
     ap.add_argument("--walls", nargs="+", default=["mls", "mirror", "symmetric", "solved"],
-                    choices=["mls", "mirror", "symmetric", "solved"])
+                    choices=["mls", "mirror", "symmetric", "solved", "density"])
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     print(f"closed box, {args.dim}D, {args.n} particles per side, r = {R} m, {args.solver}, "

@@ -313,6 +313,13 @@ class MovingBoundary(Protocol):
         does not yield."""
 
 
+#: ``solved: "density"``: a wall particle holds its start value only where every fluid
+#: neighbour had a filled kernel then, ``rho / rho0 >= 1 - COVERED_TOLERANCE``
+#: (:meth:`BoundaryCoupling.wall_rest`). The start-up's masses make filled kernels exact to
+#: 1e-6 (:data:`sphkit.world.startup.MASS_TOLERANCE`); a free surface's top row lacks 10-20 %.
+COVERED_TOLERANCE = 1e-3
+
+
 class BoundaryCoupling:
     """How every pressure solver meets the boundary, the same way for all of them.
 
@@ -333,12 +340,17 @@ class BoundaryCoupling:
     def __init__(self, pressure: BoundaryPressure | None = None,
                  moving: MovingBoundary | None = None,
                  model: BoundaryModel | None = None, symmetric: bool = False,
-                 solved: bool = False) -> None:
+                 solved: bool | str = False) -> None:
+        """``solved``: the scene's ``configuration.boundary.solved`` (False; True or
+        ``"velocity"``; ``"density"``: see :meth:`solved_walls` and :meth:`wall_rest`)."""
         self.pressure = pressure
         #: the symmetric boundary term ``V_b k_i`` in the PPE solvers (see :meth:`mirror`)
         self.symmetric = symmetric
         #: the static walls' pressures are unknowns of the PPE (:meth:`solved_walls`)
-        self.solved = solved
+        self.solved = bool(solved)
+        #: ``solved: "density"``: the density solves hold the fluid's density at each wall
+        #: particle at its rest value (:meth:`wall_rest`), not only its rate
+        self.density_walls = solved == "density"
         self._wall_k: dict[str, np.ndarray] = {}
         self.moving = moving
         self.model = model
@@ -425,13 +437,68 @@ class BoundaryCoupling:
         et al. 2018, "Pressure boundaries for implicit incompressible SPH" (ACM TOG 37(2)),
         whose extended PPE gives boundary samples a pressure of their own; the paper itself
         could not be read here: the constraint (the fluid density at the wall held, velocity
-        level) and its Jacobi update are sphkit's."""
+        level) and its Jacobi update are sphkit's. ``solved: "density"`` holds the density
+        itself at its rest value in the density solves (:meth:`wall_rest`); it does not make
+        the split of the support between ``k_b`` and the fluid's pressure unique
+        (validation/README.md, "Solved walls at density level")."""
         b = state.boundary
         if not self.solved:
             return np.zeros(b.n, dtype=np.bool_)
         if "rigid_body" in b.specs and b["rigid_body"].shape[0] == b.n:
             return b["rigid_body"] == 0
         return np.ones(b.n, dtype=np.bool_)
+
+    def wall_rest(self, state: SimState) -> np.ndarray:
+        """The rest value of the fluid's normalized density ``rho_hat_b = sum_f V_f W_fb`` at
+        each solved wall particle (``solved: "density"``): its value at the first density
+        solve that sees it (the run's start, after :mod:`sphkit.world.startup`) where the
+        wall particle is *covered* then -- it has fluid neighbours and every one of them has
+        a filled kernel (``rho / rho0 >= 1 -`` :data:`COVERED_TOLERANCE`) --, else -2 (the
+        wall particle keeps the velocity-level constraint, that of ``solved: true``); -1 where
+        not yet computed. Kept in the boundary field ``wall_rest`` (so checkpoints keep it).
+
+        Why the start value: the start-up sets every fluid mass so that its density is exactly
+        its start density (rest density for the incompressible solvers) with the walls as
+        they stand, so the start configuration satisfies every fluid row and every wall row
+        at once, whatever the walls' shape (faces, edges, corners, meshes) and wherever the
+        start-up's relaxation moved the first fluid row. A value from the wall geometry (the
+        box's interior sampling lattice) was measured against it at the 2D column's walls: the
+        start values were 0.76-0.78 of it along the side walls (the relaxation moves the first
+        row away from Akinci walls), so the walls' rows would be slack at rest. Why only
+        covered wall particles: at a free surface or where no fluid is at the start, the start
+        value is a partial one; holding it would push fluid that arrives later (sloshing, a
+        dam break's far wall) away from the wall, so those particles hold the rate only."""
+        b = state.boundary
+        if "wall_rest" not in b.specs:
+            b.register("wall_rest", fill=-1.0)
+        rest = b["wall_rest"]
+        use = self.solved_walls(state)
+        new = use & (rest == -1.0)
+        if new.any():
+            f = state.fluid
+            rho_b = self.wall_density(state, new)
+            boff, bidx = state.nl_fb.offsets, state.nl_fb.indices
+            rows = np.repeat(np.arange(f.n), np.diff(boff))
+            filled = (f["rho"] / f["rho0"] >= 1.0 - COVERED_TOLERANCE)[rows]
+            seen = np.bincount(bidx, minlength=b.n) > 0
+            thin = np.bincount(bidx, weights=(~filled).astype(np.float64), minlength=b.n) > 0
+            covered = seen & ~thin
+            rest[new] = np.where(covered[new], rho_b[new], -2.0)
+        return rest
+
+    def wall_density(self, state: SimState, use: np.ndarray) -> np.ndarray:
+        """The fluid's normalized density ``sum_f V_f W_fb`` at the boundary particles with
+        ``use`` (0 elsewhere; :func:`sphkit.core.ppe.wall_density`)."""
+        from sphkit.core.pairs import period_arg
+        from sphkit.core.ppe import wall_density
+
+        f, b = state.fluid, state.boundary
+        rest = state.rest()
+        Vf = f["V0"] if rest.uniform else rest.V
+        out = np.empty(b.n, dtype=f.dtype)
+        wall_density(f["x"], Vf, b["x"], state.nl_fb.offsets, state.nl_fb.indices, state.h,
+                     state.kid, state.dim, period_arg(state.pair_period), use, out)
+        return out
 
     def wall_kappa(self, state: SimState, key: str) -> np.ndarray:
         """The solved walls' ``k_b`` of the solve named ``key`` (its warm start: the last

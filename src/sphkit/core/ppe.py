@@ -42,11 +42,12 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
   ``q_i <- max(q_i - omega * scale_i * (s_i - f Ap_i), 0)`` in one pass, with the error of the
   residual before the update;
 * :func:`density_at` -- PCISPH's / PBF's density at predicted positions;
-* :func:`wall_sums`, :func:`wall_diagonal`, :func:`wall_update` -- the static walls' own
-  pressures ``k_b`` when the scene solves them (``configuration.boundary.solved``,
-  :meth:`sphkit.core.methods.BoundaryCoupling.solved_walls`): the fluid's density rate at each
-  wall particle, its Jacobi scale, and its clamped update (serial passes over the
-  fluid-boundary pairs).
+* :func:`wall_sums`, :func:`wall_diagonal`, :func:`wall_update`, :func:`wall_density` -- the
+  static walls' own pressures ``k_b`` when the scene solves them
+  (``configuration.boundary.solved``, :meth:`sphkit.core.methods.BoundaryCoupling.
+  solved_walls`): the fluid's density rate at each wall particle, its Jacobi scale, its
+  clamped update, and the fluid's density at it (``solved: "density"``) (serial passes over
+  the fluid-boundary pairs).
 
 :func:`density_pair_gradients`, :func:`kappa_accel_cached`, :func:`jacobi_sweep`,
 :func:`diagonal_cached`, :func:`pair_divergence_cached` and :func:`density_at` are per-particle
@@ -519,3 +520,21 @@ def wall_update(ap, s, D, ap_factor, omega, kb, k, boff, bidx, cap, kmax):
         if D[b] > 0.0:
             r = s[b] - ap_factor * ap[b]
             kb[b] = min(max(kb[b] - omega * r / (ap_factor * D[b]), 0.0), cap * kmax[b])
+
+
+@numba.njit(**_JIT)
+def wall_density(x, Vf, bx, boff, bidx, h, kid, dim, L, use, out):
+    """``out[b] = sum_f V_f W(x_f - x_b)``, the fluid's normalized (number) density at the
+    static boundary particles b with ``use[b]`` (0 elsewhere), over the fluid-boundary pairs
+    ``(boff, bidx)`` (``L``: the period argument of the pair loops). The density-level solved
+    walls (``configuration.boundary.solved: "density"``) hold it at each wall particle's rest
+    value (:meth:`sphkit.core.methods.BoundaryCoupling.wall_rest`). One serial pass, as
+    :func:`wall_sums`."""
+    out[:] = 0.0
+    for i in range(boff.shape[0] - 1):
+        xi0, xi1, xi2 = point(x, i, dim)
+        wi = Vf[i]
+        for kk in range(boff[i], boff[i + 1]):
+            b = bidx[kk]
+            if use[b]:
+                out[b] += wi * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)

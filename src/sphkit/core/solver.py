@@ -225,15 +225,29 @@ class PairGradients:
                   st.dim, st.coupling.solved_walls(st), out)
         return out
 
-    def wall_args(self, v: np.ndarray, factor: float, key: str, scale: float = 1.0) -> dict:
+    def wall_args(self, v: np.ndarray, factor: float, key: str, scale: float = 1.0,
+                  density: bool = False) -> dict:
         """:func:`jacobi_ppe`'s solved-wall arguments (scene ``configuration.boundary.solved``):
         the walls' source ``-factor D rho_hat_b / Dt`` of the velocities v
         (:meth:`wall_rate`), the name of their warm start and its scale; none (``{}``) when
-        the walls are not solved."""
-        if not self.state.coupling.solved:
+        the walls are not solved.
+
+        ``density``: the caller is a density solve (source ``1 - rho_hat - dt div``, factor
+        dt: IISPH's, DFSPH's constant-density solve). With ``solved: "density"`` the walls'
+        source there is at density level too, ``rho_rest_b - rho_hat_b - factor D rho_hat_b /
+        Dt`` (:meth:`~sphkit.core.methods.BoundaryCoupling.wall_rest`: the wall particles
+        covered at the start; the others keep the velocity level)."""
+        cp = self.state.coupling
+        if not cp.solved:
             return {}
-        return {"wall_source": -factor * self.wall_rate(v), "wall_key": key,
-                "wall_scale": scale}
+        src = -factor * self.wall_rate(v)
+        if density and cp.density_walls:
+            st = self.state
+            rest = cp.wall_rest(st)
+            held = rest >= 0.0
+            rho_b = cp.wall_density(st, held)
+            src = np.where(held, src + (rest - rho_b), src).astype(src.dtype)
+        return {"wall_source": src, "wall_key": key, "wall_scale": scale}
 
     def velocity_divergence(self, v: np.ndarray, fluid_only: bool = False) -> np.ndarray:
         """``D rho_hat / Dt`` of the velocities v (boundary velocities from the state);
@@ -275,7 +289,9 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     :meth:`~sphkit.core.methods.BoundaryCoupling.solved_walls`): a solver that passes
     ``wall_source`` (N_boundary,), the source of the walls' constraint in the units of s (its
     velocity part: ``-dt D rho_hat_b / Dt`` of the predicted velocities where s is ``1 - rho_hat
-    - dt div``, ``-D rho_hat_b / Dt`` where s is ``-div``; :meth:`PairGradients.wall_rate`),
+    - dt div``, ``-D rho_hat_b / Dt`` where s is ``-div``; :meth:`PairGradients.wall_rate`;
+    with ``solved: "density"`` the density solves add ``rho_rest_b - rho_hat_b``,
+    :meth:`PairGradients.wall_args`),
     has the static walls' ``k_b`` (warm-started from the coupling's field ``wall_key``, which
     keeps ``k_b wall_scale``: DFSPH's dt^2 or dt, as its own warm starts) updated
     in every iteration from the same accelerations as the fluid's q:

@@ -215,7 +215,8 @@ class DFSPH(StepBounded, PressureSolver):
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
                                          arrays.divided(alpha, dt * dt), dt * dt, OMEGA, active,
                                          grads=self._grads,
-                                         **self._grads.wall_args(v_star, dt, "dfsph", dt * dt))
+                                         **self._grads.wall_args(v_star, dt, "dfsph", dt * dt,
+                                                                  density=True))
         self._grads = None
         self.step_bound.update(dt, its, self.density_control.max_iterations, ok)
         arrays.axpy(f["a"], 1.0, a)

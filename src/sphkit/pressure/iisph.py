@@ -116,7 +116,7 @@ class IISPH(StepBounded, PressureSolver):
         active = arrays.full(n, True, np.bool_, like=div)
         a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
                                          self.omega, active, grads=grads,
-                                         **grads.wall_args(v_star, dt, "iisph"))
+                                         **grads.wall_args(v_star, dt, "iisph", density=True))
         self.step_bound.update(dt, its, self.control.max_iterations, ok)
         arrays.axpy(f["a"], 1.0, a)
         arrays.multiplied(p, f["rho0"], out=f["p"])

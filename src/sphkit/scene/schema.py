@@ -875,14 +875,19 @@ class BoundaryConfig(_Model):
         "WCSPH then uses the same term, which does no work on the fluid (the mirrored one "
         "pumped energy into water at rest, validation/README.md, 'WCSPH in the tank at rest')",
     )
-    solved: bool = Field(
+    solved: bool | Literal["velocity", "density"] = Field(
         False, description="the static wall particles (boxes, static meshes) get a pressure of "
         "their own that IISPH and DFSPH solve for in the same Jacobi iteration as the fluid's, "
         "so that the fluid's density at each wall particle does not change in a step (after "
         "Band et al. 2018, 'Pressure boundaries for IISPH'): a wall force that does no work on "
         "the flow, where the mirrored or MLS boundary pressure (the default) pumped energy into "
         "a closed box of fluid at rest (validation/wall_energy.py); akinci2012 only; PCISPH, "
-        "ICSPH and WCSPH then use the symmetric term V_b k_i",
+        "ICSPH and WCSPH then use the symmetric term V_b k_i. true or 'velocity': the walls' "
+        "constraint holds the rate of that density (velocity level); 'density': IISPH's and "
+        "DFSPH's density solves hold the density itself at its start value at every wall "
+        "particle whose fluid neighbours all had full kernels at the start (the others, and "
+        "DFSPH's divergence solve, keep the rate); validation/README.md, 'Solved walls at "
+        "density level'",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
@@ -902,11 +907,12 @@ class BoundaryConfig(_Model):
 
     @model_validator(mode="after")
     def _one_wall_term(self) -> BoundaryConfig:
+        solved = "true" if self.solved is True else repr(self.solved)
         if self.symmetric and self.solved:
-            raise ValueError("symmetric true and solved true: expected at most one of them "
+            raise ValueError(f"symmetric true and solved {solved}: expected at most one of them "
                              "(two different wall terms of the PPE solvers)")
         if self.solved and self.method != "akinci2012":
-            raise ValueError(f"solved true with method {self.method!r}: expected method "
+            raise ValueError(f"solved {solved} with method {self.method!r}: expected method "
                              "'akinci2012' (the solved wall pressures belong to boundary "
                              "particles)")
         return self
