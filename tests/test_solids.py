@@ -631,15 +631,16 @@ def test_turek_hron_csm3_first_half_period() -> None:
     and point A), fast: kugelstadt2021 at 4 particles across, 30 times the explicit step
     (1.1 ms, 475 steps), over the first half period. Against the benchmark's lowest point
     (mean - amplitude, -128.767 mm for u_y, -28.610 mm for u_x) and half its period
-    (1 / (2 f) = 0.4547 s), each within a tolerance from the error budget of
+    (1 / (2 f) = 0.4548 s), each within a tolerance from the error budget of
     validation/README.md ("Turek & Hron CSM3"):
 
     * u_y's first minimum within 10 % (+7.1 % measured): the 4-across discretisation (the
       particle section's second moment and the face clamp) predicts +8.1 % in deflection
       (becker2009 and peer2018: +7.6 % in the mean at 4 across);
     * its time within 10 % of half the period (+8.9 % measured): the budget's -3.8 % in
-      frequency, and kugelstadt2021's splitting, softer at 30 times the explicit step (its
-      half period 0.4385 s at 1 x, 0.4601 s at 3 x, 0.481 s at 10 x, 0.495 s at 30 x);
+      frequency (+4.0 % in time; peer2018's first minimum at this resolution: 0.4732 s), and
+      kugelstadt2021's splitting, which softens it with the step (the README's step study:
+      the first minimum at 0.4385 s at the explicit step, 0.495 s at 30 times it);
     * u_x's least value (the tip's shortening, about quadratic in the deflection) within
       20 %, twice u_y's (+15.1 % measured): a geometrically linear model gives u_x = 0."""
     th = load_validation("turek_hron.py")
