@@ -198,8 +198,15 @@ def main() -> None:
     a = ap.parse_args()
     factors = dict(DT_FACTOR)
     for item in a.dt_factor:
-        k, v = item.split("=")
-        factors[k] = float(v)
+        k, _, v = item.partition("=")
+        try:
+            factors[k] = float(v)
+        except ValueError:
+            ap.error(f"--dt-factor {item!r}: expected METHOD=K with a number K (e.g. "
+                     "peer2018=4)")
+        if k not in DT_FACTOR or not 0.0 < factors[k] < float("inf"):
+            ap.error(f"--dt-factor {item!r}: expected one of {sorted(DT_FACTOR)} and a "
+                     "positive finite factor")
     if a.quick:
         a.methods, a.layers, a.until = ["becker2009"], [4], 2.2
     ref = reference()
