@@ -434,32 +434,25 @@ def lattice_diagonal(spacing: float, h: float, kid: int, dim: int, V: float) -> 
 
 
 @numba.njit(**_JIT_GATHER)
-def wall_sums(v, vb, relative, Vf, Vb, boff, bidx, gwb, dim, use, out):
+def wall_sums(v, vb, Vf, Vb, boff, bidx, gwb, dim, use, out):
     """``out[b] = sum_f (V_f / V_b) gwb_fb . (v_f - v_b)`` for the static boundary particles b
     with ``use[b]`` (0 elsewhere), over the fluid-boundary pairs ``(boff, bidx)`` with the
-    cached ``gwb = V_b grad_f W_fb``: for velocities v (``relative`` True, ``vb`` the wall
-    particles' velocities, 0 unless a script moves the walls) the rate of the fluid's
-    normalized density at the wall particle, ``D rho_hat_b / Dt = sum_f V_f (v_f - v_b) .
-    grad_f W_fb`` (positive when the fluid approaches it), for pressure accelerations
-    (``relative`` False, ``vb`` not read) its change per dt^2. One serial pass (the pairs are
-    listed by fluid particle; a boundary particle collects from several)."""
+    cached ``gwb = V_b grad_f W_fb``: for velocities v (``vb`` the wall particles' velocities,
+    0 unless a script moves the walls) the rate of the fluid's normalized density at the wall
+    particle, ``D rho_hat_b / Dt = sum_f V_f (v_f - v_b) . grad_f W_fb`` (positive when the
+    fluid approaches it), for pressure accelerations (``vb`` = 0: pressure does not accelerate
+    the walls) its change per dt^2. One serial pass (the pairs are listed by fluid particle; a
+    boundary particle collects from several)."""
     out[:] = 0.0
     for i in range(boff.shape[0] - 1):
         wi = Vf[i]
         for kk in range(boff[i], boff[i + 1]):
             b = bidx[kk]
-            if relative:
-                t = (v[0, i] - vb[0, b]) * gwb[0, kk]
-                if dim > 1:
-                    t += (v[1, i] - vb[1, b]) * gwb[1, kk]
-                if dim > 2:
-                    t += (v[2, i] - vb[2, b]) * gwb[2, kk]
-            else:
-                t = v[0, i] * gwb[0, kk]
-                if dim > 1:
-                    t += v[1, i] * gwb[1, kk]
-                if dim > 2:
-                    t += v[2, i] * gwb[2, kk]
+            t = (v[0, i] - vb[0, b]) * gwb[0, kk]
+            if dim > 1:
+                t += (v[1, i] - vb[1, b]) * gwb[1, kk]
+            if dim > 2:
+                t += (v[2, i] - vb[2, b]) * gwb[2, kk]
             out[b] += wi * t
     for b in range(out.shape[0]):
         out[b] = out[b] / Vb[b] if use[b] else 0.0

@@ -221,7 +221,7 @@ class PairGradients:
         out = np.empty(b.n, dtype=st.fluid.dtype)
         rest = st.rest()
         Vf = st.fluid["V0"] if rest.uniform else rest.V
-        wall_sums(v, b["v"], True, Vf, b["V"], st.nl_fb.offsets, st.nl_fb.indices, self.gwb,
+        wall_sums(v, b["v"], Vf, b["V"], st.nl_fb.offsets, st.nl_fb.indices, self.gwb,
                   st.dim, st.coupling.solved_walls(st), out)
         return out
 
@@ -328,6 +328,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         wd = np.empty(b.n, dtype=f.dtype)
         wall_diagonal(Vf, b["V"], rest.inv_c, nb.offsets, nb.indices, g.gwb, dim, use, wd)
         wap = np.empty(b.n, dtype=f.dtype)
+        still = np.zeros_like(b["x"])  # the walls' accelerations: pressure does not move them
         wkmax = np.empty(b.n, dtype=f.dtype)
 
         def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the solved walls' own values)
@@ -346,7 +347,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
                                dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo)
         if walls:  # the same accelerations: a Jacobi sweep over fluid and walls together
-            wall_sums(a, a, False, Vf, b["V"], nb.offsets, nb.indices, g.gwb, dim, use, wap)
+            wall_sums(a, still, Vf, b["V"], nb.offsets, nb.indices, g.gwb, dim, use, wap)
             wall_update(wap, wall_source, wd, ap_factor, omega, wk, k, nb.offsets, nb.indices,
                         WALL_CAP, wkmax)
         return avg * error_factor, mx * error_factor
