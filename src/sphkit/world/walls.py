@@ -92,11 +92,13 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
     res = tuple(bc.map_resolution) if bc.map_resolution else None
     up = gravity_axis(state)
     out = []
+    fields = []  # the scene field that set each geometry's map resolution
     for k, box in enumerate(scene.boxes):
         open_axis = up if box.open_top else None
         out.append(MapGeometry(f"boxes[{k}]", BoxDistance(box.min, box.max, open_axis),
                                invert=True, resolution=res,
                                extend_axis=-1 if open_axis is None else open_axis))
+        fields.append("configuration.boundary.map_resolution")
     bodies = moving_meshes(scene)
     for k, mb in enumerate(scene.meshes):
         mesh = meshes.mesh(k)
@@ -117,9 +119,8 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
             thick -= moving_inset * state.r
         out.append(MapGeometry(f"meshes[{k}]", sdf, invert=mb.invert,
                                thickness=thick, resolution=mres, body=body))
-    fields = ["configuration.boundary.map_resolution"] * len(scene.boxes) + [
-        f"meshes[{k}].map_resolution" if mb.map_resolution
-        else "configuration.boundary.map_resolution" for k, mb in enumerate(scene.meshes)]
+        fields.append(f"meshes[{k}].map_resolution" if mb.map_resolution
+                      else "configuration.boundary.map_resolution")
     coarse_map_warnings(out, fields, scene, state.h)
     return out
 
