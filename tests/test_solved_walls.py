@@ -135,3 +135,12 @@ def test_solved_walls_exclude_the_symmetric_term() -> None:
     with pytest.raises(ValidationError, match="symmetric true and solved 'density'"):
         Scene.model_validate({"configuration": {"dim": 2, "boundary": {
             "symmetric": True, "solved": "density"}}, "materials": [{"id": "fluid"}]})
+
+
+@pytest.mark.parametrize("value", ["densty", 3, float("nan"), None, [True]])
+def test_solved_walls_refuse_other_values(value: object) -> None:
+    """``configuration.boundary.solved`` takes true/false, "velocity" or "density"; anything
+    else is refused naming the field and the two words (the CLI's exit 2)."""
+    with pytest.raises(ValidationError, match=r"boundary\.solved[\s\S]*'velocity' or 'density'"):
+        Scene.model_validate({"configuration": {"dim": 2, "boundary": {"solved": value}},
+                              "materials": [{"id": "fluid"}]})
