@@ -359,10 +359,25 @@ def main(argv: list[str] | None = None) -> int:
                     help="of the whole steps (default: each device's, float32 on the GPU)")
     ap.add_argument("--cpu-threads", type=int, default=2,
                     help="threads of the CPU rows (the issue's ratio is against two cores)")
+    ap.add_argument("--only", choices=("cuda", "cpu"), default=None,
+                    help="run only this device's rows (e.g. the CPU rows in a second process "
+                    "beside the GPU's; --json of each, the ratio read from the two)")
+    ap.add_argument("--no-passes", action="store_true",
+                    help="skip the per-pass timings: the whole steps (--steps) only")
     args = ap.parse_args(argv)
-    rows = []
+    rows: list[dict] = []
+
+    def save() -> None:  # after every row, so a run cut short keeps what it measured
+        if args.json:
+            tmp = f"{args.json}.part"
+            with open(tmp, "w") as fh:
+                json.dump(rows, fh, indent=1)
+            os.replace(tmp, args.json)
+
     bw = None
-    gpu = cuda_available()
+    gpu = cuda_available() and args.only != "cpu"
+    if args.only == "cuda":
+        args.cpu_size = 0
     if gpu:
         from numba import cuda
 
@@ -371,13 +386,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"GPU: {name.decode() if isinstance(name, bytes) else name}, "
               f"copy bandwidth {bw / 1e9:.0f} GB/s" + (" (given)" if args.peak else
                                                       " (measured, device-to-device)"))
-        for n in args.sizes:
+        save()
+        for n in [] if args.no_passes else args.sizes:
             row = run_size(int(n), "cuda", args.repeat, args.iterations)
             show(row, bw)
             rows.append(row)
-    else:
+            save()
+    elif args.only != "cpu":
         print("no CUDA GPU found: the CPU rows only")
-    if args.cpu_size > 0:
+    if args.cpu_size > 0 and not args.no_passes:
         import numba
 
         numba.set_num_threads(max(1, min(args.cpu_threads, numba.config.NUMBA_NUM_THREADS)))
@@ -385,6 +402,7 @@ def main(argv: list[str] | None = None) -> int:
         row = run_size(int(args.cpu_size), "cpu", max(1, min(args.repeat, 3)), args.iterations)
         show(row, None)
         rows.append(row)
+        save()
         same = [r for r in rows if r["device"] == "cuda" and r["particles"] == row["particles"]]
         if same:
             g = same[0]
@@ -397,10 +415,17 @@ def main(argv: list[str] | None = None) -> int:
         for n in (args.sizes if gpu else []):
             rows.append(run_steps(int(n), "cuda", args.steps, args.precision, bw))
             show_steps(rows[-1])
+            save()
         ratio = None
         if args.cpu_size > 0:
+            if args.cpu_threads:
+                import numba
+
+                numba.set_num_threads(max(1, min(args.cpu_threads,
+                                                 numba.config.NUMBA_NUM_THREADS)))
             rows.append(run_steps(int(args.cpu_size), "cpu", args.steps, args.precision))
             show_steps(rows[-1])
+            save()
             same = [r for r in rows if r["device"] == "cuda" and "step_s" in r
                     and abs(r["particles"] - rows[-1]["particles"]) <= 0.01 * r["particles"]]
             if same:
@@ -415,9 +440,7 @@ def main(argv: list[str] | None = None) -> int:
                   + ("no CPU ratio" if ratio is None else
                      f"{ratio:.1f}x the CPU at {rows[-1]['particles']:,} (target 50x at 1M: "
                      f"{'met' if ratio >= 50 else 'missed'})"))
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
+    save()
     return 0
 
 
