@@ -50,7 +50,7 @@ pin() {  # pin <cores> <command...>: taskset where it exists
 } 2>&1 | tee "$OUT/machine.txt"
 
 # the CPU rows beside the GPU's, on cores 8-9 (the GPU's process keeps to cores 0-7)
-( NUMBA_NUM_THREADS=2 pin 8,9 timeout $(t 440) "$PY" benchmarks/gpu.py --only cpu \
+( NUMBA_NUM_THREADS=2 pin 8,9 timeout $(t 400) "$PY" benchmarks/gpu.py --only cpu \
     --cpu-size "$CPU_SIZE" --steps "$STEPS" --repeat 3 --json "$OUT/cpu.json" \
     > "$OUT/cpu.log" 2>&1; echo "rc $?" >> "$OUT/cpu.log" ) &
 
@@ -65,7 +65,7 @@ gpu timeout $(t 130) "$PY" validation/device_agreement.py $AGREE --json "$OUT/ag
   | tee "$OUT/agree.log"; echo "rc $?"
 echo "== passes"
 # shellcheck disable=SC2086
-gpu timeout $(t 60) "$PY" benchmarks/gpu.py --only cuda --sizes $SIZES --json "$OUT/passes.json" 2>&1 \
+gpu timeout $(t 50) "$PY" benchmarks/gpu.py --only cuda --sizes $SIZES --json "$OUT/passes.json" 2>&1 \
   | tee "$OUT/passes.log"; echo "rc $?"
 echo "== real-GPU test"
 gpu timeout $(t 45) "$PY" -m pytest -q -n 0 -p no:cacheprovider tests/test_cuda_simulator.py \

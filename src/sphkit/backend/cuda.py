@@ -39,6 +39,29 @@ from numba.core.registry import CPUDispatcher
 THREADS = 16 if config.ENABLE_CUDASIM else 128
 
 _device_functions: dict[Any, Any] = {}
+
+
+def _register_typed() -> None:
+    """Register the CPU's type-dispatched helpers (:data:`sphkit.core.pairs.TYPED`, each an
+    ``overload`` on the CPU) with numba.cuda's typing too, so a device function that calls one
+    compiles the implementation for its argument types. Under the simulator, where device
+    functions run as Python, their Python bodies run instead."""
+    if config.ENABLE_CUDASIM:
+        return
+    try:
+        from numba.cuda.extending import overload as cuda_overload
+    except ImportError:  # numba's own CUDA target: the generic overload with target="cuda"
+        from numba.extending import overload
+
+        def cuda_overload(fn: Any, **kw: Any) -> Any:
+            return overload(fn, target="cuda", **kw)
+    from sphkit.core.pairs import TYPED
+
+    for fn, typer in TYPED:
+        cuda_overload(fn, inline="always")(typer)
+
+
+_register_typed()
 _kernels: dict[tuple[Any, int, bool], Any] = {}
 
 

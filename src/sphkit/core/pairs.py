@@ -38,6 +38,7 @@ import math
 
 import numba
 import numpy as np
+from numba.extending import overload
 
 from sphkit.core.kernels import kernel_dw
 
@@ -52,14 +53,38 @@ def min_image(d: float, L: float) -> float:
     return d
 
 
-@numba.njit(**_INLINE)
-def axis_period(L, a):
+def axis_period(L, a):  # noqa: ANN001, ANN201 - a float or a tuple; compiled by its type
     """The period along axis ``a`` (0 or 1) of the pair loops' period argument ``L``: a float
     is the period along x (none along y), a tuple ``(L_x, L_y)`` gives both (0: not periodic).
-    The branch is decided at compile time (``isinstance`` of the argument's type)."""
+
+    Compiled code chooses the branch by ``L``'s type at compile time (:func:`_axis_period_typed`,
+    an overload on the CPU and, registered by :mod:`sphkit.backend.cuda`, on the GPU: numba-cuda
+    does not prune an ``isinstance`` branch, so the float kind would type ``L[a]``); this
+    Python body runs under the CUDA simulator."""
     if isinstance(L, tuple):
         return L[a]
     return L if a == 0 else 0.0
+
+
+def _axis_period_typed(L, a):  # noqa: ANN001, ANN202 - Numba types in, an implementation out
+    """The implementation of :func:`axis_period` for ``L``'s Numba type."""
+    if isinstance(L, numba.types.BaseTuple):
+        def by_tuple(L, a):  # noqa: ANN001, ANN202
+            return L[a]
+        return by_tuple
+
+    def by_float(L, a):  # noqa: ANN001, ANN202
+        if a == 0:
+            return L
+        return 0.0
+    return by_float
+
+
+overload(axis_period, inline="always")(_axis_period_typed)
+
+#: the functions compiled by argument type (an ``overload`` each) and their typing functions:
+#: :mod:`sphkit.backend.cuda` registers them with numba.cuda as well
+TYPED = ((axis_period, _axis_period_typed),)
 
 
 def period_arg(L: float | tuple[float, ...]) -> float | tuple[float, ...]:
