@@ -58,18 +58,18 @@ gpu() { NUMBA_NUM_THREADS=8 pin 0-7 "$@"; }
 echo "== whole steps"
 # shellcheck disable=SC2086
 gpu timeout $(t 200) "$PY" benchmarks/gpu.py --only cuda --no-passes --sizes $SIZES --steps "$STEPS" \
-  --json "$OUT/steps.json" 2>&1 | tee "$OUT/steps.log"; echo "rc $?"
+  --json "$OUT/steps.json" 2>&1 | tee -a "$OUT/session.log"; echo "rc $?"
 echo "== agreement"
 # shellcheck disable=SC2086
 gpu timeout $(t 130) "$PY" validation/device_agreement.py $AGREE --json "$OUT/agree.json" 2>&1 \
-  | tee "$OUT/agree.log"; echo "rc $?"
+  | tee -a "$OUT/session.log"; echo "rc $?"
 echo "== passes"
 # shellcheck disable=SC2086
 gpu timeout $(t 50) "$PY" benchmarks/gpu.py --only cuda --sizes $SIZES --json "$OUT/passes.json" 2>&1 \
-  | tee "$OUT/passes.log"; echo "rc $?"
+  | tee -a "$OUT/session.log"; echo "rc $?"
 echo "== real-GPU test"
 gpu timeout $(t 45) "$PY" -m pytest -q -n 0 -p no:cacheprovider tests/test_cuda_simulator.py \
-  -k on_gpu 2>&1 | tail -5 | tee "$OUT/pytest.log"; echo "rc $?"
+  -k on_gpu 2>&1 | tail -5 | tee -a "$OUT/session.log"; echo "rc $?"
 wait
 echo "== CPU rows"
 cat "$OUT/cpu.log"
