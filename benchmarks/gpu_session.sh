@@ -26,7 +26,7 @@ PY=${PY:-python3}
 TMUL=${TMUL:-1}  # a multiplier of every time limit (the simulator is slow)
 t() { echo $(( $1 * TMUL )); }
 mkdir -p "$OUT"
-export PYTHONUNBUFFERED=1
+export PYTHONUNBUFFERED=1 NUMBA_CUDA_LOW_OCCUPANCY_WARNINGS=0
 if [ "${WHEELS:-1}" = 1 ] && [ -d .whl ] && ls .whl/*.whl > /dev/null 2>&1; then
   "$PY" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
     --target /tmp/site .whl/*.whl || exit 1
