@@ -232,7 +232,7 @@ def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END,
             deep = depth[cell] >= d * a
             zd[k].append(float(x[0][deep].max() + r) / a if deep.any() else 0.0)
         if thick:  # the water per width in 4r-wide windows
-            win = np.floor(x[0] / (4.0 * r)).astype(np.int64)
+            win = np.floor(np.maximum(x[0], 0.0) / (4.0 * r)).astype(np.int64)
             th = np.bincount(win) * per_window
             for k, (_lab, d) in enumerate(thick):
                 deep = th[win] >= d
