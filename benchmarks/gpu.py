@@ -101,6 +101,7 @@ class Passes:
         self.bv = on(np.zeros((3, nb)))
         self.bn = on(np.zeros((3, nb)))
         self.bd = on(np.zeros(nb))
+        self.bf = on(np.ones(nb))  # the walls' factors on the viscous wall term
         self.mirror = on(np.zeros(nb))
         self.kb = on(np.zeros(0))
         self.v = on(np.random.default_rng(1).normal(0.0, 0.1, (3, n)))
@@ -151,9 +152,9 @@ class Passes:
     def viscosity(self) -> None:
         """The standard viscosity, boundary term included."""
         launch(standard_body, self.n, self.x, self.v, self.m, self.rho, self.nl.offsets,
-               self.nl.indices, self.bx, self.bv, self.bV, self.bn, self.bd, self.nb_.offsets,
-               self.nb_.indices, 1e-3, 1e-3, 0.0, 0.01, RHO0, self.h, 0, 3, 0.0, self.a,
-               device=self.device)
+               self.nl.indices, self.bx, self.bv, self.bV, self.bn, self.bd, self.bf,
+               self.nb_.offsets, self.nb_.indices, 1e-3, 1e-3, 0.0, 0.01, RHO0, self.h, 0, 3,
+               0.0, self.a, device=self.device)
 
     def jacobi(self) -> tuple[float, float]:
         """One Jacobi iteration: kappa acceleration, then the sweep with its reduction."""

@@ -80,6 +80,7 @@ SCRIPT = textwrap.dedent(
         bn = rng.normal(size=bx.shape)
         bn /= np.linalg.norm(bn, axis=0)
         bd = rng.uniform(0.0, r, bx.shape[1])
+        bf = np.linspace(0.0, 2.0, bx.shape[1])  # per-wall factors on the viscous wall term
         kprev = rng.uniform(0.0, 1e-3, N)
 
         def run(device):
@@ -132,8 +133,8 @@ SCRIPT = textwrap.dedent(
             # the explicit viscosities (standard with the no-slip wall factor, XSPH)
             av = on(np.zeros((dim, N)))
             launch(standard_body, N, *map(on, (x, vel, m, out["rho"], off, idx, bx, bvel, bV,
-                   bn, bd, boff, bidx)), 1e-3, 2e-3, 1.5, 0.01, 1000.0, h, 0, dim, 0.0, av,
-                   device=device)
+                   bn, bd, bf, boff, bidx)), 1e-3, 2e-3, 1.5, 0.01, 1000.0, h, 0, dim, 0.0,
+                   av, device=device)
             launch(xsph_body, N, *map(on, (x, vel, m, out["rho"], off, idx, bx, bvel, bV, boff,
                    bidx)), 0.1, 0.2, 1000.0, h, 0, dim, 250.0, av, device=device)
             out["av"] = back(av)

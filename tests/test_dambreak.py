@@ -14,6 +14,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pytest
 from _validation import load_validation
 from _wheel import wheel_scene
 
@@ -64,10 +65,18 @@ def test_dam_break_front_and_residual_column_against_the_experiments() -> None:
     H = h / (2a) against tau = t sqrt(g/a), is within 0.03 of Martin & Moyce's table at its
     tau = 0.56 and 0.77 (measured 0.008; the table's H steps are 0.056, quarter-inch marks).
     Measured 2.8 s in pytest single-threaded on the shared 2-core machine (4.9-8.4 s under
-    heavier load; 139 steps)."""
+    heavier load; 139 steps).
+
+    The fronts of water at least 1, 2, 3 particle layers thick (``--front-thickness``) are
+    ordered, none ahead of the leading particle or of a thinner one, and the leading particle
+    runs ahead of the water two layers thick by more than one spacing (0.1 a) at some point
+    (the thin tongue; measured 0.21 a, 2026-12-04)."""
     mod = load_validation("dam_break.py")
     sim = Simulation(mod.scene("dfsph", 10, "free-slip", 2.0))
-    out = mod.run(sim, 2.0, t_end=1.2)
+    out = mod.run(sim, 2.0, t_end=1.2,
+                  thick=mod.thickness_thresholds(["1L", "2L", "3L"], sim.state.r))
+    assert np.all(out["Z"] >= out["Zt1L"]) and np.all(out["Zt1L"] >= out["Zt2L"])
+    assert np.all(out["Zt2L"] >= out["Zt3L"]) and (out["Z"] - out["Zt2L"]).max() > 0.1
     assert out["T"][-1] >= 1.2
     t, z = mod.reference("koshizuka_oka_1996_front.csv")
     k = (t > 0) & (t <= 1.2)
@@ -78,6 +87,25 @@ def test_dam_break_front_and_residual_column_against_the_experiments() -> None:
     k = (tau > 0) & (tau <= out["tau"][-1])
     dh = np.abs(np.interp(tau[k], out["tau"], out["H"]) - h[k])
     assert k.sum() >= 2 and dh.max() < 0.03, dh
+
+
+def test_dam_break_options_refuse_bad_values(capsys) -> None:
+    """validation/dam_break.py's front-definition, floor-friction and surface-tension options
+    name the option, the value and what was expected instead of a traceback; the floor-only
+    friction scene puts the wall term on the floor's face alone."""
+    mod = load_validation("dam_break.py")
+    for argv, words in ((["--front-thickness", "2x"], ("--front-thickness", "'2x'", "<k>L")),
+                        (["--front-thickness", "0L"], ("--front-thickness", "'0L'", "positive")),
+                        (["--floor-viscosity", "-0.001"], ("--floor-viscosity", ">= 0")),
+                        (["--surface-tension", "nan"], ("--surface-tension", ">= 0"))):
+        with pytest.raises(SystemExit):
+            mod.main(argv)
+        err = capsys.readouterr().err
+        for w in words:
+            assert w in err, (w, err)
+    sc = mod.scene("dfsph", 10, "floor:1e-3")
+    assert sc.boxes[0].viscosity_factors == [0.0, 0.0, 1.0, 0.0]
+    assert sc.materials[0].viscosity.boundary_coefficient == 1e-3
 
 
 def test_dam_break_impact_on_the_downstream_wall_against_lobovsky() -> None:

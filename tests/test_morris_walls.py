@@ -46,7 +46,8 @@ def test_extrapolated_wall_velocity_vanishes_on_the_wall_plane() -> None:
     assert morris_beta(d[0], d[1], d[2], *n, 1.0, 0.0) == 1.0
 
 
-def _couette(method: str, wall_velocity: str) -> Simulation:
+def _couette(method: str, wall_velocity: str, factors: list[float] | None = None
+             ) -> Simulation:
     """2D plane Couette flow u = gamma y between box walls at y = 0 (at rest) and y = L (moving
     with gamma L), periodic in x; the walls are lattice fluid (their volume set to the fluid's),
     so that fluid and wall particles form one square lattice (the fluid as sampled: the start
@@ -62,7 +63,8 @@ def _couette(method: str, wall_velocity: str) -> Simulation:
                           # one lattice of fluid and walls, as sampled (no start relaxation)
                           "start": {"relax": False}},
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [lx, ly]}],
-        "boxes": [{"min": [0.0, 0.0], "max": [lx, ly], "layers": 3}],
+        "boxes": [{"min": [0.0, 0.0], "max": [lx, ly], "layers": 3,
+                   "viscosity_factors": factors}],
         "materials": [{"viscosity": vis}]}))
     st = sim.state
     st.boundary["V"][:] = st.fluid["V0"][0]
@@ -90,6 +92,58 @@ def test_linear_shear_has_no_viscous_force_next_to_morris_walls(method: str) -> 
         acc[wv] = np.abs(sim.state.fluid["a"][0]).max()
     assert acc["zero"] > 0.01 * GAMMA  # nu gamma / (spacing-scale) ~ 0.1 m/s^2
     assert acc["morris1997"] <= 1e-9 * acc["zero"]
+
+
+def test_per_face_viscosity_factors_scale_each_wall_term() -> None:
+    """``boxes[].viscosity_factors`` multiplies the standard viscosity's wall term per face. A
+    uniform stream u = U between resting Morris walls (the Couette lattice, periodic in x) has no
+    fluid-fluid viscous force (v_ij = 0), so the acceleration of each particle is its walls'
+    term alone: with the floor's factor 0 the rows next to the floor feel nothing (exactly 0),
+    while the rows under the top wall feel the same force as with factor 1 everywhere (the same
+    arithmetic: equal to the last bit); a factor 2 doubles the floor's force (linear in the
+    coefficient; 1e-12 relative for rounding) and halves the explicit viscous step bound
+    (dt ~ 1 / nu_b)."""
+    u = 0.1
+    acc, dts = {}, {}
+    for key, fac in (("ones", None), ("free floor", [1.0, 1.0, 0.0, 1.0]),
+                     ("double floor", [1.0, 1.0, 2.0, 1.0])):
+        sim = _couette("standard", "morris1997", fac)
+        st = sim.state
+        st.fluid["v"][:] = 0.0
+        st.fluid["v"][0] = u
+        st.boundary["v"][:] = 0.0
+        st.fluid["a"][:] = 0.0
+        sim.forces[0].apply(st, 1e-3)
+        acc[key] = st.fluid["a"][0].copy()
+        dts[key] = sim.forces[0].max_time_step(st)
+    y = sim.state.fluid["x"][1]
+    h = sim.state.h
+    floor, top = y < h, y > 0.16 - h
+    # the first row holds back (the second lies at the kernel's edge from the first layer)
+    assert (acc["ones"][y < 0.02] < -1e-3 * u).all()
+    assert (acc["free floor"][floor] == 0.0).all()
+    assert (acc["free floor"][top] == acc["ones"][top]).all()
+    assert acc["double floor"][floor] == pytest.approx(2.0 * acc["ones"][floor], rel=1e-12)
+    assert (acc["double floor"][top] == acc["ones"][top]).all()
+    assert dts["double floor"] == pytest.approx(0.5 * dts["ones"], rel=1e-12)
+
+
+def test_box_face_factors_give_edges_the_larger_face() -> None:
+    """A closed 2D box with friction on the floor only ([0, 0, 1, 0]): every wall particle
+    below the floor, the corners included, gets 1, every side-wall or lid particle above it 0;
+    a box without factors leaves the field at 1."""
+    def walls(fac: list[float] | None) -> tuple[np.ndarray, np.ndarray]:
+        sim = Simulation(Scene.model_validate({
+            "configuration": {"dim": 2, "particle_radius": 0.01, "start": {"relax": False}},
+            "fluid_blocks": [{"start": [0.0, 0.0], "end": [0.1, 0.1]}],
+            "boxes": [{"min": [0.0, 0.0], "max": [0.2, 0.2], "viscosity_factors": fac}],
+            "materials": [{"viscosity": {"method": "standard", "coefficient": 1e-3,
+                                         "boundary_coefficient": 1e-3}}]}))
+        b = sim.state.boundary
+        return b["x"][1].copy(), b["viscosity_factor"].copy()
+    y, f = walls([0.0, 0.0, 1.0, 0.0])
+    assert (f[y < 0.0] == 1.0).all() and (f[y > 0.0] == 0.0).all()
+    assert (walls(None)[1] == 1.0).all()
 
 
 def _poiseuille():
@@ -136,6 +190,25 @@ def test_bad_boundary_velocity_is_a_named_scene_error() -> None:
             scene_from_dict({**base, "materials": [{"viscosity": vis}]})
         for w in words:
             assert w in str(err.value)
+    # per-face wall factors: one per face, >= 0, the standard viscosity, a particle boundary
+    std = {"method": "standard", "coefficient": 1e-3, "boundary_coefficient": 1e-3}
+    for fac, vis, boundary, words in (
+        ([1.0, 1.0, 0.0], std, "akinci2012", ("viscosity_factors", "3 values", "expected 4")),
+        ([1.0, 1.0, -1.0, 0.0], std, "akinci2012", ("viscosity_factors", "-1.0", ">= 0")),
+        ([1.0, 1.0, float("nan"), 0.0], std, "akinci2012", ("viscosity_factors", "nan")),
+        ([0.0, 0.0, 1.0, 0.0], {"method": "xsph", "coefficient": 0.1}, "akinci2012",
+         ("boxes[0].viscosity_factors", "xsph", "standard")),
+        ([0.0, 0.0, 1.0, 0.0], std, "koschier2017",
+         ("boxes[0].viscosity_factors", "koschier2017", "map")),
+    ):
+        with pytest.raises(SceneError) as err:
+            scene_from_dict({**base, "configuration": {**base["configuration"],
+                                                       "boundary": {"method": boundary}},
+                             "boxes": [{"min": [0, 0], "max": [0.2, 0.2],
+                                        "viscosity_factors": fac}],
+                             "materials": [{"viscosity": vis}]})
+        for w in words:
+            assert w in str(err.value), (w, str(err.value))
 
 
 def _couette_validation():

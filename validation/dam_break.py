@@ -53,8 +53,12 @@ Run ``python validation/dam_break.py`` (``--per-a 10 20 40`` particles across a,
 ``--solvers ...``, ``--walls free-slip no-slip``, ``--columns 2 1``, ``--gate`` adds the
 gate-speed runs, ``--wall-viscosity NU_B ...`` the runs with no-slip walls whose viscous term
 has the coefficient NU_B (wall friction as an eddy viscosity; DFSPH, the middle resolution),
-``--quick``: DFSPH, free-slip, 10 and 20; ``--dim 3``: the column in a
-channel 0.5 a wide between side walls, y up, z across; ``--solved-walls``:
+``--floor-viscosity NU_B ...`` the same on the floor only (``boxes[].viscosity_factors``: the
+side walls free-slip), ``--surface-tension SIGMA ...`` free-slip runs with Mueller et al.
+2003's surface tension (no adhesion), ``--front-thickness D ...`` adds the fronts of water at
+least D thick (``2L``: two particle layers; ``5mm``; ``0.05``: a fraction of a; the water per
+width in 4r-wide windows of x), ``--quick``: DFSPH, free-slip, 10 and 20; ``--dim 3``: the
+column in a channel 0.5 a wide between side walls, y up, z across; ``--solved-walls``:
 ``configuration.boundary.solved``, wall pressures solved in the PPE, which the 3D runs need;
 ``--solved-walls density``: at density level).
 It prints the tables and saves ``validation/dam_break.png`` (``dam_break_3d.png``) when
@@ -124,7 +128,10 @@ def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: 
           solved_walls: bool | str = False) -> Scene:
     """The dam break of the module docstring: ``per_a`` particles across the column; ``dim``
     3: the same in a channel WIDTH_3D a wide (y up, z across; walls on both sides);
-    ``solved_walls``: ``configuration.boundary.solved`` (walls that do no work)."""
+    ``solved_walls``: ``configuration.boundary.solved`` (walls that do no work). ``wall``:
+    ``free-slip``, ``no-slip`` (nu_b = nu), ``no-slip:<nu_b>`` (every wall), ``floor:<nu_b>``
+    (the no-slip term on the floor only, ``boxes[].viscosity_factors``; the other walls
+    free-slip), ``sigma:<N/m>`` (free-slip walls, Mueller et al. 2003's surface tension)."""
     r = a / (2 * per_a)
     height = n2 * a
     pressure: dict = {"method": solver}
@@ -132,7 +139,7 @@ def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: 
         c = 10.0 * math.sqrt(2.0 * G * height)
         pressure.update(equation="tait", exponent=7.0, stiffness=RHO0 * c * c / 7.0)
     visc: dict = {"method": "standard", "coefficient": NU}
-    if wall.startswith("no-slip"):  # "no-slip:<nu_b>": the wall term's own coefficient
+    if wall.startswith(("no-slip", "floor")):  # "<kind>:<nu_b>": the wall term's coefficient
         nu_b = float(wall.split(":")[1]) if ":" in wall else NU
         visc.update(boundary_coefficient=nu_b, boundary_velocity="morris1997")
     lo, hi, start, end = [0.0, 0.0], [TANK * a, height + a], [0.0, 0.0], [a, height]
@@ -154,21 +161,62 @@ def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: 
         "fluid_blocks": [{"start": start, "end": end}],
         "boxes": [{"min": lo, "max": hi, "layers": 2, "open_top": True}],
     }
+    if wall.startswith("floor"):  # the wall term on the floor (-y) only
+        data["boxes"][0]["viscosity_factors"] = [0.0, 0.0, 1.0, 0.0] + [0.0, 0.0] * (dim - 2)
+    if wall.startswith("sigma"):  # "sigma:<N/m>": CSF surface tension, no adhesion
+        data["materials"][0]["surface_tension"] = {
+            "method": "mueller2003", "coefficient": float(wall.split(":")[1])}
     if gate_speed is not None:
         path = _gate_obj(gate_dir, a, n2, 8.0 * r)
         data["meshes"] = [{"geometry_file": str(path), "velocity": [0.0, gate_speed, 0.0]}]
     return Scene.model_validate(data)
 
 
-def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END) -> dict:
+def thickness_thresholds(labels: list[str], r: float) -> list[tuple[str, float]]:
+    """``--front-thickness`` labels as thicknesses [m]: ``<k>L`` k particle layers (k 2r),
+    ``<d>mm`` d millimetres at the simulation's scale (a = 0.146 m, Koshizuka & Oka's; times
+    25.4 * 2.25 / 146 = 0.39 at Martin & Moyce's a = 2.25 in), a plain number a fraction of a."""
+    out = []
+    for lab in labels:
+        if lab.endswith("L"):
+            out.append((lab, float(lab[:-1]) * 2.0 * r))
+        elif lab.endswith("mm"):
+            out.append((lab, float(lab[:-2]) * 1e-3))
+        else:
+            out.append((lab, float(lab) * A))
+    return out
+
+
+def parse_thickness(labels: list[str]) -> str | None:
+    """Why ``--front-thickness`` labels are malformed, or None."""
+    for lab in labels:
+        num = lab[:-1] if lab.endswith("L") else lab[:-2] if lab.endswith("mm") else lab
+        try:
+            v = float(num)
+        except ValueError:
+            return f"{lab!r}: expected <k>L (particle layers), <d>mm or a fraction of a"
+        if not (math.isfinite(v) and v > 0):
+            return f"{lab!r}: expected a positive finite thickness"
+    return None
+
+
+def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END,
+        thick: list[tuple[str, float]] = ()) -> dict:
     """Step to Martin & Moyce's T = t_end (or until the front reaches the far wall): per step
-    T, Z (front), tau, H (residual column)."""
+    T, Z (front), tau, H (residual column); ``Z<d>``: the fronts of water at least d a deep
+    (DEPTHS: the top of each 2r-wide column of particles); ``Zt<label>`` for each (label,
+    thickness) of ``thick``: the front of the water at least that thick, the thickness of a
+    4r-wide window of x being the water it holds per width, N (2r)^dim / (4r w^(dim - 2))
+    (w the 3D channel's width; spray above the tongue adds to it, gaps do not)."""
     n = math.sqrt(n2)
     f = sim.fluid
     r = sim.state.r
+    dim = sim.state.dim
     s = math.sqrt(G / a)
     ts, zs, hs = [0.0], [float(f["x"][0].max() + r) / a], [float(f["x"][1].max() + r) / (n2 * a)]
     zd = [[1.0] for _ in DEPTHS]
+    zt = [[1.0] for _ in thick]
+    per_window = (2.0 * r) ** dim / (4.0 * r * (WIDTH_3D * a) ** (dim - 2))
     while n * sim.time * s < t_end and zs[-1] < TANK - 0.05:
         sim.step()
         x = f["x"]
@@ -183,11 +231,19 @@ def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END) -> dict:
         for k, d in enumerate(DEPTHS):
             deep = depth[cell] >= d * a
             zd[k].append(float(x[0][deep].max() + r) / a if deep.any() else 0.0)
+        if thick:  # the water per width in 4r-wide windows
+            win = np.floor(np.maximum(x[0], 0.0) / (4.0 * r)).astype(np.int64)
+            th = np.bincount(win) * per_window
+            for k, (_lab, d) in enumerate(thick):
+                deep = th[win] >= d
+                zt[k].append(float(x[0][deep].max() + r) / a if deep.any() else 0.0)
     t = np.array(ts)
     out = {"T": n * s * t, "tau": s * t, "Z": np.array(zs), "H": np.array(hs),
            "steps": sim.step_count, "n": f.n}
     for k, d in enumerate(DEPTHS):
         out[f"Z{d:g}"] = np.array(zd[k])
+    for k, (lab, _d) in enumerate(thick):
+        out[f"Zt{lab}"] = np.array(zt[k])
     return out
 
 
@@ -244,23 +300,21 @@ def order(runs: dict[int, dict]) -> list[tuple[int, int, float, float]]:
 
 
 def simulate(solver: str, per_a: int, wall: str, n2: float, gate: float | None = None,
-             folder: Path | None = None, dim: int = 2, solved: bool | str = False
-             ) -> dict | str:
-    """One run; an error message if it blew up."""
+             folder: Path | None = None, dim: int = 2, solved: bool | str = False,
+             thickness: list[str] = ()) -> dict | str:
+    """One run; an error message if it blew up. ``thickness``: ``--front-thickness`` labels
+    (:func:`thickness_thresholds`)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         sim = Simulation(scene(solver, per_a, wall, n2, gate_speed=gate, gate_dir=folder,
                                dim=dim, solved_walls=solved))
     t0 = time.perf_counter()
     try:
-        out = run(sim, n2)
+        out = run(sim, n2, thick=thickness_thresholds(list(thickness), sim.state.r))
     except InstabilityError as e:
         return f"unstable at t = {sim.time:.3f} s: {str(e).splitlines()[0]}"
     out["wall"] = time.perf_counter() - t0
     return out
-
-
-FIELDS = ("T", "tau", "Z", "H") + tuple(f"Z{d:g}" for d in DEPTHS)
 
 
 def save(path: Path, results: dict) -> None:
@@ -268,8 +322,8 @@ def save(path: Path, results: dict) -> None:
     arrays = {}
     for key, o in results.items():
         tag = "|".join(str(k) for k in key)
-        for f in FIELDS:
-            if f in o:
+        for f in o:
+            if f in ("T", "tau", "H") or f.startswith("Z"):
                 arrays[f"{tag}|{f}"] = o[f]
         arrays[f"{tag}|info"] = np.array([o["steps"], o["n"], o["wall"]])
     np.savez_compressed(path, **arrays)
@@ -312,15 +366,24 @@ def row(key: tuple, o: dict | str) -> str:
 
 
 def depth_row(o: dict) -> str:
-    """The fronts of water at least d deep against Martin & Moyce (2.25 in) and K&O."""
-    out = []
+    """The fronts of water at least d deep (``Z<d>``) and at least as thick as each
+    ``--front-thickness`` label (``Zt<label>``) against Martin & Moyce (2.25 in) and K&O."""
+    out, thick = [], []
     for d in DEPTHS:
         if f"Z{d:g}" in o:
             mm = front_error(o["T"], o[f"Z{d:g}"], "MM a=2.25in")
             ko = front_error(o["T"], o[f"Z{d:g}"], "K&O")
             out.append(f"depth >= {d:g} a: MM {mm[0]:+.1%}/{mm[1]:.1%}, K&O {ko[0]:+.1%}/"
                        f"{ko[1]:.1%}")
-    return "    fronts of deeper water: " + "; ".join(out) if out else ""
+    for f in sorted(k for k in o if k.startswith("Zt")):
+        mm = front_error(o["T"], o[f], "MM a=2.25in")
+        ko = front_error(o["T"], o[f], "K&O")
+        thick.append(f"thickness >= {f[2:]}: MM {mm[0]:+.1%}/{mm[1]:.1%}, K&O {ko[0]:+.1%}/"
+                     f"{ko[1]:.1%}")
+    lines = ["    fronts of deeper water: " + "; ".join(out)] if out else []
+    if thick:
+        lines.append("    fronts of thicker water: " + "; ".join(thick))
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -338,6 +401,18 @@ def main(argv: list[str] | None = None) -> int:
                     help="no-slip walls whose viscous term has the coefficient NU_B [m^2/s] "
                     "instead of nu (a rough, turbulent floor's friction as an eddy viscosity; "
                     "DFSPH, n^2 = 2, the middle resolution)")
+    ap.add_argument("--floor-viscosity", type=float, nargs="+", default=None, metavar="NU_B",
+                    help="as --wall-viscosity, on the floor only (boxes[].viscosity_factors); "
+                    "the side walls free-slip")
+    ap.add_argument("--surface-tension", type=float, nargs="+", default=None, metavar="SIGMA",
+                    help="free-slip runs with Mueller et al. 2003's surface tension SIGMA [N/m] "
+                    "(no adhesion) at the simulation's a = 0.146 m; water's 0.0728 N/m at "
+                    "Martin & Moyce's a = 2.25 in has the same Bond number as 0.475 N/m here "
+                    "(DFSPH, n^2 = 2, the middle resolution)")
+    ap.add_argument("--front-thickness", nargs="+", default=[], metavar="D",
+                    help="also the fronts of the water at least D thick (per width, 4r-wide "
+                    "windows): <k>L k particle layers, <d>mm millimetres at the simulation's "
+                    "(Koshizuka & Oka's) scale, or a fraction of a; e.g. 2L 3L 5mm")
     ap.add_argument("--quick", action="store_true", help="DFSPH, free-slip, 10 and 20 across")
     ap.add_argument("--dim", type=int, default=2, choices=(2, 3),
                     help="3: the column in a channel 0.5 a wide between side walls (no gate)")
@@ -351,6 +426,13 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.quick:
         args.solvers, args.walls, args.per_a = ["dfsph"], ["free-slip"], [10, 20]
+    bad = parse_thickness(args.front_thickness)
+    if bad:
+        ap.error(f"--front-thickness {bad}")
+    for opt, vals in (("--floor-viscosity", args.floor_viscosity),
+                      ("--surface-tension", args.surface_tension)):
+        if vals and not all(math.isfinite(v) and v >= 0 for v in vals):
+            ap.error(f"{opt} {vals}: expected finite values >= 0")
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     walls = ("solved (density level)" if args.solved_walls == "density"
              else "solved" if args.solved_walls else "MLS")
@@ -367,7 +449,7 @@ def main(argv: list[str] | None = None) -> int:
         for key, o in load(path).items():
             results[key] = o
             print(row(key, o), flush=True)
-            if any(f.startswith("Z0") for f in o):
+            if depth_row(o):
                 print(depth_row(o), flush=True)
     cases = [] if args.load else [
         (n2, solver, wall, per_a, None) for n2 in args.columns for solver in args.solvers
@@ -380,10 +462,14 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(f"--wall-viscosity {args.wall_viscosity}: expected coefficients >= 0")
         per_a = sorted(args.per_a)[len(args.per_a) // 2]
         cases += [(2.0, "dfsph", f"no-slip:{v:g}", per_a, None) for v in args.wall_viscosity]
+    per_a = sorted(args.per_a)[len(args.per_a) // 2]
+    cases += [(2.0, "dfsph", f"floor:{v:g}", per_a, None) for v in args.floor_viscosity or []]
+    cases += [(2.0, "dfsph", f"sigma:{v:g}", per_a, None) for v in args.surface_tension or []]
     with tempfile.TemporaryDirectory() as tmp:
         for key in cases:
             n2, solver, wall, per_a, gate = key
-            o = simulate(solver, per_a, wall, n2, gate, Path(tmp), args.dim, args.solved_walls)
+            o = simulate(solver, per_a, wall, n2, gate, Path(tmp), args.dim, args.solved_walls,
+                         args.front_thickness)
             print(row(key, o), flush=True)
             if not isinstance(o, str):
                 print(depth_row(o), flush=True)

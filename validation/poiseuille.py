@@ -193,12 +193,12 @@ def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinc
     vol = 1.0 / Kernel(kernel, st.h, 2).w(np.linalg.norm(lat, axis=1)).sum()
     fluid = ParticleSet(2, st.fluid.dtype)
     for name, spec in st.fluid.specs.items():
-        fluid.register(name, spec.kind, spec.dtype)
+        fluid.register(name, spec.kind, spec.dtype, spec.fill)
     fluid.add(rows(list(range(n))), name="channel", m=RHO0 * vol, V0=vol, rho=RHO0,
               rho0=RHO0)
     wall = ParticleSet(2, st.boundary.dtype)
     for name, spec in st.boundary.specs.items():
-        wall.register(name, spec.kind, spec.dtype)
+        wall.register(name, spec.kind, spec.dtype, spec.fill)
     layers = max(3, math.ceil(st.h / dy))  # wall rows: at least the kernel support deep
     low = rows([-1 - k for k in range(layers)])
     high = rows([n + k for k in range(layers)])

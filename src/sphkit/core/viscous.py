@@ -284,9 +284,12 @@ def check_wall_options(boundary_velocity: str, beta_max: float, eps: float) -> N
 def register_wall_fields(boundary) -> None:
     """Register the boundary fields of :func:`morris_beta` (no-op if present): ``wall_normal``
     (unit normal of the wall surface at the particle, pointing from the fluid into the wall) and
-    ``wall_distance`` [m] (the particle's distance behind that surface; 0 = unknown)."""
+    ``wall_distance`` [m] (the particle's distance behind that surface; 0 = unknown); and
+    ``viscosity_factor``, the standard viscosity's factor on its wall term (1 by default; set
+    per face by ``boxes[].viscosity_factors``)."""
     boundary.register("wall_normal", "vector")
     boundary.register("wall_distance")
+    boundary.register("viscosity_factor", fill=1.0)
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")

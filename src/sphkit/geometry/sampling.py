@@ -288,3 +288,29 @@ def box_wall_distance(points: np.ndarray, lo: ArrayLike, hi: ArrayLike
     out = dist > 0.0
     normal[out] = off[out] / dist[out, None]
     return dist, normal
+
+
+def box_face_factors(points: np.ndarray, lo: ArrayLike, hi: ArrayLike,
+                     factors: ArrayLike) -> np.ndarray:
+    """A value per wall particle of the box ``[lo, hi]`` from one value per face.
+
+    ``factors`` holds 2 dim values in the order -x, +x, -y, +y (, -z, +z); a particle lying
+    beyond the face at ``lo[e]`` (``p[e] < lo[e]``) or at ``hi[e]`` takes that face's value, one
+    beyond several faces (an edge or a corner) the largest of theirs, one beyond none (on or
+    inside the box) 1. Used for ``boxes[].viscosity_factors``.
+
+    Returns:
+        ``(M,)`` values.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    dim = p.shape[1]
+    a = _as_vector(lo, "lo")[:dim]
+    b = _as_vector(hi, "hi")[:dim]
+    f = np.asarray(factors, dtype=np.float64)
+    if f.shape != (2 * dim,):
+        raise ValueError(f"factors {factors!r}: expected {2 * dim} values, one per face")
+    out = np.full(len(p), -np.inf)
+    for e in range(dim):
+        out = np.where(p[:, e] < a[e], np.maximum(out, f[2 * e]), out)
+        out = np.where(p[:, e] > b[e], np.maximum(out, f[2 * e + 1]), out)
+    return np.where(np.isinf(out), 1.0, out)

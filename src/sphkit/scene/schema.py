@@ -9,6 +9,7 @@ what was expected (see :func:`format_validation_error`).
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Any, Literal
 
@@ -716,6 +717,14 @@ class Box(_Model):
     max: Vec = Field(description="inner upper corner [m]")
     layers: int = Field(1, ge=1, le=4, description="number of particle layers of the walls")
     open_top: bool = Field(False, description="leave out the wall at max along the gravity axis")
+    viscosity_factors: list[float] | None = Field(
+        None,
+        description="per face, a factor on the material viscosity's boundary_coefficient at "
+        "this box's walls (standard viscosity only), in the order -x, +x, -y, +y (, -z, +z): "
+        "2 dim values >= 0; a particle beyond several faces (an edge or corner) takes the "
+        "largest of theirs; default 1 on every face. E.g. 2D [0, 0, 1, 0] with y up: the "
+        "wall term acts on the floor only (free-slip side walls, a rough floor)",
+    )
 
     @model_validator(mode="after")
     def _ordered(self) -> Box:
@@ -724,6 +733,15 @@ class Box(_Model):
         for a, b in zip(self.min, self.max, strict=True):
             if not b > a:
                 raise ValueError(f"max {self.max} must exceed min {self.min} on every axis")
+        f = self.viscosity_factors
+        if f is not None:
+            if len(f) != 2 * len(self.min):
+                raise ValueError(
+                    f"viscosity_factors {f}: {len(f)} values; expected {2 * len(self.min)}, "
+                    "one per face (-x, +x, -y, +y" + (", -z, +z)" if len(self.min) == 3
+                                                      else ")"))
+            if not all(math.isfinite(v) and v >= 0.0 for v in f):
+                raise ValueError(f"viscosity_factors {f}: expected finite values >= 0")
         return self
 
 
@@ -1305,6 +1323,21 @@ class Scene(_Model):
         for k, b in enumerate(self.boxes):
             if len(b.min) != dim:
                 raise ValueError(f"boxes[{k}].min {b.min} must have {dims}")
+            if b.viscosity_factors is not None:
+                for j, m in enumerate(self.materials):
+                    if m.viscosity.method != "standard":
+                        raise ValueError(
+                            f"boxes[{k}].viscosity_factors {b.viscosity_factors}: only the "
+                            "standard viscosity scales its wall term per face; "
+                            f"materials[{j}].viscosity.method is {m.viscosity.method!r}; "
+                            "expected 'standard' (or leave viscosity_factors out)")
+                bm = self.configuration.boundary.method
+                if registry.get("boundary", bm).kind == "maps":
+                    raise ValueError(
+                        f"boxes[{k}].viscosity_factors {b.viscosity_factors}: the boundary "
+                        f"method {bm!r} makes the box a map, which has no wall particles to "
+                        "scale; expected a particle boundary (e.g. 'akinci2012') or no "
+                        "viscosity_factors")
         pairs: set[frozenset[str]] = set()
         for k, itf in enumerate(self.interfaces):
             for mid in itf.materials:

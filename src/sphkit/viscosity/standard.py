@@ -13,7 +13,9 @@ option ``eps`` times h^2, h the support radius; see
 momentum is conserved to round-off (tested), and it equals ``m_j / rho_j`` at uniform density.
 It is Galilean invariant, vanishes for rigid rotation and
 conserves linear and angular momentum. Boundary particles (static or moving with velocity v_b)
-contribute the same term with ``m_j / rho_j -> rho0 V_b / rho_i`` and their own ``nu_b``.
+contribute the same term with ``m_j / rho_j -> rho0 V_b / rho_i`` and their own ``nu_b``,
+times the boundary field ``viscosity_factor`` (1 unless a box's ``viscosity_factors`` sets it
+per face: e.g. friction on a floor only).
 
 Wall velocity (``boundary_velocity``): ``zero`` (default, SPlisHSPlasH) uses the boundary
 particle's own velocity v_b in ``v_ib``, which lets the fluid slip by a few particle spacings;
@@ -31,7 +33,7 @@ from typing import Any
 
 import numba
 
-from sphkit.backend import launch
+from sphkit.backend import launch, to_host
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import add_vector, delta, delta2, dot, point
 from sphkit.core.state import SimState
@@ -47,8 +49,8 @@ from sphkit.core.viscous import (
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
-def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu, nub, beta_max,
-                  epsf, rho0, h, kid, dim, L, a):
+def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, bf, boff, bidx, nu, nub,
+                  beta_max, epsf, rho0, h, kid, dim, L, a):
     """Add the viscous acceleration of fluid particle i to ``a[:, i]`` (a kernel body,
     :func:`sphkit.backend.launch`). Coordinates are hoisted into scalars and the dim branches
     are loop invariant: this form runs about twice as fast as loops over d (measured), and
@@ -73,7 +75,7 @@ def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, nu,
             b = bidx[k]
             d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
             w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
-            s = (c * nub * (rho0 * bV[b] / ri) * beta
+            s = (c * nub * bf[b] * (rho0 * bV[b] / ri) * beta
                  * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim))
             acc0 += s * d0
             acc1 += s * d1
@@ -106,15 +108,20 @@ class StandardViscosity(NonPressureForce):
         self.nu_boundary = float(nu_boundary)
         self.boundary_velocity = boundary_velocity
         self.beta_max = float(beta_max) if boundary_velocity == "morris1997" else 0.0
+        self.factor_max = 1.0  # the largest boundary viscosity_factor (init)
 
     def init(self, state: SimState) -> None:
-        """Make sure the boundary carries the wall fields of the Morris wall velocity."""
-        register_wall_fields(state.boundary)
+        """Make sure the boundary carries the wall fields of the Morris wall velocity; note the
+        largest per-wall factor on the wall term (``boxes[].viscosity_factors``)."""
+        b = state.boundary
+        register_wall_fields(b)
+        self.factor_max = float(to_host(b["viscosity_factor"]).max()) if b.n else 1.0
 
     def max_time_step(self, state: SimState) -> float:
         """The explicit diffusion bound of Morris et al. 1997 for the larger of the fluid's and
-        the walls' viscosity (the walls' times the no-slip extrapolation's beta_max)."""
-        nu_b = self.nu_boundary * max(self.beta_max, 1.0)
+        the walls' viscosity (the walls' times the no-slip extrapolation's beta_max and the
+        largest per-wall factor)."""
+        nu_b = self.nu_boundary * max(self.beta_max, 1.0) * self.factor_max
         return viscous_time_step(max(self.nu, nu_b), state.r)
 
     def apply(self, state: SimState, dt: float) -> None:
@@ -123,5 +130,6 @@ class StandardViscosity(NonPressureForce):
         register_wall_fields(b)
         launch(standard_body, f.n, f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets,
                state.nl_ff.indices, b["x"], b["v"], b["V"], b["wall_normal"], b["wall_distance"],
-               state.nl_fb.offsets, state.nl_fb.indices, self.nu, self.nu_boundary, self.beta_max,
-               self.eps, state.rho0, state.h, state.kid, state.dim, state.pair_period, f["a"])
+               b["viscosity_factor"], state.nl_fb.offsets, state.nl_fb.indices, self.nu,
+               self.nu_boundary, self.beta_max, self.eps, state.rho0, state.h, state.kid,
+               state.dim, state.pair_period, f["a"])

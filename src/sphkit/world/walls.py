@@ -20,7 +20,7 @@ from sphkit.core.state import SimState
 from sphkit.core.timestep import Domain
 from sphkit.geometry.mesh_sampling import sample_mesh_surface
 from sphkit.geometry.meshes import section_segments
-from sphkit.geometry.sampling import box_wall_distance, box_walls
+from sphkit.geometry.sampling import box_face_factors, box_wall_distance, box_walls
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.fluid import periodic_clip
 from sphkit.world.meshes import SceneMeshes
@@ -51,8 +51,12 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
         # pressure is mirrored fully in the iterative solvers (core.ppe.kappa_accel_cached)
         pts = periodic_clip(state, pts)
         dist, normal = box_wall_distance(pts, box.min, box.max)
+        extra = {}
+        if box.viscosity_factors is not None:
+            extra["viscosity_factor"] = box_face_factors(pts, box.min, box.max,
+                                                         box.viscosity_factors)
         bd.add(pts, name=f"boxes[{k}]", pressure_mirror=1.0, wall_distance=dist,
-               wall_normal=normal)
+               wall_normal=normal, **extra)
     bodies = moving_meshes(scene)
     for k in range(len(scene.meshes)):
         mesh = meshes.mesh(k)
