@@ -92,6 +92,26 @@ def test_particle_set_grows_by_doubling_and_keeps_fields() -> None:
     assert len(np.unique(ps["id"])) == ps.n and ps["id"].max() == ps.n - 1
 
 
+def test_state_without_an_optional_field_restores_its_fill() -> None:
+    """A checkpoint of an older version lacks a field added since: an ``optional`` field (one
+    whose fill is what the older version did, e.g. the walls' ``viscosity_factor`` 1) restores
+    as its fill; a missing field that is not optional is still refused, naming it."""
+    old = ParticleSet(2)
+    old.register("v", "vector")
+    old.add(np.array([[0.0, 1.0], [2.0, 3.0]]), name="walls", v=np.ones((2, 2)))
+    meta, arrays = old.state()
+    new = ParticleSet(2)
+    new.register("v", "vector")
+    new.register("viscosity_factor", fill=1.0, optional=True)
+    new.set_state(meta, arrays)
+    np.testing.assert_array_equal(new["viscosity_factor"], [1.0, 1.0])
+    np.testing.assert_array_equal(new.view("x"), old.view("x"))
+    strict = ParticleSet(2)
+    strict.register("p")
+    with pytest.raises(ValueError, match=r"lacks the field\(s\) \['p'\]"):
+        strict.set_state(meta, arrays)
+
+
 # -- the command line ------------------------------------------------------------------------
 TINY = {
     "name": "tiny",

@@ -54,6 +54,9 @@ class FieldSpec:
     kind: str
     dtype: np.dtype
     fill: float = 0.0  #: value of particles added later (e.g. NaN: "no history yet")
+    #: a field added by a later sphkit version whose ``fill`` is what older versions meant: a
+    #: state written without it restores with the fill (:meth:`ParticleSet.set_state`)
+    optional: bool = False
 
 
 @dataclass
@@ -89,8 +92,10 @@ class ParticleSet:
         self.register("id", "scalar", np.int64)
 
     def register(self, name: str, kind: str = "scalar", dtype: np.dtype | str | None = None,
-                 fill: float = 0.0) -> np.ndarray:
-        """Add a field (no-op if it exists with the same layout) and return its array."""
+                 fill: float = 0.0, optional: bool = False) -> np.ndarray:
+        """Add a field (no-op if it exists with the same layout) and return its array.
+        ``optional``: a state (checkpoint) written without this field restores it as ``fill``
+        (a field that older versions did not have, whose fill is what they did)."""
         if kind not in ("scalar", "vector", "vector3"):
             raise ValueError(
                 f"field {name}: kind {kind!r}; expected 'scalar', 'vector' or 'vector3'"
@@ -101,7 +106,7 @@ class ParticleSet:
             if spec.kind != kind or spec.dtype != dt:
                 raise ValueError(f"field {name} is already registered as {spec.kind} {spec.dtype}")
             return self.fields[name]
-        self.specs[name] = FieldSpec(name, kind, dt, fill)
+        self.specs[name] = FieldSpec(name, kind, dt, fill, optional)
         self._buffers[name] = np.full(self._width(kind) * self.capacity, fill, dtype=dt)
         self._view(name)
         if self.device != "cpu":
@@ -370,7 +375,8 @@ class ParticleSet:
         self._on_host("set_state")
         if int(meta["dim"]) != self.dim:
             raise ValueError(f"particle state of dimension {meta['dim']}; expected {self.dim}")
-        missing = sorted(set(self.specs) - set(meta["specs"]))
+        absent = set(self.specs) - set(meta["specs"])
+        missing = sorted(k for k in absent if not self.specs[k].optional)
         if missing:
             raise ValueError(f"particle state lacks the field(s) {missing} that this simulation "
                              "registered; it was written by another scene or sphkit version")
@@ -384,6 +390,9 @@ class ParticleSet:
             self._view(name)
         self._grow(n)
         for name, spec in self.specs.items():
+            if name in absent:  # optional, older state: its fill, as when registered
+                self.fields[name][...] = spec.fill
+                continue
             a = np.asarray(arrays[name])
             if a.shape != self.fields[name].shape or a.dtype != spec.dtype:
                 raise ValueError(f"particle state field {name}: {a.dtype} {a.shape}; expected "

@@ -289,7 +289,7 @@ def register_wall_fields(boundary) -> None:
     per face by ``boxes[].viscosity_factors``)."""
     boundary.register("wall_normal", "vector")
     boundary.register("wall_distance")
-    boundary.register("viscosity_factor", fill=1.0)
+    boundary.register("viscosity_factor", fill=1.0, optional=True)
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")

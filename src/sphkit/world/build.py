@@ -105,7 +105,7 @@ def _state(scene: Scene, mats: list[Material]) -> SimState:
     boundary.register("wall_normal", "vector")  # box walls: into the wall (Morris 1997 no-slip)
     boundary.register("wall_distance")  # box walls: distance behind the wall surface [m]
     # the factor on the standard viscosity's wall term (boxes[].viscosity_factors; 1 elsewhere)
-    boundary.register("viscosity_factor", fill=1.0)
+    boundary.register("viscosity_factor", fill=1.0, optional=True)
     g = np.zeros(dim)
     g[:] = cfg.gravity[:dim]
     r = cfg.particle_radius
