@@ -34,7 +34,10 @@ each device's default precision, float32 on the GPU, unless ``--precision``), an
 particle-steps/s, iterations per step, the modelled bytes a step moves per second and their
 fraction of the copy bandwidth, GPU memory per particle, and issue 18's targets (2e8 fluid
 particle-steps/s at 16M particles, 50x the two-core CPU at 1M) met or missed. The issue's run on
-a GPU machine: ``python benchmarks/gpu.py --steps 10 --json gpu.json``.
+a GPU machine: ``python benchmarks/gpu.py --steps 10 --json gpu.json``; ``--only cuda|cpu``
+runs one device's rows, ``--no-passes`` the whole steps alone, and the JSON is rewritten after
+every row. ``benchmarks/gpu_session.sh`` is a lease's whole run (this script's rows, the CPU's
+beside them, the agreement check).
 
 Without a GPU (numba-cuda finds none) only the CPU rows run. Under ``NUMBA_ENABLE_CUDASIM=1`` the
 script runs the simulator for a check of the script itself (``--sizes 300 --cpu-size 300``).
