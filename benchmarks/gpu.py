@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import sys
@@ -253,28 +254,44 @@ def run_size(n_target: int, device: str, repeat: int, iterations: int) -> dict:
     return row
 
 
-def dam_scene(n_target: int, precision: str | None = None) -> dict:
-    """A 3D dam break of about ``n_target`` fluid particles (a column a x 2a x a in the corner
-    of a box 4a x 3a x a, spacing 2r) with the methods that run on the device: DFSPH, Akinci
-    walls with mirrored boundary pressure, the standard viscosity; ``precision`` None: each
-    device's default (float32 on the GPU, float64 on the CPU). No relaxation of the start,
-    which would cost minutes on the CPU at 16M particles."""
-    k = max(2, round((n_target / 2) ** (1 / 3)))
-    a = k * 2 * R
+def dam_scene(n_target: int, precision: str | None = None, depth: float | None = None,
+              relax: bool = False) -> dict:
+    """A 3D dam break of about ``n_target`` fluid particles (spacing 2r) with the methods that
+    run on the device: DFSPH, Akinci walls with mirrored boundary pressure, the standard
+    viscosity; ``precision`` None: each device's default (float32 on the GPU, float64 on the
+    CPU). ``relax`` False: no relaxation of the start (sphkit's default relaxes), which would
+    cost minutes on the CPU at 16M particles; the fluid sampled against the walls then starts 5 %
+    too dense there, and the density solve runs to its 100 iterations in the first steps.
+
+    ``depth`` None: a column a x 2a x a in the corner of a box 4a x 3a x a (its depth grows with
+    the particle count: 1.6 m at 1M, 4 m at 16M, where the density solve no longer converges in
+    its 100 iterations); ``depth`` [m]: a column of that depth and a square footprint L x L in
+    the corner of a box 3L x 2 depth x L, so that the iterations per step stay those of one
+    column depth at every size."""
     cfg = {"dim": 3, "particle_radius": R, "pressure": {"method": "dfsph"},
            "boundary": {"method": "akinci2012", "pressure": "mirror"},
-           "start": {"relax": False}}
+           "start": {"relax": relax}}
     if precision is not None:
         cfg["precision"] = precision
+    if depth is None:
+        k = max(2, round((n_target / 2) ** (1 / 3)))
+        a = k * 2 * R
+        block, box = [a, 2 * a, a], [4 * a, 3 * a, a]
+    else:
+        layers = max(2, round(depth / (2 * R)))
+        w = max(2, round(math.sqrt(n_target / layers)))
+        L, H = w * 2 * R, layers * 2 * R
+        block, box = [L, H, L], [3 * L, 2 * H, L]
     return {"name": "dambreak-gpu",
             "configuration": cfg,
             "materials": [{"viscosity": {"method": "standard", "coefficient": 1e-6}}],
-            "fluid_blocks": [{"start": [0, 0, 0], "end": [a, 2 * a, a]}],
-            "boxes": [{"min": [0, 0, 0], "max": [4 * a, 3 * a, a]}]}
+            "fluid_blocks": [{"start": [0, 0, 0], "end": block}],
+            "boxes": [{"min": [0, 0, 0], "max": box}]}
 
 
 def run_steps(n_target: int, device: str, steps: int, precision: str | None = None,
-              bandwidth: float | None = None) -> dict:
+              bandwidth: float | None = None, depth: float | None = None,
+              relax: bool = False, warmup: int = 1) -> dict:
     """Whole DFSPH time steps of :func:`dam_scene` through ``Simulation(device=...)`` (the
     fields resident on the device): one warm-up step (compiles), then ``steps`` timed. The
     bytes a step moves are modelled as its passes' (:func:`pass_bytes`: the search, the density
@@ -285,9 +302,11 @@ def run_steps(n_target: int, device: str, steps: int, precision: str | None = No
 
     free0 = free_memory() if device == "cuda" else None
     t0 = time.perf_counter()
-    sim = Simulation(Scene.model_validate(dam_scene(n_target, precision)), device=device)
+    sim = Simulation(Scene.model_validate(dam_scene(n_target, precision, depth, relax)),
+                     device=device)
     build = time.perf_counter() - t0
-    sim.step()
+    for _ in range(max(1, warmup)):  # the first compiles; the start's steps saturate the solve
+        sim.step()
     free1 = free_memory() if device == "cuda" else None
     its, its_v = [], []
     t0 = time.perf_counter()
@@ -366,6 +385,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", choices=("cuda", "cpu"), default=None,
                     help="run only this device's rows (e.g. the CPU rows in a second process "
                     "beside the GPU's; --json of each, the ratio read from the two)")
+    ap.add_argument("--depth", type=float, default=None,
+                    help="the whole steps' column depth [m] (default: a x 2a x a, deeper with "
+                    "size); e.g. 0.4: the same depth at every size, a square footprint")
+    ap.add_argument("--warmup", type=int, default=1,
+                    help="untimed steps before the timed ones (the first compiles; a dam break's "
+                    "first steps run the density solve to its 100 iterations)")
+    ap.add_argument("--relax", action="store_true",
+                    help="the whole steps' scene relaxes its start (sphkit's default; minutes "
+                    "on the CPU at 16M particles)")
     ap.add_argument("--no-passes", action="store_true",
                     help="skip the per-pass timings: the whole steps (--steps) only")
     args = ap.parse_args(argv)
@@ -417,7 +445,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.steps > 0:
         print(f"\nwhole DFSPH steps of a 3D dam break ({args.steps} timed after one warm-up):")
         for n in (args.sizes if gpu else []):
-            rows.append(run_steps(int(n), "cuda", args.steps, args.precision, bw))
+            rows.append(run_steps(int(n), "cuda", args.steps, args.precision, bw, args.depth,
+                                  args.relax, args.warmup))
             show_steps(rows[-1])
             save()
         ratio = None
@@ -427,7 +456,8 @@ def main(argv: list[str] | None = None) -> int:
 
                 numba.set_num_threads(max(1, min(args.cpu_threads,
                                                  numba.config.NUMBA_NUM_THREADS)))
-            rows.append(run_steps(int(args.cpu_size), "cpu", args.steps, args.precision))
+            rows.append(run_steps(int(args.cpu_size), "cpu", args.steps, args.precision,
+                                  depth=args.depth, relax=args.relax, warmup=args.warmup))
             show_steps(rows[-1])
             save()
             same = [r for r in rows if r["device"] == "cuda" and "step_s" in r

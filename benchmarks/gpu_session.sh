@@ -22,6 +22,9 @@ SIZES=${SIZES:-1e6 4e6 16e6}
 CPU_SIZE=${CPU_SIZE:-1e6}
 STEPS=${STEPS:-10}
 AGREE=${AGREE:-}
+# options of the whole steps (GPU and CPU rows), e.g. "--depth 0.4 --warmup 20": a column of one
+# depth at every size, timed after the start's saturated steps (benchmarks/README.md)
+STEPS_ARGS=${STEPS_ARGS:-}
 PY=${PY:-python3}
 TMUL=${TMUL:-1}  # a multiplier of every time limit (the simulator is slow)
 t() { echo $(( $1 * TMUL )); }
@@ -51,13 +54,13 @@ pin() {  # pin <cores> <command...>: taskset where it exists
 
 # the CPU rows beside the GPU's, on cores 8-9 (the GPU's process keeps to cores 0-7)
 ( NUMBA_NUM_THREADS=2 pin 8,9 timeout $(t 400) "$PY" benchmarks/gpu.py --only cpu \
-    --cpu-size "$CPU_SIZE" --steps "$STEPS" --repeat 3 --json "$OUT/cpu.json" \
+    --cpu-size "$CPU_SIZE" --steps "$STEPS" $STEPS_ARGS --repeat 3 --json "$OUT/cpu.json" \
     > "$OUT/cpu.log" 2>&1; echo "rc $?" >> "$OUT/cpu.log" ) &
 
 gpu() { NUMBA_NUM_THREADS=8 pin 0-7 "$@"; }
 echo "== whole steps"
 # shellcheck disable=SC2086
-gpu timeout $(t 200) "$PY" benchmarks/gpu.py --only cuda --no-passes --sizes $SIZES --steps "$STEPS" \
+gpu timeout $(t 200) "$PY" benchmarks/gpu.py --only cuda --no-passes --sizes $SIZES --steps "$STEPS" $STEPS_ARGS \
   --json "$OUT/steps.json" 2>&1 | tee -a "$OUT/session.log"; echo "rc $?"
 echo "== agreement"
 # shellcheck disable=SC2086
