@@ -71,7 +71,7 @@ echo "== passes"
 gpu timeout $(t 50) "$PY" benchmarks/gpu.py --only cuda --sizes $SIZES --json "$OUT/passes.json" 2>&1 \
   | tee -a "$OUT/session.log"; echo "rc $?"
 echo "== real-GPU test"
-gpu timeout $(t 45) "$PY" -m pytest -q -n 0 -p no:cacheprovider tests/test_cuda_simulator.py \
+gpu timeout $(t 100) "$PY" -m pytest -q -n 0 -p no:cacheprovider tests/test_cuda_simulator.py \
   -k on_gpu 2>&1 | tail -5 | tee -a "$OUT/session.log"; echo "rc $?"
 wait
 echo "== CPU rows"
