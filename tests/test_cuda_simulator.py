@@ -32,8 +32,16 @@ import pytest
 
 SCRIPT = textwrap.dedent(
     """
+    import os
     import sys
     import numpy as np
+
+    if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1":
+        # the simulator runs a block's threads as Python threads and the launching thread
+        # polls them, holding the GIL for the whole switch interval (5 ms) before a thread
+        # waiting for it can run: 1 ms hands it over sooner (the same kernels and results;
+        # benchmarks/README.md: 40 -> 17 s of CPU time for this script)
+        sys.setswitchinterval(1e-3)
     from sphkit.backend import launch, launch_reduce
     from sphkit.core.kernels import lattice_volume
     from sphkit.core.neighbors import Grid, neighbor_lists

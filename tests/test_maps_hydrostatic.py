@@ -142,7 +142,7 @@ def test_volume_map_mirrored_share_is_the_distance_change_along_the_normal() -> 
     model.init(st)
     bmap = model.maps[0]
     d = 2.5 * r
-    x = np.array([[0.15, d], [d, d]]).T  # mid-floor, corner
+    x = np.array([[0.15, d], [d, d]])  # (dim, n) in C order as the simulation's: mid-floor, corner
     share = model._mirror_shares(st, x, bmap.eval_values(x)[None, :])[0]
     e = 1e-6 * r
     for k in range(2):

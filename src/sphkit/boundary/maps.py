@@ -382,8 +382,9 @@ class MapBoundaryModel(BoundaryModel):
             self.maps.append(bmap)
             self.cache_hits += int(hit)
         #: per geometry, with :attr:`hydrostatic`: its normal moment map N
-        #: (:func:`sphkit.boundary.maps_hydrostatic.moment_nodes`)
-        self.moment_maps: list[BoundaryMap] = []
+        #: (:func:`sphkit.boundary.maps_hydrostatic.moment_nodes`); None for a moving body's
+        #: geometry, whose map gets no wall moment (:meth:`wall_moment`)
+        self.moment_maps: list[BoundaryMap | None] = []
         if self.hydrostatic:
             qp, qw = ball_quadrature(state.h, state.dim)
             gamma, d_lo, d_hi, scale = self._solid_weight(state)
@@ -399,6 +400,9 @@ class MapBoundaryModel(BoundaryModel):
             mparams = params + ["normal moment", t_lo, t_step, table.size, float(table.sum()),
                                 scale]
             for g in self.geometries:
+                if g.body != 0:
+                    self.moment_maps.append(None)
+                    continue
                 bmap, hit = build_map(g, state.h, self.offset_in_radii * state.r,
                                       f"{self.name}-normal-moment", mparams, moments, self.folder)
                 self.moment_maps.append(bmap)

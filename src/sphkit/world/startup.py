@@ -377,6 +377,9 @@ def _density(state: SimState, m: np.ndarray, out: np.ndarray) -> np.ndarray:
     f, b = state.fluid, state.boundary
     rest = state.rest()
     mu = m if rest.uniform else m / rest.c
+    # in the fields' precision: the start masses (lattice mass times rho_start / rho0) come in
+    # float64, and a float32 run would compile the density pass a second time for them
+    mu = mu.astype(f.dtype, copy=False)
     density_cpu(f["x"], mu, state.nl_ff.offsets, state.nl_ff.indices, b["x"], b["V"],
                 state.nl_fb.offsets, state.nl_fb.indices, state.rho0, state.h, state.kid,
                 state.dim, out, state.pair_period, c=rest.c)
