@@ -2,7 +2,8 @@
 
     python benchmarks/step_series.py [--solver dfsph] [--radius 0.009] [--until 0.3]
                                      [--fixed-dt DT] [--no-viscous-bound]
-                                     [--wall-spacing 2.0] [--codes sphkit,splishsplash]
+                                     [--wall-spacing 2.0] [--boundary-pressure mirror]
+                                     [--codes sphkit,splishsplash]
                                      [--json FILE]
 
 Issue 22's trace of DFSPH's iterations per step (benchmarks/README.md, "passes.py"): the
@@ -21,7 +22,10 @@ sequence:
 * ``--no-viscous-bound``: sphkit without the explicit viscosity's step bound (0.125 (2r)^2 / nu,
   which SPlisHSPlasH does not have; validation/README.md);
 * ``--wall-spacing S``: sphkit samples the walls' boundary particles S r apart instead of its
-  2r (SPlisHSPlasH's regular triangle sampling: 1.5r); a probe, through the sampler's radius.
+  2r (SPlisHSPlasH's regular triangle sampling: 1.5r); a probe, through the sampler's radius;
+* ``--boundary-pressure P``: sphkit's ``configuration.boundary.pressure`` (a translated
+  SPlisHSPlasH scene takes sphkit's default, ``mls`` at Akinci walls; ``mirror`` is
+  SPlisHSPlasH's term).
 
 SPlisHSPlasH's step: the wheel's ``TimeManager`` time after each step (its integration uses
 the step size of the previous step's CFL update; its pressure solve already the new one).
@@ -50,11 +54,17 @@ import json, sys
 import numpy as np
 from sphkit.simulation import Simulation
 import sphkit.world.walls as walls
+from sphkit.scene.files import load_scene
 scene, out, novisc, spacing = sys.argv[1], sys.argv[2], sys.argv[3] == "1", float(sys.argv[4])
 if spacing != 2.0:  # the sampler puts particles 2r apart: give it the radius of S r apart
     sample = walls.sample_mesh_surface
     walls.sample_mesh_surface = lambda mesh, r, dim=3: sample(mesh, 0.5 * spacing * r, dim)
-sim = Simulation.from_scene(scene)
+sc = load_scene(scene)
+if sys.argv[5]:  # validated as the scene's own field
+    bc = sc.configuration.boundary
+    given = {**bc.model_dump(), "pressure": sys.argv[5]}
+    sc.configuration.boundary = type(bc).model_validate(given)
+sim = Simulation(sc)
 if novisc:
     for force in sim.forces:
         force.max_time_step = lambda state: float("inf")
@@ -94,13 +104,14 @@ json.dump({"fluid": None, "boundary": None, "rows": rows}, open(out, "w"))
 """
 
 
-def run(code: str, scene: Path, folder: Path, novisc: bool, spacing: float) -> dict:
+def run(code: str, scene: Path, folder: Path, novisc: bool, spacing: float,
+        boundary_pressure: str) -> dict:
     """One code's series in a subprocess with one thread; ``{"error": ...}`` when it fails."""
     out = folder / f"{code}.json"
     if code == "sphkit":
         env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
         cmd = [sys.executable, "-c", SPHKIT_CHILD, str(scene), str(out), str(int(novisc)),
-               str(spacing)]
+               str(spacing), boundary_pressure]
     else:
         env = wheel.subprocess_env("1")
         cmd = [sys.executable, "-c", SPLISHSPLASH_CHILD, str(scene), str(out)]
@@ -144,6 +155,8 @@ def main() -> int:
                     help="sphkit without the explicit viscosity's step bound")
     ap.add_argument("--wall-spacing", type=float, default=2.0, metavar="S",
                     help="sphkit's wall particles S r apart (default 2)")
+    ap.add_argument("--boundary-pressure", default="", metavar="P",
+                    help="sphkit's configuration.boundary.pressure (default: the scene's)")
     ap.add_argument("--codes", default="sphkit,splishsplash")
     ap.add_argument("--json", type=Path, metavar="FILE", help="both series as JSON")
     args = ap.parse_args()
@@ -163,7 +176,8 @@ def main() -> int:
             data["Configuration"].update(cflMethod=0, timeStepSize=args.fixed_dt)
             scene.write_text(json.dumps(data, indent=1))
         for code in codes:
-            results[code] = run(code, scene, folder, args.no_viscous_bound, args.wall_spacing)
+            results[code] = run(code, scene, folder, args.no_viscous_bound, args.wall_spacing,
+                                args.boundary_pressure)
             summary(code, results[code])
     if args.json:
         args.json.write_text(json.dumps(results) + "\n")
