@@ -120,7 +120,11 @@ def rss():  # resident bytes now (Linux; 0 elsewhere)
 
 def configured(scene):  # sphkit-only settings of the run (SPHKIT_BENCH_CONFIG, JSON)
     for key, value in json.loads(os.environ.get("SPHKIT_BENCH_CONFIG") or "{}").items():
-        setattr(scene.configuration, key, value)
+        *path, last = key.split(".")  # dotted: a nested field, e.g. boundary.pressure
+        obj = scene.configuration
+        for part in path:
+            obj = getattr(obj, part)
+        setattr(obj, last, value)
     return scene
 
 try:
@@ -275,7 +279,17 @@ def main() -> int:
                     help="paired runs per scene, alternating the codes; each code's fastest run "
                          "is reported (default 3)")
     ap.add_argument("--json", type=Path, metavar="FILE", help="also write the results as JSON")
+    ap.add_argument("--sphkit-config", default="{}", metavar="JSON",
+                    help="sphkit-only fields of configuration for its runs, dotted keys for "
+                         "nested ones, e.g. '{\"boundary.pressure\": \"mirror\"}' "
+                         "(SPlisHSPlasH's wall pressure term)")
     args = ap.parse_args()
+    try:
+        sk_config = json.loads(args.sphkit_config)
+        if not isinstance(sk_config, dict):
+            raise ValueError("not an object")
+    except ValueError as e:
+        ap.error(f"--sphkit-config: {args.sphkit_config!r}; expected a JSON object ({e})")
     codes = {c.strip().lower() for c in args.codes.split(",") if c.strip()}
     if args.repeat < 1:
         ap.error(f"--repeat: got {args.repeat}; expected a positive number of runs")
@@ -290,7 +304,8 @@ def main() -> int:
         except importlib.metadata.PackageNotFoundError:
             versions.append(f"{dist} (not installed)")
     print(f"# {time.strftime('%Y-%m-%d')} {platform.node()} {cpu}, {os.cpu_count()} cores, "
-          f"{args.threads} threads each; {', '.join(versions)}")
+          f"{args.threads} threads each; {', '.join(versions)}"
+          + (f"; sphkit configuration {sk_config}" if sk_config else ""))
     print(COLUMNS, flush=True)
     results = []
     with tempfile.TemporaryDirectory(prefix="sphkit-bench-") as tmp:
@@ -302,7 +317,7 @@ def main() -> int:
             runs_sp: list[dict] = []
             for _ in range(args.repeat):  # alternate: a disturbance hits both codes alike
                 if "sphkit" in codes:
-                    runs_sk.append(run_sphkit(path, args.threads))
+                    runs_sk.append(run_sphkit(path, args.threads, config=sk_config))
                 if "splishsplash" in codes:
                     runs_sp.append(run_splishsplash(path, args.threads))
                 if any("wall" not in r for r in runs_sk + runs_sp):

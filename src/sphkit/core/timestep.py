@@ -2,9 +2,11 @@
 
 * Symplectic (semi-implicit) Euler, as in all SPlisHSPlasH solvers (survey Sec. 3.3):
   ``v <- v + dt a`` then ``x <- x + dt v``.
-* CFL time step (survey Eq. for the Courant condition; SPlisHSPlasH
-  ``Simulation::updateTimeStepSizeCFL``): ``dt = cfl_factor * 0.4 * 2r / max_i |v_i + dt a_i|``,
-  clamped to ``[dt_min, dt_max]``.
+* CFL time step (survey Eq. for the Courant condition): ``dt = cfl_factor * 0.4 * 2r / max_i
+  |v_i|`` with the velocities at the start of the step (and the moving boundary's), clamped to
+  ``[dt_min, dt_max]``. SPlisHSPlasH's ``Simulation::updateTimeStepSizeCFL`` takes ``|v_i + dt
+  a_i|`` with the previous step's dt and accelerations; :func:`max_speed` computes that form too
+  when given ``a``.
 * Acoustic limit for state-equation solvers (Becker & Teschner 2007; Monaghan 1992):
   ``dt <= 0.4 h / c_s``.
 """
