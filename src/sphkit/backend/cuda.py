@@ -25,6 +25,7 @@ for ``device="cuda"``.
 
 from __future__ import annotations
 
+import importlib
 import types
 from typing import Any
 
@@ -41,11 +42,11 @@ THREADS = 16 if config.ENABLE_CUDASIM else 128
 _device_functions: dict[Any, Any] = {}
 
 
-def _register_typed() -> None:
-    """Register the CPU's type-dispatched helpers (:data:`sphkit.core.pairs.TYPED`, each an
-    ``overload`` on the CPU) with numba.cuda's typing too, so a device function that calls one
-    compiles the implementation for its argument types. Under the simulator, where device
-    functions run as Python, their Python bodies run instead."""
+def register_typed(fn: Any, typer: Any) -> None:
+    """:func:`sphkit.backend.launch.register_typed` on the GPU: ``typer`` as an overload of
+    ``fn`` in numba.cuda's typing, so a device function that calls ``fn`` compiles the
+    implementation for its argument types (nothing under the simulator, where device functions
+    run as Python and call ``fn``)."""
     if config.ENABLE_CUDASIM:
         return
     try:
@@ -53,15 +54,15 @@ def _register_typed() -> None:
     except ImportError:  # numba's own CUDA target: the generic overload with target="cuda"
         from numba.extending import overload
 
-        def cuda_overload(fn: Any, **kw: Any) -> Any:
-            return overload(fn, target="cuda", **kw)
-    from sphkit.core.pairs import TYPED
-
-    for fn, typer in TYPED:
-        cuda_overload(fn, inline="always")(typer)
+        def cuda_overload(f: Any, **kw: Any) -> Any:
+            return overload(f, target="cuda", **kw)
+    cuda_overload(fn, inline="always")(typer)
 
 
-_register_typed()
+# the helpers registered before this module was imported (the package re-exports the function
+# ``launch`` under the module's name: the module itself through importlib)
+for _fn, _typer in importlib.import_module("sphkit.backend.launch").TYPED:
+    register_typed(_fn, _typer)
 _kernels: dict[tuple[Any, int, bool], Any] = {}
 
 

@@ -83,11 +83,13 @@ helpers hide where the arrays live; each has a CPU and a CUDA version:
 
 from __future__ import annotations
 
+import sys
 import types
 from typing import Any
 
 import numba
 import numpy as np
+from numba.extending import overload
 
 #: the devices :func:`launch` knows
 DEVICES = ("cpu", "cuda")
@@ -156,6 +158,25 @@ def cpu_driver(body: Any, nargs: int, kind: str = "each") -> Any:
         drv = numba.njit(parallel=True, cache=True, fastmath=fastmath)(fn)
         _drivers[key] = drv
     return drv
+
+
+#: the helpers compiled by their arguments' types (:func:`register_typed`) and their typing
+#: functions; :mod:`sphkit.backend.cuda` registers them with numba.cuda when it is imported
+TYPED: list[tuple[Any, Any]] = []
+
+
+def register_typed(fn: Any, typer: Any) -> None:
+    """Compile calls of the Python function ``fn`` in kernel bodies by ``typer`` (a Numba
+    ``overload``: ``typer`` gets the arguments' Numba types and returns the implementation for
+    them), on the CPU and on the GPU. For a choice by an argument's type (a float or a tuple):
+    numba-cuda does not prune an ``isinstance`` branch as Numba's CPU compiler does, so the
+    branch for the other type would be typed too and fail. Under the CUDA simulator device
+    functions run as Python and call ``fn`` itself."""
+    overload(fn, inline="always")(typer)
+    TYPED.append((fn, typer))
+    cuda_side = sys.modules.get("sphkit.backend.cuda")
+    if cuda_side is not None:  # already imported: register there now
+        cuda_side.register_typed(fn, typer)
 
 
 def cuda_available() -> bool:

@@ -38,8 +38,8 @@ import math
 
 import numba
 import numpy as np
-from numba.extending import overload
 
+from sphkit.backend import register_typed
 from sphkit.core.kernels import kernel_dw
 
 _INLINE = dict(inline="always", fastmath=True, cache=True)
@@ -58,9 +58,8 @@ def axis_period(L, a):  # noqa: ANN001, ANN201 - a float or a tuple; compiled by
     is the period along x (none along y), a tuple ``(L_x, L_y)`` gives both (0: not periodic).
 
     Compiled code chooses the branch by ``L``'s type at compile time (:func:`_axis_period_typed`,
-    an overload on the CPU and, registered by :mod:`sphkit.backend.cuda`, on the GPU: numba-cuda
-    does not prune an ``isinstance`` branch, so the float kind would type ``L[a]``); this
-    Python body runs under the CUDA simulator."""
+    :func:`sphkit.backend.register_typed`: numba-cuda does not prune an ``isinstance`` branch,
+    so the float kind would type ``L[a]``); this Python body runs under the CUDA simulator."""
     if isinstance(L, tuple):
         return L[a]
     return L if a == 0 else 0.0
@@ -80,11 +79,7 @@ def _axis_period_typed(L, a):  # noqa: ANN001, ANN202 - Numba types in, an imple
     return by_float
 
 
-overload(axis_period, inline="always")(_axis_period_typed)
-
-#: the functions compiled by argument type (an ``overload`` each) and their typing functions:
-#: :mod:`sphkit.backend.cuda` registers them with numba.cuda as well
-TYPED = ((axis_period, _axis_period_typed),)
+register_typed(axis_period, _axis_period_typed)
 
 
 def period_arg(L: float | tuple[float, ...]) -> float | tuple[float, ...]:
