@@ -72,7 +72,8 @@ def test_floating_box_settles_half_submerged(tmp_path: Path) -> None:
     boundary particles (about r, set by Akinci's volumes) is uncertain by a fraction of r = 6 %
     of the side. Measured: 0.482 (0.530 before the bodies' pressure mirroring and strong
     coupling); 0.458 on 2026-12-03 (one thread; 0.1 s means 0.413 at the start, then 0.425-0.494
-    with a period of about 0.75 s), close to the bound: the cube floats high, see
+    with a period of about 0.75 s) and 0.4603 on 2026-12-04, close to the bound: the cube
+    floats high, see
     validation/README.md ("The 3D floating cube").
     """
     side, L, H = 0.2, 0.5, 0.3

@@ -65,7 +65,8 @@ def test_kinematic_paddle_with_maps(tmp_path: Path, boundary: str) -> None:
     """A paddle turning at pi rad/s about the vertical axis of a tank, its walls and the paddle
     as maps: the fluid's torque on it (StepStats ``rigid_bodies``) opposes the rotation and the
     fluid picks up angular momentum in its sense (signs, averaged over the second half of
-    0.3 s). Measured: -0.157 N m with volume maps, -0.101 N m with density maps (-0.16 N m
+    0.3 s). Measured: -0.157 N m with volume maps (-0.220 N m on 2026-12-04), -0.101 N m with
+    density maps (-0.16 N m
     with Akinci particles, tests/test_rigid.py). The virtual boundary particles of the paddle
     carry its surface velocity ``omega x (x_b - c)``, exactly (to round-off)."""
     L, H = 0.4, 0.2
