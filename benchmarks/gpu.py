@@ -363,6 +363,14 @@ def show(row: dict, bandwidth: float | None) -> None:
           f"{row['particle_steps_per_s']:.3e} particle-steps/s")
 
 
+def use_cpu_threads(n: int) -> int:
+    """Give the CPU rows ``n`` Numba threads (at most those Numba started with); the count."""
+    import numba
+
+    numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    return numba.get_num_threads()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark; returns the exit code."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -427,10 +435,7 @@ def main(argv: list[str] | None = None) -> int:
     elif args.only != "cpu":
         print("no CUDA GPU found: the CPU rows only")
     if args.cpu_size > 0 and not args.no_passes:
-        import numba
-
-        numba.set_num_threads(max(1, min(args.cpu_threads, numba.config.NUMBA_NUM_THREADS)))
-        print(f"\nCPU: {numba.get_num_threads()} thread(s)")
+        print(f"\nCPU: {use_cpu_threads(args.cpu_threads)} thread(s)")
         row = run_size(int(args.cpu_size), "cpu", max(1, min(args.repeat, 3)), args.iterations)
         show(row, None)
         rows.append(row)
@@ -443,7 +448,8 @@ def main(argv: list[str] | None = None) -> int:
                               for name in PASSES)
                   + f"; ported-pass step {row['ported_step_s'] / g['ported_step_s']:.1f}x")
     if args.steps > 0:
-        print(f"\nwhole DFSPH steps of a 3D dam break ({args.steps} timed after one warm-up):")
+        print(f"\nwhole DFSPH steps of a 3D dam break ({args.steps} timed after "
+              f"{max(1, args.warmup)} untimed):")
         for n in (args.sizes if gpu else []):
             rows.append(run_steps(int(n), "cuda", args.steps, args.precision, bw, args.depth,
                                   args.relax, args.warmup))
@@ -451,11 +457,7 @@ def main(argv: list[str] | None = None) -> int:
             save()
         ratio = None
         if args.cpu_size > 0:
-            if args.cpu_threads:
-                import numba
-
-                numba.set_num_threads(max(1, min(args.cpu_threads,
-                                                 numba.config.NUMBA_NUM_THREADS)))
+            use_cpu_threads(args.cpu_threads)
             rows.append(run_steps(int(args.cpu_size), "cpu", args.steps, args.precision,
                                   depth=args.depth, relax=args.relax, warmup=args.warmup))
             show_steps(rows[-1])

@@ -40,6 +40,7 @@ from numba.core.registry import CPUDispatcher
 THREADS = 16 if config.ENABLE_CUDASIM else 128
 
 _device_functions: dict[Any, Any] = {}
+_kernels: dict[tuple[Any, int, bool], Any] = {}
 
 
 def register_typed(fn: Any, typer: Any) -> None:
@@ -63,7 +64,6 @@ def register_typed(fn: Any, typer: Any) -> None:
 # ``launch`` under the module's name: the module itself through importlib)
 for _fn, _typer in importlib.import_module("sphkit.backend.launch").TYPED:
     register_typed(_fn, _typer)
-_kernels: dict[tuple[Any, int, bool], Any] = {}
 
 
 def available() -> bool:

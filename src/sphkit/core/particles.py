@@ -390,8 +390,7 @@ class ParticleSet:
             self._view(name)
         self._grow(n)
         for name, spec in self.specs.items():
-            if name in absent:  # optional, older state: its fill, as when registered
-                self.fields[name][...] = spec.fill
+            if name in absent:  # optional, older state: _grow gave it its fill
                 continue
             a = np.asarray(arrays[name])
             if a.shape != self.fields[name].shape or a.dtype != spec.dtype:

@@ -30,6 +30,7 @@ from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.core.timestep import Domain
+from sphkit.core.viscous import register_wall_fields
 from sphkit.geometry import GeometryError
 from sphkit.multiphase import PhaseForce
 from sphkit.scene.checks import check_budget, check_device, check_scene, device_precision
@@ -102,10 +103,9 @@ def _state(scene: Scene, mats: list[Material]) -> SimState:
     boundary = ParticleSet(dim, dtype)
     boundary.register("pressure_mirror")
     boundary.register("rigid_body", "scalar", np.int64)  # 1-based moving body, 0 static
-    boundary.register("wall_normal", "vector")  # box walls: into the wall (Morris 1997 no-slip)
-    boundary.register("wall_distance")  # box walls: distance behind the wall surface [m]
-    # the factor on the standard viscosity's wall term (boxes[].viscosity_factors; 1 elsewhere)
-    boundary.register("viscosity_factor", fill=1.0, optional=True)
+    # box walls: normal into the wall and distance behind its surface (Morris 1997 no-slip), the
+    # standard viscosity's factor on its wall term (boxes[].viscosity_factors; 1 elsewhere)
+    register_wall_fields(boundary)
     g = np.zeros(dim)
     g[:] = cfg.gravity[:dim]
     r = cfg.particle_radius

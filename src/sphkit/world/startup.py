@@ -401,7 +401,8 @@ def _round_off(dtype: np.dtype) -> float:
 
 def filled(state: SimState, lists: _Lists, rho_start: np.ndarray) -> np.ndarray:
     """The fluid particles whose kernel is filled as sampled: their summation density with the
-    start masses (lattice mass times start compression) reaches their start density (to 1e-6).
+    start masses (lattice mass times start compression) reaches their start density (to
+    :func:`_round_off`: 1e-6 in float64).
     The others lie at a free surface."""
     f = state.fluid
     lists.update(state)
