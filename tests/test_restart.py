@@ -112,6 +112,20 @@ def test_state_without_an_optional_field_restores_its_fill() -> None:
         strict.set_state(meta, arrays)
 
 
+def test_empty_like_keeps_every_field_with_its_fill() -> None:
+    """A set rebuilt by hand from :meth:`ParticleSet.empty_like` has the same fields, and a
+    particle added to it without a value gets each field's fill (the validation scripts that
+    rebuilt walls without the fills had a wall viscosity factor of 0, not 1)."""
+    ps = ParticleSet(2, np.float32)
+    ps.register("viscosity_factor", fill=1.0, optional=True)
+    ps.register("hist", "vector3", np.float64, fill=np.nan)
+    new = ps.empty_like()
+    assert new.dim == 2 and new.dtype == np.float32 and new.n == 0
+    assert new.specs == ps.specs and new.specs is not ps.specs
+    new.add(np.zeros((1, 2)), name="one")
+    assert new["viscosity_factor"][0] == 1.0 and np.all(np.isnan(new["hist"]))
+
+
 # -- the command line ------------------------------------------------------------------------
 TINY = {
     "name": "tiny",

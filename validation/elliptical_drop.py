@@ -119,7 +119,6 @@ def _square_disc(sim: Simulation, spacing: float) -> None:
     """Replace the fluid by the square lattice of ``spacing`` within the disc (nodes at
     ``(k + 1/2) spacing``), rest volume 1 / (kernel sum over the infinite lattice)."""
     from sphkit.core.kernels import Kernel
-    from sphkit.core.particles import ParticleSet
 
     st = sim.state
     k = np.arange(-math.ceil(RADIUS / spacing) - 1, math.ceil(RADIUS / spacing) + 1) + 0.5
@@ -129,9 +128,7 @@ def _square_disc(sim: Simulation, spacing: float) -> None:
     j = np.arange(-12, 13)
     lx, ly = np.meshgrid(j * spacing, j * spacing, indexing="ij")
     vol = 1.0 / Kernel(sim.scene.configuration.kernel, st.h, 2).w(np.hypot(lx, ly)).sum()
-    fluid = ParticleSet(2, st.fluid.dtype)
-    for name, spec in st.fluid.specs.items():
-        fluid.register(name, spec.kind, spec.dtype)
+    fluid = st.fluid.empty_like()
     fluid.add(pts, name="drop", m=RHO0 * vol, V0=vol, rho=RHO0, rho0=RHO0)
     st.fluid = fluid
 

@@ -173,7 +173,6 @@ def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinc
     ``force``: the body force along x [m/s^2] (validation/couette.py: 0). The wall set holds
     the lower rows first, then the upper rows (``len(wall) // 2`` each)."""
     from sphkit.core.kernels import Kernel
-    from sphkit.core.particles import ParticleSet
 
     dy = WIDTH / n
     a = 2.0 * dy / math.sqrt(3.0)
@@ -191,14 +190,10 @@ def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinc
     # rest volume: the inverse of the kernel sum over the infinite hexagonal lattice
     lat = np.array([[a * (i + 0.5 * j), dy * j] for i in range(-8, 9) for j in range(-8, 9)])
     vol = 1.0 / Kernel(kernel, st.h, 2).w(np.linalg.norm(lat, axis=1)).sum()
-    fluid = ParticleSet(2, st.fluid.dtype)
-    for name, spec in st.fluid.specs.items():
-        fluid.register(name, spec.kind, spec.dtype, spec.fill)
+    fluid = st.fluid.empty_like()
     fluid.add(rows(list(range(n))), name="channel", m=RHO0 * vol, V0=vol, rho=RHO0,
               rho0=RHO0)
-    wall = ParticleSet(2, st.boundary.dtype)
-    for name, spec in st.boundary.specs.items():
-        wall.register(name, spec.kind, spec.dtype, spec.fill)
+    wall = st.boundary.empty_like()
     layers = max(3, math.ceil(st.h / dy))  # wall rows: at least the kernel support deep
     low = rows([-1 - k for k in range(layers)])
     high = rows([n + k for k in range(layers)])

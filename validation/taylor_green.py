@@ -110,7 +110,6 @@ def vortex(nx: int, pressure: str = "wcsph", viscosity: str = "standard",
            t_end: float = T_END, transport: str = "none") -> Simulation:
     """The Taylor-Green vortex on the ``nx`` lattice of :data:`LATTICES` (module docstring)."""
     from sphkit.core.kernels import Kernel
-    from sphkit.core.particles import ParticleSet
 
     nx, ny = LATTICES[nx]
     a, dy = LENGTH / nx, LENGTH / ny
@@ -145,9 +144,7 @@ def vortex(nx: int, pressure: str = "wcsph", viscosity: str = "standard",
     ii, jj = np.meshgrid(s, s)
     lat = np.stack([(a * (ii + 0.5 * (jj % 2))).ravel(), (dy * jj).ravel()], axis=1)
     vol = 1.0 / Kernel("quintic", st.h, 2).w(np.linalg.norm(lat, axis=1)).sum()
-    fluid = ParticleSet(2, st.fluid.dtype)
-    for name, spec in st.fluid.specs.items():
-        fluid.register(name, spec.kind, spec.dtype)
+    fluid = st.fluid.empty_like()
     # WCSPH starts in its pressure field: masses scaled so that the summed density carries
     # the vortex's pressure through the state equation (rho0 + p / c^2)
     m = RHO0 * vol * np.ones(len(x))

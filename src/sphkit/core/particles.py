@@ -113,6 +113,16 @@ class ParticleSet:
             self.fields[name] = to_device(self.fields[name], self.device)
         return self.fields[name]
 
+    def empty_like(self) -> ParticleSet:
+        """A new, empty set on the host with this set's dimension, precision and fields (each
+        with its kind, dtype, fill and optional flag), for code that rebuilds a set by hand: a
+        field registered without its fill would start at 0 instead (a wall's viscosity factor
+        of 0 turns its viscous term off)."""
+        new = ParticleSet(self.dim, self.dtype)
+        for name, spec in self.specs.items():
+            new.register(name, spec.kind, spec.dtype, spec.fill, spec.optional)
+        return new
+
     def to(self, device: str) -> None:
         """Make ``device`` ("cpu" or "cuda") hold the fields: copies every field there (device
         arrays replace the host views in :attr:`fields`), or back into the host buffers."""

@@ -21,7 +21,6 @@ import numpy as np
 
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.neighbors import NeighborList
-from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 
 #: fields a force never changes: they are not written back
@@ -47,9 +46,7 @@ def phase_state(state: SimState, index: np.ndarray, rho0: float) -> SimState:
     fields, their fluid neighbours among themselves, their boundary neighbours, rest density
     ``rho0`` [kg/m^3]; boundary, constants and coupling shared with ``state``."""
     f = state.fluid
-    sub = ParticleSet(f.dim, f.dtype)
-    for name, spec in f.specs.items():
-        sub.register(name, spec.kind, spec.dtype, spec.fill)
+    sub = f.empty_like()
     sub._grow(index.shape[0])
     for name, spec in f.specs.items():
         a = f[name]
