@@ -390,7 +390,7 @@ def test_schema_validates_the_material_fields() -> None:
         Scene.model_validate({"configuration": {"dim": 2, "gravity": [0, 0]},
                               "materials": [{"drag": {"method": "macklin2014",
                                                       "air_velocity": [1, 0, 0]}}]})
-    with pytest.raises(ValueError, match=r"coefficient -1\.0; expected"):
+    with pytest.raises(ValueError, match=r"drag \(macklin2014\): coefficient: -1\.0; expected"):
         Macklin2014(-1.0)
     with pytest.raises(ValueError, match=r"boundary_coefficient: nan"):
         He2014(0.1, float("nan"))

@@ -259,9 +259,9 @@ def test_uniform_spin_at_a_free_surface_is_not_conserved() -> None:
 
 
 def test_parameters_are_validated() -> None:
-    with pytest.raises(ValueError, match="vorticity -0.1"):
+    with pytest.raises(ValueError, match="micropolar model: vorticity: -0.1"):
         MicropolarBender2017(-0.1, 0.1, 0.5)
-    with pytest.raises(ValueError, match="inertia_inverse nan"):
+    with pytest.raises(ValueError, match="micropolar model: inertia_inverse: nan"):
         MicropolarBender2017(0.1, 0.1, float("nan"))
     with pytest.raises(ValueError, match="viscosity_omega"):
         Material.model_validate({"vorticity": {"method": "micropolar", "viscosity_omega": -1}})

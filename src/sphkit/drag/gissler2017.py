@@ -48,14 +48,12 @@ Units: the scale ``c`` is dimensionless.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numba
-import numpy as np
 
-from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import dot, point, separation
 from sphkit.core.state import SimState
+from sphkit.drag.base import AirDrag
 
 RHO_AIR = 1.2041  #: air density [kg/m^3]
 MU_AIR = 0.00001845  #: dynamic viscosity of air [Pa s]
@@ -128,7 +126,7 @@ def deformation_coefficient(L: float, rho_l: float) -> float:
     return C_F * we_wo_v * c_def / (C_K * C_B)
 
 
-class Gissler2017(NonPressureForce):
+class Gissler2017(AirDrag):
     """Droplet-deformation air drag of Gissler et al. 2017 (SPlisHSPlasH "Gissler et al. 2017").
 
     ``coefficient``: dimensionless scale of the drag (SPlisHSPlasH ``drag``);
@@ -136,20 +134,7 @@ class Gissler2017(NonPressureForce):
     """
 
     name = "gissler2017"
-
-    @classmethod
-    def from_config(cls, p: Any) -> Gissler2017:
-        """The Gissler2017 of a material's ``drag`` (scene model)."""
-        return cls(p.coefficient, p.air_velocity)
-
-    def __init__(self, coefficient: float = 0.01,
-                 air_velocity: list[float] | np.ndarray | None = None) -> None:
-        k = float(coefficient)
-        if not (math.isfinite(k) and k >= 0.0):
-            raise ValueError(f"drag (gissler2017): coefficient {coefficient!r}; expected a "
-                             "finite number >= 0 (dimensionless)")
-        self.coefficient = k
-        self.air_velocity = None if air_velocity is None else np.asarray(air_velocity, float)
+    unit = "(dimensionless)"
 
     def apply(self, state: SimState, dt: float) -> None:
         """Add the drag acceleration to ``state.fluid['a']``."""
@@ -162,9 +147,7 @@ class Gissler2017(NonPressureForce):
         V0 = float(f["m"][0]) / state.rho0
         ball = math.pi * state.h**2 if state.dim == 2 else 4.0 / 3.0 * math.pi * state.h**3
         n_full23 = max(ball / V0 - 1.0, 1.0) * 2.0 / 3.0
-        va = np.zeros(3)
-        if self.air_velocity is not None:
-            va[: state.dim] = self.air_velocity[: state.dim]
+        va = self.air(state.dim)
         _gissler_cpu(f["x"], f["v"], f["m"], state.nl_ff.offsets, state.nl_ff.indices,
                      state.nl_fb.offsets, va, self.coefficient, y_coeff, L, diam, n_full23,
                      state.dim, f["a"])

@@ -21,14 +21,10 @@ Units: ``k`` [kg/s] (``k v / m`` is an acceleration). Default (SPlisHSPlasH ``dr
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
 import numba
-import numpy as np
 
-from sphkit.core.methods import NonPressureForce
 from sphkit.core.state import SimState
+from sphkit.drag.base import AirDrag
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -41,7 +37,7 @@ def _macklin_cpu(v, m, rho, k, rho0, va, dim, a):
                 a[d, i] -= c * (v[d, i] - va[d])
 
 
-class Macklin2014(NonPressureForce):
+class Macklin2014(AirDrag):
     """Density-deficit air drag of Macklin et al. 2014 (SPlisHSPlasH "Macklin et al. 2014").
 
     ``coefficient``: k [kg/s]; ``air_velocity``: velocity of the surrounding air [m/s]
@@ -49,28 +45,13 @@ class Macklin2014(NonPressureForce):
     """
 
     name = "macklin2014"
-
-    @classmethod
-    def from_config(cls, p: Any) -> Macklin2014:
-        """The Macklin2014 of a material's ``drag`` (scene model)."""
-        return cls(p.coefficient, p.air_velocity)
-
-    def __init__(self, coefficient: float = 0.01,
-                 air_velocity: list[float] | np.ndarray | None = None) -> None:
-        k = float(coefficient)
-        if not (math.isfinite(k) and k >= 0.0):
-            raise ValueError(f"drag (macklin2014): coefficient {coefficient!r}; expected a "
-                             "finite number >= 0 [kg/s]")
-        self.coefficient = k
-        self.air_velocity = None if air_velocity is None else np.asarray(air_velocity, float)
+    unit = "[kg/s]"
 
     def apply(self, state: SimState, dt: float) -> None:
         """Add the drag acceleration to ``state.fluid['a']``."""
         f = state.fluid
         if f.n == 0:
             return
-        va = np.zeros(3)
-        if self.air_velocity is not None:
-            va[: state.dim] = self.air_velocity[: state.dim]
+        va = self.air(state.dim)
         _macklin_cpu(f["v"], f["m"], f["rho"], self.coefficient, state.rho0, va, state.dim,
                      f["a"])

@@ -45,15 +45,14 @@ Defaults (SPlisHSPlasH): gamma (``surfaceTension``) 0.05, beta (``surfaceTension
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numba
 
 from sphkit.backend import launch
-from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import kirkwood_buff, surface_normals
 from sphkit.core.pairs import delta, dot, point
 from sphkit.core.state import SimState
+from sphkit.surface_tension.base import CohesionAdhesion
 
 _PI = math.pi
 
@@ -125,14 +124,7 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
         a[2, i] += a2
 
 
-def _coefficient(what: str, value: float) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{what}: {value!r}; expected a finite number >= 0")
-    return value
-
-
-class Akinci2013(NonPressureForce):
+class Akinci2013(CohesionAdhesion):
     """Surface tension (cohesion + curvature) and boundary adhesion of Akinci et al. 2013.
 
     ``coefficient``: gamma (cohesion and curvature, model units, see the module docstring);
@@ -142,24 +134,10 @@ class Akinci2013(NonPressureForce):
 
     name = "akinci2013"
 
-    @classmethod
-    def from_config(cls, p: Any) -> Akinci2013:
-        """The Akinci2013 of a material's ``surface_tension`` (scene model)."""
-        return cls(p.coefficient, p.boundary_coefficient)
-
-    def __init__(self, coefficient: float = 0.05, boundary_coefficient: float = 0.01) -> None:
-        self.coefficient = _coefficient("surface tension (akinci2013): coefficient", coefficient)
-        self.boundary_coefficient = _coefficient(
-            "surface tension (akinci2013): boundary_coefficient", boundary_coefficient)
-
     def init(self, state: SimState) -> None:
         """Register ``normal`` on the fluid and the boundary volumes the adhesion term reads."""
-        if state.dim not in (2, 3):
-            raise ValueError(
-                f"surface tension (akinci2013): dimension {state.dim}; expected 2 or 3")
+        super().init(state)
         state.fluid.register("normal", "vector")
-        if "V" not in state.boundary:
-            state.boundary.register("V")
 
     def apply(self, state: SimState, dt: float) -> None:
         """Compute the normals, then add the surface tension and adhesion accelerations."""

@@ -37,16 +37,13 @@ Defaults (SPlisHSPlasH): kappa = 0.05, kappa_b = 0.01.
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
 import numba
 
 from sphkit.core.kernels import kernel_w
-from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import kirkwood_buff
 from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
+from sphkit.surface_tension.base import CohesionAdhesion
 
 
 @numba.njit(inline="always", cache=True, fastmath=True)
@@ -88,14 +85,7 @@ def _becker_cpu(x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho0, 
                     dim, a, L)
 
 
-def _coefficient(what: str, value: float) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{what}: {value!r}; expected a finite number >= 0")
-    return value
-
-
-class BeckerTeschner2007(NonPressureForce):
+class BeckerTeschner2007(CohesionAdhesion):
     """Cohesion forces of Becker & Teschner 2007 (SPlisHSPlasH "Becker & Teschner 2007").
 
     ``coefficient``: kappa [m^d/s^2]; ``boundary_coefficient``: kappa_b [m^d/s^2] (adhesion to
@@ -103,24 +93,6 @@ class BeckerTeschner2007(NonPressureForce):
     """
 
     name = "becker2007"
-
-    @classmethod
-    def from_config(cls, p: Any) -> BeckerTeschner2007:
-        """The BeckerTeschner2007 of a material's ``surface_tension`` (scene model)."""
-        return cls(p.coefficient, p.boundary_coefficient)
-
-    def __init__(self, coefficient: float = 0.05, boundary_coefficient: float = 0.01) -> None:
-        self.coefficient = _coefficient("surface tension (becker2007): coefficient", coefficient)
-        self.boundary_coefficient = _coefficient(
-            "surface tension (becker2007): boundary_coefficient", boundary_coefficient)
-
-    def init(self, state: SimState) -> None:
-        """Make sure the boundary set has the fields the adhesion term reads."""
-        if state.dim not in (2, 3):
-            raise ValueError(
-                f"surface tension (becker2007): dimension {state.dim}; expected 2 or 3")
-        if "V" not in state.boundary:
-            state.boundary.register("V")
 
     def apply(self, state: SimState, dt: float) -> None:
         """Add the cohesion (and boundary adhesion) acceleration to ``state.fluid['a']``."""

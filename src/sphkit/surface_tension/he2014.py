@@ -34,16 +34,13 @@ Defaults (SPlisHSPlasH): kappa (``surfaceTension``) 0.05, kappa_b (``surfaceTens
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
 import numba
 
 from sphkit.core.kernels import kernel_dw
-from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import color_field_cpu, color_gradient_sum
 from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
+from sphkit.surface_tension.base import CohesionAdhesion
 
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
@@ -91,14 +88,7 @@ def _he_cpu(x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid,
         he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, kid, dim, a, L)
 
 
-def _coefficient(what: str, value: float) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{what}: {value!r}; expected a finite number >= 0")
-    return value
-
-
-class He2014(NonPressureForce):
+class He2014(CohesionAdhesion):
     """Colour-field surface tension of He et al. 2014 (SPlisHSPlasH "He et al. 2014").
 
     ``coefficient``: kappa (surface energy coefficient, see the module docstring);
@@ -108,25 +98,11 @@ class He2014(NonPressureForce):
 
     name = "he2014"
 
-    @classmethod
-    def from_config(cls, p: Any) -> He2014:
-        """The He2014 of a material's ``surface_tension`` (scene model)."""
-        return cls(p.coefficient, p.boundary_coefficient)
-
-    def __init__(self, coefficient: float = 0.05, boundary_coefficient: float = 0.01) -> None:
-        self.coefficient = _coefficient("surface tension (he2014): coefficient", coefficient)
-        self.boundary_coefficient = _coefficient(
-            "surface tension (he2014): boundary_coefficient", boundary_coefficient)
-
     def init(self, state: SimState) -> None:
         """Register ``color`` and ``grad_c2`` on the fluid, ``V`` on the boundary."""
-        if state.dim not in (2, 3):
-            raise ValueError(
-                f"surface tension (he2014): dimension {state.dim}; expected 2 or 3")
+        super().init(state)
         state.fluid.register("color")
         state.fluid.register("grad_c2")
-        if "V" not in state.boundary:
-            state.boundary.register("V")
 
     def apply(self, state: SimState, dt: float) -> None:
         """Colour field, its squared gradient, then the surface tension acceleration."""

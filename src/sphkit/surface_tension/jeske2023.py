@@ -81,7 +81,7 @@ import numpy as np
 
 from sphkit.core.kernels import CUBIC, kernel_dw, kernel_w
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
-from sphkit.core.methods import NonPressureForce
+from sphkit.core.methods import NonPressureForce, checked_number
 from sphkit.core.operators import kirkwood_buff
 from sphkit.core.pairs import delta, delta2, delta2_r, dot, point
 from sphkit.core.state import SimState
@@ -283,11 +283,8 @@ def _rhs_blocks(x, v, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbsum,
 
 
 def _nonneg(what: str, value: Any, unit: str) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and v >= 0.0):
-        raise ValueError(f"surface tension (jeske2023): {what}: {value!r}; expected a finite "
-                         f"number >= 0 {unit}")
-    return v
+    return checked_number(f"surface tension (jeske2023): {what}", value,
+                          expected=f"a finite number >= 0 {unit}")
 
 
 class Jeske2023(NonPressureForce):

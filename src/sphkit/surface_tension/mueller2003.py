@@ -113,7 +113,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
-from sphkit.core.methods import NonPressureForce
+from sphkit.core.methods import NonPressureForce, checked_number
 from sphkit.core.operators import interpolate, surface_normals
 from sphkit.core.pairs import distance, point, separation
 from sphkit.core.state import SimState
@@ -394,10 +394,8 @@ class Mueller2003(NonPressureForce):
         return cls(p.coefficient, p.boundary_coefficient)
 
     def __init__(self, coefficient: float = 0.05, boundary_coefficient: float = 0.0) -> None:
-        sigma = float(coefficient)
-        if not (math.isfinite(sigma) and sigma >= 0.0):
-            raise ValueError(f"surface tension (mueller2003): coefficient: {coefficient!r}; "
-                             "expected a finite surface tension sigma >= 0 [N/m]")
+        sigma = checked_number("surface tension (mueller2003): coefficient", coefficient,
+                               expected="a finite surface tension sigma >= 0 [N/m]")
         if float(boundary_coefficient) != 0.0:
             raise ValueError(
                 f"surface tension (mueller2003): boundary_coefficient: {boundary_coefficient!r};"

@@ -106,7 +106,7 @@ import numpy as np
 
 from sphkit.core.eigen import smallest_eigen
 from sphkit.core.kernels import CUBIC, kernel_w
-from sphkit.core.methods import NonPressureForce
+from sphkit.core.methods import NonPressureForce, checked_number
 from sphkit.core.pairs import delta, point
 from sphkit.core.state import SimState
 
@@ -431,10 +431,7 @@ def _force_pass(m, mc_n, n_s, k_s, pca_n, pca_s, mode, mix_n, mix_c, temporal, g
 
 
 def _number(what: str, value: Any, lo: float, hi: float, expected: str) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and lo <= v <= hi):
-        raise ValueError(f"surface tension (zorilla2020): {what}: {value!r}; expected {expected}")
-    return v
+    return checked_number(f"surface tension (zorilla2020): {what}", value, lo, hi, expected)
 
 
 def _choice(what: str, value: Any, table: dict[str, int]) -> int:

@@ -68,7 +68,6 @@ W_ij = -d`` (1.2% in 2D, 2.0% in 3D for the cubic spline at h = 4r); see tests/t
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numba
@@ -77,7 +76,7 @@ import numpy as np
 from sphkit.backend import launch
 from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
-from sphkit.core.methods import NonPressureForce
+from sphkit.core.methods import NonPressureForce, checked_number
 from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
 
@@ -162,10 +161,7 @@ def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu
 
 
 def _nonneg(name: str, value: float) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"micropolar model: {name} {value!r}; expected a finite number >= 0")
-    return value
+    return checked_number(f"micropolar model: {name}", value)
 
 
 class MicropolarBender2017(NonPressureForce):
