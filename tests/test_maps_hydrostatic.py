@@ -124,35 +124,42 @@ def test_tangential_moment_of_a_plane_wall_is_its_density(dim: int) -> None:
         assert abs(model.maps[0].eval_values(x)[0] - t_ref) < 0.015, (y / r, t_ref)
 
 
-def test_volume_map_mirrored_share_is_the_distance_change_along_the_normal() -> None:
+@pytest.mark.parametrize("dim", [2, 3])
+def test_volume_map_mirrored_share_is_the_distance_change_along_the_normal(dim: int) -> None:
     """The mirrored share of a volume map's virtual particle (hydrostatic boundary pressure,
-    ``bender2019._mirror_share``): ``max(2 q - 1, 0)`` with q the map distance's change across
-    one particle diameter along the normal, ``(phi(x + r n) - phi(x - r n)) / (2 r)``. Exactly
-    1 in the middle of a wall (the interpolated distance of a plane is linear, q = 1), below 1
-    in a corner of the tank, where the distance has a kink that its interpolation smooths, so
-    the map's density registers only part of an approach the virtual particle's ``V_b grad W``
-    answers in full (2D box 0.3 m wide, 8 cells of about h as the automatic resolution, a point
-    2.5 r off both walls: q = 0.54, share 0.08). Tolerance 1e-6: the same interpolation read
+    ``bender2019.mirror_share_body``): ``max(2 q - 1, 0)`` with q the map distance's change
+    across one particle diameter along the normal, ``(phi(x + r n) - phi(x - r n)) / (2 r)``.
+    Exactly 1 in the middle of a wall or a face (the interpolated distance of a plane is linear,
+    q = 1), below 1 in a corner of the 2D tank and at a vertical edge and a corner of the 3D
+    tank, where the distance has a kink that its interpolation smooths, so the map's density
+    registers only part of an approach the virtual particle's ``V_b grad W`` answers in full
+    (tank 0.3 m wide, 8 cells of about h per axis, points 2.5 r off the walls: 2D corner q =
+    0.54, share 0.08; 3D edge share 0.08, corner 0). Tolerance 1e-6: the same interpolation read
     by the map's own reader, the normal by central differences of 1e-6 r."""
-    st = _state(2)
+    st = _state(dim)
     r = st.r
-    tank = MapGeometry("tank", BoxDistance([0.0, 0.0], [0.3, 0.3]), invert=True,
-                       resolution=(8, 8))
+    tank = MapGeometry("tank", BoxDistance([0.0] * dim, [0.3] * dim), invert=True,
+                       resolution=(8,) * dim)
     model = Bender2019([tank], cache=False)
     model.init(st)
     bmap = model.maps[0]
-    d = 2.5 * r
-    x = np.array([[0.15, d], [d, d]])  # (dim, n) in C order as the simulation's: mid-floor, corner
+    d, c = 2.5 * r, 0.15
+    if dim == 2:  # mid-floor, floor corner
+        pts = [[c, d], [d, d]]
+    else:  # mid-floor, mid-side face, vertical edge at mid-height, floor corner
+        pts = [[c, d, c], [d, c, c], [d, c, d], [d, d, d]]
+    x = np.array(pts).T.copy()  # (dim, n) in C order as the simulation's
     share = model._mirror_shares(st, x, bmap.eval_values(x)[None, :])[0]
     e = 1e-6 * r
-    for k in range(2):
+    for k in range(x.shape[1]):
         xp = x[:, k:k + 1]
         n = np.array([(bmap.eval_phi(xp + e * u) - bmap.eval_phi(xp - e * u))[0] / (2 * e)
-                      for u in np.eye(2)[:, :, None]])
+                      for u in np.eye(dim)[:, :, None]])
         n /= np.linalg.norm(n)
         q = (bmap.eval_phi(xp + r * n[:, None]) - bmap.eval_phi(xp - r * n[:, None]))[0] / (2 * r)
         assert abs(share[k] - min(max(2 * q - 1, 0.0), 1.0)) < 1e-6, (k, share, q)
-    assert share[0] == 1.0 and share[1] < 0.2, share
+    flat = 1 if dim == 2 else 2
+    assert np.all(share[:flat] == 1.0) and np.all(share[flat:] < 0.2), share
 
 
 def _column(method: str, pressure: str, cache: Path) -> dict:

@@ -4,6 +4,7 @@ mirrored and the accurate boundary pressure; a dam break as sanity check of the 
     python validation/hydrostatic.py [--dim 2|3] [--scenes splishsplash boxes]
         [--solvers wcsph pcisph pbf iisph dfsph] [--boundaries akinci2012 koschier2017 bender2019]
         [--boundary-pressure mirror accurate] [--until 2.5] [--average 1.0] [--gap 3] [--radius R]
+        [--map-resolution N]
         [--widths 0.6] [--eta E] [--dt-max T] [--lattice square hexagonal] [--dambreak]
 
 Each row is one water column at rest, 0.5 m high in 2D (r = 1 cm), 0.4 m in 3D (r = 2 cm;
@@ -107,8 +108,11 @@ def _set_pressure(scene: Scene, bp: str, cache: str, eta: float | None,
 
 
 def splishsplash_column(method: str, boundary: str, dim: int, width: float,
-                        gap: float = 3.0, radius: float | None = None) -> dict:
-    """The column as a SPlisHSPlasH scene (dict), default settings, UnitBox.obj walls."""
+                        gap: float = 3.0, radius: float | None = None,
+                        map_resolution: int | None = None) -> dict:
+    """The column as a SPlisHSPlasH scene (dict), default settings, UnitBox.obj walls
+    (``map_resolution``: the walls' ``mapResolution`` cells per axis; None: SPlisHSPlasH's
+    default, 20)."""
     r = radius or (0.01 if dim == 2 else 0.02)
     hgt = 0.5 if dim == 2 else 0.4
     cfg: dict = {"sim2D": dim == 2, "particleRadius": r, "simulationMethod": SIM_NUMBER[method],
@@ -116,15 +120,17 @@ def splishsplash_column(method: str, boundary: str, dim: int, width: float,
     if method == "wcsph":
         cfg["WCSPH"] = {"stiffness": 50000.0, "exponent": 7}
     s = (gap - 2.0) * r  # SPlisHSPlasH puts the first particle 2r inside the block
+    wall: dict = {"geometryFile": str(UNIT_BOX), "translation": [0, 0.4, 0],
+                  "rotationAxis": [1, 0, 0], "rotationAngle": 0,
+                  "scale": [width, 0.8, width if dim == 3 else 1.0],
+                  "isDynamic": False, "isWall": True, "mapInvert": True, "mapThickness": 0.0}
+    if map_resolution is not None:
+        wall["mapResolution"] = [map_resolution] * 3
     return {
         "Configuration": cfg,
         "Materials": [{"id": "Fluid", "density0": RHO0, "viscosityMethod": 1,
                        "Standard viscosity": {"viscosity": 0.01}}],
-        "RigidBodies": [{"geometryFile": str(UNIT_BOX), "translation": [0, 0.4, 0],
-                         "rotationAxis": [1, 0, 0], "rotationAngle": 0,
-                         "scale": [width, 0.8, width if dim == 3 else 1.0],
-                         "isDynamic": False, "isWall": True, "mapInvert": True,
-                         "mapThickness": 0.0}],
+        "RigidBodies": [wall],
         "FluidBlocks": [{"denseMode": 0, "start": [-width / 2, 0.0, -width / 2],
                          "end": [width / 2 - 2 * s, hgt, width / 2 - 2 * s],
                          "translation": [s, s, s if dim == 3 else 0.0]}],
@@ -149,13 +155,14 @@ def boxes_column(method: str, boundary: str, dim: int, width: float,
 
 def column(kind: str, method: str, boundary: str, bp: str, dim: int, width: float, cache: str,
            eta: float | None = None, dt_max: float | None = None, lattice: str = "square",
-           gap: float = 3.0, radius: float | None = None) -> Scene:
+           gap: float = 3.0, radius: float | None = None,
+           map_resolution: int | None = None) -> Scene:
     """One column scene (see the module docstring)."""
     if kind == "splishsplash":
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             scene = from_splishsplash(splishsplash_column(method, boundary, dim, width, gap,
-                                                          radius))
+                                                          radius, map_resolution))
     else:
         scene = boxes_column(method, boundary, dim, width, lattice, radius)
     return _set_pressure(scene, bp, cache, eta, dt_max)
@@ -227,7 +234,7 @@ def measure(scene: Scene, until: float = 2.5, average: float = 1.0,
         "frame_min": float(fr.min()), "frame_max": float(fr.max()),
         "iterations": float(np.mean(its)),
         "vmean": float(np.linalg.norm(sim.velocities, axis=1).mean()),
-        "y": y, "p": p,
+        "y": y, "p": p, "x": x,
     })
     return out
 
@@ -298,6 +305,9 @@ def main() -> None:
                     help="particle radius r [m] (default 0.01 in 2D, 0.02 in 3D)")
     ap.add_argument("--gap", type=float, default=3.0,
                     help="splishsplash: distance of the first particle from the walls [r]")
+    ap.add_argument("--map-resolution", type=int, default=None,
+                    help="splishsplash: the walls' mapResolution, cells per axis (maps only; "
+                    "default SPlisHSPlasH's 20)")
     ap.add_argument("--eta", type=float, default=None,
                     help="max_error [%%] of the iterative solvers (default: the scene's)")
     ap.add_argument("--dt-max", type=float, default=None,
@@ -336,7 +346,7 @@ def _columns(args: argparse.Namespace, rows: list[tuple[str, str]], cache: str) 
         if kind == "splishsplash" and lat != "square":
             continue  # SPlisHSPlasH samples blocks on the square lattice (denseMode 0)
         scene = column(kind, method, b, bp, args.dim, w, cache, args.eta, args.dt_max, lat,
-                       args.gap, args.radius)
+                       args.gap, args.radius, args.map_resolution)
         used = scene.configuration.boundary.pressure
         res = measure(scene, args.until, args.average)
         name = f"{kind}" + (f" ({lat})" if lat != "square" else "")
