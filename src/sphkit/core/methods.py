@@ -55,7 +55,10 @@ class BoundaryReaction:
     ``pressure_mirror``), from which moving bodies take the fluid's force ``-m_i a_i<-b``."""
 
     k: np.ndarray  #: per fluid particle, ``p_i / rho`` in the solver's normalisation [m^2/s^2]
-    mirrored: float  #: 1: the solver adds the mirrored share ``m_b``; 0: it does not
+    #: the factor of ``m_b``: 1: the solver adds the mirrored share ``m_b``; 0: it does not; an
+    #: array (N_fluid,): per fluid particle (WCSPH, whose mirrored share is ``p_i / rho0_i``,
+    #: ``rho_i^2 / rho0_i^2`` times its ``k_i``)
+    mirrored: float | np.ndarray
 
 
 @runtime_checkable
