@@ -29,7 +29,11 @@ its particles at 30-100 m/s and blew up a DFSPH run when a heavy cube landed. Eq
 both sides make the push vanish there. Measured: the floating cube's submerged fraction
 (``tests/test_rigid.py``, strong coupling on) moved from 0.52 to 0.48 (Archimedes: 0.5).
 Static ``meshes`` keep 0, so a body squeezing fluid against a static mesh meets the same
-mismatch the other way round (not tested yet).
+mismatch the other way round (not tested yet). Moving maps are one-sided (0) in every solver,
+WCSPH included, against a mirrored floor where the floor mirrors (WCSPH's walls; the PPE
+solvers' volume-map walls with their hydrostatic pressure): WCSPH has no Jacobi iterations to
+run away, and the heavy body landed with either map in 2D and 3D (validation/landing.py;
+validation/README.md, "The WCSPH float with maps").
 
 Strong coupling in the iterative solvers (DFSPH, IISPH, PCISPH; Gissler et al. 2019,
 "Interlinked SPH pressure solvers for strong fluid-rigid coupling", ACM TOG 38(1), in its simplest
