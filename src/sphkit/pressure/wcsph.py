@@ -27,10 +27,10 @@ Becker & Teschner 2007, "Weakly compressible SPH for free surface flows", SCA:
   maps (0; SPlisHSPlasH's ``k_i grad rho_B`` of a dynamic body, :func:`one_sided_bodies`), and
   the body feels the reaction of that term (:meth:`WCSPH.boundary_reaction`). The maps' moving
   insets (:data:`sphkit.boundary.koschier2017.MOVING_INSET_3D` and ``_2D``,
-  :data:`sphkit.boundary.bender2019.MOVING_INSET`) hold for the one-sided term; mirrored, a
-  floating cube of density 500 rode 0.5-1.2 r higher than with the PPE solvers (3D, r = 1 cm:
-  41.1 % submerged with density maps, 39.4 % with volume maps; validation/README.md, "The
-  WCSPH float with maps"). Static walls keep SPlisHSPlasH's mirrored WCSPH term.
+  :data:`sphkit.boundary.bender2019.MOVING_INSET`) were made for the one-sided term; mirrored
+  there, a floating body rode about 0.5-0.8 r higher than the PPE solvers float it
+  (validation/README.md, "The WCSPH float with maps"). Static walls keep SPlisHSPlasH's
+  mirrored WCSPH term.
 
 The speed of sound of the state equation, ``c = sqrt(dp/drho) = sqrt(B gamma / rho0)`` (Tait) or
 ``sqrt(k)`` (linear), bounds the time step by ``0.4 h_s / c`` with the smoothing length
@@ -107,8 +107,8 @@ def stiffness_body(i, x, mu, rho, off, idx, bx, bV, boff, bidx, rho0, h, kid, di
     particle i's own pressure force when it moves against its neighbours and walls (module
     docstring), from the gradient of its density with respect to its own position, ``sum_j m_j
     grad W_ij + rho0_i sum_b V_b grad W_ib``, and the factor of p_i in
-    :func:`sphkit.core.operators.pressure_accel_body`; densities below rho0_i are taken at
-    rho0_i."""
+    :func:`sphkit.core.operators.pressure_accel_body`, mirrored at every boundary sample (at
+    the one-sided moving maps an upper bound); densities below rho0_i are taken at rho0_i."""
     ci = c[i]
     r0 = rho0 * ci
     ri = max(rho[i], r0)
