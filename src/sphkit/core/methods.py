@@ -427,6 +427,18 @@ class BoundaryCoupling:
             return np.ones(state.boundary.n, dtype=np.bool_)
         return self.solved_walls(state)
 
+    def one_sided_bodies(self, state: SimState) -> np.ndarray | None:
+        """The boundary samples (N_boundary,) bool of moving bodies whose mirror weight
+        ``pressure_mirror`` is 0 (moving density and volume maps; Akinci bodies mirror, 1), or
+        None where there are none: where WCSPH, whose boundary term mirrors every boundary
+        otherwise, takes the one-sided term of the PPE solvers (:mod:`sphkit.pressure.wcsph`).
+        Moving bodies run on the CPU only (``scene.checks``)."""
+        b = state.boundary
+        if not b.n or not getattr(self.moving, "bodies", None):
+            return None
+        use = (b["rigid_body"] > 0) & (b["pressure_mirror"] == 0.0)
+        return use if use.any() else None
+
     def solved_walls(self, state: SimState) -> np.ndarray:
         """Which boundary particles carry a pressure of their own that the PPE solvers solve
         for (scene ``configuration.boundary.solved``; static walls, not rigid bodies; all

@@ -24,7 +24,8 @@ Becker & Teschner 2007, "Weakly compressible SPH for free surface flows", SCA:
 * at moving bodies the boundary term takes the bodies' mirror weight ``m_b`` (boundary field
   ``pressure_mirror``) as the PPE solvers' does, ``-rho0_i V_b (p_i / rho_i^2 + m_b p_i /
   rho0_i^2) grad W_ib``: mirrored at Akinci bodies (1), one-sided at moving density and volume
-  maps (0; SPlisHSPlasH's ``k_i grad rho_B`` of a dynamic body, :func:`one_sided_bodies`), and
+  maps (0; SPlisHSPlasH's ``k_i grad rho_B`` of a dynamic body;
+  :meth:`sphkit.core.methods.BoundaryCoupling.one_sided_bodies`), and
   the body feels the reaction of that term (:meth:`WCSPH.boundary_reaction`). The maps' moving
   insets (:data:`sphkit.boundary.koschier2017.MOVING_INSET_3D` and ``_2D``,
   :data:`sphkit.boundary.bender2019.MOVING_INSET`) were made for the one-sided term; mirrored
@@ -142,18 +143,6 @@ def stiffness_body(i, x, mu, rho, off, idx, bx, bV, boff, bidx, rho0, h, kid, di
     return cs2 * g * q / (ri * ri)
 
 
-def one_sided_bodies(state: SimState) -> np.ndarray | None:
-    """The boundary samples of moving bodies whose mirror weight ``pressure_mirror`` is 0
-    (moving density and volume maps; Akinci bodies mirror, 1), where WCSPH's boundary term is
-    one-sided, ``-rho0_i V_b p_i / rho_i^2 grad W_ib``, as the PPE solvers' is (module
-    docstring); None where there are none."""
-    b = state.boundary
-    if not b.n or not getattr(state.coupling.moving, "bodies", None):
-        return None  # no moving bodies (on a device there are none, scene.checks)
-    use = (b["rigid_body"] > 0) & (b["pressure_mirror"] == 0.0)
-    return use if use.any() else None
-
-
 class WCSPH(PressureSolver):
     """State-equation pressure solver (Tait or linear) with symmetric pressure forces."""
 
@@ -237,7 +226,7 @@ class WCSPH(PressureSolver):
                                state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim,
                                f["a"], state.pair_period, c=rest.c, inv_c=rest.inv_c)
         cp = state.coupling
-        use = one_sided_bodies(state)
+        use = cp.one_sided_bodies(state)
         if cp.symmetric or cp.solved:  # the wall term V_b k_i (module docstring): p_b = 0
             walls = cp.symmetric_walls(state)
             use = walls if use is None else walls | use
