@@ -243,3 +243,58 @@ def test_2d_heavy_square_sinks_and_rests_on_floor(tmp_path: Path) -> None:
     tilt = np.degrees(np.arctan2(body.R[1, 0], body.R[0, 0]))
     assert abs((tilt + 45.0) % 90.0 - 45.0) < 1.0, tilt
     assert vmax < 6.0, vmax
+
+
+@pytest.mark.parametrize("boundary", ["akinci2012", "bender2019", "koschier2017"])
+def test_2d_wcsph_boundary_term_at_a_body(tmp_path: Path, boundary: str) -> None:
+    """WCSPH's boundary term at a floating square takes the body's mirror weight, as the PPE
+    solvers' does (:mod:`sphkit.pressure.wcsph`): mirrored at Akinci bodies,
+    ``-rho0 V_b (p_i / rho_i^2 + p_i / rho0^2) grad W_ib``, one-sided at moving maps,
+    ``-rho0 V_b p_i / rho_i^2 grad W_ib`` (mirrored, the map float rode high:
+    validation/README.md, "The WCSPH float with maps"), and the body's force is the reaction
+    of the term applied, ``-sum_i m_i a_i<-b``. In the float of test_2d_floating_square at its
+    start (the fluid r off the body), compressed by 0-1 % at random, the body's share of the solve's
+    accelerations (the solve with the body's samples against the solve without them) is
+    compared with the mirrored term of
+    :func:`sphkit.core.operators.pressure_accel_cpu` for the body's samples alone, scaled by
+    ``(1 / rho_i^2) / (1 / rho_i^2 + 1 / rho0^2)`` at maps; bound 1e-10 relative: round-off
+    (the same pair sums in another order)."""
+    from sphkit.core.operators import pressure_accel_cpu
+
+    side, L, H = 0.1, 0.4, 0.2
+    lo, hi = (L - side) / 2, (L + side) / 2
+    yb = H - 0.4 * side
+    g = 2 * R  # off the tank's walls; r off the body, within the support of its samples
+    blocks = [([g, g], [L - g, yb - R]), ([g, yb - R], [lo - R, H]),
+              ([hi + R, yb - R], [L - g, H])]
+    mesh = {"geometry_file": _square(tmp_path, side), "translation": [L / 2, yb + side / 2, 0],
+            "dynamic": True, "density": 500.0}
+    sim = Simulation(_scene(blocks, [mesh], boundary, tmp_path, method="wcsph",
+                            box={"min": [0, 0], "max": [L, 0.6], "open_top": True}))
+    sim._neighbors()
+    st, f, bd = sim.state, sim.fluid, sim.boundary
+    f["rho"][:] = f["rho0"] * (1.0 + 0.01 * np.random.default_rng(0).random(f.n))
+    on = bd["rigid_body"] == 1
+    V = bd["V"].copy()
+
+    def accel(bV: np.ndarray) -> np.ndarray:
+        bd["V"][:] = bV
+        f["a"][:] = 0.0
+        sim.pressure.solve(st, 1e-4)
+        return f["a"].copy()
+
+    share = accel(np.where(on, V, 0.0)) - accel(np.zeros_like(V))
+    bd["V"][:] = V
+    mirrored = np.zeros_like(f["a"])
+    none = np.zeros(f.n + 1, dtype=st.nl_ff.offsets.dtype)
+    pressure_accel_cpu(f["x"], f["m"], f["rho"], f["p"], none, st.nl_ff.indices[:0], bd["x"],
+                       np.where(on, V, 0.0), st.nl_fb.offsets, st.nl_fb.indices, st.rho0, st.h,
+                       st.kid, st.dim, mirrored)
+    rho, rho0 = f["rho"], f["rho0"]
+    scale = 1.0 if boundary == "akinci2012" else rho0 ** 2 / (rho0 ** 2 + rho ** 2)
+    expected = mirrored * scale
+    assert np.abs(expected).max() > 0.1  # the body presses on the fluid
+    np.testing.assert_allclose(share, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    sim.rigid.fluid_forces(st, sim.pressure.boundary_reaction(st))
+    force = sim.rigid.bodies[0].force[:2]
+    np.testing.assert_allclose(force, -(f["m"] * share).sum(axis=1), rtol=1e-10)

@@ -55,7 +55,10 @@ class BoundaryReaction:
     ``pressure_mirror``), from which moving bodies take the fluid's force ``-m_i a_i<-b``."""
 
     k: np.ndarray  #: per fluid particle, ``p_i / rho`` in the solver's normalisation [m^2/s^2]
-    mirrored: float  #: 1: the solver adds the mirrored share ``m_b``; 0: it does not
+    #: the factor of ``m_b``: 1: the solver adds the mirrored share ``m_b``; 0: it does not; an
+    #: array (N_fluid,): per fluid particle (WCSPH, whose mirrored share is ``p_i / rho0_i``,
+    #: ``rho_i^2 / rho0_i^2`` times its ``k_i``)
+    mirrored: float | np.ndarray
 
 
 @runtime_checkable
@@ -438,6 +441,18 @@ class BoundaryCoupling:
         if self.symmetric:
             return np.ones(state.boundary.n, dtype=np.bool_)
         return self.solved_walls(state)
+
+    def one_sided_bodies(self, state: SimState) -> np.ndarray | None:
+        """The boundary samples (N_boundary,) bool of moving bodies whose mirror weight
+        ``pressure_mirror`` is 0 (moving density and volume maps; Akinci bodies mirror, 1), or
+        None where there are none: where WCSPH, whose boundary term mirrors every boundary
+        otherwise, takes the one-sided term of the PPE solvers (:mod:`sphkit.pressure.wcsph`).
+        Moving bodies run on the CPU only (``scene.checks``)."""
+        b = state.boundary
+        if not b.n or not getattr(self.moving, "bodies", None):
+            return None
+        use = (b["rigid_body"] > 0) & (b["pressure_mirror"] == 0.0)
+        return use if use.any() else None
 
     def solved_walls(self, state: SimState) -> np.ndarray:
         """Which boundary particles carry a pressure of their own that the PPE solvers solve

@@ -21,6 +21,17 @@ Becker & Teschner 2007, "Weakly compressible SPH for free surface flows", SCA:
   density along x_i, so the walls do no work. The mirrored and extrapolated terms are not such
   a derivative and pumped energy into fluid at rest without dissipation (validation/README.md,
   "WCSPH in the tank at rest").
+* at moving bodies the boundary term takes the bodies' mirror weight ``m_b`` (boundary field
+  ``pressure_mirror``) as the PPE solvers' does, ``-rho0_i V_b (p_i / rho_i^2 + m_b p_i /
+  rho0_i^2) grad W_ib``: mirrored at Akinci bodies (1), one-sided at moving density and volume
+  maps (0; SPlisHSPlasH's ``k_i grad rho_B`` of a dynamic body;
+  :meth:`sphkit.core.methods.BoundaryCoupling.one_sided_bodies`), and
+  the body feels the reaction of that term (:meth:`WCSPH.boundary_reaction`). The maps' moving
+  insets (:data:`sphkit.boundary.koschier2017.MOVING_INSET_3D` and ``_2D``,
+  :data:`sphkit.boundary.bender2019.MOVING_INSET`) were made for the one-sided term; mirrored
+  there, a floating body rode about 0.5-0.8 r higher than the PPE solvers float it
+  (validation/README.md, "The WCSPH float with maps"). Static walls keep SPlisHSPlasH's
+  mirrored WCSPH term.
 
 The speed of sound of the state equation, ``c = sqrt(dp/drho) = sqrt(B gamma / rho0)`` (Tait) or
 ``sqrt(k)`` (linear), bounds the time step by ``0.4 h_s / c`` with the smoothing length
@@ -97,8 +108,8 @@ def stiffness_body(i, x, mu, rho, off, idx, bx, bV, boff, bidx, rho0, h, kid, di
     particle i's own pressure force when it moves against its neighbours and walls (module
     docstring), from the gradient of its density with respect to its own position, ``sum_j m_j
     grad W_ij + rho0_i sum_b V_b grad W_ib``, and the factor of p_i in
-    :func:`sphkit.core.operators.pressure_accel_body`; densities below rho0_i are taken at
-    rho0_i."""
+    :func:`sphkit.core.operators.pressure_accel_body`, mirrored at every boundary sample (at
+    the one-sided moving maps an upper bound); densities below rho0_i are taken at rho0_i."""
     ci = c[i]
     r0 = rho0 * ci
     ri = max(rho[i], r0)
@@ -215,12 +226,16 @@ class WCSPH(PressureSolver):
                                state.nl_fb.indices, state.rho0, state.h, state.kid, state.dim,
                                f["a"], state.pair_period, c=rest.c, inv_c=rest.inv_c)
         cp = state.coupling
+        use = cp.one_sided_bodies(state)
         if cp.symmetric or cp.solved:  # the wall term V_b k_i (module docstring): p_b = 0
+            walls = cp.symmetric_walls(state)
+            use = walls if use is None else walls | use
+        if use is not None:
             replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
-                             state.nl_fb.offsets, state.nl_fb.indices, cp.symmetric_walls(state),
+                             state.nl_fb.offsets, state.nl_fb.indices, use,
                              np.zeros(b.n, dtype=f.dtype), state.h, state.kid, state.dim,
                              state.pair_period, f["a"])
-        else:
+        if not (cp.symmetric or cp.solved):
             cp.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
 
@@ -235,11 +250,12 @@ class WCSPH(PressureSolver):
         return rho0 + p / self.stiffness
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
-        """The boundary term of :func:`sphkit.core.operators.pressure_accel_body`:
-        ``k_i = rho0_i (p_i / rho_i^2 + p_i / rho0_i^2)``, without the mirror share;
-        ``k_i = rho0_i p_i / rho_i^2`` with ``boundary.symmetric`` (module docstring)."""
+        """The boundary term of :meth:`solve` at bodies: ``k_i = rho0_i p_i / rho_i^2`` with
+        the mirrored share ``m_b rho_i^2 / rho0_i^2`` of it (``-rho0_i V_b (p_i / rho_i^2 +
+        m_b p_i / rho0_i^2) grad W_ib``, module docstring); without a mirrored share with
+        ``boundary.symmetric``."""
         f = state.fluid
         p, rho, rho0 = f["p"], f["rho"], f["rho0"]
         if state.coupling.symmetric:
             return BoundaryReaction(rho0 * p / rho ** 2, 0.0)
-        return BoundaryReaction(rho0 * (p / rho ** 2 + p / rho0 ** 2), 0.0)
+        return BoundaryReaction(rho0 * p / rho ** 2, rho ** 2 / rho0 ** 2)

@@ -12,7 +12,8 @@ that momentum is conserved to round-off. Each solver states that share itself
 V_b grad W_ib``), so the bodies never ask which solver runs:
 
 * WCSPH (:func:`sphkit.core.operators.pressure_accel_body`):
-  ``a_i<-b = -rho0 V_b (p_i / rho_i^2 + p_i / rho0^2) grad W_ib``;
+  ``a_i<-b = -rho0 V_b (p_i / rho_i^2 + m_b p_i / rho0^2) grad W_ib`` at bodies (mirrored at
+  Akinci bodies, one-sided at moving maps, :mod:`sphkit.pressure.wcsph`);
 * DFSPH, IISPH, PCISPH (:func:`sphkit.core.ppe.kappa_accel_cached`):
   ``a_i<-b = -(1 + m_b) V_b k_i grad W_ib`` with ``k_i = p_i rho0 / rho_i^2`` (DFSPH: density
   and divergence solves together, IISPH) or ``k_i = p_i / rho0`` (PCISPH); ``m_b`` is the
@@ -28,7 +29,11 @@ its particles at 30-100 m/s and blew up a DFSPH run when a heavy cube landed. Eq
 both sides make the push vanish there. Measured: the floating cube's submerged fraction
 (``tests/test_rigid.py``, strong coupling on) moved from 0.52 to 0.48 (Archimedes: 0.5).
 Static ``meshes`` keep 0, so a body squeezing fluid against a static mesh meets the same
-mismatch the other way round (not tested yet).
+mismatch the other way round (not tested yet). Moving maps are one-sided (0) in every solver,
+WCSPH included, against a mirrored floor where the floor mirrors (WCSPH's walls; the PPE
+solvers' volume-map walls with their hydrostatic pressure): WCSPH has no Jacobi iterations to
+run away, and the heavy body landed with either map in 2D and 3D (validation/landing.py;
+validation/README.md, "The WCSPH float with maps").
 
 Strong coupling in the iterative solvers (DFSPH, IISPH, PCISPH; Gissler et al. 2019,
 "Interlinked SPH pressure solvers for strong fluid-rigid coupling", ACM TOG 38(1), in its simplest
@@ -133,9 +138,10 @@ def _add_force(out, ch, k, bx, b, c, dim, f0, f1, f2):
 @numba.njit(parallel=True, **_JIT)
 def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid, nchunk, out):
     """Per body: force and torque (about c) of the fluid on its boundary particles,
-    ``F_b = sum_i m_i kf_i (1 + use_mirror m_b) V_b grad_i W_ib`` (the negative of the boundary
-    share of ``m_i a_i``); ``out[chunk, body, 0:3]`` force, ``3:6`` torque, summed over chunks of
-    fluid particles by the caller (no write races)."""
+    ``F_b = sum_i m_i kf_i (1 + use_mirror_i m_b) V_b grad_i W_ib`` (the negative of the
+    boundary share of ``m_i a_i``; ``use_mirror`` (N,) per fluid particle);
+    ``out[chunk, body, 0:3]`` force, ``3:6`` torque, summed over chunks of fluid particles by
+    the caller (no write races)."""
     n = x.shape[1]
     dim = x.shape[0]
     out[:] = 0.0
@@ -150,7 +156,7 @@ def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid
                 if k < 0:
                     continue
                 d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
-                s = fi * (1.0 + use_mirror * bmirror[b]) * bV[b] * kernel_dw(kid, r, h, dim)
+                s = fi * (1.0 + use_mirror[i] * bmirror[b]) * bV[b] * kernel_dw(kid, r, h, dim)
                 _add_force(out, ch, k, bx, b, c, dim, s * d0, s * d1, s * d2)
 
 
@@ -236,9 +242,11 @@ class FluidCoupling(MovingBoundary):
         nchunk = max(1, min(64, f.n // 256))
         out = np.empty((nchunk, nb, 6))
         c = np.array([b.c for b in self.bodies])
+        mirrored = np.broadcast_to(np.asarray(reaction.mirrored, dtype=np.float64), (f.n,))
         _reaction(f["x"], f["m"], np.ascontiguousarray(reaction.k), state.nl_fb.offsets,
                   state.nl_fb.indices, bd["x"], bd["V"], bd["pressure_mirror"],
-                  reaction.mirrored, bd["rigid_body"], c, state.h, state.kid, nchunk, out)
+                  np.ascontiguousarray(mirrored), bd["rigid_body"], c, state.h, state.kid,
+                  nchunk, out)
         tot = out.sum(axis=0)
         for k, b in enumerate(self.bodies):
             b.force = tot[k, :3].copy()
