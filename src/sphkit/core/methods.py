@@ -123,21 +123,6 @@ class PressureSolver(Protocol):
         return np.broadcast_to(np.asarray(rho0, dtype=float), np.shape(p)).copy()
 
 
-def checked_number(what: str, value: Any, lo: float = 0.0, hi: float = math.inf,
-                   expected: str = "a finite number >= 0") -> float:
-    """``value`` as a float when it is a finite number in ``[lo, hi]``; otherwise a
-    ``ValueError`` that names the parameter ``what`` (e.g. ``"surface tension (he2014):
-    coefficient"``), the value and ``expected``. The one check of the methods' numeric
-    parameters (a NaN, an infinity, a string or a negative coefficient given through the API)."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = math.nan
-    if not (math.isfinite(v) and lo <= v <= hi):
-        raise ValueError(f"{what}: {value!r}; expected {expected}")
-    return v
-
-
 @runtime_checkable
 class NonPressureForce(Protocol):
     """A non-pressure force (survey Sec. 5): viscosity, vorticity, surface tension, drag."""

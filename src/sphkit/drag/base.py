@@ -12,7 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from sphkit.core.methods import NonPressureForce, checked_number
+from sphkit.core.methods import NonPressureForce
+from sphkit.core.params import checked_number
 
 
 class AirDrag(NonPressureForce):

@@ -13,7 +13,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from sphkit.core.methods import NonPressureForce, checked_number
+from sphkit.core.methods import NonPressureForce
+from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 
 

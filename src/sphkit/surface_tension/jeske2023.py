@@ -81,9 +81,10 @@ import numpy as np
 
 from sphkit.core.kernels import CUBIC, kernel_dw, kernel_w
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
-from sphkit.core.methods import NonPressureForce, checked_number
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import kirkwood_buff
 from sphkit.core.pairs import delta, delta2, delta2_r, dot, point
+from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     add_velocity_change,

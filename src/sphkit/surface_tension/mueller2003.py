@@ -113,9 +113,10 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_dw, kernel_w
-from sphkit.core.methods import NonPressureForce, checked_number
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import interpolate, surface_normals
 from sphkit.core.pairs import distance, point, separation
+from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 
 #: Müller's threshold l, made dimensionless: a particle carries a force where

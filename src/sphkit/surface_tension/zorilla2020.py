@@ -106,8 +106,9 @@ import numpy as np
 
 from sphkit.core.eigen import smallest_eigen
 from sphkit.core.kernels import CUBIC, kernel_w
-from sphkit.core.methods import NonPressureForce, checked_number
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import delta, point
+from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 
 #: slope of the linear surface classifier (pre-trained, Zorilla et al. 2020)

@@ -76,8 +76,9 @@ import numpy as np
 from sphkit.backend import launch
 from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
-from sphkit.core.methods import NonPressureForce, checked_number
+from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import point, separation
+from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 
 
