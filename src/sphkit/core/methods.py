@@ -56,6 +56,12 @@ class BoundaryReaction:
 
     k: np.ndarray  #: per fluid particle, ``p_i / rho`` in the solver's normalisation [m^2/s^2]
     mirrored: float  #: 1: the solver adds the mirrored share ``m_b``; 0: it does not
+    #: force (0:3) and torque (3:6) [N, N m] on each body (bodies, 6), about its centre, that
+    #: the solver summed pair by pair inside its solve (:meth:`MovingBoundary.pair_reaction`),
+    #: where its boundary share is not a field times the step's gradients (PBF: corrections at
+    #: the predicted positions of every sweep); when set, the bodies take it instead of
+    #: reacting to ``k``
+    forces: np.ndarray | None = None
 
 
 @runtime_checkable
@@ -194,12 +200,13 @@ class BoundaryModel(Protocol):
         return None
 
     def boundary_at(self, state: SimState, dx: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray, NeighborList] | None:
-        """The boundary neighbours ``(x_b, V_b, lists)`` of :meth:`update` for the fluid at
-        the positions ``x + dx`` (dim, N) instead of ``x = state.fluid["x"]`` (a solve's
-        predicted positions), leaving the state as it is. None: they do not depend on the
-        fluid positions beyond the step-start lists (boundary particles); maps place their
-        virtual particles anew."""
+                    ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray] | None:
+        """The boundary neighbours ``(x_b, V_b, lists, body)`` of :meth:`update` for the fluid
+        at the positions ``x + dx`` (dim, N) instead of ``x = state.fluid["x"]`` (a solve's
+        predicted positions), leaving the state as it is; ``body``: each neighbour's 1-based
+        moving rigid body (0: static), as the boundary field ``rigid_body``. None: they do not
+        depend on the fluid positions beyond the step-start lists (boundary particles); maps
+        place their virtual particles anew."""
         return None
 
     def following(self, state: SimState, dx: np.ndarray
@@ -327,6 +334,18 @@ class MovingBoundary(Protocol):
         field k of a solver sweep (``gwb``: the cached ``V_b grad W_ib``); 0 where the boundary
         does not yield."""
 
+    def pair_reaction(self, state: SimState, k: np.ndarray, x: np.ndarray, bx: np.ndarray,
+                      bV: np.ndarray, lists: NeighborList, body: np.ndarray
+                      ) -> np.ndarray | None:
+        """The reaction on the bodies of a boundary share ``a_i<-b = -k_i V_b grad W(x_i -
+        x_b)`` evaluated at the fluid positions x (dim, N) and the boundary neighbours ``(bx,
+        bV, lists, body)`` of :meth:`BoundaryModel.boundary_at`: per body (bodies, 6) the force
+        ``sum m_i k_i V_b grad W`` (0:3, minus the share's momentum, pair by pair) and its
+        torque about the body's centre at ``x_b`` (3:6), for kinematic and dynamic bodies
+        alike. For a solver that sums its boundary share inside the solve (PBF) into
+        :attr:`BoundaryReaction.forces`; None: no bodies."""
+        return None
+
 
 #: ``solved: "density"``: a wall particle holds its start value only where every fluid
 #: neighbour had a filled kernel then, ``rho / rho0 >= 1 - COVERED_TOLERANCE``
@@ -372,14 +391,29 @@ class BoundaryCoupling:
         self._still = np.zeros((0, 0))
 
     def boundary_at(self, state: SimState, dx: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray, NeighborList]:
-        """The boundary neighbours ``(x_b, V_b, lists)`` for the fluid displaced by ``dx`` (the
-        boundary model's :meth:`BoundaryModel.boundary_at`; the step's own where they do not
-        depend on the fluid positions)."""
+                    ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray]:
+        """The boundary neighbours ``(x_b, V_b, lists, body)`` for the fluid displaced by
+        ``dx`` (the boundary model's :meth:`BoundaryModel.boundary_at`; the step's own where
+        they do not depend on the fluid positions; ``body``: the boundary field
+        ``rigid_body``, zeros where a state has none)."""
         at = self.model.boundary_at(state, dx) if self.model is not None else None
         if at is None:
-            return state.boundary["x"], state.boundary["V"], state.nl_fb
+            b = state.boundary
+            if "rigid_body" in b.specs and b["rigid_body"].shape[0] == b.n:
+                body = b["rigid_body"]
+            else:
+                body = arrays.zeros(b.n, np.int64, like=b["x"])
+            return b["x"], b["V"], state.nl_fb, body
         return at
+
+    def pair_reaction(self, state: SimState, k: np.ndarray, x: np.ndarray, bx: np.ndarray,
+                      bV: np.ndarray, lists: NeighborList, body: np.ndarray
+                      ) -> np.ndarray | None:
+        """The bodies' reaction (bodies, 6) to the boundary share ``-k_i V_b grad W(x_i -
+        x_b)`` (:meth:`MovingBoundary.pair_reaction`); None without moving bodies."""
+        if self.moving is None:
+            return None
+        return self.moving.pair_reaction(state, k, x, bx, bV, lists, body)
 
     def following(self, state: SimState, dx: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray, NeighborList]:

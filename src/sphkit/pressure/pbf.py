@@ -55,6 +55,26 @@ contains a_ext). For the first-order update ``a = (x* - x_old - dt v_old) / dt^2
 velocity is not ``(x* - x_old) / dt``, so for it ``solve`` also sets ``x = x* - dt v_new``,
 which the integration carries to ``x*``.
 
+**Rigid bodies** (two-way coupling, as SPlisHSPlasH's ``TimeStepPBF::pressureSolveIteration``,
+which adds ``m_i dx / dt^2`` to the boundary neighbour for each boundary pair's correction;
+the paper's Sec. 4 treats solids as particles of the constraints without a coupling force):
+every sweep's boundary share of the correction of fluid particle i, ``dx_i<-b = lambda_i V_b
+grad W(x*_i - x_b)`` (Akinci particles and the virtual particles of density and volume maps,
+at the sweep's own ``x*`` and ``x_b``), acts on the body of b as the force ``-m_i dx_i<-b /
+dt^2`` at x_b, summed pair by pair over all sweeps (:meth:`sphkit.core.methods.
+BoundaryCoupling.pair_reaction`, :meth:`sphkit.boundary.rigid.coupling.FluidCoupling.
+pair_reaction`) and handed to the bodies as :attr:`sphkit.core.methods.BoundaryReaction.
+forces` by :meth:`PBF.boundary_reaction`. With the first-order update the fluid's velocity
+changes by ``sum dx_i<-b / dt`` from the same pairs, so the momentum of fluid and bodies is
+conserved to round-off (tests/test_rigid.py, tests/test_rigid_2d.py); the angular momentum is
+not, no more than by PBF's own pairs (corrections along the predicted separations change
+velocities at the step-start positions). The coupling is weak, as SPlisHSPlasH's: the bodies
+stay at their step-start pose through the solve (no strong coupling, unlike DFSPH, IISPH,
+PCISPH) and move afterwards with the summed force; the same force goes to kinematic bodies
+(reported, not applied). With the second-order (BDF2) velocity update the corrections change
+the fluid's velocity by ``1.5 dx / dt`` in their step, so the exchange is exact only over the
+positions, not per step in momentum.
+
 **Pressure.** PBF has no pressure variable; sphkit reports the equivalent pressure of the
 position corrections, ``p_i = -rho0 Lambda_i / dt^2`` [Pa] with ``Lambda_i`` the sum of the
 lambdas of all sweeps: a correction ``sum_j (Lambda_i + Lambda_j) V_j grad W_ij`` is the
@@ -75,7 +95,7 @@ import numpy as np
 from sphkit.backend import launch
 from sphkit.core import arrays
 from sphkit.core.kernels import kernel_w
-from sphkit.core.methods import PressureSolver
+from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import lattice_diagonal
 from sphkit.core.projection import constraint_correction, constraint_lambda
 from sphkit.core.solver import IterationControl, SolverStats
@@ -159,6 +179,7 @@ class PBF(PressureSolver):
         self.s_corr_dq = float(s_corr_dq)
         self.second_order = velocity_update == "second_order"
         self._d0_inv = 0.0  # 1 / D0 of the template neighbourhood [m^2]
+        self._forces: np.ndarray | None = None  # the bodies' reaction of the last solve
 
     def init(self, state: SimState) -> None:
         """Register p (equivalent pressure) and, for BDF2, the previous step-start positions."""
@@ -193,8 +214,14 @@ class PBF(PressureSolver):
         target = arrays.full(n, 1.0, f.dtype, like=x)  # C_i = rho_hat_i - 1
         rest = state.rest()  # several fluids: lambda_j weighs rho0_j / rho0_i
 
+        coupling = state.coupling
+        self._forces = None  # the bodies' reaction, summed over the sweeps (module doc)
+        react = bool(getattr(coupling.moving, "bodies", None))
+        k_b = np.empty(n, np.float64) if react else None
+        inv_dt2 = -1.0 / (dt * dt)
+
         def sweep(_k: int) -> tuple[float, float]:
-            bx, bV, nb = state.coupling.boundary_at(state, dx)  # maps: queried at x*
+            bx, bV, nb, body = coupling.boundary_at(state, dx)  # maps: queried at x*
             avg, mx = constraint_lambda(x, dx, V, target, nl.offsets, nl.indices, bx, bV,
                                         nb.offsets, nb.indices, state.h, state.kid,
                                         state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat)
@@ -202,6 +229,10 @@ class PBF(PressureSolver):
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
                                   self._d0_inv, corr, rest.c, rest.inv_c)
+            if react:  # the bodies take minus the boundary share of this sweep's correction
+                np.multiply(lam, inv_dt2, out=k_b)  # dx_i<-b = lambda_i V_b grad W = -dt^2 k_i ..
+                fb = coupling.pair_reaction(state, k_b, x + dx, bx, bV, nb, body)
+                self._forces = fb if self._forces is None else self._forces + fb
             arrays.axpy(dx, 1.0, corr)
             arrays.axpy(lam_sum, 1.0, lam)
             return avg, mx
@@ -218,3 +249,13 @@ class PBF(PressureSolver):
         launch(pressure_body, n, f["rho0"], lam_sum, t(dt * dt), f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
+
+    def boundary_reaction(self, state: SimState) -> BoundaryReaction | None:
+        """The bodies' reaction to the boundary share of the last solve's corrections, summed
+        pair by pair over its sweeps at their predicted positions (:attr:`BoundaryReaction.
+        forces`; ``k`` = ``p / rho0`` = ``-Lambda / dt^2``, the equivalent pressure's field, for
+        reference); None when the scene has no bodies."""
+        if self._forces is None:
+            return None
+        f = state.fluid
+        return BoundaryReaction(f["p"] / f["rho0"], 0.0, self._forces)
