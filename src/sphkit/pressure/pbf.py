@@ -76,9 +76,11 @@ not, no more than by PBF's own pairs (corrections along the predicted separation
 velocities at the step-start positions). The coupling is weak, as SPlisHSPlasH's: the bodies
 stay at their step-start pose through the solve (no strong coupling, unlike DFSPH, IISPH,
 PCISPH) and move afterwards with the summed force; the same force goes to kinematic bodies
-(reported, not applied). With the second-order (BDF2) velocity update the corrections change
-the fluid's velocity by ``1.5 dx / dt`` in their step, so the exchange is exact only over the
-positions, not per step in momentum.
+(reported, not applied). Weak coupling throws a heavy body that lands through water (the
+squeezed film's correction against a body that does not yield; see
+:mod:`sphkit.boundary.rigid.coupling`). With the second-order (BDF2) velocity update the
+corrections change the fluid's velocity by ``1.5 dx / dt`` in their step, so the exchange is
+exact only over the positions, not per step in momentum.
 
 **Pressure.** PBF has no pressure variable; sphkit reports the equivalent pressure of the
 position corrections, ``p_i = -rho0 Lambda_i / dt^2`` [Pa] with ``Lambda_i`` the sum of the

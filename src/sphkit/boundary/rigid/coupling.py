@@ -56,7 +56,11 @@ dx_i<-b / dt^2`` at x_b, pair by pair and summed over the sweeps
 :attr:`sphkit.core.methods.BoundaryReaction.forces`; kinematic bodies report it too. The
 coupling is weak (the bodies keep their step-start pose through the solve, as in SPlisHSPlasH):
 :meth:`response` is not used. Momentum is conserved to round-off; angular momentum is not kept
-exactly by PBF's own pairs either (see :mod:`sphkit.pressure.pbf`).
+exactly by PBF's own pairs either (see :mod:`sphkit.pressure.pbf`). Without strong coupling a
+heavy body landing through water is thrown when the film under it is squeezed (the squeezed
+particles take their whole correction in one step against a body that does not yield, and the
+body their reaction): a 2D square of density 2000 blew up at landing with every boundary
+model (validation/README.md, "PBF with dynamic bodies"); floating and rising bodies are fine.
 Viscous boundary forces are not transferred to bodies.
 
 A landing body must reach the pressure solves with the velocity the step will give it, as the
