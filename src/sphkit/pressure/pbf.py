@@ -61,8 +61,8 @@ velocity is not ``(x* - x_old) / dt``, so for it ``solve`` also sets ``x = x* - 
 which the integration carries to ``x*``.
 
 **Rigid bodies** (two-way coupling, as SPlisHSPlasH's ``TimeStepPBF::pressureSolveIteration``,
-which adds ``m_i dx / dt^2`` to the boundary neighbour for each boundary pair's correction;
-the paper's Sec. 4 treats solids as particles of the constraints without a coupling force):
+which adds ``m_i dx / dt^2`` to the boundary neighbour for each boundary pair's
+correction):
 every sweep's boundary share of the correction of fluid particle i, ``dx_i<-b = lambda_i V_b
 grad W(x*_i - x_b)`` (Akinci particles and the virtual particles of density and volume maps,
 at the sweep's own ``x*`` and ``x_b``), acts on the body of b as the force ``-m_i dx_i<-b /
