@@ -73,11 +73,12 @@ def test_2d_momentum_exchange(tmp_path: Path, boundary: str, method: str) -> Non
 
     PBF (the body takes minus the boundary share of every sweep's position correction, also
     of the density maps' virtual particles placed anew in each sweep): the momentum to
-    round-off as well (measured 2.8e-15 with all three boundary models, fluid share 36-38 %,
-    1.3-1.6 rad/s); the angular momentum is not kept by PBF's own pairs (their corrections act
-    along the predicted separations but change velocities at the step-start positions; see
+    round-off as well (measured 2.8e-15 to 2.9e-15 with the three boundary models, fluid share
+    36-37 %, 1.3-1.6 rad/s); the angular momentum is not kept by PBF's own pairs (their
+    corrections act along the predicted separations but change velocities at the step-start
+    positions; see
     tests/test_rigid.py's momentum test, 9e-4 of L0 for two colliding blocks in 3D without a
-    body), measured 3.0-4.2e-3 here (2026-12-04): bound 2e-2 for PBF."""
+    body), measured 3.0-4.0e-3 here (2026-12-04): bound 2e-2 for PBF."""
     mesh = {"geometry_file": _square(tmp_path, 0.1), "translation": [0.3, 0.17, 0.0],
             "dynamic": True, "density": 1000.0, "velocity": [-1.0, 0.0, 0.0]}
     sim = Simulation(_scene([([0, 0], [0.2, 0.2])], [mesh], boundary, tmp_path,

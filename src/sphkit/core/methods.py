@@ -319,6 +319,12 @@ class MovingBoundary(Protocol):
         """Whether any of it is pushed by the fluid's pressure (dynamic bodies)."""
         return False
 
+    @property
+    def reacts(self) -> bool:
+        """Whether any of it takes the fluid's reaction (kinematic or dynamic bodies): whether
+        :meth:`pair_reaction` has bodies to sum for."""
+        return False
+
     def predict(self, state: SimState, dt: float) -> None:
         """Before the pressure solve: advance the yielding boundary's velocities by its
         non-pressure accelerations, as the fluid's are."""
@@ -405,6 +411,11 @@ class BoundaryCoupling:
                 body = arrays.zeros(b.n, np.int64, like=b["x"])
             return b["x"], b["V"], state.nl_fb, body
         return at
+
+    @property
+    def reacts(self) -> bool:
+        """Whether moving bodies take the fluid's reaction (:meth:`pair_reaction`)."""
+        return self.moving is not None and self.moving.reacts
 
     def pair_reaction(self, state: SimState, k: np.ndarray, x: np.ndarray, bx: np.ndarray,
                       bV: np.ndarray, lists: NeighborList, body: np.ndarray

@@ -223,7 +223,7 @@ class PBF(PressureSolver):
 
         coupling = state.coupling
         self._forces = None  # the bodies' reaction, summed over the sweeps (module doc)
-        react = bool(getattr(coupling.moving, "bodies", None))
+        react = coupling.reacts  # kinematic or dynamic bodies take the reaction
         k_b = np.empty(n, np.float64) if react else None
         inv_dt2 = -1.0 / (dt * dt)
 

@@ -232,6 +232,11 @@ class FluidCoupling(MovingBoundary):
         """Whether a body is dynamic: its particles yield to the fluid's pressure."""
         return any(b.dynamic for b in self.bodies)
 
+    @property
+    def reacts(self) -> bool:
+        """Whether there are bodies (kinematic or dynamic) to take the fluid's reaction."""
+        return bool(self.bodies)
+
     def yielding(self, state: SimState) -> np.ndarray:
         """The boundary particles (N_b,) of dynamic bodies."""
         dynamic = np.array([False] + [b.dynamic for b in self.bodies])
