@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 from _validation import load_validation
 
 from sphkit.cli import main
@@ -502,4 +503,25 @@ def test_fluid_outside_every_box_and_overlapping_blocks_warn(tmp_path: Path) -> 
     scene["fluid_blocks"] = [{"start": [0.1, 0.1], "end": [0.3, 0.3]},
                              {"start": [0.3, 0.1], "end": [0.5, 0.3]},
                              {"start": [0.1, 0.6], "end": [0.3, 0.8]}]
+    assert scene_warnings(load_scene(scene)) == []
+
+
+def test_heavy_dynamic_body_with_pbf_warns(tmp_path: Path) -> None:
+    """PBF's weak body coupling threw a heavy body landing through water (validation/README.md,
+    'PBF with dynamic bodies'): a body denser than the fluid with PBF is warned about, naming
+    the field; a light one, or the same body with DFSPH, is not."""
+    box = tmp_path / "box.obj"
+    trimesh.creation.box(extents=[0.05, 0.05, 0.05]).export(box)
+    scene = copy.deepcopy(TINY)
+    scene["configuration"]["pressure"] = {"method": "pbf"}
+    scene["meshes"] = [{"geometry_file": str(box), "translation": [0.3, 0.4, 0.0],
+                        "dynamic": True, "density": 2000.0}]
+    with pytest.warns(UserWarning) as caught:
+        notes = scene_warnings(load_scene(scene))
+    assert len(notes) == 1 and len(caught) == 1
+    assert "meshes[0].density: 2000" in notes[0] and "PBF" in notes[0]
+    scene["meshes"][0]["density"] = 500.0
+    assert scene_warnings(load_scene(scene)) == []
+    scene["meshes"][0]["density"] = 2000.0
+    scene["configuration"]["pressure"] = {"method": "dfsph"}
     assert scene_warnings(load_scene(scene)) == []

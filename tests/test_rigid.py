@@ -261,7 +261,7 @@ def test_kinematic_paddle_torque_opposes_rotation(tmp_path: Path) -> None:
                                atol=1e-12)
 
 
-@pytest.mark.parametrize("method", ["dfsph", "iisph", "pcisph", "wcsph"])
+@pytest.mark.parametrize("method", ["dfsph", "iisph", "pcisph", "wcsph", "pbf"])
 def test_momentum_conserved_body_and_fluid(tmp_path: Path, method: str) -> None:
     """No gravity, no walls: a 1 kg cube moving at 1 m/s runs off-centre into a free block of
     water. The fluid's and the body's momentum and angular momentum change but their sums stay:
@@ -269,7 +269,14 @@ def test_momentum_conserved_body_and_fluid(tmp_path: Path, method: str) -> None:
     and the pair forces are central), bound 1e-12 of the initial values (measured 1e-16 to
     6e-16; the cube's inertia is isotropic, so the rotation update is exact too). The exchange
     itself must be substantial: the fluid takes over 10 % of the momentum (measured 32 % with
-    DFSPH, IISPH, PCISPH, 37 % with WCSPH after 0.12 s) and the cube spins (0.4-0.9 rad/s)."""
+    DFSPH, IISPH, PCISPH, 37 % with WCSPH after 0.12 s) and the cube spins (0.4-0.9 rad/s).
+
+    PBF (the body takes minus the boundary share of every sweep's position correction): the
+    momentum is kept to round-off too (measured 4e-17, fluid share 29 %, 0.68 rad/s), the
+    angular momentum is not: PBF's corrections act along the predicted separations ``x*_i -
+    x*_j`` but change velocities at the step-start positions, so its own fluid pairs drift it
+    as well (two water blocks colliding the same way without a body: 9.1e-4 of L0; with the
+    cube: 6.1e-4, 2026-12-04). Bound 3e-3 for PBF's angular momentum, a few times both."""
     mesh = {"geometry_file": _box_file(tmp_path, [0.1] * 3),
             "translation": [0.3, 0.1, 0.17], "dynamic": True, "density": 1000.0,
             "velocity": [-1.0, 0.0, 0.0]}
@@ -293,7 +300,7 @@ def test_momentum_conserved_body_and_fluid(tmp_path: Path, method: str) -> None:
     p, lm = momentum(), angular_momentum()
     print(f"{method}: |dL| / |L0| = {np.linalg.norm(lm - l0) / np.linalg.norm(l0):.2e}, "
           f"omega {body.omega}")
-    assert np.linalg.norm(lm - l0) < 1e-12 * np.linalg.norm(l0)
+    assert np.linalg.norm(lm - l0) < (3e-3 if method == "pbf" else 1e-12) * np.linalg.norm(l0)
     assert np.linalg.norm(body.omega) > 0.1  # the off-centre hit spins the cube
     assert np.linalg.norm(p - p0) < 1e-12 * np.linalg.norm(p0)
     fluid = (sim.fluid["m"] * sim.fluid["v"]).sum(axis=1)
@@ -316,8 +323,8 @@ def test_rigid_scene_errors(tmp_path: Path) -> None:
             "meshes": [{**mesh, "translation": [0.3, 0.0, 0.0], field: value}]})
         with pytest.raises(SceneError, match=rf"meshes\[0\]\.{field}.*xy-plane"):
             Simulation(scene)
-    with pytest.raises(SceneError, match=r"meshes\[0\]\.dynamic.*pbf"):
-        Simulation(_scene(blocks, [mesh], method="pbf"))
+    with pytest.raises(SceneError, match=r"meshes\[0\]\.dynamic.*'pf'"):
+        Simulation(_scene(blocks, [mesh], method="pf"))
     with pytest.raises(Exception, match=r"density"):
         _scene(blocks, [{**mesh, "density": -1.0}])
     with pytest.raises(Exception, match=r"angular_velocity"):

@@ -241,7 +241,8 @@ def test_density_map_virtual_particle_reproduces_density_and_gradient(dim: int) 
     before = (bx.copy(), bV.copy(), st.nl_fb.offsets.copy())
     dx = np.zeros((dim, len(ys)))
     dx[-1] = 0.3 * r
-    bx2, bV2, nl2 = model.boundary_at(st, dx)
+    bx2, bV2, nl2, body2 = model.boundary_at(st, dx)
+    assert not body2.any()  # a static map
     rho2 = bmap.eval_values(x.T + dx)
     inband2 = (ys + 0.3 * r > 0.1 * r) & (ys + 0.3 * r < h)
     assert np.diff(nl2.offsets).tolist() == inband2.astype(int).tolist()

@@ -1,5 +1,5 @@
 """Wall pressures solved in the PPE (``configuration.boundary.solved``,
-:meth:`sphkit.core.methods.BoundaryCoupling.solved_walls`).
+:meth:`sphkit.core.coupling.BoundaryCoupling.solved_walls`).
 
 A square of 5 x 5 particles (r = 2 cm) fills a closed 2D box of its width and twice its height,
 at rest under gravity with sphkit's hydrostatic start; 20 steps of 0.5 ms. The mechanical
@@ -99,7 +99,7 @@ def test_solved_walls_move_with_the_box() -> None:
 @pytest.mark.parametrize("solver", ["iisph", "dfsph"])
 def test_density_level_walls_hold_the_walls_density(solver: str) -> None:
     """``solved: "density"``: the density solves hold the fluid's number density at each wall
-    particle covered at the start (:meth:`~sphkit.core.methods.BoundaryCoupling.wall_rest`) at
+    particle covered at the start (:meth:`~sphkit.core.coupling.BoundaryCoupling.wall_rest`) at
     its start value. After 20 steps no held wall particle's density is more than 5e-4 above
     its start value (measured 2.4e-4 IISPH, 1.6e-4 DFSPH; the walls' rows are relaxed inside
     the fluid's iterations, which stop at the fluid's tolerance, so they are not exact; the

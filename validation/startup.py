@@ -142,7 +142,7 @@ def run(folder: Path, case: str, solver: str, boundary: str, dim: int, r: float,
     t0 = time.time()
     try:
         sim, removed = _load(path, start)
-    except SceneError as e:  # a combination sphkit refuses (PBF with a dynamic body)
+    except SceneError as e:  # a combination sphkit refuses (PF with a dynamic body)
         return {"case": case, "solver": solver, "boundary": boundary, "refused": str(e)}
     build = time.time() - t0
     row = {"case": case, "solver": solver, "boundary": boundary, "n": sim.fluid.n,

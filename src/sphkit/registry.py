@@ -199,7 +199,8 @@ register("pressure", "pcisph", "sphkit.pressure.pcisph:PCISPH", splishsplash=1,
          multiphase=True, gpu=True)
 register("pressure", "pbf", "sphkit.pressure.pbf:PBF", splishsplash=2,
          paper="Macklin & Müller 2013, Position based fluids",
-         summary="density constraints solved on positions", multiphase=True, gpu=True)
+         summary="density constraints solved on positions", dynamic_bodies=True,
+         multiphase=True, gpu=True)
 register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
          paper="Ihmsen et al. 2014, Implicit incompressible SPH",
          summary="relaxed Jacobi on the pressure Poisson equation", dynamic_bodies=True,

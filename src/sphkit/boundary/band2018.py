@@ -176,7 +176,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
     """Boundary pressure by MLS extrapolation (Band et al. 2018) for the iterative solvers.
 
     The step calls :meth:`prepare` once per step after the densities; the solvers call
-    :meth:`extrapolate` (through :meth:`sphkit.core.methods.BoundaryCoupling.boundary_kappa`)
+    :meth:`extrapolate` (through :meth:`sphkit.core.coupling.BoundaryCoupling.boundary_kappa`)
     before every evaluation of the pressure acceleration. ``use`` marks the boundary samples
     that are extrapolated; their ``pressure_mirror`` is set to 0 (the extrapolated value
     replaces the mirrored one) and :meth:`diagonal_mirror` is 1 there.

@@ -228,7 +228,8 @@ class Bender2019(MapBoundaryModel):
                   ) -> tuple[np.ndarray, np.ndarray, object]:
         """The step's virtual particles moved with their fluid particle's displacement ``dx``
         along the wall (the part of dx normal to ``x_i - x_b`` left out): ``(x_b*, V_b,
-        lists)`` for a PCISPH prediction (:mod:`sphkit.pressure.pcisph`, step 2). The map's
+        lists)`` for a PCISPH prediction (:mod:`sphkit.pressure.pcisph`, step 2) and PBF's
+        predicted positions (:mod:`sphkit.pressure.pbf`). The map's
         volume and distance barely change along a wall, so the virtual particle that the query
         would place for ``x_i + dx`` sits about there; across the wall the fixed particle lets
         the predicted density respond to the approach with the gradient ``V_b grad W`` that the

@@ -467,16 +467,16 @@ class MapBoundaryModel(BoundaryModel):
         state.nl_fb = nl
 
     def boundary_at(self, state: SimState, dx: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray, NeighborList] | None:
-        """The virtual particles ``(x_b, V_b)`` and their lists for the fluid at ``x + dx`` (a
-        solve's predicted positions; SPlisHSPlasH's PBF queries its maps there in every
-        iteration), leaving the state as it is and pushing nothing: a predicted position
-        inside a solid gets no virtual particle."""
+                    ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray] | None:
+        """The virtual particles ``(x_b, V_b)``, their lists and their bodies' numbers for the
+        fluid at ``x + dx`` (a solve's predicted positions; SPlisHSPlasH's PBF queries its maps
+        there in every iteration), leaving the state as it is and pushing nothing: a predicted
+        position inside a solid gets no virtual particle."""
         f = state.fluid
         xb, Vb, vb, mbody, _ = self._virtual_particles(state, arrays.axpy_into(f["x"], 1.0, dx),
                                                        arrays.copied(f["v"]))
-        nl, bx, bV, _, _, _ = self._packed(state, xb, Vb, vb, mbody)
-        return bx, bV, nl
+        nl, bx, bV, _, bbody, _ = self._packed(state, xb, Vb, vb, mbody)
+        return bx, bV, nl, bbody
 
     def _virtual_particles(self, state: SimState, x: np.ndarray, v: np.ndarray
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:

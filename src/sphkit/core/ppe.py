@@ -44,7 +44,7 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
 * :func:`density_at` -- PCISPH's / PBF's density at predicted positions;
 * :func:`wall_sums`, :func:`wall_diagonal`, :func:`wall_update`, :func:`wall_density` -- the
   static walls' own pressures ``k_b`` when the scene solves them
-  (``configuration.boundary.solved``, :meth:`sphkit.core.methods.BoundaryCoupling.
+  (``configuration.boundary.solved``, :meth:`sphkit.core.coupling.BoundaryCoupling.
   solved_walls`): the fluid's density rate at each wall particle, its Jacobi scale, its
   clamped update, and the fluid's density at it (``solved: "density"``) (serial passes over
   the fluid-boundary pairs).
@@ -170,7 +170,7 @@ def density_at(x: np.ndarray, dx: np.ndarray, m: np.ndarray, off: np.ndarray, id
     :class:`sphkit.core.state.RestArrays` as m and the reference rest density, which gives the
     number density ``rho_i / rho0_i`` with ``V_j = m_j / rho0_j``), with the boundary
     displaced by ``bdx`` (boundary particles that yield to the pressure,
-    :meth:`sphkit.core.methods.BoundaryCoupling.displacement`); an empty bdx (dim, 0) leaves
+    :meth:`sphkit.core.coupling.BoundaryCoupling.displacement`); an empty bdx (dim, 0) leaves
     the boundary where it is. The pass is :func:`density_at_body` through
     :func:`sphkit.backend.launch`."""
     launch(density_at_body, x.shape[1], x, dx, m, off, idx, bx, bdx, bV, boff, bidx,
@@ -521,7 +521,7 @@ def wall_density(x, Vf, bx, boff, bidx, h, kid, dim, L, use, out):
     static boundary particles b with ``use[b]`` (0 elsewhere), over the fluid-boundary pairs
     ``(boff, bidx)`` (``L``: the period argument of the pair loops). The density-level solved
     walls (``configuration.boundary.solved: "density"``) hold it at each wall particle's rest
-    value (:meth:`sphkit.core.methods.BoundaryCoupling.wall_rest`). One serial pass, as
+    value (:meth:`sphkit.core.coupling.BoundaryCoupling.wall_rest`). One serial pass, as
     :func:`wall_sums`."""
     out[:] = 0.0
     for i in range(boff.shape[0] - 1):

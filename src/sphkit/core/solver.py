@@ -235,7 +235,7 @@ class PairGradients:
         ``density``: the caller is a density solve (source ``1 - rho_hat - dt div``, factor
         dt: IISPH's, DFSPH's constant-density solve). With ``solved: "density"`` the walls'
         source there is at density level too, ``rho_rest_b - rho_hat_b - factor D rho_hat_b /
-        Dt`` (:meth:`~sphkit.core.methods.BoundaryCoupling.wall_rest`: the wall particles
+        Dt`` (:meth:`~sphkit.core.coupling.BoundaryCoupling.wall_rest`: the wall particles
         covered at the start; the others keep the velocity level)."""
         cp = self.state.coupling
         if not cp.solved:
@@ -286,7 +286,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     ``grads`` are the step's cached pair gradients (computed here when not given).
 
     Solved walls (scene ``configuration.boundary.solved``,
-    :meth:`~sphkit.core.methods.BoundaryCoupling.solved_walls`): a solver that passes
+    :meth:`~sphkit.core.coupling.BoundaryCoupling.solved_walls`): a solver that passes
     ``wall_source`` (N_boundary,), the source of the walls' constraint in the units of s (its
     velocity part: ``-dt D rho_hat_b / Dt`` of the predicted velocities where s is ``1 - rho_hat
     - dt div``, ``-D rho_hat_b / Dt`` where s is ``-div``; :meth:`PairGradients.wall_rate`;

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sphkit.core import arrays
-from sphkit.core.methods import BoundaryCoupling
+from sphkit.core.coupling import BoundaryCoupling
 from sphkit.core.neighbors import NeighborList
 from sphkit.core.particles import ParticleSet
 

@@ -280,7 +280,7 @@ class PCISPH(StepBounded, PressureSolver):
             launch(predict_body, n, v, a, ap, float(dt), int(state.dim), dx)
             # density maps are queried at x* (their lists), with or without yielding bodies;
             # the step's boundary particles take the bodies' predicted displacement
-            bx, bV, nbp = coupling.boundary_at(state, dx)
+            bx, bV, nbp, _ = coupling.boundary_at(state, dx)
             if bx is b["x"]:  # volume maps: the step's virtual particles slide along the wall
                 bx, bV, nbp = coupling.following(state, dx)
             bd = bdx[0] if bx is b["x"] else still

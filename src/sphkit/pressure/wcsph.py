@@ -25,7 +25,7 @@ Becker & Teschner 2007, "Weakly compressible SPH for free surface flows", SCA:
   ``pressure_mirror``) as the PPE solvers' does, ``-rho0_i V_b (p_i / rho_i^2 + m_b p_i /
   rho0_i^2) grad W_ib``: mirrored at Akinci bodies (1), one-sided at moving density and volume
   maps (0; SPlisHSPlasH's ``k_i grad rho_B`` of a dynamic body;
-  :meth:`sphkit.core.methods.BoundaryCoupling.one_sided_bodies`), and
+  :meth:`sphkit.core.coupling.BoundaryCoupling.one_sided_bodies`), and
   the body feels the reaction of that term (:meth:`WCSPH.boundary_reaction`). The maps' moving
   insets (:data:`sphkit.boundary.koschier2017.MOVING_INSET_3D` and ``_2D``,
   :data:`sphkit.boundary.bender2019.MOVING_INSET`) were made for the one-sided term; mirrored

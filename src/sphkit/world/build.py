@@ -18,14 +18,9 @@ import numpy as np
 from sphkit import registry
 from sphkit.backend import cuda_available
 from sphkit.boundary.rigid import RigidBodies
+from sphkit.core.coupling import BoundaryCoupling
 from sphkit.core.kernels import kernel_id, lattice_volume
-from sphkit.core.methods import (
-    BoundaryCoupling,
-    BoundaryModel,
-    Elasticity,
-    NonPressureForce,
-    PressureSolver,
-)
+from sphkit.core.methods import BoundaryModel, Elasticity, NonPressureForce, PressureSolver
 from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState

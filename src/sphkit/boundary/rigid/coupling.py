@@ -37,7 +37,7 @@ validation/README.md, "The WCSPH float with maps").
 
 Strong coupling in the iterative solvers (DFSPH, IISPH, PCISPH; Gissler et al. 2019,
 "Interlinked SPH pressure solvers for strong fluid-rigid coupling", ACM TOG 38(1), in its simplest
-form): the bodies are the state's moving boundary (:class:`sphkit.core.methods.BoundaryCoupling`,
+form): the bodies are the state's moving boundary (:class:`sphkit.core.coupling.BoundaryCoupling`,
 :class:`~sphkit.core.methods.MovingBoundary`). Each Jacobi sweep of
 :func:`sphkit.core.solver.jacobi_ppe` asks :meth:`FluidCoupling.response` for the accelerations
 of the bodies' particles under the sweep's pressure, ``a_b = F(k) / M + (I_w^-1 T(k)) x (x_b -
@@ -47,12 +47,25 @@ need. The body is then advanced with the force of the converged pressure, as bef
 conserved to round-off). Measured on the landing cube: without it the landing cube bounced,
 penetrated the floor by 6-11 mm and the fluid reached 15 m/s; with it, 0 mm and 2-4 m/s.
 PCISPH's sweeps predict the positions of the bodies' particles as they do the fluid's,
-``x_b* = x_b + dt (v_b + dt a_b(p))`` (:meth:`sphkit.core.methods.BoundaryCoupling.
+``x_b* = x_b + dt (v_b + dt a_b(p))`` (:meth:`sphkit.core.coupling.BoundaryCoupling.
 displacement`), so that its predicted densities see the bodies give way.
 
-PBF moves positions and is not coupled (a scene with a dynamic body and PBF is rejected; the
-fluid's force on kinematic bodies is reported as 0 with PBF, which has no pressure
-acceleration).
+PBF (Macklin & Mueller 2013, :mod:`sphkit.pressure.pbf`) moves positions, so its boundary share
+is not a field times the step's gradients: each sweep corrects fluid particle i by ``dx_i<-b =
+lambda_i V_b grad W(x*_i - x_b)`` at its predicted position x* (density maps place their virtual
+particles anew for x* in every sweep). As SPlisHSPlasH's ``TimeStepPBF`` (``addForce`` of
+``m_i dx / dt^2`` on the boundary neighbour in its position solve), the body of b takes ``-m_i
+dx_i<-b / dt^2`` at x_b, pair by pair and summed over the sweeps
+(:meth:`FluidCoupling.pair_reaction`, with the ``body`` numbers that
+:meth:`sphkit.core.coupling.BoundaryCoupling.boundary_at` returns beside the neighbours), as
+:attr:`sphkit.core.methods.BoundaryReaction.forces`; kinematic bodies report it too. The
+coupling is weak (the bodies keep their step-start pose through the solve, as in SPlisHSPlasH):
+:meth:`response` is not used. Momentum is conserved to round-off; angular momentum is not kept
+exactly by PBF's own pairs either (see :mod:`sphkit.pressure.pbf`). Without strong coupling a
+heavy body landing through water is thrown when the film under it is squeezed (the squeezed
+particles take their whole correction in one step against a body that does not yield, and the
+body their reaction): a 2D square of density 2000 blew up at landing with every boundary
+model (validation/README.md, "PBF with dynamic bodies"); floating and rising bodies are fine.
 Viscous boundary forces are not transferred to bodies.
 
 A landing body must reach the pressure solves with the velocity the step will give it, as the
@@ -110,6 +123,7 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import BoundaryReaction, MovingBoundary
+from sphkit.core.neighbors import NeighborList
 from sphkit.core.pairs import point, separation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
@@ -141,7 +155,9 @@ def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid
     ``F_b = sum_i m_i kf_i (1 + use_mirror_i m_b) V_b grad_i W_ib`` (the negative of the
     boundary share of ``m_i a_i``; ``use_mirror`` (N,) per fluid particle);
     ``out[chunk, body, 0:3]`` force, ``3:6`` torque, summed over chunks of fluid particles by
-    the caller (no write races)."""
+    the caller (no write races). ``bmirror`` is not read where ``use_mirror`` is 0; x may be
+    predicted positions (PBF's sweeps, boundary neighbours of
+    :meth:`~sphkit.core.coupling.BoundaryCoupling.boundary_at` with their ``body``)."""
     n = x.shape[1]
     dim = x.shape[0]
     out[:] = 0.0
@@ -156,7 +172,9 @@ def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid
                 if k < 0:
                     continue
                 d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
-                s = fi * (1.0 + use_mirror[i] * bmirror[b]) * bV[b] * kernel_dw(kid, r, h, dim)
+                um = use_mirror[i]
+                mir = 1.0 + um * bmirror[b] if um != 0.0 else 1.0
+                s = fi * mir * bV[b] * kernel_dw(kid, r, h, dim)
                 _add_force(out, ch, k, bx, b, c, dim, s * d0, s * d1, s * d2)
 
 
@@ -221,6 +239,11 @@ class FluidCoupling(MovingBoundary):
         """Whether a body is dynamic: its particles yield to the fluid's pressure."""
         return any(b.dynamic for b in self.bodies)
 
+    @property
+    def reacts(self) -> bool:
+        """Whether there are bodies (kinematic or dynamic) to take the fluid's reaction."""
+        return bool(self.bodies)
+
     def yielding(self, state: SimState) -> np.ndarray:
         """The boundary particles (N_b,) of dynamic bodies."""
         dynamic = np.array([False] + [b.dynamic for b in self.bodies])
@@ -237,6 +260,11 @@ class FluidCoupling(MovingBoundary):
                 b.force = np.zeros(3)
                 b.torque = np.zeros(3)
             return
+        if reaction.forces is not None:  # summed pair by pair inside the solve (PBF)
+            for k, b in enumerate(self.bodies):
+                b.force = np.array(reaction.forces[k, :3], dtype=float)
+                b.torque = np.array(reaction.forces[k, 3:], dtype=float)
+            return
         f, bd = state.fluid, state.boundary
         nb = len(self.bodies)
         nchunk = max(1, min(64, f.n // 256))
@@ -251,6 +279,24 @@ class FluidCoupling(MovingBoundary):
         for k, b in enumerate(self.bodies):
             b.force = tot[k, :3].copy()
             b.torque = tot[k, 3:].copy()
+
+    def pair_reaction(self, state: SimState, k: np.ndarray, x: np.ndarray, bx: np.ndarray,
+                      bV: np.ndarray, lists: NeighborList, body: np.ndarray
+                      ) -> np.ndarray | None:
+        """Force and torque (bodies, 6) about this step's centres of the boundary share
+        ``a_i<-b = -k_i V_b grad W(x_i - x_b)`` at the fluid positions x and the boundary
+        neighbours ``(bx, bV, lists, body)`` (:meth:`sphkit.core.methods.MovingBoundary.
+        pair_reaction`: ``F_b = m_i k_i V_b grad W``, pair by pair, torque at x_b); None
+        without bodies. PBF sums it over its sweeps (module docstring, "PBF")."""
+        if not self.bodies:
+            return None
+        f = state.fluid
+        nchunk = max(1, min(64, f.n // 256))
+        out = np.empty((nchunk, len(self.bodies), 6))
+        _reaction(np.ascontiguousarray(x), f["m"], np.ascontiguousarray(k), lists.offsets,
+                  lists.indices, bx, bV, bV, np.zeros(f.n), body, self._c, state.h, state.kid,
+                  nchunk, out)
+        return out.sum(axis=0)
 
     def response(self, k: np.ndarray, gwb: np.ndarray) -> np.ndarray:
         """Strong coupling (the state's moving boundary): the accelerations (3, N_b) of
