@@ -66,6 +66,7 @@ class BoundaryCoupling:
         self.moving = moving
         self.model = model
         self._still = np.zeros((0, 0))
+        self._no_body: np.ndarray | None = None  # the body numbers of a boundary without bodies
 
     def boundary_at(self, state: SimState, dx: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray]:
@@ -78,8 +79,11 @@ class BoundaryCoupling:
             b = state.boundary
             if "rigid_body" in b.specs and b["rigid_body"].shape[0] == b.n:
                 body = b["rigid_body"]
-            else:
-                body = arrays.zeros(b.n, np.int64, like=b["x"])
+            else:  # no bodies: one array of zeros, kept across the solvers' sweeps
+                if self._no_body is None or self._no_body.shape[0] != b.n \
+                        or device_of(self._no_body) != device_of(b["x"]):
+                    self._no_body = arrays.zeros(b.n, np.int64, like=b["x"])
+                body = self._no_body
             return b["x"], b["V"], state.nl_fb, body
         return at
 
