@@ -70,22 +70,26 @@ class BoundaryCoupling:
 
     def boundary_at(self, state: SimState, dx: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray]:
-        """The boundary neighbours ``(x_b, V_b, lists, body)`` for the fluid displaced by
-        ``dx`` (the boundary model's :meth:`BoundaryModel.boundary_at`; the step's own where
-        they do not depend on the fluid positions; ``body``: the boundary field
-        ``rigid_body``, zeros where a state has none)."""
+        """The boundary neighbours ``(x_b, V_b, lists, body)`` of a solve's predicted fluid
+        positions ``x + dx`` (PCISPH's prediction, PBF's sweeps): the boundary model's
+        :meth:`BoundaryModel.boundary_at` where it places them anew (density maps); else the
+        step's moved along with the fluid, :meth:`BoundaryModel.following` (volume maps' virtual
+        particles slide along the wall); else the step's own (boundary particles). ``body``:
+        the boundary field ``rigid_body`` of the step's, zeros where a state has none."""
         at = self.model.boundary_at(state, dx) if self.model is not None else None
-        if at is None:
-            b = state.boundary
-            if "rigid_body" in b.specs and b["rigid_body"].shape[0] == b.n:
-                body = b["rigid_body"]
-            else:  # no bodies: one array of zeros, kept across the solvers' sweeps
-                if self._no_body is None or self._no_body.shape[0] != b.n \
-                        or device_of(self._no_body) != device_of(b["x"]):
-                    self._no_body = arrays.zeros(b.n, np.int64, like=b["x"])
-                body = self._no_body
-            return b["x"], b["V"], state.nl_fb, body
-        return at
+        if at is not None:
+            return at
+        b = state.boundary
+        moved = self.model.following(state, dx) if self.model is not None else None
+        bx, bV, lists = moved if moved is not None else (b["x"], b["V"], state.nl_fb)
+        if "rigid_body" in b.specs and b["rigid_body"].shape[0] == b.n:
+            body = b["rigid_body"]
+        else:  # no bodies: one array of zeros, kept across the solvers' sweeps
+            if self._no_body is None or self._no_body.shape[0] != b.n \
+                    or device_of(self._no_body) != device_of(b["x"]):
+                self._no_body = arrays.zeros(b.n, np.int64, like=b["x"])
+            body = self._no_body
+        return bx, bV, lists, body
 
     @property
     def reacts(self) -> bool:
@@ -100,15 +104,6 @@ class BoundaryCoupling:
         if self.moving is None:
             return None
         return self.moving.pair_reaction(state, k, x, bx, bV, lists, body)
-
-    def following(self, state: SimState, dx: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray, NeighborList]:
-        """The step's boundary neighbours moved with the fluid's displacement ``dx``
-        (:meth:`BoundaryModel.following`; the step's own where a model keeps them fixed)."""
-        at = self.model.following(state, dx) if self.model is not None else None
-        if at is None:
-            return state.boundary["x"], state.boundary["V"], state.nl_fb
-        return at
 
     # -- boundary pressure ----------------------------------------------------------------------
     def mirror(self, state: SimState, diagonal: bool = False) -> np.ndarray:
@@ -166,7 +161,7 @@ class BoundaryCoupling:
         otherwise, takes the one-sided term of the PPE solvers (:mod:`sphkit.pressure.wcsph`).
         Moving bodies run on the CPU only (``scene.checks``)."""
         b = state.boundary
-        if not b.n or not getattr(self.moving, "bodies", None):
+        if not b.n or not self.reacts:
             return None
         use = (b["rigid_body"] > 0) & (b["pressure_mirror"] == 0.0)
         return use if use.any() else None

@@ -15,8 +15,9 @@ Per step, with ``a_ext`` = gravity + non-pressure accelerations already in ``sta
      place their virtual particles x_b for x* in every sweep, as SPlisHSPlasH's
      ``TimeStepPBF::pressureSolveIteration`` queries its maps (``state.coupling.boundary_at``);
      volume maps keep the step's virtual particles (see ``Bender2019.boundary_at``), moved
-     along the wall with their fluid particle's displacement ``x* - x`` (``state.coupling.
-     following``, as PCISPH's prediction). Held fixed instead, a virtual particle left behind
+     along the wall with their fluid particle's displacement ``x* - x`` (``Bender2019.
+     following``, through the same ``state.coupling.boundary_at``, as PCISPH's prediction).
+     Held fixed instead, a virtual particle left behind
      by a fluid particle sliding along a wall pushed it along the wall as well: in a 2D tank
      at rest (r = 5 mm, volume maps) the fluid at the side walls reached 2-4.6 m/s within
      0.5 s; sliding, 0.2-0.37 m/s (validation/README.md, "PBF with dynamic bodies");
@@ -228,9 +229,8 @@ class PBF(PressureSolver):
         inv_dt2 = -1.0 / (dt * dt)
 
         def sweep(_k: int) -> tuple[float, float]:
-            bx, bV, nb, body = coupling.boundary_at(state, dx)  # density maps: queried at x*
-            if bx is state.boundary["x"]:  # volume maps: the step's slide along the wall
-                bx, bV, nb = coupling.following(state, dx)
+            # density maps queried at x*, volume maps' virtual particles slid along the wall
+            bx, bV, nb, body = coupling.boundary_at(state, dx)
             avg, mx = constraint_lambda(x, dx, V, target, nl.offsets, nl.indices, bx, bV,
                                         nb.offsets, nb.indices, state.h, state.kid,
                                         state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat)

@@ -278,11 +278,10 @@ class PCISPH(StepBounded, PressureSolver):
 
         def sweep(_k: int) -> tuple[float, float]:
             launch(predict_body, n, v, a, ap, float(dt), int(state.dim), dx)
-            # density maps are queried at x* (their lists), with or without yielding bodies;
-            # the step's boundary particles take the bodies' predicted displacement
+            # density maps are queried at x* (their lists), with or without yielding bodies,
+            # volume maps' virtual particles slide along the wall; the step's boundary
+            # particles take the bodies' predicted displacement
             bx, bV, nbp, _ = coupling.boundary_at(state, dx)
-            if bx is b["x"]:  # volume maps: the step's virtual particles slide along the wall
-                bx, bV, nbp = coupling.following(state, dx)
             bd = bdx[0] if bx is b["x"] else still
             density_at(x, dx, rest.mu, nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
