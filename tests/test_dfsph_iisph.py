@@ -209,6 +209,33 @@ def test_iteration_limit_is_a_logged_warning(caplog: pytest.LogCaptureFixture) -
     assert t.step_bound.value == bound
 
 
+def test_cfl_with_iteration_control(tmp_path) -> None:
+    """``time.iteration_control`` (SPlisHSPlasH's cflMethod 2): each step is the smaller of
+    the CFL step of the velocities it starts from and the last step times 0.9 (more than 10
+    iterations), 1.1 (fewer than 5) or 1; the rule is active (it, not the CFL step, sets the
+    step) and goes through a checkpoint bit for bit. Exact comparisons up to one rounding of
+    the float products (rtol 1e-15)."""
+    from _restart import continued_from_checkpoint
+
+    from sphkit.core.timestep import cfl_time_step
+
+    sc = _column_scene("dfsph", 2).model_copy(deep=True)
+    tc = sc.configuration.time
+    tc.iteration_control, tc.dt = True, 0.002
+    sim = Simulation(sc)
+    steps = [sim.step() for _ in range(12)]
+    active = 0
+    for a, b in zip(steps, steps[1:], strict=False):
+        cfl = cfl_time_step(a.max_velocity, sc.configuration.particle_radius, tc.cfl_factor,
+                            tc.dt_min, tc.dt_max)
+        factor = 0.9 if a.iterations > 10 else 1.1 if a.iterations < 5 else 1.0
+        rule = max(factor * a.dt, tc.dt_min)
+        assert b.dt == pytest.approx(min(cfl, rule), rel=1e-15), (a, b)
+        active += rule < cfl
+    assert active >= 3, [(s.dt, s.iterations) for s in steps]
+    continued_from_checkpoint(sim, tmp_path, 4)
+
+
 def test_iisph_step_bound_rule_and_checkpoint() -> None:
     """IISPH's adaptive step bound (:class:`sphkit.core.solver.StepBound`, IISPH's constants),
     driven by hand, no simulation: absent while solves converge; 0.8 times the step after a

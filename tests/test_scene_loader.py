@@ -441,11 +441,14 @@ def test_splishsplash_solver_flat_keys_and_unknown_block_keys(sph_dir: Path) -> 
     assert (p.max_iterations_v, p.divergence_solver) == (10, False)
 
 
-def test_splishsplash_cfl_with_iteration_control_warns_for_iterative_solvers(
-        sph_dir: Path) -> None:
-    with pytest.warns(UserWarning, match=r"cflMethod: 2 .* read as 1"):
+def test_splishsplash_cfl_with_iteration_control(sph_dir: Path) -> None:
+    """cflMethod 2 is read as the CFL step with iteration control (no warning); 1 without."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         scene = from_splishsplash(_solver_scene(3, cflMethod=2), sph_dir / "dam.json")
-    assert scene.configuration.time.cfl is True
+    assert scene.configuration.time.cfl and scene.configuration.time.iteration_control
+    scene = from_splishsplash(_solver_scene(3, cflMethod=1), sph_dir / "dam.json")
+    assert scene.configuration.time.cfl and not scene.configuration.time.iteration_control
 
 
 def test_benchmark_scenes_share_their_settings() -> None:

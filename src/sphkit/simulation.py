@@ -55,6 +55,7 @@ from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats
 from sphkit.core.timestep import (
     cfl_time_step,
+    iteration_controlled_step,
     max_speed,
     nonfinite_count,
     outside_count,
@@ -146,6 +147,9 @@ class Simulation:
         self.time = 0.0
         self.step_count = 0
         self.dt = self.scene.configuration.time.dt
+        #: the last step before a frame's landing cut it: the "last step" of
+        #: time.iteration_control's rule (SPlisHSPlasH's cflMethod 2)
+        self._dt_control = self.dt
         self.last: StepStats | None = None
         self.last_solver: SolverStats | None = None
         self._frame = -1
@@ -198,7 +202,7 @@ class Simulation:
         scene's first time step and no statistics of a previous step."""
         self.time = 0.0
         self.step_count = 0
-        self.dt = self.scene.configuration.time.dt
+        self.dt = self._dt_control = self.scene.configuration.time.dt
         self.last = None
         self.last_solver = None
         self._frame = -1
@@ -218,6 +222,7 @@ class Simulation:
     def checkpoint_state(self) -> dict:
         """The clock and the state of components outside the particle fields (JSON-ready)."""
         return {"time": self.time, "step_count": self.step_count, "dt": self.dt,
+                "dt_control": self._dt_control,
                 "frame": self._frame, "last": None if self.last is None else self.last.as_dict(),
                 "emitters": [em.state() for em in self.emitters],
                 "empty_at_init": self._empty_at_init, "rigid_bodies": self.rigid.state(),
@@ -277,6 +282,7 @@ class Simulation:
         self.time = float(s["time"])
         self.step_count = int(s["step_count"])
         self.dt = float(s["dt"])
+        self._dt_control = float(s.get("dt_control", self.dt))  # older checkpoints: the step
         self._frame = int(s["frame"])
         st.time, st.step = self.time, self.step_count
         self.last = None if s.get("last") is None else StepStats(**s["last"])
@@ -393,11 +399,15 @@ class Simulation:
         dt = cfl_time_step(vmax, st.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
         if self.step_count == 0:  # a run starts with the scene's initial step (timeStepSize)
             dt = min(dt, tc.dt)
+        elif tc.iteration_control and self.last is not None:
+            dt = min(dt, iteration_controlled_step(self._dt_control, self.last.iterations,
+                                                   tc.dt_min))
         dt = min(dt, self.pressure.max_time_step(st))
         for solid in self.solids:  # an explicit elasticity's own bound
             dt = min(dt, solid.max_time_step(st))
         for force in self.forces:  # an explicit viscosity's diffusion bound
             dt = min(dt, force.max_time_step(st))
+        self._dt_control = float(dt)  # the step before a frame's landing cuts it
         return float(dt)
 
     def step(self, land_at: float | None = None) -> StepStats:

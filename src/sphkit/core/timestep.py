@@ -7,6 +7,10 @@
   ``[dt_min, dt_max]``. SPlisHSPlasH's ``Simulation::updateTimeStepSizeCFL`` takes ``|v_i + dt
   a_i|`` with the previous step's dt and accelerations; :func:`max_speed` computes that form too
   when given ``a``.
+* CFL with iteration control (SPlisHSPlasH's ``cflMethod`` 2, ``Simulation::
+  updateTimeStepSize``; ``configuration.time.iteration_control``): the last step times 0.9
+  after a pressure solve of more than 10 iterations, times 1.1 after one of fewer than 5, else
+  the last step, and never above the CFL step (:func:`iteration_controlled_step`).
 * Acoustic limit for state-equation solvers (Becker & Teschner 2007; Monaghan 1992):
   ``dt <= 0.4 h / c_s``.
 """
@@ -157,3 +161,20 @@ def cfl_time_step(vmax: float, r: float, factor: float, dt_min: float, dt_max: f
     if vmax <= 1e-12:
         return dt_max
     return float(np.clip(factor * 0.4 * 2.0 * r / vmax, dt_min, dt_max))
+
+
+#: SPlisHSPlasH's cflMethod 2: a solve of more than ITERATIONS_HIGH iterations shrinks the next
+#: step by SHRINK, one of fewer than ITERATIONS_LOW grows it by GROW (Simulation.cpp)
+ITERATIONS_HIGH, ITERATIONS_LOW, SHRINK, GROW = 10, 5, 0.9, 1.1
+
+
+def iteration_controlled_step(last: float, iterations: int, dt_min: float) -> float:
+    """The step after one of ``last`` [s] whose pressure solve took ``iterations``: ``last``
+    times 0.9 above 10 iterations, times 1.1 below 5, else ``last``; at least ``dt_min``
+    (SPlisHSPlasH lets the step shrink without a floor; the caller takes the smaller of this
+    and the CFL step)."""
+    if iterations > ITERATIONS_HIGH:
+        last *= SHRINK
+    elif iterations < ITERATIONS_LOW:
+        last *= GROW
+    return max(last, dt_min)

@@ -74,11 +74,21 @@ class TimeConfig(_Model):
     )
     dt_min: float = Field(1e-5, gt=0, description="lower bound of the CFL time step [s]")
     dt_max: float = Field(0.005, gt=0, description="upper bound of the CFL time step [s]")
+    iteration_control: bool = Field(
+        False,
+        description="with cfl: also adapt the step to the pressure solver's iterations, as "
+        "SPlisHSPlasH's cflMethod 2: the last step times 0.9 after a solve of more than 10 "
+        "iterations, times 1.1 after one of fewer than 5, else kept, and never above the CFL "
+        "step (nor below dt_min)",
+    )
 
     @model_validator(mode="after")
     def _bounds(self) -> TimeConfig:
         if self.dt_min > self.dt_max:
             raise ValueError(f"dt_min ({self.dt_min}) must not exceed dt_max ({self.dt_max})")
+        if self.iteration_control and not self.cfl:
+            raise ValueError("iteration_control: true adapts the CFL step; expected cfl: true "
+                             "with it (cfl: false is the fixed step time.dt)")
         return self
 
 

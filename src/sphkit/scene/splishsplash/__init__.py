@@ -38,10 +38,12 @@ objects):
 ``particleRadius``          0.025 m
 ``gravitation``             (0, -9.81, 0) m/s^2
 ``timeStepSize``            0.001 s (initial step; the fixed step when ``cflMethod`` is 0)
-``cflMethod``               1 (0: fixed step, 1: CFL, 2: CFL with iteration control, read
-                            as 1 with a warning for the iterative solvers: SPlisHSPlasH also
-                            shrinks the step by 10 % above 10 iterations and grows it by 10 %
-                            below 5, which sphkit does not do)
+``cflMethod``               1 (0: fixed step, 1: CFL, 2: CFL with iteration control,
+                            ``configuration.time.iteration_control``: the last step shrunk by
+                            10 % after more than 10 pressure iterations, grown by 10 % after
+                            fewer than 5, never above the CFL step; WCSPH reports no
+                            iterations, so its step grows by at most 10 % a step, as
+                            SPlisHSPlasH's)
 ``cflFactor``               0.5
 ``cflMinTimeStepSize``      1e-4 s (hard-coded in older versions)
 ``cflMaxTimeStepSize``      0.005 s

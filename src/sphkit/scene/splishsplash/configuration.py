@@ -103,12 +103,14 @@ def configuration(
         "cfl_factor": rd.num(cfg, "cflFactor", w, 0.5, positive=True),
         "dt_min": rd.num(cfg, "cflMinTimeStepSize", w, 1e-4, positive=True),
         "dt_max": rd.num(cfg, "cflMaxTimeStepSize", w, 0.005, positive=True),
+        "iteration_control": cfl_method == 2,
     }
     rd.origin.update({
         "configuration.time.dt": f"{w}.timeStepSize",
         "configuration.time.cfl_factor": f"{w}.cflFactor",
         "configuration.time.dt_min": f"{w}.cflMinTimeStepSize",
         "configuration.time.dt_max": f"{w}.cflMaxTimeStepSize",
+        "configuration.time.iteration_control": f"{w}.cflMethod",
         "configuration.time.until": f"{w}.stopAt",
         "configuration.time": f"{w}.cflMinTimeStepSize/cflMaxTimeStepSize",
         "configuration.particle_radius": f"{w}.particleRadius",
@@ -139,11 +141,6 @@ def configuration(
         pressure = wcsph(rd, cfg, cfl_method)
     else:
         pressure = iterative_solver(rd, cfg, method)
-        if cfl_method == 2:
-            rd.notes.append(
-                f"{w}.cflMethod: 2 (CFL with iteration control) is read as 1 (CFL): sphkit "
-                "does not shrink or grow the step with the pressure solver's iteration count"
-            )
 
     configuration: dict[str, Any] = {
         "dim": dim,
