@@ -333,23 +333,33 @@ def test_rigid_scene_errors(tmp_path: Path) -> None:
 
 def test_splishsplash_dynamic_rigid_body(tmp_path: Path) -> None:
     """SPlisHSPlasH RigidBodies: isDynamic with PBD's density and friction become a dynamic
-    mesh; the mass is density times the closed mesh's volume."""
+    mesh; the mass is density times the closed mesh's volume; PBD's initial velocity and
+    angular velocity start the body (DoubleDamBreakWithSphere.json's sphere); a static body's
+    are ignored with a note, as SPlisHSPlasH does not move it."""
     from sphkit.scene.splishsplash import from_splishsplash
 
     _box_file(tmp_path, [0.2, 0.1, 0.2], "body.obj")
+    _box_file(tmp_path, [0.1, 0.1, 0.1], "post.obj")
     data = {
         "Configuration": {"particleRadius": 0.0125, "simulationMethod": 4,
                           "boundaryHandlingMethod": 0, "gravitation": [0, -9.81, 0]},
         "Materials": [{"id": "Fluid", "density0": 1000}],
         "RigidBodies": [{"geometryFile": "body.obj", "translation": [0.5, 0.5, 0.5],
-                         "isDynamic": True, "density": 700, "friction": 0.2}],
+                         "isDynamic": True, "density": 700, "friction": 0.2,
+                         "velocity": [1, 0, 0.5], "angularVelocity": [0, 2, 0]},
+                        {"geometryFile": "post.obj", "translation": [1.5, 0.5, 0.5],
+                         "velocity": [0, 1, 0]}],
         "FluidBlocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}],
     }
-    scene = from_splishsplash(data, tmp_path / "scene.json")
+    with pytest.warns(UserWarning, match=r"RigidBodies\[1\]\.velocity.*static body"):
+        scene = from_splishsplash(data, tmp_path / "scene.json")
     mb = scene.meshes[0]
     assert (mb.dynamic, mb.density, mb.friction) == (True, 700.0, 0.2)
+    assert (list(mb.velocity), list(mb.angular_velocity)) == ([1, 0, 0.5], [0, 2, 0])
+    assert scene.meshes[1].velocity is None and not scene.meshes[1].dynamic
     sim = Simulation(scene)
     body = sim.rigid.bodies[0]
+    assert np.array_equal(body.v, [1, 0, 0.5]) and np.array_equal(body.omega, [0, 2, 0])
     assert body.mass == pytest.approx(700.0 * 0.2 * 0.1 * 0.2, rel=1e-9)
     assert np.allclose(body.c, [0.5, 0.5, 0.5])
     # inertia tensor of a solid box about its centre: m/12 (b^2 + c^2) on the diagonal

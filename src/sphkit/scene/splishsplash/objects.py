@@ -279,7 +279,7 @@ def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]],
         known = {
             "geometryFile", "particleFile", "translation", "rotationAxis", "rotationAngle",
             "scale", "isDynamic", "isAnimated", "mapInvert", "mapThickness", "mapResolution",
-            "mapFile",
+            "mapFile", "velocity", "angularVelocity",
         }
         rd.collect_unknown(rb, w, known, _RIGID_QUIET)
         dynamic = rd.flag(rb, "isDynamic", w, False)
@@ -347,12 +347,24 @@ def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]],
             "map_thickness": rd.num(rb, "mapThickness", w, 0.0),
             "map_resolution": res,
         })
+        # PositionBasedDynamics' initial velocity and angular velocity (its scene loader's
+        # "velocity", "angularVelocity"; zero by default) move only dynamic bodies
+        motion = {key: rd.vec3(rb, key, w, [0.0, 0.0, 0.0])
+                  for key in ("velocity", "angularVelocity")}
         if dynamic:  # PositionBasedDynamics' density and friction apply to sphkit's bodies
             out[-1].update(dynamic=True,
                            density=rd.num(rb, "density", w, 1000.0, positive=True),
                            friction=rd.num(rb, "friction", w, 0.5, nonneg=True))
             rd.origin[f"meshes[{n}].density"] = f"{w}.density"
             rd.origin[f"meshes[{n}].friction"] = f"{w}.friction"
+            for key, field in (("velocity", "velocity"), ("angularVelocity", "angular_velocity")):
+                if any(motion[key]):
+                    out[-1][field] = motion[key]
+                    rd.origin[f"meshes[{n}].{field}"] = f"{w}.{key}"
+        elif any(any(u) for u in motion.values()):
+            rd.notes.append(
+                f"{w}.velocity/angularVelocity: a static body (isDynamic false) does not move, "
+                "in SPlisHSPlasH either; ignored")
     rd.origin["meshes"] = "RigidBodies"
     return out
 
