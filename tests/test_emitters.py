@@ -152,3 +152,32 @@ def test_splishsplash_emitters_translate() -> None:
     with pytest.raises(Exception, match=r"Emitters\[0\]\.type"):
         load_scene({"Configuration": {"boundaryHandlingMethod": 0},
                     "Emitters": [{"type": 3}]})
+
+
+def test_reuse_box_recycles_particles() -> None:
+    """``reuse_box`` (SPlisHSPlasH's emitterReuseParticles): a 2D emitter shooting along +x at
+    1 m/s without gravity, box x in [-0.1, 0.2]. A layer leaves every 2r / v = 0.04 s and
+    crosses the box in 0.2 s, so about 5 layers are inside it and at most one waits outside
+    (it is taken by the next layer, 0.04 s later): the set holds at most 7 layers while 15 are
+    emitted in 0.6 s, the ids stay the ones handed out (no new ids once particles are reused),
+    and no particle gets further than a layer period's travel (0.04 m) plus one step past the
+    box. The SPlisHSPlasH translation carries the material's box to its emitters."""
+    box = {"min": [-0.1, -1.0], "max": [0.2, 1.0]}
+    sim = Simulation(_scene(2, {"position": [0, 0], "width": 0.2, "velocity": 1.0,
+                                "housing": False, "reuse_box": box},
+                            time={"dt": 0.002, "cfl": False}))
+    em = sim.emitters[0]
+    _run_recording(sim, 0.6)
+    assert em.count >= 15
+    assert sim.fluid.n <= 7 * em.per_layer < em.count * em.per_layer
+    ids = sim.ids
+    assert len(np.unique(ids)) == sim.fluid.n and ids.max() < sim.fluid.n
+    assert sim.positions[:, 0].max() < 0.2 + 0.04 + 0.002 * 1.0 + 1e-9
+    d = {"Configuration": {"sim2D": True, "boundaryHandlingMethod": 0, "particleRadius": 0.025},
+         "Materials": [{"id": "Fluid", "emitterReuseParticles": True,
+                        "emitterBoxMin": [-2, -1, -1], "emitterBoxMax": [2, 3, 1]}],
+         "Emitters": [{"width": 4, "height": 5, "velocity": 2}]}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        e = load_scene(d).emitters[0]
+    assert (e.reuse_box.min, e.reuse_box.max) == ([-2.0, -1.0], [2.0, 3.0])

@@ -66,6 +66,8 @@ from sphkit.core.timestep import (
 from sphkit.core.verlet import VerletLists
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world, resolve_device
+from sphkit.world.emitters import emit_all
+from sphkit.world.fluid import phase_statistics
 from sphkit.world.settle import SettlePlan
 
 
@@ -467,25 +469,14 @@ class Simulation:
                           divergence_error=ps.divergence_error,
                           rigid_bodies=[b.stats() for b in self.rigid.bodies])
         if len(self.world.materials) > 1:
-            stats.phases = self._phase_stats()
+            stats.phases = phase_statistics(self.state.fluid, self.world.materials,
+                                            self.scene.materials)
         ks = self._viscosity_stats()  # an implicit viscosity reports its solve
         if ks is not None:
             stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
         self.last, self.last_solver = stats, ps
         self._stability_guard(stats, bad)
         return stats
-
-    def _phase_stats(self) -> list[dict]:
-        """Per material of the fluid: id, particles, compression of the densities (avg, max)."""
-        f = self.state.fluid
-        out = []
-        for mat in self.world.materials:
-            sel = f["phase"] == self.scene.materials.index(mat)
-            e = np.maximum(f["rho"][sel] / f["rho0"][sel] - 1.0, 0.0)
-            out.append({"material": mat.id, "particles": int(sel.sum()),
-                        "density_error_avg": float(e.mean()) if e.size else 0.0,
-                        "density_error_max": float(e.max()) if e.size else 0.0})
-        return out
 
     def _viscosity_stats(self) -> KrylovStats | None:
         """The last solve of the material's viscosity, when it is implicit (several fluids:
@@ -500,14 +491,7 @@ class Simulation:
         if not self.emitters:
             return
         f = self.state.fluid
-        for em in self.emitters:
-            mat = self.scene.material(em.material)
-            rho0 = mat.density0
-            group = [e for e in self.emitters if e.material == em.material]
-            caps = [e.max_particles for e in group if e.max_particles is not None]
-            budget = min(caps) - sum(e.emitted for e in group) if caps else float("inf")
-            em.emit(f, self.time, rho0 * self._lattice_volume, self._lattice_volume, rho0,
-                    budget, phase=self.scene.materials.index(mat))
+        emit_all(self.emitters, f, self.time, self.scene, self._lattice_volume)
         if self._empty_at_init and f.n:  # e.g. PCISPH's template reads the fluid's volume
             self.pressure.init(self.state)
             self._empty_at_init = False

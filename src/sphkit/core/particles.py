@@ -37,6 +37,13 @@ def _append_body(i, old, new, n, w, out):
 
 
 @numba.njit(cache=True, inline="always")
+def _scatter_body(i, idx, new, w, out):
+    """Column i of ``new`` (w, M) into column ``idx[i]`` of ``out`` (w, n)."""
+    for d in range(w):
+        out[d, idx[i]] = new[d, i]
+
+
+@numba.njit(cache=True, inline="always")
 def _id_body(i, ids):
     """Particle i's id, for the largest (a reduction)."""
     return float(ids[i])
@@ -242,6 +249,33 @@ class ParticleSet:
         rng = ObjectRange(name, next_id, next_id + m)
         self.objects.append(rng)
         return rng
+
+    def renew(self, index: np.ndarray, x: np.ndarray, **values: np.ndarray | float) -> None:
+        """Start the particles at positions ``index`` (M,) afresh at ``x`` (M, dim), keeping
+        their ids: every field as :meth:`add` would set it (``values``, else the field's fill).
+        SPlisHSPlasH's emitters reuse particles so (``emitterReuseParticles``); works on the
+        device too (each field's new columns written there)."""
+        index = np.asarray(index, dtype=np.int64)
+        x = np.asarray(x, dtype=self.dtype)
+        if x.shape != (index.size, self.dim):
+            raise ValueError(f"renew: positions of shape {x.shape}; expected ({index.size}, "
+                             f"{self.dim})")
+        if index.size and (index.min() < 0 or index.max() >= self.n):
+            raise ValueError(f"renew: indices outside [0, {self.n})")
+        for fname in values:
+            if fname not in self.specs:
+                raise KeyError(f"field {fname} is not registered")
+        idx = to_device(index, self.device) if self.device != "cpu" else index
+        for fname, spec in self.specs.items():
+            if fname == "id" or not index.size:
+                continue
+            w = self._width(spec.kind)
+            new = self._new_columns(fname, x, 0, values)
+            out = self.fields[fname].reshape(w, self.n)
+            if self.device == "cpu":
+                out[:, index] = new
+            else:
+                launch(_scatter_body, index.size, idx, to_device(new, self.device), w, out)
 
     def _max_id(self) -> int:
         """The largest id of the set (n > 0; on a device one scalar read back)."""

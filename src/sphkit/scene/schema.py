@@ -477,6 +477,13 @@ class FixedBox(_Model):
         return self
 
 
+class ReuseBox(FixedBox):
+    """An axis-aligned box ``[min, max]`` [m] of an emitter: fluid particles of its material
+    found outside it are moved back into the emitter as its next layers (keeping their ids)
+    before new particles are added, and slowed by 5 % a step while they wait (SPlisHSPlasH's
+    ``emitterReuseParticles`` with ``emitterBoxMin``/``emitterBoxMax``)."""
+
+
 class ElasticityConfig(_Model):
     """Elasticity of a solid material (SPlisHSPlasH ``elasticityMethod``): ``becker2009``
     (Becker et al. 2009 corotated SPH, explicit, 1; :mod:`sphkit.solids.becker2009`),
@@ -864,6 +871,10 @@ class Emitter(_Model):
     housing: bool = Field(
         True, description="surround the emitter with boundary particles, a box (cylinder) open "
         "towards the emit direction, as SPlisHSPlasH does")
+    reuse_box: ReuseBox | None = Field(
+        None, description="particles of the emitter's material outside this box {min, max} "
+        "[m] are emitted again (same ids) before new ones are added (SPlisHSPlasH "
+        "emitterReuseParticles, emitterBoxMin/Max); the emitters of one material share them")
 
     @model_validator(mode="after")
     def _valid(self) -> Emitter:

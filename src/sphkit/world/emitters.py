@@ -28,8 +28,16 @@ scene fields (:class:`sphkit.scene.schema.Emitter`):
 
 Emitted particles get the lattice mass ``rho0 V`` of the scene's fluid blocks. ``max_particles``
 (SPlisHSPlasH's per-material ``maxEmitterParticles``) caps the particles the emitters of a
-material add (the smallest limit among them counts). Not done: SPlisHSPlasH's particle reuse
-(``emitterReuseParticles``).
+material add (the smallest limit among them counts).
+
+Reuse (``reuse_box``; SPlisHSPlasH's ``emitterReuseParticles`` with ``emitterBoxMin`` and
+``emitterBoxMax``, ``EmitterSystem::reuseParticles`` and ``Emitter::emitParticles``): before the
+emitters of a material emit, its particles outside the box are collected (in index order) and
+slowed to 0.95 of their velocity, so that those waiting do not set the CFL step; a layer takes
+them first, each started afresh at its layer position with the emitter's velocity and keeping
+its id (:meth:`sphkit.core.particles.ParticleSet.renew`), and only the rest of the layer adds
+new particles (within ``max_particles``, which counts the new ones, as SPlisHSPlasH's fluid
+model's capacity).
 """
 
 from __future__ import annotations
@@ -39,7 +47,7 @@ import math
 import numba
 import numpy as np
 
-from sphkit.backend import launch, to_device
+from sphkit.backend import launch, to_device, to_host
 from sphkit.core.particles import ParticleSet
 from sphkit.geometry.rotations import rotation_matrix
 
@@ -72,6 +80,55 @@ def animate_body(i, x, v, dim, x0, R, lo, hi, hy, hz, circle, r2, vel, dt):
         v[d, i] = vel[d]
 
 
+@numba.njit(inline="always", cache=True, fastmath=True)
+def outside_body(i, x, phase, which, lo, hi, dim, v, slow, flag):
+    """``flag[i] = 1`` and ``v_i *= slow`` where particle i (of phase ``which``; -1: any) lies
+    outside the box ``[lo, hi]``, else ``flag[i] = 0``."""
+    out = 0
+    if which < 0 or phase[i] == which:
+        for d in range(dim):
+            if x[d, i] < lo[d] or x[d, i] > hi[d]:
+                out = 1
+    flag[i] = out
+    if out:
+        for d in range(dim):
+            v[d, i] *= slow
+
+
+#: SPlisHSPlasH's factor on the velocity of particles waiting outside the reuse box, per step
+REUSE_SLOW = 0.95
+
+
+class ReusePool:
+    """The particles of one material outside its emitters' ``reuse_box`` at this emission,
+    handed to the layers in index order (:meth:`take`)."""
+
+    def __init__(self, fluid: ParticleSet, box, phase: int) -> None:
+        """Collect (and slow) the particles of material index ``phase`` (all particles when the
+        set has no ``phase`` field) outside ``box`` (``min``, ``max``)."""
+        dim, dev = fluid.dim, fluid.device
+        lo = np.full(dim, -np.inf)
+        hi = np.full(dim, np.inf)
+        k = min(dim, len(box.min))
+        lo[:k], hi[:k] = box.min[:k], box.max[:k]
+        flag = np.zeros(fluid.n, dtype=np.int8)
+        phases = fluid["phase"] if "phase" in fluid.specs else np.zeros(0, dtype=np.int64)
+        which = phase if "phase" in fluid.specs else -1
+        if fluid.n:
+            d_flag = to_device(flag, dev) if dev != "cpu" else flag
+            launch(outside_body, fluid.n, fluid["x"], phases, which, to_device(lo, dev),
+                   to_device(hi, dev), dim, fluid["v"], REUSE_SLOW, d_flag)
+            flag = to_host(d_flag) if dev != "cpu" else flag
+        self.index = np.flatnonzero(flag)
+        self.used = 0
+
+    def take(self, m: int) -> np.ndarray:
+        """The next at most ``m`` particles' indices."""
+        out = self.index[self.used:self.used + m]
+        self.used += len(out)
+        return out
+
+
 class FluidEmitter:
     """One emitter of a scene (``scene.emitters[k]``) for a simulation of dimension ``dim`` with
     particle radius ``r`` and kernel support ``h`` [m]."""
@@ -86,6 +143,7 @@ class FluidEmitter:
         self.end = math.inf if cfg.end_time is None else float(cfg.end_time)
         self.material = cfg.material
         self.max_particles = getattr(cfg, "max_particles", None)
+        self.reuse_box = getattr(cfg, "reuse_box", None)  #: SPlisHSPlasH's emitter box
         self.emitted = 0  #: particles emitted so far
         x0 = np.zeros(3)
         x0[: len(cfg.position)] = cfg.position
@@ -134,23 +192,29 @@ class FluidEmitter:
         return speed * self.direction
 
     def emit(self, fluid: ParticleSet, t: float, mass: float, volume: float, rho0: float,
-             budget: float = math.inf, phase: int = 0) -> int:
+             budget: float = math.inf, phase: int = 0, pool: ReusePool | None = None) -> int:
         """Add the layers due by time ``t`` to ``fluid`` (fields x, v, m, V0, rho, rho0 and
         ``phase``, the index of the emitter's material, where the set has it), at most
-        ``budget`` particles (a layer is cut short, later ones are skipped, as SPlisHSPlasH does
-        at ``maxEmitterParticles``); return how many particles were added."""
+        ``budget`` new particles (a layer is cut short, later ones are skipped, as SPlisHSPlasH
+        does at ``maxEmitterParticles``); a layer first takes the particles of ``pool`` (reuse,
+        module docstring). Returns how many new particles were added."""
         added = 0
         vel = self.speed * self.direction
-        extra = {"phase": phase} if "phase" in fluid.specs else {}
+        values = dict(m=mass, V0=volume, rho=rho0, rho0=rho0, v=vel[: self.dim])
+        if "phase" in fluid.specs:
+            values["phase"] = phase
         while True:
             tk = self.layer_time(self.count)
             if tk > t or tk > self.end:
                 return added
-            x = self.x0 + self.offsets + (t - tk) * vel
+            x = (self.x0 + self.offsets + (t - tk) * vel)[:, : self.dim]
+            reused = pool.take(len(x)) if pool is not None else np.zeros(0, dtype=np.int64)
+            if len(reused):
+                fluid.renew(reused, x[: len(reused)], **values)
+                x = x[len(reused):]
             take = int(min(len(x), max(budget - added, 0)))
             if take:
-                fluid.add(x[:take, : self.dim], name=self.name, m=mass, V0=volume, rho=rho0,
-                          rho0=rho0, v=vel[: self.dim], **extra)
+                fluid.add(x[:take], name=self.name, **values)
             self.count += 1
             self.emitted += take
             added += take
@@ -202,3 +266,23 @@ class FluidEmitter:
         """Restore :meth:`state`."""
         self.count = int(state["count"])
         self.emitted = int(state["emitted"])
+
+
+def emit_all(emitters: list[FluidEmitter], fluid: ParticleSet, t: float, scene,
+             lattice_volume: float) -> None:
+    """The layers of every emitter due by time ``t``: each material's emitters share its
+    particle cap (the smallest ``max_particles`` among them, counting new particles) and its
+    reuse pool (particles outside the first ``reuse_box`` among them), each particle with the
+    lattice mass ``rho0 V`` of its material."""
+    pools: dict[str, ReusePool | None] = {}
+    for em in emitters:
+        mat = scene.material(em.material)
+        group = [e for e in emitters if e.material == em.material]
+        caps = [e.max_particles for e in group if e.max_particles is not None]
+        budget = min(caps) - sum(e.emitted for e in group) if caps else math.inf
+        phase = scene.materials.index(mat)
+        if em.material not in pools:
+            box = next((e.reuse_box for e in group if e.reuse_box is not None), None)
+            pools[em.material] = None if box is None else ReusePool(fluid, box, phase)
+        em.emit(fluid, t, mat.density0 * lattice_volume, lattice_volume, mat.density0, budget,
+                phase=phase, pool=pools[em.material])

@@ -104,3 +104,17 @@ def _add_fluid_file(state: SimState, scene: Scene, meshes: SceneMeshes, k: int, 
     mat = scene.material(ff.material)
     state.fluid.add(x, name=f"fluid_files[{k}]", m=mat.density0 * vol, V0=vol, v=v,
                     rho=mat.density0, rho0=mat.density0, **_phase(state.fluid, scene, mat))
+
+
+def phase_statistics(fluid: ParticleSet, materials: list[Material],
+                     scene_materials: list[Material]) -> list[dict]:
+    """Per material of the fluid (``materials``, each found in the scene's list for its
+    ``phase`` index): id, particles, compression of the densities (avg, max)."""
+    out = []
+    for mat in materials:
+        sel = fluid["phase"] == scene_materials.index(mat)
+        e = np.maximum(fluid["rho"][sel] / fluid["rho0"][sel] - 1.0, 0.0)
+        out.append({"material": mat.id, "particles": int(sel.sum()),
+                    "density_error_avg": float(e.mean()) if e.size else 0.0,
+                    "density_error_max": float(e.max()) if e.size else 0.0})
+    return out

@@ -170,9 +170,12 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     gravity: fluid thrown up comes back) and along a periodic axis; fluid above the walls' top
     (the bounding box's, against gravity) is not checked at all: a splash thrown over the top of
     an open box flies beside it, not through a wall (validation/README.md, "Where WCSPH's
-    dam-break impact lost a particle"). None: no check (the margin is null, or the scene has no
-    static wall: only moving bodies or emitter housings)."""
+    dam-break impact lost a particle"). None: no check (the margin is null, the scene has no
+    static wall: only moving bodies or emitter housings, or an emitter reuses particles, which
+    then leave its ``reuse_box`` by design and wait outside it)."""
     margin = scene.configuration.domain_margin
+    if any(e.reuse_box is not None for e in scene.emitters):
+        return None
     dim = state.dim
     bodies = moving_meshes(scene)
     lo, hi = [], []

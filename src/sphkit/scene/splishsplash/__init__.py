@@ -104,7 +104,8 @@ objects):
                             1, ``id``, ``emitStartTime`` 0, ``emitEndTime`` (none) ->
                             ``emitters`` (:mod:`sphkit.world.emitters`); the material's
                             ``maxEmitterParticles`` (10,000) -> ``max_particles``;
-                            ``emitterReuseParticles`` is not supported (a warning)
+                            ``emitterReuseParticles`` with ``emitterBoxMin``/``emitterBoxMax``
+                            ([-1, 1] on each axis) -> ``reuse_box`` of its emitters
 ==========================  ===============================================================
 
 Older scenes (before 2.16) write solver and method parameters flat (``"stiffness"`` or

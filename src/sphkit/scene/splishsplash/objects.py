@@ -158,15 +158,17 @@ def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
     widths in particles become metres (``n 2r``); in 2D every emitter is a box of width 1,
     its line ``height`` (box) or ``width`` (circle) particles long, rotating about z; the
     material's ``maxEmitterParticles`` (10,000) becomes ``max_particles``."""
-    caps = {}
-    for m in rd.array("Materials"):
-        cap = rd.integer(m, "maxEmitterParticles", "Materials[]", 10000)
-        caps[rd.text(m, "id", "Materials[]", "Fluid")] = cap
-        if rd.flag(m, "emitterReuseParticles", "Materials[]", False):
-            rd.notes.append(
-                f"Materials[id={m.get('id', 'Fluid')!r}].emitterReuseParticles: true: "
-                "sphkit does not recycle particles that leave emitterBoxMin/emitterBoxMax; "
-                "they stay in the simulation")
+    caps, reuse = {}, {}
+    for k, m in enumerate(rd.array("Materials")):
+        w = f"Materials[{k}]"
+        mid = rd.text(m, "id", w, "Fluid")
+        caps[mid] = rd.integer(m, "maxEmitterParticles", w, 10000)
+        if rd.flag(m, "emitterReuseParticles", w, False):  # SPlisHSPlasH's default box
+            lo = rd.vec3(m, "emitterBoxMin", w, [-1.0, -1.0, -1.0])
+            hi = rd.vec3(m, "emitterBoxMax", w, [1.0, 1.0, 1.0])
+            if any(b < a for a, b in zip(lo, hi, strict=True)):
+                raise rd.error(f"{w}.emitterBoxMax", hi, f"a corner above emitterBoxMin {lo}")
+            reuse[mid] = {"min": lo[:dim], "max": hi[:dim]}
     out = []
     for k, e in enumerate(rd.array("Emitters")):
         w = f"Emitters[{k}]"
@@ -214,6 +216,9 @@ def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
                          rotation_angle=angle)
         entry["max_particles"] = caps.get(entry["material"], 10000)
         n = len(out)
+        if entry["material"] in reuse:
+            entry["reuse_box"] = reuse[entry["material"]]
+            rd.origin[f"emitters[{n}].reuse_box"] = "Materials[].emitterBoxMin/emitterBoxMax"
         rd.origin[f"emitters[{n}]"] = w
         out.append(entry)
     rd.origin["emitters"] = "Emitters"
