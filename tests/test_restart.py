@@ -167,6 +167,29 @@ def test_cli_resume_appends_frames_equal_to_uninterrupted(tmp_path: Path) -> Non
     assert [e["name"] for e in series] == [f"frame_{k:05d}.vtu" for k in range(5)]
 
 
+def test_scene_checkpoint_interval(tmp_path: Path) -> None:
+    """``output.checkpoint_every`` in the scene writes checkpoints as ``--checkpoint-every``
+    (SPlisHSPlasH's enableStateExport with stateExportFPS 50 reads as 0.02 s); the flag wins;
+    a new run into the folder removes the old run's checkpoints."""
+    from sphkit.scene.splishsplash import from_splishsplash
+
+    sph = from_splishsplash({"Configuration": {"enableStateExport": True, "stateExportFPS": 50},
+                             "FluidBlocks": [{"start": [0, 0, 0], "end": [0.1, 0.1, 0.1]}]})
+    assert sph.output.checkpoint_every == 0.02
+    scene = tmp_path / "tiny.json"
+    scene.write_text(json.dumps(dict(TINY, output=dict(TINY["output"], checkpoint_every=0.02))))
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--until", "0.03", "--quiet"]) == 0
+    first = list_checkpoints(out)
+    assert len(first) == 2  # at 0.02 s and at the end
+    assert main(["run", str(scene), "--out", str(out), "--until", "0.01", "--quiet",
+                 "--checkpoint-every", "1"]) == 0
+    # only the end (the flag's interval): a rerun into the folder removed the earlier run's
+    # checkpoints, which have more steps and would be the ones --resume picks
+    again = list_checkpoints(out)
+    assert len(again) == 1 and again[0] not in first
+
+
 def test_cli_resume_rejects_a_scene_and_a_folder_without_checkpoint(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", "--resume", str(tmp_path), "dambreak-2d"]) == 2

@@ -10,8 +10,8 @@
 ``SCENE`` is a built-in name (see ``sphkit scenes``) or a scene file (sphkit JSON/YAML or
 SPlisHSPlasH JSON; default ``dambreak-3d``). The frames and ``manifest.json`` go into the output
 folder (``--out``, else the scene's ``output.directory``, else ``out/<scene name>``; relative
-paths are relative to the current folder). Frames of an earlier run that its manifest lists are
-removed first, so that the folder holds one run. Progress goes to stderr
+paths are relative to the current folder). Frames of an earlier run that its manifest lists, and
+its checkpoints, are removed first, so that the folder holds one run. Progress goes to stderr
 (:mod:`sphkit.cli.progress`); the manifest records the statistics per frame and as run means.
 At most one frame is written per time step (``--fps`` is at most 1e6). ``--max-particles`` sets
 the particle budget the scene is checked against before anything is allocated
@@ -152,10 +152,18 @@ def _graceful_stop(stop: _StopRequest) -> Iterator[None]:
 
 
 def _remove_previous_run(out_dir: Path) -> int:
-    """Delete the files an earlier run's manifest lists in ``out_dir``; return how many."""
+    """Delete the files an earlier run's manifest lists in ``out_dir`` and its checkpoints
+    (else ``--resume`` would continue the earlier run's state, which has more steps, under the
+    new run's manifest); return how many."""
+    from sphkit.io.checkpoint import list_checkpoints
+
+    removed = 0
+    for ck in list_checkpoints(out_dir):
+        ck.unlink(missing_ok=True)
+        removed += 1
     path = out_dir / MANIFEST_NAME
     if not path.is_file():
-        return 0
+        return removed
     try:
         old = read_manifest(path)
         names = [f for rec in old.get("frames", []) for f in rec.get("files", [])]
@@ -163,8 +171,7 @@ def _remove_previous_run(out_dir: Path) -> int:
         if series:
             names.append(series)
     except (OSError, ValueError, AttributeError, TypeError):
-        return 0
-    removed = 0
+        return removed
     for name in names:
         p = Path(name)
         if not isinstance(name, str) or p.is_absolute() or len(p.parts) != 1:
@@ -197,6 +204,8 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
             scene.configuration.time.until = args.until
         if args.fps is not None:
             scene.output.fps = args.fps
+        if args.checkpoint_every is None:  # the scene's interval, unless given
+            args.checkpoint_every = scene.output.checkpoint_every
         if args.formats is not None:
             scene.output.formats = args.formats
         if args.max_particles is not None:

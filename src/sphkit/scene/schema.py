@@ -1027,6 +1027,10 @@ class OutputConfig(_Model):
         "density and pressure"
     )
     directory: str | None = Field(None, description="output folder (default: out/<scene name>)")
+    checkpoint_every: float | None = Field(
+        None, gt=0, allow_inf_nan=False,
+        description="simulated seconds between checkpoints of sphkit run (SPlisHSPlasH's "
+        "enableStateExport with 1 / stateExportFPS); None: none unless --checkpoint-every")
 
 
 class Configuration(_Model):

@@ -7,7 +7,8 @@ before 2.16), ``boundaryHandlingMethod`` the boundary model; the time step (``ti
 ``cflMethod``, ``cflFactor``, ``cflMinTimeStepSize``, ``cflMaxTimeStepSize``, ``stopAt``), the
 kernel (``kernel``, ``gradKernel``), gravity, the particle radius, z-sorting and the export
 settings (``dataExportFPS``, ``enablePartioExport``, ``enableVTKExport``,
-``particleAttributes``) map to sphkit's ``configuration`` and ``output``. Defaults and numbers:
+``particleAttributes``, ``enableStateExport`` with ``stateExportFPS`` as checkpoints) map to
+sphkit's ``configuration`` and ``output``. Defaults and numbers:
 :mod:`sphkit.scene.splishsplash`; the method tables: :mod:`sphkit.scene.splishsplash.methods`.
 """
 
@@ -43,7 +44,7 @@ _CONFIG_QUIET = {
     "renderWalls", "colorMapType", "colorField", "renderMinValue", "renderMaxValue",
     "renderMaxVelocity", "enablePartioExport", "enableVTKExport", "enableRigidBodyExport",
     "enableRigidBodyOBJExport", "enableRigidBodyPLYExport", "enableRigidBodyVTKExport",
-    "particleAttributes", "enableStateExport", "stateExportFPS", "enableAsyncExport",
+    "particleAttributes", "enableAsyncExport",
     "enableObjectSplitting",
     # the pressure solvers' blocks (the selected one is read; WCSPH's is a known field) and
     # their flat (pre-2.16) parameters
@@ -64,7 +65,8 @@ def configuration(
         "particleRadius", "sim2D", "simulationMethod", "boundaryHandlingMethod",
         "gravitation", "timeStepSize", "cflMethod", "cflFactor", "cflMinTimeStepSize",
         "cflMaxTimeStepSize", "stopAt", "kernel", "gradKernel", "WCSPH", "stiffness",
-        "exponent", "enableZSort", "stepsPerZSort", "dataExportFPS",
+        "exponent", "enableZSort", "stepsPerZSort", "dataExportFPS", "enableStateExport",
+        "stateExportFPS",
     }
     rd.collect_unknown(cfg, w, known, _CONFIG_QUIET)
 
@@ -161,6 +163,10 @@ def configuration(
     if cfg.get("dataExportFPS") is not None:
         output["fps"] = rd.num(cfg, "dataExportFPS", w, 25.0, positive=True)
         rd.origin["output.fps"] = f"{w}.dataExportFPS"
+    if rd.flag(cfg, "enableStateExport", w, False):  # SPlisHSPlasH's state files: checkpoints
+        fps = rd.num(cfg, "stateExportFPS", w, 1.0, positive=True)
+        output["checkpoint_every"] = 1.0 / fps
+        rd.origin["output.checkpoint_every"] = f"{w}.stateExportFPS"
     output.update(export(rd, cfg))
     return configuration, output
 
