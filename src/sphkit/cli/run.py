@@ -51,6 +51,7 @@ from sphkit.cli.common import (
 )
 from sphkit.cli.progress import Reporter, fmt, reporter
 from sphkit.cli.resume import CheckpointSchedule, prepare_resume
+from sphkit.io.bodies import BodyWriter, body_formats
 from sphkit.io.frames import FORMATS, MULTIPHASE_FIELDS, FrameWriter, resolve_attributes
 from sphkit.io.log import get_logger
 from sphkit.io.manifest import MANIFEST_NAME, Manifest, read_manifest, sphkit_version
@@ -166,10 +167,12 @@ def _remove_previous_run(out_dir: Path) -> int:
         return removed
     try:
         old = read_manifest(path)
-        names = [f for rec in old.get("frames", []) for f in rec.get("files", [])]
-        series = old.get("output", {}).get("series")
-        if series:
-            names.append(series)
+        names = [f for rec in old.get("frames", [])
+                 for f in [*rec.get("files", []), *rec.get("body_files", [])]]
+        for key in ("series", "body_series"):
+            series = old.get("output", {}).get(key)
+            if series:
+                names.append(series)
     except (OSError, ValueError, AttributeError, TypeError):
         return removed
     for name in names:
@@ -275,15 +278,20 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         # several fluids: every frame holds each particle's phase and rest density
         extra = MULTIPHASE_FIELDS if len(sim.world.materials) > 1 else ()
         writer = FrameWriter(out_dir, formats, sim.dim, extra_fields=extra, attributes=attributes)
+        bodies = BodyWriter.of(sim, out_dir, body_formats(formats, scene.output.body_formats))
         if resume:
             writer.resume_after(sim._frame)
+            if bodies is not None:
+                bodies.resume_after(sim._frame)
             manifest = resume.manifest(["sphkit", *argv])
         else:
+            vtk_bodies = bodies is not None and "vtk" in bodies.formats
             manifest = Manifest(
                 out_dir, scene, command=["sphkit", *argv],
                 output={"directory": str(out_dir), "formats": formats, "fps": fps,
                         "dim": sim.dim, "attributes": attributes,
-                        "series": writer.series_path.name if "vtk" in formats else None},
+                        "series": writer.series_path.name if "vtk" in formats else None,
+                        "body_series": bodies.series_path.name if vtk_bodies else None},
             )
             manifest.data["start"] = sim.world.start.to_dict()
             manifest.data["precision"] = sim.dtype.name  # also in scene.configuration
@@ -316,7 +324,9 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
 
     def on_frame(s: Any, k: int) -> None:
         files = writer.write(s, k)
-        manifest.add_frame(s, k, files, max_displacement=writer.max_displacement)
+        body_files = bodies.write(s, k) if bodies is not None else []
+        manifest.add_frame(s, k, files, max_displacement=writer.max_displacement,
+                           body_files=body_files)
         report.frame(s, k)
         rec = manifest.frames[-1]
         log.info("frame %d t=%.6g s step %d: max|v| %s m/s, dt %s s, rho err avg %s, iters %s",

@@ -317,8 +317,10 @@ class Manifest:
         return atomic_write_text(self.path, text + "\n")
 
     def add_frame(self, sim: Any, frame: int, files: Sequence[str | os.PathLike[str]],
-                  max_displacement: float | None = None) -> dict[str, Any]:
+                  max_displacement: float | None = None,
+                  body_files: Sequence[str | os.PathLike[str]] = ()) -> dict[str, Any]:
         """Record a written frame of ``sim`` and rewrite the manifest; return the record.
+        ``body_files``: the frame's rigid-body meshes (:mod:`sphkit.io.bodies`).
 
         Statistics come from ``sim.last`` (the StepStats of the last step) where a step was
         taken, else from the particles (``max_velocity``) or are null (density errors).
@@ -350,6 +352,8 @@ class Manifest:
         }
         if getattr(last, "rigid_bodies", None):  # moving bodies: fluid force, torque, pose
             record["rigid_bodies"] = last.rigid_bodies
+        if body_files:
+            record["body_files"] = [self._relative(f) for f in body_files]
         if getattr(last, "phases", None):  # several fluids: particles, density error each
             record["phases"] = last.phases
         self.data["frames"].append(_clean(record))

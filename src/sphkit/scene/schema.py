@@ -1027,6 +1027,10 @@ class OutputConfig(_Model):
         "density and pressure"
     )
     directory: str | None = Field(None, description="output folder (default: out/<scene name>)")
+    body_formats: list[Literal["vtk", "obj", "ply"]] | None = Field(
+        None, description="formats of the moving rigid bodies' meshes at each frame "
+        "(bodies_00042.vtu/.obj/.ply, sphkit.io.bodies); None: vtk beside vtk frames, ply "
+        "beside ply, obj beside bgeo; []: none (SPlisHSPlasH's enableRigidBodyExport)")
     checkpoint_every: float | None = Field(
         None, gt=0, allow_inf_nan=False,
         description="simulated seconds between checkpoints of sphkit run (SPlisHSPlasH's "

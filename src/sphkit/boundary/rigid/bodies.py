@@ -77,6 +77,13 @@ class RigidBody:
     torque: np.ndarray = field(default_factory=lambda: np.zeros(3))
     #: the last step's statistics of the joints the body takes part in (:class:`Joint.stats`)
     joints: list[dict] = field(default_factory=list)
+    #: c at t = 0, where R is the identity: a mesh vertex v of the scene is at
+    #: ``R (v - origin) + c`` (kept through checkpoints: it is the construction's)
+    origin: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.origin is None:
+            self.origin = np.array(self.c, dtype=np.float64)
 
     def world_inertia(self) -> np.ndarray:
         """``I_w = R I R^T`` [kg m^2]."""

@@ -173,13 +173,23 @@ def configuration(
 
 def export(rd: Reader, cfg: dict[str, Any]) -> dict[str, Any]:
     """``enablePartioExport`` -> format bgeo, ``enableVTKExport`` -> vtk (neither: sphkit's
-    default, vtk); ``particleAttributes`` ("velocity;density") -> ``output.attributes``."""
+    default, vtk); ``enableRigidBodyVTKExport``/``OBJExport``/``PLYExport`` (and
+    ``enableRigidBodyExport``, as OBJ) -> ``output.body_formats``; ``particleAttributes``
+    ("velocity;density") -> ``output.attributes``."""
     w = "Configuration"
     out: dict[str, Any] = {}
     formats = [f for key, f in (("enableVTKExport", "vtk"), ("enablePartioExport", "bgeo"))
                if rd.flag(cfg, key, w, False)]
     if formats:
         out["formats"] = formats
+    # the rigid bodies' meshes per frame (enableRigidBodyExport: SPlisHSPlasH's own binary
+    # format, written here as OBJ); none set: sphkit's default beside the particle formats
+    bodies = [f for key, f in (("enableRigidBodyVTKExport", "vtk"),
+                               ("enableRigidBodyOBJExport", "obj"),
+                               ("enableRigidBodyPLYExport", "ply"),
+                               ("enableRigidBodyExport", "obj")) if rd.flag(cfg, key, w, False)]
+    if bodies:
+        out["body_formats"] = list(dict.fromkeys(bodies))
     attrs = cfg.get("particleAttributes")
     if attrs is not None:
         if not isinstance(attrs, str):
