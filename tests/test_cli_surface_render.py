@@ -250,3 +250,35 @@ def test_surface_of_the_default_dam_break_output(tmp_path: Path) -> None:
         assert mesh.is_watertight and mesh.is_winding_consistent
         np.testing.assert_allclose(mesh.bounds, [[0.03, 0.03, 0.03], [0.93, 1.23, 0.63]],
                                    atol=0.015)
+
+
+@pytest.mark.skipif(not HAVE_MPL, reason="matplotlib is not installed")
+def test_previews_draw_the_rigid_bodies(tmp_path: Path) -> None:
+    """A body file of a frame (sphkit.io.bodies) is drawn: in 2D as filled triangles in the
+    xy-plane (one polygon per triangle, at the file's vertices), in 3D as a shaded mesh."""
+    import meshio
+    import trimesh
+    from matplotlib.collections import PolyCollection
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from sphkit.io.preview import PreviewRenderer, RenderSettings, load_bodies
+
+    box = trimesh.creation.box(extents=[0.2, 0.1, 0.1])
+    box.apply_translation([0.3, 0.2, 0.0])
+    meshio.write(tmp_path / "b.vtu", meshio.Mesh(box.vertices, [("triangle", box.faces)]))
+    verts, tris = load_bodies(tmp_path / "b.vtu")
+    assert np.allclose(verts, box.vertices) and np.array_equal(tris, box.faces)
+    arrays = {"position": np.array([[0.1, 0.1, 0.0]]), "velocity": np.zeros((1, 3))}
+    bounds = np.array([[0.0, 0.0, 0.0], [0.6, 0.6, 0.6]])
+    for dim, kind in ((2, PolyCollection), (3, Poly3DCollection)):
+        r = PreviewRenderer(dim, 0.01, 1, bounds, RenderSettings(color="velocity"))
+        r.draw(arrays, 0.0, bodies=(verts, tris))
+        drawn = [c for c in r.fig.axes[0].collections if type(c) is kind]
+        assert len(drawn) == 1 and len(drawn[0].get_facecolor()) in (1, len(tris))
+        if dim == 2:  # one polygon per triangle, in the xy-plane
+            paths = drawn[0].get_paths()
+            assert len(paths) == len(tris)
+            np.testing.assert_allclose(paths[0].vertices[:3], verts[tris[0]][:, :2])
+        else:  # one shaded colour per triangle
+            assert len(drawn[0].get_facecolor()) == len(tris)
+        r.close()

@@ -161,6 +161,7 @@ def _render(args: argparse.Namespace) -> int:
         bounds_of,
         choose_video,
         color_values,
+        load_bodies,
         robust_range,
         write_gif,
         write_mp4,
@@ -222,8 +223,10 @@ def _render(args: argparse.Namespace) -> int:
             k = int(rec["frame"])
             data = read_frame(frame_file(outdir, rec))
             mesh = _load_mesh(meshes[k]) if k in meshes else None
+            body_files = [outdir / f for f in rec.get("body_files", []) if (outdir / f).is_file()]
+            bodies = load_bodies(body_files[0]) if body_files else None
             try:
-                renderer.draw(data, float(rec.get("time") or 0.0), mesh)
+                renderer.draw(data, float(rec.get("time") or 0.0), mesh, bodies)
             except ValueError as e:
                 raise UsageError(str(e)) from None
             pngs.append(renderer.save_png(dest / f"frame_{k:05d}.png"))

@@ -32,6 +32,8 @@ logger = logging.getLogger("sphkit.io")
 COLOR_FIELDS = ("velocity", "pressure", "density", "phase", "stress", "displacement",
                 "object")
 VIDEO_FORMATS = ("auto", "mp4", "gif", "none")
+#: the colour of the moving rigid bodies in previews (RGB)
+BODY_COLOR = (0.6, 0.6, 0.63)
 _UNITS = {"velocity": "|v| [m/s]", "pressure": "pressure [Pa]", "density": "density [kg/m^3]",
           "phase": "phase (material index)", "stress": "von Mises stress [Pa]",
           "displacement": "|displacement| [m]", "object": "object (-1: fluid)"}
@@ -117,16 +119,25 @@ class PreviewRenderer:
         return [others[0], others[1], self.up]
 
     def draw(self, arrays: dict[str, np.ndarray], time: float,
-             mesh: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        """Draw one frame (particle arrays, or a surface mesh in 3D) at simulated ``time``."""
+             mesh: tuple[np.ndarray, np.ndarray] | None = None,
+             bodies: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Draw one frame (particle arrays, or a surface mesh in 3D) at simulated ``time``;
+        ``bodies``: the moving rigid bodies' triangles (vertices (V, 3), triangles (T, 3)) at
+        the frame's pose, drawn grey (:mod:`sphkit.io.bodies`; in 2D their outline in the
+        xy-plane)."""
         self.fig.clf()
         self._cbar = None
         if self.dim == 2:
-            self._draw_2d(arrays)
-        elif mesh is not None:
-            self._draw_mesh(*mesh)
+            ax = self._draw_2d(arrays)
+            if bodies is not None and len(bodies[1]):
+                from matplotlib.collections import PolyCollection
+
+                ax.add_collection(PolyCollection(bodies[0][:, :2][bodies[1]], zorder=3,
+                                                 facecolors=BODY_COLOR, edgecolors="none"))
         else:
-            self._draw_3d(arrays)
+            ax, order = self._draw_mesh(*mesh) if mesh is not None else self._draw_3d(arrays)
+            if bodies is not None:
+                self._add_mesh(ax, order, *bodies, np.array(BODY_COLOR))
         self.fig.suptitle(f"t = {time:.3f} s", y=0.97)
 
     def _norm(self):
@@ -135,7 +146,7 @@ class PreviewRenderer:
         lo, hi = self.s.vrange if self.s.vrange else (0.0, 1.0)
         return Normalize(vmin=lo, vmax=hi if hi > lo else lo + 1.0)
 
-    def _draw_2d(self, arrays: dict[str, np.ndarray]) -> None:
+    def _draw_2d(self, arrays: dict[str, np.ndarray]) -> Any:
         ax = self.fig.add_subplot(1, 1, 1)
         h, v = 0, 1  # 2D runs live in the xy-plane
         lo, hi = self.bounds
@@ -152,6 +163,7 @@ class PreviewRenderer:
         sc = ax.scatter(pos[:, h], pos[:, v], s=(2 * self.r * pts_per_m) ** 2, c=c,
                         cmap=self.s.cmap, norm=self._norm(), linewidths=0)
         self._cbar = self.fig.colorbar(sc, ax=ax, label=_UNITS[self.s.color], shrink=0.8)
+        return ax
 
     def _axes3d(self):
         ax = self.fig.add_subplot(1, 1, 1, projection="3d")
@@ -174,7 +186,7 @@ class PreviewRenderer:
         ax.view_init(elev=self.s.elev, azim=self.s.azim)
         return ax, order
 
-    def _draw_3d(self, arrays: dict[str, np.ndarray]) -> None:
+    def _draw_3d(self, arrays: dict[str, np.ndarray]) -> tuple[Any, list[int]]:
         ax, order = self._axes3d()
         pos = arrays["position"]
         c = color_values(arrays, self.s.color)
@@ -191,11 +203,18 @@ class PreviewRenderer:
                         cmap=self.s.cmap, norm=self._norm(), depthshade=True, linewidths=0)
         self._cbar = self.fig.colorbar(sc, ax=ax, label=_UNITS[self.s.color], shrink=0.6,
                                           pad=0.12)
+        return ax, order
 
-    def _draw_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
+    def _draw_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> tuple[Any, list[int]]:
+        ax, order = self._axes3d()
+        self._add_mesh(ax, order, vertices, triangles, np.array([0.20, 0.45, 0.85]))
+        return ax, order
+
+    def _add_mesh(self, ax: Any, order: list[int], vertices: np.ndarray,
+                  triangles: np.ndarray, base: np.ndarray) -> None:
+        """Triangles shaded by a light above and left of the viewer, in colour ``base``."""
         from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-        ax, order = self._axes3d()
         if len(triangles) == 0:
             return
         tri = vertices[:, order][triangles]
@@ -210,7 +229,6 @@ class PreviewRenderer:
         # a light above and to the left of the viewer
         light = direction(self.s.azim - 40.0, min(self.s.elev + 40.0, 85.0))
         shade = 0.15 + 0.85 * np.clip(n @ light, 0.0, 1.0)
-        base = np.array([0.20, 0.45, 0.85])
         colors = np.clip(shade[:, None] * base[None, :], 0, 1)
         coll = Poly3DCollection(tri, facecolors=colors, edgecolors="none", linewidths=0)
         ax.add_collection3d(coll)
@@ -302,3 +320,14 @@ def bounds_of(positions: Sequence[np.ndarray], pad: float) -> np.ndarray:
 def load_frame(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """A particle frame of a run (any format :func:`sphkit.io.frames.read_frame` reads)."""
     return read_frame(path)
+
+
+def load_bodies(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
+    """A rigid-body file of a frame (:mod:`sphkit.io.bodies`: .vtu, .ply or .obj) as
+    (vertices (V, 3), triangles (T, 3))."""
+    import meshio
+
+    m = meshio.read(path)
+    tri = [c.data for c in m.cells if c.type == "triangle"]
+    faces = np.concatenate(tri) if tri else np.zeros((0, 3), dtype=np.int64)
+    return np.asarray(m.points, dtype=float)[:, :3], faces
