@@ -147,7 +147,7 @@ def _settled_column(bhm: int, tmp_path: Path, r: float = 0.02, until: float = 2.
 def test_default_boundary_pressure_holds_the_column_next_to_the_walls(
         bhm: int, expected: str, tmp_path: Path) -> None:
     """A 2D column at rest, SPlisHSPlasH format and default settings (DFSPH), coarse (r = 2 cm,
-    10 rows, 156 particles), 2 s, averages over the last 1 s; Akinci walls from the box mesh
+    10 rows, 156 particles), 5 s, averages over the last 4 s; Akinci walls from the box mesh
     (default: MLS) and volume maps (default: hydrostatic wall pressure).
 
     With the mirrored boundary pressure a side wall carries none of the weight of the fluid
@@ -158,8 +158,12 @@ def test_default_boundary_pressure_holds_the_column_next_to_the_walls(
     (MLS) and -1.5 / -3.8 / -4.0 % (hydrostatic), bound here 6 %; slope 0.981 / 0.985 / 1.011
     (MLS) and 0.993 / 0.999 / 1.011 (hydrostatic), bound 3 % (the issue's 2 % plus the 1-2 %
     that single coarse columns scatter with the width and the start; validation/README.md,
-    "Boundary pressure defaults")."""
-    res = _settled_column(bhm, tmp_path)
+    "Boundary pressure defaults"). Why 4 s: one second's average of this column scatters by
+    2-4 % as its 10 rows rearrange (0.6 m, 2026-12-04, windows 1-2 / 2-3 / 3-4 / 4-5 s: MLS
+    0.975 / 0.962 / 0.963 / 0.981; volume maps, with the mirrored share at the floor corners,
+    0.970 / 1.000 / 0.996 / 0.996); over 1-5 s MLS 0.972 and volume maps 1.001 (wall -0.2 and
+    -2.2 %)."""
+    res = _settled_column(bhm, tmp_path, until=5.0, average=4.0)
     assert res["pressure"] == expected
     assert res["vmean"] < 0.1  # at rest (measured 0.001-0.03 m/s; free fall sqrt(2 g H) 3 m/s)
     assert abs(res["wall"]) < 6.0, res

@@ -49,8 +49,13 @@ corner is within reach: the interpolated distance smooths the kink (cells of abo
 0.5-0.6 where fluid rests at the 3D tank's vertical edges. With the full mirror there, the
 doubled push through a gradient the density does not have drove a circulation in the edge
 columns that kept 3D columns from coming to rest (validation/README.md, "Volume maps: the
-mirrored share at edges"). It acts in 3D only: in 2D the tank has no edge columns, and at the
-floor corners of a coarse 2D column it made the pressure slope worse (0.999 -> 0.970).
+mirrored share at edges"). In 2D it acts at the tank's floor corners: with the full mirror
+there (where the map's gradient magnitude is 0.3-0.5) converged solves reached 10-20 times the
+hydrostatic pressure in corner clusters and threw them out, so that 2D columns at r = 1 cm
+boiled or diverged at some tank widths with every solver (validation/README.md, "2D PCISPH with
+volume maps: what diverges at step 519, and main's corners across widths"); with the share all
+of them rest. (A coarse 2D column, r = 2 cm, 10 rows, settles more slowly with it: 0.97 over
+1-2 s, within 0.5 % of 1 from 3 s on.)
 
 Moving rigid bodies (paper, Sec. 5): the map of a kinematic or dynamic body is computed once in
 the body's frame and queried there, and the virtual particle goes back to the world with the

@@ -458,10 +458,8 @@ class MapBoundaryModel(BoundaryModel):
         bd = state.boundary
         nl, _bx, bV, _bv, _bbody, _bid = self._packed(state, xb, Vb, vb, mbody, into=bd)
         if bV.shape[0] and self.hydrostatic and "pressure_mirror" in bd.fields:
-            # 3D only: a 2D column at SPlisHSPlasH's coarse defaults (r = 2 cm, 10 rows)
-            # rested at a slope 0.970 with the share at its floor corners, 0.999 without
-            # (validation/README.md, "Volume maps: the mirrored share at edges")
-            share = self._mirror_shares(state, f["x"], Vb) if state.dim == 3 else None
+            # at edges (3D) and corners (2D and 3D): bender2019's docstring
+            share = self._mirror_shares(state, f["x"], Vb)
             launch(mirror_pack_body, f.n, Vb, Vb if share is None else share, share is not None,
                    mbody, nl.offsets, bd.fields["pressure_mirror"])
         state.nl_fb = nl
