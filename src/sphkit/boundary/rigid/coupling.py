@@ -58,14 +58,18 @@ particles anew for x* in every sweep). As SPlisHSPlasH's ``TimeStepPBF`` (``addF
 dx_i<-b / dt^2`` at x_b, pair by pair and summed over the sweeps
 (:meth:`FluidCoupling.pair_reaction`, with the ``body`` numbers that
 :meth:`sphkit.core.coupling.BoundaryCoupling.boundary_at` returns beside the neighbours), as
-:attr:`sphkit.core.methods.BoundaryReaction.forces`; kinematic bodies report it too. The
-coupling is weak (the bodies keep their step-start pose through the solve, as in SPlisHSPlasH):
-:meth:`response` is not used. Momentum is conserved to round-off; angular momentum is not kept
-exactly by PBF's own pairs either (see :mod:`sphkit.pressure.pbf`). Without strong coupling a
-heavy body landing through water is thrown when the film under it is squeezed (the squeezed
-particles take their whole correction in one step against a body that does not yield, and the
-body their reaction): a 2D square of density 2000 blew up at landing with every boundary
-model (validation/README.md, "PBF with dynamic bodies"); floating and rising bodies are fine.
+:attr:`sphkit.core.methods.BoundaryReaction.forces`; kinematic bodies report it too. Dynamic
+bodies are coupled strongly here as well, in the form a positional solve takes: every sweep
+places them where the reaction summed so far moves them in the step,
+:meth:`FluidCoupling.motion` (``dt (V* + dt A(F))``, with :meth:`FluidCoupling.response`'s
+accelerations and :meth:`FluidCoupling.predict`'s velocities), and the sweep's boundary
+follows (:meth:`FluidCoupling.displaced`; maps queried at the predicted poses); their
+samples also count in PBF's lambda denominator, so that a fluid particle squeezed between a
+body and a wall does not throw the body (:mod:`sphkit.pressure.pbf`). Momentum is conserved to
+round-off; angular momentum is not kept exactly by PBF's own pairs either. A heavy body landing
+through water then comes to rest on the last fluid layer (2D) or lands (3D Akinci particles
+and density maps); weakly coupled, as SPlisHSPlasH's, it was thrown (validation/README.md, "PBF:
+strong coupling and a heavy body's landing").
 Viscous boundary forces are not transferred to bodies.
 
 A landing body must reach the pressure solves with the velocity the step will give it, as the
