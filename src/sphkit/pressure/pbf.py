@@ -102,11 +102,12 @@ sample of a dynamic body therefore adds ``BODY_WEIGHT |V_b grad W_ib|^2`` to the
 as a fluid neighbour of the body's volume V_b would (the body treated as if its samples moved
 as fluid: a mass splitting, :func:`sphkit.core.projection.constraint_lambda`'s ``bw``): lambda
 stays below ``C_i / sum_b |V_b grad W_ib|^2``. This changes only the size of the sweeps' steps
-next to dynamic bodies, not the state they converge to (every ``C_i <= 0``). With it a heavy
-body landing through water comes to rest on the last fluid layer over the floor instead of
-being thrown (1.5-3 r above it; validation/README.md, "PBF: strong coupling and a heavy body's
-landing"): the single layer between two walls is at rest density in this discrete model and
-nothing drains it (:mod:`sphkit.boundary.rigid.coupling`, the last paragraph).
+next to dynamic bodies, not the state they converge to (every ``C_i <= 0``). With both, a
+heavy body landing through water is no longer thrown: it lands, or rests on the last fluid
+layer over the floor, which is at rest density between two walls in this discrete model and
+which nothing drains (:mod:`sphkit.boundary.rigid.coupling`, the last paragraph); each change
+alone still threw some landings (validation/README.md, "PBF: strong coupling and a heavy
+body's landing").
 
 With the second-order (BDF2) velocity update the corrections change the fluid's velocity by
 ``1.5 dx / dt`` in their step, so the exchange is exact only over the positions, not per step
