@@ -237,7 +237,7 @@ class FluidCoupling(MovingBoundary):
 
     bodies: list[RigidBody]
     _ab: np.ndarray | None
-    _vstar: np.ndarray  #: the bodies' predicted velocities (bodies, 6) of :meth:`predict`
+    _vstar: np.ndarray  #: the bodies' velocities (bodies, 6) of :meth:`begin_step`, :meth:`predict`
 
     @property
     def yields(self) -> bool:
@@ -389,14 +389,16 @@ class FluidCoupling(MovingBoundary):
                 acc[k, :3] = g
                 acc[k, 3:] = -(self._Iinv[k] @ np.cross(b.omega, Iw @ b.omega))
         acc = self._joint_accel(acc, dt, state.time, state.dim, homogeneous=False)
-        self._vstar = np.array([np.concatenate([b.v, b.omega]) for b in self.bodies]
-                               ).reshape(nb, 6) + dt * acc  # the bodies' V* (for motion)
+        self._vstar = self._vstar + dt * acc  # the bodies' V* (for motion)
         bd = state.boundary
         bd["v"] += dt * self._boundary_accel(bd, acc)
 
     def begin_step(self, state: SimState) -> None:
-        """Cache this step's centres and world inverse inertias for :meth:`response`."""
+        """Cache this step's centres and world inverse inertias for :meth:`response`, and the
+        bodies' velocities as :meth:`motion`'s ``V*`` until :meth:`predict` advances them."""
         self._state = state
         self._c = np.array([b.c for b in self.bodies])
+        self._vstar = np.array([np.concatenate([b.v, b.omega]) for b in self.bodies]
+                               ).reshape(len(self.bodies), 6)
         self._Iinv = [np.linalg.inv(b.world_inertia()) if b.dynamic else np.zeros((3, 3))
                       for b in self.bodies]
