@@ -218,7 +218,8 @@ class Bender2019(MapBoundaryModel):
         """:data:`MOVING_INSET`, in 2D and 3D."""
         return MOVING_INSET
 
-    def boundary_at(self, state: SimState, dx: np.ndarray) -> None:
+    def boundary_at(self, state: SimState, dx: np.ndarray,
+                    motion: np.ndarray | None = None) -> None:
         """None: the solvers keep the step's virtual particles at predicted positions. A
         volume-map particle placed anew at x* moves with the fluid particle (at least 2r off,
         along the normal) and carries V_b(x*), so the density it gives changes by grad V_b

@@ -83,7 +83,7 @@ from sphkit.geometry.grids import (
     map_query_point,
     serendipity_mask,
 )
-from sphkit.geometry.rotations import rotate, rotate_t
+from sphkit.geometry.rotations import rotate, rotate_t, rotation_exp
 from sphkit.geometry.sdf import SignedDistance, sdf_lattice_cached
 
 _JIT = dict(cache=True, fastmath=True)
@@ -464,19 +464,21 @@ class MapBoundaryModel(BoundaryModel):
                    mbody, nl.offsets, bd.fields["pressure_mirror"])
         state.nl_fb = nl
 
-    def boundary_at(self, state: SimState, dx: np.ndarray
+    def boundary_at(self, state: SimState, dx: np.ndarray, motion: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray] | None:
         """The virtual particles ``(x_b, V_b)``, their lists and their bodies' numbers for the
         fluid at ``x + dx`` (a solve's predicted positions; SPlisHSPlasH's PBF queries its maps
-        there in every iteration), leaving the state as it is and pushing nothing: a predicted
+        there in every iteration), with the bodies at their poses moved by ``motion`` (bodies,
+        6; None: the step's), leaving the state as it is and pushing nothing: a predicted
         position inside a solid gets no virtual particle."""
         f = state.fluid
         xb, Vb, vb, mbody, _ = self._virtual_particles(state, arrays.axpy_into(f["x"], 1.0, dx),
-                                                       arrays.copied(f["v"]))
+                                                       arrays.copied(f["v"]), motion)
         nl, bx, bV, _, bbody, _ = self._packed(state, xb, Vb, vb, mbody)
         return bx, bV, nl, bbody
 
-    def _virtual_particles(self, state: SimState, x: np.ndarray, v: np.ndarray
+    def _virtual_particles(self, state: SimState, x: np.ndarray, v: np.ndarray,
+                           motion: np.ndarray | None = None
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
         """Per map and fluid particle the virtual particle (xb (k, dim, N), Vb (k, N), its
         surface velocity vb (k, dim, N)), each map's body number and the pushed count, for
@@ -501,6 +503,8 @@ class MapBoundaryModel(BoundaryModel):
                                    "bind_bodies first")
             b, c0 = body[kb - 1], self._c0[kb - 1]
             c, R = np.asarray(b.c, np.float64), np.asarray(b.R, np.float64)
+            if motion is not None:  # the pose the body takes in the solve (boundary_at)
+                c, R = c + motion[kb - 1, :3], rotation_exp(motion[kb - 1, 3:], 1.0) @ R
             vc, w = np.asarray(b.v, np.float64), np.asarray(b.omega, np.float64)
             xl = np.empty((dim, n))
             ul = np.empty((dim, n))

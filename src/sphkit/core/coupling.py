@@ -68,15 +68,18 @@ class BoundaryCoupling:
         self._still = np.zeros((0, 0))
         self._no_body: np.ndarray | None = None  # the body numbers of a boundary without bodies
 
-    def boundary_at(self, state: SimState, dx: np.ndarray
+    def boundary_at(self, state: SimState, dx: np.ndarray, motion: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray]:
         """The boundary neighbours ``(x_b, V_b, lists, body)`` of a solve's predicted fluid
         positions ``x + dx`` (PCISPH's prediction, PBF's sweeps): the boundary model's
         :meth:`BoundaryModel.boundary_at` where it places them anew (density maps); else the
         step's moved along with the fluid, :meth:`BoundaryModel.following` (volume maps' virtual
         particles slide along the wall); else the step's own (boundary particles). ``body``:
-        the boundary field ``rigid_body`` of the step's, zeros where a state has none."""
-        at = self.model.boundary_at(state, dx) if self.model is not None else None
+        the boundary field ``rigid_body`` of the step's, zeros where a state has none.
+        ``motion`` (:meth:`motion`; None: the step-start poses): the bodies at their predicted
+        poses, the maps queried there, the step's or sliding particles moved with them
+        (:meth:`MovingBoundary.displaced`)."""
+        at = self.model.boundary_at(state, dx, motion) if self.model is not None else None
         if at is not None:
             return at
         b = state.boundary
@@ -89,6 +92,8 @@ class BoundaryCoupling:
                     or device_of(self._no_body) != device_of(b["x"]):
                 self._no_body = arrays.zeros(b.n, np.int64, like=b["x"])
             body = self._no_body
+        if motion is not None:
+            bx = self.moving.displaced(motion, bx, body)
         return bx, bV, lists, body
 
     @property
@@ -268,6 +273,19 @@ class BoundaryCoupling:
     def yields(self) -> bool:
         """Whether some boundary yields to the pressure (strong coupling is on)."""
         return self.moving is not None and self.moving.yields
+
+    def motion(self, state: SimState, forces: np.ndarray | None,
+               dt: float) -> np.ndarray | None:
+        """The yielding bodies' rigid displacement (bodies, 6) in the step under the summed
+        forces and torques ``forces`` of a positional solve so far (PBF's sweeps; None: none
+        yet), :meth:`MovingBoundary.motion`; None when nothing yields (the boundary stays at
+        the step start)."""
+        return self.moving.motion(forces, dt) if self.yields else None
+
+    def yielding(self, state: SimState, body: np.ndarray) -> np.ndarray | None:
+        """Which boundary samples with the body numbers ``body`` (:meth:`boundary_at`) yield
+        (bool); None when nothing yields."""
+        return self.moving.yielding(state, body) if self.yields else None
 
     def predict(self, state: SimState, dt: float) -> None:
         """Before the pressure solve: the yielding boundary's non-pressure velocity change."""

@@ -183,14 +183,16 @@ class BoundaryModel(Protocol):
         """Rebuild what depends on the boundary positions after boundary particles moved."""
         return None
 
-    def boundary_at(self, state: SimState, dx: np.ndarray
+    def boundary_at(self, state: SimState, dx: np.ndarray, motion: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray] | None:
         """The boundary neighbours ``(x_b, V_b, lists, body)`` of :meth:`update` for the fluid
         at the positions ``x + dx`` (dim, N) instead of ``x = state.fluid["x"]`` (a solve's
         predicted positions), leaving the state as it is; ``body``: each neighbour's 1-based
-        moving rigid body (0: static), as the boundary field ``rigid_body``. None: they do not
-        depend on the fluid positions beyond the step-start lists (boundary particles); maps
-        place their virtual particles anew."""
+        moving rigid body (0: static), as the boundary field ``rigid_body``. ``motion``: the
+        moving bodies' rigid displacement in the solve (:meth:`MovingBoundary.motion`; None:
+        the bodies at their step-start poses). None: they do not depend on the fluid positions
+        beyond the step-start lists (boundary particles); maps place their virtual particles
+        anew."""
         return None
 
     def following(self, state: SimState, dx: np.ndarray
@@ -315,14 +317,27 @@ class MovingBoundary(Protocol):
         return None
 
     @abstractmethod
-    def yielding(self, state: SimState) -> np.ndarray:
-        """Which boundary particles yield (N_boundary,) bool."""
+    def yielding(self, state: SimState, body: np.ndarray | None = None) -> np.ndarray:
+        """Which boundary particles yield (N_boundary,) bool; ``body``: which of the samples
+        with these 1-based body numbers (0: static) yield instead."""
 
     @abstractmethod
     def response(self, k: np.ndarray, gwb: np.ndarray) -> np.ndarray:
         """The accelerations (dim, N_boundary) of the boundary particles under the pressure
         field k of a solver sweep (``gwb``: the cached ``V_b grad W_ib``); 0 where the boundary
         does not yield."""
+
+    @abstractmethod
+    def motion(self, forces: np.ndarray | None, dt: float) -> np.ndarray:
+        """The rigid displacement (bodies, 6: translation, rotation vector) each yielding body
+        takes in the step under the forces and torques ``forces`` (bodies, 6, about the step's
+        centres; None: none), its predicted velocity included; 0 where a body does not yield
+        (a positional solve's strong coupling, PBF)."""
+
+    @abstractmethod
+    def displaced(self, motion: np.ndarray, bx: np.ndarray, body: np.ndarray) -> np.ndarray:
+        """Points ``bx`` (dim, N) of the bodies ``body`` (N,; 1-based, 0: static) moved with
+        their body's ``motion`` (:meth:`motion`)."""
 
     def pair_reaction(self, state: SimState, k: np.ndarray, x: np.ndarray, bx: np.ndarray,
                       bV: np.ndarray, lists: NeighborList, body: np.ndarray

@@ -9,7 +9,8 @@ positions ``x + dx`` and a target ``t_i`` per particle (1 for PBF):
 
 * :func:`constraint_lambda` -- ``C_i = rho_hat_i / t_i - 1``, counted where it exceeds ``tol``
   (else 0: the clamp), and ``lambda_i = -C_i / (sum_k |grad_k rho_hat_i|^2 + eps)`` (Eq. 11 with
-  Eq. 8's gradients; boundary particles are not moved, so they enter only ``grad_i``);
+  Eq. 8's gradients; boundary particles are not moved, so they enter only ``grad_i``, unless
+  given weights ``bw``: PBF's yielding bodies);
 * :func:`constraint_correction` -- ``dx_i = sum_j (lambda_i + (rho0_j / rho0_i) lambda_j +
   s_corr,ij) V_j grad
   W_ij + lambda_i sum_b V_b grad W_ib`` (Eq. 12/14, Akinci boundary as SPlisHSPlasH), with the
@@ -29,6 +30,7 @@ from typing import Any
 import numba
 
 from sphkit.backend import launch, launch_reduce
+from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.pairs import (
     displaced_delta,
@@ -45,9 +47,11 @@ _JIT = dict(cache=True, fastmath=True)
 
 @numba.njit(**_JIT, inline="always")
 def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid, dim, L, eps,
-                           tol, lam, rho_hat):
+                           tol, lam, rho_hat, bw):
     """Particle i of :func:`constraint_lambda`: ``rho_hat[i]``, ``lam[i]``; returns the clamped
-    ``C_i`` (0 where the constraint is met)."""
+    ``C_i`` (0 where the constraint is met). ``bw``: the boundary samples' weights in the
+    denominator (empty: none)."""
+    weighs = bw.shape[0] > 0
     xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
     rho = V[i] * kernel_w(kid, 0.0, h, dim)
     g0 = g1 = g2 = 0.0
@@ -71,6 +75,8 @@ def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid,
         g0 += f * d0
         g1 += f * d1
         g2 += f * d2
+        if weighs:
+            sq += bw[b] * f * f * rr * rr
     rho_hat[i] = rho
     c = rho / t[i] - 1.0
     if c > tol:
@@ -83,14 +89,18 @@ def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid,
 def constraint_lambda(x: Any, dx: Any, V: Any, t: Any, off: Any, idx: Any, bx: Any, bV: Any,
                       boff: Any, bidx: Any, h: float, kid: int, dim: int,
                       L: float | tuple[float, ...], eps: float, tol: float, lam: Any,
-                      rho_hat: Any) -> tuple[float, float]:
+                      rho_hat: Any, bw: Any = None) -> tuple[float, float]:
     """Density ``rho_hat`` at ``x + dx`` and ``lambda`` of the clamped constraints (module
-    docstring); returns (mean, max) of the clamped ``C``. The pass is
+    docstring); returns (mean, max) of the clamped ``C``. ``bw`` (N_b,): boundary samples
+    that yield (PBF's dynamic bodies) add ``bw_b |V_b grad W_ib|^2`` to the denominator as a
+    fluid neighbour of weight ``bw_b`` would (None: none). The pass is
     :func:`constraint_lambda_body` through :func:`sphkit.backend.launch_reduce`."""
     n = x.shape[1]
+    if bw is None:
+        bw = arrays.empty(0, x.dtype, like=x)
     tot, mx = launch_reduce(constraint_lambda_body, n, x, dx, V, t, off, idx, bx, bV, boff, bidx,
                             float(h), int(kid), int(dim), period_arg(L), float(eps), float(tol),
-                            lam, rho_hat)
+                            lam, rho_hat, bw)
     return tot / max(n, 1), mx
 
 

@@ -74,14 +74,44 @@ forces` by :meth:`PBF.boundary_reaction`. With the first-order update the fluid'
 changes by ``sum dx_i<-b / dt`` from the same pairs, so the momentum of fluid and bodies is
 conserved to round-off (tests/test_rigid.py, tests/test_rigid_2d.py); the angular momentum is
 not, no more than by PBF's own pairs (corrections along the predicted separations change
-velocities at the step-start positions). The coupling is weak, as SPlisHSPlasH's: the bodies
-stay at their step-start pose through the solve (no strong coupling, unlike DFSPH, IISPH,
-PCISPH) and move afterwards with the summed force; the same force goes to kinematic bodies
-(reported, not applied). Weak coupling throws a heavy body that lands through water (the
-squeezed film's correction against a body that does not yield; see
-:mod:`sphkit.boundary.rigid.coupling`). With the second-order (BDF2) velocity update the
-corrections change the fluid's velocity by ``1.5 dx / dt`` in their step, so the exchange is
-exact only over the positions, not per step in momentum.
+velocities at the step-start positions). Kinematic bodies take the same force (reported, not
+applied) and stay at their step-start pose through the solve.
+
+*Strong coupling* of dynamic bodies (not in SPlisHSPlasH's ``TimeStepPBF``, whose bodies keep
+their step-start pose through the solve and move afterwards; after Gissler et al. 2019,
+"Interlinked SPH pressure solvers for strong fluid-rigid coupling", ACM TOG 38(1), in the
+simplest form that DFSPH, IISPH and PCISPH use here, :mod:`sphkit.boundary.rigid.coupling`):
+every sweep places the dynamic bodies where the reaction summed over the sweeps so far moves
+them in the step, the rigid displacement ``dt (V* + dt A(F))`` (``V*``: the body's velocities
+with its non-pressure change, :meth:`sphkit.core.coupling.BoundaryCoupling.predict`; ``A``: its
+linear and angular accelerations under the summed force and torque F, through the joints;
+:meth:`sphkit.core.coupling.BoundaryCoupling.motion`), and evaluates the constraints with the
+boundary there (:meth:`sphkit.core.coupling.BoundaryCoupling.boundary_at` with ``motion``):
+the bodies' particles moved rigidly, density maps queried with the bodies at their predicted
+poses, volume maps' sliding virtual particles moved with their body. The body's force stays
+the summed reaction, so it moves after the solve by about what the last sweep assumed (the
+contacts with walls act only then).
+
+*Yielding samples in the denominator* (sphkit's, not in the paper nor in SPlisHSPlasH): a
+fluid particle squeezed between a dynamic body and a wall (the film under a landing body) has
+boundary gradients from both sides that nearly cancel, ``grad_i C_i ~ 0`` with ``C_i > 0``, so
+Eq. 11's lambda_i grows without bound; its own correction, the sum of the two shares, stays
+small, but the body's share and its reaction do not: with density maps (one virtual particle
+stands for a whole body) one sweep gave the landing square 27,000 times its weight. Each
+sample of a dynamic body therefore adds ``BODY_WEIGHT |V_b grad W_ib|^2`` to the denominator,
+as a fluid neighbour of the body's volume V_b would (the body treated as if its samples moved
+as fluid: a mass splitting, :func:`sphkit.core.projection.constraint_lambda`'s ``bw``): lambda
+stays below ``C_i / sum_b |V_b grad W_ib|^2``. This changes only the size of the sweeps' steps
+next to dynamic bodies, not the state they converge to (every ``C_i <= 0``). With both, a
+heavy body landing through water is no longer thrown: it lands, or rests on the last fluid
+layer over the floor, which is at rest density between two walls in this discrete model and
+which nothing drains (:mod:`sphkit.boundary.rigid.coupling`, the last paragraph); each change
+alone still threw some landings (validation/README.md, "PBF: strong coupling and a heavy
+body's landing").
+
+With the second-order (BDF2) velocity update the corrections change the fluid's velocity by
+``1.5 dx / dt`` in their step, so the exchange is exact only over the positions, not per step
+in momentum.
 
 **Pressure.** PBF has no pressure variable; sphkit reports the equivalent pressure of the
 position corrections, ``p_i = -rho0 Lambda_i / dt^2`` [Pa] with ``Lambda_i`` the sum of the
@@ -114,6 +144,10 @@ from sphkit.core.state import SimState
 #: fields' precision (the scalars are passed in it), so the CPU's results are those of the
 #: NumPy expressions to the last bit (as :mod:`sphkit.core.arrays`)
 _EXACT = dict(cache=True, inline="always")
+#: the weight of a dynamic body's sample in lambda's denominator, as a fluid neighbour's
+#: (module docstring, "Yielding samples in the denominator"; other weights measured in
+#: validation/README.md, "PBF: strong coupling and a heavy body's landing")
+BODY_WEIGHT = 1.0
 
 
 @numba.njit(**_EXACT)
@@ -229,11 +263,16 @@ class PBF(PressureSolver):
         inv_dt2 = -1.0 / (dt * dt)
 
         def sweep(_k: int) -> tuple[float, float]:
-            # density maps queried at x*, volume maps' virtual particles slid along the wall
-            bx, bV, nb, body = coupling.boundary_at(state, dx)
+            # dynamic bodies at the poses the reaction so far gives them (strong coupling;
+            # None: no body yields); density maps queried at x*, volume maps' virtual
+            # particles slid along the wall
+            motion = coupling.motion(state, self._forces, dt)
+            bx, bV, nb, body = coupling.boundary_at(state, dx, motion)
+            yielding = coupling.yielding(state, body)
+            bw = None if yielding is None else BODY_WEIGHT * yielding.astype(f.dtype)
             avg, mx = constraint_lambda(x, dx, V, target, nl.offsets, nl.indices, bx, bV,
                                         nb.offsets, nb.indices, state.h, state.kid,
-                                        state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat)
+                                        state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat, bw)
             constraint_correction(x, dx, V, lam, nl.offsets, nl.indices, bx, bV,
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,

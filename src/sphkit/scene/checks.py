@@ -218,8 +218,7 @@ def _inside(lo: Sequence[float], hi: Sequence[float], box: Box, up: int | None,
 def scene_warnings(scene: Scene) -> list[str]:
     """What is probably not what the user meant, as warnings (``UserWarning``, one each; also
     returned): a fluid block not inside any box (when the scene has boxes and no container
-    mesh), fluid blocks that overlap (their particles are sampled twice there), and a dynamic
-    body heavier than the fluid with PBF (weak coupling: it may be thrown when it lands)."""
+    mesh) and fluid blocks that overlap (their particles are sampled twice there)."""
     cfg = scene.configuration
     r, dim = cfg.particle_radius, cfg.dim
     g = cfg.gravity[:dim]
@@ -243,17 +242,6 @@ def scene_warnings(scene: Scene) -> list[str]:
                     f"{scene.field(f'fluid_blocks[{i}]')} and {scene.field(f'fluid_blocks[{j}]')} "
                     f"overlap (from {lo} to {hi}): both "
                     "are sampled there, at twice the rest density; expected separate blocks")
-    if cfg.pressure.method == "pbf" and scene.materials:
-        rho_fluid = max(m.density0 for m in scene.materials)
-        for k, mb in enumerate(scene.meshes):
-            if mb.dynamic and mb.density > rho_fluid:
-                notes.append(
-                    f"{scene.field(f'meshes[{k}].density')}: {mb.density:g} kg/m^3 is heavier "
-                    f"than the fluid ({rho_fluid:g}); PBF couples to bodies weakly (the body "
-                    "holds its pose through the solve, as in SPlisHSPlasH), and a heavy body "
-                    "landing on a wall through the fluid can throw the run off (measured: "
-                    "validation/README.md, 'PBF with dynamic bodies'); expected dfsph, iisph "
-                    "or pcisph for such a body, whose solves let it give way")
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=3)
     return notes

@@ -58,14 +58,18 @@ particles anew for x* in every sweep). As SPlisHSPlasH's ``TimeStepPBF`` (``addF
 dx_i<-b / dt^2`` at x_b, pair by pair and summed over the sweeps
 (:meth:`FluidCoupling.pair_reaction`, with the ``body`` numbers that
 :meth:`sphkit.core.coupling.BoundaryCoupling.boundary_at` returns beside the neighbours), as
-:attr:`sphkit.core.methods.BoundaryReaction.forces`; kinematic bodies report it too. The
-coupling is weak (the bodies keep their step-start pose through the solve, as in SPlisHSPlasH):
-:meth:`response` is not used. Momentum is conserved to round-off; angular momentum is not kept
-exactly by PBF's own pairs either (see :mod:`sphkit.pressure.pbf`). Without strong coupling a
-heavy body landing through water is thrown when the film under it is squeezed (the squeezed
-particles take their whole correction in one step against a body that does not yield, and the
-body their reaction): a 2D square of density 2000 blew up at landing with every boundary
-model (validation/README.md, "PBF with dynamic bodies"); floating and rising bodies are fine.
+:attr:`sphkit.core.methods.BoundaryReaction.forces`; kinematic bodies report it too. Dynamic
+bodies are coupled strongly here as well, in the form a positional solve takes: every sweep
+places them where the reaction summed so far moves them in the step,
+:meth:`FluidCoupling.motion` (``dt (V* + dt A(F))``, with :meth:`FluidCoupling.response`'s
+accelerations and :meth:`FluidCoupling.predict`'s velocities), and the sweep's boundary
+follows (:meth:`FluidCoupling.displaced`; maps queried at the predicted poses); their
+samples also count in PBF's lambda denominator, so that a fluid particle squeezed between a
+body and a wall does not throw the body (:mod:`sphkit.pressure.pbf`). Momentum is conserved to
+round-off; angular momentum is not kept exactly by PBF's own pairs either. A heavy body landing
+through water then comes to rest on the last fluid layer (2D) or lands (3D Akinci particles
+and density maps); weakly coupled, as SPlisHSPlasH's, it was thrown (validation/README.md, "PBF:
+strong coupling and a heavy body's landing").
 Viscous boundary forces are not transferred to bodies.
 
 A landing body must reach the pressure solves with the velocity the step will give it, as the
@@ -233,6 +237,7 @@ class FluidCoupling(MovingBoundary):
 
     bodies: list[RigidBody]
     _ab: np.ndarray | None
+    _vstar: np.ndarray  #: the bodies' velocities (bodies, 6) of :meth:`begin_step`, :meth:`predict`
 
     @property
     def yields(self) -> bool:
@@ -244,10 +249,11 @@ class FluidCoupling(MovingBoundary):
         """Whether there are bodies (kinematic or dynamic) to take the fluid's reaction."""
         return bool(self.bodies)
 
-    def yielding(self, state: SimState) -> np.ndarray:
-        """The boundary particles (N_b,) of dynamic bodies."""
+    def yielding(self, state: SimState, body: np.ndarray | None = None) -> np.ndarray:
+        """The boundary particles (N_b,) of dynamic bodies (``body``: other samples' body
+        numbers, as :meth:`~sphkit.core.coupling.BoundaryCoupling.boundary_at` returns them)."""
         dynamic = np.array([False] + [b.dynamic for b in self.bodies])
-        return dynamic[state.boundary["rigid_body"]]
+        return dynamic[state.boundary["rigid_body"] if body is None else body]
 
     def fluid_forces(self, state: SimState, reaction: BoundaryReaction | None) -> None:
         """Force and torque of the fluid on every body (after the pressure solve, before the
@@ -312,14 +318,43 @@ class FluidCoupling(MovingBoundary):
         out = np.empty((nchunk, nb, 6))
         _reaction_cached(f["m"], k, st.nl_fb.offsets, st.nl_fb.indices, gwb,
                          bd["pressure_mirror"], bd["x"], bd["rigid_body"], self._c, nchunk, out)
-        tot = out.sum(axis=0)
-        acc = np.zeros((nb, 6))
+        return self._boundary_accel(bd, self._accelerations(out.sum(axis=0)))
+
+    def _accelerations(self, tot: np.ndarray) -> np.ndarray:
+        """The bodies' linear and angular accelerations (bodies, 6) under the forces and torques
+        ``tot`` (bodies, 6) about this step's centres, ``F / M`` and ``I_w^-1 T`` as the joints
+        let them be (a linear map: :meth:`_joint_accel`, homogeneous); 0 for kinematic
+        bodies."""
+        st = self._state
+        acc = np.zeros((len(self.bodies), 6))
         for j, b in enumerate(self.bodies):
             if b.dynamic:
                 acc[j, :3] = tot[j, :3] / b.mass
                 acc[j, 3:] = self._Iinv[j] @ tot[j, 3:]
-        acc = self._joint_accel(acc, 1.0, st.time, st.dim, homogeneous=True)
-        return self._boundary_accel(bd, acc)
+        return self._joint_accel(acc, 1.0, st.time, st.dim, homogeneous=True)
+
+    def motion(self, forces: np.ndarray | None, dt: float) -> np.ndarray:
+        """Strong coupling of a positional solve (PBF): the rigid displacement (bodies, 6) of
+        each dynamic body in the step under the forces and torques ``forces`` (bodies, 6; None:
+        none yet) about this step's centres, ``dt (V* + dt A(forces))``: translation (0:3) and
+        rotation vector (3:6), with ``V*`` the velocities of :meth:`predict` (non-pressure
+        change included) and ``A`` :meth:`_accelerations`; 0 for kinematic bodies. Linear in
+        the forces, as :meth:`response`; :meth:`displaced` places points with it."""
+        acc = self._accelerations(forces) if forces is not None else 0.0
+        out = dt * (self._vstar + dt * acc)
+        out[[not b.dynamic for b in self.bodies]] = 0.0
+        return out
+
+    def displaced(self, motion: np.ndarray, bx: np.ndarray, body: np.ndarray) -> np.ndarray:
+        """Points ``bx`` (dim, N) of the bodies ``body`` (N,; 1-based, 0: static) moved with
+        their body's rigid displacement ``motion`` (:meth:`motion`), to first order in the
+        rotation: ``x_b + u_k + theta_k x (x_b - c_k)`` (the pose itself turns by
+        ``exp(theta_k)`` in :meth:`~sphkit.boundary.rigid.RigidBodies.advance`; the angle per
+        step is small: the CFL step keeps the motion per step below a particle spacing)."""
+        out = np.empty_like(bx)
+        _point_accel(bx, body, self._c, motion, out)
+        out += bx
+        return out
 
     def _boundary_accel(self, bd: ParticleSet, acc: np.ndarray) -> np.ndarray:
         """Accelerations (dim, N_b) of the boundary particles from their bodies' linear and
@@ -354,12 +389,16 @@ class FluidCoupling(MovingBoundary):
                 acc[k, :3] = g
                 acc[k, 3:] = -(self._Iinv[k] @ np.cross(b.omega, Iw @ b.omega))
         acc = self._joint_accel(acc, dt, state.time, state.dim, homogeneous=False)
+        self._vstar = self._vstar + dt * acc  # the bodies' V* (for motion)
         bd = state.boundary
         bd["v"] += dt * self._boundary_accel(bd, acc)
 
     def begin_step(self, state: SimState) -> None:
-        """Cache this step's centres and world inverse inertias for :meth:`response`."""
+        """Cache this step's centres and world inverse inertias for :meth:`response`, and the
+        bodies' velocities as :meth:`motion`'s ``V*`` until :meth:`predict` advances them."""
         self._state = state
         self._c = np.array([b.c for b in self.bodies])
+        self._vstar = np.array([np.concatenate([b.v, b.omega]) for b in self.bodies]
+                               ).reshape(len(self.bodies), 6)
         self._Iinv = [np.linalg.inv(b.world_inertia()) if b.dynamic else np.zeros((3, 3))
                       for b in self.bodies]
