@@ -5,6 +5,8 @@
                                      [--wall-spacing 2.0] [--boundary-pressure mirror]
                                      [--codes sphkit,splishsplash]
                                      [--json FILE]
+    python benchmarks/step_series.py --scene Emitter --until 0.2 --first 20
+
 
 Issue 22's trace of DFSPH's iterations per step (benchmarks/README.md, "passes.py"): the
 benchmark dam break (``scenes/dambreak_<solver>.json``, particle radius and ``stopAt``
@@ -72,7 +74,7 @@ until = sim.scene.configuration.time.until
 rows = []
 while sim.time < until - 1e-12:
     s = sim.step()
-    rho = sim.densities / sim.fluid["rho0"]
+    rho = sim.densities / sim.fluid["rho0"] if sim.fluid.n else np.ones(1)
     rows.append([s.time, s.iterations, s.divergence_iterations, s.max_velocity,
                  float(np.mean(np.maximum(rho - 1.0, 0.0)))])
 json.dump({"fluid": sim.fluid.n, "boundary": sim.boundary.n, "rows": rows}, open(out, "w"))
@@ -92,11 +94,12 @@ def on_step():
     ts = sim.getTimeStep()
     fm = sim.getFluidModel(0)
     n = fm.numActiveParticles()
-    v = np.asarray(fm.getFieldBuffer("velocity"))[:n]
-    rho = np.asarray(fm.getFieldBuffer("density"))[:n] / fm.getDensity0()
+    v = np.asarray(fm.getFieldBuffer("velocity"))[:n] if n else np.zeros((1, 3))
+    rho = (np.asarray(fm.getFieldBuffer("density"))[:n] / fm.getDensity0() if n
+           else np.ones(1))
+    its = ts.getValueUInt(ts.SOLVER_ITERATIONS_V) if hasattr(ts, "SOLVER_ITERATIONS_V") else 0
     rows.append([float(sph.TimeManager.getCurrent().getTime()), int(ts.getNumIterations()),
-                 int(ts.getValueUInt(ts.SOLVER_ITERATIONS_V)),
-                 float(np.sqrt((v * v).sum(1)).max()),
+                 int(its), float(np.sqrt((v * v).sum(1)).max()),
                  float(np.mean(np.maximum(rho - 1.0, 0.0)))])
 base.setTimeStepCB(on_step)
 base.run()
@@ -120,6 +123,47 @@ def run(code: str, scene: Path, folder: Path, novisc: bool, spacing: float,
         tail = (res.stderr.strip() or res.stdout.strip()).splitlines()[-3:]
         return {"error": f"exit {res.returncode}: {' / '.join(tail)}"}
     return json.loads(out.read_text())
+
+
+def wheel_scene_at(name: str, until: float, folder: Path) -> Path:
+    """A copy of a SPlisHSPlasH scene (a file, or a name in the pysplishsplash wheel's scene
+    folder) in ``folder`` with ``stopAt`` = ``until`` and its relative file names made
+    absolute, so that both codes read it from there."""
+    src = Path(name)
+    if not src.is_file():
+        found = wheel.scene_file(name)
+        if found is None:
+            raise SystemExit(f"--scene {name!r}: not a file nor a scene of the "
+                             "pysplishsplash wheel (pip install pysplishsplash)")
+        src = found
+    data = json.loads(src.read_text())
+    data.setdefault("Configuration", {})["stopAt"] = until
+    for block, keys in (("RigidBodies", ("geometryFile", "particleFile", "mapFile")),
+                        ("FluidModels", ("particleFile", "visMeshFile"))):
+        for entry in data.get(block, []):
+            for key in keys:
+                if isinstance(entry.get(key), str) and not Path(entry[key]).is_absolute():
+                    entry[key] = str((src.parent / entry[key]).resolve())
+    out = folder / src.name
+    out.write_text(json.dumps(data, indent=1))
+    return out
+
+
+def first_steps(results: dict, k: int) -> None:
+    """The first ``k`` steps of each code side by side: step size [ms] and iterations."""
+    series = {c: np.array(r["rows"]) for c, r in results.items() if "error" not in r}
+    if not series or k <= 0:
+        return
+    print("step | " + " | ".join(f"{c} dt [ms], iterations" for c in series))
+    for i in range(k):
+        cells = []
+        for a in series.values():
+            if i < len(a):
+                dt = a[i, 0] - (a[i - 1, 0] if i else 0.0)
+                cells.append(f"{1e3 * dt:.4f}, {int(a[i, 1])}")
+            else:
+                cells.append("-")
+        print(f"{i + 1:4d} | " + " | ".join(cells))
 
 
 def summary(name: str, r: dict, window: float = 0.05) -> None:
@@ -157,6 +201,11 @@ def main() -> int:
                     help="sphkit's wall particles S r apart (default 2)")
     ap.add_argument("--boundary-pressure", default="", metavar="P",
                     help="sphkit's configuration.boundary.pressure (default: the scene's)")
+    ap.add_argument("--scene", metavar="NAME",
+                    help="a SPlisHSPlasH scene (file, or name in the wheel's scenes) instead "
+                         "of the benchmark dam break (--solver, --radius, --fixed-dt unused)")
+    ap.add_argument("--first", type=int, default=0, metavar="K",
+                    help="print the first K steps of both codes side by side")
     ap.add_argument("--codes", default="sphkit,splishsplash")
     ap.add_argument("--json", type=Path, metavar="FILE", help="both series as JSON")
     args = ap.parse_args()
@@ -170,7 +219,10 @@ def main() -> int:
     results = {}
     with tempfile.TemporaryDirectory(prefix="sphkit-series-") as tmp:
         folder = Path(tmp)
-        scene = scene_at(args.solver, args.radius, args.until, folder)
+        if args.scene:
+            scene = wheel_scene_at(args.scene, args.until, folder)
+        else:
+            scene = scene_at(args.solver, args.radius, args.until, folder)
         if args.fixed_dt is not None:
             data = json.loads(scene.read_text())
             data["Configuration"].update(cflMethod=0, timeStepSize=args.fixed_dt)
@@ -179,6 +231,7 @@ def main() -> int:
             results[code] = run(code, scene, folder, args.no_viscous_bound, args.wall_spacing,
                                 args.boundary_pressure)
             summary(code, results[code])
+        first_steps(results, args.first)
     if args.json:
         args.json.write_text(json.dumps(results) + "\n")
     return 0

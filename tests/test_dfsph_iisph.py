@@ -214,7 +214,9 @@ def test_cfl_with_iteration_control(tmp_path) -> None:
     the CFL step of the velocities it starts from and the last step times 0.9 (more than 10
     iterations), 1.1 (fewer than 5) or 1; the rule is active (it, not the CFL step, sets the
     step) and goes through a checkpoint bit for bit. Exact comparisons up to one rounding of
-    the float products (rtol 1e-15)."""
+    the float products (rtol 1e-15). The scene's first step (time.dt) equals dt_max, the CFL
+    step at rest, so the rule's base after step 1 is that step (in general it is the first
+    step's CFL step, not time.dt)."""
     from _restart import continued_from_checkpoint
 
     from sphkit.core.timestep import cfl_time_step

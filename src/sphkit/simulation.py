@@ -399,9 +399,7 @@ class Simulation:
         # moving boundary particles obey the CFL condition too
         vmax = max(max_speed(st.fluid["v"], None), self.rigid.max_speed(st))
         dt = cfl_time_step(vmax, st.r, tc.cfl_factor, tc.dt_min, tc.dt_max)
-        if self.step_count == 0:  # a run starts with the scene's initial step (timeStepSize)
-            dt = min(dt, tc.dt)
-        elif tc.iteration_control and self.last is not None:
+        if self.step_count and tc.iteration_control and self.last is not None:
             dt = min(dt, iteration_controlled_step(self._dt_control, self.last.iterations,
                                                    tc.dt_min))
         dt = min(dt, self.pressure.max_time_step(st))
@@ -409,7 +407,12 @@ class Simulation:
             dt = min(dt, solid.max_time_step(st))
         for force in self.forces:  # an explicit viscosity's diffusion bound
             dt = min(dt, force.max_time_step(st))
-        self._dt_control = float(dt)  # the step before a frame's landing cuts it
+        # the rule's last step, before a frame's landing and the first step's cut (as
+        # SPlisHSPlasH 2.19, whose second step is the CFL one with cflMethod 2 too:
+        # validation/README.md, "The step with iteration control against SPlisHSPlasH")
+        self._dt_control = float(dt)
+        if self.step_count == 0:  # a run starts with the scene's initial step (timeStepSize)
+            dt = min(dt, tc.dt)
         return float(dt)
 
     def step(self, land_at: float | None = None) -> StepStats:

@@ -10,7 +10,9 @@
 * CFL with iteration control (SPlisHSPlasH's ``cflMethod`` 2, ``Simulation::
   updateTimeStepSize``; ``configuration.time.iteration_control``): the last step times 0.9
   after a pressure solve of more than 10 iterations, times 1.1 after one of fewer than 5, else
-  the last step, and never above the CFL step (:func:`iteration_controlled_step`).
+  the last step, and never above the CFL step (:func:`iteration_controlled_step`); the rule
+  starts from the first step's CFL step, not from the scene's initial ``timeStepSize``, as
+  SPlisHSPlasH 2.19 does (measured: validation/README.md).
 * Acoustic limit for state-equation solvers (Becker & Teschner 2007; Monaghan 1992):
   ``dt <= 0.4 h / c_s``.
 """

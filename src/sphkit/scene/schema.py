@@ -79,7 +79,7 @@ class TimeConfig(_Model):
         description="with cfl: also adapt the step to the pressure solver's iterations, as "
         "SPlisHSPlasH's cflMethod 2: the last step times 0.9 after a solve of more than 10 "
         "iterations, times 1.1 after one of fewer than 5, else kept, and never above the CFL "
-        "step (nor below dt_min)",
+        "step (nor below dt_min); from the first step's CFL step, not from dt",
     )
 
     @model_validator(mode="after")
