@@ -12,9 +12,10 @@ Issue 22's trace of DFSPH's iterations per step (benchmarks/README.md, "passes.p
 benchmark dam break (``scenes/dambreak_<solver>.json``, particle radius and ``stopAt``
 replaced, as :func:`scaling.scene_at`) runs in both codes, each in its own subprocess with one
 thread (counts, not timings), and every step records the time after it, the density and
-divergence iterations, the largest fluid speed |v| after the step and the mean compression
-max(rho / rho0 - 1, 0) of the step's densities. Printed: steps, iterations per step and per
-simulated second (the count that sets the cost), and the same in windows of 0.05 s.
+divergence iterations, the largest fluid speed |v| after the step, the mean compression
+max(rho / rho0 - 1, 0) of the step's densities and the number of fluid particles (emitters).
+Printed: steps, iterations per step and per simulated second (the count that sets the cost), and
+the same in windows of 0.05 s.
 
 Options that take sphkit or both codes off the CFL step, to separate the solver from the step
 sequence:
@@ -76,7 +77,7 @@ while sim.time < until - 1e-12:
     s = sim.step()
     rho = sim.densities / sim.fluid["rho0"] if sim.fluid.n else np.ones(1)
     rows.append([s.time, s.iterations, s.divergence_iterations, s.max_velocity,
-                 float(np.mean(np.maximum(rho - 1.0, 0.0)))])
+                 float(np.mean(np.maximum(rho - 1.0, 0.0))), sim.fluid.n])
 json.dump({"fluid": sim.fluid.n, "boundary": sim.boundary.n, "rows": rows}, open(out, "w"))
 """
 
@@ -100,7 +101,7 @@ def on_step():
     its = ts.getValueUInt(ts.SOLVER_ITERATIONS_V) if hasattr(ts, "SOLVER_ITERATIONS_V") else 0
     rows.append([float(sph.TimeManager.getCurrent().getTime()), int(ts.getNumIterations()),
                  int(its), float(np.sqrt((v * v).sum(1)).max()),
-                 float(np.mean(np.maximum(rho - 1.0, 0.0)))])
+                 float(np.mean(np.maximum(rho - 1.0, 0.0))), int(n)])
 base.setTimeStepCB(on_step)
 base.run()
 json.dump({"fluid": None, "boundary": None, "rows": rows}, open(out, "w"))
@@ -172,7 +173,7 @@ def summary(name: str, r: dict, window: float = 0.05) -> None:
         print(f"{name}: {r['error']}")
         return
     a = np.array(r["rows"])
-    t, it, itv, vmax, err = a.T
+    t, it, itv, vmax, err, count = a.T
     T = t[-1]
     print(f"{name}: {len(t)} steps to {T:.4f} s; iterations per step {it.mean():.2f} density + "
           f"{itv.mean():.2f} divergence = {(it + itv).mean():.2f}; per simulated second "
@@ -186,7 +187,7 @@ def summary(name: str, r: dict, window: float = 0.05) -> None:
             print(f"  ({lo:.2f}, {hi:.2f}] s: {m.sum():3d} steps, {it[m].mean():5.2f} + "
                   f"{itv[m].mean():4.2f} iterations per step, {(it[m] + itv[m]).sum():4.0f} in "
                   f"all, largest speed {vmax[m].max():5.2f} m/s (mean over the steps "
-                  f"{vmax[m].mean():5.2f})")
+                  f"{vmax[m].mean():5.2f}), {int(count[m][-1])} fluid particles at its end")
 
 
 def main() -> int:
