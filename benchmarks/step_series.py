@@ -7,7 +7,6 @@
                                      [--json FILE]
     python benchmarks/step_series.py --scene Emitter --until 0.2 --first 20
 
-
 Issue 22's trace of DFSPH's iterations per step (benchmarks/README.md, "passes.py"): the
 benchmark dam break (``scenes/dambreak_<solver>.json``, particle radius and ``stopAt``
 replaced, as :func:`scaling.scene_at`) runs in both codes, each in its own subprocess with one
