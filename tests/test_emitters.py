@@ -181,3 +181,44 @@ def test_reuse_box_recycles_particles() -> None:
         warnings.simplefilter("error")
         e = load_scene(d).emitters[0]
     assert (e.reuse_box.min, e.reuse_box.max) == ([-2.0, -1.0], [2.0, 3.0])
+
+
+def test_housing_walls_are_maps_with_density_and_volume_maps() -> None:
+    """With maps the emitter's housing is map geometries too (SPlisHSPlasH builds it as a
+    boundary model of any kind; before, sphkit had no housing there and the pool flowed
+    through a waiting emitter: Emitter_2D.json, validation/README.md): closed walls h thick
+    around the housing's box, open towards the emit direction. Signed distances (negative in
+    the solid): the emitter's centre and the open side are fluid space; the middle of the back
+    wall and of a side wall are solid. The 2D world is built (its volume-map model holds the
+    walls); the 3D box and circle housings are checked on their wall solids."""
+    from sphkit.geometry.sdf import MeshDistance
+    from sphkit.world import build_world
+    from sphkit.world.emitters import FluidEmitter
+
+    for dim, shape in ((2, "box"), (3, "box"), (3, "circle")):
+        pos = [0.3, 0.3] if dim == 2 else [0.3, 0.3, 0.3]
+        cfg = {"shape": shape, "position": pos, "width": 0.16, "velocity": 1.0,
+               "start_time": 1.0, "rotation_axis": [0, 0, 1], "rotation_angle": 0.3}
+        h = 4 * R
+        if dim == 2:
+            world = build_world(Scene.model_validate({
+                "configuration": {"dim": 2, "particle_radius": R,
+                                  "boundary": {"method": "bender2019"}},
+                "boxes": [{"min": [0.0, 0.0], "max": [0.6, 0.6]}], "emitters": [cfg]}))
+            em = world.emitters[0]
+            walls = [g.sdf for g in world.boundary_model.geometries if "housing" in g.name]
+            assert len(walls) == 3
+        else:
+            em = FluidEmitter(Scene.model_validate({"emitters": [cfg]}).emitters[0], 3, R, h)
+            solids = em.housing_walls(h)
+            assert len(solids) == (2 if shape == "circle" else 5)
+            assert all(w.is_watertight for w in solids)
+            walls = [MeshDistance(w.vertices, w.faces) for w in solids]
+        s0, s1 = em.size[0], em.size[1]
+        d, side, x0 = em.direction[:dim], em.R[:dim, 1], em.x0[:dim]
+        points = {"centre": x0, "open side": x0 + (0.5 * s0 + h) * d,
+                  "back wall": x0 - (0.5 * s0 + 0.5 * h) * d,
+                  "side wall": x0 + (0.5 * s1 + 0.5 * h) * side}
+        for name, p in points.items():
+            phi = min(float(g.lattice(p, [1.0] * dim, [1] * dim).ravel()[0]) for g in walls)
+            assert (phi < 0.0) == (name in ("back wall", "side wall")), (dim, shape, name, phi)

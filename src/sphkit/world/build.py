@@ -256,7 +256,8 @@ def _build(scene: Scene) -> World:
     pressure = registry.get("pressure", cfg.pressure.method).load().from_config(cfg.pressure)
     model_cls = boundary_info.load()
     if maps:
-        model = model_cls(map_geometries(state, scene, meshes, model_cls.moving_inset(state.dim)),
+        model = model_cls(map_geometries(state, scene, meshes, model_cls.moving_inset(state.dim),
+                                         emitters),
                           cache_dir=cfg.boundary.map_cache_dir, cache=cfg.boundary.map_cache)
         model.hydrostatic = cfg.boundary.pressure == "hydrostatic"
     else:

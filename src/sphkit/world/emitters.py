@@ -24,7 +24,8 @@ scene fields (:class:`sphkit.scene.schema.Emitter`):
   for the symplectic Euler step (a kernel body, :func:`animate_body`, run where the fluid is);
 * housing: a box (cylinder) of boundary particles around the emitter, ``2h`` long along d and
   centred on ``x0``, open towards d (SPlisHSPlasH's ``EmitterBox.obj``/``EmitterCylinder.obj``
-  scaled by ``Emitter::getSize``), unless ``housing`` is false.
+  scaled by ``Emitter::getSize``), unless ``housing`` is false; with density and volume maps
+  its walls, h thick outside that box, are map geometries (:meth:`FluidEmitter.housing_walls`).
 
 Emitted particles get the lattice mass ``rho0 V`` of the scene's fluid blocks. ``max_particles``
 (SPlisHSPlasH's per-material ``maxEmitterParticles``) caps the particles the emitters of a
@@ -256,6 +257,48 @@ class FluidEmitter:
         T[:3, 3] = self.x0
         mesh.apply_transform(T)
         return mesh
+
+    def housing_walls(self, thickness: float) -> list:
+        """The housing as closed solids for density and volume maps (trimesh meshes, the
+        emitter's frame placed as :meth:`housing_mesh`): walls ``thickness`` thick outside the
+        housing's box, the back wall behind it (against the emit direction) and the side walls
+        around it, open towards the emit direction, without overlaps (each is its own map); a
+        circle emitter's side wall is a tube. In 2D the solids reach ``h`` on both sides of
+        z = 0 (their section is the 2D wall)."""
+        import trimesh
+
+        t = float(thickness)
+        s0, s1, s2 = self.size
+        if self.dim == 2:
+            s2 = 2.0 * self.h
+        walls = []
+
+        def place(mesh, offset) -> None:
+            T = np.eye(4)
+            T[:3, :3] = self.R
+            T[:3, 3] = self.x0 + self.R @ np.asarray(offset, dtype=float)
+            mesh.apply_transform(T)
+            walls.append(mesh)
+
+        if self.circle:  # in the frame: the axis along x
+            turn = np.eye(4)
+            turn[:3, :3] = rotation_matrix([0.0, 1.0, 0.0], math.pi / 2)
+            radius = 0.5 * s1
+            tube = trimesh.creation.annulus(r_min=radius, r_max=radius + t, height=s0,
+                                            sections=48, transform=turn)
+            back = trimesh.creation.cylinder(radius=radius + t, height=t, sections=48,
+                                             transform=turn)
+            place(tube, [0.0, 0.0, 0.0])
+            place(back, [-0.5 * (s0 + t), 0.0, 0.0])
+            return walls
+        place(trimesh.creation.box(extents=[t, s1 + 2 * t, s2 + 2 * t]),
+              [-0.5 * (s0 + t), 0.0, 0.0])
+        for sign in (-1.0, 1.0):
+            place(trimesh.creation.box(extents=[s0, t, s2 + 2 * t]),
+                  [0.0, sign * 0.5 * (s1 + t), 0.0])
+            if self.dim == 3:
+                place(trimesh.creation.box(extents=[s0, s1, t]), [0.0, 0.0, sign * 0.5 * (s2 + t)])
+        return walls
 
     # -- checkpoints ---------------------------------------------------------------------------
     def state(self) -> dict:

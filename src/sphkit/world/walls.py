@@ -80,11 +80,13 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
 
 
 def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
-                   moving_inset: float) -> list[MapGeometry]:
+                   moving_inset: float, emitters: list | None = None) -> list[MapGeometry]:
     """Boxes and meshes as signed distances for density and volume maps.
 
     Boxes are containers (the fluid inside, ``invert``), analytic; an open box extends to
-    infinity along the gravity axis. Meshes: 3D triangle meshes, in 2D the section of the
+    infinity along the gravity axis. Emitter housings (``emitters``, unless ``housing`` is
+    false) are their walls h thick (:meth:`sphkit.world.emitters.FluidEmitter.housing_walls`),
+    each a map with the automatic grid. Meshes: 3D triangle meshes, in 2D the section of the
     mesh with the plane z = 0 (as for boundary particles). A moving mesh's map lives in its
     body's frame (:mod:`sphkit.boundary.maps`, "Moving rigid bodies"), its surface moved
     ``moving_inset`` r into the mesh.
@@ -125,7 +127,16 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
                                thickness=thick, resolution=mres, body=body))
         fields.append(f"meshes[{k}].map_resolution" if mb.map_resolution
                       else "configuration.boundary.map_resolution")
-    coarse_map_warnings(out, fields, scene, state.h)
+    for k, (em, cfg) in enumerate(zip(emitters or [], scene.emitters, strict=False)):
+        if not cfg.housing:  # SPlisHSPlasH's housing is a boundary model of every kind
+            continue
+        for j, wall in enumerate(em.housing_walls(state.h)):
+            if dim == 3:
+                sdf = MeshDistance(wall.vertices, wall.faces)
+            else:
+                sdf = PolygonDistance(*section_segments(wall))
+            out.append(MapGeometry(f"emitters[{k}].housing[{j}]", sdf))
+    coarse_map_warnings(out, fields + [""] * (len(out) - len(fields)), scene, state.h)
     return out
 
 
