@@ -261,12 +261,12 @@ def test_previews_draw_the_rigid_bodies(tmp_path: Path) -> None:
     from matplotlib.collections import PolyCollection
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from sphkit.io.preview import PreviewRenderer, RenderSettings, load_bodies
+    from sphkit.io.preview import PreviewRenderer, RenderSettings, load_mesh
 
     box = trimesh.creation.box(extents=[0.2, 0.1, 0.1])
     box.apply_translation([0.3, 0.2, 0.0])
     meshio.write(tmp_path / "b.vtu", meshio.Mesh(box.vertices, [("triangle", box.faces)]))
-    verts, tris = load_bodies(tmp_path / "b.vtu")
+    verts, tris = load_mesh(tmp_path / "b.vtu")
     assert np.allclose(verts, box.vertices) and np.array_equal(tris, box.faces)
     arrays = {"position": np.array([[0.1, 0.1, 0.0]]), "velocity": np.zeros((1, 3))}
     bounds = np.array([[0.0, 0.0, 0.0], [0.6, 0.6, 0.6]])

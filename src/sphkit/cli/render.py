@@ -114,20 +114,6 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     r.set_defaults(handler=cmd_render)
 
 
-def _load_mesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    if path.suffix.lower() == ".vtu":
-        import meshio
-
-        m = meshio.read(path, file_format="vtu")
-        tris = [c.data for c in m.cells if c.type == "triangle"]
-        f = np.concatenate(tris) if tris else np.zeros((0, 3), dtype=np.int64)
-        return np.asarray(m.points, dtype=float), f
-    import trimesh
-
-    m = trimesh.load(path, process=False, force="mesh")
-    return np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.int64)
-
-
 def _surface_meshes(outdir: Path, mode: str) -> dict[int, Path]:
     folder = outdir / SURFACE_DIR
     index = folder / SURFACE_MANIFEST
@@ -161,7 +147,7 @@ def _render(args: argparse.Namespace) -> int:
         bounds_of,
         choose_video,
         color_values,
-        load_bodies,
+        load_mesh,
         robust_range,
         write_gif,
         write_mp4,
@@ -222,9 +208,9 @@ def _render(args: argparse.Namespace) -> int:
         for rec in frames:
             k = int(rec["frame"])
             data = read_frame(frame_file(outdir, rec))
-            mesh = _load_mesh(meshes[k]) if k in meshes else None
+            mesh = load_mesh(meshes[k]) if k in meshes else None
             body_files = [outdir / f for f in rec.get("body_files", []) if (outdir / f).is_file()]
-            bodies = load_bodies(body_files[0]) if body_files else None
+            bodies = load_mesh(body_files[0]) if body_files else None
             try:
                 renderer.draw(data, float(rec.get("time") or 0.0), mesh, bodies)
             except ValueError as e:

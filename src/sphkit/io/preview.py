@@ -322,12 +322,19 @@ def load_frame(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     return read_frame(path)
 
 
-def load_bodies(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
-    """A rigid-body file of a frame (:mod:`sphkit.io.bodies`: .vtu, .ply or .obj) as
-    (vertices (V, 3), triangles (T, 3))."""
-    import meshio
+def load_mesh(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
+    """A triangle mesh of a run as (vertices (V, 3), triangles (T, 3)): a surface mesh of
+    ``sphkit surface`` or a frame's rigid-body file (:mod:`sphkit.io.bodies`); VTU through
+    meshio, OBJ and PLY through trimesh."""
+    path = Path(path)
+    if path.suffix.lower() == ".vtu":
+        import meshio
 
-    m = meshio.read(path)
-    tri = [c.data for c in m.cells if c.type == "triangle"]
-    faces = np.concatenate(tri) if tri else np.zeros((0, 3), dtype=np.int64)
-    return np.asarray(m.points, dtype=float)[:, :3], faces
+        m = meshio.read(path, file_format="vtu")
+        tris = [c.data for c in m.cells if c.type == "triangle"]
+        f = np.concatenate(tris) if tris else np.zeros((0, 3), dtype=np.int64)
+        return np.asarray(m.points, dtype=float), f
+    import trimesh
+
+    m = trimesh.load(path, process=False, force="mesh")
+    return np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.int64)
