@@ -235,69 +235,65 @@ class FluidEmitter:
                self.circle, float(r_cyl * r_cyl), to_device(vel.astype(fluid.dtype), dev),
                float(dt))
 
+    def _housing_extent(self) -> np.ndarray:
+        """The housing box's extent in the emitter's frame (``size``; in 2D ``2h`` along z,
+        the solid whose z = 0 section is the 2D housing)."""
+        size = self.size.copy()
+        if self.dim == 2:
+            size[2] = 2.0 * self.h
+        return size
+
+    def _place(self, mesh, offset=(0.0, 0.0, 0.0), axis_along_x: bool = False):
+        """``mesh``, given in the emitter's frame about ``offset``, placed in the scene (its
+        rotation R and position x0); ``axis_along_x``: first turn a z-axis solid (trimesh's
+        cylinders) to the emit axis."""
+        T = np.eye(4)
+        R = self.R @ rotation_matrix([0.0, 1.0, 0.0], math.pi / 2) if axis_along_x else self.R
+        T[:3, :3] = R
+        T[:3, 3] = self.x0 + self.R @ np.asarray(offset, dtype=float)
+        mesh.apply_transform(T)
+        return mesh
+
     def housing_mesh(self):
         """The housing as a triangle mesh (trimesh), open towards the emit direction: a box
         (cylinder) of ``size`` centred on ``x0``; in 2D its section with z = 0 is sampled."""
         import trimesh
 
-        size = self.size.copy()
-        if self.dim == 2:
-            size[2] = 2.0 * self.h
+        size = self._housing_extent()
         if self.circle:
             mesh = trimesh.creation.cylinder(radius=0.5 * size[1], height=size[0], sections=48)
-            turn = np.eye(4)
-            turn[:3, :3] = rotation_matrix([0.0, 1.0, 0.0], math.pi / 2)
-            mesh.apply_transform(turn)
+            mesh = self._place(mesh, axis_along_x=True)
         else:
-            mesh = trimesh.creation.box(extents=size)
-        front = mesh.face_normals[:, 0] > 0.99 * np.linalg.norm(mesh.face_normals, axis=1)
-        mesh = trimesh.Trimesh(mesh.vertices, mesh.faces[~front], process=False)
-        T = np.eye(4)
-        T[:3, :3] = self.R
-        T[:3, 3] = self.x0
-        mesh.apply_transform(T)
-        return mesh
+            mesh = self._place(trimesh.creation.box(extents=size))
+        front = (mesh.face_normals @ self.direction) > 0.99
+        return trimesh.Trimesh(mesh.vertices, mesh.faces[~front], process=False)
 
     def housing_walls(self, thickness: float) -> list:
-        """The housing as closed solids for density and volume maps (trimesh meshes, the
-        emitter's frame placed as :meth:`housing_mesh`): walls ``thickness`` thick outside the
-        housing's box, the back wall behind it (against the emit direction) and the side walls
-        around it, open towards the emit direction, without overlaps (each is its own map); a
-        circle emitter's side wall is a tube. In 2D the solids reach ``h`` on both sides of
-        z = 0 (their section is the 2D wall)."""
+        """The housing as closed solids for density and volume maps (trimesh meshes, placed as
+        :meth:`housing_mesh`): walls ``thickness`` thick outside the housing's box, the back
+        wall behind it (against the emit direction) and the side walls around it, open towards
+        the emit direction, without overlaps (each is its own map); a circle emitter's side
+        wall is a tube. In 2D the solids reach ``h`` on both sides of z = 0 (their section is
+        the 2D wall)."""
         import trimesh
 
         t = float(thickness)
-        s0, s1, s2 = self.size
-        if self.dim == 2:
-            s2 = 2.0 * self.h
-        walls = []
-
-        def place(mesh, offset) -> None:
-            T = np.eye(4)
-            T[:3, :3] = self.R
-            T[:3, 3] = self.x0 + self.R @ np.asarray(offset, dtype=float)
-            mesh.apply_transform(T)
-            walls.append(mesh)
-
-        if self.circle:  # in the frame: the axis along x
-            turn = np.eye(4)
-            turn[:3, :3] = rotation_matrix([0.0, 1.0, 0.0], math.pi / 2)
+        s0, s1, s2 = self._housing_extent()
+        back = [-0.5 * (s0 + t), 0.0, 0.0]
+        if self.circle:
             radius = 0.5 * s1
-            tube = trimesh.creation.annulus(r_min=radius, r_max=radius + t, height=s0,
-                                            sections=48, transform=turn)
-            back = trimesh.creation.cylinder(radius=radius + t, height=t, sections=48,
-                                             transform=turn)
-            place(tube, [0.0, 0.0, 0.0])
-            place(back, [-0.5 * (s0 + t), 0.0, 0.0])
-            return walls
-        place(trimesh.creation.box(extents=[t, s1 + 2 * t, s2 + 2 * t]),
-              [-0.5 * (s0 + t), 0.0, 0.0])
+            return [self._place(trimesh.creation.annulus(r_min=radius, r_max=radius + t,
+                                                         height=s0, sections=48),
+                                axis_along_x=True),
+                    self._place(trimesh.creation.cylinder(radius=radius + t, height=t,
+                                                          sections=48), back, True)]
+        walls = [self._place(trimesh.creation.box(extents=[t, s1 + 2 * t, s2 + 2 * t]), back)]
         for sign in (-1.0, 1.0):
-            place(trimesh.creation.box(extents=[s0, t, s2 + 2 * t]),
-                  [0.0, sign * 0.5 * (s1 + t), 0.0])
+            walls.append(self._place(trimesh.creation.box(extents=[s0, t, s2 + 2 * t]),
+                                     [0.0, sign * 0.5 * (s1 + t), 0.0]))
             if self.dim == 3:
-                place(trimesh.creation.box(extents=[s0, s1, t]), [0.0, 0.0, sign * 0.5 * (s2 + t)])
+                walls.append(self._place(trimesh.creation.box(extents=[s0, s1, t]),
+                                         [0.0, 0.0, sign * 0.5 * (s2 + t)]))
         return walls
 
     # -- checkpoints ---------------------------------------------------------------------------

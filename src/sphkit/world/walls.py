@@ -127,8 +127,11 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
                                thickness=thick, resolution=mres, body=body))
         fields.append(f"meshes[{k}].map_resolution" if mb.map_resolution
                       else "configuration.boundary.map_resolution")
-    for k, (em, cfg) in enumerate(zip(emitters or [], scene.emitters, strict=False)):
-        if not cfg.housing:  # SPlisHSPlasH's housing is a boundary model of every kind
+    coarse_map_warnings(out, fields, scene, state.h)
+    # emitter housings (SPlisHSPlasH's housing is a boundary model of every kind), on the
+    # automatic grid: no scene field sets their resolution
+    for k, em in enumerate(emitters or []):
+        if not scene.emitters[k].housing:
             continue
         for j, wall in enumerate(em.housing_walls(state.h)):
             if dim == 3:
@@ -136,7 +139,6 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
             else:
                 sdf = PolygonDistance(*section_segments(wall))
             out.append(MapGeometry(f"emitters[{k}].housing[{j}]", sdf))
-    coarse_map_warnings(out, fields + [""] * (len(out) - len(fields)), scene, state.h)
     return out
 
 
