@@ -354,6 +354,14 @@ def test_fluid_through_the_floor_exits_3(tmp_path: Path,
      "configuration.pressure.background_pressure"),
     ("configuration.transport", {"method": "adami2013", "background_pressure": math.inf},
      "configuration.transport.background_pressure"),
+    # this session's fields: garbage of each kind, refused naming the field
+    ("output", {"checkpoint_every": math.nan}, "output.checkpoint_every"),
+    ("output", {"body_formats": ["stl"]}, "output.body_formats[0]"),
+    ("configuration.time", {"iteration_control": "often"},
+     "configuration.time.iteration_control"),
+    ("emitters", [{"position": [0.2, 0.4], "width": 0.1,
+                   "reuse_box": {"min": [0.0, 0.0], "max": [math.inf, 1.0]}}],
+     "emitters[0].reuse_box.max[0]"),
 ])
 def test_non_finite_numbers_are_refused_naming_the_field(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], path: str, value: object,
@@ -382,6 +390,34 @@ def test_non_finite_numbers_in_splishsplash_scenes(tmp_path: Path, where: str, k
     code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
                                str(tmp_path / "o"))
     _refused(code, text, seconds, f"{key}")
+
+
+@pytest.mark.parametrize(("block", "entry", "named"), [
+    ("Configuration", {"enableStateExport": True, "stateExportFPS": math.inf},
+     "Configuration.stateExportFPS"),
+    ("Materials", {"id": "Fluid", "emitterReuseParticles": True,
+                   "emitterBoxMin": [0, math.nan, 0]}, "emitterBoxMin"),
+    ("RigidBodies", {"geometryFile": "box.obj", "isDynamic": True,
+                     "velocity": [1.0, "fast", 0.0]}, "RigidBodies[0].velocity"),
+])
+def test_this_sessions_splishsplash_fields_refuse_garbage(
+        tmp_path: Path, block: str, entry: dict, named: str,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """State export, emitter reuse boxes and body velocities read from SPlisHSPlasH scenes:
+    a non-finite or mistyped value exits 2 naming the field, no traceback."""
+    scene = {"Configuration": {"particleRadius": 0.025, "simulationMethod": 4},
+             "FluidBlocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}],
+             "Emitters": [{"width": 2, "translation": [0.1, 0.5, 0.1]}]}
+    import trimesh
+
+    trimesh.creation.box(extents=[0.1, 0.1, 0.1]).export(tmp_path / "box.obj")
+    if block == "Configuration":
+        scene[block].update(entry)
+    else:
+        scene[block] = [entry]
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, named)
 
 
 # -- 7. Ctrl-C while the command starts ----------------------------------------------------------
