@@ -154,6 +154,48 @@ def _own_extras() -> list[tuple[tuple, st.SearchStrategy]]:
                                          max_size=3)),
         (("output", "attributes"), st.lists(st.sampled_from(["velocity", "density", "x"]),
                                             max_size=3)),
+        (("output", "checkpoint_every"), st.one_of(st.floats(0.0, 0.01), VALUES)),
+        (("output", "body_formats"), st.lists(st.sampled_from(["vtk", "obj", "ply", "stl"]),
+                                              max_size=3)),
+        (("configuration", "time", "iteration_control"),
+         st.one_of(st.booleans(), st.just("often"), VALUES)),
+        (("configuration", "boundary", "symmetric"), st.one_of(st.booleans(), VALUES)),
+        (("configuration", "boundary", "solved"),
+         st.one_of(st.sampled_from([True, False, "velocity", "density", "x"]), VALUES)),
+        (("boxes", 0, "viscosity_factors"),
+         st.one_of(st.lists(st.floats(0.0, 3.0), min_size=4, max_size=4), VALUES)),
+        (("emitters", 0, "reuse_box"),
+         st.one_of(st.fixed_dictionaries({"min": vec(2), "max": vec(2)}), VALUES)),
+        # several fluids: a second material, a block of it and the forces between the phases
+        (("materials", 1), st.fixed_dictionaries(
+            {"id": st.just("oil"), "density0": st.one_of(st.floats(50.0, 2000.0), VALUES)})),
+        (("fluid_blocks", 1), st.fixed_dictionaries(
+            {"start": st.just([0.35, 0.1]), "end": st.just([0.5, 0.3]),
+             "material": st.sampled_from(["oil", "water", "nope"])})),
+        (("interfaces",), st.fixed_dictionaries(
+            {"materials": st.one_of(st.just(["water", "oil"]), VALUES),
+             "viscosity": st.fixed_dictionaries(
+                 {"method": st.sampled_from(_names("interface_viscosity")),
+                  "coefficient": st.one_of(st.floats(0.0, 0.1), VALUES)}),
+             "tension": st.fixed_dictionaries(
+                 {"method": st.sampled_from(_names("interface_tension")),
+                  "coefficient": st.one_of(st.floats(0.0, 1.0), VALUES)})}).map(
+                      lambda d: [d])),
+        # an elastic solid
+        (("materials", 0, "elasticity"), st.fixed_dictionaries(
+            {"method": st.sampled_from(_names("elasticity")),
+             "youngs_modulus": st.one_of(st.floats(1e3, 1e6), VALUES),
+             "poisson_ratio": st.one_of(st.floats(0.0, 0.45), VALUES)})),
+        (("materials", 0, "elasticity", "fixed_boxes"),
+         st.one_of(st.just([{"min": [0.0, 0.0], "max": [0.2, 0.2]}]), VALUES)),
+        # a dynamic rigid body (the folder's box.obj, scaled into the tank)
+        (("meshes",), st.just([{"geometry_file": "box.obj", "translation": [0.45, 0.3, 0.0],
+                                "scale": [0.08, 0.08, 1.0], "dynamic": True,
+                                "density": 500.0}])),
+        (("meshes", 0, "velocity"), st.one_of(vec(2), VALUES)),
+        (("meshes", 0, "angular_velocity"), VALUES),
+        (("meshes", 0, "density"), VALUES),
+        (("meshes", 0, "friction"), VALUES),
     ]
     return extras
 
@@ -174,7 +216,7 @@ def _sph_extras() -> list[tuple[tuple, st.SearchStrategy]]:
         ((c, "particleAttributes"), st.one_of(st.just("velocity;density"), VALUES)),
         (("Materials", 0, "viscosityMethod"), st.one_of(st.integers(-1, 7), VALUES)),
         (("Materials", 0, "vorticityMethod"), st.one_of(st.integers(-1, 3), VALUES)),
-        (("Materials", 0, "surfaceTensionMethod"), st.one_of(st.integers(-1, 4), VALUES)),
+        (("Materials", 0, "surfaceTensionMethod"), st.one_of(st.integers(-1, 6), VALUES)),
         (("Materials", 0, "dragMethod"), st.one_of(st.integers(-1, 3), VALUES)),
         (("Materials", 0, "maxEmitterParticles"), VALUES),
         (("FluidBlocks", 0, "initialVelocity"), VALUES),
@@ -195,6 +237,24 @@ def _sph_extras() -> list[tuple[tuple, st.SearchStrategy]]:
         (("AnimationFields", 0, "shapeType"), st.one_of(st.integers(-1, 3), VALUES)),
         (("AnimationFields", 0, "translation"), VALUES),
         (("RigidBodies", 0, "isAnimated"), st.one_of(st.booleans(), VALUES)),
+        (("RigidBodies", 0, "velocity"), VALUES),
+        (("RigidBodies", 0, "angularVelocity"), VALUES),
+        ((c, "cflMethod"), st.one_of(st.integers(-1, 3), VALUES)),
+        ((c, "enableStateExport"), st.one_of(st.booleans(), VALUES)),
+        ((c, "stateExportFPS"), VALUES),
+        (("Emitters", 0, "emitterReuseParticles"), st.one_of(st.booleans(), VALUES)),
+        (("Emitters", 0, "emitterBoxMin"), VALUES),
+        (("Emitters", 0, "emitterBoxMax"), VALUES),
+        # several fluids: a second material and a block of it
+        (("Materials", 1), st.fixed_dictionaries(
+            {"id": st.just("Fluid2"), "density0": st.one_of(st.floats(50.0, 2000.0), VALUES)})),
+        (("FluidBlocks", 1), st.fixed_dictionaries(
+            {"start": st.just([0.35, 0.1, -0.5]), "end": st.just([0.5, 0.3, 0.5]),
+             "id": st.sampled_from(["Fluid2", "Fluid", "nope"])})),
+        # an elastic solid
+        (("Materials", 0, "elasticityMethod"), st.one_of(st.integers(-1, 5), VALUES)),
+        (("Materials", 0, "youngsModulus"), VALUES),
+        (("Materials", 0, "poissonsRatio"), VALUES),
     ]
 
 

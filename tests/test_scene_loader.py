@@ -359,6 +359,28 @@ def test_splishsplash_older_flat_parameters_and_xsph() -> None:
     assert b.viscosity.boundary_coefficient == 0.05
 
 
+def test_splishsplash_older_flat_elasticity() -> None:
+    # scenes before 2.16 (SPlisHSPlasH 560a87c's Beam.json) write the elastic parameters flat in
+    # the material; 2.19 moved them into the method's block. Both read alike; with a block,
+    # flat keys are not read (and are reported as unknown)
+    block = {"youngsModulus": 5e6, "poissonsRatio": 0.33, "alpha": 0.1, "maxNeighbors": 15,
+             "fixedBoxMin": [-10, -10, -10], "fixedBoxMax": [-1.5, 10, 10]}
+    base = {"id": "Fluid", "elasticityMethod": 3}
+    flat = from_splishsplash({"Materials": [{**base, **block}]})
+    named = from_splishsplash({"Materials": [{**base, "Kugelstadt et al. 2021": block}]})
+    for scene in (flat, named):
+        e = scene.materials[0].elasticity
+        assert (e.method, e.youngs_modulus, e.poisson_ratio, e.alpha, e.max_neighbors) == (
+            "kugelstadt2021", 5e6, 0.33, 0.1, 15)
+        assert [(b.min, b.max) for b in e.fixed_boxes] == [([-10, -10, -10], [-1.5, 10, 10])]
+    with pytest.warns(UserWarning, match=r"Materials\[0\]\.youngsModulus"):
+        both = from_splishsplash({"Materials": [{**base, "youngsModulus": 1e3,
+                                                 "Kugelstadt et al. 2021": block}]})
+    assert both.materials[0].elasticity.youngs_modulus == 5e6
+    with pytest.raises(SceneError, match=r"Materials\[0\]\.poissonsRatio"):
+        from_splishsplash({"Materials": [{**base, "poissonsRatio": "x"}]})
+
+
 # SPlisHSPlasH's defaults of the iterative solvers: TimeStep.cpp (minIterations 2, maxIterations
 # 100, maxError 0.01 %), TimeStepPCISPH.cpp (minIterations 3), TimeStepDFSPH.cpp (maxIterationsV
 # 100, maxErrorV 0.1 %, divergence solver on), TimeStepPBF.cpp (velocityUpdateMethod 0); also read

@@ -57,6 +57,8 @@ def materials(rd: Reader) -> list[dict[str, Any]]:
             "inertiaInverse", "viscoMaxIter", "viscoMaxError", "viscoMaxIterOmega",
             "viscoMaxErrorOmega", "surfaceTension", "surfaceTensionBoundary", "drag",
         }
+        if _flat_elasticity(m):
+            known |= _FLAT_ELASTICITY
         rd.collect_unknown(m, w, known, _MATERIAL_QUIET | MATERIAL_NAMESPACES)
         mid = rd.text(m, "id", w, "Fluid")
         density0 = rd.num(m, "density0", w, 1000.0, positive=True)
@@ -369,10 +371,26 @@ def drag(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
 
 
 
+#: the elasticity keys that scenes before 2.16 write flat in the material (methods 1-3; Kee et
+#: al. 2023 came with the namespaces)
+_FLAT_ELASTICITY = {"youngsModulus", "poissonsRatio", "alpha", "fixedBoxMin", "fixedBoxMax",
+                    *(key for em in (1, 2, 3) for key in ELASTICITY_KEYS[em])}
+
+
+def _flat_elasticity(m: Mapping[str, Any]) -> bool:
+    """Whether the material is an elastic solid of a scene before 2.16: a supported
+    ``elasticityMethod`` and its parameters flat in the material, no block of the method."""
+    em = m.get("elasticityMethod")
+    if em not in (1, 2, 3) or em not in ELASTICITY_SUPPORTED or isinstance(em, bool):
+        return False
+    return ELASTICITY_SUPPORTED[em][1] not in m and any(key in m for key in _FLAT_ELASTICITY)
+
+
 def elasticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:
     """The material's elasticity (``elasticityMethod``; its block, e.g. ``"Becker et al.
     2009"``: ``youngsModulus``, ``poissonsRatio``, ``alpha``, ``fixedBoxMin``/``fixedBoxMax``,
-    the implicit models' ``maxNeighbors`` and iteration control)."""
+    the implicit models' ``maxNeighbors`` and iteration control; in scenes before 2.16 the same
+    keys flat in the material)."""
     em = rd.integer(m, "elasticityMethod", w, 0)
     if em == 0:
         return {"method": "none"}
@@ -386,6 +404,8 @@ def elasticity(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, An
     method, ns_key = ELASTICITY_SUPPORTED[em]
     nsw = f"{w}.{ns_key}"
     ns = rd.obj(m, ns_key, nsw)
+    if _flat_elasticity(m):  # a scene before 2.16: the block's keys are the material's
+        ns, nsw = {key: m[key] for key in _FLAT_ELASTICITY if key in m}, w
     extra = ELASTICITY_KEYS[em]
     rd.collect_unknown(ns, nsw, {"youngsModulus", "poissonsRatio", "alpha", "fixedBoxMin",
                                  "fixedBoxMax", *extra}, set())
