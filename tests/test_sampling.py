@@ -245,3 +245,49 @@ def test_splishsplash_dense_modes_count_place_and_rest(lattice: str, dim: int) -
     rho = np.array([V * k.w(np.linalg.norm(pts - q, axis=1)).sum() for q in inner])
     assert abs(rho.mean() - 1.0) < 1e-12  # the volume's definition
     assert np.abs(rho - 1.0).max() < 5e-3, np.abs(rho - 1.0).max()
+
+
+def test_load_mesh_keeps_a_face_listed_twice_once(tmp_path: Path) -> None:
+    # SPlisHSPlasH's older sphere.obj (560a87c) lists every triangle three times: read as is,
+    # its area, surface samples and volume would count three times
+    box = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    lines = [f"v {x} {y} {z}" for x, y, z in box.vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in np.repeat(box.faces, 3, axis=0)]
+    path = tmp_path / "triple.obj"
+    path.write_text("\n".join(lines) + "\n")
+    mesh = load_mesh(path)
+    assert len(mesh.faces) == 12 and mesh.is_volume
+    assert mesh.volume == pytest.approx(1.0, rel=1e-12)
+
+
+def test_dynamic_body_from_a_mesh_that_closes_but_is_not_watertight() -> None:
+    from sphkit.boundary.rigid.construction import body_from_mesh
+
+    # a unit cube whose top has a T-junction: one top triangle split at the midpoint of the
+    # diagonal the other top triangle still spans (not watertight, but the faces close: the
+    # mass properties are exact); SPlisHSPlasH's older sphere.obj has such seams
+    box = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    top = np.flatnonzero(box.face_normals[:, 2] > 0.5)[0]
+    a, b, c = box.faces[top]
+    v = box.vertices
+    pairs = [(a, b), (b, c), (c, a)]
+    i, j = next((p, q) for p, q in pairs if abs(v[p] - v[q])[:2].min() > 0.5)  # the diagonal
+    k = ({a, b, c} - {i, j}).pop()
+    verts = np.vstack([v, 0.5 * (v[i] + v[j])])
+    m = len(v)
+    faces = np.delete(box.faces, top, axis=0)
+    faces = np.vstack([faces, [i, m, k], [m, j, k]])
+    cracked = trimesh.Trimesh(verts, faces, process=False)
+    cracked.fix_normals()
+    assert not cracked.is_watertight
+    with pytest.warns(UserWarning, match="not watertight, but its faces close"):
+        body = body_from_mesh("cube", cracked, True, 500.0, None, None, None, 0.5)
+    assert body.mass == pytest.approx(500.0, rel=1e-12)  # density x 1 m^3
+    np.testing.assert_allclose(body.c, [0.0, 0.0, 0.0], atol=1e-12)
+    # a unit cube's inertia about its centre: m (1 + 1) / 12 on each axis
+    np.testing.assert_allclose(body.inertia, np.eye(3) * 500.0 / 6.0, atol=1e-9)
+    # a real hole (the top's two triangles missing) stays refused
+    holed = trimesh.Trimesh(v, np.delete(box.faces, np.flatnonzero(box.face_normals[:, 2] > 0.5),
+                                         axis=0), process=False)
+    with pytest.raises(ValueError, match="not a closed volume"):
+        body_from_mesh("cube", holed, True, 500.0, None, None, None, 0.5)

@@ -381,6 +381,53 @@ def test_splishsplash_older_flat_elasticity() -> None:
         from_splishsplash({"Materials": [{**base, "poissonsRatio": "x"}]})
 
 
+def test_splishsplash_method_numbers_before_2_12_and_2_13() -> None:
+    # SPlisHSPlasH 2.12 took XSPH out of viscosityMethod (3-7 became 2-6), 2.13 put Jeske et al.
+    # 2023 at surfaceTensionMethod 4 (Zorilla, Ritter et al. 2020 moved to 5); files carry no
+    # version. Flat materials (before 2.16) are renumbered where the file shows its numbering
+    # (SPlisHSPlasH's own scenes at 560a87c: ViscousBunny 7, BucklingModel_Peer2016 5 with the
+    # Omega keys, the ZR2020 scenes 4 with surfTZR* keys) and noted where it cannot tell
+    def read(material: dict, **cfg: Any) -> tuple[Any, list[str]]:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            scene = from_splishsplash({"Configuration": cfg, "Materials": [material]})
+        return scene, [str(w.message) for w in caught]
+
+    def visc(material: dict) -> tuple[str, bool]:
+        scene, notes = read(material)
+        return scene.materials[0].viscosity.method, any("viscosityMethod" in n for n in notes)
+
+    omega = {"viscoMaxIterOmega": 50, "viscoMaxErrorOmega": 0.01}
+    assert visc({"viscosityMethod": 7, "viscosity": 1}) == ("weiler2018", True)
+    assert visc({"viscosityMethod": 5, "viscosity": 0.01, **omega}) == ("peer2016", True)
+    assert visc({"viscosityMethod": 5, "viscosity": 0.01}) == ("takahashi2015", True)  # noted
+    assert visc({"viscosityMethod": 4, "viscosity": 0.01, **omega}) == ("peer2016", False)
+    assert visc({"viscosityMethod": 6, "viscosity": 1, "viscosityBoundary": 1}) == (
+        "weiler2018", False)
+    assert visc({"viscosityMethod": 3, "viscosity": 0.01, "xsph": 0.0}) == ("peer2015", False)
+    assert visc({"viscosityMethod": 1, "viscosity": 0.01}) == ("standard", False)
+    assert visc({"viscosityMethod": 3, "Peer et al. 2015": {"viscosity": 0.01}}) == (
+        "peer2015", False)  # 2.16's form: numbers as they are
+    scene, notes = read({"viscosityMethod": 3, "viscosity": 0.01})
+    assert scene.materials[0].viscosity.method == "peer2015"
+    assert any("before 2.12, 3 was Bender and Koschier 2017 (now 2)" in n for n in notes)
+
+    zr = {"surfaceTensionMethod": 4, "surfaceTension": 0.1, "surfTZRd": 28, "surfTZRd-offset": 3,
+          "surfTZRnormal-mode": 1}
+    scene, notes = read(zr)
+    st = scene.materials[0].surface_tension
+    assert (st.method, st.coefficient, st.zorilla2020.classifier_d, st.zorilla2020.d_offset,
+            st.zorilla2020.normal_mode) == ("zorilla2020", 0.1, 28.0, 3.0, "mc")
+    assert not any("ignored" in n for n in notes)
+    scene, notes = read({"surfaceTensionMethod": 4, "surfaceTension": 0.1})
+    assert scene.materials[0].surface_tension.method == "jeske2023"
+    assert any("before 2.13, 4 was Zorilla" in n for n in notes)
+    # projective fluids' stiffness was the flat stiffnessPF (a flat stiffness is WCSPH's)
+    scene, notes = read({}, simulationMethod=5, stiffness=50, stiffnessPF=25000)
+    assert scene.configuration.pressure.pf_stiffness == 25000.0
+    assert not any("ignored" in n for n in notes)
+
+
 # SPlisHSPlasH's defaults of the iterative solvers: TimeStep.cpp (minIterations 2, maxIterations
 # 100, maxError 0.01 %), TimeStepPCISPH.cpp (minIterations 3), TimeStepDFSPH.cpp (maxIterationsV
 # 100, maxErrorV 0.1 %, divergence solver on), TimeStepPBF.cpp (velocityUpdateMethod 0); also read

@@ -65,6 +65,7 @@ def configuration(
         "particleRadius", "sim2D", "simulationMethod", "boundaryHandlingMethod",
         "gravitation", "timeStepSize", "cflMethod", "cflFactor", "cflMinTimeStepSize",
         "cflMaxTimeStepSize", "stopAt", "kernel", "gradKernel", "WCSPH", "stiffness",
+        "stiffnessPF",
         "exponent", "enableZSort", "stepsPerZSort", "dataExportFPS", "enableStateExport",
         "stateExportFPS",
     }
@@ -274,10 +275,12 @@ def iterative_solver(rd: Reader, cfg: dict[str, Any], method: int) -> dict[str, 
                            "0 (first order) or 1 (second order)")
         pressure["pbf_velocity_update"] = _PBF_VELOCITY_UPDATES[vum]
     elif pressure["method"] == "pf":
+        # scenes before 2.16 name it stiffnessPF, flat (a flat stiffness is WCSPH's)
         key = "stiffnessPF" if "stiffnessPF" in ns else "stiffness"
-        pressure["pf_stiffness"] = rd.num(ns, key, nsw, num("stiffness", PF_STIFFNESS),
-                                          positive=True)
-        rd.origin["configuration.pressure.pf_stiffness"] = f"{where(key)}.{key}"
+        flat = rd.num(cfg, "stiffnessPF", w, PF_STIFFNESS, positive=True)
+        pressure["pf_stiffness"] = rd.num(ns, key, nsw, flat, positive=True)
+        rd.origin["configuration.pressure.pf_stiffness"] = (
+            f"{nsw}.{key}" if key in ns else f"{w}.stiffnessPF")
         if "maxError" in ns or "maxError" in cfg:
             rd.notes.append(
                 f"{where('maxError')}.maxError: {pressure['max_error']} is not used by "

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from sphkit.scene.splishsplash import legacy
 from sphkit.scene.splishsplash.methods import (
     BOUNDARY_VISCOSITY,
     DRAG_SUPPORTED,
@@ -20,6 +21,7 @@ from sphkit.scene.splishsplash.methods import (
     ELASTICITY_SUPPORTED,
     FACTOR_VISCOSITY,
     IMPLICIT_VISCOSITY,
+    JESKE2023_FIELDS,
     KEE2023_FIELDS,
     KEE2023_MATERIALS,
     KEE2023_SOLVERS,
@@ -50,6 +52,7 @@ def materials(rd: Reader) -> list[dict[str, Any]]:
     out = []
     for k, m in enumerate(rd.array("Materials")):
         w = f"Materials[{k}]"
+        m = legacy.renumber(m, w, rd.notes)
         known = {
             "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",
             "dragMethod", "elasticityMethod", "Standard viscosity", "XSPH", "viscosity",
@@ -59,6 +62,10 @@ def materials(rd: Reader) -> list[dict[str, Any]]:
         }
         if _flat_elasticity(m):
             known |= _FLAT_ELASTICITY
+        if legacy.flat(m):  # a scene before 2.16: its surface tension's keys are flat too
+            known |= {4: legacy.JESKE_KEYS,
+                      5: {"surfTZRtemporalSmooth", *_ZR2020_NUMBERS, *_ZR2020_INTEGERS,
+                          *_ZR2020_ENUMS}}.get(m.get("surfaceTensionMethod"), set())
         rd.collect_unknown(m, w, known, _MATERIAL_QUIET | MATERIAL_NAMESPACES)
         mid = rd.text(m, "id", w, "Fluid")
         density0 = rd.num(m, "density0", w, 1000.0, positive=True)
@@ -296,6 +303,8 @@ def zorilla2020(rd: Reader, m: Mapping[str, Any], w: str, k: int,
              *_ZR2020_NUMBERS, *_ZR2020_INTEGERS, *_ZR2020_ENUMS}
     rd.collect_unknown(ns, nsw, known, set())
     src = nsw if ns else w
+    if legacy.flat(m):  # a scene before 2.16: the surfTZR* keys are the material's
+        ns, nsw = {key: m[key] for key in known if key in m}, w
     coef = rd.num(ns, "surfaceTension", nsw, rd.num(m, "surfaceTension", w, 0.05, nonneg=True),
                   nonneg=True)
     rd.origin[f"materials[{k}].surface_tension.coefficient"] = f"{src}.surfaceTension"
@@ -322,11 +331,6 @@ def zorilla2020(rd: Reader, m: Mapping[str, Any], w: str, k: int,
 
 
 #: Jeske et al. 2023: SPlisHSPlasH key -> (sphkit field of the jeske2023 block, default)
-_JESKE_KEYS = {
-    "surfaceTensionViscosity": ("viscosity", 0.0),
-    "surfaceTensionViscosityBoundary": ("boundary_viscosity", 0.0),
-    "surfaceTensionXSPH": ("xsph", 0.0), "surfaceTensionMaxError": ("max_error", 1e-3),
-}
 
 
 def jeske2023(rd: Reader, m: Mapping[str, Any], w: str, k: int,
@@ -335,7 +339,7 @@ def jeske2023(rd: Reader, m: Mapping[str, Any], w: str, k: int,
     ``surfaceTensionBoundary`` and the solver keys of its block (defaults:
     ``reference/methods.md`` K5)."""
     v = _namespaced(rd, m, w, ns_key, {"surfaceTension": 0.05, "surfaceTensionBoundary": 0.01,
-                                       **{key: d for key, (_, d) in _JESKE_KEYS.items()}},
+                                       **{key: d for key, (_, d) in JESKE2023_FIELDS.items()}},
                     extra={"surfaceTensionMaxIter"})
     nsw = f"{w}.{ns_key}"
     ns = rd.obj(m, ns_key, nsw)
@@ -345,11 +349,11 @@ def jeske2023(rd: Reader, m: Mapping[str, Any], w: str, k: int,
                      {"coefficient": "surfaceTension",
                       "boundary_coefficient": "surfaceTensionBoundary",
                       "jeske2023.max_iterations": "surfaceTensionMaxIter",
-                      **{f"jeske2023.{ours}": key for key, (ours, _) in _JESKE_KEYS.items()}})
+                      **{f"jeske2023.{ours}": key for key, (ours, _) in JESKE2023_FIELDS.items()}})
     return {"method": "jeske2023", "coefficient": v["surfaceTension"],
             "boundary_coefficient": v["surfaceTensionBoundary"],
             "jeske2023": {"max_iterations": it,
-                          **{ours: v[key] for key, (ours, _) in _JESKE_KEYS.items()}}}
+                          **{ours: v[key] for key, (ours, _) in JESKE2023_FIELDS.items()}}}
 
 
 def drag(rd: Reader, m: Mapping[str, Any], w: str, k: int) -> dict[str, Any]:

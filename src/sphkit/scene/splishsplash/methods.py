@@ -158,6 +158,13 @@ ELASTICITY_KEYS = {
         "maxIterations", "maxError", "maxIterationsCG", "tolCG", "maxLSIterations",
         "lsArmijoParam", "lsBeta", "useLineSearch", "lbfgsWindowSize"),
 }
+#: Jeske et al. 2023's parameters beside surfaceTension, surfaceTensionBoundary and
+#: surfaceTensionMaxIter: SPlisHSPlasH name -> (sphkit field, default)
+JESKE2023_FIELDS = {
+    "surfaceTensionViscosity": ("viscosity", 0.0),
+    "surfaceTensionViscosityBoundary": ("boundary_viscosity", 0.0),
+    "surfaceTensionXSPH": ("xsph", 0.0), "surfaceTensionMaxError": ("max_error", 1e-3),
+}
 #: Kee et al. 2023's parameters (``Elasticity_Kee2023.cpp``): SPlisHSPlasH name -> (sphkit
 #: field, default, kind); its enums: solverType 0 Newton, 1 L-BFGS; materialType 0 stable
 #: neo-Hookean, 1 corotated
