@@ -75,6 +75,15 @@ def test_compat_markdown_lists_every_scene(folder: Path, tmp_path: Path) -> None
     assert "| GridModel_Akinci2012.json | runs |" in text
     # SPlisHSPlasH opens its empty scene; sphkit runs it with 0 particles and a warning
     assert "| Empty.json | runs | 0 (3D) |" in text and "runs with 0 particles" in text
+    # a folder of the user's scenes is named as the page's source, not the wheel
+    import shutil
+
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    shutil.copy(folder / "Empty.json", mine / "Empty.json")
+    assert main(["compat", "--scenes", str(mine), "--steps", "1", "--markdown", str(out)]) == 0
+    assert f"from the 1 scenes in `{mine}`" in out.read_text()
+    assert f"`sphkit compat --scenes {mine} --markdown {out}`" in out.read_text()
     # the committed page covers the whole corpus
     committed = DOC.read_text()
     for scene in folder.glob("*.json"):
