@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import shutil
 import warnings
 from pathlib import Path
 from typing import Any
@@ -426,6 +427,63 @@ def test_splishsplash_method_numbers_before_2_12_and_2_13() -> None:
     scene, notes = read({}, simulationMethod=5, stiffness=50, stiffnessPF=25000)
     assert scene.configuration.pressure.pf_stiffness == 25000.0
     assert not any("ignored" in n for n in notes)
+
+
+def test_splishsplash_scenes_before_the_materials_array(tmp_path: Path) -> None:
+    # until 2020 a fluid's parameters were a top-level object named by its id (SPlisHSPlasH at
+    # ffe47dc: "Fluid": {...}; DoubleDamBreakMultiPhase: "first_fluid", ...), particle files had
+    # one scale number and emitters (0d1656a) a direction, a velocity vector and emitsPerSecond
+    data_dir = Path(__file__).parent / "data" / "splishsplash"
+    shutil.copy(data_dir / "ballistic_1.bgeo", tmp_path / "drop.bgeo")
+    scene = {
+        "Configuration": {"particleRadius": 0.025, "density0": 1000},
+        "Fluid": {"viscosity": 0.02, "viscosityMethod": 1},
+        "heavy": {"density0": 2000, "viscosity": 0.03, "viscosityMethod": 1,
+                  "maxEmitterParticles": 123},
+        "FluidBlocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}],
+        "FluidModels": [{"particleFile": "drop.bgeo", "scale": 2, "id": "heavy"}],
+        "Emitters": [{"width": 4, "height": 2, "translation": [0.9, 1.0, 0.0],
+                      "direction": [-1, 0, 0], "velocity": [-2, 0, 0], "emitsPerSecond": 40,
+                      "type": 0, "id": "heavy"}],
+    }
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(scene))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sc = load_scene(path)
+    texts = " ".join(str(w.message) for w in caught)
+    ignored = [str(w.message).split("support yet: ")[1] for w in caught
+               if "support yet: " in str(w.message)]
+    assert ignored == ["Configuration.density0"]  # the material objects are read, not ignored
+    mats = {m.id: m for m in sc.materials}
+    assert (mats["Fluid"].viscosity.coefficient, mats["heavy"].density0,
+            mats["heavy"].viscosity.coefficient) == (0.02, 2000.0, 0.03)
+    assert sc.fluid_files[0].scale == 2.0
+    (e,) = sc.emitters
+    # emits along -x at 2 m/s (40 layers of 2r = 0.05 m a second, as written), the layer's
+    # width 4 x 2r along z and height 2 x 2r along y, the heavy fluid's cap
+    from sphkit.geometry.rotations import rotation_matrix
+
+    rot = rotation_matrix(e.rotation_axis, e.rotation_angle)
+    np.testing.assert_allclose(rot[:, 0], [-1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(abs(rot[:, 2]), [0.0, 0.0, 1.0], atol=1e-12)
+    assert (e.velocity, e.width, e.height, e.max_particles) == (2.0, 0.2, 0.1, 123)
+    assert "emitsPerSecond" not in texts  # 40 = 2 / (2 r): nothing to note
+    # a velocity that is not along the direction has no later form: named
+    scene["Emitters"][0]["velocity"] = [0, 2, 0]
+    with pytest.raises(SceneError, match=r"Emitters\[0\]\.velocity: got \[0, 2, 0\]"):
+        from_splishsplash(scene, path)
+    # 2018 (09c39a4): one fluid, its parameters in Configuration, numbered as before 2.12
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sc = from_splishsplash({
+            "Configuration": {"particleRadius": 0.025, "density0": 800, "viscosityMethod": 7,
+                              "viscosity": 1.5, "viscosityBoundary": 0.5},
+            "FluidBlocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}]})
+    (m,) = sc.materials
+    assert (m.id, m.density0, m.viscosity.method, m.viscosity.coefficient,
+            m.viscosity.boundary_coefficient) == ("Fluid", 800.0, "weiler2018", 1.5, 0.5)
+    assert not any("support yet" in str(w.message) for w in caught)
 
 
 # SPlisHSPlasH's defaults of the iterative solvers: TimeStep.cpp (minIterations 2, maxIterations

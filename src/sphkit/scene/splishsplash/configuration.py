@@ -55,11 +55,12 @@ _CONFIG_QUIET = {
 
 
 def configuration(
-    rd: Reader, cfg: dict[str, Any], has_rigid: bool
+    rd: Reader, cfg: dict[str, Any], has_rigid: bool, fluid_keys: set[str] | None = None
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The ``Configuration`` block -> sphkit's ``configuration`` and ``output`` (the pressure
     solver, the boundary model, the time step, the kernel, gravity, the export settings);
-    ``has_rigid``: the scene has rigid bodies or emitters, so its boundary method matters."""
+    ``has_rigid``: the scene has rigid bodies or emitters, so its boundary method matters;
+    ``fluid_keys``: keys that are the fluid's in a scene of 2018 (read with the materials)."""
     w = "Configuration"
     known = {
         "particleRadius", "sim2D", "simulationMethod", "boundaryHandlingMethod",
@@ -69,7 +70,7 @@ def configuration(
         "exponent", "enableZSort", "stepsPerZSort", "dataExportFPS", "enableStateExport",
         "stateExportFPS",
     }
-    rd.collect_unknown(cfg, w, known, _CONFIG_QUIET)
+    rd.collect_unknown(cfg, w, known | (fluid_keys or set()), _CONFIG_QUIET)
 
     method = rd.integer(cfg, "simulationMethod", w, DEFAULT_SIMULATION_METHOD)
     if method not in PRESSURE_METHODS:

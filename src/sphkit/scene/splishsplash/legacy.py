@@ -22,12 +22,23 @@ XSPH; ``viscoMaxIterOmega``: 4 is Peer et al. 2016 in 2.12's numbering, 5 in the
 show 2.12 or later; ``surfaceTensionMethod`` 4 with Zorilla and Ritter's ``surfTZR*`` keys is
 their method as 2.12 and earlier numbered it. Materials with a method block are 2.16's and are
 left alone.
+
+Before the ``Materials`` array (SPlisHSPlasH's scenes until 2020, e.g. its repository at
+ffe47dc), each fluid's parameters were a top-level object named by the fluid's id (``"Fluid":
+{"viscosity": 0.01, ...}``, read by ``readParameterObject(model->getId(), model)``):
+:func:`material_entries` reads those as materials; before that (2018, SPlisHSPlasH at
+09c39a4: one fluid) its parameters sat in ``Configuration`` (:data:`CONFIG_MATERIAL_KEYS`).
+Emitters of 2019 (0d1656a) had a ``direction``, a velocity vector and ``emitsPerSecond`` instead
+of a rotation and a speed: :func:`emitter` rewrites them.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
+
+import numpy as np
 
 from sphkit.scene.splishsplash.methods import (
     JESKE2023_FIELDS,
@@ -111,4 +122,125 @@ def renumber(m: Mapping[str, Any], w: str, notes: list[str]) -> dict[str, Any]:
     if flat(m):
         _viscosity(m, out, w, notes)
         _surface_tension(m, out, w, notes)
+    return out
+
+
+#: a fluid's keys that scenes of 2018 (one fluid) kept in ``Configuration``
+CONFIG_MATERIAL_KEYS = {
+    "density0", "viscosityMethod", "viscosity", "viscosityBoundary", "viscoMaxIter",
+    "viscoMaxError", "viscoMaxIterOmega", "viscoMaxErrorOmega", "surfaceTensionMethod",
+    "surfaceTension", "surfaceTensionBoundary", "vorticityMethod", "vorticity",
+    "viscosityOmega", "inertiaInverse", "dragMethod", "drag", "maxEmitterParticles",
+    "emitterReuseParticles", "emitterBoxMin", "emitterBoxMax",
+}
+#: top-level keys that are never a fluid's parameter object
+_RESERVED = {"Configuration", "Simulation", "Materials", "FluidBlocks", "FluidModels",
+             "RigidBodies", "Emitters", "AnimationFields"}
+
+
+def fluid_ids(data: Mapping[str, Any]) -> list[str]:
+    """The fluid ids a scene's ``FluidBlocks``, ``FluidModels`` and ``Emitters`` name (default
+    ``"Fluid"``), in order of first use."""
+    ids: list[str] = []
+    for key in ("FluidBlocks", "FluidModels", "Emitters"):
+        entries = data.get(key)
+        for e in entries if isinstance(entries, list) else []:
+            fid = e.get("id", "Fluid") if isinstance(e, Mapping) else None
+            if isinstance(fid, str) and fid not in ids:
+                ids.append(fid)
+    return ids
+
+
+def material_keys(data: Mapping[str, Any]) -> list[str]:
+    """The top-level keys that are materials in a scene written before the ``Materials`` array:
+    fluid ids (:func:`fluid_ids`) with an object of their own; none when the scene has the
+    array."""
+    if "Materials" in data:
+        return []
+    return [fid for fid in fluid_ids(data)
+            if fid not in _RESERVED and isinstance(data.get(fid), Mapping)]
+
+
+def configuration_material_keys(data: Mapping[str, Any]) -> set[str]:
+    """The keys of ``Configuration`` that are the fluid's in a scene of 2018 (no ``Materials``
+    array, no top-level fluid objects): :data:`CONFIG_MATERIAL_KEYS` present there."""
+    cfg = data.get("Configuration")
+    if "Materials" in data or material_keys(data) or not isinstance(cfg, Mapping):
+        return set()
+    return {key for key in CONFIG_MATERIAL_KEYS if key in cfg}
+
+
+def material_entries(data: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+    """The scene's materials as (field path, object with ``id``): ``Materials[k]``; in a scene
+    before that array the top-level object of each fluid id (:func:`material_keys`); before
+    those, the fluid keys of ``Configuration`` as the material ``Fluid``."""
+    if "Materials" in data:
+        entries = data["Materials"] or []
+        return [(f"Materials[{k}]", dict(m)) for k, m in enumerate(entries)]
+    keys = material_keys(data)
+    if keys:
+        return [(fid, {"id": fid, **data[fid]}) for fid in keys]
+    own = configuration_material_keys(data)
+    if own:
+        cfg = data["Configuration"]
+        return [("Configuration", {"id": "Fluid", **{key: cfg[key] for key in sorted(own)}})]
+    return []
+
+
+def _error(where: str, value: Any, expected: str) -> ValueError:
+    return ValueError(f"{where}: got {value!r}: expected {expected}")
+
+
+def _vector(e: Mapping[str, Any], key: str, w: str, default: list[float]) -> np.ndarray:
+    v = e.get(key, default)
+    if (not isinstance(v, list) or len(v) != 3
+            or not all(isinstance(c, (int, float)) and not isinstance(c, bool)
+                       and math.isfinite(c) for c in v)):
+        raise _error(f"{w}.{key}", v, "a list of 3 finite numbers")
+    return np.asarray(v, dtype=np.float64)
+
+
+def emitter(e: Mapping[str, Any], w: str, r: float, notes: list[str]) -> dict[str, Any]:
+    """An emitter of a scene before 2020 (``direction``, ``velocity`` as a vector,
+    ``emitsPerSecond``; ``Emitter.cpp`` at 0d1656a) in the later form: a rotation taking e_x to
+    the direction with the layer's width along R e_z and its height along R e_y (the older
+    emitter's ``dir x v0`` and ``dir x (dir x v0)``, v0 = e_x, or e_y for a direction along
+    x), and the speed along it. The emission rate follows the speed (a layer each 2r, as since
+    2020); a differing ``emitsPerSecond`` is noted. Other emitters are returned unchanged.
+
+    Raises:
+        ValueError: naming the field, for a direction of zero length or a velocity that is not
+            along the direction (the later emitters have no such velocity).
+    """
+    old = "direction" in e or "emitsPerSecond" in e or isinstance(e.get("velocity"), list)
+    if not old:
+        return dict(e)
+    out = {k: v for k, v in e.items() if k not in ("direction", "velocity", "emitsPerSecond")}
+    d = _vector(e, "direction", w, [1.0, 0.0, 0.0])
+    if not np.linalg.norm(d) > 0.0:
+        raise _error(f"{w}.direction", d.tolist(), "a direction of non-zero length")
+    d /= np.linalg.norm(d)
+    v = _vector(e, "velocity", w, [1.0, 0.0, 0.0]) if isinstance(e.get("velocity"), list) \
+        else float(e.get("velocity", 1.0)) * d
+    speed = float(v @ d)
+    if not speed > 0.0 or np.linalg.norm(v - speed * d) > 1e-9 * max(1.0, abs(speed)):
+        raise _error(f"{w}.velocity", e.get("velocity"), f"a velocity along the direction "
+                     f"{d.tolist()} (an emitter emits along its direction since 2020)")
+    v0 = np.array([0.0, 1.0, 0.0]) if abs(d[0]) > 0.999 else np.array([1.0, 0.0, 0.0])
+    a1 = np.cross(d, v0)
+    a1 /= np.linalg.norm(a1)
+    a2 = np.cross(d, a1)
+    rot = np.column_stack([d, -a2, a1])  # R e_x = d, R e_y = -a2, R e_z = a1 (proper)
+    from scipy.spatial.transform import Rotation
+
+    rotvec = Rotation.from_matrix(rot).as_rotvec()
+    angle = float(np.linalg.norm(rotvec))
+    out.update(velocity=speed, rotationAngle=angle,
+               rotationAxis=(rotvec / angle).tolist() if angle > 0.0 else [0.0, 0.0, 1.0])
+    rate = e.get("emitsPerSecond")
+    if isinstance(rate, (int, float)) and not isinstance(rate, bool) and rate > 0 \
+            and abs(rate - speed / (2.0 * r)) > 1e-6 * rate:
+        notes.append(f"{w}.emitsPerSecond: {rate} layers per second; sphkit emits a layer "
+                     f"each time the last one has moved 2r, {speed / (2.0 * r):.4g} per second "
+                     f"at velocity {speed:g} m/s (as SPlisHSPlasH since 2020)")
     return out

@@ -50,8 +50,8 @@ def materials(rd: Reader) -> list[dict[str, Any]]:
     """``Materials`` -> ``materials``: density, viscosity (a ``viscosityMethod`` or the XSPH
     block), vorticity, surface tension and drag of each fluid."""
     out = []
-    for k, m in enumerate(rd.array("Materials")):
-        w = f"Materials[{k}]"
+    rd.array("Materials")  # checked: an array of objects
+    for k, (w, m) in enumerate(legacy.material_entries(rd.data)):
         m = legacy.renumber(m, w, rd.notes)
         known = {
             "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",

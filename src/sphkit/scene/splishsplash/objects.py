@@ -16,6 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from sphkit.scene.paths import check_particle_file
+from sphkit.scene.schema import SceneError
+from sphkit.scene.splishsplash import legacy
 from sphkit.scene.splishsplash.reader import Reader
 
 #: a FluidModels particleFile with these suffixes is a mesh to fill (``.ply`` is a particle file)
@@ -118,7 +120,10 @@ def fluid_models(rd: Reader) -> list[dict[str, Any]]:
         p = Path(name).expanduser()
         f = p if p.is_absolute() else base / p
         check_particle_file(f, name, f"{rd.label}: {w}.particleFile")
-        scale = rd.vec3(fm, "scale", w, [1.0, 1.0, 1.0])
+        if isinstance(fm.get("scale"), (int, float)) and not isinstance(fm["scale"], bool):
+            scale = [rd.num(fm, "scale", w, 1.0)] * 3  # one number before 2020 (0d1656a)
+        else:
+            scale = rd.vec3(fm, "scale", w, [1.0, 1.0, 1.0])
         if not scale[0] > 0:
             raise rd.error(f"{w}.scale", scale, "a positive first component (SPlisHSPlasH "
                            "scales particle files by scale[0])")
@@ -159,8 +164,7 @@ def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
     its line ``height`` (box) or ``width`` (circle) particles long, rotating about z; the
     material's ``maxEmitterParticles`` (10,000) becomes ``max_particles``."""
     caps, reuse = {}, {}
-    for k, m in enumerate(rd.array("Materials")):
-        w = f"Materials[{k}]"
+    for w, m in legacy.material_entries(rd.data):
         mid = rd.text(m, "id", w, "Fluid")
         caps[mid] = rd.integer(m, "maxEmitterParticles", w, 10000)
         if rd.flag(m, "emitterReuseParticles", w, False):  # SPlisHSPlasH's default box
@@ -172,6 +176,10 @@ def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
     out = []
     for k, e in enumerate(rd.array("Emitters")):
         w = f"Emitters[{k}]"
+        try:
+            e = legacy.emitter(e, w, r, rd.notes)  # noqa: PLW2901 -- the later form of it
+        except ValueError as err:
+            raise SceneError(f"{rd.label}: {err}") from None
         known = {"type", "width", "height", "translation", "rotationAxis", "rotationAngle",
                  "velocity", "id", "emitStartTime", "emitEndTime"}
         rd.collect_unknown(e, w, known, set())

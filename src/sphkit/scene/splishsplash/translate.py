@@ -20,6 +20,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from sphkit.scene.schema import Scene, SceneError, format_validation_error
+from sphkit.scene.splishsplash import legacy
 from sphkit.scene.splishsplash.configuration import configuration
 from sphkit.scene.splishsplash.joints import JOINT_ARRAYS, joints
 from sphkit.scene.splishsplash.materials import materials
@@ -105,13 +106,19 @@ def translate(rd: Reader) -> dict[str, Any]:
                 key, f"{n} {'entry' if n == 1 else 'entries'}; {what} are not supported yet"
             )
     rd.collect_unknown(
-        data, "", {"Configuration", *_SPH_ARRAYS, *_SPH_UNSUPPORTED_ARRAYS}, _SPH_TOP_QUIET
+        data, "", {"Configuration", *_SPH_ARRAYS, *_SPH_UNSUPPORTED_ARRAYS,
+                   *legacy.material_keys(data)}, _SPH_TOP_QUIET
     )
 
     cfg = rd.obj(data, "Configuration", "Configuration")
     rigid = rd.array("RigidBodies")
     # emitters come with a housing of boundary particles: the boundary method matters
-    config, output = configuration(rd, cfg, bool(rigid) or bool(rd.array("Emitters")))
+    own = legacy.configuration_material_keys(data)  # a scene of 2018: the fluid's keys
+    if own:
+        rd.notes.append(f"Configuration.{', '.join(sorted(own))}: read as the parameters of the "
+                        "fluid \"Fluid\" (SPlisHSPlasH's scenes of 2018 kept their one fluid's "
+                        "parameters in Configuration)")
+    config, output = configuration(rd, cfg, bool(rigid) or bool(rd.array("Emitters")), own)
     dim = config["dim"]
     r = config["particle_radius"]
     mats = materials(rd)
