@@ -251,6 +251,16 @@ def _sph_extras() -> list[tuple[tuple, st.SearchStrategy]]:
         (("FluidBlocks", 1), st.fixed_dictionaries(
             {"start": st.just([0.35, 0.1, -0.5]), "end": st.just([0.5, 0.3, 0.5]),
              "id": st.sampled_from(["Fluid2", "Fluid", "nope"])})),
+        # the forms before 2.16 and before the Materials array (SPlisHSPlasH 2018-2020)
+        (("Fluid",), st.fixed_dictionaries(
+            {"viscosity": st.one_of(st.floats(0.0, 0.1), VALUES),
+             "viscosityMethod": st.one_of(st.integers(-1, 8), VALUES)})),
+        ((c, "viscosityMethod"), st.one_of(st.integers(-1, 8), VALUES)),
+        ((c, "density0"), VALUES),
+        (("Emitters", 0, "direction"), st.one_of(st.sampled_from([[1, 0, 0], [0, -1, 0]]),
+                                                 VALUES)),
+        (("Emitters", 0, "emitsPerSecond"), VALUES),
+        (("Materials", 0, "surfTZRd"), VALUES),
         # an elastic solid
         (("Materials", 0, "elasticityMethod"), st.one_of(st.integers(-1, 5), VALUES)),
         (("Materials", 0, "youngsModulus"), VALUES),

@@ -443,3 +443,17 @@ def test_a_map_coarser_than_the_kernel_support_is_named_in_a_warning() -> None:
                        resolution=(38, 48))
     assert 0.96 / 48 <= MAP_CELL_LIMIT * h
     assert coarse_map_warnings([fine], [field], scene, h) == []
+
+
+def test_point_triangle_distance_of_a_collapsed_triangle() -> None:
+    # found by the long fuzz run: a mesh scaled by 1e-300 along x has edges whose squared
+    # length underflows to 0, and the edge-region division 0 / 0 raised inside a compiled
+    # parallel loop (SystemError out of `sphkit run`); the distance is that of the segment left
+    from sphkit.geometry.sdf import tri_dist2
+
+    # a = (0, 0, 0), b = (1e-300, 0, 0) (coincides with a), c = (0, 1, 0): the segment a-c
+    # (both points raised ZeroDivisionError before)
+    d2 = tri_dist2(0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 1e-300, 0.0, 0.0, 0.0, 1.0, 0.0)
+    assert d2 == pytest.approx(1.0, rel=1e-12)  # above the segment's middle
+    d2 = tri_dist2(1e-301, 0.5, 0.0, 0.0, 0.0, 0.0, 1e-300, 0.0, 0.0, 0.0, 1.0, 0.0)
+    assert d2 == pytest.approx(0.0, abs=1e-300)  # on it
