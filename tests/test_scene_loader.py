@@ -484,6 +484,23 @@ def test_splishsplash_scenes_before_the_materials_array(tmp_path: Path) -> None:
     assert (m.id, m.density0, m.viscosity.method, m.viscosity.coefficient,
             m.viscosity.boundary_coefficient) == ("Fluid", 800.0, "weiler2018", 1.5, 0.5)
     assert not any("support yet" in str(w.message) for w in caught)
+    # before October 2019 boundary particles were the only boundary method: a wall without map
+    # keys and no boundaryHandlingMethod is a container of boundary particles (since, the
+    # default is volume maps and such a wall would be solid)
+    box = tmp_path / "UnitBox.obj"
+    trimesh.creation.box(extents=[1.0, 1.0, 1.0]).export(box)
+    old_walls = {"Configuration": {"particleRadius": 0.025},
+                 "RigidBodies": [{"geometryFile": "UnitBox.obj", "isWall": True,
+                                  "scale": [2, 2, 2]}],
+                 "FluidBlocks": [{"start": [-0.5, -0.9, -0.5], "end": [0.5, 0.0, 0.5]}]}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sc = from_splishsplash(old_walls, tmp_path / "walls.json")
+    assert any("before October 2019" in str(w.message) for w in caught)
+    assert sc.configuration.boundary.method == "akinci2012" and sc.meshes[0].invert
+    old_walls["RigidBodies"][0]["mapInvert"] = True  # a map key: a scene of maps
+    sc = from_splishsplash(old_walls, tmp_path / "walls.json")
+    assert sc.configuration.boundary.method == "bender2019" and sc.meshes[0].invert
 
 
 # SPlisHSPlasH's defaults of the iterative solvers: TimeStep.cpp (minIterations 2, maxIterations

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from sphkit.scene.splishsplash import legacy
 from sphkit.scene.splishsplash.methods import (
     BOUNDARY_METHODS,
     BOUNDARY_MODELS,
@@ -83,6 +84,12 @@ def configuration(
         )
     rd.origin["configuration.pressure.method"] = f"{w}.simulationMethod"
     bhm = rd.integer(cfg, "boundaryHandlingMethod", w, DEFAULT_BOUNDARY_METHOD)
+    if legacy.particle_walls(rd.data):
+        bhm = 0
+        rd.notes.append(f"{w}.boundaryHandlingMethod: not given, walls (isWall) without map keys: "
+                        "read as a scene from before October 2019, when boundary particles "
+                        "were the only method (0; since, the default is 2, volume maps); write "
+                        "boundaryHandlingMethod to choose")
     if has_rigid and bhm not in BOUNDARY_MODELS:
         name = BOUNDARY_METHODS.get(bhm, "unknown method")
         default = "" if "boundaryHandlingMethod" in cfg else ", SPlisHSPlasH's default"

@@ -29,7 +29,9 @@ ffe47dc), each fluid's parameters were a top-level object named by the fluid's i
 :func:`material_entries` reads those as materials; before that (2018, SPlisHSPlasH at
 09c39a4: one fluid) its parameters sat in ``Configuration`` (:data:`CONFIG_MATERIAL_KEYS`).
 Emitters of 2019 (0d1656a) had a ``direction``, a velocity vector and ``emitsPerSecond`` instead
-of a rotation and a speed: :func:`emitter` rewrites them.
+of a rotation and a speed: :func:`emitter` rewrites them. Before October 2019 (ee26ef3)
+boundary particles were the only boundary method and ``boundaryHandlingMethod`` did not exist
+(since, its default is volume maps): :func:`particle_walls` tells such a scene.
 """
 
 from __future__ import annotations
@@ -244,3 +246,23 @@ def emitter(e: Mapping[str, Any], w: str, r: float, notes: list[str]) -> dict[st
                      f"each time the last one has moved 2r, {speed / (2.0 * r):.4g} per second "
                      f"at velocity {speed:g} m/s (as SPlisHSPlasH since 2020)")
     return out
+
+
+#: RigidBodies keys that only maps read (absent from scenes written for boundary particles)
+_MAP_KEYS = ("mapInvert", "mapThickness", "mapResolution", "mapFile")
+
+
+def particle_walls(data: Mapping[str, Any]) -> bool:
+    """Whether a scene without ``boundaryHandlingMethod`` was written before October 2019, when
+    boundary particles were the only method: a wall (``isWall``) among its rigid bodies and no
+    map key (``mapInvert``, ...) in any of them. Its walls are then boundary particles, a wall
+    holding the fluid inside it, as SPlisHSPlasH then ran it (since, a missing
+    ``boundaryHandlingMethod`` means volume maps, and a wall without ``mapInvert`` is solid)."""
+    cfg = data.get("Configuration")
+    bodies = data.get("RigidBodies")
+    if not isinstance(bodies, list) or (isinstance(cfg, Mapping)
+                                        and "boundaryHandlingMethod" in cfg):
+        return False
+    bodies = [b for b in bodies if isinstance(b, Mapping)]
+    return (any(b.get("isWall") is True for b in bodies)
+            and not any(key in b for b in bodies for key in _MAP_KEYS))
