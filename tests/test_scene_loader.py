@@ -400,6 +400,12 @@ def test_splishsplash_method_numbers_before_2_12_and_2_13() -> None:
 
     omega = {"viscoMaxIterOmega": 50, "viscoMaxErrorOmega": 0.01}
     assert visc({"viscosityMethod": 7, "viscosity": 1}) == ("weiler2018", True)
+    # before 2.10 Weiler's and Takahashi's viscosity was dynamic (SPlisHSPlasH's scenes: 5000 ->
+    # 5): read as kinematic, with a note when it is implausibly large
+    _, notes = read({"viscosityMethod": 6, "viscosity": 5000, "viscosityBoundary": 4000})
+    assert any("before 2.10 it was the dynamic viscosity" in n for n in notes)
+    _, notes = read({"viscosityMethod": 6, "viscosity": 5, "viscosityBoundary": 4})
+    assert not any("dynamic viscosity" in n for n in notes)
     assert visc({"viscosityMethod": 5, "viscosity": 0.01, **omega}) == ("peer2016", True)
     assert visc({"viscosityMethod": 5, "viscosity": 0.01}) == ("takahashi2015", True)  # noted
     assert visc({"viscosityMethod": 4, "viscosity": 0.01, **omega}) == ("peer2016", False)

@@ -97,6 +97,25 @@ def _viscosity(m: Mapping[str, Any], out: dict[str, Any], w: str, notes: list[st
                      f"block (\"{_block(vm)}\", 2.16's form) silence this note")
 
 
+#: 2.12's numbers of the two models whose ``viscosity`` was a dynamic viscosity [Pa s] before
+#: 2.10 (Viscosity_Takahashi2015.cpp, Viscosity_Weiler2018.cpp at cb45119: ``mu = viscosity``,
+#: since ``viscosity * density0``)
+_DYNAMIC_BEFORE_2_10 = {5: "Takahashi et al. 2015", 6: "Weiler et al. 2018"}
+#: a kinematic viscosity above this [m^2/s] in such a model is noted as likely dynamic
+_LIKELY_DYNAMIC = 100.0
+
+
+def _dynamic_note(m: Mapping[str, Any], vm: Any, w: str, notes: list[str]) -> None:
+    name = _DYNAMIC_BEFORE_2_10.get(vm) if isinstance(vm, int) else None
+    nu = m.get("viscosity")
+    if (name and isinstance(nu, (int, float)) and not isinstance(nu, bool)
+            and nu > _LIKELY_DYNAMIC):
+        notes.append(f"{w}.viscosity: {nu:g} read as a kinematic viscosity [m^2/s] ({name}, "
+                     "as SPlisHSPlasH 2.10 and later read it); before 2.10 it was the dynamic "
+                     f"viscosity [Pa s], i.e. {nu:g} / density0 m^2/s (SPlisHSPlasH's own scenes "
+                     "went from 5000 to 5): divide it by the rest density if the file is older")
+
+
 def _surface_tension(m: Mapping[str, Any], out: dict[str, Any], w: str,
                      notes: list[str]) -> None:
     sm = m.get("surfaceTensionMethod")
@@ -123,6 +142,7 @@ def renumber(m: Mapping[str, Any], w: str, notes: list[str]) -> dict[str, Any]:
     out = dict(m)
     if flat(m):
         _viscosity(m, out, w, notes)
+        _dynamic_note(m, out.get("viscosityMethod"), w, notes)
         _surface_tension(m, out, w, notes)
     return out
 
