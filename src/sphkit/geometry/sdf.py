@@ -58,25 +58,20 @@ def _seg3_dist2(px, py, pz, ax, ay, az, bx, by, bz):
     """Squared distance from p to the segment ab (3D; a point when a = b)."""
     ex, ey, ez = bx - ax, by - ay, bz - az
     l2 = ex * ex + ey * ey + ez * ez
-    t = 0.0
-    if l2 > 0.0:
-        t = min(max(((px - ax) * ex + (py - ay) * ey + (pz - az) * ez) / l2, 0.0), 1.0)
-    qx, qy, qz = px - ax - t * ex, py - ay - t * ey, pz - az - t * ez
-    return qx * qx + qy * qy + qz * qz
+    t = min(max(((px - ax) * ex + (py - ay) * ey + (pz - az) * ez) / max(l2, 1e-300), 0.), 1.)
+    return (px - ax - t * ex) ** 2 + (py - ay - t * ey) ** 2 + (pz - az - t * ez) ** 2
 
 
 @numba.njit(**_JIT)
 def tri_dist2(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
-    """Squared distance from p to the triangle abc (Ericson 2005, Sec. 5.1.5). An edge of
-    zero length (coincident corners, or a mesh scaled so far that its square underflows) leaves
-    the segment of the other two corners (the regions' divisions are by the edges' squares)."""
+    """Squared distance from p to the triangle abc (Ericson 2005, Sec. 5.1.5); with an edge of
+    zero length (its square underflows) that of the segment left (the regions divide by it)."""
     abx, aby, abz = bx - ax, by - ay, bz - az
     acx, acy, acz = cx - ax, cy - ay, cz - az
     if not (abx * abx + aby * aby + abz * abz > 0.0):
         return _seg3_dist2(px, py, pz, ax, ay, az, cx, cy, cz)
-    if not (acx * acx + acy * acy + acz * acz > 0.0):
-        return _seg3_dist2(px, py, pz, ax, ay, az, bx, by, bz)
-    if not ((cx - bx) ** 2 + (cy - by) ** 2 + (cz - bz) ** 2 > 0.0):
+    if not (acx * acx + acy * acy + acz * acz > 0.0
+            and (cx - bx) ** 2 + (cy - by) ** 2 + (cz - bz) ** 2 > 0.0):
         return _seg3_dist2(px, py, pz, ax, ay, az, bx, by, bz)
     apx, apy, apz = px - ax, py - ay, pz - az
     d1 = abx * apx + aby * apy + abz * apz
