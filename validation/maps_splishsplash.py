@@ -8,9 +8,10 @@ its three boundary models: prints slope, profile error and wall-column excess as
 UnitBox.obj scaled to 0.6 m wide (mapInvert), r = 1 cm, the fluid block 2r off the walls, 0.5 m
 high, DFSPH (max error 0.05 %), fixed dt = 2 ms, standard viscosity 0.01; positions and pressures
 averaged over the last 0.5 s; "per step": the same slope fitted to each step's pressures in that
-window (how much the pressure field swings at rest). SPlisHSPlasH's DFSPH keeps the field ``p / rho^2`` in its
-normalised, time-step scaled units; the pressure is ``value * rho^2 / (rho0 dt^2)`` (the slope
-of the Akinci column comes out 1.04 rho0 g, as sphkit's).
+window (how much the pressure field swings at rest). SPlisHSPlasH's DFSPH keeps the field
+``p / rho^2`` in its normalised, time-step scaled units; the pressure is
+``value * rho^2 / (rho0 dt^2)`` (the slope of the Akinci column comes out 1.04 rho0 g, as
+sphkit's).
 """
 
 from __future__ import annotations
