@@ -162,21 +162,16 @@ def test_volume_map_mirrored_share_is_the_distance_change_along_the_normal(dim: 
     assert np.all(share[:flat] == 1.0) and np.all(share[flat:] < 0.2), share
 
 
-def _column(method: str, pressure: str, cache: Path, resolution: list[int] | None = None
-            ) -> dict:
+def _column(method: str, pressure: str, cache: Path) -> dict:
     """2D water column, 0.4 m wide, 0.28 m high, in the section of UnitBox.obj (DFSPH, r = 1 cm),
-    settled 0.8 s, pressures and positions averaged over the next 0.4 s (``resolution``: the
-    map's cells per axis; None: automatic)."""
+    settled 0.8 s, pressures and positions averaged over the next 0.4 s."""
     r, w = 0.01, 0.4
-    bnd = {"method": method, "map_cache_dir": str(cache), "pressure": pressure}
-    if resolution is not None:
-        bnd["map_resolution"] = resolution
     sim = Simulation(Scene.model_validate({
         "configuration": {
             "dim": 2, "particle_radius": r, "gravity": [0.0, -9.81],
             "pressure": {"method": "dfsph", "max_error": 0.05, "max_iterations": 200},
             "time": {"dt_max": 0.002},
-            "boundary": bnd,
+            "boundary": {"method": method, "map_cache_dir": str(cache), "pressure": pressure},
         },
         "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
         "fluid_blocks": [{"start": [-w / 2 + 2 * r, -0.5 + 2 * r], "end": [w / 2 - 2 * r, -0.2]}],
@@ -212,14 +207,8 @@ def test_hydrostatic_pressure_relieves_the_side_walls(method: str, tmp_path: Pat
     """With SPlisHSPlasH's boundary term (k_i along the map normal) the fluid next to a side
     wall carries far more than the hydrostatic pressure; with the hydrostatic boundary pressure
     (mirrored k_i plus the wall's kernel moment of rho g) it is close to hydrostatic."""
-    # density maps on 40 cells (0.45 h across, 0.83 h up the 1 m high box): on the automatic
-    # cells of about h the interpolated map's tail beyond h (errors of +-0.003 rho0, read since
-    # the map is no longer cut at h) falls on this 14-layer column's second and third layers,
-    # slope 1.052; 0.986 / 0.993 / 0.996 with 30 / 40 / 60 cells (validation/README.md, "2D
-    # density maps: the cut at h")
-    res = [40, 40] if method == "koschier2017" else None
-    old = _column(method, "mirror", tmp_path, res)
-    new = _column(method, "hydrostatic", tmp_path, res)
+    old = _column(method, "mirror", tmp_path)
+    new = _column(method, "hydrostatic", tmp_path)
     # measured (fractions of rho0 g H; wall = particles < 3r from a side wall, middle 80 %):
     # density maps wall 0.56 -> 0.09, slope 1.22 -> 1.02-1.04; volume maps wall 0.155 -> -0.03,
     # slope 1.08 -> 1.01; interior within 0.01 in all four.

@@ -69,18 +69,28 @@ changed its density by 100 times the solvers' 0.01 % tolerance in one step, whic
 pressure of a 2D column at rest swing from 0 to 2.4 rho0 g per step (validation/README.md,
 "2D density maps: the cut at h"). The interpolated map is continuous (zero in every cell whose
 nodes are all beyond the map's reach), so the boundary density is too; in 3D (``f = 5``) the
-density at h is negligible and the cut barely mattered.
+density at h is negligible and the cut barely mattered. Read beyond h, the 2D map's tail must be
+resolved: on SPlisHSPlasH's default cells (1.15-1.6 h in its scenes) the cubic interpolation
+overshoots there by 0.5 % of rho0, so 2D maps are built on cells of at most
+:data:`MAX_CELL_2D` h, finer than the scene's resolution where that is coarser (cheap in 2D).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numba
 import numpy as np
 
 from sphkit.backend import launch_reduce
-from sphkit.boundary.maps import BoundaryMap, MapBoundaryModel
+from sphkit.boundary.maps import (
+    MAX_AUTO_POINTS,
+    BoundaryMap,
+    MapBoundaryModel,
+    MapGeometry,
+    map_domain,
+)
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.state import SimState
 from sphkit.geometry.grids import (
@@ -108,6 +118,13 @@ MOVING_INSET_2D = 1.1
 #: cubic kernel, h = 4 r, f = 5: 0.844 r - 0.440 r = 0.40 r (not fitted to a float; the same
 #: integral gives 0.68 r in 2D, where the measured 1.1 r is kept).
 MOVING_INSET_3D = 0.4
+#: largest cell of a 2D density map [kernel supports h]: a 2D map's density reaches 0.57 h beyond
+#: h (ramp factor 1.75) and is read there (:meth:`Koschier2017.reach`); on cells of about h its
+#: cubic interpolation overshoots beyond h (0.005 of rho0 on SPlisHSPlasH's 20 cells across a
+#: 0.6 m tank at r = 1 cm), which put a dam break's particles at 80 m/s; 2D maps are built at
+#: least this fine whatever the scene's resolution (validation/README.md, "2D density maps: the
+#: cut at h")
+MAX_CELL_2D = 0.5
 #: SPlisHSPlasH's constants: density scale, ramp factor in 3D and 2D
 SCALE = 0.8
 FACTOR_3D = 5.0
@@ -201,6 +218,13 @@ class Koschier2017(MapBoundaryModel):
     name = "koschier2017"
     offset_in_radii = 0.0
 
+    def init(self, state: SimState) -> None:
+        """Build the maps; in 2D on cells of at most :data:`MAX_CELL_2D` h (the scene's
+        resolution raised where it is coarser)."""
+        if state.dim == 2:
+            self.geometries = [_fine_2d(g, state.h) for g in self.geometries]
+        super().init(state)
+
     @classmethod
     def moving_inset(cls, dim: int) -> float:
         """:data:`MOVING_INSET_2D` in 2D, :data:`MOVING_INSET_3D` in 3D."""
@@ -240,3 +264,15 @@ class Koschier2017(MapBoundaryModel):
         node of the cell around a point lies within one cell diagonal of it."""
         f = FACTOR_3D if state.dim == 3 else FACTOR_2D
         return (1.0 + 1.0 / f) * state.h + float(np.linalg.norm(bmap.cell[: state.dim]))
+
+
+def _fine_2d(geom: MapGeometry, h: float) -> MapGeometry:
+    """``geom`` with a resolution whose cells are at most :data:`MAX_CELL_2D` h per axis (never
+    coarser than its own, at most :data:`sphkit.boundary.maps.MAX_AUTO_POINTS` lattice points)."""
+    lo, res, cell = map_domain(geom, h)
+    need = np.maximum(np.ceil(cell * res / (MAX_CELL_2D * h)).astype(np.int64), res)
+    while np.prod(3 * need + 1) > MAX_AUTO_POINTS and np.any(need > res):
+        need = np.maximum((need * 0.9).astype(np.int64), res)
+    if np.all(need == res):
+        return geom
+    return dataclasses.replace(geom, resolution=tuple(int(v) for v in need))
