@@ -68,8 +68,9 @@ wherever the interpolated map is positive instead of cutting it at ``phi = h``: 
 changed its density by 100 times the solvers' 0.01 % tolerance in one step, which made the
 pressure of a 2D column at rest swing from 0 to 2.4 rho0 g per step (validation/README.md,
 "2D density maps: the cut at h"). The interpolated map is continuous (zero in every cell whose
-nodes are all beyond the map's reach), so the boundary density is too; in 3D (``f = 5``) the
-density at h is negligible and the cut barely mattered. Read beyond h, the 2D map's tail must be
+nodes are all beyond the map's reach), so the boundary density is too. In 3D (``f = 5``) the
+exact density at h is 6e-5 of rho0, but a coarse 3D map's interpolation can hold 0.009 there (a
+plane wall on cells of h), so the same rule applies. Read beyond h, the 2D map's tail must be
 resolved: on SPlisHSPlasH's default cells (1.15-1.6 h in its scenes) the cubic interpolation
 overshoots there by 0.5 % of rho0, so 2D maps are built on cells of at most
 :data:`MAX_CELL_2D` h, finer than the scene's resolution where that is coarser (cheap in 2D).
