@@ -17,7 +17,8 @@ grid and interpolated with the cubic serendipity scheme, whose analytic gradient
 ``grad rho_B`` (paper, Sec. 5: the density gradient replaces the boundary particles' kernel
 gradients in the pressure terms).
 
-Per step, for a fluid particle with ``0 < phi < h``: the boundary adds
+Per step, for a fluid particle with ``phi > 0`` where the interpolated map is positive (up to
+:meth:`Koschier2017.reach`, ``(1 + 1/f) h`` plus a cell diagonal): the boundary adds
 ``rho0 rho_B(x_i)`` to the density and ``grad rho_B(x_i)`` wherever the solvers sum
 ``V_b grad W(x_i - x_b)``. To reach the solvers as an ordinary boundary neighbour (DESIGN.md), the
 pair is written as one virtual particle ``(x_b, V_b)`` that reproduces both exactly at x_i:
@@ -56,22 +57,41 @@ density is kept out of a shell along every wet face, which a body displaces in a
 mesh, and whose weight reaches the body through the vertical density gradient at its bottom
 edges (validation/README.md, "Density maps: why a floating body rides high").
 
-Deviation from SPlisHSPlasH: it uses the map only for ``0.1 r < phi < h`` and gives particles
+Deviations from SPlisHSPlasH: it uses the map only for ``0.1 r < phi < h`` and gives particles
 closer to the surface no boundary density (it resets their normal velocity instead). sphkit keeps
 the map down to ``phi > 0``: in validation/maps.py's 3D dam break against a sphere, the 0.1 r
 gap let particles into the sphere (282 push-outs, one particle 0.6 % of R inside at a frame);
-with the map down to the surface, none.
+with the map down to the surface, none. At the far end, the map's density reaches
+``(1 + 1/f) h`` into the fluid (the ramp's ``h / f`` plus the kernel's h), and sphkit reads it
+wherever the interpolated map is positive instead of cutting it at ``phi = h``: in 2D
+(``f = 1.75``) the map's density at h is 1 % of rho0, and a particle crossing ``phi = h``
+changed its density by 100 times the solvers' 0.01 % tolerance in one step, which made the
+pressure of a 2D column at rest swing from 0 to 2.4 rho0 g per step (validation/README.md,
+"2D density maps: the cut at h"). The interpolated map is continuous (zero in every cell whose
+nodes are all beyond the map's reach), so the boundary density is too. In 3D (``f = 5``) the
+exact density at h is 6e-5 of rho0, but a coarse 3D map's interpolation can hold 0.009 there (a
+plane wall on cells of h), so the same rule applies. Read beyond h, the 2D map's tail must be
+resolved: on SPlisHSPlasH's default cells (1.15-1.6 h in its scenes) the cubic interpolation
+overshoots there by 0.5 % of rho0, so 2D maps are built on cells of at most
+:data:`MAX_CELL_2D` h, finer than the scene's resolution where that is coarser (cheap in 2D).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numba
 import numpy as np
 
 from sphkit.backend import launch_reduce
-from sphkit.boundary.maps import BoundaryMap, MapBoundaryModel
+from sphkit.boundary.maps import (
+    MAX_AUTO_POINTS,
+    BoundaryMap,
+    MapBoundaryModel,
+    MapGeometry,
+    map_domain,
+)
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.state import SimState
 from sphkit.geometry.grids import (
@@ -99,6 +119,13 @@ MOVING_INSET_2D = 1.1
 #: cubic kernel, h = 4 r, f = 5: 0.844 r - 0.440 r = 0.40 r (not fitted to a float; the same
 #: integral gives 0.68 r in 2D, where the measured 1.1 r is kept).
 MOVING_INSET_3D = 0.4
+#: largest cell of a 2D density map [kernel supports h]: a 2D map's density reaches 0.57 h beyond
+#: h (ramp factor 1.75) and is read there (:meth:`Koschier2017.reach`); on cells of about h its
+#: cubic interpolation overshoots beyond h (0.005 of rho0 on SPlisHSPlasH's 20 cells across a
+#: 0.6 m tank at r = 1 cm), which put a dam break's particles at 80 m/s; 2D maps are built at
+#: least this fine whatever the scene's resolution (validation/README.md, "2D density maps: the
+#: cut at h")
+MAX_CELL_2D = 0.5
 #: SPlisHSPlasH's constants: density scale, ramp factor in 3D and 2D
 SCALE = 0.8
 FACTOR_3D = 5.0
@@ -141,16 +168,16 @@ def virtual_distance(ratio: float, h: float, kid: int, dim: int) -> float:
 
 @numba.njit(cache=True, fastmath=True, inline="always")
 def query_body(i, x, v, phi, rho_b, lo, cell, res, spacing, shape, dim, extend_axis, top, h, r,
-               kid, xb, Vb):
+               kid, reach, xb, Vb):
     """Fluid particle i's virtual particle of one density map (``xb[:, i]``, ``Vb[i]``), or
     its push out of the solid (x and v changed; returns 1, else 0)."""
     p0, p1, p2 = map_query_point(x, i, dim, extend_axis, top)
-    if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > 1.5 * h:
+    if lattice_lower_bound(phi, lo, spacing, shape, dim, p0, p1, p2) > reach + 0.5 * h:
         return 0.0
     d, n0, n1, n2, ok = grid_eval(phi, lo, cell, res, dim, p0, p1, p2)
     if not ok:
         return 0.0
-    if d > 0.0 and d < h:
+    if d > 0.0 and d < reach:
         rho, g0, g1, g2, _ok = grid_eval(rho_b, lo, cell, res, dim, p0, p1, p2)
         if rho > 1e-6:
             gl = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
@@ -192,6 +219,13 @@ class Koschier2017(MapBoundaryModel):
     name = "koschier2017"
     offset_in_radii = 0.0
 
+    def init(self, state: SimState) -> None:
+        """Build the maps; in 2D on cells of at most :data:`MAX_CELL_2D` h (the scene's
+        resolution raised where it is coarser)."""
+        if state.dim == 2:
+            self.geometries = [_fine_2d(g, state.h) for g in self.geometries]
+        super().init(state)
+
     @classmethod
     def moving_inset(cls, dim: int) -> float:
         """:data:`MOVING_INSET_2D` in 2D, :data:`MOVING_INSET_3D` in 3D."""
@@ -222,4 +256,24 @@ class Koschier2017(MapBoundaryModel):
         phi, rho_b, lo, cell, res, spacing, shape = bmap.on(x)
         return int(launch_reduce(query_body, x.shape[1], x, v, phi, rho_b, lo, cell, res,
                                  spacing, shape, state.dim, ax, top, state.h, state.r,
-                                 state.kid, xb, Vb)[0])
+                                 state.kid, self.reach(state, bmap), xb, Vb)[0])
+
+    @staticmethod
+    def reach(state: SimState, bmap: BoundaryMap) -> float:
+        """Map distance [m] beyond which a map's interpolated density is zero: its nodes are 0
+        beyond ``(1 + 1/f) h`` (the ramp's reach into the fluid plus the kernel's), and every
+        node of the cell around a point lies within one cell diagonal of it."""
+        f = FACTOR_3D if state.dim == 3 else FACTOR_2D
+        return (1.0 + 1.0 / f) * state.h + float(np.linalg.norm(bmap.cell[: state.dim]))
+
+
+def _fine_2d(geom: MapGeometry, h: float) -> MapGeometry:
+    """``geom`` with a resolution whose cells are at most :data:`MAX_CELL_2D` h per axis (never
+    coarser than its own, at most :data:`sphkit.boundary.maps.MAX_AUTO_POINTS` lattice points)."""
+    lo, res, cell = map_domain(geom, h)
+    need = np.maximum(np.ceil(cell * res / (MAX_CELL_2D * h)).astype(np.int64), res)
+    while np.prod(3 * need + 1) > MAX_AUTO_POINTS and np.any(need > res):
+        need = np.maximum((need * 0.9).astype(np.int64), res)
+    if np.all(need == res):
+        return geom
+    return dataclasses.replace(geom, resolution=tuple(int(v) for v in need))

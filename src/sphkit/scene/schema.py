@@ -930,7 +930,8 @@ class BoundaryConfig(_Model):
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
-        "radius (at most 8 million grid points)",
+        "radius (at most 8 million grid points); 2D density maps are built on cells of at most "
+        "half a support radius whatever this says (koschier2017.MAX_CELL_2D)",
     )
     map_cache: bool = Field(True, description="maps: keep computed maps in the cache folder")
     map_cache_dir: str | None = Field(

@@ -158,6 +158,8 @@ def coarse_map_warnings(geometries: list[MapGeometry], fields: list[str], scene:
     from sphkit.boundary.maps import map_domain
 
     notes: dict[str, str] = {}
+    if scene.configuration.boundary.method == "koschier2017" and scene.configuration.dim == 2:
+        return []  # built on cells of at most h / 2 whatever the resolution (MAX_CELL_2D)
     for geom, field in zip(geometries, fields, strict=True):
         if geom.resolution is None or field in notes:
             continue
