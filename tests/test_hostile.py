@@ -215,6 +215,16 @@ def test_tiny_radius_in_a_big_box_is_refused_before_allocating(
     assert peak < 100 * 2**20
 
 
+def test_huge_radius_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # found by the long fuzz run (seed 31): particleRadius 1.8e308 made the support 4r infinite
+    # and the lattice volume's inf / inf a NaN (ValueError traceback)
+    scene = copy.deepcopy(TINY)
+    scene["configuration"]["particle_radius"] = 1.7976931348623157e308
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "configuration.particle_radius", "less than or equal to")
+
+
 def test_max_particles_flag_lowers_the_budget(tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     path = _scene(tmp_path, TINY)

@@ -1042,7 +1042,8 @@ class Configuration(_Model):
     """Global simulation settings."""
 
     dim: Literal[2, 3] = 3
-    particle_radius: float = Field(0.025, gt=0, description="particle radius r [m]")
+    particle_radius: float = Field(0.025, gt=0, le=1e6, description="particle radius r [m] "
+                                   "(at most 1e6 m: the kernel support 4r stays finite)")
     kernel: Literal["cubic", "wendland", "poly6", "spiky", "quintic"] = "cubic"
     gravity: Vec = Field([0.0, -9.81, 0.0], description="gravitational acceleration [m/s^2]")
     precision: Literal["float64", "float32"] = Field(

@@ -63,9 +63,10 @@ def materials(rd: Reader) -> list[dict[str, Any]]:
         if _flat_elasticity(m):
             known |= _FLAT_ELASTICITY
         if legacy.flat(m):  # a scene before 2.16: its surface tension's keys are flat too
+            sm = m.get("surfaceTensionMethod")
             known |= {4: legacy.JESKE_KEYS,
                       5: {"surfTZRtemporalSmooth", *_ZR2020_NUMBERS, *_ZR2020_INTEGERS,
-                          *_ZR2020_ENUMS}}.get(m.get("surfaceTensionMethod"), set())
+                          *_ZR2020_ENUMS}}.get(sm, set()) if isinstance(sm, int) else set()
         rd.collect_unknown(m, w, known, _MATERIAL_QUIET | MATERIAL_NAMESPACES)
         mid = rd.text(m, "id", w, "Fluid")
         density0 = rd.num(m, "density0", w, 1000.0, positive=True)
@@ -385,7 +386,7 @@ def _flat_elasticity(m: Mapping[str, Any]) -> bool:
     """Whether the material is an elastic solid of a scene before 2.16: a supported
     ``elasticityMethod`` and its parameters flat in the material, no block of the method."""
     em = m.get("elasticityMethod")
-    if em not in (1, 2, 3) or em not in ELASTICITY_SUPPORTED or isinstance(em, bool):
+    if isinstance(em, bool) or em not in (1, 2, 3) or em not in ELASTICITY_SUPPORTED:
         return False
     return ELASTICITY_SUPPORTED[em][1] not in m and any(key in m for key in _FLAT_ELASTICITY)
 
