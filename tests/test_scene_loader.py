@@ -429,6 +429,10 @@ def test_splishsplash_method_numbers_before_2_12_and_2_13() -> None:
     scene, notes = read({"surfaceTensionMethod": 4, "surfaceTension": 0.1})
     assert scene.materials[0].surface_tension.method == "jeske2023"
     assert any("before 2.13, 4 was Zorilla" in n for n in notes)
+    # a number that is a list is named, not hashed (the long fuzz run, seed 31: TypeError)
+    for key in ("surfaceTensionMethod", "elasticityMethod", "viscosityMethod"):
+        with pytest.raises(SceneError, match=rf"Materials\[0\]\.{key}"):
+            from_splishsplash({"Materials": [{key: [1.5, 2.0]}]})
     # projective fluids' stiffness was the flat stiffnessPF (a flat stiffness is WCSPH's)
     scene, notes = read({}, simulationMethod=5, stiffness=50, stiffnessPF=25000)
     assert scene.configuration.pressure.pf_stiffness == 25000.0
