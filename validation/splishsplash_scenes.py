@@ -14,13 +14,14 @@ Each scene runs to ``min(--until, its own stopAt when > 0)``; ``--budget S`` sto
 S wall seconds of stepping ("budget at t = ...": how far it got, not a failure), and
 ``--max-particles N`` skips scenes with more fluid particles at the start. Beyond the columns
 above the table gives the fluid particles at the end (emitters add), the largest density error
-and speed of the run, the fluid particles outside the scene's domain (the bounding box of all its
-boundaries -- boxes, every mesh at its start pose, emitter housings -- widened by ``--margin``
-kernel supports h on every side; at the end and the most at any step: fluid that leaked through
-a wall or was thrown away), and for scenes with moving rigid bodies how many bodies' centres are
-outside that box at the end. The stability guard of the step (:mod:`sphkit.simulation`) stops a
-leaking run itself ("unstable: ... left the domain"), except above an open box's top and where it
-has no static wall or an emitter reuses particles. ``--json FILE`` appends one line per scene.
+and speed of the run, the fluid particles outside the scene's domain (the bounding box of all
+its boundaries -- boxes, every mesh at its start pose, emitter housings -- widened by
+``--margin`` kernel supports h, open above against gravity; at the end and the most at any step:
+fluid that leaked through a wall or fell beside it), and for scenes with rigid bodies how many
+bodies' centres are outside that box (closed above: a body thrown away) at the end. The step's
+own stability guard (:mod:`sphkit.simulation`) stops a leaking run itself ("unstable: ... left
+the domain"), except where the scene has no static wall or an emitter reuses particles.
+``--json FILE`` appends one line per scene.
 """
 
 from __future__ import annotations
@@ -100,9 +101,18 @@ def run(path: Path, until: float, budget: float = float("inf"),
     if max_particles is not None and n0 > max_particles:
         return {"status": f"skipped: {n0} fluid particles > --max-particles {max_particles}"}
     box = scene_box(sim)
+    fluid_box = None
     if box is not None:
         pad = margin * sim.state.h
         box = (box[0] - pad, box[1] + pad)
+        fluid_box = (box[0].copy(), box[1].copy())  # open above, as the step's guard
+        g = np.asarray(sim.state.gravity, float)
+        if np.any(g):
+            up = int(np.argmax(np.abs(g)))
+            if g[up] < 0:
+                fluid_box[1][up] = np.inf
+            else:
+                fluid_box[0][up] = -np.inf
     iters, errs, errs_max = [], [], []
     vmax, left_max = 0.0, 0
     t0 = time.perf_counter()
@@ -119,7 +129,7 @@ def run(path: Path, until: float, budget: float = float("inf"),
                 errs.append(s.density_error_avg)
                 errs_max.append(s.density_error_max)
                 vmax = max(vmax, s.max_velocity)
-                left_max = max(left_max, outside(sim.state.fluid["x"], box))
+                left_max = max(left_max, outside(sim.state.fluid["x"], fluid_box))
         except InstabilityError as e:
             status = f"unstable: {' '.join(str(e).split())[:400]}"
         except Exception as e:  # reported, not raised: the sweep goes on
@@ -143,7 +153,7 @@ def run(path: Path, until: float, budget: float = float("inf"),
             "iters": float(np.mean(iters)) if iters else float("nan"),
             "err": float(np.mean(errs)) if errs else float("nan"),
             "err_max": float(np.max(errs_max)) if errs_max else float("nan"),
-            "vmax": vmax, "left": outside(x, box), "left_max": left_max,
+            "vmax": vmax, "left": outside(x, fluid_box), "left_max": left_max,
             "box": None if box is None else [box[0].tolist(), box[1].tolist()],
             "fluid_extent": ext, "bodies": bodies, "bodies_out": bodies_out, "notes": notes}
 
