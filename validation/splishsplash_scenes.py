@@ -18,9 +18,11 @@ and speed of the run, the fluid particles outside the scene's domain (the boundi
 its boundaries -- boxes, every mesh at its start pose, emitter housings -- widened by
 ``--margin`` kernel supports h, open above against gravity; at the end and the most at any step:
 fluid that leaked through a wall or fell beside it), and for scenes with rigid bodies how many
-bodies' centres are outside that box (closed above: a body thrown away) at the end. The step's
-own stability guard (:mod:`sphkit.simulation`) stops a leaking run itself ("unstable: ... left
-the domain"), except where the scene has no static wall or an emitter reuses particles.
+bodies' centres are outside that box (closed above: a body thrown away) at the end; "open":
+the scene has no container (no box, no static mesh with the fluid inside), only obstacles the
+fluid may fall off by design. The step's own stability guard (:mod:`sphkit.simulation`) stops
+a leaking run itself ("unstable: ... left the domain") in scenes with a container, unless an
+emitter reuses particles.
 ``--json FILE`` appends one line per scene.
 """
 
@@ -69,6 +71,16 @@ def scene_box(sim) -> tuple[np.ndarray, np.ndarray] | None:
     if not lo:
         return None
     return np.min(lo, axis=0), np.max(hi, axis=0)
+
+
+def has_container(scene) -> bool:
+    """Whether the scene holds fluid in a container (a box, or a static mesh with ``invert``);
+    without one, fluid falling off its obstacles (or out of emitters) is no leak."""
+    from sphkit.world.walls import moving_meshes
+
+    bodies = moving_meshes(scene)
+    return bool(scene.boxes) or any(m.invert for k, m in enumerate(scene.meshes)
+                                    if k not in bodies)
 
 
 def outside(x: np.ndarray, box) -> int:
@@ -155,6 +167,7 @@ def run(path: Path, until: float, budget: float = float("inf"),
             "err_max": float(np.max(errs_max)) if errs_max else float("nan"),
             "vmax": vmax, "left": outside(x, fluid_box), "left_max": left_max,
             "box": None if box is None else [box[0].tolist(), box[1].tolist()],
+            "container": has_container(sim.scene),
             "fluid_extent": ext, "bodies": bodies, "bodies_out": bodies_out, "notes": notes}
 
 
@@ -170,6 +183,8 @@ def row(name: str, r: dict) -> str:
         return f"| {name} | | | | | | | | {r['status']} | | | | | |"
     bodies = f"{r['bodies_out']} of {r['bodies']}" if r["bodies"] else ""
     left = "no walls" if r["box"] is None else f"{r['left']} / {r['left_max']}"
+    if r["box"] is not None and not r.get("container", True):
+        left = f"open (no container): {left}"
     return (f"| {name} | {r['fluid0']} + {r['boundary']} ({r['dim']}D) | {r['steps']} | "
             f"{r['time']:.3f} | {r['wall']:.1f} | {r['wall'] / max(r['time'], 1e-12):.1f} | "
             f"{r['iters']:.2f} | {100 * r['err']:.3f} % | {r['status']} | {r['fluid']} | "
