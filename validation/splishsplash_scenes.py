@@ -106,7 +106,8 @@ def run(path: Path, until: float, budget: float = float("inf"),
             scene = load_scene(path)
             sim = Simulation(scene)
         except Exception as e:
-            return {"status": f"does not load: {' '.join(str(e).split())[:200]}"}
+            msg = " ".join(str(e).split()).split("': ", 1)[-1]  # without the file's path
+            return {"status": f"does not load: {msg[:160]}"}
     build = time.perf_counter() - t_build
     notes = [str(w.message)[-120:] for w in caught]
     n0 = sim.fluid.n
