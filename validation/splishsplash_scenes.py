@@ -1,81 +1,233 @@
-"""Run SPlisHSPlasH's own dam-break scenes unchanged to t = 1 s and report the cost.
+"""Run SPlisHSPlasH's scenes unchanged (the two dam breaks, or ``--all``); report how they end.
 
     python validation/splishsplash_scenes.py [--until 1.0] [--scenes DamBreakModel_2D.json ...]
+    python validation/splishsplash_scenes.py --all [--until 1.0] [--budget 300]
+                                             [--max-particles 100000] [--json FILE]
 
 The scene files are those of the installed pysplishsplash wheel (``data/Scenes``), read with
 sphkit's SPlisHSPlasH front end without any edit (not even the particle radius). For each scene
 the table gives the particles, the steps, the simulated and the wall time, the mean pressure
 iterations and density error, and how the run ended; a scene that needs a feature sphkit does not
 have is listed with the feature the loader names. Not run in CI (minutes per scene).
+
+Each scene runs to ``min(--until, its own stopAt when > 0)``; ``--budget S`` stops a scene after
+S wall seconds of stepping ("budget at t = ...": how far it got, not a failure), and
+``--max-particles N`` skips scenes with more fluid particles at the start. Beyond the columns
+above the table gives the fluid particles at the end (emitters add), the largest density error
+and speed of the run, the fluid particles outside the scene's domain (the bounding box of all
+its boundaries -- boxes, every mesh at its start pose, emitter housings -- widened by
+``--margin`` kernel supports h, open above against gravity; at the end and the most at any step:
+fluid that leaked through a wall or fell beside it), and for scenes with rigid bodies how many
+bodies' centres are outside that box (closed above: a body thrown away) at the end; "open":
+the scene has no container (no box, no static mesh with the fluid inside), only obstacles the
+fluid may fall off by design. The step's own stability guard (:mod:`sphkit.simulation`) stops
+a leaking run itself ("unstable: ... left the domain") in scenes with a container, unless an
+emitter reuses particles.
+``--json FILE`` appends one line per scene.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
 DEFAULT = ["DamBreakModel_2D.json", "DamBreakModel.json"]
 
 
-def run(path, until: float) -> dict:
+def stop_at(path: Path) -> float | None:
+    """The scene file's own ``Configuration.stopAt`` when it is > 0, else None."""
+    try:
+        v = float(json.loads(path.read_text()).get("Configuration", {}).get("stopAt", -1))
+    except (ValueError, TypeError, AttributeError):
+        return None
+    return v if v > 0 else None
+
+
+def scene_box(sim) -> tuple[np.ndarray, np.ndarray] | None:
+    """The bounding box (lo, hi) of all of the scene's boundaries: boxes, every mesh at its
+    start pose (static walls and bodies), emitter housings; None when it has none."""
+    from sphkit.world.meshes import SceneMeshes
+
+    scene, dim = sim.scene, sim.dim
+    lo, hi = [], []
+    for box in scene.boxes:
+        lo.append(np.asarray(box.min, float)[:dim])
+        hi.append(np.asarray(box.max, float)[:dim])
+    meshes = SceneMeshes(scene)
+    for k in range(len(scene.meshes)):
+        b = meshes.mesh(k).bounds
+        lo.append(b[0, :dim])
+        hi.append(b[1, :dim])
+    for em, cfg in zip(sim.emitters, scene.emitters, strict=True):
+        if cfg.housing:
+            b = em.housing_mesh().bounds
+            lo.append(b[0, :dim])
+            hi.append(b[1, :dim])
+    if not lo:
+        return None
+    return np.min(lo, axis=0), np.max(hi, axis=0)
+
+
+def has_container(scene) -> bool:
+    """Whether the scene holds fluid in a container (a box, or a static mesh with ``invert``);
+    without one, fluid falling off its obstacles (or out of emitters) is no leak."""
+    from sphkit.world.walls import moving_meshes
+
+    bodies = moving_meshes(scene)
+    return bool(scene.boxes) or any(m.invert for k, m in enumerate(scene.meshes)
+                                    if k not in bodies)
+
+
+def outside(x: np.ndarray, box) -> int:
+    """Points of ``x`` ((dim, N)) outside ``box`` (lo, hi); 0 without a box."""
+    if box is None or x.shape[1] == 0:
+        return 0
+    lo, hi = box
+    return int(np.count_nonzero(np.any((x < lo[:, None]) | (x > hi[:, None]), axis=0)))
+
+
+def run(path: Path, until: float, budget: float = float("inf"),
+        max_particles: int | None = None, margin: float = 3.0) -> dict:
+    """Load, build and step one scene; the report's fields (see the module docstring)."""
     from sphkit.scene.files import load_scene
     from sphkit.simulation import InstabilityError, Simulation
 
+    own = stop_at(path)
+    end = min(until, own) if own is not None else until
+    t_build = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             scene = load_scene(path)
             sim = Simulation(scene)
         except Exception as e:
-            return {"status": f"does not load: {' '.join(str(e).split())[-160:]}"}
+            msg = " ".join(str(e).split()).split("': ", 1)[-1]  # without the file's path
+            return {"status": f"does not load: {msg[:160]}"}
+    build = time.perf_counter() - t_build
     notes = [str(w.message)[-120:] for w in caught]
-    iters, errs = [], []
+    n0 = sim.fluid.n
+    if max_particles is not None and n0 > max_particles:
+        return {"status": f"skipped: {n0} fluid particles > --max-particles {max_particles}"}
+    box = scene_box(sim)
+    fluid_box = None
+    if box is not None:
+        pad = margin * sim.state.h
+        box = (box[0] - pad, box[1] + pad)
+        fluid_box = (box[0].copy(), box[1].copy())  # open above, as the step's guard
+        g = np.asarray(sim.state.gravity, float)
+        if np.any(g):
+            up = int(np.argmax(np.abs(g)))
+            if g[up] < 0:
+                fluid_box[1][up] = np.inf
+            else:
+                fluid_box[0][up] = -np.inf
+    iters, errs, errs_max = [], [], []
+    vmax, left_max = 0.0, 0
     t0 = time.perf_counter()
     status = "finished"
-    try:
-        while sim.time < until - 1e-12:
-            s = sim.step()
-            iters.append(s.iterations)
-            errs.append(s.density_error_avg)
-    except InstabilityError as e:
-        status = f"unstable: {str(e)[:120]}"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            while sim.time < end - 1e-12:
+                if time.perf_counter() - t0 > budget:
+                    status = f"budget at t = {sim.time:.3f} s"
+                    break
+                s = sim.step()
+                iters.append(s.iterations)
+                errs.append(s.density_error_avg)
+                errs_max.append(s.density_error_max)
+                vmax = max(vmax, s.max_velocity)
+                left_max = max(left_max, outside(sim.state.fluid["x"], fluid_box))
+        except InstabilityError as e:
+            status = f"unstable: {' '.join(str(e).split())[:400]}"
+        except Exception as e:  # reported, not raised: the sweep goes on
+            status = f"exception: {type(e).__name__}: {' '.join(str(e).split())[:300]}"
+    notes += [f"(run) {str(w.message)[-160:]}" for w in caught]
     wall = time.perf_counter() - t0
-    return {"status": status, "fluid": sim.fluid.n, "boundary": sim.boundary.n, "dim": sim.dim,
-            "steps": sim.step_count, "time": sim.time, "wall": wall,
+    f = sim.fluid
+    x = f["x"]
+    bodies, bodies_out = 0, 0
+    for b in sim.rigid.bodies:
+        c = np.asarray(b.stats()["position"], float)[: sim.dim]
+        bodies += 1
+        if box is not None and (np.any(c < box[0]) or np.any(c > box[1])):
+            bodies_out += 1
+    finite = np.all(np.isfinite(x), axis=0) if f.n else np.zeros(0, bool)
+    ext = ([x[:, finite].min(axis=1).tolist(), x[:, finite].max(axis=1).tolist()]
+           if finite.any() else None)
+    return {"status": status, "fluid0": n0, "fluid": f.n, "boundary": sim.boundary.n,
+            "dim": sim.dim, "steps": sim.step_count, "time": sim.time, "end": end,
+            "wall": wall, "build": build,
             "iters": float(np.mean(iters)) if iters else float("nan"),
-            "err": float(np.mean(errs)) if errs else float("nan"), "notes": notes}
+            "err": float(np.mean(errs)) if errs else float("nan"),
+            "err_max": float(np.max(errs_max)) if errs_max else float("nan"),
+            "vmax": vmax, "left": outside(x, fluid_box), "left_max": left_max,
+            "box": None if box is None else [box[0].tolist(), box[1].tolist()],
+            "container": has_container(sim.scene),
+            "fluid_extent": ext, "bodies": bodies, "bodies_out": bodies_out, "notes": notes}
+
+
+HEADER = ("| scene | particles (fluid + boundary) | steps | simulated s | wall s | wall s per "
+          "simulated s | mean iterations | mean density error | result | fluid at end | "
+          "max density error | largest speed m/s | fluid outside the domain (end / most) | "
+          "bodies outside |")
+
+
+def row(name: str, r: dict) -> str:
+    """The scene's table row."""
+    if "steps" not in r:
+        return f"| {name} | | | | | | | | {r['status']} | | | | | |"
+    bodies = f"{r['bodies_out']} of {r['bodies']}" if r["bodies"] else ""
+    left = "no walls" if r["box"] is None else f"{r['left']} / {r['left_max']}"
+    if r["box"] is not None and not r.get("container", True):
+        left = f"open (no container): {left}"
+    return (f"| {name} | {r['fluid0']} + {r['boundary']} ({r['dim']}D) | {r['steps']} | "
+            f"{r['time']:.3f} | {r['wall']:.1f} | {r['wall'] / max(r['time'], 1e-12):.1f} | "
+            f"{r['iters']:.2f} | {100 * r['err']:.3f} % | {r['status']} | {r['fluid']} | "
+            f"{100 * r['err_max']:.2f} % | {r['vmax']:.3g} | {left} | {bodies} |")
 
 
 def main() -> None:
     from sphkit.cli.compat import wheel_scene_folder
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--until", type=float, default=1.0, help="simulated end time [s]")
+    ap.add_argument("--until", type=float, default=1.0,
+                    help="simulated end time [s] (a scene's own stopAt when earlier)")
     ap.add_argument("--scenes", nargs="+", default=DEFAULT, help="scene file names")
+    ap.add_argument("--all", action="store_true", help="every scene of the wheel")
+    ap.add_argument("--budget", type=float, default=float("inf"),
+                    help="wall seconds of stepping per scene")
+    ap.add_argument("--max-particles", type=int, default=None,
+                    help="skip scenes with more fluid particles at the start")
+    ap.add_argument("--margin", type=float, default=3.0,
+                    help="the domain's margin around the boundaries' bounding box [h]")
+    ap.add_argument("--json", type=Path, default=None, help="append one JSON line per scene")
     args = ap.parse_args()
+    if not (args.until > 0 and args.budget > 0 and args.margin >= 0):
+        ap.error("--until and --budget must be positive, --margin not negative")
     folder = wheel_scene_folder()
     if folder is None:
         print("pysplishsplash is not installed: its scenes are not available")
         return
     import numba
 
+    names = sorted(p.name for p in folder.glob("*.json")) if args.all else args.scenes
     print(f"scenes of {folder}, until t = {args.until:g} s, {numba.get_num_threads()} threads")
-    print("| scene | particles (fluid + boundary) | steps | simulated s | wall s | wall s per "
-          "simulated s | mean iterations | mean density error | result |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for name in args.scenes:
-        r = run(folder / name, args.until)
-        if "steps" not in r:
-            print(f"| {name} | | | | | | | | {r['status']} |")
-            continue
-        print(f"| {name} | {r['fluid']} + {r['boundary']} ({r['dim']}D) | {r['steps']} | "
-              f"{r['time']:.3f} | {r['wall']:.1f} | {r['wall'] / max(r['time'], 1e-12):.1f} | "
-              f"{r['iters']:.2f} | {100 * r['err']:.3f} % | {r['status']} |", flush=True)
-        for note in r["notes"]:
+    print(HEADER)
+    print("|---" * HEADER.count(" | ") + "|---|")
+    for name in names:
+        r = run(folder / name, args.until, args.budget, args.max_particles, args.margin)
+        print(row(name, r), flush=True)
+        for note in r.get("notes", []):
             print(f"  warning: {note}")
+        if args.json is not None:
+            with args.json.open("a") as fh:
+                fh.write(json.dumps({"scene": name, **r}) + "\n")
 
 
 if __name__ == "__main__":

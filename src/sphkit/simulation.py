@@ -26,7 +26,7 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
    regions; then the emitters' layers due by the new time are added;
 9. stability guard: NaN/inf velocities, a speed above ``configuration.max_velocity``, fluid
    outside the domain (the static walls' bounding box plus ``configuration.domain_margin`` h,
-   computed once by the world builder: fluid that leaked through a wall) or, with a fixed time
+   computed once, for scenes with a container: fluid that leaked through) or, with a fixed time
    step (``time.cfl`` off), a CFL number above ``configuration.max_cfl`` raise
    :class:`InstabilityError` with a diagnosis (which of them, step, time, max velocity, CFL
    number, density error).

@@ -1078,7 +1078,8 @@ class Configuration(_Model):
         description="fluid farther than this many kernel supports h outside the bounding box of "
         "the static boundaries (boxes, meshes, map geometries, emitter housings) stops the run "
         "as unstable (it leaked through a wall); not checked above the walls (against gravity), "
-        "nor in a scene without static walls; null: never checked",
+        "nor in a scene without a container (a box or a static mesh with invert: solid "
+        "obstacles alone, the fluid may fall off them); null: never checked",
     )
     max_particles: int = Field(
         MAX_PARTICLES, ge=1,

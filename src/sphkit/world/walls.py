@@ -186,8 +186,10 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     (the bounding box's, against gravity) is not checked at all: a splash thrown over the top of
     an open box flies beside it, not through a wall (validation/README.md, "Where WCSPH's
     dam-break impact lost a particle"). None: no check (the margin is null, the scene has no
-    static wall: only moving bodies or emitter housings, or an emitter reuses particles, which
-    then leave its ``reuse_box`` by design and wait outside it)."""
+    container: no box and no static mesh with the fluid inside it (``invert``), only solid
+    obstacles the fluid may fall off or drain through -- a slab, a box with a hole --, moving
+    bodies or emitter housings, or an emitter reuses particles, which then leave its
+    ``reuse_box`` by design and wait outside it)."""
     margin = scene.configuration.domain_margin
     if any(e.reuse_box is not None for e in scene.emitters):
         return None
@@ -202,7 +204,9 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
             b = meshes.mesh(k).bounds
             lo.append(b[0, :dim])
             hi.append(b[1, :dim])
-    if margin is None or not lo:
+    containers = len(scene.boxes) + sum(scene.meshes[k].invert for k in range(len(scene.meshes))
+                                        if k not in bodies)
+    if margin is None or not containers:
         return None
     for em, cfg in zip(emitters, scene.emitters, strict=True):
         if cfg.housing:
