@@ -351,6 +351,7 @@ class MapBoundaryModel(BoundaryModel):
     """
 
     name = "map"
+    virtual = True
     offset_in_radii = 0.0
     #: the wall's share of the tangential pressure gradient with a hydrostatic boundary
     #: pressure (configuration.boundary.pressure "hydrostatic"; see

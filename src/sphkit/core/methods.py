@@ -163,6 +163,9 @@ class BoundaryModel(Protocol):
     """A boundary model (survey Sec. 6): boundary particles or density / volume maps."""
 
     name: ClassVar[str] = ""
+    #: its boundary neighbours are virtual particles, each standing for the whole wall near a
+    #: fluid particle (density and volume maps), not samples of the wall (boundary particles)
+    virtual: ClassVar[bool] = False
 
     @classmethod
     def moving_inset(cls, dim: int) -> float:

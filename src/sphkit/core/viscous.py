@@ -335,6 +335,30 @@ def wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L):
     return d0, d1, d2, dot(d0, d1, d2, d0, d1, d2), beta
 
 
+#: the distance of a map wall's tangential samples from its virtual particle, in h
+#: (SPlisHSPlasH's ``Viscosity_Weiler2018::m_tangentialDistanceFactor``)
+TANGENTIAL_DISTANCE = 0.5
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def wall_samples(c, r2, spread, eps, kid, h, dim):
+    """The wall term of a virtual boundary particle (density and volume maps) spread over
+    samples at distance ``sqrt(spread)`` beside it in the wall's tangent plane, with the
+    volume shared equally: four in 3D (``+-t_1``, ``+-t_2``), two in 2D. With ``d = x_i - x_b``
+    along the normal and each sample's ``x_k = d -+ sqrt(spread) t``, the samples' sum of the
+    Monaghan Laplacian's ``c W'(r_k)/r_k / (r_k^2 + eps) x_k x_k^T`` is
+    ``g (cd d d^T + ct I)`` with ``r_k^2 = |d|^2 + spread`` for all of them, returned as
+    ``(g, cd, ct)``: ``ct = spread / (dim - 1)`` (the tangential outer products sum to
+    ``I - n n^T`` whichever tangents are taken) and ``cd = 1 - ct / |d|^2``. A term
+    ``(w . x_k) x_k`` sums to ``g (cd (w . d) d + ct w)``. Zero (``g = 0``) for a virtual
+    particle closer than 1e-4 h (no normal: SPlisHSPlasH skips it)."""
+    if not r2 > 1e-8 * h * h:
+        return 0.0, 0.0, 0.0
+    rs2 = r2 + spread
+    ct = spread / (dim - 1)
+    return laplacian_diagonal_pair(c, rs2, eps, kid, h, dim), 1.0 - ct / r2, ct
+
+
 @numba.njit(cache=True, fastmath=True, inline="always")
 def laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim):
     """``(w . x_ij) / (|x_ij|^2 + eps) W'(r) / r`` with ``r^2 = |x_ij|^2 = r2``: the pair factor

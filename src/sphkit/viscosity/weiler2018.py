@@ -15,7 +15,13 @@ Monaghan 2005 projected form of :mod:`sphkit.viscosity.standard` with ``mu = nu 
               grad W_ib
 
 (the second line is the fluid-boundary viscosity with Akinci 2012 boundary particles, wall
-velocity v_b, ``mu_b = nu_b rho0``; ``0.01 h^2`` is the option ``eps`` times h^2). With
+velocity v_b, ``mu_b = nu_b rho0``; ``0.01 h^2`` is the option ``eps`` times h^2). With density
+or volume maps the boundary neighbour is one virtual particle along the wall normal standing
+for the wall's whole volume V_b; as SPlisHSPlasH does (``m_tangentialDistanceFactor`` 0.5), the
+wall term then takes its volume at samples 0.5 h beside it in the wall's tangent plane (four in
+3D, a quarter of V_b each: ``x_b -+ 0.5 h t_1``, ``x_b -+ 0.5 h t_2``; two in 2D, half each),
+so that the wall resists the fluid's sliding along it and not only its normal motion
+(:func:`sphkit.core.viscous.wall_samples`; a virtual particle closer than 1e-4 h adds nothing). With
 ``boundary_velocity = "morris1997"`` the wall term's ``v_i - v_b`` becomes
 ``beta_ib (v_i - v_b)``, the no-slip wall of Morris, Fox & Zhu 1997 (J. Comput. Phys. 136,
 214-226: the wall particle takes the fluid velocity extrapolated antisymmetrically across the
@@ -60,6 +66,7 @@ from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
     MORRIS_BETA_MAX,
+    TANGENTIAL_DISTANCE,
     add_velocity_change,
     check_wall_options,
     laplacian_diagonal_pair,
@@ -67,6 +74,7 @@ from sphkit.core.viscous import (
     outer_add,
     register_wall_fields,
     wall_pair,
+    wall_samples,
     write_blocks,
 )
 
@@ -75,9 +83,10 @@ _JIT = dict(cache=True, fastmath=True)
 
 @numba.njit(inline="always", **_JIT)
 def matvec_body(i, x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, beta_max, epsf,
-                rho0, h, kid, dim, L, dt, out):
+                rho0, h, kid, dim, L, dt, spread, out):
     """``out[:, i] = ((I - dt/rho L) u)_i`` for (dim, N) views u, out of the flat CG vectors (a
-    kernel body, :func:`sphkit.backend.launch`)."""
+    kernel body, :func:`sphkit.backend.launch`); ``spread`` > 0: the wall's tangential samples
+    (:func:`sphkit.core.viscous.wall_samples`)."""
     eps = epsf * h * h
     xi0, xi1, xi2 = point(x, i, dim)
     ui0, ui1, ui2 = point(u, i, dim)
@@ -94,6 +103,14 @@ def matvec_body(i, x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, b
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
+            if spread > 0.0:
+                g, cd, ct = wall_samples(beta * cb * rho0 * bV[b] / rho[i], r2, spread, eps,
+                                         kid, h, dim)
+                s = g * cd * dot(ui0, ui1, ui2, d0, d1, d2)
+                a0 += s * d0 + g * ct * ui0
+                a1 += s * d1 + g * ct * ui1
+                a2 += s * d2 + g * ct * ui2
+                continue
             s = (beta * cb * rho0 * bV[b] / rho[i]
                  * laplacian_pair(kid, ui0, ui1, ui2, d0, d1, d2, r2, eps, h, dim))
             a0 += s * d0
@@ -109,7 +126,7 @@ def matvec_body(i, x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, b
 
 @numba.njit(inline="always", **_JIT)
 def rhs_blocks_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, cf, cb, beta_max,
-                    epsf, rho0, h, kid, dim, L, dt, rhs, blocks):
+                    epsf, rho0, h, kid, dim, L, dt, spread, rhs, blocks):
     """``rhs_i = v_i - dt/rho_i B_i v_b`` and the diagonal block of the system matrix of
     particle i (a kernel body)."""
     eps = epsf * h * h
@@ -128,11 +145,21 @@ def rhs_blocks_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, c
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
+            vb0, vb1, vb2 = point(bv, b, dim)
+            if spread > 0.0:
+                g, cd, ct = wall_samples(beta * cb * rho0 * bV[b] / rho[i], r2, spread, eps,
+                                         kid, h, dim)
+                g00, g01, g02, g11, g12, g22 = outer_add(g * cd, d0, d1, d2, g00 + g * ct, g01,
+                                                         g02, g11 + g * ct, g12, g22 + g * ct)
+                t = g * cd * dot(vb0, vb1, vb2, d0, d1, d2)
+                b0 += t * d0 + g * ct * vb0
+                b1 += t * d1 + g * ct * vb1
+                b2 += t * d2 + g * ct * vb2
+                continue
             s = laplacian_diagonal_pair(beta * cb * rho0 * bV[b] / rho[i], r2, eps, kid, h,
                                         dim)
             g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11,
                                                      g12, g22)
-            vb0, vb1, vb2 = point(bv, b, dim)
             t = s * dot(vb0, vb1, vb2, d0, d1, d2)
             b0 += t * d0
             b1 += t * d1
@@ -199,16 +226,20 @@ class Weiler2018(NonPressureForce):
         nl, nb = state.nl_ff, state.nl_fb
         register_wall_fields(b)
         bn, bd, bm = b["wall_normal"], b["wall_distance"], self.beta_max
+        model = state.coupling.model
+        spread = (TANGENTIAL_DISTANCE * state.h) ** 2 if (
+            model is not None and model.virtual and dim > 1) else 0.0
         rhs = arrays.empty((dim, n), np.float64, like=v)
         blocks = arrays.empty((dim, dim, n), np.float64, like=v)
         launch(rhs_blocks_body, n, x, v, m, rho, nl.offsets, nl.indices, b["x"], b["v"], b["V"],
                bn, bd, nb.offsets, nb.indices, cf, cb, bm, self.eps, state.rho0, state.h,
-               state.kid, dim, state.pair_period, dt, rhs, blocks)
+               state.kid, dim, state.pair_period, dt, spread, rhs, blocks)
 
         def matvec(u: np.ndarray, out: np.ndarray) -> None:
             launch(matvec_body, n, x, m, rho, nl.offsets, nl.indices, b["x"], b["V"], bn, bd,
                    nb.offsets, nb.indices, u.reshape(dim, n), cf, cb, bm, self.eps, state.rho0,
-                   state.h, state.kid, dim, state.pair_period, dt, out.reshape(dim, n))
+                   state.h, state.kid, dim, state.pair_period, dt, spread,
+                   out.reshape(dim, n))
 
         dv = f["weiler_dv"]
         x0 = arrays.axpy_into(v, 1.0, dv).ravel()  # v + dv: the warm start
