@@ -418,6 +418,10 @@ def test_splishsplash_method_numbers_before_2_12_and_2_13() -> None:
     scene, notes = read({"viscosityMethod": 3, "viscosity": 0.01})
     assert scene.materials[0].viscosity.method == "peer2015"
     assert any("before 2.12, 3 was Bender and Koschier 2017 (now 2)" in n for n in notes)
+    # a scene in 2.16's form elsewhere (a solver block) is 2.16's: no note for a bare material
+    scene, notes = read({"viscosityMethod": 3}, DFSPH={"maxError": 0.05})
+    assert scene.materials[0].viscosity.method == "peer2015"
+    assert not any("viscosityMethod" in n for n in notes)
 
     zr = {"surfaceTensionMethod": 4, "surfaceTension": 0.1, "surfTZRd": 28, "surfTZRd-offset": 3,
           "surfTZRnormal-mode": 1}

@@ -45,6 +45,7 @@ import numpy as np
 from sphkit.scene.splishsplash.methods import (
     JESKE2023_FIELDS,
     MATERIAL_NAMESPACES,
+    SIMULATION_METHODS,
     VISCOSITY_METHODS,
 )
 
@@ -72,6 +73,17 @@ _BLOCKS = MATERIAL_NAMESPACES | {"Standard viscosity", "XSPH"}
 def flat(m: Mapping[str, Any]) -> bool:
     """Whether the material is written in the form before 2.16: no method block."""
     return not any(key in m for key in _BLOCKS)
+
+
+def since_2_16(data: Mapping[str, Any]) -> bool:
+    """Whether the scene shows 2.16's form anywhere: a solver block in ``Configuration``
+    (``"DFSPH": {...}``) or a method block in a material; then a material without a block (its
+    methods at their defaults) is 2.16's too and its numbers are read as they are."""
+    cfg = data.get("Configuration")
+    mats = data.get("Materials")
+    return ((isinstance(cfg, Mapping) and any(key in cfg for key in SIMULATION_METHODS.values()))
+            or (isinstance(mats, list)
+                and any(isinstance(m, Mapping) and not flat(m) for m in mats)))
 
 
 def _block(vm: int) -> str:
@@ -133,14 +145,15 @@ def _surface_tension(m: Mapping[str, Any], out: dict[str, Any], w: str,
                      "form) silence this note")
 
 
-def renumber(m: Mapping[str, Any], w: str, notes: list[str]) -> dict[str, Any]:
+def renumber(m: Mapping[str, Any], w: str, notes: list[str],
+             modern: bool = False) -> dict[str, Any]:
     """The material ``m`` (field path ``w``) with its method numbers in the numbering of 2.13
     and later: a copy, changed only for a flat material whose file shows an older numbering
     (module docstring); a note in ``notes`` for each number changed, and for each number read
     in the later numbering that meant another method before, where nothing in the file says
     which."""
     out = dict(m)
-    if flat(m):
+    if flat(m) and not modern:  # (modern: the scene is 2.16's, :func:`since_2_16`)
         _viscosity(m, out, w, notes)
         _dynamic_note(m, out.get("viscosityMethod"), w, notes)
         _surface_tension(m, out, w, notes)

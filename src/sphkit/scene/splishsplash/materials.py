@@ -51,8 +51,9 @@ def materials(rd: Reader) -> list[dict[str, Any]]:
     block), vorticity, surface tension and drag of each fluid."""
     out = []
     rd.array("Materials")  # checked: an array of objects
+    modern = legacy.since_2_16(rd.data)
     for k, (w, m) in enumerate(legacy.material_entries(rd.data)):
-        m = legacy.renumber(m, w, rd.notes)
+        m = legacy.renumber(m, w, rd.notes, modern)
         known = {
             "id", "density0", "viscosityMethod", "vorticityMethod", "surfaceTensionMethod",
             "dragMethod", "elasticityMethod", "Standard viscosity", "XSPH", "viscosity",
