@@ -204,20 +204,27 @@ def test_volume_map_of_a_plane_wall(dim: int) -> None:
         assert abs(bmap.eval_phi(x)[0] - phi0) < 1e-9
 
 
+def _fluid_above_wall(st, ys: np.ndarray) -> tuple[np.ndarray, Koschier2017]:
+    """Fluid particles at heights ``ys`` above :func:`_wall` (x = 0.013) and the density map's
+    model, updated (its virtual particles in ``st.boundary``)."""
+    x = np.zeros((len(ys), st.dim))
+    x[:, 0] = 0.013
+    x[:, -1] = ys
+    st.fluid.register("v", "vector")
+    st.fluid.add(x)
+    model = Koschier2017([_wall(st.dim)], cache=False)
+    model.init(st)
+    model.update(st)
+    return x, model
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_density_map_virtual_particle_reproduces_density_and_gradient(dim: int) -> None:
     """The virtual neighbour (x_b, V_b) gives the solvers rho0 rho_B and grad rho_B exactly."""
     st = _state(dim)
     r, h = st.r, st.h
     ys = np.array([0.2, 0.5, 1.0, 1.5, 2.5, 3.5]) * r
-    x = np.zeros((len(ys), dim))
-    x[:, 0] = 0.013
-    x[:, -1] = ys
-    st.fluid.register("v", "vector")
-    st.fluid.add(x)
-    model = Koschier2017([_wall(dim)], cache=False)
-    model.init(st)
-    model.update(st)
+    x, model = _fluid_above_wall(st, ys)
     bmap = model.maps[0]
     rho = bmap.eval_values(x.T)
     inband = (ys > 0.1 * r) & (ys < h)
@@ -264,14 +271,7 @@ def test_density_map_boundary_density_is_continuous_where_the_map_ends(dim: int)
     st = _state(dim)
     r, h = st.r, st.h
     ys = np.arange(0.75 * h, 2.5 * h, 0.01 * r)
-    x = np.zeros((len(ys), dim))
-    x[:, 0] = 0.013
-    x[:, -1] = ys
-    st.fluid.register("v", "vector")
-    st.fluid.add(x)
-    model = Koschier2017([_wall(dim)], cache=False)
-    model.init(st)
-    model.update(st)
+    x, model = _fluid_above_wall(st, ys)
     bx, bV = st.boundary["x"], st.boundary["V"]
     rho = np.zeros(len(ys))
     has = np.diff(st.nl_fb.offsets) > 0
