@@ -196,6 +196,7 @@ def _own_extras() -> list[tuple[tuple, st.SearchStrategy]]:
         (("meshes", 0, "angular_velocity"), VALUES),
         (("meshes", 0, "density"), VALUES),
         (("meshes", 0, "friction"), VALUES),
+        (("meshes", 0, "restitution"), st.one_of(st.floats(0.0, 1.0), VALUES)),
     ]
     return extras
 
@@ -239,6 +240,7 @@ def _sph_extras() -> list[tuple[tuple, st.SearchStrategy]]:
         (("RigidBodies", 0, "isAnimated"), st.one_of(st.booleans(), VALUES)),
         (("RigidBodies", 0, "velocity"), VALUES),
         (("RigidBodies", 0, "angularVelocity"), VALUES),
+        (("RigidBodies", 0, "restitution"), VALUES),
         ((c, "cflMethod"), st.one_of(st.integers(-1, 3), VALUES)),
         ((c, "enableStateExport"), st.one_of(st.booleans(), VALUES)),
         ((c, "stateExportFPS"), VALUES),

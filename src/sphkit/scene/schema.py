@@ -799,6 +799,12 @@ class MeshBoundary(_Model):
     friction: float = Field(0.5, ge=0.0, allow_inf_nan=False,
                             description="dynamic bodies: Coulomb friction coefficient of "
                             "contacts with static walls")
+    restitution: float = Field(
+        0.0, ge=0.0, le=1.0, allow_inf_nan=False,
+        description="dynamic bodies: coefficient of restitution of their contacts with walls "
+        "and bodies (SPlisHSPlasH's PositionBasedDynamics restitution): a contact met at a "
+        "normal speed above 2 |g| dt leaves at that speed times it; between two bodies the "
+        "geometric mean; 0: inelastic")
 
     @field_validator("map_resolution")
     @classmethod

@@ -27,6 +27,7 @@ def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes) -> RigidBod
                                          mb.rotation_center, mb.friction, state.dim))
         except ValueError as e:
             raise SceneError(f"meshes[{k}].geometry_file: {mb.geometry_file!r}: {e}") from None
+        bodies[-1].restitution = mb.restitution
     walls = []
     if any(b.dynamic for b in bodies):
         dim = state.dim

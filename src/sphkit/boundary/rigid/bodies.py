@@ -71,6 +71,7 @@ class RigidBody:
     mass: float = 0.0  #: [kg] (dynamic)
     inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))  #: body frame [kg m^2]
     friction: float = 0.5
+    restitution: float = 0.0  #: of its contacts (the normal speed it leaves a contact with)
     R: np.ndarray = field(default_factory=lambda: np.eye(3))
     c0: np.ndarray | None = None  #: kinematic: pivot at t = 0
     force: np.ndarray = field(default_factory=lambda: np.zeros(3))

@@ -15,10 +15,15 @@ extreme points of a tilted body, which the particles' margin does not cover). Th
   frame (:func:`body_sdf`, compiled trilinear interpolation :func:`_sdf_at`); for two dynamic
   bodies both directions are contacts. Kinematic bodies take part with infinite mass.
 
-Each contact enforces ``phi(x_p) - margin + dt u_rel . n >= 0`` (speculative contacts:
-restitution 0; a penetrating point is pushed out at ``0.5 depth / dt``) with Coulomb friction
+Each contact enforces ``phi(x_p) - margin + dt u_rel . n >= 0`` (speculative contacts; a
+penetrating point is pushed out at ``0.5 depth / dt``) with Coulomb friction
 ``|lambda_t| <= mu lambda_n`` (mu: the body's friction at walls, the geometric mean of two
-bodies' between them).
+bodies' between them). With a restitution e > 0 (the body's at walls, the geometric mean of two
+bodies'), a contact that the point reaches within the step (``phi - margin + dt u0 . n < 0``)
+at a normal speed ``-u0 . n`` above ``2 |g| dt`` (below it the contact rests) enforces
+``u_rel . n >= -e u0 . n`` instead, ``u0`` the velocity before the contacts: Newton's
+restitution law at the contact, as PositionBasedDynamics' velocity solve does for
+SPlisHSPlasH's bodies.
 """
 
 from __future__ import annotations
@@ -230,6 +235,14 @@ class BodyContacts:
         marg = np.concatenate([np.full(xp.shape[1], self.margin), np.zeros(xv.shape[1])])
         return np.concatenate([xp, xv], axis=1), marg
 
+    @staticmethod
+    def _row_velocity(k: np.ndarray, q: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """Velocities (3, K) of the contact points at offsets ``q`` of bodies ``k`` (-1: a
+        static wall, zero)."""
+        kk = np.maximum(k, 0)
+        u = v[kk].T + np.cross(w[kk], q.T).T
+        return np.where(k >= 0, u, 0.0)
+
     def _contact_rows(self, state: SimState, v: np.ndarray, w: np.ndarray, dt: float
                       ) -> tuple[np.ndarray, ...]:
         """The contacts of this step (module docstring) for :func:`_contact_sweep`: every
@@ -292,6 +305,15 @@ class BodyContacts:
         ia_, ib_ = np.concatenate(ia), np.concatenate(ib)
         fr = np.array([b.friction for b in self.bodies])
         mu = np.where(ib_ >= 0, np.sqrt(fr[ia_] * fr[np.maximum(ib_, 0)]), fr[ia_])
+        er = np.array([b.restitution for b in self.bodies])
+        e = np.where(ib_ >= 0, np.sqrt(er[ia_] * er[np.maximum(ib_, 0)]), er[ia_])
+        if np.any(e > 0.0):  # restitution: a contact met this step leaves at -e u.n
+            n_ = np.concatenate(nn, axis=1)
+            un = np.einsum("ij,ij->j", self._row_velocity(ia_, np.concatenate(qa, axis=1), v, w)
+                           - self._row_velocity(ib_, np.concatenate(qb, axis=1), v, w), n_)
+            rest = max(2.0 * float(np.linalg.norm(state.gravity)) * dt, 1e-3)  # resting contact
+            hit = (e > 0.0) & (un < -rest) & (phi + dt * un < 0.0)
+            bias = np.where(hit, np.maximum(bias, -e * un), bias)
         return (ia_.astype(np.int64), ib_.astype(np.int64),
                 np.ascontiguousarray(np.concatenate(qa, axis=1)),
                 np.ascontiguousarray(np.concatenate(qb, axis=1)),

@@ -370,11 +370,9 @@ def rigid_bodies(rd: Reader, bodies: list[dict[str, Any]],
                            friction=rd.num(rb, "friction", w, 0.5, nonneg=True))
             rd.origin[f"meshes[{n}].density"] = f"{w}.density"
             rd.origin[f"meshes[{n}].friction"] = f"{w}.friction"
-            if rd.num(rb, "restitution", w, 0.0, nonneg=True) > 0.0:
-                rd.notes.append(
-                    f"{w}.restitution: {rb['restitution']:g}: sphkit's contacts are inelastic "
-                    "(restitution 0): the body does not bounce off walls and bodies as "
-                    "SPlisHSPlasH's does")
+            if "restitution" in rb:
+                out[-1]["restitution"] = rd.num(rb, "restitution", w, 0.0, nonneg=True)
+                rd.origin[f"meshes[{n}].restitution"] = f"{w}.restitution"
             for key, field in (("velocity", "velocity"), ("angularVelocity", "angular_velocity")):
                 if any(motion[key]):
                     out[-1][field] = motion[key]
