@@ -487,6 +487,13 @@ def test_splishsplash_scenes_before_the_materials_array(tmp_path: Path) -> None:
     scene["Emitters"][0]["velocity"] = [0, 2, 0]
     with pytest.raises(SceneError, match=r"Emitters\[0\]\.velocity: got \[0, 2, 0\]"):
         from_splishsplash(scene, path)
+    # garbage in the older emitter's fields is named (a string speed had given the bare
+    # "could not convert string to float")
+    for key, bad in (("velocity", "x"), ("emitsPerSecond", "fast"), ("direction", [0, 0, 0]),
+                     ("direction", [float("nan"), 1, 0])):
+        scene["Emitters"][0] = {"direction": [1, 0, 0], "velocity": 2, key: bad}
+        with pytest.raises(SceneError, match=rf"Emitters\[0\]\.{key}: got"):
+            from_splishsplash(scene, path)
     # 2018 (09c39a4): one fluid, its parameters in Configuration, numbered as before 2.12
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

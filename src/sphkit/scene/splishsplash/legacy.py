@@ -36,7 +36,6 @@ boundary particles were the only boundary method and ``boundaryHandlingMethod`` 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -48,6 +47,7 @@ from sphkit.scene.splishsplash.methods import (
     SIMULATION_METHODS,
     VISCOSITY_METHODS,
 )
+from sphkit.scene.splishsplash.reader import Reader
 
 #: ``viscosityMethod`` before 2.12 -> its number in 2.12 and later (2, XSPH, has none: later
 #: files give its coefficient as ``xsph``)
@@ -222,45 +222,29 @@ def material_entries(data: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]
     return []
 
 
-def _error(where: str, value: Any, expected: str) -> ValueError:
-    return ValueError(f"{where}: got {value!r}: expected {expected}")
-
-
-def _vector(e: Mapping[str, Any], key: str, w: str, default: list[float]) -> np.ndarray:
-    v = e.get(key, default)
-    if (not isinstance(v, list) or len(v) != 3
-            or not all(isinstance(c, (int, float)) and not isinstance(c, bool)
-                       and math.isfinite(c) for c in v)):
-        raise _error(f"{w}.{key}", v, "a list of 3 finite numbers")
-    return np.asarray(v, dtype=np.float64)
-
-
-def emitter(e: Mapping[str, Any], w: str, r: float, notes: list[str]) -> dict[str, Any]:
+def emitter(rd: Reader, e: Mapping[str, Any], w: str, r: float) -> dict[str, Any]:
     """An emitter of a scene before 2020 (``direction``, ``velocity`` as a vector,
     ``emitsPerSecond``; ``Emitter.cpp`` at 0d1656a) in the later form: a rotation taking e_x to
     the direction with the layer's width along R e_z and its height along R e_y (the older
     emitter's ``dir x v0`` and ``dir x (dir x v0)``, v0 = e_x, or e_y for a direction along
     x), and the speed along it. The emission rate follows the speed (a layer each 2r, as since
-    2020); a differing ``emitsPerSecond`` is noted. Other emitters are returned unchanged.
-
-    Raises:
-        ValueError: naming the field, for a direction of zero length or a velocity that is not
-            along the direction (the later emitters have no such velocity).
-    """
+    2020); a differing ``emitsPerSecond`` is noted (``rd.notes``). Other emitters are returned
+    unchanged. Bad values raise the reader's errors naming the field; so do a direction of zero
+    length and a velocity that is not along the direction (the later emitters have none)."""
     old = "direction" in e or "emitsPerSecond" in e or isinstance(e.get("velocity"), list)
     if not old:
         return dict(e)
     out = {k: v for k, v in e.items() if k not in ("direction", "velocity", "emitsPerSecond")}
-    d = _vector(e, "direction", w, [1.0, 0.0, 0.0])
+    d = np.asarray(rd.vec3(e, "direction", w, [1.0, 0.0, 0.0]))
     if not np.linalg.norm(d) > 0.0:
-        raise _error(f"{w}.direction", d.tolist(), "a direction of non-zero length")
+        raise rd.error(f"{w}.direction", d.tolist(), "a direction of non-zero length")
     d /= np.linalg.norm(d)
-    v = _vector(e, "velocity", w, [1.0, 0.0, 0.0]) if isinstance(e.get("velocity"), list) \
-        else float(e.get("velocity", 1.0)) * d
+    v = (np.asarray(rd.vec3(e, "velocity", w, [1.0, 0.0, 0.0]))
+         if isinstance(e.get("velocity"), list) else rd.num(e, "velocity", w, 1.0) * d)
     speed = float(v @ d)
     if not speed > 0.0 or np.linalg.norm(v - speed * d) > 1e-9 * max(1.0, abs(speed)):
-        raise _error(f"{w}.velocity", e.get("velocity"), f"a velocity along the direction "
-                     f"{d.tolist()} (an emitter emits along its direction since 2020)")
+        raise rd.error(f"{w}.velocity", e.get("velocity"), f"a velocity along the direction "
+                       f"{d.tolist()} (an emitter emits along its direction since 2020)")
     v0 = np.array([0.0, 1.0, 0.0]) if abs(d[0]) > 0.999 else np.array([1.0, 0.0, 0.0])
     a1 = np.cross(d, v0)
     a1 /= np.linalg.norm(a1)
@@ -272,12 +256,11 @@ def emitter(e: Mapping[str, Any], w: str, r: float, notes: list[str]) -> dict[st
     angle = float(np.linalg.norm(rotvec))
     out.update(velocity=speed, rotationAngle=angle,
                rotationAxis=(rotvec / angle).tolist() if angle > 0.0 else [0.0, 0.0, 1.0])
-    rate = e.get("emitsPerSecond")
-    if isinstance(rate, (int, float)) and not isinstance(rate, bool) and rate > 0 \
-            and abs(rate - speed / (2.0 * r)) > 1e-6 * rate:
-        notes.append(f"{w}.emitsPerSecond: {rate} layers per second; sphkit emits a layer "
-                     f"each time the last one has moved 2r, {speed / (2.0 * r):.4g} per second "
-                     f"at velocity {speed:g} m/s (as SPlisHSPlasH since 2020)")
+    rate = rd.num(e, "emitsPerSecond", w, 0.0, nonneg=True)
+    if rate > 0 and abs(rate - speed / (2.0 * r)) > 1e-6 * rate:
+        rd.notes.append(f"{w}.emitsPerSecond: {rate:g} layers per second; sphkit emits a layer "
+                        f"each time the last one has moved 2r, {speed / (2.0 * r):.4g} per "
+                        f"second at velocity {speed:g} m/s (as SPlisHSPlasH since 2020)")
     return out
 
 

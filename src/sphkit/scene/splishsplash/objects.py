@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from sphkit.scene.paths import check_particle_file
-from sphkit.scene.schema import SceneError
 from sphkit.scene.splishsplash import legacy
 from sphkit.scene.splishsplash.reader import Reader
 
@@ -176,10 +175,7 @@ def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
     out = []
     for k, e in enumerate(rd.array("Emitters")):
         w = f"Emitters[{k}]"
-        try:
-            e = legacy.emitter(e, w, r, rd.notes)  # noqa: PLW2901 -- the later form of it
-        except ValueError as err:
-            raise SceneError(f"{rd.label}: {err}") from None
+        e = legacy.emitter(rd, e, w, r)  # noqa: PLW2901 -- the later form of it
         known = {"type", "width", "height", "translation", "rotationAxis", "rotationAngle",
                  "velocity", "id", "emitStartTime", "emitEndTime"}
         rd.collect_unknown(e, w, known, set())
