@@ -303,21 +303,21 @@ class BodyContacts:
         # speculative: phi + dt u.n >= 0; penetration pushed out at half its depth per step
         bias = np.where(phi >= 0.0, -phi / dt, -0.5 * phi / dt)
         ia_, ib_ = np.concatenate(ia), np.concatenate(ib)
-        fr = np.array([b.friction for b in self.bodies])
-        mu = np.where(ib_ >= 0, np.sqrt(fr[ia_] * fr[np.maximum(ib_, 0)]), fr[ia_])
-        er = np.array([b.restitution for b in self.bodies])
-        e = np.where(ib_ >= 0, np.sqrt(er[ia_] * er[np.maximum(ib_, 0)]), er[ia_])
+        qa_, qb_, n_ = (np.ascontiguousarray(np.concatenate(a, axis=1)) for a in (qa, qb, nn))
+
+        def pair(values: list[float]) -> np.ndarray:  # the body's at a wall, else the mean
+            x = np.array(values)
+            return np.where(ib_ >= 0, np.sqrt(x[ia_] * x[np.maximum(ib_, 0)]), x[ia_])
+
+        mu = pair([b.friction for b in self.bodies])
+        e = pair([b.restitution for b in self.bodies])
         if np.any(e > 0.0):  # restitution: a contact met this step leaves at -e u.n
-            n_ = np.concatenate(nn, axis=1)
-            un = np.einsum("ij,ij->j", self._row_velocity(ia_, np.concatenate(qa, axis=1), v, w)
-                           - self._row_velocity(ib_, np.concatenate(qb, axis=1), v, w), n_)
+            un = np.einsum("ij,ij->j", self._row_velocity(ia_, qa_, v, w)
+                           - self._row_velocity(ib_, qb_, v, w), n_)
             rest = max(2.0 * float(np.linalg.norm(state.gravity)) * dt, 1e-3)  # resting contact
             hit = (e > 0.0) & (un < -rest) & (phi + dt * un < 0.0)
             bias = np.where(hit, np.maximum(bias, -e * un), bias)
-        return (ia_.astype(np.int64), ib_.astype(np.int64),
-                np.ascontiguousarray(np.concatenate(qa, axis=1)),
-                np.ascontiguousarray(np.concatenate(qb, axis=1)),
-                np.ascontiguousarray(np.concatenate(nn, axis=1)), bias, mu)
+        return ia_.astype(np.int64), ib_.astype(np.int64), qa_, qb_, n_, bias, mu
 
 
 def _normals(dist, p: np.ndarray, eps: float = 1e-5) -> np.ndarray:

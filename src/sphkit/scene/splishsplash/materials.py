@@ -332,9 +332,6 @@ def zorilla2020(rd: Reader, m: Mapping[str, Any], w: str, k: int,
             "zorilla2020": zr}
 
 
-#: Jeske et al. 2023: SPlisHSPlasH key -> (sphkit field of the jeske2023 block, default)
-
-
 def jeske2023(rd: Reader, m: Mapping[str, Any], w: str, k: int,
               ns_key: str) -> dict[str, Any]:
     """Jeske et al. 2023 (``surfaceTensionMethod`` 4): ``surfaceTension``,
