@@ -372,6 +372,13 @@ def test_fluid_through_the_floor_exits_3(tmp_path: Path,
     ("emitters", [{"position": [0.2, 0.4], "width": 0.1,
                    "reuse_box": {"min": [0.0, 0.0], "max": [math.inf, 1.0]}}],
      "emitters[0].reuse_box.max[0]"),
+    # the eighth session's: a body's restitution (NaN, above 1, a string)
+    ("meshes", [{"geometry_file": "box.obj", "dynamic": True, "restitution": math.nan}],
+     "meshes[0].restitution"),
+    ("meshes", [{"geometry_file": "box.obj", "dynamic": True, "restitution": 2.0}],
+     "meshes[0].restitution"),
+    ("meshes", [{"geometry_file": "box.obj", "dynamic": True, "restitution": "bouncy"}],
+     "meshes[0].restitution"),
 ])
 def test_non_finite_numbers_are_refused_naming_the_field(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], path: str, value: object,
@@ -409,6 +416,14 @@ def test_non_finite_numbers_in_splishsplash_scenes(tmp_path: Path, where: str, k
                    "emitterBoxMin": [0, math.nan, 0]}, "emitterBoxMin"),
     ("RigidBodies", {"geometryFile": "box.obj", "isDynamic": True,
                      "velocity": [1.0, "fast", 0.0]}, "RigidBodies[0].velocity"),
+    # the eighth session's: restitution, the older emitters' and materials' fields
+    ("RigidBodies", {"geometryFile": "box.obj", "isDynamic": True, "restitution": math.inf},
+     "RigidBodies[0].restitution"),
+    ("Emitters", {"width": 2, "direction": [1, 0, 0], "velocity": "fast"},
+     "Emitters[0].velocity"),
+    ("Emitters", {"width": 2, "direction": [math.nan, 0, 0]}, "Emitters[0].direction"),
+    ("Materials", {"id": "Fluid", "elasticityMethod": 3, "youngsModulus": math.inf},
+     "Materials[0].youngsModulus"),
 ])
 def test_this_sessions_splishsplash_fields_refuse_garbage(
         tmp_path: Path, block: str, entry: dict, named: str,
