@@ -346,6 +346,10 @@ SCRIPT = textwrap.dedent(
         "surface_tension": {"method": "akinci2013", "coefficient": 0.5,
                             "boundary_coefficient": 0.5},
         "vorticity": {"method": "micropolar", "coefficient": 0.01}}]
+    # the box a little wider than the block: with the block on the walls' lattice the densities
+    # agreed to 1e-16 but after the step x differed by 2.7e-10 of its size and v by 1e-7, as if
+    # the solvers' branches at rho* = 1 (a filled lattice is at 1 to round-off) went either way
+    scene["boxes"] = [{"min": [0, 0, 0], "max": [0.21, 0.3, 0.21]}]
     keys = ("x", "v", "rho", "p", "omega", "normal")
     out, its = {}, {}
     for device in ("cpu", "cuda"):
@@ -359,7 +363,8 @@ SCRIPT = textwrap.dedent(
             assert hasattr(sim.state.fluid["omega"], "copy_to_host")
             assert hasattr(sim.state.fluid["weiler_dv"], "copy_to_host")
             big = sorted(c for c in copies if np.prod(c) > 2)
-            assert big == [(3, n), (3, nb)], ("forces", big)
+            nbw = sim.state.boundary.n
+            assert big == [(3, n), (3, nbw)], ("forces", big)
         f = sim.fluid
         o = f.order_by_id()
         out[device] = {k: f[k][..., o] for k in keys}

@@ -211,21 +211,24 @@ def test_pcisph_hydrostatic_column_2d() -> None:
 def test_pcisph_hydrostatic_column_3d() -> None:
     """3D column 0.24 x 0.4 x 0.24 m at r = 0.02 (360 particles), settled for 1 s: compression
     <= 0.06 % (measured 0.049 %), top within one diameter (measured 2.5 cm lower, 2r = 4 cm),
-    about 10 iterations per step at rest. The slope is coarse here -- six particles across,
-    h = 0.08 m is a fifth of the height, few columns are >= 3r from the walls -- measured -2.4 %
-    with the MLS-extrapolated boundary pressure (time-averaged over 0.3 s; +5.7 % with full
-    mirroring, -6.1 % with SPlisHSPlasH's one-sided boundary term); tested against 5 % (the
-    issue's 2 % is tested on the wider columns of test_dfsph_iisph.py::test_hydrostatic_column,
-    PCISPH included: -1.6 / +0.5 / -0.2 %). The
-    column still sways: max speed 0.04 m/s at the end (0.12 m/s with mirroring; the free-fall
-    speed of the column is sqrt(2 g H) = 2.8 m/s), tested against 0.25 m/s."""
+    about 8 iterations per step at rest. The slope is coarse here -- six particles across,
+    h = 0.08 m is a fifth of the height, only the middle three columns are >= 3r from the walls
+    -- with the MLS-extrapolated boundary pressure (time-averaged over 0.3 s): the whole
+    column's slope within 2 % (measured -0.7 %), the inner columns' within 8 % (measured -6.8 %:
+    they carry less than the columns at the walls; -2.4 % while the box walls had Akinci's
+    volumes, 1.02 / 1.42 lattice volumes in their two layers, whose wall term did work on the
+    resting fluid; +1.0 % with full mirroring). The issue's 2 % is tested on the wider columns
+    of test_dfsph_iisph.py::test_hydrostatic_column, PCISPH included. The column still sways:
+    max speed 0.023 m/s at the end (the free-fall speed of the column is sqrt(2 g H) = 2.8
+    m/s), tested against 0.25 m/s."""
     r = 0.02
     sim = Simulation(_column("pcisph", dim=3, width=0.24, height=0.4, r=r, bp="mls"))
     top0 = sim.positions[:, 1].max()
     res = _settle(sim, until=1.0, window=0.3)
     assert _compression(sim) <= 0.0006
     assert sim.positions[:, 1].max() >= top0 - 2 * r
-    assert abs(_slope_error(res["x"], res["p"], r, 0.24 + 0.4 * r)) < 0.05
+    assert abs(_slope_error(res["x"], res["p"], r, 0.24 + 0.4 * r, inner=False)) < 0.02
+    assert abs(_slope_error(res["x"], res["p"], r, 0.24 + 0.4 * r)) < 0.08
     assert sim.last.max_velocity < 0.25
 
 
@@ -248,14 +251,22 @@ def test_pbf_hydrostatic_column_2d(order: str) -> None:
 
 
 def test_pbf_hydrostatic_column_3d() -> None:
-    """PBF on the 3D column (r = 0.02) for 1 s: compression <= 0.06 % (measured 0.049 %), top
-    within a diameter (measured 2.5 cm lower), about 4 iterations per step at rest."""
+    """PBF on the 3D column (r = 0.02) for 1 s: compression <= 0.06 % (measured 0.045 %), the
+    fluid stays in the box, about 4 iterations per step at rest. PBF has no boundary pressure:
+    the walls push only through the density constraint, and since the box walls keep the
+    fluid's lattice volume the fluid next to them settles closer (its lowest particle 0.22 r
+    above the floor, 0.53 r with Akinci's volumes) and the top 2.2 r lower after 1 s (1.4 r
+    before; the block starts 0.2 r off the walls): tested against 2.5 r. On the walls' lattice
+    (no margin) the top sinks 0.5 r (validation/README.md, "Box walls: the lattice's
+    volume")."""
     r = 0.02
     sim = Simulation(_column("pbf", dim=3, width=0.24, height=0.4, r=r))
     top0 = sim.positions[:, 1].max()
     sim.run(until=1.0)
     assert _compression(sim) <= 0.0006
-    assert sim.positions[:, 1].max() >= top0 - 2 * r
+    x = sim.positions
+    assert x.min() > 0.0 and x[:, 0].max() < 0.24 + 0.4 * r
+    assert x[:, 1].max() >= top0 - 2.5 * r
     assert sim.last.max_velocity < 0.1
 
 

@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 from sphkit.geometry import GeometryError
 from sphkit.geometry.mesh_sampling import sample_mesh_surface
 from sphkit.geometry.meshes import load_mesh
-from sphkit.geometry.sampling import box_walls, lattice_block, lattice_count
+from sphkit.geometry.sampling import box_wall_cells, box_walls, lattice_block, lattice_count
 
 
 def _nn(points: np.ndarray) -> np.ndarray:
@@ -97,6 +97,32 @@ def test_box_walls_align_with_fluid_and_cover_corners(dim: int, layers: int) -> 
         for corner in np.array(np.meshgrid(*[[0, 1]] * dim, indexing="ij")).reshape(dim, -1).T:
             c = np.where(corner == 0, lo - off, hi + off)
             assert tree.query(c)[0] < 1e-12
+
+
+def test_box_wall_cells_are_the_lattice_cells_of_the_walls() -> None:
+    """Each wall particle's cell (:func:`box_wall_cells`) is the product over the axes of its
+    spacing there: 2r across a wall layer (a coordinate outside the box), and along a face the
+    distance between neighbouring wall particles (measured on the walls themselves): (2r)^dim
+    on the fluid's lattice, less where the box is not a multiple of 2r."""
+    r = 0.025
+    for lo, hi, layers, top in [([0.0, 0.0], [1.0, 0.6], 1, None),
+                                ([0.0, 0.0, 0.0], [1.0, 0.6, 0.4], 2, None),
+                                ([0.0, 0.0], [1.01, 0.63], 2, 1),
+                                ([0.0, 0.0, 0.0], [0.33, 0.41, 0.2], 1, 1)]:
+        lo, hi = np.array(lo), np.array(hi)
+        dim = len(lo)
+        walls = box_walls(lo, hi, r, layers=layers, open_top_axis=top)
+        cells = box_wall_cells(lo, hi, r, layers=layers, open_top_axis=top)
+        assert cells.shape == (len(walls),)
+        expected = np.ones(len(walls))
+        for e in range(dim):
+            inside = (walls[:, e] > lo[e]) & (walls[:, e] < hi[e])
+            spacing = np.diff(np.unique(np.round(walls[inside, e], 12)))
+            assert np.ptp(spacing) < 1e-9 * r  # evenly spaced along the face
+            expected *= np.where(inside, spacing.mean(), 2 * r)
+        np.testing.assert_allclose(cells, expected, rtol=1e-9)
+        multiple = np.allclose(np.rint((hi - lo) / (2 * r)), (hi - lo) / (2 * r))
+        assert (cells.min() == pytest.approx((2 * r) ** dim, rel=1e-12)) == multiple
 
 
 def test_box_walls_open_top() -> None:

@@ -1,11 +1,13 @@
 """Mechanical energy of fluid at rest in a small closed box, per wall pressure term.
 
     python validation/wall_energy.py [--dim 3] [--n 5] [--solver iisph] [--until 0.01]
-        [--dt 0.0005] [--walls mls mirror symmetric solved density]
+        [--dt 0.0005] [--walls mls mirror symmetric solved density] [--akinci-box-volumes]
+    python validation/wall_energy.py --column [dfsph iisph pcisph pbf] [--until 0.5]
+        [--akinci-box-volumes]
 
 A cube (square in 2D) of ``n`` particles per side, r = 2 cm, fills a closed ``boxes`` container
-of the same width and twice its height (one wall layer, Akinci volumes, sphkit's start-up:
-hydrostatic start, relaxation, consistent masses), gravity 9.81 m/s^2, no viscosity, time step
+of the same width and twice its height (one wall layer, the fluid's lattice volume, sphkit's
+start-up: hydrostatic start, relaxation, consistent masses), gravity 9.81 m/s^2, no viscosity, time step
 ``--dt``. Nothing should move: the start is hydrostatic and the box is closed, so the kinetic
 energy KE and the change of the mechanical energy ``E = KE + sum m g y`` should stay near zero.
 
@@ -20,6 +22,12 @@ kappa_accel_cached``: ``a_i = ... - sum_b V_b ((1 + m_b) k_i + k_b) grad W_ib``)
 * ``solved``: the static walls' own pressures solved in the PPE (``boundary.solved: true``,
   the fluid's density rate at each wall particle held); ``density``: the same with the
   density itself held at its start value (``boundary.solved: "density"``).
+
+``--akinci-box-volumes`` gives the box walls Akinci's volumes ``1 / sum_k W_bk`` again (before
+2026-12-05; since, they keep the fluid's lattice volume). ``--column [SOLVER ...]``: instead, a
+column 0.4 x 0.6 (x 0.2) m filling a box of its width (and depth), 2D and 3D, without and with
+viscosity, to ``--until`` (0.5 s): the largest speed of any particle and the mean speed at the
+end.
 
 the table gives, at ``--until``: the largest speed, KE, the change of E, and the work done by
 the wall term's share beyond the symmetric one (``-sum_b V_b (m_b k_i + k_b) grad W_ib`` times
@@ -127,6 +135,58 @@ def run(dim: int, n: int, solver: str, walls: str, dt: float, until: float) -> d
         solver_module.kappa_accel_cached = spy.original
 
 
+def akinci_box_volumes() -> None:
+    """Give the box walls Akinci's volumes ``1 / sum_k W_bk`` again, as before 2026-12-05
+    (their lattice cells set to 0, :func:`sphkit.boundary.akinci2012.static_volumes`)."""
+    import sphkit.world.walls as walls_module
+
+    def no_cells(*args, **kw):  # noqa: ANN002, ANN003, ANN202 (box_wall_cells' signature)
+        return np.zeros(len(walls_module.box_walls(*args, **kw)))
+
+    walls_module.box_wall_cells = no_cells
+
+
+def column_scene(dim: int, solver: str, viscosity: float) -> Scene:
+    """A column filling a box of its width (and depth): 0.4 x 0.6 (x 0.2) m of fluid in a box
+    0.8 m high, r = 2 cm, one wall layer, SPlisHSPlasH's tolerance 0.05 %, dt at most 2 ms."""
+    z, zl = ([0.0], [0.2]) if dim == 3 else ([], [])
+    return Scene.model_validate({
+        "configuration": {"dim": dim, "particle_radius": R, "gravity": [0.0, -G, *z],
+                          "pressure": {"method": solver, "max_error": 0.05},
+                          "time": {"dt_max": 0.002}},
+        "materials": [{"id": "fluid", "viscosity": {"method": "standard",
+                                                    "coefficient": viscosity}
+                       if viscosity else {"method": "none"}}],
+        "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [0.4, 0.6, *zl], "material": "fluid"}],
+        "boxes": [{"min": [0.0, 0.0, *z], "max": [0.4, 0.8, *zl]}],
+    })
+
+
+def column(solvers: list[str], until: float) -> None:
+    """The ``--column`` table: fastest particle over the run and mean speed at its end."""
+    print(f"column filling its box at rest, r = {R} m, until {until} s: largest speed of any "
+          "particle at any step, mean speed at the end [m/s]")
+    print(f"{'dim':>3s} {'solver':8s} {'nu':>5s} {'n':>5s} {'vmax':>8s} {'at step':>7s} "
+          f"{'mean':>8s}  note")
+    for dim in (2, 3):
+        for solver in solvers:
+            for nu in (0.0, 0.01):
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    sim = Simulation(column_scene(dim, solver, nu))
+                speeds, note = [], ""
+                try:
+                    while sim.time < until - 1e-12:
+                        speeds.append(sim.step().max_velocity)
+                except InstabilityError as e:
+                    note = f"unstable at step {e.stats.step}, {e.stats.time:.4f} s"
+                mean = float(np.sqrt((sim.fluid["v"] ** 2).sum(axis=0)).mean())
+                k = int(np.argmax(speeds)) if speeds else -1
+                print(f"{dim:3d} {solver:8s} {nu:5.2f} {sim.fluid.n:5d} "
+                      f"{max(speeds, default=0.0):8.3f} {k + 1:7d} {mean:8.4f}  {note}",
+                      flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--dim", type=int, default=3, choices=[2, 3])
@@ -136,8 +196,19 @@ def main() -> None:
     ap.add_argument("--dt", type=float, default=0.0005)
     ap.add_argument("--walls", nargs="+", default=["mls", "mirror", "symmetric", "solved"],
                     choices=["mls", "mirror", "symmetric", "solved", "density"])
+    ap.add_argument("--akinci-box-volumes", action="store_true",
+                    help="box walls with Akinci's volumes 1 / sum W, as before 2026-12-05")
+    ap.add_argument("--column", nargs="*", default=None, metavar="SOLVER",
+                    help="instead: a column filling its box at rest, per solver (default "
+                    "dfsph iisph pcisph pbf), 2D and 3D, without and with viscosity 0.01")
     args = ap.parse_args()
     logging.getLogger("sphkit").setLevel(logging.ERROR)
+    if args.akinci_box_volumes:
+        akinci_box_volumes()
+    if args.column is not None:
+        column(args.column or ["dfsph", "iisph", "pcisph", "pbf"],
+               args.until if args.until != 0.01 else 0.5)
+        return
     print(f"closed box, {args.dim}D, {args.n} particles per side, r = {R} m, {args.solver}, "
           f"dt {args.dt} s, until {args.until} s; energies in J (per m in 2D)")
     print(f"{'walls':10s} {'n':>5s} {'vmax':>7s} {'KE':>9s} {'dE':>10s} "

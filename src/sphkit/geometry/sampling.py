@@ -217,6 +217,32 @@ def box_walls(
     Returns:
         ``(M, dim)`` float64 wall particle positions, without duplicates.
     """
+    return _box_shell(lo, hi, r, layers, open_top_axis)[0]
+
+
+def box_wall_cells(
+    lo: ArrayLike,
+    hi: ArrayLike,
+    r: float,
+    layers: int = 1,
+    open_top_axis: int | None = None,
+) -> np.ndarray:
+    """The cell of each particle of :func:`box_walls` (same arguments, same order): the product
+    over the axes of the spacing of its coordinate there, 2r across a wall layer and the face's
+    even spacing (``2r`` when ``hi - lo`` is a multiple of 2r, a little less otherwise) along the
+    face [m^dim]. The walls are a lattice that continues the fluid's, so their particles stand
+    for the fluid's missing neighbours with these cells (:func:`sphkit.world.walls.
+    add_wall_particles` scales the fluid's lattice volume by ``cell / (2r)^dim``).
+
+    Returns:
+        ``(M,)`` float64 cells, ``(2r)^dim`` where the walls follow the fluid lattice.
+    """
+    return _box_shell(lo, hi, r, layers, open_top_axis)[1]
+
+
+def _box_shell(lo: ArrayLike, hi: ArrayLike, r: float, layers: int,
+               open_top_axis: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """The wall particles of :func:`box_walls` and their cells (:func:`box_wall_cells`)."""
     r = check_radius(r)
     a = _as_vector(lo, "lo")
     b = _as_vector(hi, "hi")
@@ -224,29 +250,34 @@ def box_walls(
         raise ValueError(f"lo {a.tolist()} and hi {b.tolist()} differ in length")
     if int(layers) < 1:
         raise ValueError(f"layers must be >= 1, got {layers}")
-    layers = int(layers)
     dim = a.size
     if open_top_axis is not None and not 0 <= int(open_top_axis) < dim:
         raise ValueError(f"open_top_axis must be in [0, {dim}), got {open_top_axis}")
-
-    k = np.arange(layers, dtype=np.float64)
+    k = np.arange(int(layers), dtype=np.float64)
     # wall coordinates along a face: evenly spaced between the first wall layers lo - r and
     # hi + r, at most 2r apart; the fluid lattice when hi - lo is a multiple of 2r. (The fluid
     # lattice itself would leave a gap of up to 4r before the upper walls, through which fluid
     # leaked at the upper edges of a 3D box.)
-    interior = []
+    interior, spacing = [], []
     for d in range(dim):
         m = max(1, int(np.ceil((b[d] - a[d] + 2.0 * r) / (2.0 * r) - 1e-9)))
         interior.append(np.linspace(a[d] - r, b[d] + r, m + 1)[1:-1])
+        spacing.append((b[d] - a[d] + 2.0 * r) / m)
     low = [a[d] - r - 2.0 * r * k[::-1] for d in range(dim)]
     high = [b[d] + r + 2.0 * r * k for d in range(dim)]
 
     def high_side(d: int) -> list[np.ndarray]:
         return [] if open_top_axis is not None and d == int(open_top_axis) else [high[d]]
 
+    def widths(d: int, coords: np.ndarray) -> np.ndarray:
+        """The spacing at each coordinate of axis d: 2r in the wall layers, the face's inside."""
+        eps = 1e-6 * r
+        inside = (coords > a[d] - r + eps) & (coords < b[d] + r - eps)
+        return np.where(inside, spacing[d], 2.0 * r)
+
     # The shell is a disjoint union over axes d of the points whose first wall coordinate is on
     # axis d: axes before d take interior coordinates, axis d wall coordinates, later axes all.
-    parts = []
+    parts, cells = [], []
     for d in range(dim):
         axes = []
         for e in range(dim):
@@ -257,7 +288,9 @@ def box_walls(
             else:
                 axes.append(np.concatenate([low[e], interior[e], *high_side(e)]))
         parts.append(_product(axes))
-    return np.concatenate(parts, axis=0)
+        cells.append(np.prod(_product([widths(e, ax) for e, ax in enumerate(axes)]), axis=1)
+                     if all(len(ax) for ax in axes) else np.empty(0))
+    return np.concatenate(parts, axis=0), np.concatenate(cells)
 
 
 def box_wall_distance(points: np.ndarray, lo: ArrayLike, hi: ArrayLike

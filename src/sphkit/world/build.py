@@ -97,6 +97,9 @@ def _state(scene: Scene, mats: list[Material]) -> SimState:
         fluid.register("phase", "scalar", np.int64)
     boundary = ParticleSet(dim, dtype)
     boundary.register("pressure_mirror")
+    # lattice walls (scene boxes): the fluid's lattice volume for the particle's cell; 0 (every
+    # other boundary particle): Akinci's volume (boundary.akinci2012.static_volumes)
+    boundary.register("cell_volume", optional=True)
     boundary.register("rigid_body", "scalar", np.int64)  # 1-based moving body, 0 static
     # box walls: normal into the wall and distance behind its surface (Morris 1997 no-slip), the
     # standard viscosity's factor on its wall term (boxes[].viscosity_factors; 1 elsewhere)

@@ -26,12 +26,19 @@ def _phase(fluid: ParticleSet, scene: Scene, mat: Material) -> dict:
     return {"phase": scene.materials.index(mat)} if "phase" in fluid.specs else {}
 
 
+def periodic_mask(state: SimState, pts: np.ndarray) -> np.ndarray:
+    """Which points (M, dim) lie inside ``[lo, lo + L)`` along each periodic axis (all of them
+    otherwise)."""
+    r = state.r
+    keep = np.ones(len(pts), dtype=bool)
+    for a, lo, L in state.periodic_axes:
+        keep &= (pts[:, a] >= lo - 1e-9 * r) & (pts[:, a] < lo + L - 1e-9 * r)
+    return keep
+
+
 def periodic_clip(state: SimState, pts: np.ndarray) -> np.ndarray:
     """The points inside ``[lo, lo + L)`` along each periodic axis (all of them otherwise)."""
-    r = state.r
-    for a, lo, L in state.periodic_axes:
-        pts = pts[(pts[:, a] >= lo - 1e-9 * r) & (pts[:, a] < lo + L - 1e-9 * r)]
-    return pts
+    return pts[periodic_mask(state, pts)]
 
 
 def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:

@@ -33,8 +33,9 @@ the direction away from its neighbours) -- fluid in a container, also when writt
 its walls; a side wall along a face, as in a narrow channel, does not contain it; a dam break's
 free face (a resting particle deep in its column with an empty side and no wall near) would
 flow while it settles, so such a scene is not settled. Moving bodies, emitters, elastic solids
-and animation fields, which the step moves by their own clocks, are not settled either (with
-``settle: true`` they are named in a warning). A settling that becomes unstable is undone (the
+and animation fields, which the step moves by their own clocks, are not settled either, nor
+several fluids, whose columns' modes the one damping rate does not match (with ``settle:
+true`` they are named in a warning). A settling that becomes unstable is undone (the
 run then starts from the unsettled state, with a warning).
 """
 
@@ -94,6 +95,13 @@ def _moving_parts(scene: Scene) -> list[str]:
     return parts
 
 
+def _several_fluids(state: SimState) -> bool:
+    """Whether the fluid holds more than one rest density (several fluids, whose acoustic
+    modes the one damping rate of the module docstring does not match)."""
+    rho0 = state.fluid["rho0"]
+    return bool(state.fluid.n) and float(rho0.min()) != float(rho0.max())
+
+
 def _walled(state: SimState, k: np.ndarray) -> np.ndarray:
     """Whether a wall lies across the empty side of each fluid particle ``k``: a boundary
     particle within ``FACE_GAP`` h of it and within ``FACE_CONE`` of the direction away from
@@ -136,6 +144,10 @@ def plan_settle(state: SimState, scene: Scene, pressure: PressureSolver, p: np.n
         why = "no fluid rests on a wall under gravity"
     elif parts := _moving_parts(scene):
         why = f"{', '.join(parts)} move by their own clocks"
+    elif _several_fluids(state):
+        # the damping is the critical rate of one fluid's column; a heavy-light column settled
+        # so ended with the heavy layer's pressures 93 % off its hydrostatic start
+        why = "several fluids (the damping rate is one fluid's column's)"
     else:
         walls = np.diff(state.nl_fb.offsets) > 0
         free = resting & (depth > state.h) & ~full & ~walls

@@ -40,8 +40,8 @@ and bounces ("breathes") for seconds. The start-up, in this order
    ``start.relax_iterations``).
 4. **Masses** (with ``start.relax``): each particle's mass is set so that its summation density
    is its start density (:func:`sphkit.core.relaxation.mass_pass`, to 1e-6). Where the kernel
-   was filled as sampled (the summation density with the lattice masses times the start
-   compression reached the start density) the mass may rise up to 5 % above that, to fill the
+   was filled as sampled (the summation density with the lattice masses reached the rest
+   density) the mass may rise up to 5 % above that, to fill the
    thin spots the relaxation left; at a free surface it never rises above it, so the surface
    keeps its mass and its kernel's deficit. Masses are the
    variable because sphkit's densities are sums of masses
@@ -399,15 +399,17 @@ def _round_off(dtype: np.dtype) -> float:
     return max(1e-6, 32.0 * float(np.finfo(dtype).eps))
 
 
-def filled(state: SimState, lists: _Lists, rho_start: np.ndarray) -> np.ndarray:
+def filled(state: SimState, lists: _Lists) -> np.ndarray:
     """The fluid particles whose kernel is filled as sampled: their summation density with the
-    start masses (lattice mass times start compression) reaches their start density (to
-    :func:`_round_off`: 1e-6 in float64).
-    The others lie at a free surface."""
+    lattice masses reaches their rest density (to :func:`_round_off`: 1e-6 in float64), the
+    walls counted at rest density as the density sums count them. (Compared with the start
+    masses and the start density instead, a compressed particle next to a box's lattice wall,
+    whose particles stand for fluid at rest density, counted as a free surface and kept its
+    kernel's deficit.) The others lie at a free surface."""
     f = state.fluid
     lists.update(state)
-    rho = _density(state, f["m"] * (rho_start / f["rho0"]), np.empty(f.n, dtype=f.dtype))
-    return rho >= rho_start * (1.0 - _round_off(f.dtype))
+    rho = _density(state, f["m"], np.empty(f.n, dtype=f.dtype))
+    return rho >= f["rho0"] * (1.0 - _round_off(f.dtype))
 
 
 def relax(state: SimState, lists: _Lists, target: np.ndarray, iterations: int,
@@ -489,7 +491,7 @@ def start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bound
     remove_inside(state, scene, meshes, model, report)
     lists = _Lists(model)
     p, rho_start = start_density(state, lists, pressure, cfg.hydrostatic)
-    two_sided = filled(state, lists, rho_start)
+    two_sided = filled(state, lists)
     if cfg.relax:
         relax(state, lists, rho_start / f["rho0"], cfg.relax_iterations, report)
         p, rho_start = start_density(state, lists, pressure, cfg.hydrostatic)  # after the moves

@@ -1,11 +1,12 @@
 """The walls of a world: boundary particles (Akinci et al. 2012) or map geometries.
 
-With a particle boundary model, scene ``boxes`` become lattice walls (two-layer lattices whose
-Akinci volumes stand for the missing fluid, so the boundary pressure is mirrored fully:
-boundary field ``pressure_mirror`` 1), static ``meshes`` their surface samples, moving meshes
-(rigid bodies) their surface samples moved ``inset_depth(dim)`` r into the mesh, and emitter
-housings their surface samples. With a map model (density or volume maps) boxes and meshes become
-signed distances instead (:func:`map_geometries`).
+With a particle boundary model, scene ``boxes`` become lattice walls (lattices that continue
+the fluid's, each particle with the fluid's lattice volume for its cell, boundary field
+``cell_volume``: it stands for the fluid particle missing there, so the boundary pressure is
+mirrored fully: boundary field ``pressure_mirror`` 1), static ``meshes`` their surface samples,
+moving meshes (rigid bodies) their surface samples moved ``inset_depth(dim)`` r into the mesh,
+and emitter housings their surface samples. With a map model (density or volume maps) boxes
+and meshes become signed distances instead (:func:`map_geometries`).
 """
 
 from __future__ import annotations
@@ -16,13 +17,19 @@ import numpy as np
 
 from sphkit.boundary.maps import MapGeometry
 from sphkit.boundary.rigid import inset_depth, inset_samples
+from sphkit.core.kernels import lattice_volume
 from sphkit.core.state import SimState
 from sphkit.core.timestep import Domain
 from sphkit.geometry.mesh_sampling import sample_mesh_surface
 from sphkit.geometry.meshes import section_segments
-from sphkit.geometry.sampling import box_face_factors, box_wall_distance, box_walls
+from sphkit.geometry.sampling import (
+    box_face_factors,
+    box_wall_cells,
+    box_wall_distance,
+    box_walls,
+)
 from sphkit.scene.schema import Scene, SceneError
-from sphkit.world.fluid import periodic_clip
+from sphkit.world.fluid import periodic_clip, periodic_mask
 from sphkit.world.meshes import SceneMeshes
 
 
@@ -44,19 +51,24 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
     r, dim = state.r, state.dim
     up = gravity_axis(state)
     bd = state.boundary
+    lattice = lattice_volume(2.0 * r, state.kid, state.h, dim)  # the fluid's (world.fluid)
     for k, box in enumerate(scene.boxes):
-        pts = box_walls(box.min, box.max, r, layers=box.layers,
-                                 open_top_axis=up if box.open_top else None)
-        # lattice walls whose Akinci volumes stand for the missing fluid: the boundary
-        # pressure is mirrored fully in the iterative solvers (core.ppe.kappa_accel_cached)
-        pts = periodic_clip(state, pts)
+        shape = dict(layers=box.layers, open_top_axis=up if box.open_top else None)
+        pts = box_walls(box.min, box.max, r, **shape)
+        # lattice walls continue the fluid's lattice: each particle stands for the fluid
+        # particle missing there, with the fluid's lattice volume for its cell (static_volumes);
+        # the boundary pressure is mirrored fully in the iterative solvers
+        # (core.ppe.kappa_accel_cached)
+        cell = lattice * box_wall_cells(box.min, box.max, r, **shape) / (2.0 * r) ** dim
+        keep = periodic_mask(state, pts)
+        pts, cell = pts[keep], cell[keep]
         dist, normal = box_wall_distance(pts, box.min, box.max)
         extra = {}
         if box.viscosity_factors is not None:
             extra["viscosity_factor"] = box_face_factors(pts, box.min, box.max,
                                                          box.viscosity_factors)
         bd.add(pts, name=f"boxes[{k}]", pressure_mirror=1.0, wall_distance=dist,
-               wall_normal=normal, **extra)
+               wall_normal=normal, cell_volume=cell, **extra)
     bodies = moving_meshes(scene)
     for k in range(len(scene.meshes)):
         mesh = meshes.mesh(k)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from sphkit.boundary.akinci2012 import boundary_volumes
+from sphkit.boundary.akinci2012 import boundary_volumes, static_volumes
 from sphkit.boundary.rigid.contacts import BodyContacts
 from sphkit.boundary.rigid.coupling import FluidCoupling
 from sphkit.boundary.rigid.joints_catto2005 import BodyJoints, Joint
@@ -171,8 +171,7 @@ class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
         # wall must not shrink the wall's volumes for the rest of the run)
         sel0 = np.flatnonzero(body == 0)
         if self.bodies and sel0.size:
-            xs = np.ascontiguousarray(bd["x"][:, sel0])
-            bd["V"][sel0] = boundary_volumes(xs, state.h, state.kid, state.dim)
+            static_volumes(state, sel0)
         for k, rb in enumerate(self.bodies):
             sel = np.flatnonzero(body == k + 1)
             xs = bd["x"][:, sel]
