@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 from sphkit.geometry import GeometryError
 from sphkit.geometry.mesh_sampling import sample_mesh_surface
 from sphkit.geometry.meshes import load_mesh
-from sphkit.geometry.sampling import box_wall_cells, box_walls, lattice_block, lattice_count
+from sphkit.geometry.sampling import box_shell, box_walls, lattice_block, lattice_count
 
 
 def _nn(points: np.ndarray) -> np.ndarray:
@@ -100,8 +100,8 @@ def test_box_walls_align_with_fluid_and_cover_corners(dim: int, layers: int) -> 
 
 
 def test_box_wall_cells_are_the_lattice_cells_of_the_walls() -> None:
-    """Each wall particle's cell (:func:`box_wall_cells`) is the product over the axes of its
-    spacing there: 2r across a wall layer (a coordinate outside the box), and along a face the
+    """Each wall particle's cell (:func:`box_shell`, with the particles of :func:`box_walls`) is
+    the product over the axes of its spacing there: 2r across a wall layer (a coordinate outside the box), and along a face the
     distance between neighbouring wall particles (measured on the walls themselves): (2r)^dim
     on the fluid's lattice, less where the box is not a multiple of 2r."""
     r = 0.025
@@ -111,8 +111,9 @@ def test_box_wall_cells_are_the_lattice_cells_of_the_walls() -> None:
                                 ([0.0, 0.0, 0.0], [0.33, 0.41, 0.2], 1, 1)]:
         lo, hi = np.array(lo), np.array(hi)
         dim = len(lo)
-        walls = box_walls(lo, hi, r, layers=layers, open_top_axis=top)
-        cells = box_wall_cells(lo, hi, r, layers=layers, open_top_axis=top)
+        walls, cells = box_shell(lo, hi, r, layers=layers, open_top_axis=top)
+        np.testing.assert_array_equal(walls, box_walls(lo, hi, r, layers=layers,
+                                                       open_top_axis=top))
         assert cells.shape == (len(walls),)
         expected = np.ones(len(walls))
         for e in range(dim):

@@ -140,10 +140,13 @@ def akinci_box_volumes() -> None:
     (their lattice cells set to 0, :func:`sphkit.boundary.akinci2012.static_volumes`)."""
     import sphkit.world.walls as walls_module
 
-    def no_cells(*args, **kw):  # noqa: ANN002, ANN003, ANN202 (box_wall_cells' signature)
-        return np.zeros(len(walls_module.box_walls(*args, **kw)))
+    shell = walls_module.box_shell
 
-    walls_module.box_wall_cells = no_cells
+    def no_cells(*args, **kw):  # noqa: ANN002, ANN003, ANN202 (box_shell's signature)
+        pts, cells = shell(*args, **kw)
+        return pts, np.zeros_like(cells)
+
+    walls_module.box_shell = no_cells
 
 
 def column_scene(dim: int, solver: str, viscosity: float) -> Scene:

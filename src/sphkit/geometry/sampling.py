@@ -217,32 +217,23 @@ def box_walls(
     Returns:
         ``(M, dim)`` float64 wall particle positions, without duplicates.
     """
-    return _box_shell(lo, hi, r, layers, open_top_axis)[0]
+    return box_shell(lo, hi, r, layers, open_top_axis)[0]
 
 
-def box_wall_cells(
-    lo: ArrayLike,
-    hi: ArrayLike,
-    r: float,
-    layers: int = 1,
-    open_top_axis: int | None = None,
-) -> np.ndarray:
-    """The cell of each particle of :func:`box_walls` (same arguments, same order): the product
-    over the axes of the spacing of its coordinate there, 2r across a wall layer and the face's
-    even spacing (``2r`` when ``hi - lo`` is a multiple of 2r, a little less otherwise) along the
-    face [m^dim]. The walls are a lattice that continues the fluid's, so their particles stand
-    for the fluid's missing neighbours with these cells (:func:`sphkit.world.walls.
-    add_wall_particles` scales the fluid's lattice volume by ``cell / (2r)^dim``).
+def box_shell(lo: ArrayLike, hi: ArrayLike, r: float, layers: int = 1,
+              open_top_axis: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The wall particles of :func:`box_walls` (same arguments) and the cell of each: the
+    product over the axes of the spacing of its coordinate there, 2r across a wall layer and
+    the face's even spacing (``2r`` when ``hi - lo`` is a multiple of 2r, a little less
+    otherwise) along the face [m^dim]. The walls are a lattice that continues the fluid's, so
+    their particles stand for the fluid's missing neighbours with these cells
+    (:func:`sphkit.world.walls.add_wall_particles` scales the fluid's lattice volume by
+    ``cell / (2r)^dim``).
 
     Returns:
-        ``(M,)`` float64 cells, ``(2r)^dim`` where the walls follow the fluid lattice.
+        ``(M, dim)`` float64 positions and ``(M,)`` float64 cells, ``(2r)^dim`` where the walls
+        follow the fluid lattice.
     """
-    return _box_shell(lo, hi, r, layers, open_top_axis)[1]
-
-
-def _box_shell(lo: ArrayLike, hi: ArrayLike, r: float, layers: int,
-               open_top_axis: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """The wall particles of :func:`box_walls` and their cells (:func:`box_wall_cells`)."""
     r = check_radius(r)
     a = _as_vector(lo, "lo")
     b = _as_vector(hi, "hi")

@@ -24,9 +24,8 @@ from sphkit.geometry.mesh_sampling import sample_mesh_surface
 from sphkit.geometry.meshes import section_segments
 from sphkit.geometry.sampling import (
     box_face_factors,
-    box_wall_cells,
+    box_shell,
     box_wall_distance,
-    box_walls,
 )
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.fluid import periodic_clip, periodic_mask
@@ -53,13 +52,13 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
     bd = state.boundary
     lattice = lattice_volume(2.0 * r, state.kid, state.h, dim)  # the fluid's (world.fluid)
     for k, box in enumerate(scene.boxes):
-        shape = dict(layers=box.layers, open_top_axis=up if box.open_top else None)
-        pts = box_walls(box.min, box.max, r, **shape)
+        pts, cell = box_shell(box.min, box.max, r, layers=box.layers,
+                              open_top_axis=up if box.open_top else None)
         # lattice walls continue the fluid's lattice: each particle stands for the fluid
         # particle missing there, with the fluid's lattice volume for its cell (static_volumes);
         # the boundary pressure is mirrored fully in the iterative solvers
         # (core.ppe.kappa_accel_cached)
-        cell = lattice * box_wall_cells(box.min, box.max, r, **shape) / (2.0 * r) ** dim
+        cell = lattice * cell / (2.0 * r) ** dim
         keep = periodic_mask(state, pts)
         pts, cell = pts[keep], cell[keep]
         dist, normal = box_wall_distance(pts, box.min, box.max)
