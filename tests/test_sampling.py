@@ -101,9 +101,10 @@ def test_box_walls_align_with_fluid_and_cover_corners(dim: int, layers: int) -> 
 
 def test_box_wall_cells_are_the_lattice_cells_of_the_walls() -> None:
     """Each wall particle's cell (:func:`box_shell`, with the particles of :func:`box_walls`) is
-    the product over the axes of its spacing there: 2r across a wall layer (a coordinate outside the box), and along a face the
-    distance between neighbouring wall particles (measured on the walls themselves): (2r)^dim
-    on the fluid's lattice, less where the box is not a multiple of 2r."""
+    the product over the axes of its spacing there: 2r across a wall layer (a coordinate
+    outside the box), and along a face the distance between neighbouring wall particles
+    (measured on the walls themselves): (2r)^dim on the fluid's lattice, less where the box is
+    not a multiple of 2r."""
     r = 0.025
     for lo, hi, layers, top in [([0.0, 0.0], [1.0, 0.6], 1, None),
                                 ([0.0, 0.0, 0.0], [1.0, 0.6, 0.4], 2, None),
