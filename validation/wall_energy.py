@@ -8,8 +8,9 @@
 A cube (square in 2D) of ``n`` particles per side, r = 2 cm, fills a closed ``boxes`` container
 of the same width and twice its height (one wall layer, the fluid's lattice volume, sphkit's
 start-up: hydrostatic start, relaxation, consistent masses), gravity 9.81 m/s^2, no viscosity,
-time step ``--dt``. Nothing should move: the start is hydrostatic and the box is closed, so the kinetic
-energy KE and the change of the mechanical energy ``E = KE + sum m g y`` should stay near zero.
+time step ``--dt``. Nothing should move: the start is hydrostatic and the box is closed, so the
+kinetic energy KE and the change of the mechanical energy ``E = KE + sum m g y`` should stay
+near zero.
 
 For each wall term of the PPE solvers (``configuration.boundary``; ``core.ppe.
 kappa_accel_cached``: ``a_i = ... - sum_b V_b ((1 + m_b) k_i + k_b) grad W_ib``):
