@@ -211,17 +211,17 @@ def test_column_does_not_drop_and_bounce(tmp_path: Path) -> None:
 
 
 def test_fluid_filling_a_box_starts_on_its_lattice_and_rests() -> None:
-    """Fluid filling a 3D box of its own size (0.4 x 0.6 x 0.2 m, r = 2 cm, one wall layer:
-    every particle within two layers of a wall) continues the walls' lattice, whose particles
-    have the fluid's lattice volume (:func:`sphkit.boundary.akinci2012.static_volumes`): as
-    sampled it is at rest density to round-off (1e-9), so the start-up moves nothing and every
+    """Fluid filling a 3D box of its own size (0.4 x 0.6 x 0.2 m, r = 2 cm, the default two wall
+    layers; every particle within two layers of a wall) continues the walls' lattice, whose
+    particles have the fluid's lattice volume (:func:`sphkit.boundary.akinci2012.static_volumes`):
+    as sampled it is at rest density to round-off (1e-9), so the start-up moves nothing and every
     mass stays the lattice mass. PCISPH (no warm start, SPlisHSPlasH's defaults) then holds
     it: after 0.1 s the fastest particle moves at < 0.15 m/s (measured 0.073: the column falls
     freely for the first steps, until its compression reaches the 0.05 % tolerance; g times
-    those 6 steps is 0.08 m/s). With Akinci's volumes of the one-layer walls (1.36-1.65 lattice
-    volumes) the sampled fluid was 15 % too dense at the walls, the relaxed start's first
-    solve that had to hold the column diverged and the run stopped unstable at step 7
-    (validation/README.md, "Box walls: the lattice's volume")."""
+    those 6 steps is 0.08 m/s; the same with one layer). With Akinci's volumes of one-layer walls
+    (1.36-1.65 lattice volumes) the sampled fluid was 15 % too dense at the walls, the relaxed
+    start's first solve that had to hold the column diverged and the run stopped unstable at
+    step 7 (validation/README.md, "Box walls: the lattice's volume")."""
     sim = Simulation(Scene.model_validate({
         "configuration": {"dim": 3, "particle_radius": 0.02, "gravity": [0.0, -G, 0.0],
                           "pressure": {"method": "pcisph", "max_error": 0.05},

@@ -70,7 +70,7 @@ def scene(dim: int, n: int, solver: str, walls: str, dt: float) -> Scene:
                           "time": {"dt_max": dt}, "boundary": boundary},
         "materials": [{"id": "fluid", "density0": 1000.0}],
         "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [L, L, *zl], "material": "fluid"}],
-        "boxes": [{"min": [0.0, 0.0, *z], "max": [L, 2 * L, *zl]}],
+        "boxes": [{"min": [0.0, 0.0, *z], "max": [L, 2 * L, *zl], "layers": 1}],
     })
 
 
@@ -162,7 +162,7 @@ def column_scene(dim: int, solver: str, viscosity: float) -> Scene:
                                                     "coefficient": viscosity}
                        if viscosity else {"method": "none"}}],
         "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [0.4, 0.6, *zl], "material": "fluid"}],
-        "boxes": [{"min": [0.0, 0.0, *z], "max": [0.4, 0.8, *zl]}],
+        "boxes": [{"min": [0.0, 0.0, *z], "max": [0.4, 0.8, *zl], "layers": 1}],
     })
 
 

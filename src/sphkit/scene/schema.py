@@ -732,7 +732,11 @@ class Box(_Model):
 
     min: Vec = Field(description="inner lower corner [m]")
     max: Vec = Field(description="inner upper corner [m]")
-    layers: int = Field(1, ge=1, le=4, description="number of particle layers of the walls")
+    layers: int = Field(
+        2, ge=1, le=4, description="number of particle layers of the walls (each particle has "
+        "the fluid's lattice volume; two span the kernel's support h = 4r, so that fluid pushed "
+        "nearer than 2r to the wall still sees a complete wall: with one, a 2D dam break's "
+        "particles came within 0.56-0.80 r of a wall particle, with two 0.83-0.96 r)")
     open_top: bool = Field(False, description="leave out the wall at max along the gravity axis")
     viscosity_factors: list[float] | None = Field(
         None,
