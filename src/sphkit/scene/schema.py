@@ -1013,7 +1013,8 @@ class StartConfig(_Model):
         "the clock then starts at 0 with the fluid at rest. \"auto\": when the solver has a "
         "speed of sound, gravity acts, and every resting fluid particle deeper than h below its "
         "free surface has a full neighbourhood or a wall beside it (a container, not a dam "
-        "break's free face), with no moving body, emitter, elastic solid or animation field")
+        "break's free face), with no moving body, emitter, elastic solid or animation field, "
+        "and one fluid")
     settle_speed: float = Field(
         0.005, gt=0, description="the settling stops once the root mean square speed of the "
         "fluid is below this [m/s]")
