@@ -24,10 +24,10 @@ def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes) -> RigidBod
         try:
             bodies.append(body_from_mesh(f"meshes[{k}]", meshes.mesh(k), mb.dynamic, mb.density,
                                          mb.velocity, mb.angular_velocity,
-                                         mb.rotation_center, mb.friction, state.dim))
+                                         mb.rotation_center, mb.friction, state.dim,
+                                         mb.restitution))
         except ValueError as e:
             raise SceneError(f"meshes[{k}].geometry_file: {mb.geometry_file!r}: {e}") from None
-        bodies[-1].restitution = mb.restitution
     walls = []
     if any(b.dynamic for b in bodies):
         dim = state.dim

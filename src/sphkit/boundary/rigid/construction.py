@@ -90,12 +90,15 @@ def inset_samples(mesh: trimesh.Trimesh, pts: np.ndarray, depth: float) -> np.nd
 
 def body_from_mesh(name: str, mesh: trimesh.Trimesh, dynamic: bool, density: float,
                    velocity: Vector | None, angular_velocity: Vector | None,
-                   rotation_center: Vector | None, friction: float, dim: int = 3) -> RigidBody:
+                   rotation_center: Vector | None, friction: float, dim: int = 3,
+                   restitution: float = 0.0) -> RigidBody:
     """A body from its closed mesh (placed at t = 0): mass properties for dynamic bodies (about
-    the centre of mass), the pivot for kinematic ones. 2D: the body is the section of the mesh
-    with z = 0, moving in the xy-plane: mass per unit depth ``density * area`` [kg/m] and the
-    polar moment ``density * J`` [kg m^2/m] (put on all three axes; only z turns), velocity
-    (vx, vy, 0) and angular velocity (0, 0, w)."""
+    the centre of mass), the pivot for kinematic ones; its contacts' ``friction`` and
+    ``restitution``. 2D: the body is the section of the mesh with z = 0, moving in the
+    xy-plane: mass per unit depth ``density * area`` [kg/m] and the polar moment ``density *
+    J`` [kg m^2/m] (put on all three axes; only z turns), velocity (vx, vy, 0) and angular
+    velocity (0, 0, w)."""
+    contact = {"friction": friction, "restitution": restitution}
     v = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=np.float64)
     w = np.zeros(3) if angular_velocity is None else np.asarray(angular_velocity, np.float64)
     if dim == 2:
@@ -110,10 +113,10 @@ def body_from_mesh(name: str, mesh: trimesh.Trimesh, dynamic: bool, density: flo
         com = np.array([cen[0], cen[1], 0.0])
         if dynamic:
             return RigidBody(name, True, com, v, w, mass=density * area,
-                             inertia=np.eye(3) * density * j, friction=friction)
+                             inertia=np.eye(3) * density * j, **contact)
         c = com if rotation_center is None else np.asarray(rotation_center, dtype=np.float64)
         c = np.array([c[0], c[1], 0.0])
-        return RigidBody(name, False, c.copy(), v, w, c0=c.copy(), friction=friction)
+        return RigidBody(name, False, c.copy(), v, w, c0=c.copy(), **contact)
     if dynamic:
         if not mesh.is_volume:
             flux = open_flux(mesh) if mesh.is_winding_consistent else float("inf")
@@ -127,9 +130,9 @@ def body_from_mesh(name: str, mesh: trimesh.Trimesh, dynamic: bool, density: flo
         com = np.asarray(mesh.center_mass, dtype=np.float64)
         inertia = np.asarray(mesh.moment_inertia, dtype=np.float64) * density  # unit density
         return RigidBody(name, True, com.copy(), v, w, mass=density * vol, inertia=inertia,
-                         friction=friction)
+                         **contact)
     if rotation_center is not None:
         c = np.asarray(rotation_center, dtype=np.float64)
     else:
         c = np.asarray(mesh.center_mass if mesh.is_volume else mesh.centroid, dtype=np.float64)
-    return RigidBody(name, False, c.copy(), v, w, c0=c.copy(), friction=friction)
+    return RigidBody(name, False, c.copy(), v, w, c0=c.copy(), **contact)
