@@ -113,12 +113,19 @@ class Akinci2012(BoundaryModel):
         self._hashed: HashGrid | None = None  # the walls' grid on a device (static walls)
 
     def init(self, state: SimState) -> None:
-        """Compute the boundary volumes V_b and the boundary grid (static boundary)."""
+        """Compute the static walls' volumes V_b and the boundary grid. The walls' volumes come
+        from the static particles alone (a body that starts close to a wall must not shrink the
+        wall's volumes for the rest of the run); a moving body's particles (boundary field
+        ``rigid_body`` > 0) get theirs from their own body (:mod:`sphkit.boundary.rigid`)."""
         bd = state.boundary
         bd.register("V")
         bd.register("v", "vector")
         if bd.n:
-            static_volumes(state)
+            moving = bd["rigid_body"] > 0 if "rigid_body" in bd.specs else None
+            if moving is None or not moving.any():
+                static_volumes(state)
+            elif not moving.all():
+                static_volumes(state, np.flatnonzero(~moving))
             self.grid = Grid(bd["x"], state.h)
 
     def rebuild(self, state: SimState) -> None:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from sphkit.boundary.akinci2012 import boundary_volumes, static_volumes
+from sphkit.boundary.akinci2012 import boundary_volumes
 from sphkit.boundary.rigid.contacts import BodyContacts
 from sphkit.boundary.rigid.coupling import FluidCoupling
 from sphkit.boundary.rigid.joints_catto2005 import BodyJoints, Joint
@@ -166,12 +166,7 @@ class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
         """Body-frame coordinates and Akinci volumes of each body's own particles; velocities."""
         bd = state.boundary
         bd.register("x_body", "vector")
-        body = bd["rigid_body"]
-        # static walls: volumes from the static particles only (a body that starts close to a
-        # wall must not shrink the wall's volumes for the rest of the run)
-        sel0 = np.flatnonzero(body == 0)
-        if self.bodies and sel0.size:
-            static_volumes(state, sel0)
+        body = bd["rigid_body"]  # (the static walls' volumes are the boundary model's)
         for k, rb in enumerate(self.bodies):
             sel = np.flatnonzero(body == k + 1)
             xs = bd["x"][:, sel]
