@@ -708,6 +708,25 @@ def test_splishsplash_unsupported_and_invalid(sph_dir: Path, edit, expected) -> 
         from_splishsplash(data, sph_dir / "dam.json")
 
 
+def test_splishsplash_contact_tolerance(sph_dir: Path) -> None:
+    """PositionBasedDynamics' ``Simulation.contactTolerance`` becomes the skin the dynamic
+    bodies' contacts keep (``configuration.contact_tolerance``): read where given, PBD's
+    default 0.01 m where a scene with a dynamic body leaves it out, 0 without dynamic bodies
+    (nothing collides), and a negative value is refused naming the field."""
+    data = _sph_scene()
+    assert from_splishsplash(data, sph_dir / "dam.json").configuration.contact_tolerance == 0.0
+    data["RigidBodies"].append({"geometryFile": "../models/UnitBox.obj", "isDynamic": True,
+                                "density": 500, "translation": [0, 0.5, 0],
+                                "scale": [0.2, 0.2, 0.2]})
+    scene = from_splishsplash(data, sph_dir / "dam.json")
+    assert scene.configuration.contact_tolerance == 0.01
+    data["Simulation"] = {"contactTolerance": 0.05, "maxIter": 5}
+    assert from_splishsplash(data, sph_dir / "dam.json").configuration.contact_tolerance == 0.05
+    data["Simulation"]["contactTolerance"] = -0.05
+    with pytest.raises(SceneError, match=r"Simulation\.contactTolerance: got -0\.05"):
+        from_splishsplash(data, sph_dir / "dam.json")
+
+
 def test_splishsplash_unknown_fields_give_one_warning(sph_dir: Path) -> None:
     data = _sph_scene(mysteryOption=3, scriptFile="hooks.py")
     data["Materials"][0]["strangeness"] = 1

@@ -1092,6 +1092,13 @@ class Configuration(_Model):
         "nor in a scene without a container (a box or a static mesh with invert: solid "
         "obstacles alone, the fluid may fall off them); null: never checked",
     )
+    contact_tolerance: float = Field(
+        0.0, ge=0, le=1e6, allow_inf_nan=False,
+        description="dynamic bodies: the gap [m] their contacts keep from the walls and from "
+        "other bodies (a skin around each mesh: contacts start within it and push back to it; "
+        "SPlisHSPlasH's PositionBasedDynamics contactTolerance, read from a SPlisHSPlasH "
+        "scene's Simulation block with its default 0.01 m there); 0: the meshes touch",
+    )
     max_particles: int = Field(
         MAX_PARTICLES, ge=1,
         description="particle budget: a scene whose fluid, walls and emitters would need more "

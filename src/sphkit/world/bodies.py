@@ -49,4 +49,5 @@ def rigid_bodies(state: SimState, scene: Scene, meshes: SceneMeshes) -> RigidBod
                             None if m is None else m.target_sequence,
                             False if m is None else m.repeat))
     return RigidBodies(bodies, walls, margin=inset_depth(state.dim) * state.r,
-                       meshes=[meshes.mesh(k) for k in moving], joints=joints)
+                       meshes=[meshes.mesh(k) for k in moving], joints=joints,
+                       contact_tolerance=scene.configuration.contact_tolerance)

@@ -126,14 +126,19 @@ class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
             the mesh (:func:`sphkit.boundary.rigid.construction.inset_samples`), so that the
             mesh surface stops at the wall.
         contact_iterations: Gauss-Seidel sweeps over the contact points and joints per step.
+        contact_tolerance: the gap [m] the meshes keep from the walls and from each other, on
+            top of ``margin`` (scene ``configuration.contact_tolerance``; SPlisHSPlasH's
+            PositionBasedDynamics ``contactTolerance``).
         joints: hinges between the bodies (:func:`sphkit.boundary.rigid.joints_catto2005.hinge`;
             body index -1: a static wall); two moving bodies joined by one do not collide.
     """
 
     def __init__(self, bodies: list[RigidBody], walls: list | None = None,
                  margin: float = 0.0, contact_iterations: int = 20,
-                 meshes: list | None = None, joints: list[Joint] | None = None) -> None:
+                 meshes: list | None = None, joints: list[Joint] | None = None,
+                 contact_tolerance: float = 0.0) -> None:
         self.bodies = bodies
+        self.contact_tolerance = float(contact_tolerance)
         self.joints = joints or []
         self.meshes = meshes or []
         self.margin = margin

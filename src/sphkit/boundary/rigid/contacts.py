@@ -6,7 +6,10 @@ Contacts, all solved together (and with the joints,
 (:func:`_contact_sweep`): the contact points of a body are its boundary particles, which keep a
 distance ``1.2 r`` in 3D, 1.3 r in 2D (they lie that deep in the mesh, see
 :func:`sphkit.boundary.rigid.construction.inset_depth`), and its mesh vertices, which keep 0 (the
-extreme points of a tilted body, which the particles' margin does not cover). They meet
+extreme points of a tilted body, which the particles' margin does not cover); both keep the
+scene's ``configuration.contact_tolerance`` on top (a skin around every mesh: SPlisHSPlasH's
+PositionBasedDynamics ``contactTolerance``, whose contacts start within the tolerance of a
+surface and push back to it). They meet
 
 * the static walls (scene ``boxes``, analytic distance; static ``meshes``, their signed distance
   on a lattice of spacing r, interpolated trilinearly);
@@ -193,7 +196,8 @@ class BodyContacts:
     static walls and against the signed distance of every other body near it (module
     docstring), solved with the joints by :func:`sphkit.boundary.rigid.joints_catto2005.solve`
     (:meth:`_contact_rows`, :func:`_contact_sweep`). It reads the
-    attributes ``bodies``, ``meshes``, ``walls``, ``margin``, ``contact_iterations`` and
+    attributes ``bodies``, ``meshes``, ``walls``, ``margin``, ``contact_tolerance``,
+    ``contact_iterations`` and
     ``joined`` and the
     particle selections ``_sel`` that :meth:`~sphkit.boundary.rigid.RigidBodies.init` sets."""
 
@@ -201,6 +205,7 @@ class BodyContacts:
     meshes: list
     walls: list
     margin: float
+    contact_tolerance: float
     contact_iterations: int
     joined: set[frozenset[int]]  #: pairs of bodies joined by a joint (they do not collide)
     _sel: list[np.ndarray]
@@ -233,7 +238,7 @@ class BodyContacts:
         xp[: state.dim] = state.boundary["x"][:, self._sel[k]]
         xv = b.c[:, None] + b.R @ self._verts[k]
         marg = np.concatenate([np.full(xp.shape[1], self.margin), np.zeros(xv.shape[1])])
-        return np.concatenate([xp, xv], axis=1), marg
+        return np.concatenate([xp, xv], axis=1), marg + self.contact_tolerance
 
     @staticmethod
     def _row_velocity(k: np.ndarray, q: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -282,7 +287,8 @@ class BodyContacts:
                 if bk == a or not (ba.dynamic or bb.dynamic) or frozenset((a, bk)) in joined:
                     continue  # joined bodies do not collide
                 reach = dt * (speed[a] + speed[bk]) + 1e-9
-                if np.linalg.norm(ba.c - bb.c) > self._radius[a] + self._radius[bk] + reach:
+                if (np.linalg.norm(ba.c - bb.c)
+                        > self._radius[a] + self._radius[bk] + reach + self.contact_tolerance):
                     continue  # bounding spheres apart
                 xl = np.ascontiguousarray(bb.R.T @ (x - bb.c[:, None]))
                 phi = np.empty(xl.shape[1])

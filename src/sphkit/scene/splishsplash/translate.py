@@ -52,6 +52,9 @@ _SPH_UNSUPPORTED_ARRAYS = {
     "DistanceJoints": "joints between dynamic rigid bodies",
 }
 _SPH_TOP_QUIET = {"Simulation"}  # PositionBasedDynamics settings, only used by dynamic bodies
+#: PositionBasedDynamics' contactTolerance when the Simulation block leaves it out [m] (its
+#: CollisionDetection's default): the gap its contacts keep between a dynamic body and a surface
+PBD_TOLERANCE = 0.01
 
 
 def is_splishsplash(data: Mapping[str, Any]) -> bool:
@@ -137,6 +140,12 @@ def translate(rd: Reader) -> dict[str, Any]:
     if not mats:
         mats.append({"id": "Fluid"})
     meshes = rigid_bodies(rd, rigid, config["boundary"]["method"] == "akinci2012")
+    if any(m.get("dynamic") for m in meshes):  # PositionBasedDynamics' contacts: its skin
+        sim = rd.obj(data, "Simulation", "Simulation")
+        config["contact_tolerance"] = rd.num(sim, "contactTolerance",
+                                             "Simulation", PBD_TOLERANCE,
+                                             nonneg=True)
+        rd.origin["configuration.contact_tolerance"] = "Simulation.contactTolerance"
     emits = emitters(rd, dim, r)
     for e in emits:
         if e["material"] not in [m["id"] for m in mats]:
