@@ -158,3 +158,35 @@ def test_solved_walls_refuse_other_values(value: object) -> None:
     with pytest.raises(ValidationError, match=r"boundary\.solved[\s\S]*'velocity' or 'density'"):
         Scene.model_validate({"configuration": {"dim": 2, "boundary": {"solved": value}},
                               "materials": [{"id": "fluid"}]})
+
+
+@pytest.mark.parametrize(("solver", "light", "boundary", "expected"), [
+    ("iisph", 100.0, {}, "density"),  # fluids of different rest density: solved by default
+    ("dfsph", 500.0, {}, "density"),
+    ("dfsph", 1000.0, {}, False),  # two materials of one rest density: one fluid
+    ("pcisph", 100.0, {}, False),  # PCISPH does not solve the walls
+    ("dfsph", 100.0, {"solved": False}, False),  # said: kept
+    ("iisph", 100.0, {"solved": "velocity"}, "velocity"),
+    ("dfsph", 100.0, {"symmetric": True}, False),
+    ("dfsph", 100.0, {"method": "bender2019"}, False),  # maps: no wall particles to solve
+])
+def test_several_rest_densities_solve_the_walls_by_default(solver: str, light: float,
+                                                           boundary: dict,
+                                                           expected: bool | str) -> None:
+    """``configuration.boundary.solved`` left out: ``"density"`` where the scene's fluids
+    differ in rest density, with boundary particles and IISPH or DFSPH (validation/README.md,
+    "Several rest densities: the solved walls by default"); else false; a value given is
+    kept."""
+    sc = Scene.model_validate({
+        "configuration": {"dim": 2, "particle_radius": R, "pressure": {"method": solver},
+                          "boundary": boundary},
+        "materials": [{"id": "heavy", "density0": 1000.0}, {"id": "light", "density0": light},
+                      {"id": "unused", "density0": 10.0}],
+        "fluid_blocks": [{"start": [0.0, 0.0], "end": [0.2, 0.2], "material": "heavy"},
+                         {"start": [0.0, 0.2], "end": [0.2, 0.4], "material": "light"}],
+        "boxes": [{"min": [0.0, 0.0], "max": [0.2, 0.6]}],
+    })
+    assert sc.configuration.boundary.solved == expected
+    # the validated scene names the wall term that runs: a reload keeps it
+    again = Scene.model_validate(sc.model_dump(mode="json"))
+    assert again.configuration.boundary.solved == expected

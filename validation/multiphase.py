@@ -4,6 +4,7 @@
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
         [--interface-viscosity 0.01] [--interface-tension 1.0] [--solved-walls [density]]
+        [--mls-walls]
         [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
@@ -71,8 +72,8 @@ LAYER = 0.3
 
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
           viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
-          depth: float = 0.2, interface_viscosity: float = 0.0, solved: bool | str = False,
-          interface_tension: float = 0.0) -> Scene:
+          depth: float = 0.2, interface_viscosity: float = 0.0,
+          solved: bool | str | None = None, interface_tension: float = 0.0) -> Scene:
     """Two layers LAYER m high in a box WIDTH m wide (and ``depth`` m deep in 3D; module
     docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
@@ -85,7 +86,8 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
     return Scene.model_validate({
         "configuration": {"dim": dim, "particle_radius": r, "gravity": [0.0, -G, *z],
                           "pressure": pressure, "time": {"dt_max": 0.002},
-                          "boundary": {"symmetric": symmetric, "solved": solved}},
+                          "boundary": {"symmetric": symmetric,
+                                       **({} if solved is None else {"solved": solved})}},
         "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc},
                       {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc}],
         "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [WIDTH, LAYER, *zd],
@@ -103,9 +105,19 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
     })
 
 
-def _level(solved: bool | str) -> str:
+def _level(solved: bool | str | None) -> str:
     """The level of the solved walls' constraint for the headings ("" for ``solved: true``)."""
     return f" ({solved} level)" if isinstance(solved, str) else ""
+
+
+def _walls(symmetric: bool, solved: bool | str | None) -> str:
+    """The wall term for the headings (None: the scene's default, which solves the walls at
+    density level for IISPH and DFSPH where the rest densities differ, else MLS)."""
+    if symmetric:
+        return ", symmetric wall term"
+    if solved is None:
+        return ", default walls"
+    return f", solved wall pressures{_level(solved)}" if solved else ", MLS walls"
 
 
 def mixing(sim: Simulation) -> tuple[int, int, float]:
@@ -171,14 +183,13 @@ def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
 
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
            viscosity: float, symmetric: bool = False, dim: int = 2, depth: float = 0.2,
-           interface_viscosity: float = 0.0, solved: bool | str = False,
+           interface_viscosity: float = 0.0, solved: bool | str | None = None,
            every: float = 0.0, interface_tension: float = 0.0) -> None:
     """Heavy over light (module docstring, ``layers``); ``every`` > 0: a line every ``every``
     s with the counts and the light stragglers of :func:`stragglers`."""
     print(f"\nheavy over light, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
           f"jitter {jitter} r, viscosity {viscosity} m^2/s"
-          + (", symmetric wall term" if symmetric else "")
-          + (f", solved wall pressures{_level(solved)}" if solved else "")
+          + _walls(symmetric, solved)
           + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else "")
           + (f", interface tension {interface_tension} N" if interface_tension else ""))
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
@@ -215,10 +226,10 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
 
 def hydrostatic(methods: list[str], r: float, settle: float, average: float,
                 ratio: float, viscosity: float, symmetric: bool = False, dim: int = 2,
-                depth: float = 0.2, solved: bool | str = False) -> None:
+                depth: float = 0.2, solved: bool | str | None = None) -> None:
     print(f"\nlight over heavy at rest, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
           f"units of the layer's rho0 g, averaged {settle}-{settle + average} s"
-          + (f", solved wall pressures{_level(solved)}" if solved else ""))
+          + _walls(symmetric, solved))
     print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'jump/rho_l g H_l':>17s} "
           f"{'vmax':>6s} {'ms/step':>8s}  note")
     for method in methods:
@@ -268,8 +279,8 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
 
 
 def rest(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
-         symmetric: bool = False, dim: int = 2, depth: float = 0.2, solved: bool | str = False,
-         every: float = 1.0) -> None:
+         symmetric: bool = False, dim: int = 2, depth: float = 0.2,
+         solved: bool | str | None = None, every: float = 1.0) -> None:
     """Light over heavy at rest for ``until`` s: the interface should stay sharp (module
     docstring, ``rest``)."""
     print(f"\nlight over heavy at rest, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, "
@@ -331,14 +342,13 @@ def _bubble_world(scene: Scene, blob: int, ratio: float) -> tuple[World, dict[st
 
 
 def bubbles(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
-            blob: int, symmetric: bool = False, solved: bool | str = False,
+            blob: int, symmetric: bool = False, solved: bool | str | None = None,
             every: float = 0.5) -> None:
     """Blobs of ``blob`` light particles in a heavy column at rest (module docstring,
     ``bubbles``; 2D)."""
     print(f"\nbubbles of {blob} light particle(s) in a heavy column, 2D, r = {r} m, rho0 1000 / "
           f"{1000 / ratio:g}, viscosity {viscosity} m^2/s"
-          + (", symmetric wall term" if symmetric else "")
-          + (f", solved wall pressures{_level(solved)}" if solved else "")
+          + _walls(symmetric, solved)
           + f"; the blob's mean height [r] every {every} s (heavy top at {LAYER / r:.0f} r)")
     for method in methods:
         sc = scene(method, r, False, ratio, viscosity, symmetric, solved=solved)
@@ -383,10 +393,15 @@ def main() -> None:
     ap.add_argument("--viscosity", type=float, default=0.01)
     ap.add_argument("--symmetric-walls", action="store_true",
                     help="configuration.boundary.symmetric: the walls' term V_b k_i alone")
-    ap.add_argument("--solved-walls", nargs="?", const=True, default=False,
+    ap.add_argument("--solved-walls", nargs="?", const=True, default=None,
                     choices=["velocity", "density"],
                     help="configuration.boundary.solved: the walls' pressures solved in the PPE "
-                         "(alone or 'velocity': the rate held; 'density': the density held)")
+                         "(alone or 'velocity': the rate held; 'density': the density held); "
+                         "left out: the scene's default (density level for IISPH and DFSPH "
+                         "where the rest densities differ, else the MLS boundary pressure)")
+    ap.add_argument("--mls-walls", action="store_const", const=False, dest="solved_walls",
+                    help="configuration.boundary.solved false: the MLS boundary pressure (the "
+                         "default of fluids of one rest density)")
     ap.add_argument("--dim", type=int, default=2, choices=[2, 3])
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,

@@ -23,6 +23,10 @@ Capabilities (keyword flags of :func:`register`):
 * ``multiphase``: a pressure solver or boundary model that reads each particle's own rest
   density (several fluid materials in one scene, :mod:`sphkit.multiphase`); the non-pressure
   forces of each material act within its phase whatever their flags;
+* ``solved_walls``: a pressure solver that solves the static wall particles' own pressures
+  with the fluid's (``configuration.boundary.solved``; the others then use the symmetric wall
+  term); scenes whose fluids differ in rest density get it by default (the scene schema's
+  ``Scene._several_densities_walls``);
 * ``gpu``: its part of the time step runs on ``--device cuda`` with the fields resident on the
   device (DFSPH, IISPH, WCSPH, Akinci boundary particles with mirrored boundary pressure, the
   standard, XSPH and Weiler 2018 viscosities, Akinci 2013 surface tension and micropolar
@@ -70,7 +74,7 @@ INTERFACE_ROLES: tuple[str, ...] = ("interface_viscosity", "interface_tension")
 SOLID_ROLES: tuple[str, ...] = ("elasticity",)
 #: the capability flags a method may have
 CAPABILITIES: tuple[str, ...] = ("periodic", "periodic_y", "dynamic_bodies", "multiphase",
-                                  "gpu")
+                                  "gpu", "solved_walls")
 #: the devices a simulation runs on (``Simulation(device=...)``, ``sphkit run --device``):
 #: ``auto`` takes the GPU when one is found and every method of the scene has ``gpu``
 DEVICE_CHOICES: tuple[str, ...] = ("auto", "cpu", "cuda")
@@ -124,7 +128,7 @@ _METHODS: dict[str, dict[str, Method]] = {role: {} for role in ROLES}
 def register(role: str, name: str, target: str | None, *, paper: str, summary: str,
              splishsplash: int | None = None, periodic: bool = False, periodic_y: bool = False,
              dynamic_bodies: bool = False, multiphase: bool = False, gpu: bool = False,
-             boundary: tuple[str, ...] = (), kind: str = "",
+             solved_walls: bool = False, boundary: tuple[str, ...] = (), kind: str = "",
              boundary_pressure: str = "", boundary_pressure_moving: str = "") -> Method:
     """Register a method (see the module docstring); returns its entry."""
     if role not in _METHODS:
@@ -136,7 +140,8 @@ def register(role: str, name: str, target: str | None, *, paper: str, summary: s
         raise ValueError(f"registry: {role} number {splishsplash} registered twice")
     caps = frozenset(c for c, on in (("periodic", periodic), ("periodic_y", periodic_y),
                                      ("dynamic_bodies", dynamic_bodies),
-                                     ("multiphase", multiphase), ("gpu", gpu)) if on)
+                                     ("multiphase", multiphase), ("gpu", gpu),
+                                     ("solved_walls", solved_walls)) if on)
     if role == "boundary" and not boundary_pressure:
         raise ValueError(f"registry: boundary model {name!r} names no default boundary_pressure")
     m = Method(role, name, target, paper, summary, splishsplash, caps, tuple(boundary), kind,
@@ -204,11 +209,12 @@ register("pressure", "pbf", "sphkit.pressure.pbf:PBF", splishsplash=2,
 register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
          paper="Ihmsen et al. 2014, Implicit incompressible SPH",
          summary="relaxed Jacobi on the pressure Poisson equation", dynamic_bodies=True,
-         multiphase=True, gpu=True)
+         multiphase=True, gpu=True, solved_walls=True)
 register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
          paper="Bender & Koschier 2015/2017, Divergence-free SPH",
          summary="constant-density and divergence-free solvers with warm starts",
-         periodic=True, periodic_y=True, dynamic_bodies=True, multiphase=True, gpu=True)
+         periodic=True, periodic_y=True, dynamic_bodies=True, multiphase=True, gpu=True,
+         solved_walls=True)
 register("pressure", "pf", "sphkit.pressure.pf:PF", splishsplash=5,
          paper="Weiler, Koschier & Bender 2016, Projective fluids",
          summary="projective dynamics: local density-constraint projections, global CG; "

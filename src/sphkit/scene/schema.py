@@ -936,7 +936,10 @@ class BoundaryConfig(_Model):
         "DFSPH's density solves hold the density itself at its start value at every wall "
         "particle whose fluid neighbours all had full kernels at the start (the others, and "
         "DFSPH's divergence solve, keep the rate); validation/README.md, 'Solved walls at "
-        "density level'",
+        "density level'. Left out: 'density' in a scene whose fluids differ in rest "
+        "density, with akinci2012 and a pressure solver that solves the walls (iisph, dfsph; "
+        "validation/README.md, 'Several rest densities: the solved walls by default'), else "
+        "false",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
@@ -970,20 +973,27 @@ class BoundaryConfig(_Model):
     #: ``pressure`` was left out and is the model's default (the scene may change it to the
     #: default for moving bodies, :meth:`Scene._moving_bodies_pressure`)
     _pressure_default: bool = PrivateAttr(False)
+    #: ``solved`` was left out (the scene may solve the walls where its fluids differ in rest
+    #: density, :meth:`Scene._several_densities_walls`)
+    _solved_default: bool = PrivateAttr(False)
 
     @model_validator(mode="wrap")
     @classmethod
     def _default_pressure(cls, data: Any, handler: Any) -> Any:
-        """``pressure`` absent or null: the boundary model's default (registry)."""
-        defaulted = False
+        """``pressure`` absent or null: the boundary model's default (registry); ``solved``
+        absent: false until the scene decides (:attr:`_solved_default`)."""
+        defaulted = solved_default = False
         if isinstance(data, dict) and data.get("pressure") is None:
             method = data.get("method", cls.model_fields["method"].default)
             if isinstance(method, str) and method in registry.names("boundary"):
                 data = {**data, "pressure": registry.default_boundary_pressure(method)}
                 defaulted = True
+        if isinstance(data, dict) and "solved" not in data:
+            solved_default = True
         out = handler(data)
-        if defaulted and isinstance(out, BoundaryConfig):
-            out._pressure_default = True
+        if isinstance(out, BoundaryConfig):
+            out._pressure_default = out._pressure_default or defaulted
+            out._solved_default = solved_default
         return out
 
 
@@ -1314,6 +1324,22 @@ class Scene(_Model):
         b = self.configuration.boundary
         if b._pressure_default and any(m.moving for m in self.meshes):
             b.pressure = registry.default_boundary_pressure(b.method, moving_bodies=True)
+        return self
+
+    @model_validator(mode="after")
+    def _several_densities_walls(self) -> Scene:
+        """``boundary.solved`` left out, in a scene whose fluids differ in rest density, with
+        boundary particles and a pressure solver that solves the walls: ``"density"`` (its
+        mirrored and MLS wall terms made a light fluid under a heavy one blow up; measured in
+        validation/README.md, "Several rest densities: the solved walls by default")."""
+        cfg = self.configuration
+        b = cfg.boundary
+        used = {src.material for src in (*self.fluid_blocks, *self.fluid_files,
+                                         *self.fluid_meshes, *self.emitters)}
+        rest = {m.density0 for m in self.materials if m.id in used}
+        if (b._solved_default and not b.symmetric and b.method == "akinci2012" and len(rest) > 1
+                and cfg.pressure.method in registry.with_capability("pressure", "solved_walls")):
+            b.solved = "density"
         return self
 
     @model_validator(mode="after")
