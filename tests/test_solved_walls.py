@@ -161,8 +161,10 @@ def test_solved_walls_refuse_other_values(value: object) -> None:
 
 
 @pytest.mark.parametrize(("solver", "light", "boundary", "expected"), [
-    ("iisph", 100.0, {}, "density"),  # fluids of different rest density: solved by default
-    ("dfsph", 500.0, {}, "density"),
+    ("iisph", 100.0, {}, "density"),  # rest densities 1:10: solved by default
+    ("dfsph", 140.0, {}, "density"),  # 1:7.1
+    ("dfsph", 1000.0 / 6.0, {}, False),  # 1:6, where MLS was measured stable: kept
+    ("iisph", 500.0, {}, False),  # 1:2 (the Rayleigh-Taylor validation's)
     ("dfsph", 1000.0, {}, False),  # two materials of one rest density: one fluid
     ("pcisph", 100.0, {}, False),  # PCISPH does not solve the walls
     ("dfsph", 100.0, {"solved": False}, False),  # said: kept
@@ -173,10 +175,11 @@ def test_solved_walls_refuse_other_values(value: object) -> None:
 def test_several_rest_densities_solve_the_walls_by_default(solver: str, light: float,
                                                            boundary: dict,
                                                            expected: bool | str) -> None:
-    """``configuration.boundary.solved`` left out: ``"density"`` where the scene's fluids
-    differ in rest density, with boundary particles and IISPH or DFSPH (validation/README.md,
-    "Several rest densities: the solved walls by default"); else false; a value given is
-    kept."""
+    """``configuration.boundary.solved`` left out: ``"density"`` where the scene's fluids'
+    rest densities differ by more than a factor 6 (``SOLVED_WALLS_RATIO``), with boundary
+    particles and IISPH or DFSPH (validation/README.md, "Several rest densities: the solved
+    walls by default"); else false; a value given is kept. The unused material (10 kg/m^3)
+    does not count."""
     sc = Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": R, "pressure": {"method": solver},
                           "boundary": boundary},

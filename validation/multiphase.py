@@ -112,7 +112,8 @@ def _level(solved: bool | str | None) -> str:
 
 def _walls(symmetric: bool, solved: bool | str | None) -> str:
     """The wall term for the headings (None: the scene's default, which solves the walls at
-    density level for IISPH and DFSPH where the rest densities differ, else MLS)."""
+    density level for IISPH and DFSPH where the rest densities differ by more than a factor 6,
+    else MLS)."""
     if symmetric:
         return ", symmetric wall term"
     if solved is None:
@@ -398,7 +399,8 @@ def main() -> None:
                     help="configuration.boundary.solved: the walls' pressures solved in the PPE "
                          "(alone or 'velocity': the rate held; 'density': the density held); "
                          "left out: the scene's default (density level for IISPH and DFSPH "
-                         "where the rest densities differ, else the MLS boundary pressure)")
+                         "where the rest densities differ by more than a factor 6, else the "
+                         "MLS boundary pressure)")
     ap.add_argument("--mls-walls", action="store_const", const=False, dest="solved_walls",
                     help="configuration.boundary.solved false: the MLS boundary pressure (the "
                          "default of fluids of one rest density)")

@@ -25,8 +25,8 @@ Capabilities (keyword flags of :func:`register`):
   forces of each material act within its phase whatever their flags;
 * ``solved_walls``: a pressure solver that solves the static wall particles' own pressures
   with the fluid's (``configuration.boundary.solved``; the others then use the symmetric wall
-  term); scenes whose fluids differ in rest density get it by default (the scene schema's
-  ``Scene._several_densities_walls``);
+  term); scenes whose fluids' rest densities differ by more than a factor 6 get it by
+  default (the scene schema's ``Scene._several_densities_walls``);
 * ``gpu``: its part of the time step runs on ``--device cuda`` with the fields resident on the
   device (DFSPH, IISPH, WCSPH, Akinci boundary particles with mirrored boundary pressure, the
   standard, XSPH and Weiler 2018 viscosities, Akinci 2013 surface tension and micropolar

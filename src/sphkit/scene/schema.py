@@ -28,6 +28,12 @@ from sphkit.scene.expressions import ExpressionError, compile_expression
 from sphkit.scene.limits import CLIP, MAX_FPS, MAX_PARTICLES
 
 Vec = list[float]
+#: the ratio of the largest to the smallest rest density of a scene's fluids above which the
+#: static walls are solved by default (``Scene._several_densities_walls``): the MLS wall term
+#: ran every heavy-over-light column up to 1:6 and blew up from 1:8 on (IISPH in 2D, IISPH and
+#: DFSPH in 3D); below it, MLS keeps the Rayleigh-Taylor growth that the solved walls changed
+#: (validation/README.md, "Several rest densities: the solved walls by default")
+SOLVED_WALLS_RATIO = 6.0
 
 
 def _choices(role: str) -> Any:
@@ -936,10 +942,10 @@ class BoundaryConfig(_Model):
         "DFSPH's density solves hold the density itself at its start value at every wall "
         "particle whose fluid neighbours all had full kernels at the start (the others, and "
         "DFSPH's divergence solve, keep the rate); validation/README.md, 'Solved walls at "
-        "density level'. Left out: 'density' in a scene whose fluids differ in rest "
-        "density, with akinci2012 and a pressure solver that solves the walls (iisph, dfsph; "
-        "validation/README.md, 'Several rest densities: the solved walls by default'), else "
-        "false",
+        "density level'. Left out: 'density' in a scene whose fluids' rest densities differ "
+        "by more than a factor 6, with akinci2012 and a pressure solver that solves the walls "
+        "(iisph, dfsph; validation/README.md, 'Several rest densities: the solved walls by "
+        "default'), else false",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
@@ -1328,16 +1334,18 @@ class Scene(_Model):
 
     @model_validator(mode="after")
     def _several_densities_walls(self) -> Scene:
-        """``boundary.solved`` left out, in a scene whose fluids differ in rest density, with
-        boundary particles and a pressure solver that solves the walls: ``"density"`` (its
-        mirrored and MLS wall terms made a light fluid under a heavy one blow up; measured in
-        validation/README.md, "Several rest densities: the solved walls by default")."""
+        """``boundary.solved`` left out, in a scene whose fluids' rest densities differ by more
+        than :data:`SOLVED_WALLS_RATIO`, with boundary particles and a pressure solver that
+        solves the walls: ``"density"`` (the MLS wall term made a light fluid under a heavy
+        one blow up from 1:8 on; measured in validation/README.md, "Several rest densities:
+        the solved walls by default")."""
         cfg = self.configuration
         b = cfg.boundary
         used = {src.material for src in (*self.fluid_blocks, *self.fluid_files,
                                          *self.fluid_meshes, *self.emitters)}
-        rest = {m.density0 for m in self.materials if m.id in used}
-        if (b._solved_default and not b.symmetric and b.method == "akinci2012" and len(rest) > 1
+        rest = [m.density0 for m in self.materials if m.id in used]
+        if (b._solved_default and not b.symmetric and b.method == "akinci2012" and rest
+                and max(rest) > SOLVED_WALLS_RATIO * min(rest)
                 and cfg.pressure.method in registry.with_capability("pressure", "solved_walls")):
             b.solved = "density"
         return self
