@@ -10,7 +10,8 @@ positions ``x + dx`` and a target ``t_i`` per particle (1 for PBF):
 * :func:`constraint_lambda` -- ``C_i = rho_hat_i / t_i - 1``, counted where it exceeds ``tol``
   (else 0: the clamp), and ``lambda_i = -C_i / (sum_k |grad_k rho_hat_i|^2 + eps)`` (Eq. 11 with
   Eq. 8's gradients; boundary particles are not moved, so they enter only ``grad_i``, unless
-  given weights ``bw``: PBF's yielding bodies);
+  given weights ``bw``: PBF's yielding bodies; several fluids: neighbour k's term weighed by
+  ``rho0_i / rho0_k``, as the correction moves it);
 * :func:`constraint_correction` -- ``dx_i = sum_j (lambda_i + (rho0_j / rho0_i) lambda_j +
   s_corr,ij) V_j grad
   W_ij + lambda_i sum_b V_b grad W_ib`` (Eq. 12/14, Akinci boundary as SPlisHSPlasH), with the
@@ -47,11 +48,14 @@ _JIT = dict(cache=True, fastmath=True)
 
 @numba.njit(**_JIT, inline="always")
 def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid, dim, L, eps,
-                           tol, lam, rho_hat, bw):
+                           tol, lam, rho_hat, bw, c, inv_c):
     """Particle i of :func:`constraint_lambda`: ``rho_hat[i]``, ``lam[i]``; returns the clamped
     ``C_i`` (0 where the constraint is met). ``bw``: the boundary samples' weights in the
-    denominator (empty: none)."""
+    denominator (empty: none); ``c``, ``inv_c``: the neighbours' weights ``rho0_i / rho0_j``
+    (empty: one fluid)."""
     weighs = bw.shape[0] > 0
+    ratios = c.shape[0] > 0
+    ci = c[i] if ratios else 1.0
     xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
     rho = V[i] * kernel_w(kid, 0.0, h, dim)
     g0 = g1 = g2 = 0.0
@@ -66,7 +70,10 @@ def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid,
         g0 += f * d0
         g1 += f * d1
         g2 += f * d2
-        sq += f * f * r2
+        if ratios:
+            sq += f * f * r2 * (ci * inv_c[j])
+        else:
+            sq += f * f * r2
     for k in range(boff[i], boff[i + 1]):
         b = bidx[k]
         d0, d1, d2, rr = separation(xi0, xi1, xi2, bx, b, dim, L)
@@ -89,18 +96,27 @@ def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid,
 def constraint_lambda(x: Any, dx: Any, V: Any, t: Any, off: Any, idx: Any, bx: Any, bV: Any,
                       boff: Any, bidx: Any, h: float, kid: int, dim: int,
                       L: float | tuple[float, ...], eps: float, tol: float, lam: Any,
-                      rho_hat: Any, bw: Any = None) -> tuple[float, float]:
+                      rho_hat: Any, bw: Any = None, c: Any = None,
+                      inv_c: Any = None) -> tuple[float, float]:
     """Density ``rho_hat`` at ``x + dx`` and ``lambda`` of the clamped constraints (module
     docstring); returns (mean, max) of the clamped ``C``. ``bw`` (N_b,): boundary samples
     that yield (PBF's dynamic bodies) add ``bw_b |V_b grad W_ib|^2`` to the denominator as a
-    fluid neighbour of weight ``bw_b`` would (None: none). The pass is
+    fluid neighbour of weight ``bw_b`` would (None: none). Several fluids (``c``, ``inv_c`` of
+    :class:`sphkit.core.state.RestArrays`; None: one fluid): each neighbour's term of the
+    denominator weighs ``rho0_i / rho0_j = c_i inv_c_j``, the weight with which
+    :func:`constraint_correction` moves neighbour j by lambda_i, so that lambda_i is the
+    Newton step of C_i (as the ratio-weighted PPE diagonal of
+    :func:`sphkit.core.ppe.diagonal_cached`; without it a heavy particle among light ones is
+    corrected up to ``rho0_i / rho0_j`` times too far). The pass is
     :func:`constraint_lambda_body` through :func:`sphkit.backend.launch_reduce`."""
     n = x.shape[1]
     if bw is None:
         bw = arrays.empty(0, x.dtype, like=x)
+    if c is None or inv_c is None:
+        c = inv_c = arrays.empty(0, x.dtype, like=x)
     tot, mx = launch_reduce(constraint_lambda_body, n, x, dx, V, t, off, idx, bx, bV, boff, bidx,
                             float(h), int(kid), int(dim), period_arg(L), float(eps), float(tol),
-                            lam, rho_hat, bw)
+                            lam, rho_hat, bw, c, inv_c)
     return tot / max(n, 1), mx
 
 

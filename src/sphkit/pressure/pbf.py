@@ -26,7 +26,14 @@ Per step, with ``a_ext`` = gravity + non-pressure accelerations already in ``sta
    * ``lambda_i = -C_i / (sum_k |grad_k C_i|^2 + epsilon)`` (Eq. 11) with
      ``grad_j C_i = -V_j grad W_ij`` and ``grad_i C_i = sum_j V_j grad W_ij + sum_b V_b grad W_ib``
      (Eq. 8; boundary particles are not moved, so they contribute only to ``grad_i C_i``);
-     ``epsilon`` [1/m^2] is the constraint-force-mixing relaxation (SPlisHSPlasH 1e-6);
+     ``epsilon`` [1/m^2] is the constraint-force-mixing relaxation (SPlisHSPlasH 1e-6).
+     Several fluids: the neighbour's term weighs ``rho0_i / rho0_j``, the weight with which the
+     correction below moves neighbour j by lambda_i, so lambda_i stays the Newton step of C_i
+     (the PBD form with inverse-mass weights, Macklin & Mueller's equal masses generalized;
+     SPlisHSPlasH's ``TimeStepPBF`` leaves the ratio out of the denominator, and a heavy
+     particle among light ones was corrected ten times too far at 1:10: the heavy-over-light
+     column blew up at 1.07 s in 2D and 0.51 s in 3D; validation/README.md, "PBF with several
+     rest densities");
    * ``dx_i = sum_j (lambda_i + lambda_j + s_corr,ij) V_j grad W_ij + sum_b lambda_i V_b grad W_ib``
      (Eq. 12/14, Akinci boundary as SPlisHSPlasH), then ``x* += dx`` for all particles;
    * the error of a sweep is the average compression ``mean(C)`` before its correction
@@ -255,6 +262,8 @@ class PBF(PressureSolver):
 
         target = arrays.full(n, 1.0, f.dtype, like=x)  # C_i = rho_hat_i - 1
         rest = state.rest()  # several fluids: lambda_j weighs rho0_j / rho0_i
+        # ... and lambda_i's denominator the neighbours by rho0_i / rho0_j (constraint_lambda)
+        ratios = () if rest.uniform else (rest.c, rest.inv_c)
 
         coupling = state.coupling
         self._forces = None  # the bodies' reaction, summed over the sweeps (module doc)
@@ -272,7 +281,8 @@ class PBF(PressureSolver):
             bw = None if yielding is None else BODY_WEIGHT * yielding.astype(f.dtype)
             avg, mx = constraint_lambda(x, dx, V, target, nl.offsets, nl.indices, bx, bV,
                                         nb.offsets, nb.indices, state.h, state.kid,
-                                        state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat, bw)
+                                        state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat, bw,
+                                        *ratios)
             constraint_correction(x, dx, V, lam, nl.offsets, nl.indices, bx, bV,
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
