@@ -112,8 +112,8 @@ def _level(solved: bool | str | None) -> str:
 
 def _walls(symmetric: bool, solved: bool | str | None) -> str:
     """The wall term for the headings (None: the scene's default, which solves the walls at
-    density level for IISPH and DFSPH where the rest densities differ by more than a factor 6,
-    else MLS)."""
+    density level for IISPH, DFSPH and PCISPH where the rest densities differ by more than a
+    factor 4, else MLS)."""
     if symmetric:
         return ", symmetric wall term"
     if solved is None:
@@ -398,9 +398,9 @@ def main() -> None:
                     choices=["velocity", "density"],
                     help="configuration.boundary.solved: the walls' pressures solved in the PPE "
                          "(alone or 'velocity': the rate held; 'density': the density held); "
-                         "left out: the scene's default (density level for IISPH and DFSPH "
-                         "where the rest densities differ by more than a factor 6, else the "
-                         "MLS boundary pressure)")
+                         "left out: the scene's default (density level for IISPH, DFSPH and "
+                         "PCISPH where the rest densities differ by more than a factor 4, else "
+                         "the MLS boundary pressure)")
     ap.add_argument("--mls-walls", action="store_const", const=False, dest="solved_walls",
                     help="configuration.boundary.solved false: the MLS boundary pressure (the "
                          "default of fluids of one rest density)")

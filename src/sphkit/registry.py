@@ -25,7 +25,7 @@ Capabilities (keyword flags of :func:`register`):
   forces of each material act within its phase whatever their flags;
 * ``solved_walls``: a pressure solver that solves the static wall particles' own pressures
   with the fluid's (``configuration.boundary.solved``; the others then use the symmetric wall
-  term); scenes whose fluids' rest densities differ by more than a factor 6 get it by
+  term); scenes whose fluids' rest densities differ by more than a factor 4 get it by
   default (the scene schema's ``Scene._several_densities_walls``);
 * ``gpu``: its part of the time step runs on ``--device cuda`` with the fields resident on the
   device (DFSPH, IISPH, WCSPH, Akinci boundary particles with mirrored boundary pressure, the
@@ -201,7 +201,7 @@ register("pressure", "wcsph", "sphkit.pressure.wcsph:WCSPH", splishsplash=0,
 register("pressure", "pcisph", "sphkit.pressure.pcisph:PCISPH", splishsplash=1,
          paper="Solenthaler & Pajarola 2009, Predictive-corrective incompressible SPH",
          summary="predict-correct loop with a template scaling factor", dynamic_bodies=True,
-         multiphase=True, gpu=True)
+         multiphase=True, gpu=True, solved_walls=True)
 register("pressure", "pbf", "sphkit.pressure.pbf:PBF", splishsplash=2,
          paper="Macklin & Müller 2013, Position based fluids",
          summary="density constraints solved on positions", dynamic_bodies=True,

@@ -58,6 +58,23 @@ SPlisHSPlasH's final ``v = v_last + dt (a + a_p)``, ``x = x_last + dt v``.
 
 The reported pressure is ``p = rho0 p~`` [Pa].
 
+**Solved walls** (scene ``configuration.boundary.solved``; the default where the fluids' rest
+densities differ by more than a factor 4, :mod:`sphkit.scene.schema`): each static wall
+particle b carries its own ``k_b >= 0`` (in the boundary term ``-V_b (p~_i + k_b) grad W_ib``
+instead of the MLS or mirrored value), updated in every sweep after the fluid's pressures from
+the wall's predicted number density ``rho_hat*_b = sum_f V_f W(x*_f - x_b)``:
+``k_b <- min(max(k_b + 0.5 (rho_hat*_b - rho_target_b) / (dt^2 D_b), 0), cap max_f k_f)``
+(:func:`sphkit.core.ppe.wall_update` with the walls' Jacobi scale D_b of
+:func:`sphkit.core.ppe.wall_diagonal`, as IISPH's and DFSPH's solved walls), the target the
+wall's density at the step start (``true``/``"velocity"``: its rate held) or, with
+``"density"``, its start-up value where the wall was covered
+(:meth:`sphkit.core.coupling.BoundaryCoupling.wall_rest`); warm-started from the last step's
+``k_b`` (the fluid's ``p~`` starts from zero, as in the paper). The convergence test stays the
+fluid's. Why: with the MLS term a light fluid under a heavy one (1:6 to 1:10) threw single light
+particles up the side walls at 8-15 m/s until a solve failed (2D unstable at 1.4 s, 3D at
+0.41 s); with the solved walls those columns run (validation/README.md, "Several rest
+densities: the solved walls by default").
+
 Several fluids (``p~_i = p_i / rho0_i``, neighbour weight ``rho0_j / rho0_i``): the factor is
 per particle, ``delta D_i(ratio 1) / D_i(ratios)`` (:func:`phase_factor`), the template's step
 corrected by the ratios in the particle's own diagonal; a single fluid keeps the scalar.
@@ -100,12 +117,29 @@ from __future__ import annotations
 from typing import Any
 
 import numba
+import numpy as np
 
 from sphkit.backend import launch, launch_reduce
 from sphkit.core import arrays
+from sphkit.core import solver as solver_module
 from sphkit.core.methods import BoundaryReaction, PressureSolver
-from sphkit.core.ppe import density_at, diagonal_cached, kappa_accel_cached, lattice_diagonal
-from sphkit.core.solver import IterationControl, PairGradients, SolverStats, StepBound, StepBounded
+from sphkit.core.pairs import period_arg
+from sphkit.core.ppe import (
+    density_at,
+    diagonal_cached,
+    kappa_accel_cached,
+    lattice_diagonal,
+    wall_density,
+    wall_diagonal,
+    wall_update,
+)
+from sphkit.core.solver import (
+    IterationControl,
+    PairGradients,
+    SolverStats,
+    StepBound,
+    StepBounded,
+)
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -275,6 +309,25 @@ class PCISPH(StepBounded, PressureSolver):
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
+        walls = coupling.solved and b.n > 0  # the static walls' own pressures (docstring)
+        if walls:
+            use = coupling.solved_walls(state)
+            target = coupling.wall_density(state, use)  # the step start's: the rate held
+            if coupling.density_walls:  # the start's density where the wall was covered
+                held = coupling.wall_rest(state)
+                target = np.where(held >= 0.0, held, target)
+            Vf = f["V0"] if rest.uniform else rest.V
+            wd = np.empty(b.n, dtype=f.dtype)
+            wall_diagonal(Vf, b["V"], rest.inv_c, nb.offsets, nb.indices, g.gwb, state.dim,
+                          use, wd)
+            wk = coupling.wall_kappa(state, "pcisph")  # the last step's: a warm start
+            wk[~use] = 0.0
+            wkmax, rho_b, src = (np.zeros(b.n, dtype=f.dtype) for _ in range(3))
+            zero = np.zeros(b.n, dtype=f.dtype)
+            L = period_arg(state.pair_period)
+
+            def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the walls' own values)
+                return wk
 
         def sweep(_k: int) -> tuple[float, float]:
             launch(predict_body, n, v, a, ap, float(dt), int(state.dim), dx)
@@ -290,6 +343,12 @@ class PCISPH(StepBounded, PressureSolver):
                                     each, p)
             if not rest.uniform:
                 arrays.multiplied(p, rest.c, out=pc)
+            if walls:  # each wall particle's k_b from its predicted density (omega 0.5)
+                wall_density(x + dx, Vf, b["x"], nb.offsets, nb.indices, state.h, state.kid,
+                             state.dim, L, use, rho_b)
+                np.subtract(target, rho_b, out=src)
+                wall_update(zero, src, wd, dt * dt, 0.5, wk, pc, nb.offsets, nb.indices,
+                            solver_module.WALL_CAP, wkmax)
             kappa_accel_cached(pc, kb(pc), nl.offsets, nl.indices, nb.offsets, nb.indices,
                                mirror, g.gw, g.gwb, state.dim, ap, rest.inv_c)
             bdx[0] = coupling.displacement(state, p, g.gwb, dt)

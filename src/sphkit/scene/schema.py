@@ -29,11 +29,12 @@ from sphkit.scene.limits import CLIP, MAX_FPS, MAX_PARTICLES
 
 Vec = list[float]
 #: the ratio of the largest to the smallest rest density of a scene's fluids above which the
-#: static walls are solved by default (``Scene._several_densities_walls``): the MLS wall term
-#: ran every heavy-over-light column up to 1:6 and blew up from 1:8 on (IISPH in 2D, IISPH and
-#: DFSPH in 3D); below it, MLS keeps the Rayleigh-Taylor growth that the solved walls changed
-#: (validation/README.md, "Several rest densities: the solved walls by default")
-SOLVED_WALLS_RATIO = 6.0
+#: static walls are solved by default (``Scene._several_densities_walls``): with the MLS wall
+#: term every heavy-over-light column ran up to 1:4, and PCISPH blew up from 1:6 on (2D),
+#: IISPH and DFSPH from 1:8; below it, MLS keeps the Rayleigh-Taylor growth (1:2) that the
+#: solved walls changed (validation/README.md, "Several rest densities: the solved walls by
+#: default")
+SOLVED_WALLS_RATIO = 4.0
 
 
 def _choices(role: str) -> Any:
@@ -932,20 +933,20 @@ class BoundaryConfig(_Model):
     )
     solved: bool | Literal["velocity", "density"] = Field(
         False, description="the static wall particles (boxes, static meshes) get a pressure of "
-        "their own that IISPH and DFSPH solve for in the same Jacobi iteration as the fluid's, "
-        "so that the fluid's density at each wall particle does not change in a step (after "
-        "Band et al. 2018, 'Pressure boundaries for IISPH'): a wall force that does no work on "
-        "the flow, where the mirrored or MLS boundary pressure (the default) pumped energy into "
-        "a closed box of fluid at rest (validation/wall_energy.py); akinci2012 only; PCISPH, "
-        "ICSPH and WCSPH then use the symmetric term V_b k_i. true or 'velocity': the walls' "
-        "constraint holds the rate of that density (velocity level); 'density': IISPH's and "
-        "DFSPH's density solves hold the density itself at its start value at every wall "
-        "particle whose fluid neighbours all had full kernels at the start (the others, and "
-        "DFSPH's divergence solve, keep the rate); validation/README.md, 'Solved walls at "
-        "density level'. Left out: 'density' in a scene whose fluids' rest densities differ "
-        "by more than a factor 6, with akinci2012 and a pressure solver that solves the walls "
-        "(iisph, dfsph; validation/README.md, 'Several rest densities: the solved walls by "
-        "default'), else false",
+        "their own that IISPH and DFSPH solve for in the same Jacobi iteration as the fluid's "
+        "and PCISPH in the same predict-correct sweep, so that the fluid's density at each wall "
+        "particle does not change in a step (after Band et al. 2018, 'Pressure boundaries for "
+        "IISPH'): a wall force that does no work on the flow, where the mirrored or MLS "
+        "boundary pressure (the default) pumped energy into a closed box of fluid at rest "
+        "(validation/wall_energy.py); akinci2012 only; ICSPH and WCSPH then use the symmetric "
+        "term V_b k_i. true or 'velocity': the walls' constraint holds the rate of that density "
+        "(velocity level); 'density': the density solves hold the density itself at its start "
+        "value at every wall particle whose fluid neighbours all had full kernels at the start "
+        "(the others, and DFSPH's divergence solve, keep the rate); validation/README.md, "
+        "'Solved walls at density level'. Left out: 'density' in a scene whose fluids' rest "
+        "densities differ by more than a factor 4, with akinci2012 and a pressure solver that "
+        "solves the walls (iisph, dfsph, pcisph; validation/README.md, 'Several rest densities: "
+        "the solved walls by default'), else false",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
@@ -1337,8 +1338,8 @@ class Scene(_Model):
         """``boundary.solved`` left out, in a scene whose fluids' rest densities differ by more
         than :data:`SOLVED_WALLS_RATIO`, with boundary particles and a pressure solver that
         solves the walls: ``"density"`` (the MLS wall term made a light fluid under a heavy
-        one blow up from 1:8 on; measured in validation/README.md, "Several rest densities:
-        the solved walls by default")."""
+        one blow up from 1:6 on with PCISPH, from 1:8 with IISPH and DFSPH; measured in
+        validation/README.md, "Several rest densities: the solved walls by default")."""
         cfg = self.configuration
         b = cfg.boundary
         used = {src.material for src in (*self.fluid_blocks, *self.fluid_files,
