@@ -13,6 +13,7 @@ Akinci's volumes it gained 0.24 J/m in 10 ms, ``validation/wall_energy.py``).
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -195,3 +196,19 @@ def test_several_rest_densities_solve_the_walls_by_default(solver: str, light: f
     # the validated scene names the wall term that runs: a reload keeps it
     again = Scene.model_validate(sc.model_dump(mode="json"))
     assert again.configuration.boundary.solved == expected
+
+
+@pytest.mark.parametrize("solver", ["iisph", "pcisph"])
+def test_resumed_run_keeps_the_walls_warm_start(tmp_path: Path, solver: str) -> None:
+    """The solved walls' ``k_b`` warm-starts each step from the last one's (the boundary field
+    ``wall_kappa_<solve>``), so a checkpoint keeps it and a resumed run repeats the
+    uninterrupted one bit for bit (positions and velocities, 5 steps on)."""
+    from _restart import continued_from_checkpoint
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(_box(solver, "density"))
+        for _ in range(5):
+            sim.step()
+        assert np.any(sim.state.boundary[f"wall_kappa_{solver}"] > 0.0)
+        continued_from_checkpoint(sim, tmp_path, 5)

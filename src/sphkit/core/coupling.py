@@ -62,7 +62,6 @@ class BoundaryCoupling:
         #: ``solved: "density"``: the density solves hold the fluid's density at each wall
         #: particle at its rest value (:meth:`wall_rest`), not only its rate
         self.density_walls = solved == "density"
-        self._wall_k: dict[str, np.ndarray] = {}
         self.moving = moving
         self.model = model
         self._still = np.zeros((0, 0))
@@ -249,14 +248,10 @@ class BoundaryCoupling:
 
     def wall_kappa(self, state: SimState, key: str) -> np.ndarray:
         """The solved walls' ``k_b`` of the solve named ``key`` (its warm start: the last
-        step's values; zeros when the boundary changed size). Not checkpointed: a run resumed
-        from a checkpoint starts its walls from zero."""
-        n = state.boundary.n
-        kb = self._wall_k.get(key)
-        if kb is None or kb.shape[0] != n:
-            kb = np.zeros(n, dtype=state.fluid.dtype)
-            self._wall_k[key] = kb
-        return kb
+        step's values; zeros at first): the boundary field ``wall_kappa_<key>``, so that it
+        moves with the boundary particles and checkpoints keep it (a resumed run repeats the
+        uninterrupted one; a checkpoint written without it restores zeros)."""
+        return state.boundary.register(f"wall_kappa_{key}", optional=True)
 
     def prepare(self, state: SimState) -> None:
         """Once per step after the densities (the MLS coefficients of this step's pairs)."""
