@@ -263,6 +263,37 @@ class PairGradients:
         return out
 
 
+@dataclass
+class WallRows:
+    """The solved walls' rows of one solve (scene ``configuration.boundary.solved``), shared by
+    :func:`jacobi_ppe` (IISPH, DFSPH) and PCISPH's predict-correct loop: ``use`` the solved
+    wall particles; ``stored`` their warm start, the boundary field of
+    :meth:`~sphkit.core.coupling.BoundaryCoupling.wall_kappa` (zero where not solved);
+    ``Vf`` the fluid volumes of the walls' sums; ``D`` their Jacobi scale
+    (:func:`sphkit.core.ppe.wall_diagonal`); ``kmax`` the work array of the cap of
+    :func:`sphkit.core.ppe.wall_update`."""
+
+    use: np.ndarray
+    stored: np.ndarray
+    Vf: np.ndarray
+    D: np.ndarray
+    kmax: np.ndarray
+
+    @classmethod
+    def of(cls, state: SimState, g: PairGradients, key: str) -> WallRows:
+        """The rows of the solve named ``key`` with the step's pair gradients ``g``."""
+        f, b = state.fluid, state.boundary
+        rest = state.rest()
+        use = state.coupling.solved_walls(state)
+        stored = state.coupling.wall_kappa(state, key)
+        stored[~use] = 0.0
+        Vf = f["V0"] if rest.uniform else rest.V
+        D = np.empty(b.n, dtype=f.dtype)
+        wall_diagonal(Vf, b["V"], rest.inv_c, state.nl_fb.offsets, state.nl_fb.indices, g.gwb,
+                      state.dim, use, D)
+        return cls(use, stored, Vf, D, np.empty(b.n, dtype=f.dtype))
+
+
 def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray,
                s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
                active: np.ndarray, error_factor: float = 1.0,
@@ -319,17 +350,12 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     kb = coupling.boundary_kappa(state)
     walls = coupling.solved and wall_source is not None and state.boundary.n > 0
     if walls:
-        use = coupling.solved_walls(state)
-        stored = coupling.wall_kappa(state, wall_key)
-        stored[~use] = 0.0
+        rows = WallRows.of(state, g, wall_key)
+        use, stored, Vf, wd, wkmax = rows.use, rows.stored, rows.Vf, rows.D, rows.kmax
         wk = stored * (1.0 / wall_scale)
         b = state.boundary
-        Vf = f["V0"] if rest.uniform else rest.V
-        wd = np.empty(b.n, dtype=f.dtype)
-        wall_diagonal(Vf, b["V"], rest.inv_c, nb.offsets, nb.indices, g.gwb, dim, use, wd)
         wap = np.empty(b.n, dtype=f.dtype)
         still = np.zeros_like(b["x"])  # the walls' accelerations: pressure does not move them
-        wkmax = np.empty(b.n, dtype=f.dtype)
 
         def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the solved walls' own values)
             return wk

@@ -130,7 +130,6 @@ from sphkit.core.ppe import (
     kappa_accel_cached,
     lattice_diagonal,
     wall_density,
-    wall_diagonal,
     wall_update,
 )
 from sphkit.core.solver import (
@@ -139,6 +138,7 @@ from sphkit.core.solver import (
     SolverStats,
     StepBound,
     StepBounded,
+    WallRows,
 )
 from sphkit.core.state import SimState
 
@@ -311,18 +311,13 @@ class PCISPH(StepBounded, PressureSolver):
         still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
         walls = coupling.solved and b.n > 0  # the static walls' own pressures (docstring)
         if walls:
-            use = coupling.solved_walls(state)
-            target = coupling.wall_density(state, use)  # the step start's: the rate held
+            target = coupling.wall_density(state, coupling.solved_walls(state))  # rate held
             if coupling.density_walls:  # the start's density where the wall was covered
                 held = coupling.wall_rest(state)
                 target = np.where(held >= 0.0, held, target)
-            Vf = f["V0"] if rest.uniform else rest.V
-            wd = np.empty(b.n, dtype=f.dtype)
-            wall_diagonal(Vf, b["V"], rest.inv_c, nb.offsets, nb.indices, g.gwb, state.dim,
-                          use, wd)
-            wk = coupling.wall_kappa(state, "pcisph")  # the last step's: a warm start
-            wk[~use] = 0.0
-            wkmax, rho_b, src = (np.zeros(b.n, dtype=f.dtype) for _ in range(3))
+            rows = WallRows.of(state, g, "pcisph")  # k_b warm-started from the last step
+            use, wk, Vf, wd, wkmax = rows.use, rows.stored, rows.Vf, rows.D, rows.kmax
+            rho_b, src = (np.zeros(b.n, dtype=f.dtype) for _ in range(2))
             zero = np.zeros(b.n, dtype=f.dtype)
             L = period_arg(state.pair_period)
 
