@@ -38,9 +38,11 @@ PARTS = {
     "densities and pair gradients V_j grad W_ij": ("density_pair_gradients",
                                                    "density_pair_gradients_body__launch_each",
                                                    "pair_gradients"),
-    "velocity divergences (sources)": ("pair_divergence_cached",),
-    "standard viscosity": ("_standard",),
-    "diagonal (factor alpha)": ("diagonal_cached",),
+    "velocity divergences (sources)": ("pair_divergence_cached", "divergence_body__launch_each"),
+    "standard viscosity": ("_standard", "standard_body__launch_each"),
+    "diagonal (factor alpha)": ("diagonal_cached", "diagonal_body__launch_each"),
+    "MLS boundary pressure (coefficients, extrapolation)": ("mls_coefficients", "mls_extrapolate",
+                                                            "_transpose"),
 }
 
 
