@@ -311,12 +311,12 @@ class PCISPH(StepBounded, PressureSolver):
         still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
         walls = coupling.solved and b.n > 0  # the static walls' own pressures (docstring)
         if walls:
-            target = coupling.wall_density(state, coupling.solved_walls(state))  # rate held
+            rows = WallRows.of(state, g, "pcisph")  # k_b warm-started from the last step
+            use, wk, Vf, wd, wkmax = rows.use, rows.stored, rows.Vf, rows.D, rows.kmax
+            target = coupling.wall_density(state, use)  # the step start's: the rate held
             if coupling.density_walls:  # the start's density where the wall was covered
                 held = coupling.wall_rest(state)
                 target = np.where(held >= 0.0, held, target)
-            rows = WallRows.of(state, g, "pcisph")  # k_b warm-started from the last step
-            use, wk, Vf, wd, wkmax = rows.use, rows.stored, rows.Vf, rows.D, rows.kmax
             rho_b, src = (np.zeros(b.n, dtype=f.dtype) for _ in range(2))
             zero = np.zeros(b.n, dtype=f.dtype)
             L = period_arg(state.pair_period)
