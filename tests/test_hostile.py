@@ -379,6 +379,10 @@ def test_fluid_through_the_floor_exits_3(tmp_path: Path,
      "meshes[0].restitution"),
     ("meshes", [{"geometry_file": "box.obj", "dynamic": True, "restitution": "bouncy"}],
      "meshes[0].restitution"),
+    # the tenth session's: the bodies' contact gap (NaN, negative, a string)
+    ("configuration.contact_tolerance", math.nan, "configuration.contact_tolerance"),
+    ("configuration.contact_tolerance", -0.01, "configuration.contact_tolerance"),
+    ("configuration.contact_tolerance", "wide", "configuration.contact_tolerance"),
 ])
 def test_non_finite_numbers_are_refused_naming_the_field(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], path: str, value: object,
