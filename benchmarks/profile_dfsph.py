@@ -42,6 +42,8 @@ PARTS = {
     "standard viscosity": ("_standard", "standard_body__launch_each"),
     "diagonal (factor alpha)": ("diagonal_cached", "diagonal_body__launch_each"),
     "MLS boundary pressure (coefficients, extrapolation)": ("mls_coefficients", "mls_extrapolate",
+                                                            "mls_extrapolate_phases",
+                                                            "phase_kb_body__launch_each",
                                                             "_transpose"),
 }
 

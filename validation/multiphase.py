@@ -8,9 +8,10 @@
         [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
-the walls, sphkit's start-up), standard viscosity ``--viscosity`` (0.01 m^2/s, the value of
-SPlisHSPlasH's multiphase scenes) in each phase (within the phase, as SPlisHSPlasH), heavy rest
-density 1000 kg/m^3, light ``1000 / --ratio``:
+the walls, sphkit's start-up; each layer 0.3 m rounded to whole rows of 2r, ``layer_height``, so
+that the two blocks meet on one lattice), standard viscosity ``--viscosity`` (0.01 m^2/s, the
+value of SPlisHSPlasH's multiphase scenes) in each phase (within the phase, as SPlisHSPlasH),
+heavy rest density 1000 kg/m^3, light ``1000 / --ratio``:
 
 * ``layers``: heavy over light, two layers 0.3 m each -- Rayleigh-Taylor unstable; the
   sampled particles are moved by a random displacement of up to ``--jitter`` r along each axis
@@ -70,13 +71,23 @@ WIDTH = 0.4
 LAYER = 0.3
 
 
+def layer_height(r: float) -> float:
+    """LAYER rounded to a whole number of lattice spacings 2r, so that the two blocks meet on
+    one lattice: each block holds ``floor(height / 2r)`` rows, so at r = 2 cm two 0.3 m blocks
+    held 7 rows each with a gap of 3r instead of 2r between them, and the upper layer fell by r
+    at the start (0.3 m at r = 1 cm and 1.5 cm is already whole)."""
+    rows = max(round(LAYER / (2.0 * r)), 1)
+    return LAYER if abs(rows * 2.0 * r - LAYER) < 1e-9 else rows * 2.0 * r
+
+
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
           viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
           depth: float = 0.2, interface_viscosity: float = 0.0,
           solved: bool | str | None = None, interface_tension: float = 0.0) -> Scene:
-    """Two layers LAYER m high in a box WIDTH m wide (and ``depth`` m deep in 3D; module
-    docstring)."""
+    """Two layers of :func:`layer_height` m (LAYER rounded) in a box WIDTH m wide (and
+    ``depth`` m deep in 3D; module docstring)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
+    layer = layer_height(r)
     visc = {"method": "standard", "coefficient": viscosity}
     pressure: dict = {"method": method, "max_error": 0.05}
     if method == "wcsph":
@@ -90,11 +101,11 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
                                        **({} if solved is None else {"solved": solved})}},
         "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc},
                       {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc}],
-        "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [WIDTH, LAYER, *zd],
+        "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [WIDTH, layer, *zd],
                           "material": lower},
-                         {"start": [0.0, LAYER, *z], "end": [WIDTH, 2 * LAYER, *zd],
+                         {"start": [0.0, layer, *z], "end": [WIDTH, 2 * layer, *zd],
                           "material": upper}],
-        "boxes": [{"min": [0.0, 0.0, *z], "max": [WIDTH, 2 * LAYER + 0.2, *zd]}],
+        "boxes": [{"min": [0.0, 0.0, *z], "max": [WIDTH, 2 * layer + 0.2, *zd]}],
         "interfaces": [{"materials": ["heavy", "light"],
                         **({"viscosity": {"method": "morris1997",
                                           "coefficient": interface_viscosity}}

@@ -92,7 +92,7 @@ def trace(sim: Simulation, state: SimState, dt: float, sweeps: list[int],
     def predicted(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ap = np.zeros(x.shape)
         kappa_accel_cached(p, kb(p), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror,
-                           g.gw, g.gwb, dim, ap, rest.inv_c)
+                           g.gw, g.gwb, dim, ap, rest.inv_c, kb.phase)
         dx = dt * (v + dt * (a + ap))
         bx, bV, nbp, _ = coupling.boundary_at(state, dx)
         rho = np.empty(n)

@@ -36,6 +36,18 @@ into ``c_bf``). The Jacobi diagonals keep the mirrored form (``1 + 1`` per bound
 extrapolated ``k_b`` moves with ``k_i`` about as the mirrored one does, and the diagonal only sets
 the step size of the iteration.
 
+Several rest densities (sphkit's extension; Band et al. treat one fluid). Where two fluids of
+different rest density meet, the hydrostatic pressure is continuous across the interface but its
+gradient jumps (``rho0_heavy g`` below, ``rho0_light g`` above), so one linear fit over a wall
+sample's neighbours of both phases reproduces neither side. Each phase's neighbours are then
+fitted on their own (:func:`mls_coefficients` with the fluid's ``phase``), the sample holds one
+value per phase, ``k_b[q, b]`` (:func:`mls_extrapolate_phases`), and a fluid particle's boundary
+term reads its own phase's (:func:`sphkit.core.ppe.kappa_accel_cached`, WCSPH's
+:func:`sphkit.core.operators.replace_mirrored`): each phase sees the wall pressure that
+continues its own field, as with one fluid. With one fluid, or fluids of equal rest density, the
+fit is the single one as before (the same arithmetic, bit for bit). What it changes at rest and
+in the overturning columns: validation/README.md, "MLS wall pressure per phase".
+
 Scene option ``configuration.boundary.pressure: "mls"``, the default of ``akinci2012`` (the
 registry's ``boundary_pressure``; ``"mirror"`` selects mirroring), for its static boundary
 particles (boxes, static meshes); moving rigid bodies keep their mirrored / one-sided term. All
@@ -83,13 +95,16 @@ def _transpose(boff, bidx, nb):
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, ridge, coef):
+def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, ridge, coef, phase,
+                     nphase):
     """``coef[t] = c_bf rho_hat_f^2`` for the t-th boundary -> fluid pair (module docstring).
 
     ``use[b]`` False: the sample is not extrapolated (coefficients 0). Positions are scaled by
     1/h in the moment matrix for its conditioning; ``ridge`` (:data:`RIDGE`) is the Tikhonov
     weight of its gradient block; a pivot below 1e-6 of the matrix' largest diagonal entry
-    selects the Shepard fallback."""
+    selects the Shepard fallback. ``phase`` (N,) and ``nphase``: each phase's fluid neighbours
+    of b are fitted on their own ("Several rest densities" in the module docstring; one fluid:
+    zeros and 1)."""
     n = dim + 1
     for b in numba.prange(bx.shape[1]):
         t0 = toff[b]
@@ -98,67 +113,79 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, ridge, c
             for t in range(t0, t1):
                 coef[t] = 0.0
             continue
-        m = np.zeros((4, 5))
-        wsum = 0.0
-        e = np.zeros(4)
-        e[0] = 1.0
-        for t in range(t0, t1):
-            xf0, xf1, xf2 = point(x, tfluid[t], dim)
-            d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
-            dd = (d0, d1, d2)
-            for d in range(dim):
-                e[d + 1] = dd[d] / h
-            w = kernel_w(kid, r, h, dim)
-            wsum += w
-            for p in range(n):
-                for q in range(n):
-                    m[p, q] += w * e[p] * e[q]
-        # Tikhonov term on the gradient block: a gradient the neighbours do not determine (all
-        # of them on one row, as under a single fluid layer) is taken as 0 instead of noise
-        for p in range(1, n):
-            m[p, p] += ridge * wsum
-        # solve M u = e_0 by Gauss-Jordan with partial pivoting (M is symmetric: u is the
-        # first row of M^-1)
-        m[0, n] = 1.0
-        big = 0.0
+        for ph in range(nphase):
+            _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph, n)
+
+
+@numba.njit(**_JIT, inline="always")
+def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph, n):
+    """The coefficients of boundary sample b's pairs t0..t1 with fluid of phase ``ph``: the
+    moving least-squares fit of :func:`mls_coefficients` over those fluid neighbours."""
+    m = np.zeros((4, 5))
+    wsum = 0.0
+    e = np.zeros(4)
+    e[0] = 1.0
+    for t in range(t0, t1):
+        if phase[tfluid[t]] != ph:
+            continue
+        xf0, xf1, xf2 = point(x, tfluid[t], dim)
+        d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
+        dd = (d0, d1, d2)
+        for d in range(dim):
+            e[d + 1] = dd[d] / h
+        w = kernel_w(kid, r, h, dim)
+        wsum += w
         for p in range(n):
-            big = max(big, m[p, p])
-        ok = big > 0.0
-        for c in range(n):
-            if not ok:
-                break
-            piv = c
-            for r_ in range(c + 1, n):
-                if abs(m[r_, c]) > abs(m[piv, c]):
-                    piv = r_
-            if abs(m[piv, c]) < 1e-6 * big:
-                ok = False
-                break
-            if piv != c:
-                for q in range(n + 1):
-                    tmp = m[c, q]
-                    m[c, q] = m[piv, q]
-                    m[piv, q] = tmp
-            inv = 1.0 / m[c, c]
+            for q in range(n):
+                m[p, q] += w * e[p] * e[q]
+    # Tikhonov term on the gradient block: a gradient the neighbours do not determine (all
+    # of them on one row, as under a single fluid layer) is taken as 0 instead of noise
+    for p in range(1, n):
+        m[p, p] += ridge * wsum
+    # solve M u = e_0 by Gauss-Jordan with partial pivoting (M is symmetric: u is the
+    # first row of M^-1)
+    m[0, n] = 1.0
+    big = 0.0
+    for p in range(n):
+        big = max(big, m[p, p])
+    ok = big > 0.0
+    for c in range(n):
+        if not ok:
+            break
+        piv = c
+        for r_ in range(c + 1, n):
+            if abs(m[r_, c]) > abs(m[piv, c]):
+                piv = r_
+        if abs(m[piv, c]) < 1e-6 * big:
+            ok = False
+            break
+        if piv != c:
             for q in range(n + 1):
-                m[c, q] *= inv
-            for r_ in range(n):
-                if r_ != c:
-                    fac = m[r_, c]
-                    if fac != 0.0:
-                        for q in range(n + 1):
-                            m[r_, q] -= fac * m[c, q]
-        for t in range(t0, t1):
-            f = tfluid[t]
-            xf0, xf1, xf2 = point(x, f, dim)
-            d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
-            dd = (d0, d1, d2)
-            lin = m[0, n]
-            for d in range(dim):
-                lin += m[d + 1, n] * dd[d] / h
-            w = kernel_w(kid, r, h, dim)
-            c_bf = w * lin if ok else (w / wsum if wsum > 0.0 else 0.0)
-            coef[t] = c_bf * rho_hat[f] * rho_hat[f]
+                tmp = m[c, q]
+                m[c, q] = m[piv, q]
+                m[piv, q] = tmp
+        inv = 1.0 / m[c, c]
+        for q in range(n + 1):
+            m[c, q] *= inv
+        for r_ in range(n):
+            if r_ != c:
+                fac = m[r_, c]
+                if fac != 0.0:
+                    for q in range(n + 1):
+                        m[r_, q] -= fac * m[c, q]
+    for t in range(t0, t1):
+        f = tfluid[t]
+        if phase[f] != ph:
+            continue
+        xf0, xf1, xf2 = point(x, f, dim)
+        d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
+        dd = (d0, d1, d2)
+        lin = m[0, n]
+        for d in range(dim):
+            lin += m[d + 1, n] * dd[d] / h
+        w = kernel_w(kid, r, h, dim)
+        c_bf = w * lin if ok else (w / wsum if wsum > 0.0 else 0.0)
+        coef[t] = c_bf * rho_hat[f] * rho_hat[f]
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -170,6 +197,22 @@ def mls_extrapolate(k, toff, tfluid, coef, out):
         for t in range(toff[b], toff[b + 1]):
             s += coef[t] * k[tfluid[t]]
         out[b] = max(s, 0.0)
+
+
+@numba.njit(parallel=True, **_JIT)
+def mls_extrapolate_phases(k, toff, tfluid, coef, phase, out):
+    """``out[q, b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)`` over b's fluid neighbours f of phase
+    q (coefficients of :func:`mls_coefficients` with the phases fitted on their own): one
+    boundary value per phase (0 for a phase without fluid neighbours at b)."""
+    nq = out.shape[0]
+    for b in numba.prange(out.shape[1]):
+        for q in range(nq):
+            out[q, b] = 0.0
+        for t in range(toff[b], toff[b + 1]):
+            f = tfluid[t]
+            out[phase[f], b] += coef[t] * k[f]
+        for q in range(nq):
+            out[q, b] = max(out[q, b], 0.0)
 
 
 class MLSPressureExtrapolation(BoundaryPressure):
@@ -190,6 +233,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
         self.tfluid = np.empty(0, dtype=np.int32)
         self.coef = np.empty(0)
+        self.phase: np.ndarray | None = None  # the fluid's phases where fitted on their own
 
     def init(self, state: SimState) -> None:
         """Turn mirroring off where the extrapolation replaces it."""
@@ -210,23 +254,50 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.toff, self.tfluid = _transpose(nb.offsets, nb.indices, b.n)
         self.coef = np.empty(self.tfluid.shape[0], dtype=f.dtype)
         rho_hat = f["rho"] / f["rho0"]
+        self.phase = per_phase(state)
+        phase = self.phase if self.phase is not None else np.zeros(f.n, dtype=np.int64)
+        nphase = int(phase.max()) + 1 if f.n else 1
         mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.use, state.h,
-                         state.kid, state.dim, state.pair_period, self.ridge, self.coef)
+                         state.kid, state.dim, state.pair_period, self.ridge, self.coef, phase,
+                         nphase)
+
+    @property
+    def phases(self) -> int:
+        """How many boundary values each sample takes: the phases when they are fitted on their
+        own (:meth:`extrapolate` then fills ``out`` of shape (phases, N_boundary)), else 1."""
+        return int(self.phase.max()) + 1 if self.phase is not None and self.phase.size else 1
 
     def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:
         """For a state-equation solver (WCSPH) whose boundary term mirrored ``p_b = p_i``:
         add to ``a`` the change to the extrapolated boundary pressure
         (:func:`sphkit.core.operators.replace_mirrored`)."""
         f, b = state.fluid, state.boundary
-        kb = np.empty(b.n, dtype=f.dtype)
+        kb = np.empty((self.phases, b.n), dtype=f.dtype)
         rest = state.rest()
         k = f["p"] * f["rho0"] / f["rho"] ** 2
-        self.extrapolate(k if rest.uniform else k * rest.c, kb)  # kb = p_b / rho0_ref
+        # kb = p_b / rho0_ref, one row per phase fitted on its own
+        self.extrapolate(k if rest.uniform else k * rest.c, kb if self.phase is not None
+                         else kb[0])
+        phase = self.phase if self.phase is not None else np.zeros(f.n, dtype=np.int64)
         replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
                          state.nl_fb.offsets,
-                         state.nl_fb.indices, self.use, kb, state.h, state.kid, state.dim,
-                         state.pair_period, a)
+                         state.nl_fb.indices, self.use, kb, phase, state.h, state.kid,
+                         state.dim, state.pair_period, a)
 
     def extrapolate(self, k: np.ndarray, out: np.ndarray) -> None:
-        """``out[b] = p_b / rho0`` of the fluid field k (see :func:`mls_extrapolate`)."""
-        mls_extrapolate(k, self.toff, self.tfluid, self.coef, out)
+        """``out[b] = p_b / rho0`` of the fluid field k (see :func:`mls_extrapolate`); with the
+        phases fitted on their own ``out[q, b]``, (phases, N_boundary)
+        (:func:`mls_extrapolate_phases`)."""
+        if out.ndim == 2:
+            mls_extrapolate_phases(k, self.toff, self.tfluid, self.coef, self.phase, out)
+        else:
+            mls_extrapolate(k, self.toff, self.tfluid, self.coef, out)
+
+
+def per_phase(state: SimState) -> np.ndarray | None:
+    """The fluid's phase indices (N,) when the extrapolation fits each phase on its own (a
+    scene whose fluids differ in rest density), else None."""
+    f = state.fluid
+    if "phase" not in f.specs or f.n == 0 or state.rest().uniform:
+        return None
+    return f["phase"]

@@ -325,10 +325,15 @@ class BoundaryKappa:
     def __init__(self, model: BoundaryPressure | None, state: SimState) -> None:
         self.model = model
         n = state.boundary.n if model is not None else 0
-        self.kb = arrays.zeros(n, state.fluid.dtype, like=state.fluid["x"])
+        #: the fluid's phases where the model gives each phase its own k_b (several rest
+        #: densities: ``kb`` is then (phases, N_boundary)), else None
+        self.phase = model.phase if model is not None else None
+        shape = (model.phases, n) if self.phase is not None else n
+        self.kb = arrays.zeros(shape, state.fluid.dtype, like=state.fluid["x"])
 
     def __call__(self, k: np.ndarray) -> np.ndarray:
-        """``k_b`` for the fluid field k."""
+        """``k_b`` for the fluid field k (``k_b[q, b]`` per phase q where :attr:`phase` is
+        set)."""
         if self.model is not None:
             self.model.extrapolate(k, self.kb)
         return self.kb

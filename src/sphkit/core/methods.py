@@ -275,10 +275,19 @@ class BoundaryPressure(Protocol):
     extrapolation, :mod:`sphkit.boundary.band2018`)."""
 
     name: ClassVar[str] = ""
+    #: the fluid's phase indices (N,) where the model gives each phase a boundary value of its
+    #: own (several rest densities); :meth:`extrapolate` then fills (:attr:`phases`,
+    #: N_boundary). None: one value per sample
+    phase: np.ndarray | None = None
 
     def init(self, state: SimState) -> None:
         """Set the boundary fields (e.g. stop mirroring where the model replaces it)."""
         return None
+
+    @property
+    def phases(self) -> int:
+        """Rows of :meth:`extrapolate`'s output: the phases where :attr:`phase` is set, else 1."""
+        return 1
 
     @abstractmethod
     def diagonal_mirror(self) -> np.ndarray:
@@ -290,7 +299,8 @@ class BoundaryPressure(Protocol):
 
     @abstractmethod
     def extrapolate(self, k: np.ndarray, out: np.ndarray) -> None:
-        """``out[b] = p_b / rho0`` for the solver field k of the fluid (kappa units)."""
+        """``out[b] = p_b / rho0`` for the solver field k of the fluid (kappa units);
+        ``out[q, b]`` per phase q where :attr:`phase` is set."""
 
     @abstractmethod
     def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:

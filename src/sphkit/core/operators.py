@@ -154,24 +154,27 @@ def pressure_accel_cpu(x: np.ndarray, m: np.ndarray, rho: np.ndarray, p: np.ndar
 
 
 @numba.njit(parallel=True, **_JIT)
-def replace_mirrored(x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, h, kid, dim, L, a):
+def replace_mirrored(x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, phase, h, kid, dim, L, a):
     """WCSPH: swap the mirrored boundary pressure ``p_b = p_i`` of :func:`pressure_accel_body`'s
     boundary term ``-sum_b rho0_i V_b (p_i / rho_i^2 + p_b / rho0_i^2) grad W_ib`` for another,
     ``a_i -= sum_b V_b (k_b / c_i - p_i / rho0_i) grad W_ib`` over the samples with ``use[b]``
     (``k_b = p_b / rho0_ref``: the MLS-extrapolated one of :mod:`sphkit.boundary.band2018`, or
     0, which leaves the symmetric term ``V_b k_i`` alone; ``rho0`` (N,) each particle's rest
-    density, ``inv_c`` = ``rho0_ref / rho0_i``, :class:`sphkit.core.state.RestArrays`)."""
+    density, ``inv_c`` = ``rho0_ref / rho0_i``, :class:`sphkit.core.state.RestArrays`). ``kb``
+    holds a row per phase (``kb[phase[i], b]``: the phases fitted on their own; one row and
+    phases 0 otherwise)."""
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         ki = p[i] / rho0[i]
         ici = inv_c[i]
+        ph = phase[i]
         a0 = a1 = a2 = 0.0
         for k in range(boff[i], boff[i + 1]):
             b = bidx[k]
             if not use[b]:
                 continue
             d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-            s = -bV[b] * (kb[b] * ici - ki) * kernel_dw(kid, r, h, dim)
+            s = -bV[b] * (kb[ph, b] * ici - ki) * kernel_dw(kid, r, h, dim)
             a0 += s * d0
             a1 += s * d1
             a2 += s * d2

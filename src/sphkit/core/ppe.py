@@ -66,6 +66,7 @@ from sphkit.backend import launch, launch_reduce
 from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.pairs import (
+    add_vector,
     displaced_delta,
     displaced_point,
     distance,
@@ -289,10 +290,28 @@ def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a, i
     set_vector(a, i, dim, a0 * ic, a1 * ic, a2 * ic)
 
 
+@numba.njit(**_JIT_GATHER, inline="always")
+def phase_kb_body(i, kb, phase, boff, bidx, gwb, dim, a, inv_c):
+    """Particle i: ``a[:, i] -= (1 / c_i) sum_b kb[phase_i, b] V_b grad W_ib``, the boundary
+    values of its own phase (:func:`kappa_accel_cached` with a row of kb per phase)."""
+    ph = phase[i]
+    a0 = a1 = a2 = 0.0
+    for kk in range(boff[i], boff[i + 1]):
+        sb = kb[ph, bidx[kk]]
+        a0 -= sb * gwb[0, kk]
+        if dim > 1:
+            a1 -= sb * gwb[1, kk]
+        if dim > 2:
+            a2 -= sb * gwb[2, kk]
+    ic = inv_c[i]
+    add_vector(a, i, dim, a0 * ic, a1 * ic, a2 * ic)
+
+
 def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.ndarray,
                        boff: np.ndarray, bidx: np.ndarray, bmirror: np.ndarray, gw: np.ndarray,
                        gwb: np.ndarray, dim: int, a: np.ndarray,
-                       inv_c: np.ndarray | None = None) -> None:
+                       inv_c: np.ndarray | None = None,
+                       phase: np.ndarray | None = None) -> None:
     """a[:, i] = pressure acceleration of the field k (overwrites a); the boundary term is
     ``-sum_b V_b (k_i (1 + bmirror[b]) + kb[b]) grad W_ib`` (see the module docstring): kb is
     the extrapolated boundary value ``p_b / rho0`` where a boundary model sets one (Band et al.
@@ -303,10 +322,19 @@ def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.n
     ``rho0_j / rho0_i``: ``a_i = -sum_j V_j (k_i + rho0_j / rho0_i k_j) grad W_ij - ...``):
     pass ``k c`` and ``inv_c`` of :class:`sphkit.core.state.RestArrays` (the sums of particle
     i are multiplied by ``1 / c_i``; then kb is ``p_b / rho0`` of the reference rest density);
-    None: one fluid. The pass is :func:`kappa_accel_body` through
-    :func:`sphkit.backend.launch`."""
+    None: one fluid. A kb of shape (phases, N_boundary) holds a value per phase (the MLS
+    extrapolation with the phases fitted on their own, :mod:`sphkit.boundary.band2018`):
+    particle i reads row ``phase[i]`` (:func:`phase_kb_body`, a second pass over the boundary
+    pairs). The pass is :func:`kappa_accel_body` through :func:`sphkit.backend.launch`."""
     if inv_c is None:
         inv_c = arrays.full(k.shape[0], 1.0, a.dtype, like=a)
+    if kb.ndim == 2:
+        if phase is None:
+            raise ValueError("kappa_accel_cached: a kb per phase needs the fluid's phases")
+        launch(kappa_accel_body, k.shape[0], k, kb.reshape(-1)[:0], off, idx, boff, bidx,
+               bmirror, gw, gwb, int(dim), a, inv_c)
+        launch(phase_kb_body, k.shape[0], kb, phase, boff, bidx, gwb, int(dim), a, inv_c)
+        return
     launch(kappa_accel_body, k.shape[0], k, kb, off, idx, boff, bidx, bmirror, gw, gwb, int(dim),
            a, inv_c)
 

@@ -348,6 +348,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     if mirror is None:
         mirror = coupling.mirror(state)
     kb = coupling.boundary_kappa(state)
+    phase = kb.phase  # several rest densities: the MLS values of each phase
     walls = coupling.solved and wall_source is not None and state.boundary.n > 0
     if walls:
         rows = WallRows.of(state, g, wall_key)
@@ -359,6 +360,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
 
         def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the solved walls' own values)
             return wk
+        phase = None
     # no clamping: a finite bound (the passes are compiled with fast math's no-infinities flag)
     lo = 0.0 if clamp else -1e300
 
@@ -367,7 +369,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
 
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
-                           g.gwb, dim, a, rest.inv_c)
+                           g.gwb, dim, a, rest.inv_c, phase)
         # boundary particles take no pressure acceleration unless they yield (dynamic bodies)
         ab = coupling.response(state, own(k), g.gwb)
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
@@ -382,5 +384,5 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     if walls:
         stored[:] = wk * wall_scale
     kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
-                       g.gwb, dim, a, rest.inv_c)
+                       g.gwb, dim, a, rest.inv_c, phase)
     return a, its, avg, mx, ok

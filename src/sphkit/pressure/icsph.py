@@ -148,9 +148,10 @@ class ICSPH(PressureSolver):
         k = self._kappa(state)
         a = np.empty_like(f["a"])
         nl, nb = state.nl_ff, state.nl_fb
-        kappa_accel_cached(k, state.coupling.boundary_kappa(state)(k), nl.offsets, nl.indices,
-                           nb.offsets, nb.indices, mirror + (self.psi - 1.0), grads.gw,
-                           grads.gwb, state.dim, a)
+        kb = state.coupling.boundary_kappa(state)
+        kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices,
+                           mirror + (self.psi - 1.0), grads.gw, grads.gwb, state.dim, a,
+                           phase=kb.phase)
         f["a"] += a
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)

@@ -295,6 +295,7 @@ class PCISPH(StepBounded, PressureSolver):
         coupling = state.coupling
         mirror = coupling.mirror(state)
         kb = coupling.boundary_kappa(state)
+        kb_phase = kb.phase  # several rest densities: the MLS values of each phase
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
         rest = state.rest()  # several fluids: the pressure sums weigh p~_j by rho0_j / rho0_i
         pc = p if rest.uniform else arrays.empty_like(p)
@@ -323,6 +324,7 @@ class PCISPH(StepBounded, PressureSolver):
 
             def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the walls' own values)
                 return wk
+            kb_phase = None
 
         def sweep(_k: int) -> tuple[float, float]:
             launch(predict_body, n, v, a, ap, float(dt), int(state.dim), dx)
@@ -345,7 +347,7 @@ class PCISPH(StepBounded, PressureSolver):
                 wall_update(zero, src, wd, dt * dt, 0.5, wk, pc, nb.offsets, nb.indices,
                             solver_module.WALL_CAP, wkmax)
             kappa_accel_cached(pc, kb(pc), nl.offsets, nl.indices, nb.offsets, nb.indices,
-                               mirror, g.gw, g.gwb, state.dim, ap, rest.inv_c)
+                               mirror, g.gw, g.gwb, state.dim, ap, rest.inv_c, kb_phase)
             bdx[0] = coupling.displacement(state, p, g.gwb, dt)
             return tot / max(n, 1), mx
 

@@ -233,8 +233,8 @@ class WCSPH(PressureSolver):
         if use is not None:
             replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
                              state.nl_fb.offsets, state.nl_fb.indices, use,
-                             np.zeros(b.n, dtype=f.dtype), state.h, state.kid, state.dim,
-                             state.pair_period, f["a"])
+                             np.zeros((1, b.n), dtype=f.dtype), np.zeros(f.n, dtype=np.int64),
+                             state.h, state.kid, state.dim, state.pair_period, f["a"])
         if not (cp.symmetric or cp.solved):
             cp.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
         return SolverStats(iterations=1, density_error_avg=float(avg), density_error_max=float(mx))
