@@ -4,7 +4,7 @@
         [--until 3.0] [--ratio 10] [--study layers hydrostatic] [--settle 1.5] [--average 0.5]
         [--jitter 0.1] [--viscosity 0.01] [--symmetric-walls] [--dim 3] [--depth 0.2]
         [--interface-viscosity 0.01] [--interface-tension 1.0] [--solved-walls [density]]
-        [--mls-walls]
+        [--mls-walls] [--max-error 0.05]
         [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
@@ -69,6 +69,8 @@ from sphkit.world.build import build_world
 G = 9.81
 WIDTH = 0.4
 LAYER = 0.3
+#: the pressure solvers' tolerance [%] (``--max-error``): SPlisHSPlasH's multiphase scenes' 0.05
+MAX_ERROR = 0.05
 
 
 def layer_height(r: float) -> float:
@@ -89,7 +91,7 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
     layer = layer_height(r)
     visc = {"method": "standard", "coefficient": viscosity}
-    pressure: dict = {"method": method, "max_error": 0.05}
+    pressure: dict = {"method": method, "max_error": MAX_ERROR}
     if method == "wcsph":
         pressure = {"method": "wcsph", "stiffness": 1e5, "exponent": 7.0}
     z = [0.0] if dim == 3 else []
@@ -392,6 +394,7 @@ def bubbles(methods: list[str], r: float, until: float, ratio: float, viscosity:
 
 
 def main() -> None:
+    global MAX_ERROR
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--solvers", nargs="+", default=["pcisph", "pbf", "iisph", "dfsph"])
     ap.add_argument("--study", nargs="+", default=["layers", "hydrostatic"],
@@ -403,6 +406,9 @@ def main() -> None:
     ap.add_argument("--average", type=float, default=0.5)
     ap.add_argument("--jitter", type=float, default=0.1)
     ap.add_argument("--viscosity", type=float, default=0.01)
+    ap.add_argument("--max-error", type=float, default=MAX_ERROR,
+                    help="the pressure solvers' tolerance [%%] (SPlisHSPlasH's multiphase "
+                    "scenes: 0.05; its DFSPH default: 0.01)")
     ap.add_argument("--symmetric-walls", action="store_true",
                     help="configuration.boundary.symmetric: the walls' term V_b k_i alone")
     ap.add_argument("--solved-walls", nargs="?", const=True, default=None,
@@ -428,6 +434,7 @@ def main() -> None:
     ap.add_argument("--blob", type=int, nargs="+", default=[1, 9],
                     help="bubbles: particles per blob (one table each)")
     args = ap.parse_args()
+    MAX_ERROR = args.max_error
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
         hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
