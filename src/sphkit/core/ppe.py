@@ -298,11 +298,8 @@ def phase_kb_body(i, kb, phase, boff, bidx, gwb, dim, a, inv_c):
     a0 = a1 = a2 = 0.0
     for kk in range(boff[i], boff[i + 1]):
         sb = kb[ph, bidx[kk]]
-        a0 -= sb * gwb[0, kk]
-        if dim > 1:
-            a1 -= sb * gwb[1, kk]
-        if dim > 2:
-            a2 -= sb * gwb[2, kk]
+        g0, g1, g2 = point(gwb, kk, dim)  # V_b grad W_ib (0 beyond dim)
+        a0, a1, a2 = a0 - sb * g0, a1 - sb * g1, a2 - sb * g2
     ic = inv_c[i]
     add_vector(a, i, dim, a0 * ic, a1 * ic, a2 * ic)
 
