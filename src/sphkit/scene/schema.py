@@ -946,7 +946,9 @@ class BoundaryConfig(_Model):
         "'Solved walls at density level'. Left out: 'density' in a scene whose fluids' rest "
         "densities differ by more than a factor 4, with akinci2012 and a pressure solver that "
         "solves the walls (iisph, dfsph, pcisph; validation/README.md, 'Several rest densities: "
-        "the solved walls by default'), else false",
+        "the solved walls by default': they keep heavy-over-light overturns stable; a column "
+        "at rest is more accurate with false, the MLS term fitted per phase, 'MLS wall "
+        "pressure per phase'), else false",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
