@@ -255,17 +255,20 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.coef = np.empty(self.tfluid.shape[0], dtype=f.dtype)
         rho_hat = f["rho"] / f["rho0"]
         self.phase = per_phase(state)
-        phase = self.phase if self.phase is not None else np.zeros(f.n, dtype=np.int64)
-        nphase = int(phase.max()) + 1 if f.n else 1
         mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.use, state.h,
-                         state.kid, state.dim, state.pair_period, self.ridge, self.coef, phase,
-                         nphase)
+                         state.kid, state.dim, state.pair_period, self.ridge, self.coef,
+                         self._phase_rows(f.n), self.phases)
 
     @property
     def phases(self) -> int:
         """How many boundary values each sample takes: the phases when they are fitted on their
         own (:meth:`extrapolate` then fills ``out`` of shape (phases, N_boundary)), else 1."""
-        return int(self.phase.max()) + 1 if self.phase is not None and self.phase.size else 1
+        return int(self.phase.max()) + 1 if self.phase is not None else 1
+
+    def _phase_rows(self, n: int) -> np.ndarray:
+        """The row of each of the n fluid particles in the per-phase passes: :attr:`phase`, or
+        zeros where one fit serves all (one row)."""
+        return self.phase if self.phase is not None else np.zeros(n, dtype=np.int64)
 
     def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:
         """For a state-equation solver (WCSPH) whose boundary term mirrored ``p_b = p_i``:
@@ -278,11 +281,10 @@ class MLSPressureExtrapolation(BoundaryPressure):
         # kb = p_b / rho0_ref, one row per phase fitted on its own
         self.extrapolate(k if rest.uniform else k * rest.c, kb if self.phase is not None
                          else kb[0])
-        phase = self.phase if self.phase is not None else np.zeros(f.n, dtype=np.int64)
         replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
-                         state.nl_fb.offsets,
-                         state.nl_fb.indices, self.use, kb, phase, state.h, state.kid,
-                         state.dim, state.pair_period, a)
+                         state.nl_fb.offsets, state.nl_fb.indices, self.use, kb,
+                         self._phase_rows(f.n), state.h, state.kid, state.dim,
+                         state.pair_period, a)
 
     def extrapolate(self, k: np.ndarray, out: np.ndarray) -> None:
         """``out[b] = p_b / rho0`` of the fluid field k (see :func:`mls_extrapolate`); with the
