@@ -348,7 +348,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     if mirror is None:
         mirror = coupling.mirror(state)
     kb = coupling.boundary_kappa(state)
-    phase = kb.phase  # several rest densities: the MLS values of each phase
+    phase = kb.phase  # several rest densities: the MLS values of each phase (None when solved)
     walls = coupling.solved and wall_source is not None and state.boundary.n > 0
     if walls:
         rows = WallRows.of(state, g, wall_key)
@@ -360,7 +360,6 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
 
         def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the solved walls' own values)
             return wk
-        phase = None
     # no clamping: a finite bound (the passes are compiled with fast math's no-infinities flag)
     lo = 0.0 if clamp else -1e300
 

@@ -295,7 +295,8 @@ class PCISPH(StepBounded, PressureSolver):
         coupling = state.coupling
         mirror = coupling.mirror(state)
         kb = coupling.boundary_kappa(state)
-        kb_phase = kb.phase  # several rest densities: the MLS values of each phase
+        kb_phase = kb.phase  # several rest densities: the MLS values of each phase (None
+        # with solved walls, whose k_b has one value per wall particle)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
         rest = state.rest()  # several fluids: the pressure sums weigh p~_j by rho0_j / rho0_i
         pc = p if rest.uniform else arrays.empty_like(p)
@@ -324,7 +325,6 @@ class PCISPH(StepBounded, PressureSolver):
 
             def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the walls' own values)
                 return wk
-            kb_phase = None
 
         def sweep(_k: int) -> tuple[float, float]:
             launch(predict_body, n, v, a, ap, float(dt), int(state.dim), dx)
