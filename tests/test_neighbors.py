@@ -346,3 +346,41 @@ def test_particleset_add_after_resize_keeps_the_resized_values() -> None:
     np.testing.assert_array_equal(ps["x"], [[0, 1, 2, 9, 9], [3, 4, 5, 9, 9]])
     np.testing.assert_array_equal(ps["V"], [1, 2, 3, 5, 5])
 
+
+
+def test_search_rows_in_a_scratch_block_give_the_same_lists() -> None:
+    # The step's searches write their fixed-stride rows into one kept block (Scratch) instead
+    # of fresh arrays: the lists must be the same, also when a row overflows the capacity and
+    # the search is redone in a larger take, and a second search must reuse the block.
+    from sphkit.core.arrays import Scratch
+
+    n, h = CASES[3]
+    x = np.random.default_rng(41).uniform(-0.4, 0.6, size=(3, n))
+    scratch = Scratch()
+    for capacity in (64, 5):
+        grid = Grid(x, h)
+        grid.capacity = capacity
+        fresh = grid.query(x, exclude_self=True)
+        kept = grid.query(x, exclude_self=True, scratch=scratch)
+        np.testing.assert_array_equal(kept.offsets, fresh.offsets)
+        np.testing.assert_array_equal(kept.indices, fresh.indices)
+    size = scratch.nbytes
+    again = neighbor_lists(x, h, scratch=scratch)
+    np.testing.assert_array_equal(again.indices, fresh.indices)
+    assert scratch.nbytes == size  # the same block, not a new one
+
+
+def test_scratch_views_are_aligned_and_share_the_block() -> None:
+    from sphkit.core.arrays import Scratch
+
+    s = Scratch()
+    a, b, c = s.take(((3, 7), np.float64), ((5,), np.int32), ((2, 3), np.float32))
+    for v in (a, b, c):
+        assert v.flags["C_CONTIGUOUS"] and v.ctypes.data % Scratch.ALIGN == 0
+    assert (a.shape, b.shape, c.shape) == ((3, 7), (5,), (2, 3))
+    a[...] = 1.0
+    b[...] = 7
+    c[...] = 2.0
+    assert a.sum() == 21.0 and b.sum() == 35 and c.sum() == 12.0  # the views do not overlap
+    (d,) = s.take(((4,), np.float64))  # a smaller take lies in the same memory
+    assert d.ctypes.data == a.ctypes.data

@@ -159,6 +159,8 @@ class Simulation:
         #: Verlet lists of the fluid (``configuration.neighbor_skin`` > 0), else None
         self._verlet = VerletLists(skin) if skin > 0.0 else None
         self._search = DeviceSearch(self.state.dim, self.state.h)  # the fluid's, on a device
+        if self.device == "cpu":  # the step's search rows and pair gradients in one kept block
+            self.state.scratch = arrays.Scratch()
         if settle and world.settle is not None:
             rep = world.start
             rep.settle_steps, rep.settle_time, rep.settle_speed = self.settle(world.settle)
@@ -373,7 +375,7 @@ class Simulation:
         elif on_device(x):  # the hashed grid's passes as kernel bodies, where the fluid is
             st.nl_ff = self._search.lists(x)
         else:
-            st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic)
+            st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic, scratch=st.scratch)
         self.boundary_model.update(st)
 
     def compute_density(self) -> None:
@@ -382,7 +384,7 @@ class Simulation:
         f, b = st.fluid, st.boundary
         if self.pressure.uses_pair_gradients:
             # one pass for the densities and the solver's cached pair gradients
-            st.pair_grads = PairGradients(st, with_density=True)
+            st.pair_grads = PairGradients(st, with_density=True, scratch=st.scratch)
         else:
             st.pair_grads = None
             rest = st.rest()

@@ -169,5 +169,5 @@ class Akinci2012(BoundaryModel):
                 self._hashed = HashGrid(state.dim, state.h, origin, "cuda")
                 self._hashed.build(state.boundary["x"])
             state.nl_fb = self._hashed.query(x)
-        else:
-            state.nl_fb = self.grid.query(x, period=state.periodic)
+        else:  # the rows of the search in the step's scratch block (its cache is gone)
+            state.nl_fb = self.grid.query(x, period=state.periodic, scratch=state.scratch)

@@ -32,7 +32,7 @@ __all__ = ["above_body", "any_above", "any_differs", "axpy", "axpy_body", "axpy_
            "differs_body", "divide_body", "divided", "divided_by", "empty", "empty_like", "fill",
            "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body", "gather_rows_body",
            "gathered", "multiplied", "multiply_body", "on_device", "quotient_body", "reciprocal",
-           "reciprocal_body", "scale_body", "scaled", "to_host", "zeros"]
+           "reciprocal_body", "scale_body", "scaled", "Scratch", "to_host", "zeros"]
 
 _BODY = dict(cache=True, inline="always")
 
@@ -135,6 +135,54 @@ def empty(shape: int | tuple[int, ...], dtype: Any, like: Any) -> Any:
         one = backend_empty(tuple(max(s, 1) for s in shape), dtype, dev)
         return one[tuple(slice(0, s) for s in shape)]
     return backend_empty(shape, dtype, dev)
+
+
+class Scratch:
+    """One block of CPU memory reused, step after step, for the step's largest temporaries that
+    never live at the same time: the neighbour search's fixed-stride rows (fluid-fluid, then
+    fluid-boundary) and the simulation's pair-gradient cache.
+
+    A fresh array of tens of megabytes is mapped anew by the C allocator on every step (above
+    glibc's mmap threshold they always are) and each of its pages is faulted in and zeroed by
+    the kernel as the pass first writes it; the block is allocated once and grows only when a
+    step needs more (by :attr:`GROWTH`). :meth:`take` hands out views into it: **a take
+    invalidates every view taken before** (their memory is reused), so only a holder that is
+    done with its views before the next take may use the block; the simulation's step is
+    (``validation``-free: benchmarks/README.md, "The step's temporaries in one block").
+    """
+
+    #: the block grows to this times what a take asks for, so that the next steps' slightly
+    #: larger lists fit without a new block
+    GROWTH: float = 1.125
+
+    def __init__(self) -> None:
+        self._block = np.empty(0, dtype=np.float64)
+
+    @property
+    def nbytes(self) -> int:
+        """The block's size in bytes."""
+        return int(self._block.nbytes)
+
+    #: every view starts on a multiple of this many bytes (a cache line): the compiled passes'
+    #: vector loops then meet the same alignment in every step and every run
+    ALIGN: int = 64
+
+    def take(self, *specs: tuple[tuple[int, ...], Any]) -> list[np.ndarray]:
+        """C-contiguous arrays of the given ``(shape, dtype)`` laid one after the other in the
+        block, each starting on :attr:`ALIGN` bytes; their contents are undefined."""
+        a = self.ALIGN
+        sizes = [int(np.prod(shape, dtype=np.int64)) * np.dtype(dt).itemsize for shape, dt in specs]
+        spans = [(n + a - 1) // a * a for n in sizes]
+        need = sum(spans) + a  # + a: room to align the first view
+        if need > self._block.nbytes:
+            self._block = np.empty(int(need * self.GROWTH) // 8 + 1, dtype=np.float64)
+        raw = self._block.view(np.uint8)
+        at = -raw.ctypes.data % a
+        out = []
+        for (shape, dt), n, span in zip(specs, sizes, spans, strict=True):
+            out.append(raw[at:at + n].view(dt).reshape(shape))
+            at += span
+        return out
 
 
 def empty_like(a: Any) -> Any:

@@ -36,9 +36,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
+
+if TYPE_CHECKING:
+    from sphkit.core.arrays import Scratch
 
 #: first sorted slot of every cell (dense) or bucket (hashed): int32 like the neighbour indices
 #: (half the memory of int64; a grid holds fewer than 2^31 points)
@@ -179,22 +183,18 @@ def _compact(buf, counts, cap):
 
 @numba.njit(cache=True, parallel=True, fastmath=True)
 def _query(xq, dim, h, origin, mask, bucket_start, sorted_index, sorted_key, sorted_x,
-           exclude_self, cap):
-    """One pass into fixed-stride rows of ``cap`` slots (compacted into CSR by :func:`_compact`).
-
-    Returns (rows, counts); when a count reaches ``cap`` that row may be incomplete (the
-    branch-free append of :func:`_scan` reuses the last slot) and the caller repeats with a
-    larger ``cap``.
+           exclude_self, cap, buf, counts):
+    """One pass into fixed-stride rows of ``cap`` slots, ``buf`` (N cap,) with the row lengths
+    in ``counts`` (N,) (compacted into CSR by :func:`_compact`). When a count reaches ``cap``
+    that row may be incomplete (the branch-free append of :func:`_scan` reuses the last slot)
+    and the caller repeats with a larger ``cap``.
     """
     n = xq.shape[1]
     inv_h = 1.0 / h
     h2 = h * h
-    buf = np.empty(n * cap, dtype=np.int32)
-    counts = np.empty(n, dtype=np.int64)
     for i in numba.prange(n):
         counts[i] = _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index,
                           sorted_key, sorted_x, exclude_self, buf, i * cap, cap)
-    return buf, counts
 
 
 # -- dense grid with row ranges ------------------------------------------------------------------
@@ -281,17 +281,14 @@ def _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index,
 
 @numba.njit(cache=True, parallel=True, fastmath=True)
 def _dense_query(xq, dim, h, sub, lo, shape, cell_start, sorted_index, sorted_x, exclude_self,
-                 cap):
+                 cap, buf, counts):
     """:func:`_query` on the dense grid."""
     n = xq.shape[1]
     inv_a = sub / h
     h2 = h * h
-    buf = np.empty(n * cap, dtype=np.int32)
-    counts = np.empty(n, dtype=np.int64)
     for i in numba.prange(n):
         counts[i] = _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index,
                                 sorted_x, exclude_self, buf, i * cap, cap)
-    return buf, counts
 
 
 @dataclass
@@ -418,14 +415,17 @@ class Grid:
                        self.sorted_key, self.sorted_x)
 
     def query(self, xq: np.ndarray, exclude_self: bool = False,
-              period: Period = None) -> NeighborList:
+              period: Period = None, scratch: Scratch | None = None) -> NeighborList:
         """Neighbours (distance < h) in this grid's set of every column of ``xq`` (dim, M).
 
         ``exclude_self`` drops ``j == i``; use it when ``xq`` is the set the grid was built on.
         ``period = (lo, L)``: the domain is periodic along x with period L > 2h, all points
         (grid and queries) lying in ``[lo, lo + L)``; ``period = ((lo_x, L_x), (lo_y, L_y))``:
         periodic along x and y the same way (L = 0: that axis is not). Neighbours are found by
-        the minimum-image distance (see :func:`_periodic_query`).
+        the minimum-image distance (see :func:`_periodic_query`). ``scratch``: the block the
+        one-pass search writes its fixed-stride rows into (:class:`sphkit.core.arrays.Scratch`,
+        invalidating what was taken from it before; None: fresh arrays); the lists returned are
+        arrays of their own.
         """
         if xq.shape[0] != self.dim:
             raise ValueError(f"query positions: dim {xq.shape[0]} != grid dim {self.dim}")
@@ -438,14 +438,17 @@ class Grid:
             return _periodic_query(self, xq, exclude_self, axes)
         cap = self.capacity
         while True:
-            if self.dense:
-                rows, counts = _dense_query(
-                    xq, self.dim, self.h, self.SUB, self.lo, self.shape, self.cell_start,
-                    self.sorted_index, self.sorted_x, exclude_self, cap)
+            if scratch is None:
+                rows, counts = np.empty(m * cap, dtype=np.int32), np.empty(m, dtype=np.int64)
             else:
-                rows, counts = _query(
-                    xq, self.dim, self.h, self.origin, self.mask, self.bucket_start,
-                    self.sorted_index, self.sorted_key, self.sorted_x, exclude_self, cap)
+                rows, counts = scratch.take(((m * cap,), np.int32), ((m,), np.int64))
+            if self.dense:
+                _dense_query(xq, self.dim, self.h, self.SUB, self.lo, self.shape, self.cell_start,
+                             self.sorted_index, self.sorted_x, exclude_self, cap, rows, counts)
+            else:
+                _query(xq, self.dim, self.h, self.origin, self.mask, self.bucket_start,
+                       self.sorted_index, self.sorted_key, self.sorted_x, exclude_self, cap,
+                       rows, counts)
             offsets, indices, largest = _compact(rows, counts, cap)
             if largest < cap:
                 return NeighborList(offsets, indices)
@@ -455,10 +458,11 @@ class Grid:
     capacity: int = 64
 
 
-def neighbor_lists(x: np.ndarray, h: float, period: Period = None) -> NeighborList:
-    """Neighbour lists of a point set (dim, N) with itself, self excluded (``period``: see
-    :meth:`Grid.query`)."""
-    return Grid(x, h).query(x, exclude_self=True, period=period)
+def neighbor_lists(x: np.ndarray, h: float, period: Period = None,
+                   scratch: Scratch | None = None) -> NeighborList:
+    """Neighbour lists of a point set (dim, N) with itself, self excluded (``period``,
+    ``scratch``: see :meth:`Grid.query`)."""
+    return Grid(x, h).query(x, exclude_self=True, period=period, scratch=scratch)
 
 
 @numba.njit(cache=True, inline="always")

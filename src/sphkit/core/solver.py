@@ -169,14 +169,22 @@ class PairGradients:
     """
 
     def __init__(self, state: SimState, with_density: bool = False,
-                 volumes: np.ndarray | None = None) -> None:
+                 volumes: np.ndarray | None = None,
+                 scratch: arrays.Scratch | None = None) -> None:
         """``volumes``: the fluid volumes V_j of the gradients (N,) [m^dim] instead of the rest
-        volumes ``V0`` (ICSPH's current volumes ``m_j / rho_j``); not with ``with_density``."""
+        volumes ``V0`` (ICSPH's current volumes ``m_j / rho_j``); not with ``with_density``.
+        ``scratch``: the block the gradients are laid in (the simulation's step, whose next
+        neighbour search reuses it; :class:`sphkit.core.arrays.Scratch`); None: arrays of
+        their own."""
         f, b = state.fluid, state.boundary
         nl, nb = state.nl_ff, state.nl_fb
         x = f["x"]
-        self.gw = arrays.empty((state.dim, nl.indices.shape[0]), f.dtype, like=x)
-        self.gwb = arrays.empty((state.dim, nb.indices.shape[0]), f.dtype, like=x)
+        shapes = (state.dim, nl.indices.shape[0]), (state.dim, nb.indices.shape[0])
+        if scratch is not None and not arrays.on_device(x):
+            self.gw, self.gwb = scratch.take((shapes[0], f.dtype), (shapes[1], f.dtype))
+        else:
+            self.gw = arrays.empty(shapes[0], f.dtype, like=x)
+            self.gwb = arrays.empty(shapes[1], f.dtype, like=x)
         if with_density:
             rest = state.rest()
             density_pair_gradients(f["x"], rest.mu, nl.offsets, nl.indices, b["x"], b["V"],

@@ -106,6 +106,11 @@ class SimState:
     #: how the boundary reaches the pressure solvers: mirror weights, the boundary pressure of
     #: a boundary pressure model (MLS), the response of moving bodies (strong coupling)
     coupling: BoundaryCoupling = field(default_factory=BoundaryCoupling)
+    #: the block of memory the step's neighbour searches write their rows into and the
+    #: simulation's pair-gradient cache lives in (:class:`sphkit.core.arrays.Scratch`, CPU
+    #: only; None: fresh arrays). A search invalidates the cache taken from it before, so only
+    #: the step's own search and cache use it (:class:`sphkit.simulation.Simulation`)
+    scratch: arrays.Scratch | None = field(default=None, repr=False)
     _rest: tuple | None = field(default=None, repr=False)  # this step's RestArrays on a device
 
     def rest(self) -> RestArrays:
