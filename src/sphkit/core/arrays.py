@@ -147,13 +147,17 @@ class Scratch:
     the kernel as the pass first writes it; the block is allocated once and grows only when a
     step needs more (by :attr:`GROWTH`). :meth:`take` hands out views into it: **a take
     invalidates every view taken before** (their memory is reused), so only a holder that is
-    done with its views before the next take may use the block; the simulation's step is
-    (``validation``-free: benchmarks/README.md, "The step's temporaries in one block").
+    done with its views before the next take may use the block. The simulation's step is such a
+    holder (:class:`sphkit.core.state.SimState` ``scratch``; measured in benchmarks/README.md,
+    "The step's large temporaries in one block").
     """
 
     #: the block grows to this times what a take asks for, so that the next steps' slightly
     #: larger lists fit without a new block
     GROWTH: float = 1.125
+    #: every view starts on a multiple of this many bytes (a cache line): the compiled passes'
+    #: vector loops then meet the same alignment in every step and every run
+    ALIGN: int = 64
 
     def __init__(self) -> None:
         self._block = np.empty(0, dtype=np.float64)
@@ -162,10 +166,6 @@ class Scratch:
     def nbytes(self) -> int:
         """The block's size in bytes."""
         return int(self._block.nbytes)
-
-    #: every view starts on a multiple of this many bytes (a cache line): the compiled passes'
-    #: vector loops then meet the same alignment in every step and every run
-    ALIGN: int = 64
 
     def take(self, *specs: tuple[tuple[int, ...], Any]) -> list[np.ndarray]:
         """C-contiguous arrays of the given ``(shape, dtype)`` laid one after the other in the
