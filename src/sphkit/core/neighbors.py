@@ -424,8 +424,8 @@ class Grid:
         periodic along x and y the same way (L = 0: that axis is not). Neighbours are found by
         the minimum-image distance (see :func:`_periodic_query`). ``scratch``: the block the
         one-pass search writes its fixed-stride rows into (:class:`sphkit.core.arrays.Scratch`,
-        invalidating what was taken from it before; None: fresh arrays); the lists returned are
-        arrays of their own.
+        invalidating what was taken from it before; None, and periodic queries: fresh arrays);
+        the lists returned are arrays of their own.
         """
         if xq.shape[0] != self.dim:
             raise ValueError(f"query positions: dim {xq.shape[0]} != grid dim {self.dim}")
