@@ -63,6 +63,7 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
+from sphkit.core.neighbors import row_chunks
 from sphkit.core.operators import replace_mirrored
 from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
@@ -95,8 +96,8 @@ def _transpose(boff, bidx, nb):
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, ridge, coef, phase,
-                     nphase):
+def mls_coefficients(x, rho_hat, bx, toff, tfluid, chunks, use, h, kid, dim, L, ridge, coef,
+                     phase, nphase):
     """``coef[t] = c_bf rho_hat_f^2`` for the t-th boundary -> fluid pair (module docstring).
 
     ``use[b]`` False: the sample is not extrapolated (coefficients 0). Positions are scaled by
@@ -104,17 +105,20 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, use, h, kid, dim, L, ridge, c
     weight of its gradient block; a pivot below 1e-6 of the matrix' largest diagonal entry
     selects the Shepard fallback. ``phase`` (N,) and ``nphase``: each phase's fluid neighbours
     of b are fitted on their own ("Several rest densities" in the module docstring; one fluid:
-    zeros and 1)."""
+    zeros and 1). The samples are visited in the balanced ranges ``chunks``
+    (:func:`sphkit.core.neighbors.row_chunks` of ``toff``)."""
     n = dim + 1
-    for b in numba.prange(bx.shape[1]):
-        t0 = toff[b]
-        t1 = toff[b + 1]
-        if not use[b] or t1 == t0:
-            for t in range(t0, t1):
-                coef[t] = 0.0
-            continue
-        for ph in range(nphase):
-            _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph, n)
+    for c in numba.prange(chunks.shape[0] - 1):
+        for b in range(chunks[c], chunks[c + 1]):
+            t0 = toff[b]
+            t1 = toff[b + 1]
+            if not use[b] or t1 == t0:
+                for t in range(t0, t1):
+                    coef[t] = 0.0
+                continue
+            for ph in range(nphase):
+                _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph,
+                     n)
 
 
 @numba.njit(**_JIT, inline="always")
@@ -189,30 +193,34 @@ def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, 
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_extrapolate(k, toff, tfluid, coef, out):
+def mls_extrapolate(k, toff, tfluid, chunks, coef, out):
     """``out[b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)``: the boundary value ``p_b / rho0`` of the
-    fluid field k (0 for samples without fluid neighbours)."""
-    for b in numba.prange(out.shape[0]):
-        s = 0.0
-        for t in range(toff[b], toff[b + 1]):
-            s += coef[t] * k[tfluid[t]]
-        out[b] = max(s, 0.0)
+    fluid field k (0 for samples without fluid neighbours), over the balanced ranges ``chunks``
+    of the samples."""
+    for c in numba.prange(chunks.shape[0] - 1):
+        for b in range(chunks[c], chunks[c + 1]):
+            s = 0.0
+            for t in range(toff[b], toff[b + 1]):
+                s += coef[t] * k[tfluid[t]]
+            out[b] = max(s, 0.0)
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_extrapolate_phases(k, toff, tfluid, coef, phase, out):
+def mls_extrapolate_phases(k, toff, tfluid, chunks, coef, phase, out):
     """``out[q, b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)`` over b's fluid neighbours f of phase
     q (coefficients of :func:`mls_coefficients` with the phases fitted on their own): one
-    boundary value per phase (0 for a phase without fluid neighbours at b)."""
+    boundary value per phase (0 for a phase without fluid neighbours at b), over the balanced
+    ranges ``chunks`` of the samples."""
     nq = out.shape[0]
-    for b in numba.prange(out.shape[1]):
-        for q in range(nq):
-            out[q, b] = 0.0
-        for t in range(toff[b], toff[b + 1]):
-            f = tfluid[t]
-            out[phase[f], b] += coef[t] * k[f]
-        for q in range(nq):
-            out[q, b] = max(out[q, b], 0.0)
+    for c in numba.prange(chunks.shape[0] - 1):
+        for b in range(chunks[c], chunks[c + 1]):
+            for q in range(nq):
+                out[q, b] = 0.0
+            for t in range(toff[b], toff[b + 1]):
+                f = tfluid[t]
+                out[phase[f], b] += coef[t] * k[f]
+            for q in range(nq):
+                out[q, b] = max(out[q, b], 0.0)
 
 
 class MLSPressureExtrapolation(BoundaryPressure):
@@ -231,6 +239,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.ridge = float(ridge)
         self.use = np.ascontiguousarray(use, dtype=np.bool_)
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
+        self.chunks = row_chunks(self.toff)  # balanced ranges of the samples (parallel loops)
         self.tfluid = np.empty(0, dtype=np.int32)
         self.coef = np.empty(0)
         self.phase: np.ndarray | None = None  # the fluid's phases where fitted on their own
@@ -252,11 +261,12 @@ class MLSPressureExtrapolation(BoundaryPressure):
         f, b = state.fluid, state.boundary
         nb = state.nl_fb
         self.toff, self.tfluid = _transpose(nb.offsets, nb.indices, b.n)
+        self.chunks = row_chunks(self.toff)
         self.coef = np.empty(self.tfluid.shape[0], dtype=f.dtype)
         rho_hat = f["rho"] / f["rho0"]
         self.phase = per_phase(state)
-        mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.use, state.h,
-                         state.kid, state.dim, state.pair_period, self.ridge, self.coef,
+        mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.chunks, self.use,
+                         state.h, state.kid, state.dim, state.pair_period, self.ridge, self.coef,
                          self._phase_rows(f.n), self.phases)
 
     @property
@@ -291,9 +301,10 @@ class MLSPressureExtrapolation(BoundaryPressure):
         phases fitted on their own ``out[q, b]``, (phases, N_boundary)
         (:func:`mls_extrapolate_phases`)."""
         if out.ndim == 2:
-            mls_extrapolate_phases(k, self.toff, self.tfluid, self.coef, self.phase, out)
+            mls_extrapolate_phases(k, self.toff, self.tfluid, self.chunks, self.coef, self.phase,
+                                   out)
         else:
-            mls_extrapolate(k, self.toff, self.tfluid, self.coef, out)
+            mls_extrapolate(k, self.toff, self.tfluid, self.chunks, self.coef, out)
 
 
 def per_phase(state: SimState) -> np.ndarray | None:
