@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from sphkit.backend import launch, launch_reduce, launch_sum
-from sphkit.backend.launch import cpu_driver
+from sphkit.backend.launch import constant_positions, cpu_driver
+from sphkit.core.kernels import Kernel, kernel_id, kernel_w
 
 
 @numba.njit(cache=True, inline="always")
@@ -72,6 +73,34 @@ def test_the_driver_is_built_once_per_body_and_arity() -> None:
     launch(_scale_body, 3, x, 1.0, np.empty(3))
     assert cpu_driver(_scale_body, 3) is cpu_driver(_scale_body, 3)
     assert cpu_driver(_scale_body, 3) is not cpu_driver(_scale_body, 3, "sum_max")
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _kernel_body(i, r, h, kid, dim, out):
+    out[i] = kernel_w(kid, r[i], h, dim)
+
+
+def test_the_kernel_id_is_compiled_into_its_own_driver() -> None:
+    """A body's ``kid`` reaches it as a constant: one driver per kernel id (so the kernel's
+    dispatch folds away), each giving that kernel's values, and a driver per id is built
+    once."""
+    assert constant_positions(_kernel_body) == (2,)
+    assert constant_positions(_scale_body) == ()
+    r = np.linspace(0.0, 1.2, 257)
+    for name in ("cubic", "wendland", "spiky"):
+        kid = kernel_id(name)
+        out = np.empty_like(r)
+        launch(_kernel_body, r.shape[0], r, 1.0, kid, 3, out)
+        # the same kernel through the generic loop (the id an argument): equal to rounding
+        assert np.allclose(out, Kernel(name, 1.0, 3).w(r), rtol=1e-12, atol=0.0), name
+        assert np.any(out > 0.0) and out[-1] == 0.0
+    cubic, spiky = kernel_id("cubic"), kernel_id("spiky")
+    assert cpu_driver(_kernel_body, 5, "each", (cubic,)) is cpu_driver(_kernel_body, 5, "each",
+                                                                          (cubic,))
+    assert cpu_driver(_kernel_body, 5, "each", (cubic,)) is not cpu_driver(_kernel_body, 5,
+                                                                              "each", (spiky,))
+    with pytest.raises(ValueError, match="2 constant values for the 1 constant parameters"):
+        cpu_driver(_kernel_body, 5, "each", (cubic, cubic))
 
 
 def test_unknown_device_is_an_error() -> None:

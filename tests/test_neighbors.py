@@ -11,13 +11,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from sphkit.core.neighbors import (
-    Grid,
-    NeighborList,
-    neighbor_lists,
-    row_chunks,
-    zorder_permutation,
-)
+from sphkit.core.arrays import row_chunks
+from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists, zorder_permutation
 from sphkit.core.particles import ParticleSet
 
 

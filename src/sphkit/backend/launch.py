@@ -46,6 +46,13 @@ device between steps, in the same ParticleSet fields):
   after the body): a second process loads it instead of compiling it, and editing the body's
   file invalidates it as it does the body. (A closure or a function-typed argument would not do:
   Numba keys their cache entries on objects that differ in every process.)
+  A body parameter named in :data:`CONSTANT_PARAMS` (the kernel id ``kid``) is compiled into
+  the driver as a constant: one driver per value met (named after it, so each has its own cache
+  entry), in which the kernel's dispatch (:func:`sphkit.core.kernels.kernel_w`: the cubic
+  spline inlined, the other kernels one call away) folds to the kernel in use. Without the call
+  in the pair loop the compiler vectorises it: the standard viscosity's pass took 0.87 ms with
+  the id as an argument and 0.51 ms with it a constant, the densities and pair gradients 0.78
+  and 0.66 ms (DFSPH benchmark scene, 6,859 particles, two threads; ``benchmarks/README.md``).
 * ``device="cuda"``: the body is compiled once as a CUDA device function
   (``cuda.jit(device=True)`` of its Python source: the same source, the helpers it calls become
   device functions too) and called from a generated ``cuda.jit`` kernel with one thread per
@@ -119,45 +126,83 @@ def driver(n, {params}):
     return tot
 """
 _TEMPLATES = {"each": _EACH, "sum_max": _SUM_MAX, "sum": _SUM}
-_codes: dict[tuple[str, int], types.CodeType] = {}
-_drivers: dict[tuple[Any, str, int], Any] = {}
+#: body parameters that the CPU driver compiles in as constants, one driver per value (module
+#: docstring): the kernel id, whose value selects the kernel's code in every pair loop
+CONSTANT_PARAMS = ("kid",)
+_codes: dict[tuple[str, int, tuple[int, ...]], types.CodeType] = {}
+_drivers: dict[tuple[Any, str, int, tuple[int, ...]], Any] = {}
+_constant_at: dict[Any, tuple[int, ...]] = {}
 
 
-def _template(kind: str, nargs: int) -> types.CodeType:
-    """The code object of the driver template ``kind`` for ``nargs`` arguments after i."""
-    key = (kind, nargs)
+def _template(kind: str, nargs: int, constants: tuple[int, ...] = ()) -> types.CodeType:
+    """The code object of the driver template ``kind`` for ``nargs`` arguments after i; the
+    arguments at the positions ``constants`` reach the body as the globals ``c<k>`` (the
+    driver's own parameters stay, unused, so its signature is the body's)."""
+    key = (kind, nargs, constants)
     if key not in _codes:
-        src = _TEMPLATES[kind].format(params=", ".join(f"a{k}" for k in range(nargs)))
+        params = ", ".join(f"a{k}" for k in range(nargs))
+        src = _TEMPLATES[kind].format(params=params)
+        if constants:
+            passed = ", ".join(f"c{k}" if k in constants else f"a{k}" for k in range(nargs))
+            src = src.replace(f"body(i, {params})", f"body(i, {passed})")
         scope: dict = {}
         exec(compile(src, "<sphkit.backend.launch driver>", "exec"), scope)
         _codes[key] = scope["driver"].__code__
     return _codes[key]
 
 
-def cpu_driver(body: Any, nargs: int, kind: str = "each") -> Any:
+def constant_positions(body: Any) -> tuple[int, ...]:
+    """The positions (after i) of ``body``'s parameters named in :data:`CONSTANT_PARAMS`."""
+    pos = _constant_at.get(body)
+    if pos is None:
+        code = body.py_func.__code__
+        names = code.co_varnames[1:code.co_argcount]
+        pos = tuple(k for k, name in enumerate(names) if name in CONSTANT_PARAMS)
+        _constant_at[body] = pos
+    return pos
+
+
+def cpu_driver(body: Any, nargs: int, kind: str = "each", values: tuple[int, ...] = ()) -> Any:
     """The compiled CPU driver of ``body`` for ``nargs`` arguments after i (``kind`` ``"each"``:
     :func:`launch`, ``"sum_max"``: :func:`launch_reduce`, ``"sum"``: :func:`launch_sum`), built
-    on first use and kept for the process.
+    on first use and kept for the process; ``values``: those of the body's constant parameters
+    (:func:`constant_positions`, in order), compiled in.
 
     The driver is the template's code with ``body`` bound as a global (not a closure) and with
-    the body's file, first line and name (plus ``__launch_<kind>``), so that Numba's cache stores
-    it beside the body and checks it against the body's source file."""
-    key = (body, kind, nargs)
+    the body's file, first line and name (plus ``__launch_<kind>`` and, for each constant,
+    ``__<name><value>``), so that Numba's cache stores it beside the body and checks it against
+    the body's source file."""
+    key = (body, kind, nargs, values)
     drv = _drivers.get(key)
     if drv is None:
         py = body.py_func
-        name = f"{py.__name__}__launch_{kind}"
-        qualname = f"{py.__qualname__}__launch_{kind}"
-        code = _template(kind, nargs).replace(
+        pos = constant_positions(body) if values else ()
+        if len(pos) != len(values):
+            raise ValueError(f"{py.__name__}: {len(values)} constant values for the "
+                             f"{len(pos)} constant parameters")
+        names = py.__code__.co_varnames[1:py.__code__.co_argcount]
+        tag = "".join(f"__{names[k]}{int(v)}" for k, v in zip(pos, values, strict=True))
+        name = f"{py.__name__}__launch_{kind}{tag}"
+        qualname = f"{py.__qualname__}__launch_{kind}{tag}"
+        code = _template(kind, nargs, pos).replace(
             co_filename=py.__code__.co_filename, co_firstlineno=py.__code__.co_firstlineno,
             co_name=name, co_qualname=qualname)
-        fn = types.FunctionType(code, {"numba": numba, "body": body, "max": max}, name)
+        scope = {"numba": numba, "body": body, "max": max}
+        scope.update({f"c{k}": int(v) for k, v in zip(pos, values, strict=True)})
+        fn = types.FunctionType(code, scope, name)
         fn.__qualname__ = qualname
         fn.__module__ = py.__module__
         fastmath = body.targetoptions.get("fastmath", False)
         drv = numba.njit(parallel=True, cache=True, fastmath=fastmath)(fn)
         _drivers[key] = drv
     return drv
+
+
+def _cpu(body: Any, args: tuple, kind: str) -> Any:
+    """The CPU driver of ``body`` for these arguments (the values of its constant parameters
+    among them)."""
+    pos = constant_positions(body)
+    return cpu_driver(body, len(args), kind, tuple(int(args[k]) for k in pos))
 
 
 #: the helpers compiled by their arguments' types (:func:`register_typed`) and their typing
@@ -216,7 +261,7 @@ def launch(body: Any, n: int, *args: Any, device: str | None = None) -> None:
         device = device_of(*args)
     _check(device)
     if device == "cpu":
-        cpu_driver(body, len(args), "each")(n, *args)
+        _cpu(body, args, "each")(n, *args)
     else:
         from sphkit.backend import cuda
 
@@ -232,7 +277,7 @@ def launch_reduce(body: Any, n: int, *args: Any,
         device = device_of(*args)
     _check(device)
     if device == "cpu":
-        tot, mx = cpu_driver(body, len(args), "sum_max")(n, *args)
+        tot, mx = _cpu(body, args, "sum_max")(n, *args)
         return float(tot), float(mx)
     from sphkit.backend import cuda
 
@@ -248,7 +293,7 @@ def launch_sum(body: Any, n: int, *args: Any, device: str | None = None) -> floa
         device = device_of(*args)
     _check(device)
     if device == "cpu":
-        return float(cpu_driver(body, len(args), "sum")(n, *args))
+        return float(_cpu(body, args, "sum")(n, *args))
     from sphkit.backend import cuda
 
     return cuda.launch_reduce(body, n, args)[0]

@@ -61,9 +61,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sphkit.core.arrays import row_chunks
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
-from sphkit.core.neighbors import row_chunks
 from sphkit.core.operators import replace_mirrored
 from sphkit.core.pairs import point, separation
 from sphkit.core.state import SimState
@@ -106,7 +106,7 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, chunks, use, h, kid, dim, L, 
     selects the Shepard fallback. ``phase`` (N,) and ``nphase``: each phase's fluid neighbours
     of b are fitted on their own ("Several rest densities" in the module docstring; one fluid:
     zeros and 1). The samples are visited in the balanced ranges ``chunks``
-    (:func:`sphkit.core.neighbors.row_chunks` of ``toff``)."""
+    (:func:`sphkit.core.arrays.row_chunks` of ``toff``)."""
     n = dim + 1
     for c in numba.prange(chunks.shape[0] - 1):
         for b in range(chunks[c], chunks[c + 1]):
