@@ -103,6 +103,33 @@ def test_the_kernel_id_is_compiled_into_its_own_driver() -> None:
         cpu_driver(_kernel_body, 5, "each", (cubic, cubic))
 
 
+@numba.njit(cache=True, inline="always")
+def _dim_body(i, x, dim, out):
+    out[i] = x[i] * dim
+
+
+def test_a_body_specialized_on_dim_gets_a_driver_per_dimension() -> None:
+    """``specialize(body, "dim")``: the dimension is compiled in as well (the pressure solvers'
+    iteration passes); each dimension's driver gives its own values; a name the body does not
+    take is refused."""
+    from sphkit.backend import specialize
+    from sphkit.core.ppe import jacobi_body, kappa_accel_body
+
+    assert specialize(_dim_body, "dim") is _dim_body
+    assert constant_positions(_dim_body) == (1,)
+    x = np.arange(5.0)
+    for dim in (2, 3):
+        out = np.empty(5)
+        launch(_dim_body, 5, x, dim, out)
+        assert np.array_equal(out, dim * x)
+    assert cpu_driver(_dim_body, 3, "each", (2,)) is not cpu_driver(_dim_body, 3, "each", (3,))
+    names = jacobi_body.py_func.__code__.co_varnames
+    assert constant_positions(jacobi_body) == (names.index("dim") - 1,)
+    assert len(constant_positions(kappa_accel_body)) == 1
+    with pytest.raises(ValueError, match="_dim_body: no parameter 'kid' to specialize on"):
+        specialize(_dim_body, "kid")
+
+
 def test_unknown_device_is_an_error() -> None:
     with pytest.raises(ValueError, match="device: 'gpu'; expected one of cpu, cuda"):
         launch(_scale_body, 1, np.zeros(1), 1.0, np.zeros(1), device="gpu")

@@ -14,10 +14,11 @@ from sphkit.backend.launch import (
     launch_sum,
     on_device,
     register_typed,
+    specialize,
     to_device,
     to_host,
 )
 
 __all__ = ["DEVICES", "cuda_available", "device_of", "empty", "exclusive_scan", "histogram",
-           "launch", "launch_reduce", "launch_sum", "on_device", "register_typed", "to_device",
-           "to_host"]
+           "launch", "launch_reduce", "launch_sum", "on_device", "register_typed", "specialize",
+           "to_device", "to_host"]
