@@ -109,9 +109,9 @@ def _dim_body(i, x, dim, out):
 
 
 def test_a_body_specialized_on_dim_gets_a_driver_per_dimension() -> None:
-    """``specialize(body, "dim")``: the dimension is compiled in as well (the pressure solvers'
+    """``specialize(body, "dim")``: the dimension is compiled in instead (the pressure solvers'
     iteration passes); each dimension's driver gives its own values; a name the body does not
-    take is refused."""
+    take is refused; ``specialize(body)`` leaves a body without constants."""
     from sphkit.backend import specialize
     from sphkit.core.ppe import jacobi_body, kappa_accel_body
 
@@ -128,6 +128,10 @@ def test_a_body_specialized_on_dim_gets_a_driver_per_dimension() -> None:
     assert len(constant_positions(kappa_accel_body)) == 1
     with pytest.raises(ValueError, match="_dim_body: no parameter 'kid' to specialize on"):
         specialize(_dim_body, "kid")
+    # no constants: a body that the constant kernel id makes slower keeps the generic driver
+    from sphkit.core.projection import constraint_correction_body
+
+    assert constant_positions(constraint_correction_body) == ()
 
 
 def test_unknown_device_is_an_error() -> None:

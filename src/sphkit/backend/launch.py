@@ -153,26 +153,32 @@ def _template(kind: str, nargs: int, constants: tuple[int, ...] = ()) -> types.C
 
 
 def constant_positions(body: Any) -> tuple[int, ...]:
-    """The positions (after i) of ``body``'s parameters named in :data:`CONSTANT_PARAMS` or
-    given to :func:`specialize`."""
+    """The positions (after i) of ``body``'s constant parameters: those named in
+    :data:`CONSTANT_PARAMS`, or those given to :func:`specialize`."""
     pos = _constant_at.get(body)
     if pos is None:
         code = body.py_func.__code__
         names = code.co_varnames[1:code.co_argcount]
-        constant = CONSTANT_PARAMS + _specialized.get(body, ())
+        constant = _specialized.get(body, CONSTANT_PARAMS)
         pos = tuple(k for k, name in enumerate(names) if name in constant)
         _constant_at[body] = pos
     return pos
 
 
 def specialize(body: Any, *names: str) -> Any:
-    """Compile ``body``'s integer parameters ``names`` into its CPU drivers as constants too
-    (as the kernel id always is; returns the body). For the few passes that run many times a
-    step, where a driver per value pays for its compilation: the dimension ``dim`` made
-    constant takes 9-12 % off the pressure solvers' two iteration passes (DFSPH benchmark
-    scene, 59,319 particles, two threads), in which the dimension's tests in every pair's
-    gather stay otherwise. Every body's would double the drivers compiled for a test run
-    that covers 2D and 3D."""
+    """Make ``body``'s constant parameters (compiled into its CPU drivers, one driver per value)
+    exactly ``names`` instead of :data:`CONSTANT_PARAMS` (returns the body). Two uses:
+
+    * more constants for the few passes that run many times a step, where a driver per value
+      pays for its compilation: the dimension ``dim`` made constant takes 9-12 % off the
+      pressure solvers' two iteration passes (DFSPH benchmark scene, 59,319 particles, two
+      threads), in which the dimension's tests in every pair's gather stay otherwise (every
+      body's would double the drivers compiled for a test run that covers 2D and 3D);
+    * none, for a body that the constant kernel id makes slower: the vectorised form the
+      compiler then chooses for some pair loops is slower than the scalar one (PBF's position
+      correction 0.93 -> 1.72 ms, the volume maps' wall moments 0.27 -> 0.30 ms, 6,859
+      particles, two threads; every other body of the six benchmark scenes ran 15-40 % faster).
+    """
     code = body.py_func.__code__
     params = code.co_varnames[1:code.co_argcount]
     for name in names:
