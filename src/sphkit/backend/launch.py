@@ -53,6 +53,8 @@ device between steps, in the same ParticleSet fields):
   in the pair loop the compiler vectorises it: the standard viscosity's pass took 0.87 ms with
   the id as an argument and 0.51 ms with it a constant, the densities and pair gradients 0.78
   and 0.66 ms (DFSPH benchmark scene, 6,859 particles, two threads; ``benchmarks/README.md``).
+  :func:`specialize` sets other constants for a body (the dimension of the pressure solvers'
+  iteration passes) or none (a body whose vectorised form is slower).
 * ``device="cuda"``: the body is compiled once as a CUDA device function
   (``cuda.jit(device=True)`` of its Python source: the same source, the helpers it calls become
   device functions too) and called from a generated ``cuda.jit`` kernel with one thread per
@@ -172,8 +174,10 @@ def specialize(body: Any, *names: str) -> Any:
     * more constants for the few passes that run many times a step, where a driver per value
       pays for its compilation: the dimension ``dim`` made constant takes 9-12 % off the
       pressure solvers' two iteration passes (DFSPH benchmark scene, 59,319 particles, two
-      threads), in which the dimension's tests in every pair's gather stay otherwise (every
-      body's would double the drivers compiled for a test run that covers 2D and 3D);
+      threads), in which the dimension's tests in every pair's gather stay otherwise, and lets
+      the compiler unroll and vectorise the element loops over a vector's rows (PCISPH's
+      prediction, 13.6 calls a step: 0.023 -> 0.006 ms at 6,859 particles); every body's would
+      double the drivers compiled for a test run that covers 2D and 3D;
     * none, for a body that the constant kernel id makes slower: the vectorised form the
       compiler then chooses for some pair loops is slower than the scalar one (PBF's position
       correction 0.93 -> 1.72 ms, the volume maps' wall moments 0.27 -> 0.30 ms, 6,859

@@ -22,7 +22,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from sphkit.backend import device_of, launch, launch_reduce, on_device, to_host
+from sphkit.backend import device_of, launch, launch_reduce, on_device, specialize, to_host
 from sphkit.backend import empty as backend_empty
 from sphkit.core.pairs import set_vector
 
@@ -49,11 +49,17 @@ def fill_rows_body(i, out, v0, v1, v2, dim):
     set_vector(out, i, dim, v0, v1, v2)
 
 
+specialize(fill_rows_body, "dim")  # an element loop: unrolled per dimension
+
+
 @numba.njit(**_BODY)
 def axpy_rows_body(i, y, alpha, x, dim):
     """``y[:, i] += alpha * x[:, i]``."""
     for d in range(dim):
         y[d, i] += alpha * x[d, i]
+
+
+specialize(axpy_rows_body, "dim")  # an element loop: unrolled per dimension
 
 
 @numba.njit(**_BODY)
@@ -67,6 +73,9 @@ def axpy_rows_into_body(i, y, alpha, x, out, dim):
     """``out[:, i] = y[:, i] + alpha * x[:, i]``."""
     for d in range(dim):
         out[d, i] = y[d, i] + alpha * x[d, i]
+
+
+specialize(axpy_rows_into_body, "dim")  # an element loop: unrolled per dimension
 
 
 @numba.njit(**_BODY)

@@ -25,7 +25,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from sphkit.backend import launch, launch_reduce
+from sphkit.backend import launch, launch_reduce, specialize
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -36,6 +36,9 @@ def euler_body(i, x, v, a, dt, dim):
     for d in range(dim):
         v[d, i] += dt * a[d, i]
         x[d, i] += dt * v[d, i]
+
+
+specialize(euler_body, "dim")  # an element loop: unrolled per dimension
 
 
 def symplectic_euler(x: np.ndarray, v: np.ndarray, a: np.ndarray, dt: float) -> None:
@@ -64,6 +67,9 @@ def speed2_body(i, v, a, dt, dim):
         t = v[d, i] + dt * a[d, i]
         s += t * t
     return s
+
+
+specialize(speed2_body, "dim")  # an element loop: unrolled per dimension
 
 
 @numba.njit(cache=True, inline="always")

@@ -119,7 +119,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from sphkit.backend import launch, launch_reduce
+from sphkit.backend import launch, launch_reduce, specialize
 from sphkit.core import arrays
 from sphkit.core import solver as solver_module
 from sphkit.core.methods import BoundaryReaction, PressureSolver
@@ -161,6 +161,9 @@ def predict_body(i, v, a, ap, dt, dim, dx):
     """``dx[:, i] = x*_i - x_i = dt (v_i + dt (a_i + ap_i))``."""
     for d in range(dim):
         dx[d, i] = dt * (v[d, i] + dt * (a[d, i] + ap[d, i]))
+
+
+specialize(predict_body, "dim")  # an element loop: unrolled per dimension
 
 
 @numba.njit(**_JIT, inline="always")
