@@ -154,15 +154,19 @@ def _template(kind: str, nargs: int, constants: tuple[int, ...] = ()) -> types.C
     return _codes[key]
 
 
+def _params(body: Any) -> tuple[str, ...]:
+    """The names of ``body``'s parameters after i."""
+    code = body.py_func.__code__
+    return code.co_varnames[1:code.co_argcount]
+
+
 def constant_positions(body: Any) -> tuple[int, ...]:
     """The positions (after i) of ``body``'s constant parameters: those named in
     :data:`CONSTANT_PARAMS`, or those given to :func:`specialize`."""
     pos = _constant_at.get(body)
     if pos is None:
-        code = body.py_func.__code__
-        names = code.co_varnames[1:code.co_argcount]
         constant = _specialized.get(body, CONSTANT_PARAMS)
-        pos = tuple(k for k, name in enumerate(names) if name in constant)
+        pos = tuple(k for k, name in enumerate(_params(body)) if name in constant)
         _constant_at[body] = pos
     return pos
 
@@ -183,11 +187,9 @@ def specialize(body: Any, *names: str) -> Any:
       correction 0.93 -> 1.72 ms, the volume maps' wall moments 0.27 -> 0.30 ms, 6,859
       particles, two threads; every other body of the six benchmark scenes ran 15-40 % faster).
     """
-    code = body.py_func.__code__
-    params = code.co_varnames[1:code.co_argcount]
     for name in names:
-        if name not in params:
-            raise ValueError(f"{code.co_name}: no parameter {name!r} to specialize on")
+        if name not in _params(body):
+            raise ValueError(f"{body.py_func.__name__}: no parameter {name!r} to specialize on")
     _specialized[body] = tuple(names)
     _constant_at.pop(body, None)
     return body
@@ -211,7 +213,7 @@ def cpu_driver(body: Any, nargs: int, kind: str = "each", values: tuple[int, ...
         if len(pos) != len(values):
             raise ValueError(f"{py.__name__}: {len(values)} constant values for the "
                              f"{len(pos)} constant parameters")
-        names = py.__code__.co_varnames[1:py.__code__.co_argcount]
+        names = _params(body)
         tag = "".join(f"__{names[k]}{int(v)}" for k, v in zip(pos, values, strict=True))
         name = f"{py.__name__}__launch_{kind}{tag}"
         qualname = f"{py.__qualname__}__launch_{kind}{tag}"
