@@ -409,6 +409,14 @@ SCRIPT = textwrap.dedent(
             o = f.order_by_id()
             out[device] = {k: f[k][..., o] for k in ("x", "v", "rho", "p")}
         assert nbs["cpu"] > 0 and nbs["cuda"] == nbs["cpu"], (bnd, nbs)
+        # a particle at rest density to rounding (the block's centre with the density maps:
+        # rho - rho0 = 1e-12 kg/m^3) gets the pressure of that rounding (2e-8 Pa), which the
+        # CPU's vectorised density sum rounds differently: its pressure is checked to be that
+        # small on both devices, the others' to the tolerance
+        noise = np.abs(out["cpu"]["rho"] / 1000.0 - 1.0) < 1e-12
+        for d in ("cpu", "cuda"):
+            assert np.all(np.abs(out[d]["p"][noise]) < 1e-6), (bnd, d, out[d]["p"][noise])
+            out[d]["p"] = np.where(noise, 0.0, out[d]["p"])
         for key in ("x", "v", "rho", "p"):
             e = rel(out["cuda"][key], out["cpu"][key])
             assert e <= 1e-12, (bnd, "step", key, e)

@@ -12,8 +12,9 @@ import pytest
 from scipy.spatial import cKDTree
 
 from sphkit.core.arrays import row_chunks
-from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists, zorder_permutation
+from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists
 from sphkit.core.particles import ParticleSet
+from sphkit.core.zorder import zorder_permutation
 
 
 def _brute(xq: np.ndarray, x: np.ndarray, h: float, exclude_self: bool = False) -> list[np.ndarray]:
@@ -141,6 +142,24 @@ def test_fluid_against_boundary(dim: int) -> None:
     # query points far from the searched set (beyond its grid in both directions) have no neighbours
     far = np.concatenate([np.full((dim, 1), -50.0), np.full((dim, 1), 75.0)], axis=1)
     assert np.all(Grid(boundary, h).query(far).counts() == 0)
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_a_grid_that_marks_its_near_cells_gives_the_same_lists(dim: int) -> None:
+    """Walls of a box (points on its faces only) marked with Grid.mark_near: queries from
+    cells with no wall point within reach return at once, the others scan as before; the lists
+    equal the brute force ones, inside, near and outside the box."""
+    h = CASES[dim][1]
+    rng = np.random.default_rng(40 + dim)
+    walls = rng.uniform(0.0, 1.0, size=(dim, 3000))
+    face = rng.integers(0, dim, size=3000)
+    walls[face, np.arange(3000)] = rng.integers(0, 2, size=3000)  # onto a face: 0 or 1
+    fluid = rng.uniform(-0.3, 1.3, size=(dim, 1500))
+    assert _no_pair_near_h(fluid, walls, h)
+    grid = Grid(walls, h).mark_near()
+    if grid.dense:
+        assert 0 < grid.near.sum() < grid.near.size  # the box's interior cells are unmarked
+    _assert_lists(grid.query(fluid), _brute(fluid, walls, h), walls.shape[1])
 
 
 # -- edge cases -----------------------------------------------------------------------------------

@@ -49,7 +49,7 @@ from sphkit.core import arrays
 from sphkit.core.arrays import on_device
 from sphkit.core.hashgrid import DeviceSearch
 from sphkit.core.krylov import KrylovStats
-from sphkit.core.neighbors import NeighborList, neighbor_lists, zorder_permutation
+from sphkit.core.neighbors import NeighborList, neighbor_lists
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats
@@ -64,6 +64,7 @@ from sphkit.core.timestep import (
     wrap_periodic,
 )
 from sphkit.core.verlet import VerletLists
+from sphkit.core.zorder import zorder_permutation
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world, resolve_device
 from sphkit.world.emitters import emit_all

@@ -9,7 +9,7 @@ A *body* holds the physics of one particle::
     def density_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho, L):
         xi0, xi1, xi2 = point(x, i, dim)
         s = m[i] * kernel_w(kid, 0.0, h, dim)
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             s += m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
         ...  # the boundary neighbours

@@ -24,7 +24,7 @@ from sphkit.core.hashgrid import HashGrid, hash_origin
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryModel
 from sphkit.core.neighbors import Grid, NeighborList, Period, neighbor_lists, pair_period
-from sphkit.core.pairs import distance, point
+from sphkit.core.pairs import distance, pair_slots, point
 from sphkit.core.state import SimState
 
 
@@ -33,7 +33,7 @@ def _volumes(x, off, idx, h, kid, dim, L, V):
     for b in numba.prange(x.shape[1]):
         xb0, xb1, xb2 = point(x, b, dim)
         s = kernel_w(kid, 0.0, h, dim)
-        for k in range(off[b], off[b + 1]):
+        for k in pair_slots(off, b):
             s += kernel_w(kid, distance(xb0, xb1, xb2, x, idx[k], dim, L), h, dim)
         V[b] = 1.0 / s
 
@@ -46,7 +46,7 @@ def _nearest(x, off, idx, bx, dim, L, dist, near):
         xi0, xi1, xi2 = point(x, i, dim)
         best = np.inf
         b_best = -1
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             b = idx[k]
             d = distance(xi0, xi1, xi2, bx, b, dim, L)
             if d < best:
@@ -126,7 +126,7 @@ class Akinci2012(BoundaryModel):
                 static_volumes(state)
             elif not moving.all():
                 static_volumes(state, np.flatnonzero(~moving))
-            self.grid = Grid(bd["x"], state.h)
+            self.grid = Grid(bd["x"], state.h).mark_near()
 
     def rebuild(self, state: SimState) -> None:
         """Rebuild the boundary grid after boundary particles moved (rigid bodies)."""

@@ -65,7 +65,7 @@ from sphkit.core.arrays import row_chunks
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
 from sphkit.core.operators import replace_mirrored
-from sphkit.core.pairs import point, separation
+from sphkit.core.pairs import pair_slots, point, separation
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -87,7 +87,7 @@ def _transpose(boff, bidx, nb):
     fill = count[:nb].copy()
     tfluid = np.empty(bidx.shape[0], dtype=np.int32)  # fluid indices: int32 as the lists'
     for i in range(nf):
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             t = fill[b]
             tfluid[t] = i
@@ -109,7 +109,7 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, chunks, use, h, kid, dim, L, 
     (:func:`sphkit.core.arrays.row_chunks` of ``toff``)."""
     n = dim + 1
     for c in numba.prange(chunks.shape[0] - 1):
-        for b in range(chunks[c], chunks[c + 1]):
+        for b in pair_slots(chunks, c):
             t0 = toff[b]
             t1 = toff[b + 1]
             if not use[b] or t1 == t0:
@@ -198,9 +198,9 @@ def mls_extrapolate(k, toff, tfluid, chunks, coef, out):
     fluid field k (0 for samples without fluid neighbours), over the balanced ranges ``chunks``
     of the samples."""
     for c in numba.prange(chunks.shape[0] - 1):
-        for b in range(chunks[c], chunks[c + 1]):
+        for b in pair_slots(chunks, c):
             s = 0.0
-            for t in range(toff[b], toff[b + 1]):
+            for t in pair_slots(toff, b):
                 s += coef[t] * k[tfluid[t]]
             out[b] = max(s, 0.0)
 
@@ -213,10 +213,10 @@ def mls_extrapolate_phases(k, toff, tfluid, chunks, coef, phase, out):
     ranges ``chunks`` of the samples."""
     nq = out.shape[0]
     for c in numba.prange(chunks.shape[0] - 1):
-        for b in range(chunks[c], chunks[c + 1]):
+        for b in pair_slots(chunks, c):
             for q in range(nq):
                 out[q, b] = 0.0
-            for t in range(toff[b], toff[b + 1]):
+            for t in pair_slots(toff, b):
                 f = tfluid[t]
                 out[phase[f], b] += coef[t] * k[f]
             for q in range(nq):

@@ -73,6 +73,7 @@ import numpy as np
 from sphkit.backend import launch, launch_reduce
 from sphkit.boundary.maps import BoundaryMap, MapBoundaryModel
 from sphkit.core import arrays
+from sphkit.core.pairs import pair_slots
 from sphkit.core.state import SimState
 from sphkit.geometry.grids import (
     ball_quadrature,
@@ -192,7 +193,7 @@ def mirror_share_body(i, x, phi, lo, cell, res, dim, extend_axis, top, r, Vb, ou
 def follow_body(i, x, dx, bx, off, idx, dim, out):
     """out[:, b] = bx[:, b] + (I - n n) dx[:, i] for the virtual particles b of fluid particle
     i, n = (x_i - x_b) / |x_i - x_b|."""
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         b = idx[k]
         nn = 0.0
         for d in range(dim):

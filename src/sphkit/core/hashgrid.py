@@ -24,7 +24,8 @@ from sphkit.backend import (
     to_device,
     to_host,
 )
-from sphkit.core.neighbors import _BITS, NeighborList, _bucket, _cell, _pack, _scan, _spread
+from sphkit.core.neighbors import _BITS, NeighborList, _bucket, _cell, _pack, _scan
+from sphkit.core.zorder import _spread
 
 
 @numba.njit(cache=True, inline="always")
@@ -102,7 +103,7 @@ ZORDER_MAX_BITS = (21, 10, 7)
 
 def zorder_on_device(x, h: float, center: np.ndarray, device: str = "cpu"):  # noqa: ANN201
     """A permutation (N,) int64, on ``device``, that orders the points ``x`` (dim, N) there along
-    a z-order curve, without copying them to the host (where :func:`sphkit.core.neighbors.
+    a z-order curve, without copying them to the host (where :func:`sphkit.core.zorder.
     zorder_permutation` sorts the Morton codes of the cells of size h): a counting sort
     (:func:`sphkit.backend.histogram`, :func:`sphkit.backend.exclusive_scan`) by the Morton code
     of cells of size ``h 2^s``, with ``b`` bits per axis (about as many bins as points, at most

@@ -35,6 +35,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 from scipy.sparse.linalg import splu
 
+from sphkit.core.pairs import pair_slots
+
 #: U is taken as ``D L^T`` when ``max |U - D L^T| <= SYMMETRY_TOLERANCE * max |U|``
 SYMMETRY_TOLERANCE = 1e-12
 
@@ -132,7 +134,7 @@ def _ldlt_solve3(indptr, indices, data, d, perm, b, x, z):
         z[p, 2] = b[i, 2]
     for j in range(n):  # L z = b (column-oriented)
         z0, z1, z2 = z[j, 0], z[j, 1], z[j, 2]
-        for k in range(indptr[j], indptr[j + 1]):
+        for k in pair_slots(indptr, j):
             r = indices[k]
             v = data[k]
             z[r, 0] -= v * z0
@@ -141,7 +143,7 @@ def _ldlt_solve3(indptr, indices, data, d, perm, b, x, z):
     for j in range(n - 1, -1, -1):  # D^-1, then L^T x = z (rows of L^T: the columns of L)
         inv = 1.0 / d[j]
         s0, s1, s2 = z[j, 0] * inv, z[j, 1] * inv, z[j, 2] * inv
-        for k in range(indptr[j], indptr[j + 1]):
+        for k in pair_slots(indptr, j):
             r = indices[k]
             v = data[k]
             s0 -= v * z[r, 0]
@@ -166,7 +168,7 @@ def _ldlt_solve(indptr, indices, data, d, perm, b, x, z):
         for c in range(m):
             z[perm[i], c] = b[i, c]
     for j in range(n):  # L z = b (column-oriented)
-        for k in range(indptr[j], indptr[j + 1]):
+        for k in pair_slots(indptr, j):
             r = indices[k]
             v = data[k]
             for c in range(m):
@@ -176,7 +178,7 @@ def _ldlt_solve(indptr, indices, data, d, perm, b, x, z):
         for c in range(m):
             z[j, c] *= inv
     for j in range(n - 1, -1, -1):  # L^T x = z (rows of L^T are the columns of L)
-        for k in range(indptr[j], indptr[j + 1]):
+        for k in pair_slots(indptr, j):
             r = indices[k]
             v = data[k]
             for c in range(m):

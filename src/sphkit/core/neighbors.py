@@ -27,9 +27,6 @@ overflow) in parallel over query points, then the rows are compacted.
 kernel bodies, so the same search runs on the GPU; the scan of one query point is :func:`_scan`.
 
 Verlet lists reused across steps (``configuration.neighbor_skin``): :mod:`sphkit.core.verlet`.
-
-:func:`zorder_permutation` gives the permutation that sorts particles along a Morton (z-order)
-curve of their cells, which the simulation applies to every particle field every few steps.
 """
 
 from __future__ import annotations
@@ -40,6 +37,8 @@ from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
+
+from sphkit.core.pairs import pair_slots, unsigned_range
 
 if TYPE_CHECKING:
     from sphkit.core.arrays import Scratch
@@ -151,7 +150,7 @@ def _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index, sorte
                     continue
                 key = _pack(ix, iy, iz)
                 b = _bucket(ix, iy, iz, mask)
-                for s in range(bucket_start[b], bucket_start[b + 1]):
+                for s in unsigned_range(bucket_start[b], bucket_start[b + 1]):
                     if sorted_key[s] != key:  # another cell hashed to this bucket
                         continue
                     j = sorted_index[s]
@@ -159,7 +158,7 @@ def _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index, sorte
                     ty = qy - sorted_x[1, s]
                     tz = qz - sorted_x[2, s]
                     # branch-free append: always write, advance only on a hit
-                    out[pos + min(count, last)] = j
+                    out[np.uint64(pos + min(count, last))] = j
                     count += (tx * tx + ty * ty + tz * tz < h2) & ((j != i) | notself)
     return count
 
@@ -175,9 +174,9 @@ def _compact(buf, counts, cap):
         largest = max(largest, counts[i])
     indices = np.empty(offsets[n], dtype=np.int32)
     for i in numba.prange(n):
-        o = offsets[i]
-        for k in range(offsets[i + 1] - o):
-            indices[o + k] = buf[i * cap + k]
+        o, b = np.uint64(offsets[i]), np.uint64(i * cap)
+        for k in unsigned_range(0, offsets[i + 1] - offsets[i]):
+            indices[o + k] = buf[b + k]
     return offsets, indices, largest
 
 
@@ -228,9 +227,31 @@ def _gap(u, cu, c):
     return 0.0
 
 
+@numba.njit(cache=True)
+def _dilated_occupancy(cell_start, shape, reach):
+    """Per cell of a dense grid (row-major, ``shape`` (3,)): 1 where a point lies in the block
+    of cells within ``reach`` along every axis (the cells a query from there scans), else 0."""
+    n0, n1, n2 = shape[0], shape[1], shape[2]
+    a = np.empty(n0 * n1 * n2, dtype=np.uint8)
+    for c in range(a.shape[0]):
+        a[c] = cell_start[c + 1] > cell_start[c]
+    b = np.empty_like(a)
+    strides = (n1 * n2, n2, 1)
+    for axis in range(3):  # separable: a maximum over the reach along one axis at a time
+        st, n = strides[axis], shape[axis]
+        for c in range(a.shape[0]):
+            p = (c // st) % n
+            m = 0
+            for q in range(max(p - reach, 0), min(p + reach, n - 1) + 1):
+                m = max(m, a[c + (q - p) * st])
+            b[c] = m
+        a, b = b, a
+    return a
+
+
 @numba.njit(cache=True, inline="always")
 def _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index, sorted_x,
-                exclude_self, out, pos, cap):
+                exclude_self, out, pos, cap, near):
     """Like :func:`_scan` on a dense grid of cells ``h / sub`` wide: for every row of cells
     along the last axis within reach, only the cells that the ball of radius h around the
     query point touches are visited, and they are one contiguous run of the sorted points.
@@ -247,6 +268,10 @@ def _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index,
     qz = xq[2, i] if dim >= 3 else 0.0
     c0 = np.int64(np.floor(u0))
     c1 = np.int64(np.floor(u1))
+    c2 = np.int64(np.floor(u2))
+    if (near.shape[0] > 0 and 0 <= c0 < shape[0] and 0 <= c1 < shape[1] and 0 <= c2 < shape[2]
+            and near[(c0 * shape[1] + c1) * shape[2] + c2] == 0):
+        return 0  # no point in any cell within reach (Grid.mark_near)
     reach2 = sub * sub * (1.0 + 1e-9)  # slack: rounding never drops a cell
     count = 0
     last = cap - 1
@@ -263,32 +288,32 @@ def _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index,
             if z0 > z1:
                 continue
             base = (a0 * shape[1] + a1) * shape[2]
-            for s in range(cell_start[base + z0], cell_start[base + z1 + 1]):
+            for s in unsigned_range(cell_start[base + z0], cell_start[base + z1 + 1]):
                 tx = qx - sorted_x[0, s]
                 ty = qy - sorted_x[1, s]
                 tz = qz - sorted_x[2, s]
-                out[pos + min(count, last)] = s  # always written, kept on a hit
+                out[np.uint64(pos + min(count, last))] = s  # always written, kept on a hit
                 count += np.int64(tx * tx + ty * ty + tz * tz < h2)
     if count >= cap:  # the row overflowed (its last slot was overwritten): redo, wider
         return count
     k = 0
-    for t in range(count):
-        j = sorted_index[out[pos + t]]
-        out[pos + k] = j
+    for t in unsigned_range(pos, pos + count):
+        j = sorted_index[np.uint64(out[t])]
+        out[np.uint64(pos + k)] = j
         k += np.int64((j != i) or not exclude_self)
     return k
 
 
 @numba.njit(cache=True, parallel=True, fastmath=True)
 def _dense_query(xq, dim, h, sub, lo, shape, cell_start, sorted_index, sorted_x, exclude_self,
-                 cap, buf, counts):
+                 cap, buf, counts, near):
     """:func:`_query` on the dense grid."""
     n = xq.shape[1]
     inv_a = sub / h
     h2 = h * h
     for i in numba.prange(n):
         counts[i] = _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index,
-                                sorted_x, exclude_self, buf, i * cap, cap)
+                                sorted_x, exclude_self, buf, i * cap, cap, near)
 
 
 @dataclass
@@ -360,6 +385,8 @@ class Grid:
         #: the packed cell key of each sorted point (hashed grid only: the dense grid has none)
         self.sorted_key = np.empty(0, dtype=np.int64)
         self.sorted_x = np.empty((3, n), dtype=x.dtype)  # zero-padded to 3 rows
+        #: per dense cell, whether a point lies within reach (:meth:`mark_near`; empty: not kept)
+        self.near = np.zeros(0, dtype=np.uint8)
         self.dense = n > 0 and self._build_dense(xc)
         if not self.dense:
             self.sorted_key = np.empty(n, dtype=np.int64)
@@ -388,6 +415,14 @@ class Grid:
         _counting_sort(cell, cell, xc, cells, self.cell_start, self.sorted_index,
                        self.sorted_key, self.sorted_x)
         return True
+
+    def mark_near(self) -> Grid:
+        """Keep, per cell of a dense grid, whether any point lies in the cells a query from
+        there scans, so that queries far from every point return at once; for a grid queried
+        at every step (static walls: most fluid particles are far from them). Returns self."""
+        if self.dense:
+            self.near = _dilated_occupancy(self.cell_start, self.shape, self.SUB)
+        return self
 
     def _build_hashed(self, xc: np.ndarray) -> None:
         n, h = self.n, self.h
@@ -444,7 +479,8 @@ class Grid:
                 rows, counts = scratch.take(((m * cap,), np.int32), ((m,), np.int64))
             if self.dense:
                 _dense_query(xq, self.dim, self.h, self.SUB, self.lo, self.shape, self.cell_start,
-                             self.sorted_index, self.sorted_x, exclude_self, cap, rows, counts)
+                             self.sorted_index, self.sorted_x, exclude_self, cap, rows, counts,
+                             self.near)
             else:
                 _query(xq, self.dim, self.h, self.origin, self.mask, self.bucket_start,
                        self.sorted_index, self.sorted_key, self.sorted_x, exclude_self, cap,
@@ -491,12 +527,12 @@ def _merge_rows(off_a, idx_a, off_b, idx_b, row_b):
     indices = np.empty(offsets[n], dtype=np.int32)
     for i in numba.prange(n):
         o = offsets[i]
-        for t in range(off_a[i], off_a[i + 1]):
+        for t in pair_slots(off_a, i):
             indices[o] = idx_a[t]
             o += 1
         k = row_b[i]
         if k >= 0:
-            for t in range(off_b[k], off_b[k + 1]):
+            for t in pair_slots(off_b, k):
                 indices[o] = idx_b[t]
                 o += 1
     return offsets, indices
@@ -561,34 +597,3 @@ def _periodic_query(grid: Grid, xq: np.ndarray, exclude_self: bool,
         off, idx = _merge_rows(out.offsets, out.indices, seam.offsets, seam.indices, row_b)
         out = NeighborList(off, idx)
     return out
-
-
-@numba.njit(cache=True, inline="always")
-def _spread(v, dim):
-    # interleave the bits of v with (dim - 1) zero bits between them
-    out = np.int64(0)
-    for b in range(63 // dim):
-        out |= ((v >> b) & 1) << (b * dim)
-    return out
-
-
-@numba.njit(cache=True, parallel=True)
-def _morton(x, dim, inv_h, lo, codes):
-    for i in numba.prange(x.shape[1]):
-        code = np.int64(0)
-        for d in range(dim):
-            c = np.int64(np.floor(x[d, i] * inv_h)) - lo[d]
-            code |= _spread(c, dim) << d
-        codes[i] = code
-
-
-def zorder_permutation(x: np.ndarray, h: float) -> np.ndarray:
-    """Permutation that orders points (dim, N) along a z-order curve of their grid cells."""
-    n = x.shape[1]
-    if n == 0:
-        return np.zeros(0, dtype=np.int64)
-    dim = x.shape[0]
-    lo = np.floor(x.min(axis=1) / h).astype(np.int64)
-    codes = np.empty(n, dtype=np.int64)
-    _morton(np.ascontiguousarray(x), dim, 1.0 / h, lo, codes)
-    return np.argsort(codes, kind="stable")

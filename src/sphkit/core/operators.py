@@ -42,6 +42,7 @@ from sphkit.core.pairs import (
     add_vector,
     delta,
     distance,
+    pair_slots,
     period_arg,
     point,
     separation,
@@ -68,10 +69,10 @@ def density_body(i, x, mu, off, idx, bx, bV, boff, bidx, rho0, h, kid, dim, rho,
     # (twice as fast as d-loops); the scalar pair helpers also compile for CUDA
     xi0, xi1, xi2 = point(x, i, dim)
     s = mu[i] * kernel_w(kid, 0.0, h, dim)
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         s += mu[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         s += rho0 * bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
     rho[i] = c[i] * s
@@ -96,7 +97,7 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
     ici = inv_c[i]
     dpc = dpi * ci
     a0 = a1 = a2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         s = -m[j] * (dpc * inv_c[j] + p[j] / (rho[j] * rho[j])) * kernel_dw(kid, r, h, dim)
@@ -105,7 +106,7 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
         a2 += s * d2
     dpb = dpi + p[i] / (rho0 * rho0) * (ici * ici)
     r0 = rho0 * ci
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
         s = -r0 * bV[b] * dpb * kernel_dw(kid, r, h, dim)
@@ -169,7 +170,7 @@ def replace_mirrored(x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, phase, h, k
         ici = inv_c[i]
         ph = phase[i]
         a0 = a1 = a2 = 0.0
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             if not use[b]:
                 continue
@@ -195,7 +196,7 @@ def _interpolate(x, V, A, off, idx, h, kid, dim, out, L=0.0):
         w = V[i] * kernel_w(kid, 0.0, h, dim)
         for c in range(nc):
             out[c, i] = w * A[c, i]
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             w = V[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
             for c in range(nc):
@@ -208,7 +209,7 @@ def _gradient(x, V, m, rho, A, off, idx, h, kid, dim, mode, renorm, out):
         xi0, xi1, xi2 = point(x, i, dim)
         g = np.zeros(3)
         L = np.zeros((3, 3))
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
             dd = (d0, d1, d2)
@@ -242,7 +243,7 @@ def _divergence(x, m, rho, A, off, idx, h, kid, dim, out):
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         s = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
             dd = (d0, d1, d2)
@@ -262,7 +263,7 @@ def curl_sum(i, x, m, A, off, idx, h, kid, dim, L):
     xi0, xi1, xi2 = point(x, i, dim)
     ai0, ai1, ai2 = point(A, i, dim)
     c0 = c1 = c2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         f = m[j] * kernel_dw(kid, r, h, dim)
@@ -292,7 +293,7 @@ def _laplacian(x, V, A, off, idx, h, kid, dim, out):
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         s = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             r = distance(xi0, xi1, xi2, x, j, dim, 0.0)
             f = kernel_dw(kid, r, h, dim)
@@ -372,10 +373,10 @@ def color_field_cpu(x, m, rho, off, idx, bx, bV, boff, bidx, h, kid, dim, c, L=0
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         s = m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             s += m[j] / rho[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             s += bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
         c[i] = s
@@ -391,7 +392,7 @@ def color_gradient_sum(i, x, m, rho, c, off, idx, h, kid, dim, L):
     weighted = c.shape[0] > 0
     xi0, xi1, xi2 = point(x, i, dim)
     n0 = n1 = n2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         s = m[j] / rho[j]

@@ -71,6 +71,7 @@ from sphkit.core.pairs import (
     displaced_point,
     distance,
     norm,
+    pair_slots,
     period_arg,
     point,
     separation,
@@ -150,11 +151,11 @@ def density_at_body(i, x, dx, m, off, idx, bx, bdx, bV, boff, bidx, rho0, h, kid
     moving = bdx.shape[1] > 0
     xi0, xi1, xi2 = displaced_point(x, dx, i, dim)
     s = m[i] / rho0 * kernel_w(kid, 0.0, h, dim)
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, 0.0)
         s += m[j] / rho0 * kernel_w(kid, norm(d0, d1, d2), h, dim)
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         if moving:
             d0, d1, d2 = displaced_delta(xi0, xi1, xi2, bx, bdx, b, dim, 0.0)
@@ -208,12 +209,12 @@ def pair_gradients(x, V, off, idx, bx, bV, boff, bidx, h, kid, dim, gw, gwb, L=0
     periodic along x with period L, minimum-image differences)."""
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             f = V[j] * kernel_dw(kid, r, h, dim)
             set_vector(gw, k, dim, f * d0, f * d1, f * d2)
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
             f = bV[b] * kernel_dw(kid, r, h, dim)
@@ -229,14 +230,14 @@ def density_pair_gradients_body(i, x, m, off, idx, bx, bV, boff, bidx, rho0, h, 
     ratios of :class:`sphkit.core.state.RestArrays`."""
     xi0, xi1, xi2 = point(x, i, dim)
     s = m[i] * kernel_w(kid, 0.0, h, dim)
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         s += m[j] * kernel_w(kid, r, h, dim)
         f = V[j] * kernel_dw(kid, r, h, dim)
         set_vector(gw, k, dim, f * d0, f * d1, f * d2)
     sb = 0.0
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
         sb += bV[b] * kernel_w(kid, r, h, dim)
@@ -273,14 +274,14 @@ def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a, i
     with_kb = kb.shape[0] > 0
     ki = k[i]
     a0 = a1 = a2 = 0.0
-    for kk in range(off[i], off[i + 1]):
+    for kk in pair_slots(off, i):
         s = ki + k[idx[kk]]
         a0 -= s * gw[0, kk]
         if dim > 1:
             a1 -= s * gw[1, kk]
         if dim > 2:
             a2 -= s * gw[2, kk]
-    for kk in range(boff[i], boff[i + 1]):
+    for kk in pair_slots(boff, i):
         b = bidx[kk]
         sb = ki * (1.0 + bmirror[b])
         if with_kb:
@@ -303,7 +304,7 @@ def phase_kb_body(i, kb, phase, boff, bidx, gwb, dim, a, inv_c):
     values of its own phase (:func:`kappa_accel_cached` with a row of kb per phase)."""
     ph = phase[i]
     a0 = a1 = a2 = 0.0
-    for kk in range(boff[i], boff[i + 1]):
+    for kk in pair_slots(boff, i):
         sb = kb[ph, bidx[kk]]
         g0, g1, g2 = point(gwb, kk, dim)  # V_b grad W_ib (0 beyond dim)
         a0, a1, a2 = a0 - sb * g0, a1 - sb * g1, a2 - sb * g2
@@ -374,7 +375,7 @@ def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, i
     g0 = g1 = g2 = 0.0
     sq = 0.0
     ci = c[i]
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         t0 = gw[0, k]
         t1 = gw[1, k] if dim > 1 else 0.0
         t2 = gw[2, k] if dim > 2 else 0.0
@@ -387,7 +388,7 @@ def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, i
             sq += t0 * t0 + t1 * t1 + t2 * t2
     b0 = b1 = b2 = 0.0
     m0 = m1 = m2 = 0.0
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         f = 1.0 + bmirror[bidx[k]]
         b0 += gwb[0, k]
         m0 += f * gwb[0, k]
@@ -408,7 +409,7 @@ def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
     product with its own branches) :func:`jacobi_sweep` ran 5-13 % slower."""
     vi0, vi1, vi2 = point(v, i, dim)
     s = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         t = (vi0 - v[0, j]) * gw[0, k]
         if dim > 1:
@@ -416,7 +417,7 @@ def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
         if dim > 2:
             t += (vi2 - v[2, j]) * gw[2, k]
         s += t
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         t = (vi0 - bv[0, b]) * gwb[0, k]
         if dim > 1:
@@ -478,7 +479,7 @@ def wall_sums(v, vb, Vf, Vb, boff, bidx, gwb, dim, use, out):
     out[:] = 0.0
     for i in range(boff.shape[0] - 1):
         wi = Vf[i]
-        for kk in range(boff[i], boff[i + 1]):
+        for kk in pair_slots(boff, i):
             b = bidx[kk]
             t = (v[0, i] - vb[0, b]) * gwb[0, kk]
             if dim > 1:
@@ -504,14 +505,14 @@ def wall_diagonal(Vf, Vb, inv_c, boff, bidx, gwb, dim, use, out):
     n = boff.shape[0] - 1
     B = np.zeros((3, n))
     for i in range(n):
-        for kk in range(boff[i], boff[i + 1]):
+        for kk in pair_slots(boff, i):
             if use[bidx[kk]]:
                 for d in range(dim):
                     B[d, i] += gwb[d, kk]
     out[:] = 0.0
     for i in range(n):
         wi = Vf[i] * inv_c[i]
-        for kk in range(boff[i], boff[i + 1]):
+        for kk in pair_slots(boff, i):
             b = bidx[kk]
             t = gwb[0, kk] * gwb[0, kk]
             tb = gwb[0, kk] * B[0, i]
@@ -537,7 +538,7 @@ def wall_update(ap, s, D, ap_factor, omega, kb, k, boff, bidx, cap, kmax):
     fluid's density-level one cannot both hold (fluid compressed against a wall)."""
     kmax[:] = 0.0
     for i in range(boff.shape[0] - 1):
-        for kk in range(boff[i], boff[i + 1]):
+        for kk in pair_slots(boff, i):
             b = bidx[kk]
             if k[i] > kmax[b]:
                 kmax[b] = k[i]
@@ -559,7 +560,7 @@ def wall_density(x, Vf, bx, boff, bidx, h, kid, dim, L, use, out):
     for i in range(boff.shape[0] - 1):
         xi0, xi1, xi2 = point(x, i, dim)
         wi = Vf[i]
-        for kk in range(boff[i], boff[i + 1]):
+        for kk in pair_slots(boff, i):
             b = bidx[kk]
             if use[b]:
                 out[b] += wi * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)

@@ -38,6 +38,7 @@ from sphkit.core.pairs import (
     displaced_point,
     dot,
     norm,
+    pair_slots,
     period_arg,
     separation,
     set_vector,
@@ -60,7 +61,7 @@ def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid,
     rho = V[i] * kernel_w(kid, 0.0, h, dim)
     g0 = g1 = g2 = 0.0
     sq = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2 = displaced_delta(xi0, xi1, xi2, x, dx, j, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)
@@ -74,7 +75,7 @@ def constraint_lambda_body(i, x, dx, V, t, off, idx, bx, bV, boff, bidx, h, kid,
             sq += f * f * r2 * (ci * inv_c[j])
         else:
             sq += f * f * r2
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2, rr = separation(xi0, xi1, xi2, bx, b, dim, L)
         rho += bV[b] * kernel_w(kid, rr, h, dim)
@@ -128,7 +129,7 @@ def constraint_correction_body(i, x, dx, V, lam, off, idx, bx, bV, boff, bidx, h
     li = lam[i]
     ici = inv_c[i]
     c0 = c1 = c2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         s = li + lam[j] * (c[j] * ici)
         if not s_corr and s == 0.0:
@@ -142,7 +143,7 @@ def constraint_correction_body(i, x, dx, V, lam, off, idx, bx, bV, boff, bidx, h
         c1 += f * d1
         c2 += f * d2
     if li != 0.0:
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
             f = li * bV[b] * kernel_dw(kid, r, h, dim)

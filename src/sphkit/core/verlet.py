@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from sphkit.core.neighbors import NeighborList, Period, csr_offsets, neighbor_lists, pair_period
-from sphkit.core.pairs import delta, point
+from sphkit.core.pairs import delta, pair_slots, point
 
 
 @numba.njit(cache=True, parallel=True, fastmath=True)
@@ -29,7 +29,7 @@ def _within(x, off, idx, h, dim, L):
     for i in numba.prange(n):
         xi0, xi1, xi2 = point(x, i, dim)
         c = 0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             d0, d1, d2 = delta(xi0, xi1, xi2, x, idx[k], dim, L)
             c += np.int64(d0 * d0 + d1 * d1 + d2 * d2 < h2)
         counts[i] = c
@@ -38,7 +38,7 @@ def _within(x, off, idx, h, dim, L):
     for i in numba.prange(n):
         xi0, xi1, xi2 = point(x, i, dim)
         o = offsets[i]
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
             if d0 * d0 + d1 * d1 + d2 * d2 < h2:

@@ -46,7 +46,7 @@ import numpy as np
 from sphkit.backend import launch
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.krylov import JacobiPreconditioner, KrylovStats, cg
-from sphkit.core.pairs import delta, distance, dot, point, separation
+from sphkit.core.pairs import delta, distance, dot, pair_slots, point, separation
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -60,7 +60,7 @@ def velocity_gradient(x, v, m, rho, off, idx, h, kid, dim, L, own_density, out):
         for c in range(dim * dim):
             out[c, i] = 0.0
         xi0, xi1, xi2 = point(x, i, dim)
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             w = m[j] / (rho[i] if own_density else rho[j])
@@ -79,11 +79,11 @@ def kernel_sum_diagonal(x, m, off, idx, bx, bV, boff, bidx, rho0, with_boundary,
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         s = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             s += m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim)
         if with_boundary:
-            for k in range(boff[i], boff[i + 1]):
+            for k in pair_slots(boff, i):
                 b = bidx[k]
                 s += rho0 * bV[b] * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)
         out[i] = s
@@ -95,7 +95,7 @@ def kernel_sum_matvec(x, m, off, idx, diag, h, kid, dim, L, u, out):
     for i in numba.prange(x.shape[1]):
         xi0, xi1, xi2 = point(x, i, dim)
         s = diag[i] * u[i]
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             s -= m[j] * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, L), h, dim) * u[j]
         out[i] = s
@@ -109,7 +109,7 @@ def target_gradient_rhs(x, m, off, idx, T, h, kid, dim, L, out):
         xi0, xi1, xi2 = point(x, i, dim)
         for a in range(dim):
             out[a, i] = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             f = 0.5 * m[j] * kernel_w(kid, r, h, dim)
@@ -152,7 +152,7 @@ def wall_friction(x, v, rho, bx, bv, bV, boff, bidx, c, rho0, h, kid, dim, L, in
         xi0, xi1, xi2 = point(x, i, dim)
         vi0, vi1, vi2 = point(v, i, dim)
         f0 = f1 = f2 = 0.0
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             s = (c * inv_dt * rho0 * bV[b] / rho[i]
                  * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim))

@@ -51,7 +51,7 @@ import math
 
 import numba
 
-from sphkit.core.pairs import dot, point, separation
+from sphkit.core.pairs import dot, pair_slots, point, separation
 from sphkit.core.state import SimState
 from sphkit.drag.base import AirDrag
 
@@ -93,7 +93,7 @@ def gissler_body(i, x, v, m, off, idx, boff, va, coeff, y_coeff, L, diam, n_full
     a_unocc = (1.0 - fn) * a_drop + fn * diam * diam
     xi0, xi1, xi2 = point(x, i, dim)
     max_vx = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, idx[k], dim, 0.0)
         if r > 0.0:
             max_vx = max(max_vx, dot(e0, e1, e2, d0, d1, d2) / r)

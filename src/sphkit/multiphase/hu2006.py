@@ -77,7 +77,7 @@ import numpy as np
 from sphkit.backend import launch
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import add_vector, norm, point, separation
+from sphkit.core.pairs import add_vector, norm, pair_slots, point, separation
 from sphkit.core.state import SimState
 from sphkit.multiphase.phases import pair_table
 
@@ -100,7 +100,7 @@ def surface_stress_body(i, x, m, rho, phase, off, idx, sigma, iso_share, h, kid,
             continue
         band = True  # a phase with an interface tension: the background pressure applies
         g0 = g1 = g2 = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             if phase[j] != b:
                 continue
@@ -143,7 +143,7 @@ def surface_stress_accel_body(i, x, m, rho, off, idx, S, h, kid, dim, L, a):
     p00, p11, p22 = vi2 * S[0, i], vi2 * S[1, i], vi2 * S[2, i]
     p01, p02, p12 = vi2 * S[3, i], vi2 * S[4, i], vi2 * S[5, i]
     acc0 = acc1 = acc2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         vj = m[j] / rho[j]
         vj2 = vj * vj

@@ -45,7 +45,7 @@ import numba
 from sphkit.backend import launch
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import add_vector, delta2, dot, point
+from sphkit.core.pairs import add_vector, delta2, dot, pair_slots, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import viscous_time_step
 from sphkit.multiphase.phases import pair_table
@@ -63,7 +63,7 @@ def interface_viscosity_body(i, x, v, m, rho, rho0, phase, off, idx, nu, eps, h,
     r0i = rho0[i]
     e = eps * h * h
     acc0 = acc1 = acc2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         pj = phase[j]
         if pj == pi:

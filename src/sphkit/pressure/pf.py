@@ -65,7 +65,7 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.krylov import JacobiPreconditioner, cg
 from sphkit.core.methods import PressureSolver
-from sphkit.core.pairs import separation
+from sphkit.core.pairs import pair_slots, separation
 from sphkit.core.projection import constraint_lambda
 from sphkit.core.solver import IterationControl, SolverStats
 from sphkit.core.state import SimState
@@ -84,10 +84,10 @@ def reverse_pairs(off, idx, rev):
     """``rev[k]`` = the position of i in j's row for the pair k = (i, j) of the CSR lists
     (symmetric lists); -1 when j does not list i."""
     for i in numba.prange(off.shape[0] - 1):
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             rev[k] = -1
-            for kk in range(off[j], off[j + 1]):
+            for kk in pair_slots(off, j):
                 if idx[kk] == i:
                     rev[k] = kk
                     break
@@ -105,7 +105,7 @@ def _local_step(X, V, nfn, off, idx, bx, bV, boff, bidx, h, kid, dim, d_self, d_
     for i in numba.prange(n):
         for d in range(dim):
             d_self[d, i] = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             for d in range(dim):
                 d_pair[d, k] = 0.0
         c0 = 0.0
@@ -117,7 +117,7 @@ def _local_step(X, V, nfn, off, idx, bx, bV, boff, bidx, h, kid, dim, d_self, d_
             rho = V[i] * w0
             g0 = g1 = g2 = 0.0
             sq = 0.0
-            for k in range(off[i], off[i + 1]):
+            for k in pair_slots(off, i):
                 j = idx[k]
                 e0 = pi0 - X[0, j] - d_pair[0, k]
                 e1 = pi1 - X[1, j] - d_pair[1, k] if dim > 1 else 0.0
@@ -130,7 +130,7 @@ def _local_step(X, V, nfn, off, idx, bx, bV, boff, bidx, h, kid, dim, d_self, d_
                 g1 += f * e1
                 g2 += f * e2
                 sq += f * f * r2
-            for k in range(boff[i], boff[i + 1]):
+            for k in pair_slots(boff, i):
                 b = bidx[k]
                 e0, e1, e2, rr = separation(pi0, pi1, pi2, bx, b, dim, 0.0)
                 rho += bV[b] * kernel_w(kid, rr, h, dim)
@@ -153,7 +153,7 @@ def _local_step(X, V, nfn, off, idx, bx, bV, boff, bidx, h, kid, dim, d_self, d_
                 d_self[1, i] += si * g1
             if dim > 2:
                 d_self[2, i] += si * g2
-            for k in range(off[i], off[i + 1]):
+            for k in pair_slots(off, i):
                 j = idx[k]
                 pj0 = X[0, j] + d_pair[0, k]
                 pj1 = X[1, j] + d_pair[1, k] if dim > 1 else 0.0
@@ -182,7 +182,7 @@ def _gather(X, nfn, off, rev, d_self, d_pair, acc):
     for i in numba.prange(X.shape[1]):
         for d in range(dim):
             s = nfn[i] * X[d, i] + d_self[d, i]
-            for k in range(off[i], off[i + 1]):
+            for k in pair_slots(off, i):
                 kk = rev[k]
                 if kk >= 0:
                     s += d_pair[d, kk]

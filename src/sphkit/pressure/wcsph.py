@@ -65,7 +65,7 @@ from sphkit.backend import launch_reduce
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.operators import pressure_accel_cpu, replace_mirrored
-from sphkit.core.pairs import point, separation
+from sphkit.core.pairs import pair_slots, point, separation
 from sphkit.core.solver import SolverStats
 from sphkit.core.state import SimState
 
@@ -115,7 +115,7 @@ def stiffness_body(i, x, mu, rho, off, idx, bx, bV, boff, bidx, rho0, h, kid, di
     ri = max(rho[i], r0)
     xi0, xi1, xi2 = point(x, i, dim)
     g0 = g1 = g2 = 0.0  # d rho_i / d x_i
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         s = ci * mu[j] * kernel_dw(kid, r, h, dim)  # m_j rho0_i / rho0_j grad W, in both
@@ -124,7 +124,7 @@ def stiffness_body(i, x, mu, rho, off, idx, bx, bV, boff, bidx, rho0, h, kid, di
         g2 += s * d2
     q0, q1, q2 = g0, g1, g2  # -rho_i^2 d a_i / d p_i
     mirror = 1.0 + ri * ri / (r0 * r0)
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
         s = r0 * bV[b] * kernel_dw(kid, r, h, dim)

@@ -64,6 +64,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_w
+from sphkit.core.pairs import pair_slots
 from sphkit.solids.plasticity import radial_return
 
 _JIT = dict(cache=True, fastmath=True)
@@ -132,7 +133,7 @@ def rotations(x, pos, x0, m, off, idx, h, kid, dim, qw, qv, R, iterations):
         xi0 = x[0, i]
         xi1 = x[1, i] if dim > 1 else 0.0
         xi2 = x[2, i] if dim > 2 else 0.0
-        for k in range(off[s], off[s + 1]):
+        for k in pair_slots(off, s):
             t = idx[k]
             j = pos[t]
             e0 = x0[0, t] - x0[0, s]
@@ -170,7 +171,7 @@ def gradient_rotations(x, pos, off, idx, G, C, dim, qw, qv, R, iterations, tol):
         xi0 = x[0, i]
         xi1 = x[1, i] if dim > 1 else 0.0
         xi2 = x[2, i] if dim > 2 else 0.0
-        for k in range(off[s], off[s + 1]):
+        for k in pair_slots(off, s):
             j = pos[idx[k]]
             g0, g1, g2 = G[k, 0], G[k, 1], G[k, 2]
             d0 = x[0, j] - xi0
@@ -224,7 +225,7 @@ def stresses(x, pos, x0, off, idx, G, C, dim, mu, lam, R, F, P, M, von_mises, ep
         xi0 = x[0, i]
         xi1 = x[1, i] if dim > 1 else 0.0
         xi2 = x[2, i] if dim > 2 else 0.0
-        for k in range(off[s], off[s + 1]):
+        for k in pair_slots(off, s):
             t = idx[k]
             j = pos[t]
             e0 = x0[0, t] - x0[0, s]
@@ -298,7 +299,7 @@ def forces(x, pos, x0, V0, m, off, idx, G, rev, h, kid, dim, P, M, alpha_e, a):
         xi0 = x[0, i]
         xi1 = x[1, i] if dim > 1 else 0.0
         xi2 = x[2, i] if dim > 2 else 0.0
-        for k in range(off[s], off[s + 1]):
+        for k in pair_slots(off, s):
             t = idx[k]
             q = P[t]
             vj = V0[t]

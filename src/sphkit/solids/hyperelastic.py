@@ -32,6 +32,8 @@ import math
 import numba
 import numpy as np
 
+from sphkit.core.pairs import pair_slots
+
 _JIT = dict(cache=True, fastmath=True)
 
 #: the energy densities (``material_model``) -> the compiled passes' ids
@@ -46,7 +48,7 @@ def gradients(y, off, idx, G, out):
         g = out[s]
         for c in range(9):
             g[c] = 0.0
-        for k in range(off[s], off[s + 1]):
+        for k in pair_slots(off, s):
             t = idx[k]
             g0, g1, g2 = G[k, 0], G[k, 1], G[k, 2]
             for a in range(3):
@@ -188,11 +190,11 @@ def block_jacobi(off, idx, G, rev, V0, H, dt2, m, zdiag, dim, fixed, out):
     for s in numba.prange(off.shape[0] - 1):
         B = np.zeros((3, 3))
         w = np.zeros(3)
-        for k in range(off[s], off[s + 1]):
+        for k in pair_slots(off, s):
             for c in range(3):
                 w[c] -= G[k, c]
         _block_add(B, H[s], w, dt2 * V0[s])
-        for k in range(off[s], off[s + 1]):
+        for k in pair_slots(off, s):
             t = idx[k]
             _block_add(B, H[t], G[rev[k]], dt2 * V0[t])
         for a in range(3):

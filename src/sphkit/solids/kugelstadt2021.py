@@ -89,6 +89,7 @@ import scipy.sparse as sp
 
 from sphkit.core.krylov import JacobiPreconditioner, cg
 from sphkit.core.ldlt import LDLT
+from sphkit.core.pairs import pair_slots
 from sphkit.core.state import SimState
 from sphkit.solids.base import ROTATION_ITERATIONS, ImplicitCorotatedSolid
 from sphkit.solids.corotation import _extract_rotation, stresses
@@ -125,7 +126,7 @@ def _deformation_gradients(indptr, indices, Dd, y, dim, F):
     row i's entries accumulates all dim^2 sums (each in the entries' order)."""
     for i in numba.prange(indptr.shape[0] - 1):
         f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
+        for k in pair_slots(indptr, i):
             j = indices[k]
             d0 = Dd[0, k]
             d1 = Dd[1, k] if dim > 1 else 0.0
@@ -165,7 +166,7 @@ def _stretch_rhs(tindptr, tindices, DdT, V0, Rs, xt, m, inv_dt2, two_mu, dim, b)
     the transposed pattern)."""
     for j in numba.prange(tindptr.shape[0] - 1):
         s0 = s1 = s2 = 0.0
-        for k in range(tindptr[j], tindptr[j + 1]):
+        for k in pair_slots(tindptr, j):
             i = tindices[k]
             Ri = Rs[i]
             d0 = DdT[0, k]
@@ -198,7 +199,7 @@ def _volume_data(indptr, tperm, Dd, R, dim, Bd, BTd):
     """The entries of ``B_a = sum_c diag(R[:, a, c]) D_c`` on the pattern (``Bd``) and on the
     transposed pattern (``BTd``)."""
     for i in numba.prange(indptr.shape[0] - 1):
-        for k in range(indptr[i], indptr[i + 1]):
+        for k in pair_slots(indptr, i):
             for a in range(dim):
                 s = 0.0
                 for c in range(dim):
@@ -218,7 +219,7 @@ def _volume_system(indptr, indices, tindptr, tindices, Bd, BTd, x1, lv, md, pinn
     n = indptr.shape[0] - 1
     for i in numba.prange(n):
         s0 = s1 = s2 = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
+        for k in pair_slots(indptr, i):
             j = indices[k]
             s0 += Bd[0, k] * x1[0, j]
             if dim > 1:
@@ -233,7 +234,7 @@ def _volume_system(indptr, indices, tindptr, tindices, Bd, BTd, x1, lv, md, pinn
                 diag[a, j] = 1.0
             continue
         s0 = s1 = s2 = d0 = d1 = d2 = 0.0
-        for k in range(tindptr[j], tindptr[j + 1]):
+        for k in pair_slots(tindptr, j):
             i = tindices[k]
             ti = t[i]
             li = lv[i]
@@ -270,7 +271,7 @@ def _volume_matvec(indptr, indices, tindptr, tindices, Bd, BTd, lv, md, free, di
     n2 = 2 * n if dim > 2 else 0
     for i in numba.prange(n):
         r = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
+        for k in pair_slots(indptr, i):
             j = indices[k]
             t = Bd[0, k] * y[j]
             if dim > 1:
@@ -281,7 +282,7 @@ def _volume_matvec(indptr, indices, tindptr, tindices, Bd, BTd, lv, md, free, di
         s[i] = lv[i] * r
     for j in numba.prange(n):
         r0 = r1 = r2 = 0.0
-        for k in range(tindptr[j], tindptr[j + 1]):
+        for k in pair_slots(tindptr, j):
             sv = s[tindices[k]]
             r0 += BTd[0, k] * sv
             if dim > 1:

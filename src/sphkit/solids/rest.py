@@ -60,6 +60,7 @@ import numpy as np
 
 from sphkit.core.kernels import kernel_w
 from sphkit.core.neighbors import NeighborList, neighbor_lists
+from sphkit.core.pairs import pair_slots
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -93,7 +94,7 @@ def _rest_volumes(x0, m, off, idx, h, kid, dim, out):
     w0 = kernel_w(kid, 0.0, h, dim)
     for s in numba.prange(x0.shape[1]):
         rho = m[s] * w0
-        for k in range(off[s], off[s + 1]):
+        for k in pair_slots(off, s):
             j = idx[k]
             d0 = x0[0, s] - x0[0, j]
             d1 = x0[1, s] - x0[1, j]

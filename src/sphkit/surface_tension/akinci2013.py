@@ -50,7 +50,7 @@ import numba
 
 from sphkit.backend import launch
 from sphkit.core.operators import kirkwood_buff, surface_normals
-from sphkit.core.pairs import delta, dot, point
+from sphkit.core.pairs import delta, dot, pair_slots, point
 from sphkit.core.state import SimState
 from sphkit.surface_tension.base import CohesionAdhesion
 
@@ -89,7 +89,7 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
     ni0, ni1, ni2 = point(nrm, i, dim)
     rhoi = rho[i]
     a0 = a1 = a2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)
@@ -108,7 +108,7 @@ def akinci_body(i, x, m, rho, nrm, off, idx, bx, bV, boff, bidx, gamma, beta, rh
         a0 += kij * c0
         a1 += kij * c1
         a2 += kij * c2
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)

@@ -41,7 +41,7 @@ import numba
 
 from sphkit.core.kernels import kernel_w
 from sphkit.core.operators import kirkwood_buff
-from sphkit.core.pairs import point, separation
+from sphkit.core.pairs import pair_slots, point, separation
 from sphkit.core.state import SimState
 from sphkit.surface_tension.base import CohesionAdhesion
 
@@ -53,7 +53,7 @@ def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho
     xi0, xi1, xi2 = point(x, i, dim)
     w_diam = kernel_w(kid, diam, h, dim)
     s0 = s1 = s2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         w = kernel_w(kid, r, h, dim) if r > diam else w_diam
@@ -62,7 +62,7 @@ def becker_body(i, x, m, off, idx, bx, bV, boff, bidx, kappa, kappa_b, diam, rho
         s1 += c * d1
         s2 += c * d2
     b0 = b1 = b2 = 0.0
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
         w = kernel_w(kid, r, h, dim) if r > diam else w_diam

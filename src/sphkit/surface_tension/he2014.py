@@ -38,7 +38,7 @@ import numba
 
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.operators import color_field_cpu, color_gradient_sum
-from sphkit.core.pairs import point, separation
+from sphkit.core.pairs import pair_slots, point, separation
 from sphkit.core.state import SimState
 from sphkit.surface_tension.base import CohesionAdhesion
 
@@ -60,7 +60,7 @@ def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, k
     xi0, xi1, xi2 = point(x, i, dim)
     gi = g2[i]
     s0 = s1 = s2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         w = m[j] / rho[j] * (gi + g2[j]) * kernel_dw(kid, r, h, dim)
@@ -68,7 +68,7 @@ def he_body(i, x, m, rho, g2, off, idx, bx, bV, boff, bidx, kappa, kappa_b, h, k
         s1 += w * d1
         s2 += w * d2
     b0 = b1 = b2 = 0.0
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
         w = bV[b] * gi * kernel_dw(kid, r, h, dim)

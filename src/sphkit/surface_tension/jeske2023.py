@@ -83,7 +83,7 @@ from sphkit.core.kernels import CUBIC, kernel_dw, kernel_w
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import kirkwood_buff
-from sphkit.core.pairs import delta, delta2, delta2_r, dot, point
+from sphkit.core.pairs import delta, delta2, delta2_r, dot, pair_slots, point
 from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
@@ -109,7 +109,7 @@ def _density_rate(x, v, m, off, idx, h, kid, dim, L, out):
         xi0, xi1, xi2 = point(x, i, dim)
         vi0, vi1, vi2 = point(v, i, dim)
         s = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
             s += m[j] * dot(w0, w1, w2, d0, d1, d2) * kernel_dw(kid, r, h, dim)
@@ -144,7 +144,7 @@ def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam
         xi0, xi1, xi2 = point(x, i, dim)
         vi0, vi1, vi2 = point(v, i, dim)
         s = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
             dW = kernel_dw(kid, r, h, dim)  # W'(r) / r, for the weight and the viscosity
@@ -158,7 +158,7 @@ def _weights(x, v, m, rho, drate, off, idx, bx, bv, boff, bidx, rho0, wmin, diam
                 Sx[k] = xsph * m[j] / rho[j] * kernel_w(CUBIC, r, h, dim) * rho[i] / dt
         Fsum[i] = s
         sb = 0.0
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             d0, d1, d2, w0, w1, w2, r = delta2_r(xi0, xi1, xi2, bx, vi0, vi1, vi2, bv, b, dim,
                                                  L)
@@ -174,7 +174,7 @@ def _scale_boundary(m, bV, boff, bidx, rho0, Fb, Fbsum):
     """``F_ib *= (m_i + rho0 V_b) / m_i`` and the sums again."""
     for i in numba.prange(m.shape[0]):
         s = 0.0
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             Fb[k] *= (m[i] + rho0 * bV[bidx[k]]) / m[i]
             s += Fb[k]
         Fbsum[i] = s
@@ -196,7 +196,7 @@ def _matvec(x, rho, off, idx, bx, bV, boff, bidx, F, Fsum, Fbsum, Sv, Sx, u, gam
         o1 = ui1 * (1.0 + c)
         o2 = ui2 * (1.0 + c)
         a0 = a1 = a2 = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             g = dt * dt * gamma * F[k]
             o0 -= g * u[0, j]
@@ -216,7 +216,7 @@ def _matvec(x, rho, off, idx, bx, bV, boff, bidx, F, Fsum, Fbsum, Sv, Sx, u, gam
                     a1 -= t * w1
                     a2 -= t * w2
         if cb > 0.0:
-            for k in range(boff[i], boff[i + 1]):
+            for k in pair_slots(boff, i):
                 b = bidx[k]
                 d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
                 r2 = dot(d0, d1, d2, d0, d1, d2)
@@ -245,7 +245,7 @@ def _rhs_blocks(x, v, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbsum,
         g00 = g01 = g02 = g11 = g12 = g22 = 0.0
         b0 = b1 = b2 = 0.0
         xs = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
             b0 += gamma * F[k] * d0
@@ -257,7 +257,7 @@ def _rhs_blocks(x, v, rho, off, idx, bx, bv, bV, boff, bidx, F, Fb, Fsum, Fbsum,
             if xsph:
                 xs += Sx[k]
         c0 = c1 = c2 = 0.0
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
             vb0, vb1, vb2 = point(bv, b, dim)

@@ -115,7 +115,7 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import interpolate, surface_normals
-from sphkit.core.pairs import distance, point, separation
+from sphkit.core.pairs import distance, pair_slots, point, separation
 from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 
@@ -179,7 +179,7 @@ def curvature_body(i, x, m, rho, n, off, idx, thr_i, thr, h, kid, dim, L=0.0):
     # offsets: M = sum w s s^T, B = sum w s e^T (s = (t, q) . (x_j - x_i), e = (t, q) . (u_j - u_i))
     mtt = mtq = mqq = 0.0
     btt = btq = bqt = bqq = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         nj0, nj1, nj2 = point(n, j, dim)
         lj = math.sqrt(nj0 * nj0 + nj1 * nj1 + nj2 * nj2)
@@ -234,7 +234,7 @@ def extend_curvature_cpu(x, m, rho, k_src, w_src, off, idx, h, kid, dim, k_out, 
         w = w_src[i] * m[i] / rho[i] * kernel_w(kid, 0.0, h, dim)
         num = w * k_src[i]
         den = w
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             if w_src[j] == 0.0:
                 continue
@@ -268,7 +268,7 @@ def extend_band_cpu(x, m, rho, k_src, e_src, u_src, w_src, off, idx, h, kid, dim
         nu0 = w * u_src[0, i]
         nu1 = w * u_src[1, i]
         nu2 = w * u_src[2, i] if dim == 3 else 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             if w_src[j] == 0.0:
                 continue

@@ -107,7 +107,7 @@ import numpy as np
 from sphkit.core.eigen import smallest_eigen
 from sphkit.core.kernels import CUBIC, kernel_w
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import delta, point
+from sphkit.core.pairs import delta, pair_slots, point
 from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 
@@ -199,7 +199,7 @@ def _mc_pass(x, ids, off, idx, dirs, nsamp, shift, h, rho, k_class, d_class, dim
             continue
         xi0, xi1, xi2 = point(x, i, dim)
         s0 = s1 = s2 = 0.0
-        for kk in range(off[i], off[i + 1]):
+        for kk in pair_slots(off, i):
             d0, d1, d2 = delta(xi0, xi1, xi2, x, idx[kk], dim, L)
             s0 -= d0
             s1 -= d1
@@ -216,7 +216,7 @@ def _mc_pass(x, ids, off, idx, dirs, nsamp, shift, h, rho, k_class, d_class, dim
             p1 = h * dirs[1, q]
             p2 = h * dirs[2, q]
             covered = False
-            for kk in range(off[i], off[i + 1]):
+            for kk in pair_slots(off, i):
                 d0, d1, d2 = delta(xi0, xi1, xi2, x, idx[kk], dim, L)
                 # sample minus e_ij = p - (x_j - x_i) = p + d
                 t0 = p0 + d0
@@ -272,7 +272,7 @@ def _smooth_pass(x, off, idx, mc_n, mc_k, com, tau, h, k_class, d_pca, do_pca, l
         kc = 0.0
         wsum = 0.0
         npts = 0
-        for kk in range(off[i], off[i + 1]):
+        for kk in pair_slots(off, i):
             j = idx[kk]
             surf = _is_surface(mc_n, j, dim)
             cand = surf or (do_pca and _classify(com[j], nn, k_class, d_pca))
@@ -321,7 +321,7 @@ def _smooth_pass(x, off, idx, mc_n, mc_k, com, tau, h, k_class, d_pca, do_pca, l
         for _ in range(min(limit, npts)):
             best_r = 1e300
             best_j = -1
-            for kk in range(off[i], off[i + 1]):
+            for kk in pair_slots(off, i):
                 j = idx[kk]
                 if not (_is_surface(mc_n, j, dim) or _classify(com[j], nn, k_class, d_pca)):
                     continue
@@ -372,7 +372,7 @@ def _pca_average(off, idx, mc_n, src, first, dim, out):
             continue
         cnt = 0
         s = 0.0
-        for kk in range(off[i], off[i + 1]):
+        for kk in pair_slots(off, i):
             j = idx[kk]
             if _is_surface(mc_n, j, dim):
                 s += src[j]

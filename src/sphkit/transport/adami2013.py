@@ -47,7 +47,7 @@ import numpy as np
 from sphkit.backend import launch
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import add_vector, point, separation, set_vector
+from sphkit.core.pairs import add_vector, pair_slots, point, separation, set_vector
 from sphkit.core.state import SimState
 
 
@@ -60,7 +60,7 @@ def background_body(i, x, m, rho, off, idx, bx, bV, boff, bidx, pb, h, kid, dim,
     vi = m[i] / rho[i]
     vi2 = vi * vi
     a0 = a1 = a2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         vj = m[j] / rho[j]
@@ -68,7 +68,7 @@ def background_body(i, x, m, rho, off, idx, bx, bV, boff, bidx, pb, h, kid, dim,
         a0 += s * d0
         a1 += s * d1
         a2 += s * d2
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
         s = (vi2 + bV[b] * bV[b]) * kernel_dw(kid, r, h, dim)
@@ -91,7 +91,7 @@ def stress_body(i, x, v, m, rho, off, idx, ab, kick, h, kid, dim, L, a):
     wi = m[i] / ri
     wi2 = wi * wi
     a0 = a1 = a2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         g = kernel_dw(kid, r, h, dim)  # grad W_ij = g d

@@ -74,7 +74,7 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import KrylovStats
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import add_vector, point, separation
+from sphkit.core.pairs import add_vector, pair_slots, point, separation
 from sphkit.core.state import SimState
 from sphkit.core.viscous import add_velocity_change, wall_friction
 
@@ -116,7 +116,7 @@ def _strain_sums(i, x, v, m, off, idx, h, kid, dim, L):
     vi0, vi1, vi2 = point(v, i, dim)
     e0 = e1 = e2 = 0.0
     e3 = e4 = e5 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
         f = m[j] * kernel_dw(kid, r, h, dim)
@@ -205,7 +205,7 @@ def viscosity_factor(x, m, rho, off, idx, h, kid, dim, L, comp, max_relax, K, di
         c = 0.5 / rho[i]
         inv_rho = 1.0 / rho[i]
         s0 = s1 = s2 = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             f = c * m[j] * kernel_dw(kid, r, h, dim)
@@ -279,7 +279,7 @@ def _impulse(x, m, rho, off, idx, h, kid, dim, L, lam, v):
         li = _load6(lam, i, dim)
         ri2 = 1.0 / (rho[i] * rho[i])
         dv0 = dv1 = dv2 = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             f = 0.5 * m[j] * kernel_dw(kid, r, h, dim)

@@ -35,7 +35,7 @@ import numba
 
 from sphkit.backend import launch, to_host
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import add_vector, delta, delta2, dot, point
+from sphkit.core.pairs import add_vector, delta, delta2, dot, pair_slots, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
@@ -61,7 +61,7 @@ def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, bf, boff, bidx,
     xi0, xi1, xi2 = point(x, i, dim)
     vi0, vi1, vi2 = point(v, i, dim)
     ri = rho[i]
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)
@@ -71,7 +71,7 @@ def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, bf, boff, bidx,
         acc1 += s * d1
         acc2 += s * d2
     if nub > 0.0:
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
             w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)

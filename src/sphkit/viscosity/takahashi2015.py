@@ -63,7 +63,7 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import grad_w, point, separation
+from sphkit.core.pairs import grad_w, pair_slots, point, separation
 from sphkit.core.state import SimState
 from sphkit.core.viscous import add_velocity_change, wall_friction
 
@@ -79,7 +79,7 @@ def _stress(x, u, m, rho, off, idx, h, kid, dim, L, mu, S):
         g00 = g01 = g02 = 0.0
         g10 = g11 = g12 = 0.0
         g20 = g21 = g22 = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             f = m[j] / rho[j] * kernel_dw(kid, r, h, dim)
@@ -121,7 +121,7 @@ def _operator(x, u, m, rho, off, idx, h, kid, dim, L, S, dt, out):
         xi0, xi1, xi2 = point(x, i, dim)
         ri2 = 1.0 / (rho[i] * rho[i])
         a0 = a1 = a2 = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             f = m[j] * kernel_dw(kid, r, h, dim)
@@ -155,7 +155,7 @@ def _diagonal_blocks(x, m, rho, off, idx, h, kid, dim, L, mu, dt, blocks):
         q = q00 = q01 = 0.0
         q02 = q11 = q12 = 0.0
         q22 = 0.0
-        for k in range(off[i], off[i + 1]):
+        for k in pair_slots(off, i):
             j = idx[k]
             d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
             g0, g1, g2 = grad_w(kid, d0, d1, d2, r, h, dim)

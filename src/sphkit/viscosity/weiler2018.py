@@ -61,7 +61,7 @@ from sphkit.backend import launch
 from sphkit.core import arrays
 from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import delta, delta2, dot, point
+from sphkit.core.pairs import delta, delta2, dot, pair_slots, point
 from sphkit.core.state import SimState
 from sphkit.core.viscous import (
     LAPLACIAN_EPS,
@@ -91,7 +91,7 @@ def matvec_body(i, x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, b
     xi0, xi1, xi2 = point(x, i, dim)
     ui0, ui1, ui2 = point(u, i, dim)
     a0 = a1 = a2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, ui0, ui1, ui2, u, j, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)
@@ -100,7 +100,7 @@ def matvec_body(i, x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, b
         a1 += s * d1
         a2 += s * d2
     if cb > 0.0:
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
             if spread > 0.0:
@@ -134,7 +134,7 @@ def rhs_blocks_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, c
     g00 = g01 = g02 = 0.0
     g11 = g12 = g22 = 0.0
     b0 = b1 = b2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2 = delta(xi0, xi1, xi2, x, j, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)
@@ -142,7 +142,7 @@ def rhs_blocks_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, boff, bidx, c
         g00, g01, g02, g11, g12, g22 = outer_add(s, d0, d1, d2, g00, g01, g02, g11, g12,
                                                  g22)
     if cb > 0.0:
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
             vb0, vb1, vb2 = point(bv, b, dim)

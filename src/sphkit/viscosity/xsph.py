@@ -18,7 +18,7 @@ import numba
 from sphkit.backend import launch
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import add_vector, delta, distance, point
+from sphkit.core.pairs import add_vector, delta, distance, pair_slots, point
 from sphkit.core.state import SimState
 
 
@@ -30,7 +30,7 @@ def xsph_body(i, x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, c, cb, rho0, h,
     xi0, xi1, xi2 = point(x, i, dim)
     vi0, vi1, vi2 = point(v, i, dim)
     acc0 = acc1 = acc2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         s = (c * inv_dt * (m[j] / rho[j])
              * kernel_w(kid, distance(xi0, xi1, xi2, x, j, dim, 0.0), h, dim))
@@ -39,7 +39,7 @@ def xsph_body(i, x, v, m, rho, off, idx, bx, bv, bV, boff, bidx, c, cb, rho0, h,
         acc1 -= s * w1
         acc2 -= s * w2
     if cb > 0.0:
-        for k in range(boff[i], boff[i + 1]):
+        for k in pair_slots(boff, i):
             b = bidx[k]
             s = (cb * inv_dt * (rho0 * bV[b] / rho[i])
                  * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, 0.0), h, dim))

@@ -41,7 +41,7 @@ import numba
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.operators import curl_sum
-from sphkit.core.pairs import point, separation
+from sphkit.core.pairs import pair_slots, point, separation
 from sphkit.core.state import SimState
 
 
@@ -63,7 +63,7 @@ def confinement_body(i, x, m, rho, omega, norm, off, idx, eps, h, kid, dim, a):
     """Add ``eps N_i x omega_i`` to ``a[:, i]`` (``N_i`` = unit gradient of ``|omega|``)."""
     xi0, xi1, xi2 = point(x, i, dim)
     e0 = e1 = e2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
         f = m[j] * norm[j] * kernel_dw(kid, r, h, dim)

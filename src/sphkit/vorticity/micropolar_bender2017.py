@@ -77,7 +77,7 @@ from sphkit.backend import launch
 from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
 from sphkit.core.methods import NonPressureForce
-from sphkit.core.pairs import point, separation
+from sphkit.core.pairs import pair_slots, point, separation
 from sphkit.core.params import checked_number
 from sphkit.core.state import SimState
 
@@ -96,7 +96,7 @@ def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu
     cw0 = cw1 = cw2 = 0.0
     cv0 = cv1 = cv2 = 0.0
     xs0 = xs1 = xs2 = 0.0
-    for k in range(off[i], off[i + 1]):
+    for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, 0.0)
         f = kernel_dw(kid, r, h, dim)
@@ -124,7 +124,7 @@ def micropolar_body(i, x, v, m, rho, omega, off, idx, bx, bv, bV, boff, bidx, nu
             cw1 += mj * e2 * g0
         cv2 += mj * (u0 * g1 - u1 * g0)
         xs2 += sw * e2
-    for k in range(boff[i], boff[i + 1]):
+    for k in pair_slots(boff, i):
         b = bidx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, 0.0)
         f = kernel_dw(kid, r, h, dim)

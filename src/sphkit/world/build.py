@@ -21,11 +21,11 @@ from sphkit.boundary.rigid import RigidBodies
 from sphkit.core.coupling import BoundaryCoupling
 from sphkit.core.kernels import kernel_id, lattice_volume
 from sphkit.core.methods import BoundaryModel, Elasticity, NonPressureForce, PressureSolver
-from sphkit.core.neighbors import zorder_permutation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.core.timestep import Domain
 from sphkit.core.viscous import register_wall_fields
+from sphkit.core.zorder import zorder_permutation
 from sphkit.geometry import GeometryError
 from sphkit.multiphase import PhaseForce
 from sphkit.scene.checks import check_budget, check_device, check_scene, device_precision

@@ -128,7 +128,7 @@ import numpy as np
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import BoundaryReaction, MovingBoundary
 from sphkit.core.neighbors import NeighborList
-from sphkit.core.pairs import point, separation
+from sphkit.core.pairs import pair_slots, point, separation
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 
@@ -170,7 +170,7 @@ def _reaction(x, m, kf, boff, bidx, bx, bV, bmirror, use_mirror, body, c, h, kid
         for i in range(ch * per, min(n, (ch + 1) * per)):
             fi = m[i] * kf[i]
             xi0, xi1, xi2 = point(x, i, dim)
-            for kk in range(boff[i], boff[i + 1]):
+            for kk in pair_slots(boff, i):
                 b = bidx[kk]
                 k = body[b] - 1
                 if k < 0:
@@ -195,7 +195,7 @@ def _reaction_cached(m, k, boff, bidx, gwb, bmirror, bx, body, c, nchunk, out):
             fi = m[i] * k[i]
             if fi == 0.0:
                 continue
-            for kk in range(boff[i], boff[i + 1]):
+            for kk in pair_slots(boff, i):
                 b = bidx[kk]
                 bk = body[b] - 1
                 if bk < 0:
