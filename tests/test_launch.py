@@ -128,10 +128,15 @@ def test_a_body_specialized_on_dim_gets_a_driver_per_dimension() -> None:
     assert len(constant_positions(kappa_accel_body)) == 1
     with pytest.raises(ValueError, match="_dim_body: no parameter 'kid' to specialize on"):
         specialize(_dim_body, "kid")
-    # no constants: a body that the constant kernel id makes slower keeps the generic driver
+    # no constants: a body that the constant kernel id makes slower keeps the generic driver;
+    # a switch made a constant beside the id (PBF's artificial pressure)
+    from sphkit.boundary.maps_hydrostatic import wall_moment_body
     from sphkit.core.projection import constraint_correction_body
 
-    assert constant_positions(constraint_correction_body) == ()
+    assert constant_positions(wall_moment_body) == ()
+    names = constraint_correction_body.py_func.__code__.co_varnames
+    assert constant_positions(constraint_correction_body) == (names.index("kid") - 1,
+                                                              names.index("s_corr") - 1)
 
 
 def test_unknown_device_is_an_error() -> None:

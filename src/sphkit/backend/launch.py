@@ -183,9 +183,12 @@ def specialize(body: Any, *names: str) -> Any:
       prediction, 13.6 calls a step: 0.023 -> 0.006 ms at 6,859 particles); every body's would
       double the drivers compiled for a test run that covers 2D and 3D;
     * none, for a body that the constant kernel id makes slower: the vectorised form the
-      compiler then chooses for some pair loops is slower than the scalar one (PBF's position
-      correction 0.93 -> 1.72 ms, the volume maps' wall moments 0.27 -> 0.30 ms, 6,859
-      particles, two threads; every other body of the six benchmark scenes ran 15-40 % faster).
+      compiler then chooses for some pair loops is slower than the scalar one (the volume maps'
+      wall moments 0.27 -> 0.30 ms, 6,859 particles, two threads; every other body of the six
+      benchmark scenes ran 15-40 % faster);
+    * a switch beside the kernel id, where a branch left in the loop keeps the vectorised form
+      slow: PBF's position correction with its artificial-pressure switch an argument ran 1.8x
+      slower with the id a constant, and with both constants 0.87 -> 0.47 ms.
     """
     for name in names:
         if name not in _params(body):

@@ -58,10 +58,10 @@ def relax_pass(x: np.ndarray, V: np.ndarray, target: np.ndarray, nl_ff, nl_fb,
                                 period_arg(L), EPSILON, float(tol), lam, rho_hat)
     if mx > 0.0:
         out = np.empty_like(x)
-        ones = np.ones(n, dtype=x.dtype)  # a geometric relaxation: lambdas unweighted
+        # a geometric relaxation: lambdas unweighted (no rest-density ratios)
         constraint_correction(x, dx, V, lam, nl_ff.offsets, nl_ff.indices, bx, bV,
                               nl_fb.offsets, nl_fb.indices, float(h), int(kid), int(dim),
-                              period_arg(L), False, 0.0, 0.0, 1.0, 0.0, out, ones, ones)
+                              period_arg(L), False, 0.0, 0.0, 1.0, 0.0, out)
         a = np.sqrt((out * out).sum(axis=0))
         dx = out * np.where(a > cap, cap / np.where(a > 0.0, a, 1.0), 1.0)
     return float(avg), float(mx), dx

@@ -286,7 +286,7 @@ class PBF(PressureSolver):
             constraint_correction(x, dx, V, lam, nl.offsets, nl.indices, bx, bV,
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
-                                  self._d0_inv, corr, rest.c, rest.inv_c)
+                                  self._d0_inv, corr, *ratios)
             if react:  # the bodies take minus the boundary share of this sweep's correction
                 np.multiply(lam, inv_dt2, out=k_b)  # dx_i<-b = lambda_i V_b grad W = -dt^2 k_i ..
                 fb = coupling.pair_reaction(state, k_b, x + dx, bx, bV, nb, body)
