@@ -120,7 +120,7 @@ def test_pbf_lambda_pass_matches_density_at_and_a_numpy_reference() -> None:
     rng = np.random.default_rng(1)
     dx = rng.uniform(-0.1, 0.1, f["x"].shape) * st.r
     ref = np.empty(f.n)
-    density_at(f["x"], dx, f["m"], nl.offsets, nl.indices, b["x"], np.zeros((st.dim, 0)),
+    density_at(f["x"] + dx, f["m"], nl.offsets, nl.indices, b["x"], np.zeros((st.dim, 0)),
                b["V"], nb.offsets, nb.indices, st.rho0, st.h, st.kid, st.dim, ref)
     lam = np.empty(f.n)
     rho = np.empty(f.n)

@@ -96,7 +96,7 @@ def trace(sim: Simulation, state: SimState, dt: float, sweeps: list[int],
         dx = dt * (v + dt * (a + ap))
         bx, bV, nbp, _ = coupling.boundary_at(state, dx)
         rho = np.empty(n)
-        density_at(x, dx, rest.mu, nl.offsets, nl.indices, bx, still, bV, nbp.offsets,
+        density_at(x + dx, rest.mu, nl.offsets, nl.indices, bx, still, bV, nbp.offsets,
                    nbp.indices, state.rho0, state.h, state.kid, dim, rho)
         return rho, dx
 

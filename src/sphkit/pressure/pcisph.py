@@ -157,10 +157,11 @@ CAP = 3.0
 
 
 @numba.njit(**_JIT, inline="always")
-def predict_body(i, v, a, ap, dt, dim, dx):
-    """``dx[:, i] = x*_i - x_i = dt (v_i + dt (a_i + ap_i))``."""
+def predict_body(i, x, v, a, ap, dt, dim, dx, xp):
+    """``dx[:, i] = x*_i - x_i = dt (v_i + dt (a_i + ap_i))`` and ``xp[:, i] = x*_i``."""
     for d in range(dim):
         dx[d, i] = dt * (v[d, i] + dt * (a[d, i] + ap[d, i]))
+        xp[d, i] = x[d, i] + dx[d, i]
 
 
 specialize(predict_body, "dim")  # an element loop: unrolled per dimension
@@ -293,6 +294,7 @@ class PCISPH(StepBounded, PressureSolver):
         p = arrays.zeros(n, f.dtype, like=x)
         ap = arrays.zeros(x.shape, x.dtype, like=x)
         dx = arrays.empty_like(x)
+        xp = arrays.empty_like(x)  # x* = x + dx
         rho_hat = arrays.empty(n, f.dtype, like=x)
         factor = self.delta / (dt * dt)
         coupling = state.coupling
@@ -330,13 +332,13 @@ class PCISPH(StepBounded, PressureSolver):
                 return wk
 
         def sweep(_k: int) -> tuple[float, float]:
-            launch(predict_body, n, v, a, ap, float(dt), int(state.dim), dx)
+            launch(predict_body, n, x, v, a, ap, float(dt), int(state.dim), dx, xp)
             # density maps are queried at x* (their lists), with or without yielding bodies,
             # volume maps' virtual particles slide along the wall; the step's boundary
             # particles take the bodies' predicted displacement
             bx, bV, nbp, _ = coupling.boundary_at(state, dx)
             bd = bdx[0] if bx is b["x"] else still
-            density_at(x, dx, rest.mu, nl.offsets, nl.indices, bx, bd, bV,
+            density_at(xp, rest.mu, nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat)
             tot, mx = launch_reduce(pressure_update_body, n, rho_hat, float(factor), factors,
@@ -344,7 +346,7 @@ class PCISPH(StepBounded, PressureSolver):
             if not rest.uniform:
                 arrays.multiplied(p, rest.c, out=pc)
             if walls:  # each wall particle's k_b from its predicted density (omega 0.5)
-                wall_density(x + dx, Vf, b["x"], nb.offsets, nb.indices, state.h, state.kid,
+                wall_density(xp, Vf, b["x"], nb.offsets, nb.indices, state.h, state.kid,
                              state.dim, L, use, rho_b)
                 np.subtract(target, rho_b, out=src)
                 wall_update(zero, src, wd, dt * dt, 0.5, wk, pc, nb.offsets, nb.indices,
