@@ -352,20 +352,19 @@ def test_pbf_lambda_is_the_newton_step_of_a_heavy_particle_among_light_ones() ->
 
     def newton_ratio(weights: tuple) -> float:
         lam, rho_hat = np.empty(n), np.empty(n)
-        zero = np.zeros_like(xx)
-        constraint_lambda(xx, zero, f["V0"], target, nl.offsets, nl.indices, b["x"], b["V"],
+        constraint_lambda(xx, f["V0"], target, nl.offsets, nl.indices, b["x"], b["V"],
                           nb.offsets, nb.indices, st.h, st.kid, st.dim, L, 1e-6, 0.0, lam,
                           rho_hat, None, *weights)
         c_i = rho_hat[i] / target[i] - 1.0
         only = np.zeros(n)
         only[i] = lam[i]
         dx = np.empty_like(xx)
-        constraint_correction(xx, zero, f["V0"], only, nl.offsets, nl.indices, b["x"], b["V"],
+        constraint_correction(xx, f["V0"], only, nl.offsets, nl.indices, b["x"], b["V"],
                               nb.offsets, nb.indices, st.h, st.kid, st.dim, L, False, 0.0, 0.0,
                               1.0, 0.0, dx, rest.c, rest.inv_c)
         eps = 1e-4  # a finite-difference probe of the linear change of C_i along dx
         rho_eps = np.empty(n)
-        constraint_lambda(xx, eps * dx, f["V0"], target, nl.offsets, nl.indices, b["x"],
+        constraint_lambda(xx + eps * dx, f["V0"], target, nl.offsets, nl.indices, b["x"],
                           b["V"], nb.offsets, nb.indices, st.h, st.kid, st.dim, L, 1e-6, 0.0,
                           np.empty(n), rho_eps, None, ones, ones)
         dc = (rho_eps[i] - rho_hat[i]) / target[i] / eps

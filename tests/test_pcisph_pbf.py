@@ -125,7 +125,7 @@ def test_pbf_lambda_pass_matches_density_at_and_a_numpy_reference() -> None:
     lam = np.empty(f.n)
     rho = np.empty(f.n)
     eps = 1e-6
-    avg, mx = constraint_lambda(f["x"], dx, f["V0"], np.ones(f.n), nl.offsets, nl.indices,
+    avg, mx = constraint_lambda(f["x"] + dx, f["V0"], np.ones(f.n), nl.offsets, nl.indices,
                                 b["x"], b["V"], nb.offsets, nb.indices, st.h, st.kid, st.dim,
                                 0.0, eps, 0.0, lam, rho)
     assert np.allclose(rho, ref, rtol=1e-12)

@@ -53,13 +53,13 @@ def relax_pass(x: np.ndarray, V: np.ndarray, target: np.ndarray, nl_ff, nl_fb,
     lam = np.empty(n, dtype=x.dtype)
     rho_hat = np.empty(n, dtype=x.dtype)
     dx = np.zeros_like(x)
-    avg, mx = constraint_lambda(x, dx, V, target, nl_ff.offsets, nl_ff.indices, bx, bV,
+    avg, mx = constraint_lambda(x, V, target, nl_ff.offsets, nl_ff.indices, bx, bV,
                                 nl_fb.offsets, nl_fb.indices, float(h), int(kid), int(dim),
                                 period_arg(L), EPSILON, float(tol), lam, rho_hat)
     if mx > 0.0:
         out = np.empty_like(x)
         # a geometric relaxation: lambdas unweighted (no rest-density ratios)
-        constraint_correction(x, dx, V, lam, nl_ff.offsets, nl_ff.indices, bx, bV,
+        constraint_correction(x, V, lam, nl_ff.offsets, nl_ff.indices, bx, bV,
                               nl_fb.offsets, nl_fb.indices, float(h), int(kid), int(dim),
                               period_arg(L), False, 0.0, 0.0, 1.0, 0.0, out)
         a = np.sqrt((out * out).sum(axis=0))

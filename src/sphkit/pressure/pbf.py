@@ -158,10 +158,11 @@ BODY_WEIGHT = 1.0
 
 
 @numba.njit(**_EXACT)
-def predict_body(i, v, a, dt, dim, dx):
-    """``dx[:, i] = x*_i - x_old,i = dt (v_i + dt a_i)``."""
+def predict_body(i, x, v, a, dt, dim, dx, xp):
+    """``dx[:, i] = x*_i - x_old,i = dt (v_i + dt a_i)`` and ``xp[:, i] = x*_i``."""
     for d in range(dim):
         dx[d, i] = dt * (v[d, i] + dt * a[d, i])
+        xp[d, i] = x[d, i] + dx[d, i]
 
 
 @numba.njit(**_EXACT)
@@ -253,7 +254,8 @@ class PBF(PressureSolver):
         dim = int(state.dim)
         t = x.dtype.type  # the scalars in the fields' precision (as NumPy casts them)
         dx = arrays.empty_like(x)  # x* - x_old
-        launch(predict_body, n, v, a, t(dt), dim, dx)
+        xp = arrays.empty_like(x)  # x*, kept with dx (the pair passes gather it)
+        launch(predict_body, n, x, v, a, t(dt), dim, dx, xp)
         lam = arrays.empty(n, f.dtype, like=x)
         lam_sum = arrays.zeros(n, f.dtype, like=x)
         rho_hat = arrays.empty(n, f.dtype, like=x)
@@ -279,19 +281,20 @@ class PBF(PressureSolver):
             bx, bV, nb, body = coupling.boundary_at(state, dx, motion)
             yielding = coupling.yielding(state, body)
             bw = None if yielding is None else BODY_WEIGHT * yielding.astype(f.dtype)
-            avg, mx = constraint_lambda(x, dx, V, target, nl.offsets, nl.indices, bx, bV,
+            avg, mx = constraint_lambda(xp, V, target, nl.offsets, nl.indices, bx, bV,
                                         nb.offsets, nb.indices, state.h, state.kid,
                                         state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat, bw,
                                         *ratios)
-            constraint_correction(x, dx, V, lam, nl.offsets, nl.indices, bx, bV,
+            constraint_correction(xp, V, lam, nl.offsets, nl.indices, bx, bV,
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
                                   self._d0_inv, corr, *ratios)
             if react:  # the bodies take minus the boundary share of this sweep's correction
                 np.multiply(lam, inv_dt2, out=k_b)  # dx_i<-b = lambda_i V_b grad W = -dt^2 k_i ..
-                fb = coupling.pair_reaction(state, k_b, x + dx, bx, bV, nb, body)
+                fb = coupling.pair_reaction(state, k_b, xp, bx, bV, nb, body)
                 self._forces = fb if self._forces is None else self._forces + fb
             arrays.axpy(dx, 1.0, corr)
+            arrays.axpy(xp, 1.0, corr)
             arrays.axpy(lam_sum, 1.0, lam)
             return avg, mx
 

@@ -266,7 +266,7 @@ class PF(PressureSolver):
         # the density error at the final positions
         lam = np.empty(n, dtype=f.dtype)
         rho_hat = np.empty(n, dtype=f.dtype)
-        avg, mx = constraint_lambda(x, X - x, V, np.ones(n, dtype=f.dtype), nl.offsets,
+        avg, mx = constraint_lambda(X, V, np.ones(n, dtype=f.dtype), nl.offsets,
                                     nl.indices, b["x"], b["V"], nb.offsets, nb.indices,
                                     state.h, state.kid, dim, 0.0, _EPS, 0.0, lam, rho_hat)
         a[...] = (X - x - dt * v) / (dt * dt)
