@@ -147,7 +147,7 @@ def test_adhesion_pulls_towards_the_wall_s_end_of_step_position() -> None:
         st = _state(np.zeros((2, 1)), r)
         b = st.boundary
         b.add(np.array([[0.012, 0.0]]), V=(2 * r) ** 2, v=np.array([vb, 0.0]))
-        st.nl_fb = NeighborList(np.array([0, 1], np.int64), np.array([0], np.int32))
+        st.nl_fb = NeighborList(np.array([0, 1], np.int64), np.array([0], np.uint32))
         model = Jeske2023(0.0, 1.0, max_error=1e-12)
         model.init(st)
         st.fluid["a"][:] = 0.0

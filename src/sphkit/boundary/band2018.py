@@ -64,6 +64,7 @@ import numpy as np
 from sphkit.core.arrays import row_chunks
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
+from sphkit.core.neighbors import INDEX
 from sphkit.core.operators import replace_mirrored
 from sphkit.core.pairs import pair_slots, point, separation
 from sphkit.core.state import SimState
@@ -85,7 +86,7 @@ def _transpose(boff, bidx, nb):
     for b in range(nb):
         count[b + 1] += count[b]
     fill = count[:nb].copy()
-    tfluid = np.empty(bidx.shape[0], dtype=np.int32)  # fluid indices: int32 as the lists'
+    tfluid = np.empty(bidx.shape[0], dtype=INDEX)  # fluid indices, as the lists'
     for i in range(nf):
         for k in pair_slots(boff, i):
             b = bidx[k]
@@ -240,7 +241,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.use = np.ascontiguousarray(use, dtype=np.bool_)
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
         self.chunks = row_chunks(self.toff)  # balanced ranges of the samples (parallel loops)
-        self.tfluid = np.empty(0, dtype=np.int32)
+        self.tfluid = np.empty(0, dtype=INDEX)
         self.coef = np.empty(0)
         self.phase: np.ndarray | None = None  # the fluid's phases where fitted on their own
 

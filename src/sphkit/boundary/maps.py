@@ -72,7 +72,7 @@ from sphkit.boundary.maps_hydrostatic import (
 )
 from sphkit.core import arrays
 from sphkit.core.methods import BoundaryModel
-from sphkit.core.neighbors import NeighborList
+from sphkit.core.neighbors import INDEX, NeighborList
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
 from sphkit.geometry.cache import cache_folder, cached_arrays
@@ -530,7 +530,7 @@ class MapBoundaryModel(BoundaryModel):
         off = arrays.empty(n + 1, np.int64, like=Vb)
         launch(count_body, n, Vb, counts)
         total = exclusive_scan(counts, off, device=device_of(Vb))
-        idx = arrays.empty(total, np.int32, like=Vb)
+        idx = arrays.empty(total, INDEX, like=Vb)
         if into is None:
             bx = arrays.empty((dim, total), np.float64, like=Vb)
             bv = arrays.empty((dim, total), np.float64, like=Vb)

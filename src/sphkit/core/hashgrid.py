@@ -24,7 +24,7 @@ from sphkit.backend import (
     to_device,
     to_host,
 )
-from sphkit.core.neighbors import _BITS, NeighborList, _bucket, _cell, _pack, _scan
+from sphkit.core.neighbors import _BITS, INDEX, NeighborList, _bucket, _cell, _pack, _scan
 from sphkit.core.zorder import _spread
 
 
@@ -190,7 +190,7 @@ class HashGrid:
             self.rank = empty(n, np.int64, dev)
             self.counts = empty(size, np.int64, dev)
             self.bucket_start = empty(size + 1, np.int64, dev)
-            self.sorted_index = empty(n, np.int32, dev)
+            self.sorted_index = empty(n, INDEX, dev)
             self.sorted_key = empty(n, np.int64, dev)
             self.sorted_x = empty((3, n), x.dtype, dev)  # the positions' precision (as Grid)
         launch(cell_key_body, n, x, self.dim, 1.0 / self.h, self._origin, self.mask, self.keys,
@@ -202,7 +202,7 @@ class HashGrid:
 
     def query(self, xq, exclude_self: bool = False) -> NeighborList:
         """Neighbours (distance < h) in the grid's points of every column of ``xq`` (dim, M), an
-        array on the grid's device; CSR lists there (offsets int64, indices int32).
+        array on the grid's device; CSR lists there (offsets int64, indices uint32).
         ``exclude_self``: as :meth:`Grid.query`."""
         if self.n < 0:
             raise RuntimeError("HashGrid.query before build")
@@ -213,7 +213,7 @@ class HashGrid:
         cap = self.capacity
         while True:
             if self._rows is None or self._rows.shape[0] < m * cap:
-                self._rows = empty(max(m * cap, 1), np.int32, dev)
+                self._rows = empty(max(m * cap, 1), INDEX, dev)
             rows = self._rows
             launch(rows_body, m, xq, self.dim, self.h * self.h, 1.0 / self.h, self._origin,
                    self.mask, self.bucket_start, self.sorted_index, self.sorted_key,
@@ -224,7 +224,7 @@ class HashGrid:
             cap = largest + 8  # rare: a denser neighbourhood than ever seen; redo
             self.capacity = cap
         total = exclusive_scan(counts, offsets, device=dev)
-        indices = empty(max(total, 1), np.int32, dev)[:total]
+        indices = empty(max(total, 1), INDEX, dev)[:total]
         launch(compact_body, m, rows, cap, offsets, indices, device=dev)
         return NeighborList(offsets, indices)
 

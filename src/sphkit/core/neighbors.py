@@ -43,9 +43,10 @@ from sphkit.core.pairs import pair_slots, unsigned_range
 if TYPE_CHECKING:
     from sphkit.core.arrays import Scratch
 
-#: first sorted slot of every cell (dense) or bucket (hashed): int32 like the neighbour indices
-#: (half the memory of int64; a grid holds fewer than 2^31 points)
-_START = np.int32
+#: neighbour (and sorted point) indices: unsigned, which Numba indexes with without its
+#: negative-index fix-up (:func:`sphkit.core.pairs.unsigned_range`); 32 bits, half of 64
+INDEX = np.uint32
+_START = np.int32  # first sorted slot of every cell (dense) or bucket (hashed)
 _BITS = 21
 _LIMIT = (1 << _BITS) - 2  # largest relative cell coordinate (one cell kept free on each side)
 
@@ -172,7 +173,7 @@ def _compact(buf, counts, cap):
     for i in range(n):
         offsets[i + 1] = offsets[i] + min(counts[i], cap)
         largest = max(largest, counts[i])
-    indices = np.empty(offsets[n], dtype=np.int32)
+    indices = np.empty(offsets[n], dtype=INDEX)
     for i in numba.prange(n):
         o, b = np.uint64(offsets[i]), np.uint64(i * cap)
         for k in unsigned_range(0, offsets[i + 1] - offsets[i]):
@@ -346,7 +347,7 @@ class NeighborList:
     @staticmethod
     def empty(n: int) -> NeighborList:
         """Lists with no neighbours for ``n`` points."""
-        return NeighborList(np.zeros(n + 1, np.int64), np.zeros(0, np.int32))
+        return NeighborList(np.zeros(n + 1, np.int64), np.zeros(0, INDEX))
 
 
 class Grid:
@@ -381,7 +382,7 @@ class Grid:
         xc = np.ascontiguousarray(x)
         if n and not np.all(np.isfinite(x)):
             raise ValueError("positions: contain NaN or inf; cannot build a neighbour grid")
-        self.sorted_index = np.empty(n, dtype=np.int32)
+        self.sorted_index = np.empty(n, dtype=INDEX)
         #: the packed cell key of each sorted point (hashed grid only: the dense grid has none)
         self.sorted_key = np.empty(0, dtype=np.int64)
         self.sorted_x = np.empty((3, n), dtype=x.dtype)  # zero-padded to 3 rows
@@ -474,9 +475,9 @@ class Grid:
         cap = self.capacity
         while True:
             if scratch is None:
-                rows, counts = np.empty(m * cap, dtype=np.int32), np.empty(m, dtype=np.int64)
+                rows, counts = np.empty(m * cap, dtype=INDEX), np.empty(m, dtype=np.int64)
             else:
-                rows, counts = scratch.take(((m * cap,), np.int32), ((m,), np.int64))
+                rows, counts = scratch.take(((m * cap,), INDEX), ((m,), np.int64))
             if self.dense:
                 _dense_query(xq, self.dim, self.h, self.SUB, self.lo, self.shape, self.cell_start,
                              self.sorted_index, self.sorted_x, exclude_self, cap, rows, counts,
@@ -524,7 +525,7 @@ def _merge_rows(off_a, idx_a, off_b, idx_b, row_b):
             c += off_b[k + 1] - off_b[k]
         counts[i] = c
     offsets = csr_offsets(counts)
-    indices = np.empty(offsets[n], dtype=np.int32)
+    indices = np.empty(offsets[n], dtype=INDEX)
     for i in numba.prange(n):
         o = offsets[i]
         for t in pair_slots(off_a, i):

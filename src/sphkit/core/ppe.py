@@ -65,6 +65,7 @@ import numpy as np
 from sphkit.backend import launch, launch_reduce, specialize
 from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.core.neighbors import INDEX
 from sphkit.core.pairs import (
     add_vector,
     displaced_delta,
@@ -360,7 +361,7 @@ def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror
     n = off.shape[0] - 1
     if idx is None or c is None or inv_c is None:
         ones = arrays.full(n, 1.0, out.dtype, like=out)
-        idx, c, inv_c = arrays.zeros(0, np.int32, like=out) if idx is None else idx, ones, ones
+        idx, c, inv_c = arrays.zeros(0, INDEX, like=out) if idx is None else idx, ones, ones
         weighted = False
     else:
         weighted = True

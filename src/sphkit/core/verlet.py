@@ -16,7 +16,14 @@ import math
 import numba
 import numpy as np
 
-from sphkit.core.neighbors import NeighborList, Period, csr_offsets, neighbor_lists, pair_period
+from sphkit.core.neighbors import (
+    INDEX,
+    NeighborList,
+    Period,
+    csr_offsets,
+    neighbor_lists,
+    pair_period,
+)
 from sphkit.core.pairs import delta, pair_slots, point
 
 
@@ -34,7 +41,7 @@ def _within(x, off, idx, h, dim, L):
             c += np.int64(d0 * d0 + d1 * d1 + d2 * d2 < h2)
         counts[i] = c
     offsets = csr_offsets(counts)
-    indices = np.empty(offsets[n], dtype=np.int32)
+    indices = np.empty(offsets[n], dtype=INDEX)
     for i in numba.prange(n):
         xi0, xi1, xi2 = point(x, i, dim)
         o = offsets[i]

@@ -59,7 +59,7 @@ import numba
 import numpy as np
 
 from sphkit.core.kernels import kernel_w
-from sphkit.core.neighbors import NeighborList, neighbor_lists
+from sphkit.core.neighbors import INDEX, NeighborList, neighbor_lists
 from sphkit.core.pairs import pair_slots
 from sphkit.core.state import SimState
 
@@ -132,7 +132,7 @@ def capped_lists(x0: np.ndarray, lists: NeighborList, cap: int) -> NeighborList:
     rows, cols = rows[mutual], cols[mutual]
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(np.bincount(rows, minlength=n), out=offsets[1:])
-    return NeighborList(offsets, cols.astype(np.int32))
+    return NeighborList(offsets, cols.astype(INDEX))
 
 
 class RestConfiguration:
