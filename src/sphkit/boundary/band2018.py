@@ -66,7 +66,7 @@ from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
 from sphkit.core.neighbors import INDEX
 from sphkit.core.operators import replace_mirrored
-from sphkit.core.pairs import pair_slots, point, separation
+from sphkit.core.pairs import pair_slots, point, separation, unsigned_range
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -114,7 +114,7 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, chunks, use, h, kid, dim, L, 
             t0 = toff[b]
             t1 = toff[b + 1]
             if not use[b] or t1 == t0:
-                for t in range(t0, t1):
+                for t in unsigned_range(t0, t1):
                     coef[t] = 0.0
                 continue
             for ph in range(nphase):
@@ -130,7 +130,7 @@ def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, 
     wsum = 0.0
     e = np.zeros(4)
     e[0] = 1.0
-    for t in range(t0, t1):
+    for t in unsigned_range(t0, t1):
         if phase[tfluid[t]] != ph:
             continue
         xf0, xf1, xf2 = point(x, tfluid[t], dim)
@@ -178,7 +178,7 @@ def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, 
                 if fac != 0.0:
                     for q in range(n + 1):
                         m[r_, q] -= fac * m[c, q]
-    for t in range(t0, t1):
+    for t in unsigned_range(t0, t1):
         f = tfluid[t]
         if phase[f] != ph:
             continue
