@@ -173,7 +173,7 @@ def constant_positions(body: Any) -> tuple[int, ...]:
 
 def specialize(body: Any, *names: str) -> Any:
     """Make ``body``'s constant parameters (compiled into its CPU drivers, one driver per value)
-    exactly ``names`` instead of :data:`CONSTANT_PARAMS` (returns the body). Two uses:
+    exactly ``names`` instead of :data:`CONSTANT_PARAMS` (returns the body). Three uses:
 
     * more constants for the few passes that run many times a step, where a driver per value
       pays for its compilation: the dimension ``dim`` made constant takes 9-12 % off the

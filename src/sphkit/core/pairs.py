@@ -190,16 +190,6 @@ def distance(xi0, xi1, xi2, y, j, dim, L):
 
 
 @numba.njit(**_INLINE)
-def displaced_point(x, dx, i, dim):
-    """``x_i + dx_i`` of two (dim, N) arrays as three scalars (a predicted position, PCISPH and
-    PBF)."""
-    x0 = x[0, i] + dx[0, i]
-    x1 = x[1, i] + dx[1, i] if dim > 1 else 0.0
-    x2 = x[2, i] + dx[2, i] if dim > 2 else 0.0
-    return x0, x1, x2
-
-
-@numba.njit(**_INLINE)
 def displaced_delta(xi0, xi1, xi2, y, dy, j, dim, L):
     """``x_i - (y_j + dy_j)``, evaluated as ``(x_i - y_j) - dy_j``, to a displaced neighbour
     (minimum image along the periodic axes of ``L``) as three scalars."""
