@@ -52,8 +52,9 @@ Scene option ``configuration.boundary.pressure: "mls"``, the default of ``akinci
 registry's ``boundary_pressure``; ``"mirror"`` selects mirroring), for its static boundary
 particles (boxes, static meshes); moving rigid bodies keep their mirrored / one-sided term. All
 pressure solvers with a boundary pressure use it: DFSPH, IISPH and PCISPH inside every
-iteration, WCSPH once per step (:meth:`MLSPressureExtrapolation.correct_mirrored`); PBF has no
-boundary pressure and gets no extrapolation.
+iteration, WCSPH once per step (:meth:`MLSPressureExtrapolation.correct_mirrored`, which solves
+the fit for ``beta`` directly, :func:`mls_values`, instead of forming the coefficients: one pass
+over the pairs instead of three); PBF has no boundary pressure and gets no extrapolation.
 """
 
 from __future__ import annotations
@@ -108,7 +109,6 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, chunks, use, h, kid, dim, L, 
     of b are fitted on their own ("Several rest densities" in the module docstring; one fluid:
     zeros and 1). The samples are visited in the balanced ranges ``chunks``
     (:func:`sphkit.core.arrays.row_chunks` of ``toff``)."""
-    n = dim + 1
     for c in numba.prange(chunks.shape[0] - 1):
         for b in pair_slots(chunks, c):
             t0 = toff[b]
@@ -118,79 +118,140 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, chunks, use, h, kid, dim, L, 
                     coef[t] = 0.0
                 continue
             for ph in range(nphase):
-                _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph,
-                     n)
+                _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph)
 
 
-@numba.njit(**_JIT, inline="always")
-def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph, n):
-    """The coefficients of boundary sample b's pairs t0..t1 with fluid of phase ``ph``: the
-    moving least-squares fit of :func:`mls_coefficients` over those fluid neighbours."""
-    m = np.zeros((4, 5))
-    wsum = 0.0
-    e = np.zeros(4)
-    e[0] = 1.0
-    for t in unsigned_range(t0, t1):
-        if phase[tfluid[t]] != ph:
-            continue
-        xf0, xf1, xf2 = point(x, tfluid[t], dim)
-        d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
-        dd = (d0, d1, d2)
-        for d in range(dim):
-            e[d + 1] = dd[d] / h
-        w = kernel_w(kid, r, h, dim)
-        wsum += w
-        for p in range(n):
-            for q in range(n):
-                m[p, q] += w * e[p] * e[q]
-    # Tikhonov term on the gradient block: a gradient the neighbours do not determine (all
-    # of them on one row, as under a single fluid layer) is taken as 0 instead of noise
-    for p in range(1, n):
-        m[p, p] += ridge * wsum
-    # solve M u = e_0 by Gauss-Jordan with partial pivoting (M is symmetric: u is the
-    # first row of M^-1)
-    m[0, n] = 1.0
-    big = 0.0
-    for p in range(n):
-        big = max(big, m[p, p])
-    ok = big > 0.0
-    for c in range(n):
-        if not ok:
-            break
-        piv = c
-        for r_ in range(c + 1, n):
-            if abs(m[r_, c]) > abs(m[piv, c]):
-                piv = r_
-        if abs(m[piv, c]) < 1e-6 * big:
-            ok = False
-            break
-        if piv != c:
-            for q in range(n + 1):
-                tmp = m[c, q]
-                m[c, q] = m[piv, q]
-                m[piv, q] = tmp
-        inv = 1.0 / m[c, c]
-        for q in range(n + 1):
-            m[c, q] *= inv
-        for r_ in range(n):
-            if r_ != c:
-                fac = m[r_, c]
-                if fac != 0.0:
-                    for q in range(n + 1):
-                        m[r_, q] -= fac * m[c, q]
+@numba.njit(**_JIT)
+def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, with_q):
+    """The moment matrix ``M = sum_f W_bf [1, d_f] [1, d_f]^T`` of boundary sample b's fluid
+    neighbours f of phase ``ph`` (its pairs t0..t1; ``d_f = (x_f - x_b) / h``) with the Tikhonov
+    term on its gradient block, as its upper triangle ``(m00, m01, m02, m03, m11, m12, m13, m22,
+    m23, m33)`` (the rows beyond ``dim + 1`` zero), then ``sum_f W_bf``, and with ``with_q`` the
+    right-hand side ``sum_f W_bf [1, d_f] q_f`` and ``sum_f W_bf q_f`` (zeros without)."""
+    m00 = m01 = m02 = m03 = m11 = m12 = m13 = m22 = m23 = m33 = 0.0
+    r0 = r1 = r2 = r3 = 0.0
+    inv_h = 1.0 / h
     for t in unsigned_range(t0, t1):
         f = tfluid[t]
         if phase[f] != ph:
             continue
         xf0, xf1, xf2 = point(x, f, dim)
         d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
-        dd = (d0, d1, d2)
-        lin = m[0, n]
-        for d in range(dim):
-            lin += m[d + 1, n] * dd[d] / h
+        e1, e2, e3 = d0 * inv_h, d1 * inv_h, d2 * inv_h  # 0 beyond dim
         w = kernel_w(kid, r, h, dim)
+        m00 += w
+        m01 += w * e1
+        m02 += w * e2
+        m03 += w * e3
+        m11 += w * e1 * e1
+        m12 += w * e1 * e2
+        m13 += w * e1 * e3
+        m22 += w * e2 * e2
+        m23 += w * e2 * e3
+        m33 += w * e3 * e3
+        if with_q:
+            wq = w * q[f]
+            r0 += wq
+            r1 += wq * e1
+            r2 += wq * e2
+            r3 += wq * e3
+    # Tikhonov term on the gradient block: a gradient the neighbours do not determine (all
+    # of them on one row, as under a single fluid layer) is taken as 0 instead of noise
+    t = ridge * m00
+    return (m00, m01, m02, m03, m11 + t, m12, m13, m22 + t, m23, m33 + t), (r0, r1, r2, r3)
+
+
+@numba.njit(**_JIT)
+def _solve(m, r, dim):
+    """``(ok, y)``: the solution y (4,) of ``M y = r`` for the symmetric moment matrix m of
+    :func:`_moments` (its first ``dim + 1`` rows; y 0 beyond) by its factorisation ``L D L^T``
+    (M is positive definite where the neighbours determine the fit: the Tikhonov term makes its
+    gradient block so), ok False where a pivot of D falls below 1e-6 of M's largest diagonal
+    entry (M singular: the neighbours do not determine the fit)."""
+    m00, m01, m02, m03, m11, m12, m13, m22, m23, m33 = m
+    r0, r1, r2, r3 = r
+    big = max(m00, m11)
+    if dim > 1:
+        big = max(big, m22)
+    if dim > 2:
+        big = max(big, m33)
+    if dim < 3:  # the rows beyond dim + 1 decouple (y 0 there)
+        m33 = big
+        r3 = 0.0
+    if dim < 2:
+        m22 = big
+        r2 = 0.0
+    tol = 1e-6 * big
+    ok = big > 0.0
+    d0 = m00
+    ok = ok and d0 >= tol
+    d0 = d0 if ok else 1.0  # (the factors of a failed fit are not used)
+    l10, l20, l30 = m01 / d0, m02 / d0, m03 / d0
+    d1 = m11 - l10 * l10 * d0
+    ok = ok and d1 >= tol
+    d1 = d1 if ok else 1.0
+    l21 = (m12 - l20 * l10 * d0) / d1
+    l31 = (m13 - l30 * l10 * d0) / d1
+    d2 = m22 - l20 * l20 * d0 - l21 * l21 * d1
+    ok = ok and d2 >= tol
+    d2 = d2 if ok else 1.0
+    l32 = (m23 - l30 * l20 * d0 - l31 * l21 * d1) / d2
+    d3 = m33 - l30 * l30 * d0 - l31 * l31 * d1 - l32 * l32 * d2
+    ok = ok and d3 >= tol
+    d3 = d3 if ok else 1.0
+    z1 = r1 - l10 * r0  # L z = r, then D L^T y = z
+    z2 = r2 - l20 * r0 - l21 * z1
+    z3 = r3 - l30 * r0 - l31 * z1 - l32 * z2
+    y3 = z3 / d3
+    y2 = z2 / d2 - l32 * y3
+    y1 = z1 / d1 - l21 * y2 - l31 * y3
+    y0 = r0 / d0 - l10 * y1 - l20 * y2 - l30 * y3
+    return ok, (y0, y1, y2, y3)
+
+
+@numba.njit(**_JIT)
+def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph):
+    """The coefficients of boundary sample b's pairs t0..t1 with fluid of phase ``ph``: the
+    moving least-squares fit of :func:`mls_coefficients` over those fluid neighbours (``u``,
+    the first row of ``M^-1``, from ``M u = e_0``: M is symmetric)."""
+    m, _ = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, rho_hat, False)
+    wsum = m[0]
+    ok, u = _solve(m, (1.0, 0.0, 0.0, 0.0), dim)
+    u0, u1, u2, u3 = u
+    inv_h = 1.0 / h
+    for t in unsigned_range(t0, t1):
+        f = tfluid[t]
+        if phase[f] != ph:
+            continue
+        xf0, xf1, xf2 = point(x, f, dim)
+        d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
+        w = kernel_w(kid, r, h, dim)
+        lin = u0 + (u1 * d0 + u2 * d1 + u3 * d2) * inv_h
         c_bf = w * lin if ok else (w / wsum if wsum > 0.0 else 0.0)
         coef[t] = c_bf * rho_hat[f] * rho_hat[f]
+
+
+@numba.njit(parallel=True, **_JIT)
+def mls_values(x, q, bx, toff, tfluid, chunks, use, h, kid, dim, L, ridge, phase, out):
+    """``out[ph, b] = max(beta_0, 0)``: the value at boundary sample b of the linear field fitted
+    to the fluid values q (N,) of phase ph (the module docstring's fit, solved for ``beta``
+    directly: the one-shot form of :func:`mls_coefficients` then :func:`mls_extrapolate`, for a
+    solver that extrapolates once a step); 0 where ``use[b]`` is False or b has no fluid
+    neighbour of the phase. ``out`` (phases, N_boundary)."""
+    for c in numba.prange(chunks.shape[0] - 1):
+        for b in pair_slots(chunks, c):
+            t0 = toff[b]
+            t1 = toff[b + 1]
+            for ph in range(out.shape[0]):
+                out[ph, b] = 0.0
+                if not use[b] or t1 == t0:
+                    continue
+                m, rhs = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q,
+                                  True)
+                ok, y = _solve(m, rhs, dim)
+                wsum = m[0]
+                value = y[0] if ok else (rhs[0] / wsum if wsum > 0.0 else 0.0)
+                out[ph, b] = max(value, 0.0)
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -242,7 +303,8 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
         self.chunks = row_chunks(self.toff)  # balanced ranges of the samples (parallel loops)
         self.tfluid = np.empty(0, dtype=INDEX)
-        self.coef = np.empty(0)
+        self.coef: np.ndarray | None = np.empty(0)  # this step's, once computed (:meth:`prepare`)
+        self._fit_args: tuple = ()
         self.phase: np.ndarray | None = None  # the fluid's phases where fitted on their own
 
     def init(self, state: SimState) -> None:
@@ -258,17 +320,26 @@ class MLSPressureExtrapolation(BoundaryPressure):
         return self.use.astype(np.float64)
 
     def prepare(self, state: SimState) -> None:
-        """MLS coefficients for the current positions and neighbour lists."""
+        """This step's boundary -> fluid lists; the coefficients follow at the first
+        :meth:`extrapolate` of the step (a solver that extrapolates once, WCSPH through
+        :meth:`correct_mirrored`, fits the values directly and needs none)."""
         f, b = state.fluid, state.boundary
         nb = state.nl_fb
         self.toff, self.tfluid = _transpose(nb.offsets, nb.indices, b.n)
         self.chunks = row_chunks(self.toff)
-        self.coef = np.empty(self.tfluid.shape[0], dtype=f.dtype)
-        rho_hat = f["rho"] / f["rho0"]
         self.phase = per_phase(state)
-        mls_coefficients(f["x"], rho_hat, b["x"], self.toff, self.tfluid, self.chunks, self.use,
-                         state.h, state.kid, state.dim, state.pair_period, self.ridge, self.coef,
-                         self._phase_rows(f.n), self.phases)
+        self._fit_args = (f["x"], f["rho"] / f["rho0"], b["x"], state.h, state.kid, state.dim,
+                          state.pair_period, self._phase_rows(f.n))
+        self.coef = None
+
+    def _coefficients(self) -> np.ndarray:
+        """This step's coefficients (:func:`mls_coefficients`), computed at the first call."""
+        if self.coef is None:
+            x, rho_hat, bx, h, kid, dim, L, phase = self._fit_args
+            self.coef = np.empty(self.tfluid.shape[0], dtype=x.dtype)
+            mls_coefficients(x, rho_hat, bx, self.toff, self.tfluid, self.chunks, self.use, h,
+                             kid, dim, L, self.ridge, self.coef, phase, self.phases)
+        return self.coef
 
     @property
     def phases(self) -> int:
@@ -288,10 +359,10 @@ class MLSPressureExtrapolation(BoundaryPressure):
         f, b = state.fluid, state.boundary
         kb = np.empty((self.phases, b.n), dtype=f.dtype)
         rest = state.rest()
-        k = f["p"] * f["rho0"] / f["rho"] ** 2
-        # kb = p_b / rho0_ref, one row per phase fitted on its own
-        self.extrapolate(k if rest.uniform else k * rest.c, kb if self.phase is not None
-                         else kb[0])
+        # kb = p_b / rho0_ref, one row per phase fitted on its own: the fit of p / rho0_ref
+        mls_values(f["x"], f["p"] / state.rho0, b["x"], self.toff, self.tfluid, self.chunks,
+                   self.use, state.h, state.kid, state.dim, state.pair_period, self.ridge,
+                   self._phase_rows(f.n), kb)
         replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
                          state.nl_fb.offsets, state.nl_fb.indices, self.use, kb,
                          self._phase_rows(f.n), state.h, state.kid, state.dim,
@@ -301,11 +372,11 @@ class MLSPressureExtrapolation(BoundaryPressure):
         """``out[b] = p_b / rho0`` of the fluid field k (see :func:`mls_extrapolate`); with the
         phases fitted on their own ``out[q, b]``, (phases, N_boundary)
         (:func:`mls_extrapolate_phases`)."""
+        coef = self._coefficients()
         if out.ndim == 2:
-            mls_extrapolate_phases(k, self.toff, self.tfluid, self.chunks, self.coef, self.phase,
-                                   out)
+            mls_extrapolate_phases(k, self.toff, self.tfluid, self.chunks, coef, self.phase, out)
         else:
-            mls_extrapolate(k, self.toff, self.tfluid, self.chunks, self.coef, out)
+            mls_extrapolate(k, self.toff, self.tfluid, self.chunks, coef, out)
 
 
 def per_phase(state: SimState) -> np.ndarray | None:
