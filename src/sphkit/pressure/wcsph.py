@@ -76,6 +76,23 @@ STIFFNESS_CFL = 0.8
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
+def power(x, e):
+    """``x ** e``, by repeated squaring where e is a whole number from 1 to 16 (Tait's 7:
+    several times faster than the library's ``pow``), else ``pow``."""
+    if e == math.floor(e) and 1.0 <= e <= 16.0:
+        n = np.int64(e)
+        y = 1.0
+        b = x
+        while n > 0:
+            if n & 1:
+                y *= b
+            b *= b
+            n >>= 1
+        return y
+    return x ** e
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
 def state_equation_body(i, rho, rho0, equation, stiffness, exponent, p, pb):
     """``p[i]`` from the state equation (``rho0[i]``: particle i's rest density), clamped to
     ``rho >= rho0`` unless the background pressure ``pb`` [Pa] is > 0 (then ``p_b +`` the
@@ -83,7 +100,7 @@ def state_equation_body(i, rho, rho0, equation, stiffness, exponent, p, pb):
     r0 = rho0[i]
     r = max(rho[i], r0) if pb <= 0.0 else rho[i]
     if equation == TAIT:
-        p[i] = stiffness * ((r / r0) ** exponent - 1.0)
+        p[i] = stiffness * (power(r / r0, exponent) - 1.0)
     else:
         p[i] = stiffness * (r - r0)
     if pb > 0.0:
@@ -135,7 +152,7 @@ def stiffness_body(i, x, mu, rho, off, idx, bx, bV, boff, bidx, rho0, h, kid, di
         q1 += mirror * s * d1
         q2 += mirror * s * d2
     if equation == TAIT:
-        cs2 = stiffness * exponent / r0 * (ri / r0) ** (exponent - 1.0)
+        cs2 = stiffness * exponent / r0 * power(ri / r0, exponent - 1.0)
     else:
         cs2 = stiffness
     g = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
