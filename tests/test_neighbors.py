@@ -108,6 +108,30 @@ def test_rows_that_overflow_the_capacity_are_redone(capacity: int) -> None:
 
 
 @pytest.mark.parametrize("dim", [1, 2, 3])
+def test_the_cell_by_cell_self_query_gives_the_per_point_lists(dim: int, grid_mode: str) -> None:
+    """:meth:`Grid.query_own` (cell by cell, candidates in 64-bit masks) returns the lists of the
+    per-point query with self excluded, in the same order, entry for entry: a random set, a
+    cluster of 2,500 coincident points (more candidates than a cell's block holds: the per-point
+    scan takes over there) and rows of 3 slots (redone wider). (A hashed grid answers through the
+    per-point query.)"""
+    from sphkit.core.densegrid import BLOCK
+
+    n, h = CASES[dim]
+    rng = np.random.default_rng(40 + dim)
+    x = np.concatenate([rng.uniform(-0.4, 0.6, size=(dim, n)),
+                        np.full((dim, BLOCK + 452), 0.3)], axis=1)
+    for capacity in (64, 3):
+        grid = Grid(x, h)
+        assert grid.dense == (grid_mode == "default")
+        grid.capacity = capacity
+        own, per_point = grid.query_own(x), grid.query(x, exclude_self=True)
+        np.testing.assert_array_equal(own.offsets, per_point.offsets)
+        np.testing.assert_array_equal(own.indices, per_point.indices)
+    assert own.counts().max() >= BLOCK  # the cluster took the per-point scan
+    _assert_lists(own, _brute(x, x, h, exclude_self=True), x.shape[1])
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
 def test_exclude_self(dim: int) -> None:
     n, h = CASES[dim]
     x = np.random.default_rng(20 + dim).uniform(0.0, 1.0, size=(dim, n))

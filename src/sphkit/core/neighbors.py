@@ -10,7 +10,9 @@ on multi-core CPUs"). Two layouts give the same lists:
   last axis is one contiguous run of the sorted points. A query visits, for each of the 3^(d-1)
   rows around it, only the run of cells that the ball of radius h touches (fewer candidates and
   no hashing; a fluid-fluid query of the DFSPH benchmark scene took 3.5 instead of 4.8 ms, a
-  fluid-boundary query 0.7 instead of 2.1 ms).
+  fluid-boundary query 0.7 instead of 2.1 ms). A set queried against itself (the fluid's lists,
+  :meth:`Grid.query_own`) is searched cell by cell, the points of a cell testing their common
+  candidates 64 at a time (:mod:`sphkit.core.densegrid`).
 * **hashed** (sparse sets, e.g. splashes far from the bulk): every particle's integer cell
   coordinates are packed into a 63-bit key and hashed into a table of ``2^k >= 2N`` buckets; a
   counting sort over buckets groups the particles (Hoetzlein 2014, as in cuNSearch). A query
@@ -32,12 +34,19 @@ Verlet lists reused across steps (``configuration.neighbor_skin``): :mod:`sphkit
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
+from sphkit.core.densegrid import (
+    _dense_cells,
+    _dense_query,
+    _dense_self_query,
+    _dilated_occupancy,
+)
 from sphkit.core.pairs import pair_slots, unsigned_range
 
 if TYPE_CHECKING:
@@ -197,126 +206,6 @@ def _query(xq, dim, h, origin, mask, bucket_start, sorted_index, sorted_key, sor
                           sorted_key, sorted_x, exclude_self, buf, i * cap, cap)
 
 
-# -- dense grid with row ranges ------------------------------------------------------------------
-@numba.njit(cache=True, inline="always")
-def _u(x, i, k, dim, inv_a):
-    """Coordinate along internal axis k (0, 1, 2; the data's axes are the last ``dim`` of them)
-    in cell units."""
-    d = k - (3 - dim)
-    if d < 0:
-        return 0.0
-    return x[d, i] * inv_a
-
-
-@numba.njit(cache=True, parallel=True)
-def _dense_cells(x, dim, inv_a, lo, shape, cells):
-    for i in numba.prange(x.shape[1]):
-        c = np.int64(0)
-        for k in range(3):
-            c = c * shape[k] + (np.int64(np.floor(_u(x, i, k, dim, inv_a))) - lo[k])
-        cells[i] = c
-
-
-@numba.njit(cache=True, inline="always")
-def _gap(u, cu, c):
-    """Distance (cell units) from coordinate u, which lies in cell cu, to the cell c along one
-    axis (0 inside)."""
-    if c < cu:
-        return u - (c + 1.0)
-    if c > cu:
-        return c - u
-    return 0.0
-
-
-@numba.njit(cache=True)
-def _dilated_occupancy(cell_start, shape, reach):
-    """Per cell of a dense grid (row-major, ``shape`` (3,)): 1 where a point lies in the block
-    of cells within ``reach`` along every axis (the cells a query from there scans), else 0."""
-    n0, n1, n2 = shape[0], shape[1], shape[2]
-    a = np.empty(n0 * n1 * n2, dtype=np.uint8)
-    for c in range(a.shape[0]):
-        a[c] = cell_start[c + 1] > cell_start[c]
-    b = np.empty_like(a)
-    strides = (n1 * n2, n2, 1)
-    for axis in range(3):  # separable: a maximum over the reach along one axis at a time
-        st, n = strides[axis], shape[axis]
-        for c in range(a.shape[0]):
-            p = (c // st) % n
-            m = 0
-            for q in range(max(p - reach, 0), min(p + reach, n - 1) + 1):
-                m = max(m, a[c + (q - p) * st])
-            b[c] = m
-        a, b = b, a
-    return a
-
-
-@numba.njit(cache=True, inline="always")
-def _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index, sorted_x,
-                exclude_self, out, pos, cap, near):
-    """Like :func:`_scan` on a dense grid of cells ``h / sub`` wide: for every row of cells
-    along the last axis within reach, only the cells that the ball of radius h around the
-    query point touches are visited, and they are one contiguous run of the sorted points.
-
-    Two stages: the distance test over the runs appends sorted slots branch-free (it reads
-    only the sorted coordinates), then the hits' slots are mapped to point indices and the
-    query point itself is dropped (about 10 % faster than reading the index of every
-    candidate)."""
-    u0 = _u(xq, i, 0, dim, inv_a) - lo[0]
-    u1 = _u(xq, i, 1, dim, inv_a) - lo[1]
-    u2 = _u(xq, i, 2, dim, inv_a) - lo[2]
-    qx = xq[0, i]
-    qy = xq[1, i] if dim >= 2 else 0.0
-    qz = xq[2, i] if dim >= 3 else 0.0
-    c0 = np.int64(np.floor(u0))
-    c1 = np.int64(np.floor(u1))
-    c2 = np.int64(np.floor(u2))
-    if (near.shape[0] > 0 and 0 <= c0 < shape[0] and 0 <= c1 < shape[1] and 0 <= c2 < shape[2]
-            and near[(c0 * shape[1] + c1) * shape[2] + c2] == 0):
-        return 0  # no point in any cell within reach (Grid.mark_near)
-    reach2 = sub * sub * (1.0 + 1e-9)  # slack: rounding never drops a cell
-    count = 0
-    last = cap - 1
-    for a0 in range(max(c0 - sub, 0), min(c0 + sub, shape[0] - 1) + 1):
-        e0 = _gap(u0, c0, a0)
-        for a1 in range(max(c1 - sub, 0), min(c1 + sub, shape[1] - 1) + 1):
-            e1 = _gap(u1, c1, a1)
-            rem = reach2 - e0 * e0 - e1 * e1
-            if rem <= 0.0:
-                continue
-            w = math.sqrt(rem)
-            z0 = max(np.int64(np.floor(u2 - w)), 0)
-            z1 = min(np.int64(np.floor(u2 + w)), shape[2] - 1)
-            if z0 > z1:
-                continue
-            base = (a0 * shape[1] + a1) * shape[2]
-            for s in unsigned_range(cell_start[base + z0], cell_start[base + z1 + 1]):
-                tx = qx - sorted_x[0, s]
-                ty = qy - sorted_x[1, s]
-                tz = qz - sorted_x[2, s]
-                out[np.uint64(pos + min(count, last))] = s  # always written, kept on a hit
-                count += np.int64(tx * tx + ty * ty + tz * tz < h2)
-    if count >= cap:  # the row overflowed (its last slot was overwritten): redo, wider
-        return count
-    k = 0
-    for t in unsigned_range(pos, pos + count):
-        j = sorted_index[np.uint64(out[t])]
-        out[np.uint64(pos + k)] = j
-        k += np.int64((j != i) or not exclude_self)
-    return k
-
-
-@numba.njit(cache=True, parallel=True, fastmath=True)
-def _dense_query(xq, dim, h, sub, lo, shape, cell_start, sorted_index, sorted_x, exclude_self,
-                 cap, buf, counts, near):
-    """:func:`_query` on the dense grid."""
-    n = xq.shape[1]
-    inv_a = sub / h
-    h2 = h * h
-    for i in numba.prange(n):
-        counts[i] = _dense_scan(i, xq, dim, h2, inv_a, sub, lo, shape, cell_start, sorted_index,
-                                sorted_x, exclude_self, buf, i * cap, cap, near)
-
-
 @dataclass
 class NeighborList:
     """CSR neighbour lists: neighbours of point i are ``indices[offsets[i]:offsets[i+1]]``."""
@@ -356,8 +245,8 @@ class Grid:
     Dense when the point set's bounding box holds at most :attr:`dense_cells_per_point` cells
     of size ``h / SUB`` per point (every cell stored; rows of cells along the last axis are
     contiguous runs of the sorted points, so a query visits one run per row of the ball's
-    shadow, :func:`_dense_scan`); hashed otherwise (sparse scenes, e.g. a few splashes far from
-    the bulk; :func:`_scan`). Both give the same lists.
+    shadow, :mod:`sphkit.core.densegrid`); hashed otherwise (sparse scenes, e.g. a few
+    splashes far from the bulk; :func:`_scan`). Both give the same lists.
     """
 
     #: cells per h along an axis of the dense grid. Finer cells cover the ball more tightly
@@ -472,20 +361,45 @@ class Grid:
         axes = periodic_axes(period)
         if axes:
             return _periodic_query(self, xq, exclude_self, axes)
+        if self.dense:
+            def fill(cap: int, rows: np.ndarray, counts: np.ndarray) -> None:
+                _dense_query(xq, self.dim, self.h, self.SUB, self.lo, self.shape, self.cell_start,
+                             self.sorted_index, self.sorted_x, exclude_self, cap, rows, counts,
+                             self.near)
+        else:
+            def fill(cap: int, rows: np.ndarray, counts: np.ndarray) -> None:
+                _query(xq, self.dim, self.h, self.origin, self.mask, self.bucket_start,
+                       self.sorted_index, self.sorted_key, self.sorted_x, exclude_self, cap,
+                       rows, counts)
+        return self._lists(m, scratch, fill)
+
+    def query_own(self, x: np.ndarray, period: Period = None,
+                  scratch: Scratch | None = None) -> NeighborList:
+        """:meth:`query` of the point set x (dim, N) the grid was built on, self excluded: the
+        same lists, on a dense grid without period found cell by cell
+        (:func:`sphkit.core.densegrid._dense_self_query`, about twice as fast)."""
+        if x.shape != (self.dim, self.n):
+            raise ValueError(f"positions: shape {x.shape}; the grid holds {(self.dim, self.n)}")
+        if not self.dense or self.n == 0 or periodic_axes(period):
+            return self.query(x, exclude_self=True, period=period, scratch=scratch)
+        x = np.ascontiguousarray(x, dtype=self.sorted_x.dtype)
+
+        def fill(cap: int, rows: np.ndarray, counts: np.ndarray) -> None:
+            _dense_self_query(x, self.h, self.SUB, self.lo, self.shape, self.cell_start,
+                              self.sorted_index, self.sorted_x, cap, rows, counts,
+                              min(self.n, 16 * numba.get_num_threads()))
+        return self._lists(self.n, scratch, fill)
+
+    def _lists(self, m: int, scratch: Scratch | None, fill: Callable) -> NeighborList:
+        """CSR lists of m query points from ``fill(cap, rows, counts)``, which writes them into
+        rows of ``cap`` slots (repeated with a larger ``cap`` when a row overflows)."""
         cap = self.capacity
         while True:
             if scratch is None:
                 rows, counts = np.empty(m * cap, dtype=INDEX), np.empty(m, dtype=np.int64)
             else:
                 rows, counts = scratch.take(((m * cap,), INDEX), ((m,), np.int64))
-            if self.dense:
-                _dense_query(xq, self.dim, self.h, self.SUB, self.lo, self.shape, self.cell_start,
-                             self.sorted_index, self.sorted_x, exclude_self, cap, rows, counts,
-                             self.near)
-            else:
-                _query(xq, self.dim, self.h, self.origin, self.mask, self.bucket_start,
-                       self.sorted_index, self.sorted_key, self.sorted_x, exclude_self, cap,
-                       rows, counts)
+            fill(cap, rows, counts)
             offsets, indices, largest = _compact(rows, counts, cap)
             if largest < cap:
                 return NeighborList(offsets, indices)
@@ -499,7 +413,7 @@ def neighbor_lists(x: np.ndarray, h: float, period: Period = None,
                    scratch: Scratch | None = None) -> NeighborList:
     """Neighbour lists of a point set (dim, N) with itself, self excluded (``period``,
     ``scratch``: see :meth:`Grid.query`)."""
-    return Grid(x, h).query(x, exclude_self=True, period=period, scratch=scratch)
+    return Grid(x, h).query_own(x, period=period, scratch=scratch)
 
 
 @numba.njit(cache=True, inline="always")
