@@ -128,6 +128,9 @@ def install_passes(rec: Recorder) -> None:
     nb.Grid.query = rec.timed(
         nb.Grid.query, lambda a: "search: Grid.query",
         lambda a, o: _nbytes(a[1:2]) + o.offsets.nbytes + o.indices.nbytes)
+    nb.Grid.query_own = rec.timed(
+        nb.Grid.query_own, lambda a: "search: Grid.query_own",
+        lambda a, o: _nbytes(a[1:2]) + o.offsets.nbytes + o.indices.nbytes)
     nb.Grid.__init__ = rec.timed(
         nb.Grid.__init__, lambda a: "search: Grid build",
         lambda a, _o: _nbytes(a[1:2]) + a[0].sorted_x.nbytes + a[0].sorted_index.nbytes)

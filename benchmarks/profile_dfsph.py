@@ -33,7 +33,7 @@ HERE = Path(__file__).resolve().parent
 PARTS = {
     "solver iterations": ("kappa_accel_cached", "kappa_accel_body__launch_each", "jacobi_sweep",
                           "jacobi_body__launch_sum_max"),
-    "neighbour search": ("_dense_query", "_query", "_compact", "_counting_sort", "_dense_cells",
+    "neighbour search": ("_dense_query", "_dense_self_query", "_query", "_compact", "_counting_sort", "_dense_cells",
                          "_cells", "zorder_permutation", "_merge_rows"),
     "densities and pair gradients V_j grad W_ij": ("density_pair_gradients",
                                                    "density_pair_gradients_body__launch_each",

@@ -172,7 +172,8 @@ def test_fluid_against_boundary(dim: int) -> None:
 def test_a_grid_that_marks_its_near_cells_gives_the_same_lists(dim: int) -> None:
     """Walls of a box (points on its faces only) marked with Grid.mark_near: queries from
     cells with no wall point within reach return at once, the others scan as before; the lists
-    equal the brute force ones, inside, near and outside the box."""
+    equal the brute force ones, inside, near and outside the box, point by point and cell by
+    cell of the fluid's grid."""
     h = CASES[dim][1]
     rng = np.random.default_rng(40 + dim)
     walls = rng.uniform(0.0, 1.0, size=(dim, 3000))
@@ -184,6 +185,11 @@ def test_a_grid_that_marks_its_near_cells_gives_the_same_lists(dim: int) -> None
     if grid.dense:
         assert 0 < grid.near.sum() < grid.near.size  # the box's interior cells are unmarked
     _assert_lists(grid.query(fluid), _brute(fluid, walls, h), walls.shape[1])
+    # cell by cell of the fluid's own grid (Grid.query_grid, the step's fluid-wall search):
+    # the same lists, entry for entry, for fluid inside, near and beyond the walls' grid
+    by_cells = grid.query_grid(Grid(fluid, h), fluid)
+    np.testing.assert_array_equal(by_cells.offsets, grid.query(fluid).offsets)
+    np.testing.assert_array_equal(by_cells.indices, grid.query(fluid).indices)
 
 
 # -- edge cases -----------------------------------------------------------------------------------

@@ -49,7 +49,7 @@ from sphkit.core import arrays
 from sphkit.core.arrays import on_device
 from sphkit.core.hashgrid import DeviceSearch
 from sphkit.core.krylov import KrylovStats
-from sphkit.core.neighbors import NeighborList, neighbor_lists
+from sphkit.core.neighbors import Grid, NeighborList
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats
@@ -368,16 +368,17 @@ class Simulation:
         if reordered:  # on a device the permutation is found and applied there
             st.fluid.permute(self._search.zorder(x) if on_device(x)
                              else zorder_permutation(x, st.h))
-        # the last step's lists go before the search builds the new ones (a lower peak)
-        st.nl_ff = NeighborList.empty(0)
+        st.nl_ff = NeighborList.empty(0)  # the last step's lists go first (a lower peak)
         x = st.fluid["x"]
         if self._verlet is not None:  # configuration.neighbor_skin: lists reused across steps
             st.nl_ff = self._verlet.lists(x, st.h, st.periodic, rebuild=reordered)
         elif on_device(x):  # the hashed grid's passes as kernel bodies, where the fluid is
             st.nl_ff = self._search.lists(x)
-        else:
-            st.nl_ff = neighbor_lists(st.fluid["x"], st.h, st.periodic, scratch=st.scratch)
+        else:  # the fluid's grid serves the boundary's search too (its cells)
+            st.fluid_grid = grid = Grid(x, st.h)
+            st.nl_ff = grid.query_own(x, st.periodic, scratch=st.scratch)
         self.boundary_model.update(st)
+        st.fluid_grid = None
 
     def compute_density(self) -> None:
         """Fluid densities from the current neighbour lists (fluid + boundary)."""

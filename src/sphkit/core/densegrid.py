@@ -8,8 +8,9 @@ Two queries:
   for each query point, each of the rows of cells within reach, only the run of cells that the
   ball of radius h touches, the distance test appending the hits branch-free
   (:func:`_dense_scan`).
-* :func:`_dense_self_query` (the grid's own points, self excluded: the fluid's lists every
-  step): cell by cell. The points of a cell share their candidates -- the runs of the 3^d cells
+* :func:`_dense_cell_query` (query points sorted into a grid of their own on the same lattice:
+  the fluid against itself, self excluded, and against the walls, every step): cell by cell of
+  the queries' grid. The points of a cell share their candidates -- the runs of the 3^d cells
   around it -- which are copied once into a contiguous block; each point of the cell then tests
   the block 64 candidates at a time into a bit mask (a loop the compiler vectorises, with no
   branch) and appends only the hits, found by counting trailing zeros. The lists are those of
@@ -156,35 +157,47 @@ def _dense_query(xq, dim, h, sub, lo, shape, cell_start, sorted_index, sorted_x,
 
 
 @numba.njit(cache=True, parallel=True, fastmath=True)
-def _dense_self_query(x, h, sub, lo, shape, cell_start, sorted_index, sorted_x, cap, buf,
-                      counts, parts):
-    """The lists of the grid's own points x (dim, N) with self excluded, cell by cell (module
-    docstring), into the fixed-stride rows of :func:`_dense_query` (``buf``, ``counts``; a
-    count reaching ``cap`` asks the caller to repeat with a larger ``cap``). The cells are split
-    into ``parts`` contiguous ranges of about the same number of points, one task each."""
+def _dense_cell_query(xq, h, sub, lo, shape, cell_start, sorted_index, sorted_x, near, qlo,
+                      qshape, qcell_start, qsorted_index, qsorted_x, own, cap, buf, counts,
+                      parts):
+    """The lists of the query points xq (dim, M) in this grid (``lo`` ... ``near``), cell by cell
+    of the queries' own dense grid (``qlo`` ... ``qsorted_x``, the same cell size: the cells
+    of both lie on one lattice), into the fixed-stride rows of :func:`_dense_query` (``buf``,
+    ``counts``; a count reaching ``cap`` asks the caller to repeat with a larger ``cap``).
+    ``own``: the query grid is this grid (the point itself is dropped from its list). A query
+    cell whose cells within reach hold no point (``near``, :meth:`Grid.mark_near`; or beyond
+    the grid) has empty lists. The query cells are split into ``parts`` contiguous ranges of
+    about the same number of points, one task each (module docstring)."""
     n0, n1, n2 = shape[0], shape[1], shape[2]
-    ncell = n0 * n1 * n2
-    n = sorted_index.shape[0]
+    m1, m2 = qshape[1], qshape[2]
+    ncell = qshape[0] * m1 * m2
+    n = qsorted_index.shape[0]
     h2 = h * h
     inv_a = sub / h
     last = cap - 1
-    near = np.zeros(0, dtype=np.uint8)
     for c in numba.prange(parts):
         bx = np.empty(BLOCK + 64, dtype=sorted_x.dtype)
         by = np.empty(BLOCK + 64, dtype=sorted_x.dtype)
         bz = np.empty(BLOCK + 64, dtype=sorted_x.dtype)
         bs = np.empty(BLOCK + 64, dtype=np.uint32)
-        # the cells whose first slot lies in this task's share of the points
-        first = np.searchsorted(cell_start[:ncell], c * n // parts)
-        end = ncell if c == parts - 1 else np.searchsorted(cell_start[:ncell],
+        # the query cells whose first slot lies in this task's share of the points
+        first = np.searchsorted(qcell_start[:ncell], c * n // parts)
+        end = ncell if c == parts - 1 else np.searchsorted(qcell_start[:ncell],
                                                              (c + 1) * n // parts)
         for cell in range(first, end):
-            s0, s1 = cell_start[cell], cell_start[cell + 1]
+            s0, s1 = qcell_start[cell], qcell_start[cell + 1]
             if s0 == s1:
                 continue
-            a2 = cell % n2
-            a1 = (cell // n2) % n1
-            a0 = cell // (n1 * n2)
+            # the cell in this grid's coordinates
+            a0 = cell // (m1 * m2) + qlo[0] - lo[0]
+            a1 = (cell // m2) % m1 + qlo[1] - lo[1]
+            a2 = cell % m2 + qlo[2] - lo[2]
+            inside = 0 <= a0 < n0 and 0 <= a1 < n1 and 0 <= a2 < n2
+            if (not (-sub <= a0 < n0 + sub and -sub <= a1 < n1 + sub and -sub <= a2 < n2 + sub)
+                    or (inside and near.shape[0] > 0 and near[(a0 * n1 + a1) * n2 + a2] == 0)):
+                for q in range(s0, s1):
+                    counts[qsorted_index[q]] = 0
+                continue
             z0, z1 = max(a2 - sub, 0), min(a2 + sub, n2 - 1)
             k = 0  # the block: the runs of the cells within reach, in the per-point scan's order
             for b0 in range(max(a0 - sub, 0), min(a0 + sub, n0 - 1) + 1):
@@ -204,17 +217,17 @@ def _dense_self_query(x, h, sub, lo, shape, cell_start, sorted_index, sorted_x, 
                     break
             if k > BLOCK:  # a crowded neighbourhood: the per-point scan
                 for q in range(s0, s1):
-                    i = sorted_index[q]
-                    counts[i] = _dense_scan(i, x, x.shape[0], h2, inv_a, sub, lo, shape,
-                                            cell_start, sorted_index, sorted_x, True, buf,
+                    i = qsorted_index[q]
+                    counts[i] = _dense_scan(i, xq, xq.shape[0], h2, inv_a, sub, lo, shape,
+                                            cell_start, sorted_index, sorted_x, own, buf,
                                             i * cap, cap, near)
                 continue
             words = (k + 63) // 64
             for t in range(k, words * 64):  # padding far from every point
                 bx[t] = by[t] = bz[t] = _FAR
             for q in range(s0, s1):
-                qx, qy, qz = sorted_x[0, q], sorted_x[1, q], sorted_x[2, q]
-                i = sorted_index[q]
+                qx, qy, qz = qsorted_x[0, q], qsorted_x[1, q], qsorted_x[2, q]
+                i = qsorted_index[q]
                 pos = np.uint64(i) * np.uint64(cap)
                 count = 0
                 for wi in unsigned_range(0, words):
@@ -228,6 +241,6 @@ def _dense_self_query(x, h, sub, lo, shape, cell_start, sorted_index, sorted_x, 
                     while mask != 0:
                         s = bs[w + trailing_zeros(mask)]
                         buf[pos + np.uint64(min(count, last))] = sorted_index[s]
-                        count += np.int64(s != q)  # the point itself is dropped
+                        count += np.int64((s != q) or not own)  # own: the point is dropped
                         mask &= mask - np.uint64(1)
                 counts[i] = count

@@ -11,7 +11,8 @@ on multi-core CPUs"). Two layouts give the same lists:
   rows around it, only the run of cells that the ball of radius h touches (fewer candidates and
   no hashing; a fluid-fluid query of the DFSPH benchmark scene took 3.5 instead of 4.8 ms, a
   fluid-boundary query 0.7 instead of 2.1 ms). A set queried against itself (the fluid's lists,
-  :meth:`Grid.query_own`) is searched cell by cell, the points of a cell testing their common
+  :meth:`Grid.query_own`), and the fluid against the walls (:meth:`Grid.query_grid`), are
+  searched cell by cell of the fluid's grid, the points of a cell testing their common
   candidates 64 at a time (:mod:`sphkit.core.densegrid`).
 * **hashed** (sparse sets, e.g. splashes far from the bulk): every particle's integer cell
   coordinates are packed into a 63-bit key and hashed into a table of ``2^k >= 2N`` buckets; a
@@ -42,9 +43,9 @@ import numba
 import numpy as np
 
 from sphkit.core.densegrid import (
+    _dense_cell_query,
     _dense_cells,
     _dense_query,
-    _dense_self_query,
     _dilated_occupancy,
 )
 from sphkit.core.pairs import pair_slots, unsigned_range
@@ -377,18 +378,31 @@ class Grid:
                   scratch: Scratch | None = None) -> NeighborList:
         """:meth:`query` of the point set x (dim, N) the grid was built on, self excluded: the
         same lists, on a dense grid without period found cell by cell
-        (:func:`sphkit.core.densegrid._dense_self_query`, about twice as fast)."""
-        if x.shape != (self.dim, self.n):
-            raise ValueError(f"positions: shape {x.shape}; the grid holds {(self.dim, self.n)}")
-        if not self.dense or self.n == 0 or periodic_axes(period):
-            return self.query(x, exclude_self=True, period=period, scratch=scratch)
-        x = np.ascontiguousarray(x, dtype=self.sorted_x.dtype)
+        (:func:`sphkit.core.densegrid._dense_cell_query`, about twice as fast)."""
+        return self.query_grid(self, x, period, scratch)
+
+    def query_grid(self, queries: Grid, xq: np.ndarray, period: Period = None,
+                   scratch: Scratch | None = None) -> NeighborList:
+        """:meth:`query` of the points xq (dim, M) that the grid ``queries`` was built on (self
+        excluded where ``queries`` is this grid): the same lists, found cell by cell of
+        ``queries`` (:func:`sphkit.core.densegrid._dense_cell_query`) where both grids are
+        dense with the same cell size and there is no period; else by :meth:`query`."""
+        if xq.shape != (queries.dim, queries.n) or queries.dim != self.dim:
+            raise ValueError(f"query positions: shape {xq.shape}; the query grid holds "
+                             f"{(queries.dim, queries.n)} in {self.dim} dimensions")
+        own = queries is self
+        if (not (self.dense and queries.dense) or self.n == 0 or queries.n == 0
+                or queries.h != self.h or periodic_axes(period)):
+            return self.query(xq, exclude_self=own, period=period, scratch=scratch)
+        xq = np.ascontiguousarray(xq, dtype=self.sorted_x.dtype)
 
         def fill(cap: int, rows: np.ndarray, counts: np.ndarray) -> None:
-            _dense_self_query(x, self.h, self.SUB, self.lo, self.shape, self.cell_start,
-                              self.sorted_index, self.sorted_x, cap, rows, counts,
-                              min(self.n, 16 * numba.get_num_threads()))
-        return self._lists(self.n, scratch, fill)
+            _dense_cell_query(xq, self.h, self.SUB, self.lo, self.shape, self.cell_start,
+                              self.sorted_index, self.sorted_x, self.near, queries.lo,
+                              queries.shape, queries.cell_start, queries.sorted_index,
+                              queries.sorted_x, own, cap, rows, counts,
+                              min(queries.n, 16 * numba.get_num_threads()))
+        return self._lists(queries.n, scratch, fill)
 
     def _lists(self, m: int, scratch: Scratch | None, fill: Callable) -> NeighborList:
         """CSR lists of m query points from ``fill(cap, rows, counts)``, which writes them into

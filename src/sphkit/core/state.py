@@ -15,7 +15,7 @@ import numpy as np
 
 from sphkit.core import arrays
 from sphkit.core.coupling import BoundaryCoupling
-from sphkit.core.neighbors import NeighborList
+from sphkit.core.neighbors import Grid, NeighborList
 from sphkit.core.particles import ParticleSet
 
 if TYPE_CHECKING:
@@ -111,6 +111,10 @@ class SimState:
     #: only; None: fresh arrays). A search invalidates the cache taken from it before, so only
     #: the step's own search and cache use it (:class:`sphkit.simulation.Simulation`)
     scratch: arrays.Scratch | None = field(default=None, repr=False)
+    #: the grid of the fluid's search in this step's neighbour search, for the boundary's
+    #: search against the fluid's cells (:meth:`sphkit.core.neighbors.Grid.query_grid`); None
+    #: outside that window and where the fluid's lists come another way (device, Verlet lists)
+    fluid_grid: Grid | None = field(default=None, repr=False)
     _rest: tuple | None = field(default=None, repr=False)  # this step's RestArrays on a device
 
     def rest(self) -> RestArrays:
