@@ -67,7 +67,7 @@ from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
 from sphkit.core.neighbors import INDEX
 from sphkit.core.operators import replace_mirrored
-from sphkit.core.pairs import pair_slots, point, separation, unsigned_range
+from sphkit.core.pairs import delta, pair_slots, point, separation, unsigned_range
 from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
@@ -122,12 +122,13 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, chunks, use, h, kid, dim, L, 
 
 
 @numba.njit(**_JIT)
-def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, with_q):
+def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, with_q, w_out):
     """The moment matrix ``M = sum_f W_bf [1, d_f] [1, d_f]^T`` of boundary sample b's fluid
     neighbours f of phase ``ph`` (its pairs t0..t1; ``d_f = (x_f - x_b) / h``) with the Tikhonov
     term on its gradient block, as its upper triangle ``(m00, m01, m02, m03, m11, m12, m13, m22,
-    m23, m33)`` (the rows beyond ``dim + 1`` zero), then ``sum_f W_bf``, and with ``with_q`` the
-    right-hand side ``sum_f W_bf [1, d_f] q_f`` and ``sum_f W_bf q_f`` (zeros without)."""
+    m23, m33)`` (the rows beyond ``dim + 1`` zero; ``m00 = sum_f W_bf``), and with ``with_q``
+    the right-hand side ``sum_f W_bf [1, d_f] q_f`` (zeros without). ``w_out`` (pairs,) or
+    empty: where given, each pair's ``W_bf`` is kept in it."""
     m00 = m01 = m02 = m03 = m11 = m12 = m13 = m22 = m23 = m33 = 0.0
     r0 = r1 = r2 = r3 = 0.0
     inv_h = 1.0 / h
@@ -139,6 +140,8 @@ def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, with
         d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
         e1, e2, e3 = d0 * inv_h, d1 * inv_h, d2 * inv_h  # 0 beyond dim
         w = kernel_w(kid, r, h, dim)
+        if w_out.shape[0] > 0:
+            w_out[t] = w
         m00 += w
         m01 += w * e1
         m02 += w * e2
@@ -214,7 +217,9 @@ def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, 
     """The coefficients of boundary sample b's pairs t0..t1 with fluid of phase ``ph``: the
     moving least-squares fit of :func:`mls_coefficients` over those fluid neighbours (``u``,
     the first row of ``M^-1``, from ``M u = e_0``: M is symmetric)."""
-    m, _ = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, rho_hat, False)
+    # the pairs' W_bf wait in coef (the second pass only scales them)
+    m, _ = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, rho_hat, False,
+                    coef)
     wsum = m[0]
     ok, u = _solve(m, (1.0, 0.0, 0.0, 0.0), dim)
     u0, u1, u2, u3 = u
@@ -224,8 +229,8 @@ def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, 
         if phase[f] != ph:
             continue
         xf0, xf1, xf2 = point(x, f, dim)
-        d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
-        w = kernel_w(kid, r, h, dim)
+        d0, d1, d2 = delta(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
+        w = coef[t]
         lin = u0 + (u1 * d0 + u2 * d1 + u3 * d2) * inv_h
         c_bf = w * lin if ok else (w / wsum if wsum > 0.0 else 0.0)
         coef[t] = c_bf * rho_hat[f] * rho_hat[f]
@@ -247,7 +252,7 @@ def mls_values(x, q, bx, toff, tfluid, chunks, use, h, kid, dim, L, ridge, phase
                 if not use[b] or t1 == t0:
                     continue
                 m, rhs = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q,
-                                  True)
+                                  True, q[:0])
                 ok, y = _solve(m, rhs, dim)
                 wsum = m[0]
                 value = y[0] if ok else (rhs[0] / wsum if wsum > 0.0 else 0.0)
