@@ -69,6 +69,7 @@ from sphkit.core.neighbors import INDEX
 from sphkit.core.operators import replace_mirrored
 from sphkit.core.pairs import delta, pair_slots, point, separation, unsigned_range
 from sphkit.core.state import SimState
+from sphkit.core.viscous import outer_add
 
 _JIT = dict(cache=True, fastmath=True)
 #: Tikhonov weight of the gradient block of the moment matrix, relative to sum_f W_bf (positions
@@ -146,12 +147,7 @@ def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, with
         m01 += w * e1
         m02 += w * e2
         m03 += w * e3
-        m11 += w * e1 * e1
-        m12 += w * e1 * e2
-        m13 += w * e1 * e3
-        m22 += w * e2 * e2
-        m23 += w * e2 * e3
-        m33 += w * e3 * e3
+        m11, m12, m13, m22, m23, m33 = outer_add(w, e1, e2, e3, m11, m12, m13, m22, m23, m33)
         if with_q:
             wq = w * q[f]
             r0 += wq
