@@ -113,6 +113,16 @@ def _cubic_dw(r: float, h: float, dim: int) -> float:
     return _cubic_sigma(h, dim) * (near if q <= 0.5 else far)
 
 
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _cubic_dr(r: float, h: float, dim: int) -> float:
+    inv_h = 1.0 / h
+    q = r * inv_h
+    t = 1.0 - q if r < h else 0.0
+    near = (18.0 * q - 12.0) * inv_h * inv_h * r
+    far = -6.0 * t * t * inv_h
+    return _cubic_sigma(h, dim) * (near if q <= 0.5 else far)
+
+
 @numba.njit(cache=True, fastmath=True)
 def _other_w(kid: int, r: float, h: float, dim: int) -> float:
     """W(r) of the kernels other than the cubic spline (a call, not inlined)."""
@@ -190,6 +200,17 @@ def kernel_dw(kid: int, r: float, h: float, dim: int) -> float:
     if kid == CUBIC:
         return _cubic_dw(r, h, dim)
     return _other_dw(kid, r, h, dim)
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def kernel_dr(kid: int, r: float, h: float, dim: int) -> float:
+    """``W'(r)``, the radial derivative (zero for r >= h): :func:`kernel_dw` times
+    ``max(r, 1e-9 h)``, for a pair term that divides by the distance together with other
+    factors (one division instead of two: the standard viscosity). The cubic spline inlined
+    without a division; the other kernels through :func:`kernel_dw`."""
+    if kid == CUBIC:
+        return _cubic_dr(r, h, dim)
+    return _other_dw(kid, r, h, dim) * max(r, 1e-9 * h)
 
 
 @numba.njit(cache=True, parallel=True, fastmath=True)
