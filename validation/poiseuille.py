@@ -204,6 +204,10 @@ def hex_channel(method: str, n: int = 20, columns: int = 12, walls: str = "akinc
              wall_normal=np.array([[0.0, -1.0]] * len(low) + [[0.0, 1.0]] * len(high)))
     st.fluid, st.boundary = fluid, wall
     sim.boundary_model.init(st)
+    cp = st.coupling
+    if cp.pressure is not None:  # the walls replaced: the boundary pressure model's flags too
+        cp.pressure = type(cp.pressure)(np.ones(wall.n, dtype=bool))
+        cp.pressure.init(st)
     if walls == "lattice":
         wall["V"][:] = vol
     for force in sim.forces:

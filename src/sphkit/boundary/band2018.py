@@ -99,25 +99,22 @@ def _transpose(boff, bidx, nb):
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_coefficients(x, rho_hat, bx, toff, tfluid, chunks, use, h, kid, dim, L, ridge, coef,
+def mls_coefficients(x, rho_hat, bx, toff, tfluid, rows, chunks, h, kid, dim, L, ridge, coef,
                      phase, nphase):
     """``coef[t] = c_bf rho_hat_f^2`` for the t-th boundary -> fluid pair (module docstring).
 
-    ``use[b]`` False: the sample is not extrapolated (coefficients 0). Positions are scaled by
-    1/h in the moment matrix for its conditioning; ``ridge`` (:data:`RIDGE`) is the Tikhonov
-    weight of its gradient block; a pivot below 1e-6 of the matrix' largest diagonal entry
-    selects the Shepard fallback. ``phase`` (N,) and ``nphase``: each phase's fluid neighbours
-    of b are fitted on their own ("Several rest densities" in the module docstring; one fluid:
-    zeros and 1). The samples are visited in the balanced ranges ``chunks``
-    (:func:`sphkit.core.arrays.row_chunks` of ``toff``)."""
+    Only the samples ``rows`` (those extrapolated, with fluid neighbours: :func:`fitted`) are
+    fitted, in the balanced ranges ``chunks`` of ``rows``; the other samples' coefficients are
+    left as they are (never read). Positions are scaled by 1/h in the moment matrix for its
+    conditioning; ``ridge`` (:data:`RIDGE`) is the Tikhonov weight of its gradient block; a
+    pivot below 1e-6 of the matrix' largest diagonal entry selects the Shepard fallback.
+    ``phase`` (N,) and ``nphase``: each phase's fluid neighbours of b are fitted on their own
+    ("Several rest densities" in the module docstring; one fluid: zeros and 1)."""
     for c in numba.prange(chunks.shape[0] - 1):
-        for b in pair_slots(chunks, c):
+        for a in pair_slots(chunks, c):
+            b = rows[a]
             t0 = toff[b]
             t1 = toff[b + 1]
-            if not use[b] or t1 == t0:
-                for t in unsigned_range(t0, t1):
-                    coef[t] = 0.0
-                continue
             for ph in range(nphase):
                 _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph)
 
@@ -233,20 +230,19 @@ def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, 
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_values(x, q, bx, toff, tfluid, chunks, use, h, kid, dim, L, ridge, phase, out):
+def mls_values(x, q, bx, toff, tfluid, rows, chunks, h, kid, dim, L, ridge, phase, out):
     """``out[ph, b] = max(beta_0, 0)``: the value at boundary sample b of the linear field fitted
     to the fluid values q (N,) of phase ph (the module docstring's fit, solved for ``beta``
     directly: the one-shot form of :func:`mls_coefficients` then :func:`mls_extrapolate`, for a
-    solver that extrapolates once a step); 0 where ``use[b]`` is False or b has no fluid
-    neighbour of the phase. ``out`` (phases, N_boundary)."""
+    solver that extrapolates once a step), at the samples ``rows`` (:func:`fitted`; in the
+    balanced ranges ``chunks`` of them); 0 where b has no fluid neighbour of the phase; the
+    other samples' entries are left as they are. ``out`` (phases, N_boundary)."""
     for c in numba.prange(chunks.shape[0] - 1):
-        for b in pair_slots(chunks, c):
+        for a in pair_slots(chunks, c):
+            b = rows[a]
             t0 = toff[b]
             t1 = toff[b + 1]
             for ph in range(out.shape[0]):
-                out[ph, b] = 0.0
-                if not use[b] or t1 == t0:
-                    continue
                 m, rhs = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q,
                                   True, q[:0])
                 ok, y = _solve(m, rhs, dim)
@@ -256,12 +252,13 @@ def mls_values(x, q, bx, toff, tfluid, chunks, use, h, kid, dim, L, ridge, phase
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_extrapolate(k, toff, tfluid, chunks, coef, out):
+def mls_extrapolate(k, toff, tfluid, rows, chunks, coef, out):
     """``out[b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)``: the boundary value ``p_b / rho0`` of the
-    fluid field k (0 for samples without fluid neighbours), over the balanced ranges ``chunks``
-    of the samples."""
+    fluid field k at the samples ``rows`` (:func:`fitted`), over the balanced ranges ``chunks``
+    of them (the other samples' entries are left as they are)."""
     for c in numba.prange(chunks.shape[0] - 1):
-        for b in pair_slots(chunks, c):
+        for a in pair_slots(chunks, c):
+            b = rows[a]
             s = 0.0
             for t in pair_slots(toff, b):
                 s += coef[t] * k[tfluid[t]]
@@ -269,14 +266,15 @@ def mls_extrapolate(k, toff, tfluid, chunks, coef, out):
 
 
 @numba.njit(parallel=True, **_JIT)
-def mls_extrapolate_phases(k, toff, tfluid, chunks, coef, phase, out):
+def mls_extrapolate_phases(k, toff, tfluid, rows, chunks, coef, phase, out):
     """``out[q, b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)`` over b's fluid neighbours f of phase
     q (coefficients of :func:`mls_coefficients` with the phases fitted on their own): one
-    boundary value per phase (0 for a phase without fluid neighbours at b), over the balanced
-    ranges ``chunks`` of the samples."""
+    boundary value per phase (0 for a phase without fluid neighbours at b), at the samples
+    ``rows`` (:func:`fitted`), over the balanced ranges ``chunks`` of them."""
     nq = out.shape[0]
     for c in numba.prange(chunks.shape[0] - 1):
-        for b in pair_slots(chunks, c):
+        for a in pair_slots(chunks, c):
+            b = rows[a]
             for q in range(nq):
                 out[q, b] = 0.0
             for t in pair_slots(toff, b):
@@ -302,7 +300,9 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.ridge = float(ridge)
         self.use = np.ascontiguousarray(use, dtype=np.bool_)
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
-        self.chunks = row_chunks(self.toff)  # balanced ranges of the samples (parallel loops)
+        self.rows = np.zeros(0, dtype=np.int64)  # the samples fitted this step (:func:`fitted`)
+        self.chunks = row_chunks(np.zeros(1, dtype=np.int64))  # balanced ranges of the rows
+        self._cleared: np.ndarray | None = None  # the output zeroed this step (:meth:`extrapolate`)
         self.tfluid = np.empty(0, dtype=INDEX)
         self.coef: np.ndarray | None = np.empty(0)  # this step's, once computed (:meth:`prepare`)
         self._fit_args: tuple = ()
@@ -325,9 +325,14 @@ class MLSPressureExtrapolation(BoundaryPressure):
         :meth:`extrapolate` of the step (a solver that extrapolates once, WCSPH through
         :meth:`correct_mirrored`, fits the values directly and needs none)."""
         f, b = state.fluid, state.boundary
+        if b.n != self.use.shape[0]:
+            raise ValueError(f"MLS pressure extrapolation: {self.use.shape[0]} flags for "
+                             f"{b.n} boundary particles (the boundary changed after the model "
+                             "was made)")
         nb = state.nl_fb
         self.toff, self.tfluid = _transpose(nb.offsets, nb.indices, b.n)
-        self.chunks = row_chunks(self.toff)
+        self.rows, self.chunks = fitted(self.toff, self.use)
+        self._cleared = None
         self.phase = per_phase(state)
         self._fit_args = (f["x"], f["rho"] / f["rho0"], b["x"], state.h, state.kid, state.dim,
                           state.pair_period, self._phase_rows(f.n))
@@ -338,7 +343,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         if self.coef is None:
             x, rho_hat, bx, h, kid, dim, L, phase = self._fit_args
             self.coef = np.empty(self.tfluid.shape[0], dtype=x.dtype)
-            mls_coefficients(x, rho_hat, bx, self.toff, self.tfluid, self.chunks, self.use, h,
+            mls_coefficients(x, rho_hat, bx, self.toff, self.tfluid, self.rows, self.chunks, h,
                              kid, dim, L, self.ridge, self.coef, phase, self.phases)
         return self.coef
 
@@ -358,11 +363,11 @@ class MLSPressureExtrapolation(BoundaryPressure):
         add to ``a`` the change to the extrapolated boundary pressure
         (:func:`sphkit.core.operators.replace_mirrored`)."""
         f, b = state.fluid, state.boundary
-        kb = np.empty((self.phases, b.n), dtype=f.dtype)
+        kb = np.zeros((self.phases, b.n), dtype=f.dtype)
         rest = state.rest()
         # kb = p_b / rho0_ref, one row per phase fitted on its own: the fit of p / rho0_ref
-        mls_values(f["x"], f["p"] / state.rho0, b["x"], self.toff, self.tfluid, self.chunks,
-                   self.use, state.h, state.kid, state.dim, state.pair_period, self.ridge,
+        mls_values(f["x"], f["p"] / state.rho0, b["x"], self.toff, self.tfluid, self.rows,
+                   self.chunks, state.h, state.kid, state.dim, state.pair_period, self.ridge,
                    self._phase_rows(f.n), kb)
         replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
                          state.nl_fb.offsets, state.nl_fb.indices, self.use, kb,
@@ -374,10 +379,26 @@ class MLSPressureExtrapolation(BoundaryPressure):
         phases fitted on their own ``out[q, b]``, (phases, N_boundary)
         (:func:`mls_extrapolate_phases`)."""
         coef = self._coefficients()
+        if self._cleared is not out:  # the step's first call into out: 0 where nothing is fitted
+            out.fill(0.0)
+            self._cleared = out
         if out.ndim == 2:
-            mls_extrapolate_phases(k, self.toff, self.tfluid, self.chunks, coef, self.phase, out)
+            mls_extrapolate_phases(k, self.toff, self.tfluid, self.rows, self.chunks, coef,
+                                   self.phase, out)
         else:
-            mls_extrapolate(k, self.toff, self.tfluid, self.chunks, coef, out)
+            mls_extrapolate(k, self.toff, self.tfluid, self.rows, self.chunks, coef, out)
+
+
+def fitted(toff: np.ndarray, use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The samples that are extrapolated (``use``) and have fluid neighbours (rows of the
+    boundary -> fluid lists ``toff`` that are not empty), and balanced ranges of them for the
+    parallel loops (:func:`sphkit.core.arrays.row_chunks` of their rows): most wall samples
+    are far from the fluid, and the passes skip them."""
+    count = np.diff(toff)
+    rows = np.flatnonzero(use & (count > 0))
+    offsets = np.zeros(rows.shape[0] + 1, dtype=np.int64)
+    np.cumsum(count[rows], out=offsets[1:])
+    return rows, row_chunks(offsets)
 
 
 def per_phase(state: SimState) -> np.ndarray | None:
