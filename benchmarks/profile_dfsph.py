@@ -33,8 +33,9 @@ HERE = Path(__file__).resolve().parent
 PARTS = {
     "solver iterations": ("kappa_accel_cached", "kappa_accel_body__launch_each", "jacobi_sweep",
                           "jacobi_body__launch_sum_max"),
-    "neighbour search": ("_dense_query", "_dense_self_query", "_query", "_compact", "_counting_sort", "_dense_cells",
-                         "_cells", "zorder_permutation", "_merge_rows"),
+    "neighbour search": ("_dense_query", "_dense_cell_query", "_query", "_compact",
+                         "_counting_sort", "_dense_cells", "_cells", "zorder_permutation",
+                         "_merge_rows"),
     "densities and pair gradients V_j grad W_ij": ("density_pair_gradients",
                                                    "density_pair_gradients_body__launch_each",
                                                    "pair_gradients"),
@@ -44,7 +45,7 @@ PARTS = {
     "MLS boundary pressure (coefficients, extrapolation)": ("mls_coefficients", "mls_extrapolate",
                                                             "mls_extrapolate_phases",
                                                             "phase_kb_body__launch_each",
-                                                            "_transpose"),
+                                                            "mls_values", "_transpose"),
 }
 
 
@@ -67,7 +68,10 @@ def _profile(scene: Path, start: float, steps: int) -> None:
     stats = pstats.Stats(prof).stats
     own: dict[str, float] = {}
     for (_file, _line, name), (_cc, _nc, tt, _ct, _callers) in stats.items():
-        own[name] = own.get(name, 0.0) + tt
+        # a driver compiled with constants is named <body>__launch_<kind>__<name><value>
+        base = name.split("__launch_")[0] + "__launch_" + name.split("__launch_")[1].split(
+            "__")[0] if "__launch_" in name else name
+        own[base] = own.get(base, 0.0) + tt
     print(f"{sim.fluid.n} fluid and {sim.boundary.n} boundary particles, steps {steps} from "
           f"t = {start} s, {os.environ.get('NUMBA_NUM_THREADS', '?')} threads")
     print(f"{wall:.1f} ms per step; {its / steps:.1f} density and {div / steps:.1f} divergence "
