@@ -221,7 +221,7 @@ def _matvec(x, rho, off, idx, bx, bV, boff, bidx, F, Fsum, Fbsum, Sv, Sx, u, gam
                 d0, d1, d2 = delta(xi0, xi1, xi2, bx, b, dim, L)
                 r2 = dot(d0, d1, d2, d0, d1, d2)
                 s = cb * rho0 * bV[b] / rho[i] * laplacian_pair(kid, ui0, ui1, ui2, d0, d1, d2,
-                                                                r2, eps, h, dim)
+                                                                r2, eps, h, dim, 1.0)
                 a0 += s * d0
                 a1 += s * d1
                 a2 += s * d2

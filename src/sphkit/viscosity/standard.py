@@ -29,13 +29,11 @@ beta = 1).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numba
 
 from sphkit.backend import launch, to_host
-from sphkit.core.kernels import kernel_dr
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import add_vector, delta, delta2, dot, pair_slots, point
 from sphkit.core.state import SimState
@@ -64,15 +62,12 @@ def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, bf, boff, bidx,
     vi0, vi1, vi2 = point(v, i, dim)
     ri = rho[i]
     cn = 2.0 * c * nu
-    tiny = 1e-9 * h
     for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)
-        r = math.sqrt(r2)
-        # c nu (2 m_j / (rho_i + rho_j)) (v_ij . x_ij) / (r^2 + eps) W'(r) / r, one division
-        s = (cn * m[j] * dot(w0, w1, w2, d0, d1, d2) * kernel_dr(kid, r, h, dim)
-             / ((ri + rho[j]) * (r2 + eps) * max(r, tiny)))
+        # c nu (2 m_j / (rho_i + rho_j)) times the Laplacian's pair factor
+        s = cn * m[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim, ri + rho[j])
         acc0 += s * d0
         acc1 += s * d1
         acc2 += s * d2
@@ -82,7 +77,7 @@ def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, bf, boff, bidx,
             d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
             w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
             s = (c * nub * bf[b] * (rho0 * bV[b] / ri) * beta
-                 * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim))
+                 * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim, 1.0))
             acc0 += s * d0
             acc1 += s * d1
             acc2 += s * d2

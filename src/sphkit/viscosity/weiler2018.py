@@ -95,7 +95,7 @@ def matvec_body(i, x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, b
         j = idx[k]
         d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, ui0, ui1, ui2, u, j, dim, L)
         r2 = dot(d0, d1, d2, d0, d1, d2)
-        s = cf * m[j] / rho[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim)
+        s = cf * m[j] * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim, rho[j])
         a0 += s * d0
         a1 += s * d1
         a2 += s * d2
@@ -112,7 +112,7 @@ def matvec_body(i, x, m, rho, off, idx, bx, bV, bn, bd, boff, bidx, u, cf, cb, b
                 a2 += s * d2 + g * ct * ui2
                 continue
             s = (beta * cb * rho0 * bV[b] / rho[i]
-                 * laplacian_pair(kid, ui0, ui1, ui2, d0, d1, d2, r2, eps, h, dim))
+                 * laplacian_pair(kid, ui0, ui1, ui2, d0, d1, d2, r2, eps, h, dim, 1.0))
             a0 += s * d0
             a1 += s * d1
             a2 += s * d2
