@@ -120,16 +120,17 @@ def mls_coefficients(x, rho_hat, bx, toff, tfluid, rows, chunks, h, kid, dim, L,
 
 
 @numba.njit(**_JIT)
-def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, with_q, w_out):
+def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, w_out):
     """The moment matrix ``M = sum_f W_bf [1, d_f] [1, d_f]^T`` of boundary sample b's fluid
     neighbours f of phase ``ph`` (its pairs t0..t1; ``d_f = (x_f - x_b) / h``) with the Tikhonov
     term on its gradient block, as its upper triangle ``(m00, m01, m02, m03, m11, m12, m13, m22,
-    m23, m33)`` (the rows beyond ``dim + 1`` zero; ``m00 = sum_f W_bf``), and with ``with_q``
-    the right-hand side ``sum_f W_bf [1, d_f] q_f`` (zeros without). ``w_out`` (pairs,) or
-    empty: where given, each pair's ``W_bf`` is kept in it."""
+    m23, m33)`` (the rows beyond ``dim + 1`` zero; ``m00 = sum_f W_bf``), and the right-hand
+    side ``sum_f W_bf [1, d_f] q_f`` of the fluid values ``q`` (N,), or zeros for an empty q.
+    ``w_out`` (pairs,) or empty: where given, each pair's ``W_bf`` is kept in it."""
     m00 = m01 = m02 = m03 = m11 = m12 = m13 = m22 = m23 = m33 = 0.0
     r0 = r1 = r2 = r3 = 0.0
     inv_h = 1.0 / h
+    with_q = q.shape[0] > 0
     for t in unsigned_range(t0, t1):
         f = tfluid[t]
         if phase[f] != ph:
@@ -211,7 +212,7 @@ def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, 
     moving least-squares fit of :func:`mls_coefficients` over those fluid neighbours (``u``,
     the first row of ``M^-1``, from ``M u = e_0``: M is symmetric)."""
     # the pairs' W_bf wait in coef (the second pass only scales them)
-    m, _ = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, rho_hat, False,
+    m, _ = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, rho_hat[:0],
                     coef)
     wsum = m[0]
     ok, u = _solve(m, (1.0, 0.0, 0.0, 0.0), dim)
@@ -244,7 +245,7 @@ def mls_values(x, q, bx, toff, tfluid, rows, chunks, h, kid, dim, L, ridge, phas
             t1 = toff[b + 1]
             for ph in range(out.shape[0]):
                 m, rhs = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q,
-                                  True, q[:0])
+                                  q[:0])
                 ok, y = _solve(m, rhs, dim)
                 wsum = m[0]
                 value = y[0] if ok else (rhs[0] / wsum if wsum > 0.0 else 0.0)
