@@ -207,7 +207,7 @@ def _dense_cell_query(xq, h, sub, lo, shape, cell_start, sorted_index, sorted_x,
                     if k + (r1 - r0) > BLOCK:
                         k = BLOCK + 1
                         break
-                    for s in range(r0, r1):
+                    for s in unsigned_range(r0, r1):
                         bx[k] = sorted_x[0, s]
                         by[k] = sorted_x[1, s]
                         bz[k] = sorted_x[2, s]
