@@ -206,8 +206,8 @@ def kernel_dw(kid: int, r: float, h: float, dim: int) -> float:
 def kernel_dr(kid: int, r: float, h: float, dim: int) -> float:
     """``W'(r)``, the radial derivative (zero for r >= h): :func:`kernel_dw` times
     ``max(r, 1e-9 h)``, for a pair term that divides by the distance together with other
-    factors (one division instead of two: the standard viscosity). The cubic spline inlined
-    without a division; the other kernels through :func:`kernel_dw`."""
+    factors (one division instead of two: :func:`sphkit.core.viscous.laplacian_pair`). The
+    cubic spline inlined without a division; the other kernels through :func:`kernel_dw`."""
     if kid == CUBIC:
         return _cubic_dr(r, h, dim)
     return _other_dw(kid, r, h, dim) * max(r, 1e-9 * h)
