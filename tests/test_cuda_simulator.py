@@ -117,14 +117,17 @@ SCRIPT = textwrap.dedent(
                    gw, gwb, dim, ak, on(inv_c), device=device)
             out["ak"] = back(ak)
             out["err"] = launch_reduce(jacobi_body, N, ak, on(np.zeros_like(bx)),
-                                       *map(on, (off, idx, boff, bidx)), gw, gwb, dim, q, on(s),
+                                       *map(on, (off, idx, boff, bidx)), gw, gwb,
+                                       on(np.empty((dim, 0))), dim, q, on(s),
                                        1.0, on(np.full(N, 0.8)), 0.5, on(active), on(wq), k,
                                        0.0, 0.0, device=device)
             out["q"], out["k"] = back(q), back(k)
             # DFSPH's factor (PPE diagonal, alpha) and sources from the pair divergence
             D = on(np.empty(N))
+            bsum = on(np.empty((dim, N)))
             launch(diagonal_body, N, *map(on, (off, idx, boff, bidx, mirror)), gw, gwb, dim,
-                   True, on(c), on(inv_c), D, device=device)
+                   True, on(c), on(inv_c), D, bsum, device=device)
+            out["bsum"] = back(bsum)
             alpha = on(np.empty(N))
             launch(alpha_body, N, D, 1e-5, alpha, device=device)
             div = on(np.empty(N))
@@ -166,7 +169,7 @@ SCRIPT = textwrap.dedent(
         gpu = run("cuda")
         assert cpu["err"][0] > 0.0 and cpu["err"][1] > 0.0, cpu["err"]
         assert 0 < cpu["outside"][0] < N / 2, cpu["outside"]  # beyond the middle, not above
-        for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k", "D", "alpha", "div",
+        for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k", "D", "bsum", "alpha", "div",
                     "dens_s", "dens_k", "divs_s", "divs_k", "av", "xe", "ve", "vmax",
                     "outside"):
             e = rel(gpu[key], cpu[key])

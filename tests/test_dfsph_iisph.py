@@ -294,3 +294,38 @@ def test_a_step_is_the_same_with_its_temporaries_in_the_kept_block() -> None:
     assert sims[0].state.scratch.nbytes > 0
     np.testing.assert_array_equal(sims[0].positions, sims[1].positions)
     np.testing.assert_array_equal(sims[0].pressures, sims[1].pressures)
+
+
+def test_jacobi_sweep_with_the_boundary_sums() -> None:
+    # A boundary that takes no pressure acceleration enters the sweep's Ap_i as a_i . B_i with
+    # B_i = sum_b V_b grad W_ib made once a step (PairGradients.boundary_sums, also by the
+    # diagonal's pass): the same update as the pass over the boundary pairs with ab = 0, to
+    # round-off (1e-12 relative: the boundary pairs' products summed in another order).
+    from sphkit.core.ppe import jacobi_sweep
+    from sphkit.core.solver import PairGradients
+
+    sim = Simulation(_column_scene("dfsph", 2, w=0.2))
+    sim._neighbors()
+    sim.compute_density()
+    st = sim.state
+    g = st.pair_grads
+    bsum = g.boundary_sums()
+    g.diagonal()  # its pass writes B_i only where they were not made yet
+    fresh = PairGradients(st)
+    fresh.diagonal()  # made by the diagonal's pass this time
+    np.testing.assert_allclose(fresh.boundary_sums(), bsum, rtol=0, atol=1e-12 * np.abs(bsum).max())
+    rng = np.random.default_rng(3)
+    n, nb = st.fluid.n, st.boundary.n
+    a = rng.normal(0.0, 1.0, (2, n))
+    s = rng.normal(0.0, 1e-3, n)
+    outs = []
+    for sums in (None, bsum):
+        q = np.full(n, 1e-4)
+        k = q.copy()
+        err = jacobi_sweep(a, np.zeros((2, nb)), st.nl_ff.offsets, st.nl_ff.indices,
+                           st.nl_fb.offsets, st.nl_fb.indices, g.gw, g.gwb, 2, q, s, 1e-4,
+                           np.full(n, 0.5), 0.5, np.ones(n, np.bool_), np.ones(n), k, bsum=sums)
+        outs.append((q, k, np.array(err)))
+    assert np.abs(bsum).max() > 0.0 and (outs[0][0] > 0.0).any()
+    for x, y in zip(outs[0], outs[1], strict=True):
+        np.testing.assert_allclose(y, x, rtol=1e-12, atol=1e-12 * np.abs(x).max())

@@ -11,13 +11,16 @@ from sphkit.simulation import Simulation
 G = 9.81
 
 
-def _block(method: str, coeff: float, boundary: float = 0.0, box: bool = False) -> Simulation:
+def _block(method: str, coeff: float, boundary: float = 0.0, box: bool = False,
+           pressure: str | None = None) -> Simulation:
     sc = {
         "configuration": {"dim": 3, "particle_radius": 0.02, "gravity": [0.0, 0.0, 0.0]},
         "materials": [{"viscosity": {"method": method, "coefficient": coeff,
                                      "boundary_coefficient": boundary}}],
         "fluid_blocks": [{"start": [0.0, 0.0, 0.0], "end": [0.4, 0.4, 0.4]}],
     }
+    if pressure:
+        sc["configuration"]["pressure"] = {"method": pressure}
     if box:
         sc["boxes"] = [{"min": [0.0, 0.0, 0.0], "max": [0.4, 0.5, 0.4], "layers": 2}]
     sim = Simulation(Scene.model_validate(sc))
@@ -49,6 +52,27 @@ def test_standard_viscosity_vanishes_for_rigid_rotation() -> None:
     x = sim.fluid["x"] - sim.fluid["x"].mean(axis=1, keepdims=True)
     v = np.cross(np.array([0.2, -0.5, 0.3])[:, None], x, axis=0)
     assert np.abs(_viscous_accel(sim, v)).max() < 1e-12
+
+
+@pytest.mark.parametrize("several", [False, True])
+def test_standard_viscosity_from_the_cached_pair_gradients(several: bool) -> None:
+    """Where the step caches ``V_j grad W_ij`` (DFSPH here) the standard viscosity takes its
+    fluid pairs' kernel derivative from the cache: the same accelerations as the kernel's
+    evaluation (1e-12 relative: round-off of the two products), with one fluid and with two
+    rest densities (the cache's V_j = m_j / rho0_j), walls with their own coefficient too."""
+    sim = _block("standard", 0.01, boundary=0.01, box=True, pressure="dfsph")
+    f = sim.fluid
+    if several:  # a lighter half: rest density and mass halved (the same rest volumes)
+        light = np.arange(f.n) % 2 == 0
+        f["rho0"][light] *= 0.5
+        f["m"][light] *= 0.5
+        sim.compute_density()
+    assert sim.state.pair_grads is not None
+    v = np.random.default_rng(1).normal(0.0, 0.1, (3, f.n))
+    cached = _viscous_accel(sim, v)
+    sim.state.pair_grads = None
+    direct = _viscous_accel(sim, v)
+    assert np.abs(cached - direct).max() <= 1e-12 * np.abs(direct).max()
 
 
 @pytest.mark.parametrize("method,coeff", [("standard", 0.01), ("xsph", 0.1)])

@@ -395,11 +395,27 @@ def fitted(toff: np.ndarray, use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     boundary -> fluid lists ``toff`` that are not empty), and balanced ranges of them for the
     parallel loops (:func:`sphkit.core.arrays.row_chunks` of their rows): most wall samples
     are far from the fluid, and the passes skip them."""
-    count = np.diff(toff)
-    rows = np.flatnonzero(use & (count > 0))
-    offsets = np.zeros(rows.shape[0] + 1, dtype=np.int64)
-    np.cumsum(count[rows], out=offsets[1:])
+    rows, offsets = _fitted_rows(toff, use)
     return rows, row_chunks(offsets)
+
+
+@numba.njit(**_JIT)
+def _fitted_rows(toff, use):
+    """:func:`fitted`'s rows and the CSR offsets of their lists (one pass: its NumPy form, five
+    array operations over all samples, took 65 us a step at 18,002 samples)."""
+    nb = use.shape[0]
+    rows = np.empty(nb, dtype=np.int64)
+    m = 0
+    for b in range(nb):
+        if use[b] and toff[b + 1] > toff[b]:
+            rows[m] = b
+            m += 1
+    offsets = np.empty(m + 1, dtype=np.int64)
+    offsets[0] = 0
+    for r in range(m):
+        b = rows[r]
+        offsets[r + 1] = offsets[r] + (toff[b + 1] - toff[b])
+    return rows[:m].copy(), offsets
 
 
 def per_phase(state: SimState) -> np.ndarray | None:

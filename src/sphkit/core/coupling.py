@@ -234,9 +234,9 @@ class BoundaryCoupling:
 
     def wall_density(self, state: SimState, use: np.ndarray) -> np.ndarray:
         """The fluid's normalized density ``sum_f V_f W_fb`` at the boundary particles with
-        ``use`` (0 elsewhere; :func:`sphkit.core.ppe.wall_density`)."""
+        ``use`` (0 elsewhere; :func:`sphkit.core.solved_walls.wall_density`)."""
         from sphkit.core.pairs import period_arg
-        from sphkit.core.ppe import wall_density
+        from sphkit.core.solved_walls import wall_density
 
         f, b = state.fluid, state.boundary
         rest = state.rest()

@@ -42,12 +42,11 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
   ``q_i <- max(q_i - omega * scale_i * (s_i - f Ap_i), 0)`` in one pass, with the error of the
   residual before the update;
 * :func:`density_at` -- PCISPH's / PBF's density at predicted positions;
-* :func:`wall_sums`, :func:`wall_diagonal`, :func:`wall_update`, :func:`wall_density` -- the
-  static walls' own pressures ``k_b`` when the scene solves them
-  (``configuration.boundary.solved``, :meth:`sphkit.core.coupling.BoundaryCoupling.
-  solved_walls`): the fluid's density rate at each wall particle, its Jacobi scale, its
-  clamped update, and the fluid's density at it (``solved: "density"``) (serial passes over
-  the fluid-boundary pairs).
+* :func:`boundary_sums` -- ``B_i = sum_b V_b grad W_ib``, with which a boundary that takes no
+  pressure acceleration enters :func:`jacobi_sweep` without a pass over its pairs.
+
+The static walls' own pressures (``configuration.boundary.solved``) have their passes in
+:mod:`sphkit.core.solved_walls`.
 
 :func:`density_pair_gradients`, :func:`kappa_accel_cached`, :func:`jacobi_sweep`,
 :func:`diagonal_cached`, :func:`pair_divergence_cached` and :func:`density_at` are per-particle
@@ -95,15 +94,23 @@ _JIT_GATHER = dict(cache=True, fastmath=set(GATHER_FASTMATH))
 
 
 @numba.njit(**_JIT_GATHER, inline="always")
-def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, dim, q, s, ap_factor, scale, omega,
-                active, w, k, shift, lo):
+def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, bsum, dim, q, s, ap_factor, scale,
+                omega, active, w, k, shift, lo):
     """Particle i of :func:`jacobi_sweep`: updates ``q[i]``, ``k[i]`` and returns the compressive
     residual ``max(-r_i, 0)`` before the update if i is active, else 0 (the value
     :func:`sphkit.backend.launch_reduce` sums and maximizes). ``shift``: the diagonal term
     ``+ shift q_i`` of a compressible PPE (0: incompressible); ``lo``: the clamp ``q >= lo`` (0:
-    pressure clamping; -1e300: none, finite because of fast math's no-infinities flag)."""
-    r = s[i] - ap_factor * _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim) \
-        + shift * q[i]
+    pressure clamping; -1e300: none, finite because of fast math's no-infinities flag).
+    ``bsum`` (dim, N): the boundary sums ``B_i`` of a boundary that takes no acceleration (the
+    boundary pairs' share is then ``a_i . B_i``, no pass over them); (dim, 0): the pairs with
+    the boundary accelerations ``ab``."""
+    if bsum.shape[1] > 0:
+        ai0, ai1, ai2 = point(a, i, dim)
+        b0, b1, b2 = point(bsum, i, dim)
+        div = _fluid_divergence_i(i, a, off, idx, gw, dim) + (ai0 * b0 + ai1 * b1 + ai2 * b2)
+    else:
+        div = _divergence_i(i, a, ab, off, idx, boff, bidx, gw, gwb, dim)
+    r = s[i] - ap_factor * div + shift * q[i]
     qi = max(q[i] - omega * scale[i] * r, lo)
     q[i] = qi
     k[i] = w[i] * qi
@@ -120,7 +127,7 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
                  boff: np.ndarray, bidx: np.ndarray, gw: np.ndarray, gwb: np.ndarray, dim: int,
                  q: np.ndarray, s: np.ndarray, ap_factor: float, scale: np.ndarray, omega: float,
                  active: np.ndarray, w: np.ndarray, k: np.ndarray, shift: float = 0.0,
-                 lo: float = 0.0) -> tuple[float, float]:
+                 lo: float = 0.0, bsum: np.ndarray | None = None) -> tuple[float, float]:
     """The second half of one Jacobi iteration, in one pass: for every particle the product
     ``Ap_i`` = :func:`pair_divergence_cached` of the pressure accelerations a (boundary
     accelerations ab), the residual ``r_i = s_i - f Ap_i`` (f = ap_factor), the update of q and
@@ -137,11 +144,19 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
     multiplication: 3-4 % of a DFSPH step on the benchmark scene.) The pass is
     :func:`jacobi_body` through :func:`sphkit.backend.launch_reduce`, which reduces the residuals
     in the same ``prange`` loop.
+
+    ``bsum``: the boundary sums ``B_i = sum_b V_b grad W_ib`` (:meth:`sphkit.core.solver.
+    PairGradients.boundary_sums`) where the boundary takes no pressure acceleration (ab = 0):
+    the boundary pairs' share of ``Ap_i`` is then ``a_i . B_i``, and the pass reads the fluid
+    pairs only (the DFSPH benchmark scene's pass 0.110 -> 0.099 ms at 6,859 particles, two
+    threads); None: the pairs with ab.
     """
     n = q.shape[0]
-    tot, mx = launch_reduce(jacobi_body, n, a, ab, off, idx, boff, bidx, gw, gwb, int(dim), q, s,
-                            float(ap_factor), scale, float(omega), active, w, k, float(shift),
-                            float(lo))
+    if bsum is None:
+        bsum = arrays.empty((a.shape[0], 0), a.dtype, like=a)
+    tot, mx = launch_reduce(jacobi_body, n, a, ab, off, idx, boff, bidx, gw, gwb, bsum, int(dim),
+                            q, s, float(ap_factor), scale, float(omega), active, w, k,
+                            float(shift), float(lo))
     return tot / max(n, 1), mx
 
 
@@ -347,7 +362,7 @@ def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.n
 def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror: np.ndarray,
                     gw: np.ndarray, gwb: np.ndarray, dim: int, out: np.ndarray,
                     idx: np.ndarray | None = None, c: np.ndarray | None = None,
-                    inv_c: np.ndarray | None = None) -> None:
+                    inv_c: np.ndarray | None = None, bsum: np.ndarray | None = None) -> None:
     """out[i] = (G + B) . (G + M) + sum_j (rho0_i / rho0_j) V_j^2 |grad W_ij|^2,
     G = sum_j V_j grad W_ij, B = sum_b V_b grad W_ib, M = sum_b (1 + bmirror[b]) V_b grad W_ib.
 
@@ -357,8 +372,13 @@ def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror
     ``rho0_i / rho0_j`` times particle i's pressure variable, so the derivative of ``Ap_i``
     with respect to it carries that factor. Without it a heavy particle next to light ones
     has a diagonal far too small, and the Jacobi iteration overshoots (measured: DFSPH blew up
-    within 0.1 s in a 2D column of rest densities 1000 and 100)."""
+    within 0.1 s in a 2D column of rest densities 1000 and 100).
+
+    ``bsum`` (dim, N), optional: also the boundary sums ``B_i`` (:func:`boundary_sums`), which
+    the pass adds up anyway."""
     n = off.shape[0] - 1
+    if bsum is None:
+        bsum = arrays.empty((gwb.shape[0], 0), out.dtype, like=out)
     if idx is None or c is None or inv_c is None:
         ones = arrays.full(n, 1.0, out.dtype, like=out)
         idx, c, inv_c = arrays.zeros(0, INDEX, like=out) if idx is None else idx, ones, ones
@@ -366,12 +386,13 @@ def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror
     else:
         weighted = True
     launch(diagonal_body, n, off, idx, boff, bidx, bmirror, gw, gwb, int(dim), weighted, c, inv_c,
-           out)
+           out, bsum)
 
 
 @numba.njit(inline="always", **_JIT_GATHER)
-def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, inv_c, out):
-    """``out[i]`` = the diagonal ``D_i`` of :func:`diagonal_cached` (a kernel body)."""
+def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, inv_c, out, bsum):
+    """``out[i]`` = the diagonal ``D_i`` of :func:`diagonal_cached` (a kernel body), and
+    ``bsum[:, i]`` = B_i where bsum has columns."""
     g0 = g1 = g2 = 0.0
     sq = 0.0
     ci = c[i]
@@ -399,11 +420,13 @@ def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, i
             b2 += gwb[2, k]
             m2 += f * gwb[2, k]
     out[i] = ((g0 + b0) * (g0 + m0) + (g1 + b1) * (g1 + m1) + (g2 + b2) * (g2 + m2) + sq)
+    if bsum.shape[1] > 0:
+        set_vector(bsum, i, dim, b0, b1, b2)
 
 
 @numba.njit(inline="always", **_JIT_GATHER)
-def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
-    """``sum_j (v_i - v_j) . gw_ij + sum_b (v_i - v_b) . gwb_ib`` of particle i.
+def _fluid_divergence_i(i, v, off, idx, gw, dim):
+    """``sum_j (v_i - v_j) . gw_ij`` of particle i (its fluid pairs).
 
     Written out (one dim branch per component): through the pair helpers (a difference, then a
     product with its own branches) :func:`jacobi_sweep` ran 5-13 % slower."""
@@ -417,6 +440,14 @@ def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
         if dim > 2:
             t += (vi2 - v[2, j]) * gw[2, k]
         s += t
+    return s
+
+
+@numba.njit(inline="always", **_JIT_GATHER)
+def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
+    """``sum_j (v_i - v_j) . gw_ij + sum_b (v_i - v_b) . gwb_ib`` of particle i."""
+    vi0, vi1, vi2 = point(v, i, dim)
+    s = _fluid_divergence_i(i, v, off, idx, gw, dim)
     for k in pair_slots(boff, i):
         b = bidx[k]
         t = (vi0 - bv[0, b]) * gwb[0, k]
@@ -432,6 +463,25 @@ def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
 def divergence_body(i, v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
     """``out[i]`` = :func:`_divergence_i` (a kernel body)."""
     out[i] = _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim)
+
+
+@numba.njit(inline="always", **_JIT_GATHER)
+def boundary_sum_body(i, boff, gwb, dim, out):
+    """``out[:, i] = sum_b gwb[:, k]`` over particle i's boundary pairs (a kernel body)."""
+    s0 = s1 = s2 = 0.0
+    for k in pair_slots(boff, i):
+        s0 += gwb[0, k]
+        if dim > 1:
+            s1 += gwb[1, k]
+        if dim > 2:
+            s2 += gwb[2, k]
+    set_vector(out, i, dim, s0, s1, s2)
+
+
+def boundary_sums(boff: np.ndarray, gwb: np.ndarray, dim: int, out: np.ndarray) -> None:
+    """``out[:, i] = B_i = sum_b V_b grad W_ib`` (dim, N) from the cached boundary pair
+    gradients: :func:`boundary_sum_body` through :func:`sphkit.backend.launch`."""
+    launch(boundary_sum_body, out.shape[1], boff, gwb, int(dim), out)
 
 
 def pair_divergence_cached(v: np.ndarray, bv: np.ndarray, off: np.ndarray, idx: np.ndarray,
@@ -460,107 +510,3 @@ def lattice_diagonal(spacing: float, h: float, kid: int, dim: int, V: float) -> 
     g = Kernel(kid, h, dim).grad(-grid[(d > 0.0) & (d < h)])
     s1 = g.sum(axis=0)
     return float(V * V * (s1 @ s1 + (g * g).sum()))
-
-
-# ---------------------------------------------------------------------------------------------
-# wall pressures solved in the PPE (configuration.boundary.solved)
-
-
-@numba.njit(**_JIT_GATHER)
-def wall_sums(v, vb, Vf, Vb, boff, bidx, gwb, dim, use, out):
-    """``out[b] = sum_f (V_f / V_b) gwb_fb . (v_f - v_b)`` for the static boundary particles b
-    with ``use[b]`` (0 elsewhere), over the fluid-boundary pairs ``(boff, bidx)`` with the
-    cached ``gwb = V_b grad_f W_fb``: for velocities v (``vb`` the wall particles' velocities,
-    0 unless a script moves the walls) the rate of the fluid's normalized density at the wall
-    particle, ``D rho_hat_b / Dt = sum_f V_f (v_f - v_b) . grad_f W_fb`` (positive when the
-    fluid approaches it), for pressure accelerations (``vb`` = 0: pressure does not accelerate
-    the walls) its change per dt^2. One serial pass (the pairs are listed by fluid particle; a
-    boundary particle collects from several)."""
-    out[:] = 0.0
-    for i in range(boff.shape[0] - 1):
-        wi = Vf[i]
-        for kk in pair_slots(boff, i):
-            b = bidx[kk]
-            t = (v[0, i] - vb[0, b]) * gwb[0, kk]
-            if dim > 1:
-                t += (v[1, i] - vb[1, b]) * gwb[1, kk]
-            if dim > 2:
-                t += (v[2, i] - vb[2, b]) * gwb[2, kk]
-            out[b] += wi * t
-    for b in range(out.shape[0]):
-        out[b] = out[b] / Vb[b] if use[b] else 0.0
-
-
-@numba.njit(**_JIT_GATHER)
-def wall_diagonal(Vf, Vb, inv_c, boff, bidx, gwb, dim, use, out):
-    """The Jacobi scale of the solved walls: ``out[b] = sum_f (V_f / V_b) (1 / c_f)
-    max(gwb_fb . B_f, |gwb_fb|^2)`` with ``B_f = sum_b' gwb_fb'`` over fluid f's solved wall
-    neighbours. ``|gwb_fb|^2`` alone is minus the derivative of the wall particle's
-    :func:`wall_sums` of the pressure accelerations with respect to its own ``k_b`` (the
-    pressure acceleration of fluid f holds ``-k_b gwb_fb / c_f``), but the wall particles next
-    to one fluid particle all act on it through nearly parallel gradients (about nine on a flat
-    3D floor), so the plain Jacobi update overshoots by about that count and diverged (a 3D
-    column at density ratio 1:10 blew up within 14 ms); with ``gwb_fb . B_f`` the scale is the
-    sum of the row of the wall block (Gershgorin), for which the walls' Jacobi converges."""
-    n = boff.shape[0] - 1
-    B = np.zeros((3, n))
-    for i in range(n):
-        for kk in pair_slots(boff, i):
-            if use[bidx[kk]]:
-                for d in range(dim):
-                    B[d, i] += gwb[d, kk]
-    out[:] = 0.0
-    for i in range(n):
-        wi = Vf[i] * inv_c[i]
-        for kk in pair_slots(boff, i):
-            b = bidx[kk]
-            t = gwb[0, kk] * gwb[0, kk]
-            tb = gwb[0, kk] * B[0, i]
-            if dim > 1:
-                t += gwb[1, kk] * gwb[1, kk]
-                tb += gwb[1, kk] * B[1, i]
-            if dim > 2:
-                t += gwb[2, kk] * gwb[2, kk]
-                tb += gwb[2, kk] * B[2, i]
-            out[b] += wi * max(t, tb)
-    for b in range(out.shape[0]):
-        out[b] = out[b] / Vb[b] if use[b] else 0.0
-
-
-@numba.njit(**_JIT_GATHER)
-def wall_update(ap, s, D, ap_factor, omega, kb, k, boff, bidx, cap, kmax):
-    """The walls' Jacobi update ``k_b <- min(max(k_b - omega (s_b - f Ap_b) / (f D_b), 0),
-    cap max_f k_f)`` (Ap_b: :func:`wall_sums` of the pressure accelerations; D_b:
-    :func:`wall_diagonal`; no update where D_b = 0: no fluid neighbour, or a wall particle that
-    is not solved). The bound ``cap`` times the largest ``k_f`` of the wall particle's fluid
-    neighbours (``kmax``, a work array) keeps the wall from pushing harder than mirroring
-    (``cap = 1``: ``k_b <= max_f k_f``) where the walls' velocity-level constraint and the
-    fluid's density-level one cannot both hold (fluid compressed against a wall)."""
-    kmax[:] = 0.0
-    for i in range(boff.shape[0] - 1):
-        for kk in pair_slots(boff, i):
-            b = bidx[kk]
-            if k[i] > kmax[b]:
-                kmax[b] = k[i]
-    for b in range(kb.shape[0]):
-        if D[b] > 0.0:
-            r = s[b] - ap_factor * ap[b]
-            kb[b] = min(max(kb[b] - omega * r / (ap_factor * D[b]), 0.0), cap * kmax[b])
-
-
-@numba.njit(**_JIT)
-def wall_density(x, Vf, bx, boff, bidx, h, kid, dim, L, use, out):
-    """``out[b] = sum_f V_f W(x_f - x_b)``, the fluid's normalized (number) density at the
-    static boundary particles b with ``use[b]`` (0 elsewhere), over the fluid-boundary pairs
-    ``(boff, bidx)`` (``L``: the period argument of the pair loops). The density-level solved
-    walls (``configuration.boundary.solved: "density"``) hold it at each wall particle's rest
-    value (:meth:`sphkit.core.coupling.BoundaryCoupling.wall_rest`). One serial pass, as
-    :func:`wall_sums`."""
-    out[:] = 0.0
-    for i in range(boff.shape[0] - 1):
-        xi0, xi1, xi2 = point(x, i, dim)
-        wi = Vf[i]
-        for kk in pair_slots(boff, i):
-            b = bidx[kk]
-            if use[b]:
-                out[b] += wi * kernel_w(kid, distance(xi0, xi1, xi2, bx, b, dim, L), h, dim)

@@ -27,23 +27,23 @@ import numpy as np
 
 from sphkit.core import arrays
 from sphkit.core.ppe import (
+    boundary_sums,
     density_pair_gradients,
     diagonal_cached,
     jacobi_sweep,
     kappa_accel_cached,
     pair_divergence_cached,
     pair_gradients,
-    wall_diagonal,
-    wall_sums,
-    wall_update,
 )
+from sphkit.core.solved_walls import wall_diagonal, wall_sums, wall_update
 from sphkit.core.state import SimState
 
 log = logging.getLogger("sphkit")
 
 #: solved walls: a wall particle's k_b is at most this times the largest k of its fluid
-#: neighbours (:func:`sphkit.core.ppe.wall_update`; without the bound the walls' values grew
-#: to 1e5-1e8 and a 3D 1:10 heavy-over-light column blew up at 1.2 s, also with omega 0.1)
+#: neighbours (:func:`sphkit.core.solved_walls.wall_update`; without the bound the walls'
+#: values grew to 1e5-1e8 and a 3D 1:10 heavy-over-light column blew up at 1.2 s, also with
+#: omega 0.1)
 WALL_CAP = 1.0
 
 
@@ -197,6 +197,16 @@ class PairGradients:
                            nb.indices, state.h, state.kid, state.dim, self.gw, self.gwb,
                            state.pair_period)
         self.state = state
+        self._bsum: np.ndarray | None = None  # boundary_sums(), made when first asked
+
+    def boundary_sums(self) -> np.ndarray:
+        """``B_i = sum_b V_b grad W_ib`` (dim, N) of this step's boundary pairs (made at the
+        first call: :func:`sphkit.core.ppe.boundary_sums`)."""
+        if self._bsum is None:
+            st = self.state
+            self._bsum = arrays.empty((st.dim, st.fluid.n), st.fluid.dtype, like=self.gw)
+            boundary_sums(st.nl_fb.offsets, self.gwb, st.dim, self._bsum)
+        return self._bsum
 
     @staticmethod
     def of(state: SimState) -> PairGradients:
@@ -213,17 +223,21 @@ class PairGradients:
         mirror = st.coupling.mirror(st, diagonal=True)
         if mirror_shift:
             mirror = mirror + mirror_shift
+        fresh = self._bsum is None  # the pass makes boundary_sums() too
+        if fresh:
+            self._bsum = arrays.empty((st.dim, st.fluid.n), st.fluid.dtype, like=self.gw)
         diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
                         mirror, self.gw, self.gwb, st.dim, out,
                         *((None, None, None) if rest.uniform
-                          else (st.nl_ff.indices, rest.c, rest.inv_c)))
+                          else (st.nl_ff.indices, rest.c, rest.inv_c)),
+                        bsum=self._bsum if fresh else None)
         return out
 
     def wall_rate(self, v: np.ndarray) -> np.ndarray:
         """``D rho_hat_b / Dt = sum_f V_f (v_f - v_b) . grad_f W_fb`` of the fluid velocities v
         relative to the wall particle's (walls moved through ``state.boundary``, as the fluid's
         own divergence reads them) at each solved wall particle (0 at the others;
-        :func:`sphkit.core.ppe.wall_sums`)."""
+        :func:`sphkit.core.solved_walls.wall_sums`)."""
         st = self.state
         b = st.boundary
         out = np.empty(b.n, dtype=st.fluid.dtype)
@@ -278,8 +292,8 @@ class WallRows:
     wall particles; ``stored`` their warm start, the boundary field of
     :meth:`~sphkit.core.coupling.BoundaryCoupling.wall_kappa` (zero where not solved);
     ``Vf`` the fluid volumes of the walls' sums; ``D`` their Jacobi scale
-    (:func:`sphkit.core.ppe.wall_diagonal`); ``kmax`` the work array of the cap of
-    :func:`sphkit.core.ppe.wall_update`."""
+    (:func:`sphkit.core.solved_walls.wall_diagonal`); ``kmax`` the work array of the cap of
+    :func:`sphkit.core.solved_walls.wall_update`."""
 
     use: np.ndarray
     stored: np.ndarray
@@ -374,13 +388,16 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     def own(k: np.ndarray) -> np.ndarray:  # k of each particle's own rest density
         return k if rest.uniform else arrays.multiplied(k, rest.inv_c)
 
+    # a boundary that takes no pressure acceleration enters Ap_i as a_i . B_i (no pair pass)
+    bsum = None if coupling.yields else g.boundary_sums()
+
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                            g.gwb, dim, a, rest.inv_c, phase)
         # boundary particles take no pressure acceleration unless they yield (dynamic bodies)
         ab = coupling.response(state, own(k), g.gwb)
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
-                               dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo)
+                               dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo, bsum)
         if walls:  # the same accelerations: a Jacobi sweep over fluid and walls together
             wall_sums(a, still, Vf, b["V"], nb.offsets, nb.indices, g.gwb, dim, use, wap)
             wall_update(wap, wall_source, wd, ap_factor, omega, wk, k, nb.offsets, nb.indices,

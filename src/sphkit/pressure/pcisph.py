@@ -64,8 +64,8 @@ particle b carries its own ``k_b >= 0`` (in the boundary term ``-V_b (p~_i + k_b
 instead of the MLS or mirrored value), updated in every sweep after the fluid's pressures from
 the wall's predicted number density ``rho_hat*_b = sum_f V_f W(x*_f - x_b)``:
 ``k_b <- min(max(k_b + 0.5 (rho_hat*_b - rho_target_b) / (dt^2 D_b), 0), cap max_f k_f)``
-(:func:`sphkit.core.ppe.wall_update` with the walls' Jacobi scale D_b of
-:func:`sphkit.core.ppe.wall_diagonal`, as IISPH's and DFSPH's solved walls), the target the
+(:func:`sphkit.core.solved_walls.wall_update` with the walls' Jacobi scale D_b of
+:func:`sphkit.core.solved_walls.wall_diagonal`, as IISPH's and DFSPH's solved walls), the target the
 wall's density at the step start (``true``/``"velocity"``: its rate held) or, with
 ``"density"``, its start-up value where the wall was covered
 (:meth:`sphkit.core.coupling.BoundaryCoupling.wall_rest`); warm-started from the last step's
@@ -129,9 +129,8 @@ from sphkit.core.ppe import (
     diagonal_cached,
     kappa_accel_cached,
     lattice_diagonal,
-    wall_density,
-    wall_update,
 )
+from sphkit.core.solved_walls import wall_density, wall_update
 from sphkit.core.solver import (
     IterationControl,
     PairGradients,

@@ -25,6 +25,10 @@ across the wall surface (Morris, Fox & Zhu 1997, no-slip walls, see
 ``beta = min(beta_max, 1 + d_b / d_i)``, d the distances to the wall surface (boundary fields
 ``wall_distance`` and ``wall_normal``, set for box walls; particles without a wall distance keep
 beta = 1).
+
+Where the step has cached pair gradients ``V_j grad W_ij`` (the pressure solvers that iterate on
+them, :class:`sphkit.core.solver.PairGradients`), the fluid pairs take ``W'(r) / r`` from them
+(:func:`standard_cached_body`: the same term, no kernel evaluation in the pair loop).
 """
 
 from __future__ import annotations
@@ -46,6 +50,25 @@ from sphkit.core.viscous import (
     viscous_time_step,
     wall_pair,
 )
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _wall_term(xi0, xi1, xi2, vi0, vi1, vi2, ri, bx, bv, bV, bn, bd, bf, boff, bidx, i, nub,
+               beta_max, eps, c, rho0, h, kid, dim, L):
+    """The boundary particles' share of particle i's viscous acceleration (the wall term of the
+    module docstring; 0 when ``nub`` is 0)."""
+    acc0 = acc1 = acc2 = 0.0
+    if nub > 0.0:
+        for k in pair_slots(boff, i):
+            b = bidx[k]
+            d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
+            w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
+            s = (c * nub * bf[b] * (rho0 * bV[b] / ri) * beta
+                 * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim, 1.0))
+            acc0 += s * d0
+            acc1 += s * d1
+            acc2 += s * d2
+    return acc0, acc1, acc2
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
@@ -71,17 +94,38 @@ def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, bf, boff, bidx,
         acc0 += s * d0
         acc1 += s * d1
         acc2 += s * d2
-    if nub > 0.0:
-        for k in pair_slots(boff, i):
-            b = bidx[k]
-            d0, d1, d2, r2, beta = wall_pair(xi0, xi1, xi2, bx, b, bn, bd, beta_max, dim, L)
-            w0, w1, w2 = delta(vi0, vi1, vi2, bv, b, dim, 0.0)
-            s = (c * nub * bf[b] * (rho0 * bV[b] / ri) * beta
-                 * laplacian_pair(kid, w0, w1, w2, d0, d1, d2, r2, eps, h, dim, 1.0))
-            acc0 += s * d0
-            acc1 += s * d1
-            acc2 += s * d2
-    add_vector(a, i, dim, acc0, acc1, acc2)
+    b0, b1, b2 = _wall_term(xi0, xi1, xi2, vi0, vi1, vi2, ri, bx, bv, bV, bn, bd, bf, boff, bidx,
+                            i, nub, beta_max, eps, c, rho0, h, kid, dim, L)
+    add_vector(a, i, dim, acc0 + b0, acc1 + b1, acc2 + b2)
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def standard_cached_body(i, x, v, rho0j, rho, off, idx, gw, bx, bv, bV, bn, bd, bf, boff, bidx,
+                         nu, nub, beta_max, epsf, rho0, h, kid, dim, L, a):
+    """:func:`standard_body` with the fluid pairs' ``W'(r) / r`` taken from the step's cached
+    pair gradients ``gw = V_j grad W_ij`` (``V_j = m_j / rho0_j``, so ``m_j W'(r) / r x_ij =
+    rho0_j gw_ij``; ``rho0j``: the fluid's rest densities): the same term without the kernel
+    and the square root in the pair loop."""
+    eps = epsf * h * h
+    c = 2.0 * (dim + 2)
+    acc0 = acc1 = acc2 = 0.0
+    xi0, xi1, xi2 = point(x, i, dim)
+    vi0, vi1, vi2 = point(v, i, dim)
+    ri = rho[i]
+    cn = 2.0 * c * nu
+    for k in pair_slots(off, i):
+        j = idx[k]
+        d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
+        r2 = dot(d0, d1, d2, d0, d1, d2)
+        s = cn * rho0j[j] * dot(w0, w1, w2, d0, d1, d2) / ((r2 + eps) * (ri + rho[j]))
+        acc0 += s * gw[0, k]
+        if dim > 1:
+            acc1 += s * gw[1, k]
+        if dim > 2:
+            acc2 += s * gw[2, k]
+    b0, b1, b2 = _wall_term(xi0, xi1, xi2, vi0, vi1, vi2, ri, bx, bv, bV, bn, bd, bf, boff, bidx,
+                            i, nub, beta_max, eps, c, rho0, h, kid, dim, L)
+    add_vector(a, i, dim, acc0 + b0, acc1 + b1, acc2 + b2)
 
 
 class StandardViscosity(NonPressureForce):
@@ -129,8 +173,14 @@ class StandardViscosity(NonPressureForce):
         """Add the viscous acceleration to ``state.fluid['a']``."""
         f, b = state.fluid, state.boundary
         register_wall_fields(b)
-        launch(standard_body, f.n, f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets,
-               state.nl_ff.indices, b["x"], b["v"], b["V"], b["wall_normal"], b["wall_distance"],
-               b["viscosity_factor"], state.nl_fb.offsets, state.nl_fb.indices, self.nu,
-               self.nu_boundary, self.beta_max, self.eps, state.rho0, state.h, state.kid,
-               state.dim, state.pair_period, f["a"])
+        walls = (b["x"], b["v"], b["V"], b["wall_normal"], b["wall_distance"],
+                 b["viscosity_factor"], state.nl_fb.offsets, state.nl_fb.indices, self.nu,
+                 self.nu_boundary, self.beta_max, self.eps, state.rho0, state.h, state.kid,
+                 state.dim, state.pair_period, f["a"])
+        g = state.pair_grads
+        if g is not None:  # the step's cached V_j grad W_ij (a solver that iterates on them)
+            launch(standard_cached_body, f.n, f["x"], f["v"], f["rho0"], f["rho"],
+                   state.nl_ff.offsets, state.nl_ff.indices, g.gw, *walls)
+        else:
+            launch(standard_body, f.n, f["x"], f["v"], f["m"], f["rho"], state.nl_ff.offsets,
+                   state.nl_ff.indices, *walls)
