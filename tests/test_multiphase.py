@@ -440,3 +440,32 @@ def test_two_phase_ppe_is_positive_with_a_consistent_diagonal(walls: str | None)
     assert np.abs(Ap - Ap.T).max() < 0.02 * np.abs(Ap).max()
     np.testing.assert_allclose(np.diag(A), D, rtol=0.02)
     assert ev.real.min() > -1e-9
+
+
+def test_rest_arrays_are_held_within_a_step_only() -> None:
+    """The step holds the rest arrays from its densities to the end of its pressure solve
+    (``SimState.hold_rest``: made once, not at each of the solvers' calls); outside that window
+    a change of the fields ``rho0`` / ``m`` in place is seen at the next call."""
+    sc = _scene("dfsph", [{"id": "light", "density0": 100.0}],
+                [([0.0, 0.0], [0.5, 0.2], "light")])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(sc)
+    st, f = sim.state, sim.fluid
+    st.rho0 = 100.0
+    seen = []
+    solve = sim.pressure.solve
+
+    def spy(state, dt):  # noqa: ANN001, ANN202 - the solver's own signature
+        seen.append((state.rest(), state.rest()))
+        return solve(state, dt)
+
+    sim.pressure.solve = spy
+    sim.step()
+    assert seen[0][0] is seen[0][1] and seen[0][0].uniform  # held: one object in the step
+    assert st.rest() is not st.rest()  # after the step: made at each call
+    f["rho0"][0] = 1000.0  # a change in place between steps
+    assert not st.rest().uniform
+    sim.step()
+    held = seen[1][0]
+    assert not held.uniform and held.c[np.argmax(f["rho0"])] == 10.0

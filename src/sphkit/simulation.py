@@ -205,11 +205,9 @@ class Simulation:
     def reset_clock(self) -> None:
         """Start the clock again at t = 0, step 0 (after the start-up's settling), with the
         scene's first time step and no statistics of a previous step."""
-        self.time = 0.0
-        self.step_count = 0
+        self.time, self.step_count = 0.0, 0
         self.dt = self._dt_control = self.scene.configuration.time.dt
-        self.last = None
-        self.last_solver = None
+        self.last = self.last_solver = None
         self._frame = -1
 
     # -- construction ---------------------------------------------------------------------------
@@ -384,6 +382,7 @@ class Simulation:
         """Fluid densities from the current neighbour lists (fluid + boundary)."""
         st = self.state
         f, b = st.fluid, st.boundary
+        st.hold_rest()  # rest densities and masses as they are now, to the pressure solve's end
         if self.pressure.uses_pair_gradients:
             # one pass for the densities and the solver's cached pair gradients
             st.pair_grads = PairGradients(st, with_density=True, scratch=st.scratch)
@@ -450,6 +449,7 @@ class Simulation:
         if self.rigid.bodies:  # the fluid's push on the bodies
             self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))
         st.pair_grads = None  # positions change: the cache is stale
+        st.hold_rest(False)
         symplectic_euler(f["x"], f["v"], f["a"], dt)  # integrate
         for force in self.forces:  # a transport velocity's share of the displacement
             force.advect(st, dt)
