@@ -125,8 +125,9 @@ SCRIPT = textwrap.dedent(
             # DFSPH's factor (PPE diagonal, alpha) and sources from the pair divergence
             D = on(np.empty(N))
             bsum = on(np.empty((dim, N)))
+            div_d = on(np.empty(N))  # the divergence in the diagonal's pass
             launch(diagonal_body, N, *map(on, (off, idx, boff, bidx, mirror)), gw, gwb, dim,
-                   True, on(c), on(inv_c), D, bsum, device=device)
+                   True, on(c), on(inv_c), D, bsum, on(vel), on(bvel), div_d, device=device)
             out["bsum"] = back(bsum)
             alpha = on(np.empty(N))
             launch(alpha_body, N, D, 1e-5, alpha, device=device)
@@ -134,6 +135,7 @@ SCRIPT = textwrap.dedent(
             launch(divergence_body, N, on(vel), on(bvel), *map(on, (off, idx, boff, bidx)),
                    gw, gwb, dim, div, device=device)
             out["D"], out["alpha"], out["div"] = back(D), back(alpha), back(div)
+            out["div_d"] = back(div_d)
             for name, body, args in (
                     ("dens", density_source_body, (on(out["rho"]), on(1.0 / (1000.0 * c)), div,
                                                    1e-3)),
@@ -170,10 +172,11 @@ SCRIPT = textwrap.dedent(
         assert cpu["err"][0] > 0.0 and cpu["err"][1] > 0.0, cpu["err"]
         assert 0 < cpu["outside"][0] < N / 2, cpu["outside"]  # beyond the middle, not above
         for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k", "D", "bsum", "alpha", "div",
-                    "dens_s", "dens_k", "divs_s", "divs_k", "av", "xe", "ve", "vmax",
+                    "div_d", "dens_s", "dens_k", "divs_s", "divs_k", "av", "xe", "ve", "vmax",
                     "outside"):
             e = rel(gpu[key], cpu[key])
             assert e <= 1e-12, (dim, key, e)
+        assert rel(cpu["div_d"], cpu["div"]) <= 1e-12, dim  # the fused pass: the same sums
         assert rel(gpu["err"], cpu["err"]) <= 1e-12, (dim, gpu["err"], cpu["err"])
         print("dim", dim, "ok", N, "particles")
 

@@ -237,8 +237,12 @@ def cpu_driver(body: Any, nargs: int, kind: str = "each", values: tuple[int, ...
 def _cpu(body: Any, args: tuple, kind: str) -> Any:
     """The CPU driver of ``body`` for these arguments (the values of its constant parameters
     among them)."""
-    pos = constant_positions(body)
-    return cpu_driver(body, len(args), kind, tuple(int(args[k]) for k in pos))
+    pos = _constant_at.get(body)
+    if pos is None:
+        pos = constant_positions(body)
+    values = tuple([int(args[k]) for k in pos]) if pos else ()
+    drv = _drivers.get((body, kind, len(args), values))  # the usual case: made before
+    return drv if drv is not None else cpu_driver(body, len(args), kind, values)
 
 
 #: the helpers compiled by their arguments' types (:func:`register_typed`) and their typing
@@ -281,11 +285,15 @@ def on_device(a: Any) -> bool:
     return hasattr(a, "copy_to_host")
 
 
+#: argument types that are never device arrays (:func:`device_of` skips them without asking)
+_HOST_TYPES = frozenset({np.ndarray, int, float, bool})
+
+
 def device_of(*arrays: Any) -> str:
     """``"cuda"`` when one of ``arrays`` is a device array, else ``"cpu"``: the device a launch
     over them runs on."""
     for a in arrays:
-        if hasattr(a, "copy_to_host"):
+        if type(a) not in _HOST_TYPES and hasattr(a, "copy_to_host"):
             return "cuda"
     return "cpu"
 

@@ -217,6 +217,14 @@ class PairGradients:
     def diagonal(self, mirror_shift: float = 0.0) -> np.ndarray:
         """``D_i`` of :func:`sphkit.core.ppe.diagonal_cached` (DFSPH's 1/alpha, IISPH's
         -a_ii rho^2); ``mirror_shift`` is added to the mirror weights (ICSPH's psi - 1)."""
+        return self._diagonal(mirror_shift, None)[0]
+
+    def diagonal_and_divergence(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`diagonal` and :meth:`velocity_divergence` of v in one pass over the pairs
+        (DFSPH's factor and divergence source)."""
+        return self._diagonal(0.0, v)
+
+    def _diagonal(self, mirror_shift: float, v: np.ndarray | None) -> tuple:
         st = self.state
         out = arrays.empty(st.fluid.n, st.fluid.dtype, like=self.gw)
         rest = st.rest()
@@ -226,12 +234,12 @@ class PairGradients:
         fresh = self._bsum is None  # the pass makes boundary_sums() too
         if fresh:
             self._bsum = arrays.empty((st.dim, st.fluid.n), st.fluid.dtype, like=self.gw)
+        div = None if v is None else arrays.empty(st.fluid.n, st.fluid.dtype, like=v)
         diagonal_cached(st.nl_ff.offsets, st.nl_fb.offsets, st.nl_fb.indices,
-                        mirror, self.gw, self.gwb, st.dim, out,
-                        *((None, None, None) if rest.uniform
-                          else (st.nl_ff.indices, rest.c, rest.inv_c)),
-                        bsum=self._bsum if fresh else None)
-        return out
+                        mirror, self.gw, self.gwb, st.dim, out, st.nl_ff.indices,
+                        *((None, None) if rest.uniform else (rest.c, rest.inv_c)),
+                        bsum=self._bsum if fresh else None, v=v, bv=st.boundary["v"], div=div)
+        return out, div
 
     def wall_rate(self, v: np.ndarray) -> np.ndarray:
         """``D rho_hat_b / Dt = sum_f V_f (v_f - v_b) . grad_f W_fb`` of the fluid velocities v

@@ -172,13 +172,15 @@ class DFSPH(StepBounded, PressureSolver):
         f = state.fluid
         self._grads = PairGradients.of(state)
         alpha = f["dfsph_alpha"]
-        D = self._grads.diagonal()
+        if self.divergence_solver:  # the factor and the solve's source in one pass
+            D, div = self._grads.diagonal_and_divergence(f["v"])
+        else:
+            D = self._grads.diagonal()
         launch(alpha_body, f.n, D, 1e-5, alpha)  # SPlisHSPlasH's epsilon [1/m^2]
         self._div_stats = (0, 0.0)
         self._kappa_v = None
         if not self.divergence_solver:
             return
-        div = self._grads.velocity_divergence(f["v"])
         active = surrounded(state.nl_ff.offsets, state.nl_fb.offsets,
                             20 if state.dim == 3 else 7)
         s = arrays.empty_like(div)
