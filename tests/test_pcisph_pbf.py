@@ -129,6 +129,15 @@ def test_pbf_lambda_pass_matches_density_at_and_a_numpy_reference() -> None:
                                 b["x"], b["V"], nb.offsets, nb.indices, st.h, st.kid, st.dim,
                                 0.0, eps, 0.0, lam, rho)
     assert np.allclose(rho, ref, rtol=1e-12)
+    # one mass (the block's, as sampled): the pass compiled without the mass gather agrees
+    assert st.rest().one_mass
+    one = np.empty(f.n)
+    density_at(f["x"] + dx, f["m"], nl.offsets, nl.indices, b["x"], np.zeros((st.dim, 0)),
+               b["V"], nb.offsets, nb.indices, st.rho0, st.h, st.kid, st.dim, one, True)
+    assert np.allclose(one, ref, rtol=1e-14, atol=0.0)
+    f["m"][0] *= 1.5  # a mass of its own: no longer one value
+    assert not st.rest().one_mass
+    f["m"][0] /= 1.5
     c = np.maximum(ref - 1.0, 0.0)
     assert avg == pytest.approx(c.mean()) and mx == pytest.approx(c.max())
     i = int(np.argmax(c))

@@ -52,6 +52,14 @@ class RestArrays:
         """``m_i * (1 / rho0_i)``: the rest volume [m^dim] (N,), computed when first asked."""
         return arrays.multiplied(self.m, arrays.reciprocal(self.rho0))
 
+    @cached_property
+    def one_mass(self) -> bool:
+        """Whether every particle's ``mu`` is the same value (on the CPU; False on a device,
+        where the test would read a value back): the passes may then take ``mu[0]`` for all."""
+        mu = self.mu
+        on_host = isinstance(mu, np.ndarray)
+        return bool(on_host and mu.shape[0] > 0 and not arrays.any_differs(mu, float(mu[0])))
+
     @staticmethod
     def of(fluid: ParticleSet, rho0_ref: float) -> RestArrays:
         """The arrays of a fluid set (fields ``rho0`` and ``m``), on the set's device."""

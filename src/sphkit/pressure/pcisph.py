@@ -339,7 +339,7 @@ class PCISPH(StepBounded, PressureSolver):
             bd = bdx[0] if bx is b["x"] else still
             density_at(xp, rest.mu, nl.offsets, nl.indices, bx, bd, bV,
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
-                       rho_hat)
+                       rho_hat, rest.one_mass)
             tot, mx = launch_reduce(pressure_update_body, n, rho_hat, float(factor), factors,
                                     each, p)
             if not rest.uniform:
