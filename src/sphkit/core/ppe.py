@@ -428,13 +428,7 @@ def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, i
         else:
             sq += t0 * t0 + t1 * t1 + t2 * t2
         if with_div:
-            j = idx[k]
-            t = (vi0 - v[0, j]) * t0
-            if dim > 1:
-                t += (vi1 - v[1, j]) * t1
-            if dim > 2:
-                t += (vi2 - v[2, j]) * t2
-            s += t
+            s += _rate(vi0, vi1, vi2, v, idx[k], gw, k, dim)
     b0 = b1 = b2 = 0.0
     m0 = m1 = m2 = 0.0
     for k in pair_slots(boff, i):
@@ -449,12 +443,7 @@ def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, i
             b2 += gwb[2, k]
             m2 += f * gwb[2, k]
         if with_div:
-            t = (vi0 - bv[0, b]) * gwb[0, k]
-            if dim > 1:
-                t += (vi1 - bv[1, b]) * gwb[1, k]
-            if dim > 2:
-                t += (vi2 - bv[2, b]) * gwb[2, k]
-            s += t
+            s += _rate(vi0, vi1, vi2, bv, b, gwb, k, dim)
     out[i] = ((g0 + b0) * (g0 + m0) + (g1 + b1) * (g1 + m1) + (g2 + b2) * (g2 + m2) + sq)
     if bsum.shape[1] > 0:
         set_vector(bsum, i, dim, b0, b1, b2)
@@ -463,21 +452,26 @@ def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, i
 
 
 @numba.njit(inline="always", **_JIT_GATHER)
-def _fluid_divergence_i(i, v, off, idx, gw, dim):
-    """``sum_j (v_i - v_j) . gw_ij`` of particle i (its fluid pairs).
+def _rate(vi0, vi1, vi2, v, j, g, k, dim):
+    """``(v_i - v_j) . g[:, k]``, the pair's term of the divergences.
 
     Written out (one dim branch per component): through the pair helpers (a difference, then a
     product with its own branches) :func:`jacobi_sweep` ran 5-13 % slower."""
+    t = (vi0 - v[0, j]) * g[0, k]
+    if dim > 1:
+        t += (vi1 - v[1, j]) * g[1, k]
+    if dim > 2:
+        t += (vi2 - v[2, j]) * g[2, k]
+    return t
+
+
+@numba.njit(inline="always", **_JIT_GATHER)
+def _fluid_divergence_i(i, v, off, idx, gw, dim):
+    """``sum_j (v_i - v_j) . gw_ij`` of particle i (its fluid pairs)."""
     vi0, vi1, vi2 = point(v, i, dim)
     s = 0.0
     for k in pair_slots(off, i):
-        j = idx[k]
-        t = (vi0 - v[0, j]) * gw[0, k]
-        if dim > 1:
-            t += (vi1 - v[1, j]) * gw[1, k]
-        if dim > 2:
-            t += (vi2 - v[2, j]) * gw[2, k]
-        s += t
+        s += _rate(vi0, vi1, vi2, v, idx[k], gw, k, dim)
     return s
 
 
@@ -487,13 +481,7 @@ def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
     vi0, vi1, vi2 = point(v, i, dim)
     s = _fluid_divergence_i(i, v, off, idx, gw, dim)
     for k in pair_slots(boff, i):
-        b = bidx[k]
-        t = (vi0 - bv[0, b]) * gwb[0, k]
-        if dim > 1:
-            t += (vi1 - bv[1, b]) * gwb[1, k]
-        if dim > 2:
-            t += (vi2 - bv[2, b]) * gwb[2, k]
-        s += t
+        s += _rate(vi0, vi1, vi2, bv, bidx[k], gwb, k, dim)
     return s
 
 

@@ -53,6 +53,16 @@ from sphkit.core.viscous import (
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
+def _particle(i, x, v, rho, nu, epsf, h, dim):
+    """The pair loops' constants of particle i: ``(eps, c, 2 c nu, x_i, v_i, rho_i)`` with
+    ``eps = epsf h^2`` and ``c = 2 (d + 2)``."""
+    c = 2.0 * (dim + 2)
+    xi0, xi1, xi2 = point(x, i, dim)
+    vi0, vi1, vi2 = point(v, i, dim)
+    return epsf * h * h, c, 2.0 * c * nu, xi0, xi1, xi2, vi0, vi1, vi2, rho[i]
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
 def _wall_term(xi0, xi1, xi2, vi0, vi1, vi2, ri, bx, bv, bV, bn, bd, bf, boff, bidx, i, nub,
                beta_max, eps, c, rho0, h, kid, dim, L):
     """The boundary particles' share of particle i's viscous acceleration (the wall term of the
@@ -78,13 +88,8 @@ def standard_body(i, x, v, m, rho, off, idx, bx, bv, bV, bn, bd, bf, boff, bidx,
     :func:`sphkit.backend.launch`). Coordinates are hoisted into scalars and the dim branches
     are loop invariant: this form runs about twice as fast as loops over d (measured), and
     stays dimension-generic."""
-    eps = epsf * h * h
-    c = 2.0 * (dim + 2)
+    eps, c, cn, xi0, xi1, xi2, vi0, vi1, vi2, ri = _particle(i, x, v, rho, nu, epsf, h, dim)
     acc0 = acc1 = acc2 = 0.0
-    xi0, xi1, xi2 = point(x, i, dim)
-    vi0, vi1, vi2 = point(v, i, dim)
-    ri = rho[i]
-    cn = 2.0 * c * nu
     for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
@@ -106,13 +111,8 @@ def standard_cached_body(i, x, v, rho0j, rho, off, idx, gw, bx, bv, bV, bn, bd, 
     pair gradients ``gw = V_j grad W_ij`` (``V_j = m_j / rho0_j``, so ``m_j W'(r) / r x_ij =
     rho0_j gw_ij``; ``rho0j``: the fluid's rest densities): the same term without the kernel
     and the square root in the pair loop."""
-    eps = epsf * h * h
-    c = 2.0 * (dim + 2)
+    eps, c, cn, xi0, xi1, xi2, vi0, vi1, vi2, ri = _particle(i, x, v, rho, nu, epsf, h, dim)
     acc0 = acc1 = acc2 = 0.0
-    xi0, xi1, xi2 = point(x, i, dim)
-    vi0, vi1, vi2 = point(v, i, dim)
-    ri = rho[i]
-    cn = 2.0 * c * nu
     for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, w0, w1, w2 = delta2(xi0, xi1, xi2, x, vi0, vi1, vi2, v, j, dim, L)
