@@ -144,10 +144,17 @@ SCRIPT = textwrap.dedent(
                 launch(body, N, *args, on(kprev), on(inv_c), ss, kap, device=device)
                 out[name + "_s"], out[name + "_k"] = back(ss), back(kap)
             # the explicit viscosities (standard with the no-slip wall factor, XSPH)
+            # (the standard one by the kernel and from the cached pair gradients, rho0_j = m / V)
+            walls = (*map(on, (bx, bvel, bV, bn, bd, bf, boff, bidx)), 1e-3, 2e-3, 1.5, 0.01,
+                     1000.0, h, 0, dim, 0.0)
             av = on(np.zeros((dim, N)))
-            launch(standard_body, N, *map(on, (x, vel, m, out["rho"], off, idx, bx, bvel, bV,
-                   bn, bd, bf, boff, bidx)), 1e-3, 2e-3, 1.5, 0.01, 1000.0, h, 0, dim, 0.0,
-                   av, device=device)
+            launch(standard_body, N, *map(on, (x, vel, m, 1000.0 * c, out["rho"], off, idx)),
+                   on(np.empty((dim, 0))), False, *walls, av, device=device)
+            out["av_std"] = back(av).copy()
+            avc = on(np.zeros((dim, N)))
+            launch(standard_body, N, *map(on, (x, vel, m, 1000.0 * c, out["rho"], off, idx)),
+                   gw, True, *walls, avc, device=device)
+            out["avc"] = back(avc)
             launch(xsph_body, N, *map(on, (x, vel, m, out["rho"], off, idx, bx, bvel, bV, boff,
                    bidx)), 0.1, 0.2, 1000.0, h, 0, dim, 250.0, av, device=device)
             out["av"] = back(av)
@@ -172,11 +179,12 @@ SCRIPT = textwrap.dedent(
         assert cpu["err"][0] > 0.0 and cpu["err"][1] > 0.0, cpu["err"]
         assert 0 < cpu["outside"][0] < N / 2, cpu["outside"]  # beyond the middle, not above
         for key in ("rho", "a", "rho2", "gw", "gwb", "ak", "q", "k", "D", "bsum", "alpha", "div",
-                    "div_d", "dens_s", "dens_k", "divs_s", "divs_k", "av", "xe", "ve", "vmax",
-                    "outside"):
+                    "div_d", "dens_s", "dens_k", "divs_s", "divs_k", "av", "avc", "xe", "ve",
+                    "vmax", "outside"):
             e = rel(gpu[key], cpu[key])
             assert e <= 1e-12, (dim, key, e)
         assert rel(cpu["div_d"], cpu["div"]) <= 1e-12, dim  # the fused pass: the same sums
+        assert rel(cpu["avc"], cpu["av_std"]) <= 1e-12, dim  # the cached gradients: the same term
         assert rel(gpu["err"], cpu["err"]) <= 1e-12, (dim, gpu["err"], cpu["err"])
         print("dim", dim, "ok", N, "particles")
 

@@ -42,8 +42,9 @@ USE_PERFORMANCE_OPTIMIZATION does) and the other passes are multiply-adds over i
   ``q_i <- max(q_i - omega * scale_i * (s_i - f Ap_i), 0)`` in one pass, with the error of the
   residual before the update;
 * :func:`density_at` -- PCISPH's / PBF's density at predicted positions;
-* :func:`boundary_sums` -- ``B_i = sum_b V_b grad W_ib``, with which a boundary that takes no
-  pressure acceleration enters :func:`jacobi_sweep` without a pass over its pairs.
+* the boundary sums ``B_i = sum_b V_b grad W_ib`` (:func:`diagonal_cached` adds them up), with
+  which a boundary that takes no pressure acceleration enters :func:`jacobi_sweep` without a
+  pass over its pairs.
 
 The static walls' own pressures (``configuration.boundary.solved``) have their passes in
 :mod:`sphkit.core.solved_walls`.
@@ -384,7 +385,7 @@ def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror
     blew up within 0.1 s in a 2D column of rest densities 1000 and 100).
 
     The same pass can give, from the pairs it reads anyway, ``bsum`` (dim, N): the boundary
-    sums ``B_i`` (:func:`boundary_sums`), and ``div`` (N,): :func:`pair_divergence_cached` of
+    sums ``B_i = sum_b V_b grad W_ib``, and ``div`` (N,): :func:`pair_divergence_cached` of
     the velocities v (boundary velocities bv; needs ``idx``), to round-off (the compiler
     contracts the products of the two sums differently; DFSPH's factor and divergence source:
     0.231 -> 0.155 ms at 6,859 particles, two threads)."""
@@ -489,25 +490,6 @@ def _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim):
 def divergence_body(i, v, bv, off, idx, boff, bidx, gw, gwb, dim, out):
     """``out[i]`` = :func:`_divergence_i` (a kernel body)."""
     out[i] = _divergence_i(i, v, bv, off, idx, boff, bidx, gw, gwb, dim)
-
-
-@numba.njit(inline="always", **_JIT_GATHER)
-def boundary_sum_body(i, boff, gwb, dim, out):
-    """``out[:, i] = sum_b gwb[:, k]`` over particle i's boundary pairs (a kernel body)."""
-    s0 = s1 = s2 = 0.0
-    for k in pair_slots(boff, i):
-        s0 += gwb[0, k]
-        if dim > 1:
-            s1 += gwb[1, k]
-        if dim > 2:
-            s2 += gwb[2, k]
-    set_vector(out, i, dim, s0, s1, s2)
-
-
-def boundary_sums(boff: np.ndarray, gwb: np.ndarray, dim: int, out: np.ndarray) -> None:
-    """``out[:, i] = B_i = sum_b V_b grad W_ib`` (dim, N) from the cached boundary pair
-    gradients: :func:`boundary_sum_body` through :func:`sphkit.backend.launch`."""
-    launch(boundary_sum_body, out.shape[1], boff, gwb, int(dim), out)
 
 
 def pair_divergence_cached(v: np.ndarray, bv: np.ndarray, off: np.ndarray, idx: np.ndarray,

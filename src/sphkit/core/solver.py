@@ -27,7 +27,6 @@ import numpy as np
 
 from sphkit.core import arrays
 from sphkit.core.ppe import (
-    boundary_sums,
     density_pair_gradients,
     diagonal_cached,
     jacobi_sweep,
@@ -200,12 +199,11 @@ class PairGradients:
         self._bsum: np.ndarray | None = None  # boundary_sums(), made when first asked
 
     def boundary_sums(self) -> np.ndarray:
-        """``B_i = sum_b V_b grad W_ib`` (dim, N) of this step's boundary pairs (made at the
-        first call: :func:`sphkit.core.ppe.boundary_sums`)."""
+        """``B_i = sum_b V_b grad W_ib`` (dim, N) of this step's boundary pairs, which the pass
+        of :meth:`diagonal` adds up (the solvers make the diagonal first; otherwise it is made
+        here for them)."""
         if self._bsum is None:
-            st = self.state
-            self._bsum = arrays.empty((st.dim, st.fluid.n), st.fluid.dtype, like=self.gw)
-            boundary_sums(st.nl_fb.offsets, self.gwb, st.dim, self._bsum)
+            self._diagonal(0.0, None)
         return self._bsum
 
     @staticmethod
