@@ -330,3 +330,12 @@ def test_jacobi_sweep_with_the_boundary_sums() -> None:
     assert np.abs(bsum).max() > 0.0 and (outs[0][0] > 0.0).any()
     for x, y in zip(outs[0], outs[1], strict=True):
         np.testing.assert_allclose(y, x, rtol=1e-12, atol=1e-12 * np.abs(x).max())
+    # weight 1 and every particle active given as None (DFSPH): k is q itself, nothing else
+    # written, and the same update and residuals bit for bit (w_i q_i = q_i exactly)
+    q = np.full(n, 1e-4)
+    err = jacobi_sweep(a, np.zeros((2, nb)), st.nl_ff.offsets, st.nl_ff.indices,
+                       st.nl_fb.offsets, st.nl_fb.indices, g.gw, g.gwb, 2, q, s, 1e-4,
+                       np.full(n, 0.5), 0.5, None, None, q, bsum=bsum)
+    np.testing.assert_array_equal(q, outs[1][0])
+    np.testing.assert_array_equal(q, outs[1][1])
+    np.testing.assert_array_equal(np.array(err), outs[1][2])

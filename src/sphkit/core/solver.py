@@ -322,9 +322,9 @@ class WallRows:
         return cls(use, stored, Vf, D, np.empty(b.n, dtype=f.dtype))
 
 
-def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray,
+def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray | None,
                s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
-               active: np.ndarray, error_factor: float = 1.0,
+               active: np.ndarray | None, error_factor: float = 1.0,
                grads: PairGradients | None = None, shift: float = 0.0, clamp: bool = True,
                mirror: np.ndarray | None = None, wall_source: np.ndarray | None = None,
                wall_key: str = "", wall_scale: float = 1.0
@@ -340,8 +340,8 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     One iteration: ``a = kappa_accel_cached(w q)``; ``Ap = ap_factor * pair_divergence_cached(a)``;
     ``q <- max(q - omega scale (s - Ap), 0)`` (:func:`sphkit.core.ppe.jacobi_sweep` computes Ap
     and updates q in one pass). The error of an iteration is the compressive residual
-    ``max(Ap - s, 0)`` of ``active`` particles averaged over all particles, times
-    ``error_factor``.
+    ``max(Ap - s, 0)`` of ``active`` particles (None: all) averaged over all particles, times
+    ``error_factor``. ``w`` None: the weight 1 (the weighted variable is q itself).
     ``grads`` are the step's cached pair gradients (computed here when not given).
 
     Solved walls (scene ``configuration.boundary.solved``,
@@ -371,8 +371,9 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     # weight rho0_j / rho0_i of the pressure sums, sphkit.core.state.RestArrays); c = 1 for one
     rest = state.rest()
     if not rest.uniform:
-        w = arrays.multiplied(w, rest.c)
-    k = arrays.multiplied(w, q)  # the weighted variable; jacobi_sweep keeps it up to date
+        w = rest.c if w is None else arrays.multiplied(w, rest.c)
+    # the weighted variable, kept up to date by jacobi_sweep (q itself where the weight is 1)
+    k = q if w is None else arrays.multiplied(w, q)
     if mirror is None:
         mirror = coupling.mirror(state)
     kb = coupling.boundary_kappa(state)

@@ -187,8 +187,7 @@ class DFSPH(StepBounded, PressureSolver):
         kappa = arrays.empty_like(div)
         launch(divergence_source_body, f.n, div, active, dt, f["dfsph_kappa_v"],
                state.rest().inv_c, s, kappa)
-        ones = arrays.full(f.n, 1.0, div.dtype, like=div)
-        a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, ones, s,
+        a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, None, s,
                                            arrays.divided(alpha, dt), dt, OMEGA, active,
                                            error_factor=dt, grads=self._grads,
                                            **self._grads.wall_args(f["v"], 1.0, "dfsph_v", dt))
@@ -212,10 +211,8 @@ class DFSPH(StepBounded, PressureSolver):
         kappa = arrays.empty_like(div)
         launch(density_source_body, f.n, f["rho"], arrays.reciprocal(f["rho0"]), div, dt,
                f["dfsph_kappa"], state.rest().inv_c, s, kappa)
-        ones = arrays.full(f.n, 1.0, div.dtype, like=div)
-        active = arrays.full(f.n, True, np.bool_, like=div)
-        a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, ones, s,
-                                         arrays.divided(alpha, dt * dt), dt * dt, OMEGA, active,
+        a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, None, s,
+                                         arrays.divided(alpha, dt * dt), dt * dt, OMEGA, None,
                                          grads=self._grads,
                                          **self._grads.wall_args(v_star, dt, "dfsph", dt * dt,
                                                                   density=True))

@@ -124,7 +124,6 @@ class ICSPH(PressureSolver):
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Pressure solve on v* = v + dt a; adds the pressure acceleration to a."""
         f = state.fluid
-        n = f.n
         rho0 = rest_density(state)
         rho = f["rho"]
         grads = PairGradients(state, volumes=f["m"] / rho)  # current volumes V_j = m_j / rho_j
@@ -134,12 +133,10 @@ class ICSPH(PressureSolver):
         denom = shift + dt * dt * grads.diagonal(self.psi - 1.0)  # -a_ii [s^2/m^2]
         scale = np.where(denom > 1e-5, 1.0 / np.where(denom > 0, denom, 1.0), 0.0)
         q = f["p"] / rho0  # warm start: the last step's pressure, as SPlisHSPlasH
-        ones = np.ones(n, dtype=f.dtype)
-        active = np.ones(n, dtype=np.bool_)
         mirror = state.coupling.mirror(state)
         _a, its, avg, mx, ok = jacobi_ppe(
-            state, self.control, q, ones, s.astype(f.dtype), scale.astype(f.dtype), dt * dt,
-            self.omega, active, grads=grads, shift=shift, clamp=self.clamping,
+            state, self.control, q, None, s.astype(f.dtype), scale.astype(f.dtype), dt * dt,
+            self.omega, None, grads=grads, shift=shift, clamp=self.clamping,
             mirror=mirror + (self.psi - 1.0))
         p = q * rho0
         f["p"] = p

@@ -43,7 +43,6 @@ from __future__ import annotations
 from typing import Any
 
 import numba
-import numpy as np
 
 from sphkit.backend import launch
 from sphkit.core import arrays
@@ -113,9 +112,8 @@ class IISPH(StepBounded, PressureSolver):
                1e-9 / state.h ** 2, s, w, scale)
         # warm start, normalized pressure 0.5 p / rho0
         p = arrays.divided_by(arrays.scaled(f["p"], 0.5), f["rho0"])
-        active = arrays.full(n, True, np.bool_, like=div)
         a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
-                                         self.omega, active, grads=grads,
+                                         self.omega, None, grads=grads,
                                          **grads.wall_args(v_star, dt, "iisph", density=True))
         self.step_bound.update(dt, its, self.control.max_iterations, ok)
         arrays.axpy(f["a"], 1.0, a)
