@@ -325,8 +325,10 @@ def kappa_accel_body(i, k, kb, off, idx, boff, bidx, bmirror, gw, gwb, dim, a, i
             a1 -= sb * gwb[1, kk]
         if dim > 2:
             a2 -= sb * gwb[2, kk]
-    ic = inv_c[i]
-    set_vector(a, i, dim, a0 * ic, a1 * ic, a2 * ic)
+    if inv_c.shape[0] > 0:  # several rest densities (empty: one fluid, 1 / c_i = 1)
+        ic = inv_c[i]
+        a0, a1, a2 = a0 * ic, a1 * ic, a2 * ic
+    set_vector(a, i, dim, a0, a1, a2)
 
 
 specialize(kappa_accel_body, "dim")  # as jacobi_body: every iteration
@@ -365,15 +367,17 @@ def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.n
     extrapolation with the phases fitted on their own, :mod:`sphkit.boundary.band2018`):
     particle i reads row ``phase[i]`` (:func:`phase_kb_body`, a second pass over the boundary
     pairs). The pass is :func:`kappa_accel_body` through :func:`sphkit.backend.launch`."""
-    if inv_c is None:
-        inv_c = arrays.full(k.shape[0], 1.0, a.dtype, like=a)
     if kb.ndim == 2:
+        if inv_c is None:
+            inv_c = arrays.full(k.shape[0], 1.0, a.dtype, like=a)
         if phase is None:
             raise ValueError("kappa_accel_cached: a kb per phase needs the fluid's phases")
         launch(kappa_accel_body, k.shape[0], k, kb.reshape(-1)[:0], off, idx, boff, bidx,
                bmirror, gw, gwb, int(dim), a, inv_c)
         launch(phase_kb_body, k.shape[0], kb, phase, boff, bidx, gwb, int(dim), a, inv_c)
         return
+    if inv_c is None:  # one fluid: no factor read a particle
+        inv_c = arrays.empty(0, a.dtype, like=a)
     launch(kappa_accel_body, k.shape[0], k, kb, off, idx, boff, bidx, bmirror, gw, gwb, int(dim),
            a, inv_c)
 

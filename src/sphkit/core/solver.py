@@ -400,7 +400,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
 
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
-                           g.gwb, dim, a, rest.inv_c, phase)
+                           g.gwb, dim, a, rest.sums_factor, phase)
         # boundary particles take no pressure acceleration unless they yield (dynamic bodies)
         ab = coupling.response(state, own(k), g.gwb)
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
@@ -415,5 +415,5 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
     if walls:
         stored[:] = wk * wall_scale
     kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
-                       g.gwb, dim, a, rest.inv_c, phase)
+                       g.gwb, dim, a, rest.sums_factor, phase)
     return a, its, avg, mx, ok

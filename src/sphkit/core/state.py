@@ -52,6 +52,12 @@ class RestArrays:
         """``m_i * (1 / rho0_i)``: the rest volume [m^dim] (N,), computed when first asked."""
         return arrays.multiplied(self.m, arrays.reciprocal(self.rho0))
 
+    @property
+    def sums_factor(self) -> np.ndarray | None:
+        """``inv_c`` for the passes that multiply a particle's sums by it, None for one rest
+        density (the factor 1 then not read a particle)."""
+        return None if self.uniform else self.inv_c
+
     @cached_property
     def one_mass(self) -> bool:
         """Whether every particle's ``mu`` is the same value (on the CPU; False on a device,

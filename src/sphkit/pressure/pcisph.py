@@ -351,7 +351,7 @@ class PCISPH(StepBounded, PressureSolver):
                 wall_update(zero, src, wd, dt * dt, 0.5, wk, pc, nb.offsets, nb.indices,
                             solver_module.WALL_CAP, wkmax)
             kappa_accel_cached(pc, kb(pc), nl.offsets, nl.indices, nb.offsets, nb.indices,
-                               mirror, g.gw, g.gwb, state.dim, ap, rest.inv_c, kb_phase)
+                               mirror, g.gw, g.gwb, state.dim, ap, rest.sums_factor, kb_phase)
             bdx[0] = coupling.displacement(state, p, g.gwb, dt)
             return tot / max(n, 1), mx
 
