@@ -8,7 +8,8 @@
 Runs the DamBreakModel dam break of ``scenes/dambreak_<solver>.json`` (SPlisHSPlasH's setup,
 Akinci walls; the same file in both codes) with the particle radius replaced: by default 0.025,
 0.0125 and 0.00625 m (6,859, 59,319 and 493,039 fluid particles; ``--large`` adds 0.005 m,
-970,299), each scene to ``--until`` simulated seconds. Each code runs each size in its own
+970,299), each scene to ``--until`` simulated seconds; a fixed time step (the WCSPH scene's) is
+scaled with the radius (:func:`scene_at`). Each code runs each size in its own
 subprocess (``benchmarks/vs_splishsplash.py``'s runners: SPlisHSPlasH through the
 pysplishsplash wheel with its ``LD_PRELOAD``, ``OMP_NUM_THREADS``; sphkit with
 ``NUMBA_NUM_THREADS`` after an untimed warm-up on the smallest size, so that neither Numba's
@@ -46,10 +47,15 @@ LARGE = 0.005
 
 def scene_at(solver: str, radius: float, until: float | None, folder: Path) -> Path:
     """A copy of ``scenes/dambreak_<solver>.json`` with the particle radius (and ``stopAt``)
-    replaced and absolute mesh paths."""
+    replaced and absolute mesh paths. A scene with a fixed step (``cflMethod`` 0: the WCSPH
+    one) gets its ``timeStepSize`` scaled with the radius, as the acoustic step condition ``dt ~
+    h / c`` asks (1 ms at the file's 0.025 m: 0.5 ms at 0.0125, 0.25 ms at 0.00625; at 0.00625
+    the file's 1 ms is a CFL number of about 2 and the run goes unstable)."""
     src = vs.SCENES / f"dambreak_{solver}.json"
     data = json.loads(src.read_text())
     cfg = data.setdefault("Configuration", {})
+    if cfg.get("cflMethod", 1) == 0 and "timeStepSize" in cfg:
+        cfg["timeStepSize"] = cfg["timeStepSize"] * radius / cfg.get("particleRadius", 0.025)
     cfg["particleRadius"] = radius
     if until is not None:
         cfg["stopAt"] = until
