@@ -23,7 +23,7 @@ from sphkit.core.ppe import density_at
 from sphkit.core.projection import constraint_lambda
 from sphkit.core.solver import PairGradients
 from sphkit.pressure.pbf import PBF
-from sphkit.pressure.pcisph import PCISPH
+from sphkit.pressure.pcisph import PCISPH, REJECT
 from sphkit.scene.schema import PressureConfig, Scene
 from sphkit.scene.splishsplash import from_splishsplash
 from sphkit.simulation import Simulation
@@ -492,3 +492,40 @@ def test_pcisph_lone_particle_is_not_thrown_off_a_volume_map_wall(tmp_path) -> N
             break
     speed = float(np.linalg.norm(v))
     assert speed <= 3.0, speed
+
+
+def test_pcisph_failed_solve_is_computed_again_with_half_the_step(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A block falling at 3 m/s one radius above the floor, first step 5 ms (1.5 r of
+    penetration predicted at the floor; CFL factor 2): PCISPH's solve stops at its 10
+    iterations far above its tolerance (more than ``REJECT`` times), so with ``time.retries``
+    the step is computed again with half the step, each time logged, until the solve no
+    longer fails; with ``retries: 0`` the failed step is kept, as before. The step that was
+    computed again is shorter and ends with a smaller density error than the kept failed one
+    (the point of repeating it), and no particle crosses the floor."""
+    r = 0.01
+
+    def scene(retries: int) -> Scene:
+        sc = _column("pcisph", width=0.2, height=0.1, r=r, margin=0.2, max_iterations=10)
+        sc.fluid_blocks[0].start[1] += r
+        sc.fluid_blocks[0].end[1] += r
+        sc.fluid_blocks[0].velocity = [0.0, -3.0]
+        tc = sc.configuration.time
+        tc.dt = tc.dt_max = 0.005
+        tc.cfl_factor = 2.0  # the CFL step 5.3 ms: the first step is the scene's 5 ms
+        tc.retries = retries
+        return sc
+
+    kept = Simulation(scene(0))
+    failed = kept.step()
+    assert failed.rejected == 0 and failed.dt == pytest.approx(0.005)
+    assert failed.density_error_avg > REJECT * 0.0005  # the solve failed by the rule
+    sim = Simulation(scene(4))
+    assert sim._retries == 4  # the column's standard viscosity only adds to a
+    with caplog.at_level(logging.WARNING, logger="sphkit"):
+        s = sim.step()
+    msgs = [rec.getMessage() for rec in caplog.records if "time.retries" in rec.getMessage()]
+    assert s.rejected >= 1 and len(msgs) == s.rejected
+    assert s.dt == pytest.approx(0.005 * 0.5 ** s.rejected)
+    assert s.density_error_avg < failed.density_error_avg
+    assert sim.state.fluid["x"][1].min() > 0.0  # above the box's floor

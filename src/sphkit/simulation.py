@@ -52,13 +52,13 @@ from sphkit.core.krylov import KrylovStats
 from sphkit.core.neighbors import Grid, NeighborList
 from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
-from sphkit.core.solver import PairGradients, SolverStats
+from sphkit.core.solver import PairGradients, SolverStats, log
 from sphkit.core.timestep import (
     cfl_time_step,
+    diagnosis,
+    instability,
     iteration_controlled_step,
     max_speed,
-    nonfinite_count,
-    outside_count,
     speed_check,
     symplectic_euler,
     wrap_periodic,
@@ -85,6 +85,8 @@ class StepStats:
     density_error_avg: float
     density_error_max: float
     iterations: int = 1  #: pressure-solver iterations (1 for WCSPH)
+    #: times the step was computed again with half the step after a failed solve (time.retries)
+    rejected: int = 0
     divergence_iterations: int = 0  #: DFSPH's divergence-solver iterations
     divergence_error: float = 0.0  #: DFSPH's average divergence error (fraction of rho0)
     viscosity_iterations: int = 0  #: implicit viscosity solver's iterations (CG or Jacobi)
@@ -146,6 +148,8 @@ class Simulation:
         self.emitters = world.emitters
         self._lattice_volume = world.lattice_volume
         self._domain = world.domain
+        #: a failed solve's step is computed again at most this often (time.retries)
+        self._retries = self.scene.configuration.time.retries if world.repeatable else 0
         self._empty_at_init = self.state.fluid.n == 0  # methods reading the fluid: at emission
         self.time = 0.0
         self.step_count = 0
@@ -438,14 +442,15 @@ class Simulation:
             parts = math.ceil((land_at - self.time) / dt * (1.0 - 1e-12))
             dt, lands = (land_at - self.time) / parts, parts == 1
         self.rigid.begin_step(st)  # this step's body frames
-        self.pressure.pre_forces(st, dt)  # DFSPH: factors and the divergence-free solve
-        arrays.fill_rows(f["a"], st.gravity)  # non-pressure forces
-        for force in self.forces:
-            force.apply(st, dt)
-        for solid in self.solids:  # elasticity of the solid materials
-            solid.apply(st, dt)
-        st.coupling.predict(st, dt)  # yielding bodies take their non-pressure velocity change
-        ps = self.pressure.solve(st, dt)  # pressure
+        ps = self._forces_and_pressure(dt)
+        rejected = 0  # a failed solve: the step again with the solver's shrunk bound
+        while rejected < self._retries and self.pressure.rejects(ps):
+            rejected += 1
+            dt, lands = min(0.5 * dt, self.pressure.max_time_step(st)), False
+            log.warning("step %d: the pressure solve failed (average error %.3g%% after %d "
+                        "iterations); computed again with dt %.4g s (time.retries)", st.step,
+                        100 * ps.density_error_avg, ps.iterations, dt)
+            ps = self._forces_and_pressure(dt)
         if self.rigid.bodies:  # the fluid's push on the bodies
             self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))
         st.pair_grads = None  # positions change: the cache is stale
@@ -473,7 +478,7 @@ class Simulation:
                           density_error_avg=ps.density_error_avg,
                           density_error_max=ps.density_error_max, iterations=ps.iterations,
                           divergence_iterations=ps.divergence_iterations,
-                          divergence_error=ps.divergence_error,
+                          divergence_error=ps.divergence_error, rejected=rejected,
                           rigid_bodies=[b.stats() for b in self.rigid.bodies])
         if len(self.world.materials) > 1:
             stats.phases = phase_statistics(self.state.fluid, self.world.materials,
@@ -484,6 +489,18 @@ class Simulation:
         self.last, self.last_solver = stats, ps
         self._stability_guard(stats, bad)
         return stats
+
+    def _forces_and_pressure(self, dt: float) -> SolverStats:
+        """The non-pressure forces and the pressure solve of a step of ``dt`` [s]."""
+        st = self.state
+        self.pressure.pre_forces(st, dt)  # DFSPH: factors and the divergence-free solve
+        arrays.fill_rows(st.fluid["a"], st.gravity)  # non-pressure forces
+        for force in self.forces:
+            force.apply(st, dt)
+        for solid in self.solids:  # elasticity of the solid materials
+            solid.apply(st, dt)
+        st.coupling.predict(st, dt)  # yielding bodies take their non-pressure velocity change
+        return self.pressure.solve(st, dt)  # pressure
 
     def _viscosity_stats(self) -> KrylovStats | None:
         """The last solve of the material's viscosity, when it is implicit (several fluids:
@@ -518,41 +535,12 @@ class Simulation:
         return stats
 
     def _stability_guard(self, s: StepStats, bad: int) -> None:
-        """Raise :class:`InstabilityError` when the step shows the run blowing up or leaking."""
-        cfg = self.scene.configuration
-        x = self.state.fluid["x"]
-        what = advice = ""
-        if bad or nonfinite_count(x):
-            what = f"{bad} particle(s) with NaN/inf velocity or position"
-        elif s.max_velocity > cfg.max_velocity:
-            what = (f"max velocity {s.max_velocity:.4g} m/s exceeds the limit "
-                    f"configuration.max_velocity = {cfg.max_velocity:.4g} m/s")
-        elif not cfg.time.cfl and s.cfl > cfg.max_cfl:
-            what = (f"CFL number {s.cfl:.3g} exceeds configuration.max_cfl = {cfg.max_cfl:g} "
-                    f"with the fixed time step time.dt = {s.dt:g} s (time.cfl off)")
-            advice = ("Switch time.cfl on, or make time.dt smaller (the fixed step moves the "
-                      "fastest particle more than the limit's share of a particle diameter).")
-        elif self._domain is not None and (n := outside_count(x, *self._domain)):
-            d = self._domain
-            box = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(d.lo, d.hi, strict=True))
-            what = (f"{n} fluid particle(s) left the domain {box} m (the static walls' bounding "
-                    f"box plus configuration.domain_margin = {cfg.domain_margin:g} h, not checked"
-                    f" above the walls' top): the fluid leaked through a wall, or fell beside it")
-            advice = ("Make the pressure stiffer or use an iterative pressure solver, a smaller "
-                      "time step (time.dt_max, time.cfl_factor), thicker walls (boxes[].layers), "
-                      "or set configuration.domain_margin to null if fluid may leave the walls.")
+        """Raise :class:`InstabilityError` when the step shows the run blowing up or leaking
+        (:func:`sphkit.core.timestep.instability`)."""
+        what, advice = instability(self.scene.configuration, self.state.fluid["x"], s, bad,
+                                   self._domain)
         if what:
-            raise InstabilityError(self._diagnosis(s, what, advice), s)
-
-    def _diagnosis(self, s: StepStats, what: str, advice: str = "") -> str:
-        return (
-            f"simulation unstable at step {s.step}, time {s.time:.6g} s: {what}; "
-            f"max velocity {s.max_velocity:.4g} m/s, dt {s.dt:.4g} s, CFL number {s.cfl:.3g}, "
-            f"density error avg {100 * s.density_error_avg:.3g}% max "
-            f"{100 * s.density_error_max:.3g}%. "
-            + (advice or "Try a smaller time step (time.dt_max, time.cfl_factor) or a "
-               "stiffer/iterative pressure solver.")
-        )
+            raise InstabilityError(diagnosis(s, what, advice), s)
 
     def run(self, until: float | None = None, fps: float | None = None,
             on_frame: Callable[[Simulation, int], None] | None = None,

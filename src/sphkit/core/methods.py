@@ -97,6 +97,13 @@ class PressureSolver(Protocol):
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Add the pressure acceleration of this step to ``state.fluid["a"]``."""
 
+    def rejects(self, stats: SolverStats) -> bool:
+        """Whether the step of the solve that gave ``stats`` is to be computed again with a
+        smaller time step (``configuration.time.retries``): the solve failed. Only a solver
+        whose solve changes nothing but its outputs (the acceleration, the pressure field) may
+        answer True; False by default."""
+        return False
+
     def boundary_reaction(self, state: SimState) -> BoundaryReaction | None:
         """The boundary share of the last solve's pressure acceleration (see
         :class:`BoundaryReaction`); None: the solver's pressure does not act on boundaries
@@ -132,6 +139,10 @@ class NonPressureForce(Protocol):
     name: ClassVar[str] = ""
     #: an implicit solver's last solve (iterations, residual, converged); None for explicit ones
     stats: KrylovStats | None = None
+    #: :meth:`apply` only adds to ``a`` what it computes from the state, so a step can be
+    #: computed again with another time step (a rejected step, ``configuration.time.retries``);
+    #: False for a force that keeps or changes other state in the step
+    repeatable: ClassVar[bool] = False
 
     @classmethod
     def from_config(cls, config: Any) -> NonPressureForce:

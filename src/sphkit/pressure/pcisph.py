@@ -109,7 +109,11 @@ that column at rest, 62 sweeps a step). Where the run's first solve builds press
 starts at that first step (the scene's initial step), so the steps grow from it by 10 % per easy
 solve instead of jumping to the CFL cap in the second step; a first solve without pressure (a lone
 particle) leaves the CFL step (measurements: validation/README.md, "The first step").
-The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`).
+The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`). The bound only shrinks the
+*next* step; a solve that failed by more than ``REJECT`` times the tolerance has its own step
+computed again with the shrunk bound (:meth:`PCISPH.rejects`, the simulation's
+``configuration.time.retries``): a column-wide impact, 79 layers falling on the floor at 1 m/s
+in a 1.95 ms step, needs more sweeps than 100 and its error grew from the first sweep.
 """
 
 from __future__ import annotations
@@ -147,6 +151,13 @@ _JIT = dict(cache=True, fastmath=True)
 #: (the default time.dt_min, as SPlisHSPlasH's cflMinTimeStepSize) and the bound above which it
 #: is dropped [s]
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
+#: a solve stopped at its iteration limit with an average error above REJECT times the
+#: tolerance failed, and its step is computed again (:meth:`PCISPH.rejects`). Measured on the
+#: impact of the 493k dam break (benchmarks/README.md, "seventeenth session"): 21 times the
+#: tolerance after 100 iterations at 1.95 ms, 3.0 at 0.98 ms, 1.6 at 0.49 ms; with 10 the
+#: 0.98 ms step was kept and the next solve diverged at every step down to 31 us, with 2 the
+#: step was computed again at 0.49 ms and the run went on
+REJECT = 2.0
 #: a particle's factor is capped where its own PPE diagonal exceeds CAP times the template's
 #: (:func:`diagonal_cap`): omega at most 0.5 CAP. Measured in validation/startup.py's 3D tank
 #: with volume maps: CAP 2 ran the dam break 3 s but the floating cube went unstable at
@@ -270,6 +281,7 @@ class PCISPH(StepBounded, PressureSolver):
             min_iterations = min(3, max_iterations)
         self.control = IterationControl("PCISPH", min_iterations, max_iterations,
                                         max_error / 100.0)
+        self._walls_solved = False  # the last solve's walls were solved (:meth:`rejects`)
         self.delta = 0.0  #: template scaling factor [m^2]
         self.d0 = 0.0  #: the template's PPE diagonal [1/m^2] (delta = 1 / (2 d0))
         #: the adaptive time-step bound (see max_time_step)
@@ -316,6 +328,7 @@ class PCISPH(StepBounded, PressureSolver):
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
         walls = coupling.solved and b.n > 0  # the static walls' own pressures (docstring)
+        self._walls_solved = walls
         if walls:
             rows = WallRows.of(state, g, "pcisph")  # k_b warm-started from the last step
             use, wk, Vf, wd, wkmax = rows.use, rows.stored, rows.Vf, rows.D, rows.kmax
@@ -363,6 +376,17 @@ class PCISPH(StepBounded, PressureSolver):
         arrays.multiplied(p, f["rho0"], out=f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok)
+
+    def rejects(self, stats: SolverStats) -> bool:
+        """A solve that stopped at its iteration limit with an average error above
+        :data:`REJECT` times its tolerance failed (the impact that needs it: the iterate's error
+        grew from the first iteration), and the step is computed again with the shrunk step
+        bound (where
+        :class:`~sphkit.core.solver.StepBound`, after Ihmsen et al. 2010, only shrinks the next
+        step). Not with solved walls, whose pressures the solve keeps as the next solve's warm
+        start."""
+        return (not stats.converged and not self._walls_solved
+                and stats.density_error_avg > REJECT * self.control.tolerance)
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` with PCISPH's

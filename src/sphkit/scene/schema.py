@@ -88,6 +88,13 @@ class TimeConfig(_Model):
         "iterations, times 1.1 after one of fewer than 5, else kept, and never above the CFL "
         "step (nor below dt_min); from the first step's CFL step, not from dt",
     )
+    retries: int = Field(
+        4, ge=0, le=20,
+        description="times a step whose pressure solve failed (PCISPH: stopped at its iteration "
+        "limit with an average error above twice its tolerance) is computed again with half "
+        "the step, each logged; where every non-pressure force of the scene allows it and "
+        "there are no moving bodies or elastic solids; 0: off",
+    )
 
     @model_validator(mode="after")
     def _bounds(self) -> TimeConfig:

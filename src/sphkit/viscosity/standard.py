@@ -127,6 +127,7 @@ class StandardViscosity(NonPressureForce):
     """
 
     name = "standard"
+    repeatable = True  #: apply adds to a only
 
     @classmethod
     def from_config(cls, p: Any) -> StandardViscosity:

@@ -77,6 +77,15 @@ class World:
     #: the elasticity of each elastic material (its particles: the objects it names)
     solids: list[Elasticity] = field(default_factory=list)
 
+    @property
+    def repeatable(self) -> bool:
+        """Whether a step can be computed again with another time step from the state at its
+        start, without a copy of that state (``configuration.time.retries``): no moving bodies,
+        no elastic solids, and every non-pressure force only adds to the acceleration
+        (:attr:`~sphkit.core.methods.NonPressureForce.repeatable`)."""
+        return (not self.rigid.bodies and not self.solids
+                and all(force.repeatable for force in self.forces))
+
 
 def _state(scene: Scene, mats: list[Material]) -> SimState:
     """Empty particle sets with the fields every method reads, and the constants (the first
