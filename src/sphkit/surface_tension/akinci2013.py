@@ -133,6 +133,7 @@ class Akinci2013(CohesionAdhesion):
     """
 
     name = "akinci2013"
+    repeatable = True  #: apply adds to a (the normals it writes are made from x)
 
     def init(self, state: SimState) -> None:
         """Register ``normal`` on the fluid and the boundary volumes the adhesion term reads."""

@@ -54,6 +54,7 @@ class XSPH(NonPressureForce):
     """XSPH smoothing with factors ``c`` (fluid) and ``c_boundary`` (dimensionless, 0..1)."""
 
     name = "xsph"
+    repeatable = True  #: apply adds to a only
 
     @classmethod
     def from_config(cls, p: Any) -> XSPH:

@@ -100,6 +100,7 @@ class VorticityConfinement(NonPressureForce):
     ('vector3', [1/s]) and ``vorticity_norm`` ([1/s])."""
 
     name = "confinement"
+    repeatable = True  #: apply adds to a (the vorticity fields it writes are made from x, v)
 
     @classmethod
     def from_config(cls, p: Any) -> VorticityConfinement:
