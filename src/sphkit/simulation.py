@@ -447,6 +447,7 @@ class Simulation:
         while rejected < self._retries and self.pressure.rejects(ps):
             rejected += 1
             dt, lands = min(0.5 * dt, self.pressure.max_time_step(st)), False
+            self._dt_control = dt  # the step taken is the last step of iteration_control
             log.warning("step %d: the pressure solve failed (average error %.3g%% after %d "
                         "iterations); computed again with dt %.4g s (time.retries)", st.step,
                         100 * ps.density_error_avg, ps.iterations, dt)
