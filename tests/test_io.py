@@ -211,7 +211,7 @@ def test_manifest_solver_statistics(tmp_path: Path) -> None:
                         divergence_iterations=1, divergence_error=0.002),
         SimpleNamespace(step=2, time=0.002, dt=1e-3, n_fluid=5, max_velocity=1.0, cfl=0.1,
                         density_error_avg=0.0002, density_error_max=0.03, iterations=6,
-                        divergence_iterations=2, divergence_error=0.001),
+                        divergence_iterations=2, divergence_error=0.001, rejected=2),
         # a step of a solver that reports no divergence solve, and a non-finite error
         SimpleNamespace(step=3, time=0.003, dt=1e-3, n_fluid=5, max_velocity=1.0, cfl=0.1,
                         density_error_avg=float("nan"), density_error_max=0.02, iterations=3),
@@ -233,6 +233,7 @@ def test_manifest_solver_statistics(tmp_path: Path) -> None:
     assert rs["mean_divergence_error"] == pytest.approx(0.001)
     assert rs["mean_density_error"] == pytest.approx(0.0003)  # the NaN step is left out
     assert rs["max_density_error"] == pytest.approx(0.03)
+    assert rs["rejected"] == 2  # steps computed again (time.retries); absent counts as 0
     sim.last = steps[2]
     m.finish("finished", stats=sim.last)
     data = read_manifest(tmp_path)

@@ -25,11 +25,12 @@ a valid manifest describing the frames on disk. Layout (``format_version`` 1)::
                   "max_displacement": null}, ...],
       "last_step": null | {"step": ..., "time": ..., "dt": ..., "n_fluid": ..., "max_velocity": ...,
                            "cfl": ..., "density_error_avg": ..., "density_error_max": ...,
-                           "iterations": ..., "divergence_iterations": ...,
+                           "iterations": ..., "rejected": ..., "divergence_iterations": ...,
                            "divergence_error": ...},
       "run_stats": {"steps": 120, "mean_iterations": 3.4, "max_iterations": 7,
                     "mean_divergence_iterations": 1.1, "mean_density_error": 0.0004,
-                    "max_density_error": 0.02, "mean_divergence_error": 0.0009},
+                    "max_density_error": 0.02, "mean_divergence_error": 0.0009,
+                    "rejected": 0},
       "checkpoint": null | {"file": "checkpoints/checkpoint_000000120.npz", "time": ...,
                             "step": ..., "frame": ...},
       "resumed": [{"checkpoint": ..., "time": ..., "step": ..., "frame": ..., "command": [...],
@@ -47,7 +48,9 @@ material its id, ``particles`` and the compression of its densities (``density_e
 :meth:`Manifest.add_step`): ``mean_iterations`` and ``max_iterations`` per step,
 ``mean_divergence_iterations`` per step, ``mean_density_error`` (the mean over steps of
 ``density_error_avg``), ``max_density_error`` (the largest ``density_error_max``) and
-``mean_divergence_error``. Statistics that are not known yet (before the first step) or not finite
+``mean_divergence_error``, and ``rejected``, the times a step was computed again with half
+the step after a failed pressure solve (``configuration.time.retries``; each step's own count is
+its ``rejected``). Statistics that are not known yet (before the first step) or not finite
 (an exploded run) are ``null``; file names are relative to the manifest. ``checkpoint`` is the
 newest checkpoint written (``sphkit run --checkpoint-every``, or at a stop by a signal); a resumed
 run (``sphkit run --resume``) keeps the frames up to its checkpoint's and appends.
@@ -193,6 +196,7 @@ class RunStats:
         emax = _number(getattr(stats, "density_error_max", None))
         if emax is not None:
             self.max_density_error = max(self.max_density_error or 0.0, emax)
+        self._add("rejected", _number(getattr(stats, "rejected", 0)))
 
     def mean(self, key: str) -> float | None:
         """Mean over the steps that reported ``key`` (iterations, divergence_iterations,
@@ -228,6 +232,7 @@ class RunStats:
             "mean_density_error": self.mean("density_error"),
             "max_density_error": self.max_density_error,
             "mean_divergence_error": self.mean("divergence_error"),
+            "rejected": int(self._sums.get("rejected", 0.0)),
         }
 
 
