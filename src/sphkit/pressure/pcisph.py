@@ -281,7 +281,6 @@ class PCISPH(StepBounded, PressureSolver):
             min_iterations = min(3, max_iterations)
         self.control = IterationControl("PCISPH", min_iterations, max_iterations,
                                         max_error / 100.0)
-        self._walls_solved = False  # the last solve's walls were solved (:meth:`rejects`)
         self.delta = 0.0  #: template scaling factor [m^2]
         self.d0 = 0.0  #: the template's PPE diagonal [1/m^2] (delta = 1 / (2 d0))
         #: the adaptive time-step bound (see max_time_step)
@@ -328,7 +327,6 @@ class PCISPH(StepBounded, PressureSolver):
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
         walls = coupling.solved and b.n > 0  # the static walls' own pressures (docstring)
-        self._walls_solved = walls
         if walls:
             rows = WallRows.of(state, g, "pcisph")  # k_b warm-started from the last step
             use, wk, Vf, wd, wkmax = rows.use, rows.stored, rows.Vf, rows.D, rows.kmax
@@ -381,11 +379,12 @@ class PCISPH(StepBounded, PressureSolver):
         """A solve that stopped at its iteration limit with an average error above
         :data:`REJECT` times its tolerance failed (the impact that needs it: the iterate's error
         grew from the first iteration), and the step is computed again with the shrunk step
-        bound (where
-        :class:`~sphkit.core.solver.StepBound`, after Ihmsen et al. 2010, only shrinks the next
-        step). Not with solved walls, whose pressures the solve keeps as the next solve's warm
-        start."""
-        return (not stats.converged and not self._walls_solved
+        bound (where :class:`~sphkit.core.solver.StepBound`, after Ihmsen et al. 2010, only
+        shrinks the next step). The solve changes nothing before it returns but ``a`` and
+        ``p`` (its pressure starts from zero); solved walls, whose pressures it keeps as the
+        next solve's warm start, make the world not repeatable
+        (:attr:`sphkit.world.World.repeatable`)."""
+        return (not stats.converged
                 and stats.density_error_avg > REJECT * self.control.tolerance)
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:

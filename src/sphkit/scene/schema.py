@@ -93,7 +93,7 @@ class TimeConfig(_Model):
         description="times a step whose pressure solve failed (PCISPH: stopped at its iteration "
         "limit with an average error above twice its tolerance) is computed again with half "
         "the step, each logged; where every non-pressure force of the scene allows it and "
-        "there are no moving bodies or elastic solids; 0: off",
+        "there are no moving bodies, elastic solids or solved walls; 0: off",
     )
 
     @model_validator(mode="after")

@@ -81,9 +81,11 @@ class World:
     def repeatable(self) -> bool:
         """Whether a step can be computed again with another time step from the state at its
         start, without a copy of that state (``configuration.time.retries``): no moving bodies,
-        no elastic solids, and every non-pressure force only adds to the acceleration
+        no elastic solids, no solved walls (a solve keeps their pressures as the next one's warm
+        start), and every non-pressure force only adds to the acceleration
         (:attr:`~sphkit.core.methods.NonPressureForce.repeatable`)."""
-        return (not self.rigid.bodies and not self.solids
+        walls_solved = self.state.coupling.solved and self.state.boundary.n > 0
+        return (not self.rigid.bodies and not self.solids and not walls_solved
                 and all(force.repeatable for force in self.forces))
 
 
