@@ -383,6 +383,13 @@ def test_fluid_through_the_floor_exits_3(tmp_path: Path,
     ("configuration.contact_tolerance", math.nan, "configuration.contact_tolerance"),
     ("configuration.contact_tolerance", -0.01, "configuration.contact_tolerance"),
     ("configuration.contact_tolerance", "wide", "configuration.contact_tolerance"),
+    # the seventeenth session's: the retries of a failed solve (NaN, Infinity, negative, a
+    # fraction, a string)
+    ("configuration.time", {"retries": math.nan}, "configuration.time.retries"),
+    ("configuration.time", {"retries": math.inf}, "configuration.time.retries"),
+    ("configuration.time", {"retries": -1}, "configuration.time.retries"),
+    ("configuration.time", {"retries": 2.5}, "configuration.time.retries"),
+    ("configuration.time", {"retries": "often"}, "configuration.time.retries"),
 ])
 def test_non_finite_numbers_are_refused_naming_the_field(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], path: str, value: object,
