@@ -137,23 +137,68 @@ def test_linear_state_equation_hydrostatic_column() -> None:
     assert np.mean(comp) < 0.01
 
 
-def test_explicit_viscosity_bounds_the_time_step() -> None:
-    """The standard (explicit) viscosity bounds the step by Morris et al. 1997's diffusion
-    condition ``dt <= 0.125 (2r)^2 / nu`` (1.25 ms at r = 5 mm, nu = 0.01 m^2/s, below the
-    scene's 2 ms): a small 2D column at rest then stays at rest (largest speed below 0.1 m/s
-    over 0.1 s; at 2 ms the same column at 0.4 x 0.6 m grew 3.8 m/s from rest within 0.3 s,
-    validation/README.md)."""
+@pytest.mark.parametrize("substeps", [1, 8])
+def test_explicit_viscosity_bounds_the_time_step(substeps: int) -> None:
+    """The standard (explicit) viscosity is stable only within Morris et al. 1997's diffusion
+    condition ``dt <= 0.125 (2r)^2 / nu`` (1.25 ms at r = 5 mm, nu = 0.01 m^2/s; at 2 ms a 2D
+    column at 0.4 x 0.6 m grew 3.8 m/s from rest within 0.3 s, validation/README.md). With
+    ``substeps`` 1 the step stays within it; with the default 8 the scene's 2 ms steps are
+    taken in two viscous sub-steps each. Either way a small 2D column at rest stays at rest
+    (largest speed below 0.1 m/s over 0.1 s)."""
     r, nu = 0.005, 0.01
     sim = Simulation(Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, -9.81],
-                          "time": {"dt_max": 0.002}},
-        "materials": [{"viscosity": {"method": "standard", "coefficient": nu}}],
+                          "pressure": {"method": "dfsph"}, "time": {"dt_max": 0.002}},
+        "materials": [{"viscosity": {"method": "standard", "coefficient": nu,
+                                     "substeps": substeps}}],
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [0.1, 0.15]}],
         "boxes": [{"min": [0.0, 0.0], "max": [0.1, 0.2]}]}))
     bound = 0.125 * (2 * r) ** 2 / nu
-    vmax = 0.0
+    vmax, longest = 0.0, 0.0
     while sim.time < 0.1:
         s = sim.step()
-        assert s.dt <= bound * (1 + 1e-12), s.dt
-        vmax = max(vmax, s.max_velocity)
+        assert s.dt <= substeps * bound * (1 + 1e-12), s.dt
+        vmax, longest = max(vmax, s.max_velocity), max(longest, s.dt)
     assert vmax < 0.1, vmax
+    # the condition, resp. the scene's own cap above it, is reached
+    assert longest == pytest.approx(bound if substeps == 1 else 0.002, rel=1e-9)
+
+
+def test_viscous_substeps_damp_what_one_long_step_amplifies() -> None:
+    """Sub-steps (``viscosity.substeps``): a step three times the diffusion condition is taken
+    as three explicit sub-steps, ``v_{k+1} = v_k + (dt / 3) a(v_k)``, and the step's acceleration
+    is ``(v_3 - v_0) / dt``. On the lattice's shortest wave (x velocity alternating from particle
+    to particle, the mode the condition is about) one explicit step of that length amplifies the
+    velocity (explicit Euler's factor ``|1 - dt nu lambda| > 1``), the sub-steps damp it, as
+    viscosity must; and within the condition the sub-stepped force is the single-step one, bit
+    for bit."""
+    r, nu = 0.02, 0.1
+    bound = 0.125 * (2 * r) ** 2 / nu
+    acc, sims = {}, {}
+    for substeps in (1, 8):
+        sim = Simulation(Scene.model_validate({
+            "configuration": {"dim": 3, "particle_radius": r, "gravity": [0.0, 0.0, 0.0]},
+            "materials": [{"viscosity": {"method": "standard", "coefficient": nu,
+                                         "substeps": substeps}}],
+            "fluid_blocks": [{"start": [0.0, 0.0, 0.0], "end": [0.4, 0.4, 0.4]}]}))
+        sim._neighbors()
+        sim.compute_density()
+        sims[substeps] = sim
+    x = sims[1].fluid["x"]
+    cells = np.rint(x / (2 * r)).astype(np.int64).sum(axis=0)
+    v = np.zeros_like(x)
+    v[0] = 0.01 * (-1.0) ** cells
+    force = sims[8].forces[0]
+    assert force.substeps_of(sims[8].state, 3 * bound) == 3
+    assert force.substeps_of(sims[8].state, bound) == 1
+    for substeps, sim in sims.items():
+        acc[substeps] = _viscous_accel(sim, v, 3 * bound)
+        acc[substeps, "within"] = _viscous_accel(sim, v, bound)
+    assert np.array_equal(acc[1, "within"], acc[8, "within"])
+    energy = float((v ** 2).sum())
+    one = float(((v + 3 * bound * acc[1]) ** 2).sum())
+    sub = float(((v + 3 * bound * acc[8]) ** 2).sum())
+    # a dissipative force must not raise the kinetic energy: the long explicit step does (it
+    # is 2.7 times what it was), its sub-steps do not (0.43 times)
+    assert one > energy, one / energy
+    assert sub < energy, sub / energy

@@ -53,7 +53,7 @@ def test_solution_satisfies_backward_euler_with_the_explicit_operator(periodic: 
     vnew = v0 + dt * f["a"]
     f["v"][...] = vnew
     f["a"][...] = 0.0
-    StandardViscosity(nu, 0.5 * nu).apply(sim.state, dt)
+    StandardViscosity(nu, 0.5 * nu, substeps=1).apply(sim.state, dt)  # one explicit step
     resid = vnew - dt * f["a"] - v0
     assert np.linalg.norm(resid) < 1e-8 * np.linalg.norm(v0)
 
@@ -90,27 +90,29 @@ def test_implicit_solve_conserves_momentum_and_is_unconditionally_stable() -> No
     assert np.abs(vnew).max() <= np.abs(v0).max()
 
 
-def _viscous_block(method: str) -> Simulation:
+def _viscous_block(method: str, substeps: int = 8) -> Simulation:
     """A 3D block of 100 Pa s fluid (nu = 0.1 m^2/s) dropped 2 cm onto the floor of a box,
     DFSPH with the CFL step (5 ms at these speeds). The explicit stability limit of the standard
     viscosity is about 0.125 (2r)^2 / nu = 0.5 ms, ten times smaller."""
+    vis = {"method": method, "coefficient": 0.1, "boundary_coefficient": 0.1}
+    if method == "standard":
+        vis["substeps"] = substeps
     sc = {"configuration": {"dim": 3, "particle_radius": 0.01,
                             "pressure": {"method": "dfsph", "max_error": 0.05},
                             "time": {"dt_max": 0.005}, "max_velocity": 10.0},
           "fluid_blocks": [{"start": [0.04, 0.02, 0.04], "end": [0.16, 0.14, 0.16]}],
           "boxes": [{"min": [0.0, 0.0, 0.0], "max": [0.2, 0.3, 0.2], "layers": 2}],
-          "materials": [{"viscosity": {"method": method, "coefficient": 0.1,
-                                       "boundary_coefficient": 0.1}}]}
+          "materials": [{"viscosity": vis}]}
     return Simulation(Scene.model_validate(sc))
 
 
 def test_high_viscosity_block_explicit_at_its_bound_implicit_at_the_cfl_step() -> None:
-    """Explicit standard viscosity is bounded by its diffusion limit 0.125 (2r)^2 / nu =
+    """Explicit standard viscosity is stable only within its diffusion limit 0.125 (2r)^2 / nu =
     0.5 ms (without the bound it raised InstabilityError, speed above 10 m/s or NaN, within 40
-    steps of 5 ms): 40 steps at 0.5 ms stay below 1 m/s. Weiler 2018 at the CFL step of 5 ms,
-    ten times longer, stays below 1 m/s (free fall from 2 cm reaches 0.63 m/s) for 0.2 s with
-    every solve converged."""
-    explicit = _viscous_block("standard")
+    steps of 5 ms): with ``substeps`` 1 the step is the limit, and 40 steps at 0.5 ms stay below
+    1 m/s. Weiler 2018 at the CFL step of 5 ms, ten times longer, stays below 1 m/s (free fall
+    from 2 cm reaches 0.63 m/s) for 0.2 s with every solve converged."""
+    explicit = _viscous_block("standard", substeps=1)
     for _ in range(40):
         s = explicit.step()
         assert s.dt == pytest.approx(0.125 * 0.02 ** 2 / 0.1)

@@ -130,6 +130,10 @@ def _scene(method: str, r: float, lx: float, dt: float, c: float, wall_velocity:
            force: float = FORCE) -> Scene:
     vis = {"method": method, "coefficient": NU,
            "boundary_coefficient": WALL_VISCOSITY[method], "max_error": CG_TOL}
+    if method == "standard":  # the step is Morris et al.'s condition for the fluid's nu, one
+        # application of the term a step as in their runs (the no-slip walls' beta_max times nu
+        # would split it in two sub-steps: README "Viscosity", viscosity.substeps)
+        vis["substeps"] = 1
     if eps != 0.01:
         vis["laplacian_eps"] = eps
     if wall_velocity != "zero":

@@ -264,6 +264,12 @@ class ViscosityConfig(_Model):
         "et al. 1997 and Monaghan use 0.01 of the smoothing length squared, 0.0025 for the "
         "cubic spline)",
     )
+    substeps: int = Field(
+        8, ge=1,
+        description="standard: the largest number of explicit sub-steps a time step is split "
+        "into where it exceeds the diffusion condition 0.125 (2r)^2 / nu (Morris et al. 1997); "
+        "the step is bound by substeps times the condition; 1: the step stays within it",
+    )
     max_iterations: int | None = Field(
         None, ge=1,
         description="implicit solvers: maximum iterations (SPlisHSPlasH viscoMaxIter; default "
@@ -310,6 +316,11 @@ class ViscosityConfig(_Model):
             raise ValueError(
                 f"laplacian_eps {self.laplacian_eps}: only the standard and weiler2018 "
                 f"viscosities have this Laplacian, not {m!r}; expected the default 0.01"
+            )
+        if self.substeps != 8 and m != "standard":
+            raise ValueError(
+                f"substeps {self.substeps}: only the standard viscosity is explicit in sub-steps, "
+                f"not {m!r}; expected the default 8"
             )
         if m in ("weiler2018", "takahashi2015", "peer2015", "peer2016") and not self.max_error < 1:
             raise ValueError(

@@ -26,6 +26,17 @@ across the wall surface (Morris, Fox & Zhu 1997, no-slip walls, see
 ``wall_distance`` and ``wall_normal``, set for box walls; particles without a wall distance keep
 beta = 1).
 
+**Sub-steps** (``substeps``, default :data:`SUBSTEPS`): the explicit term is stable only below
+Morris et al.'s diffusion condition ``dt <= 0.125 (2r)^2 / nu``
+(:func:`sphkit.core.viscous.viscous_time_step`). A longer step is split into ``n =
+ceil(dt / bound)`` (at most ``substeps``) viscous sub-steps on the step's positions and
+densities, ``v_{k+1} = v_k + (dt / n) a(v_k)``, and the step's viscous acceleration is
+``(v_n - v_0) / dt = (1 / n) sum_k a(v_k)``: explicit Euler of the diffusion at dt / n inside
+the step, one pair pass per sub-step, where the step bound would take n whole steps. So the
+step is bound by ``substeps`` times the condition, and at or below it (n = 1) the term is the
+one of the formula above, unchanged. (SPlisHSPlasH applies the term once per step without a
+bound; ``substeps`` 1 keeps the step within the condition.)
+
 Where the step has cached pair gradients ``V_j grad W_ij`` (the pressure solvers that iterate on
 them, :class:`sphkit.core.solver.PairGradients`), the fluid pairs take ``W'(r) / r`` from them
 (:func:`standard_body` with ``cached``: the same term, no kernel evaluation in the pair loop).
@@ -33,9 +44,11 @@ them, :class:`sphkit.core.solver.PairGradients`), the fluid pairs take ``W'(r) /
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba
+import numpy as np
 
 from sphkit.backend import launch, specialize, to_host
 from sphkit.core import arrays
@@ -118,12 +131,17 @@ def standard_body(i, x, v, m, rho0j, rho, off, idx, gw, cached, bx, bv, bV, bn, 
 #: would keep the kernel path from vectorising, as PBF's switch did: ``backend.specialize``)
 specialize(standard_body, "kid", "cached")
 
+#: default largest number of viscous sub-steps of a time step (module docstring, "Sub-steps")
+SUBSTEPS = 8
+
 
 class StandardViscosity(NonPressureForce):
     """Explicit Morris/Monaghan viscosity; ``nu`` and ``nu_boundary`` are kinematic [m^2/s].
 
     ``boundary_velocity``: ``"zero"`` (the wall particles' own velocity, SPlisHSPlasH) or
     ``"morris1997"`` (no-slip extrapolation, bounded by ``beta_max``, Morris' 1.5 by default).
+    ``substeps``: the largest number of explicit sub-steps a time step is split into (module
+    docstring; 1: the step stays within the diffusion condition).
     """
 
     name = "standard"
@@ -133,12 +151,16 @@ class StandardViscosity(NonPressureForce):
     def from_config(cls, p: Any) -> StandardViscosity:
         """The StandardViscosity of a material's ``viscosity`` (scene model)."""
         return cls(p.coefficient, p.boundary_coefficient, p.boundary_velocity, p.morris_beta_max,
-                   p.laplacian_eps)
+                   p.laplacian_eps, p.substeps)
 
     def __init__(self, nu: float, nu_boundary: float = 0.0, boundary_velocity: str = "zero",
-                 beta_max: float = MORRIS_BETA_MAX, eps: float = LAPLACIAN_EPS) -> None:
+                 beta_max: float = MORRIS_BETA_MAX, eps: float = LAPLACIAN_EPS,
+                 substeps: int = SUBSTEPS) -> None:
         if nu < 0 or nu_boundary < 0:
             raise ValueError(f"viscosity: {nu!r}/{nu_boundary!r}; expected non-negative values")
+        if not (isinstance(substeps, int | np.integer) and substeps >= 1):
+            raise ValueError(f"viscosity: substeps {substeps!r}; expected an integer >= 1")
+        self.substeps = int(substeps)
         check_wall_options(boundary_velocity, beta_max, eps)
         self.eps = float(eps)
         self.nu = float(nu)
@@ -154,22 +176,50 @@ class StandardViscosity(NonPressureForce):
         register_wall_fields(b)
         self.factor_max = float(to_host(b["viscosity_factor"]).max()) if b.n else 1.0
 
-    def max_time_step(self, state: SimState) -> float:
-        """The explicit diffusion bound of Morris et al. 1997 for the larger of the fluid's and
-        the walls' viscosity (the walls' times the no-slip extrapolation's beta_max and the
-        largest per-wall factor)."""
+    def diffusion_bound(self, state: SimState) -> float:
+        """The explicit diffusion condition of Morris et al. 1997 [s] for the larger of the
+        fluid's and the walls' viscosity (the walls' times the no-slip extrapolation's beta_max
+        and the largest per-wall factor): the longest stable (sub-)step."""
         nu_b = self.nu_boundary * max(self.beta_max, 1.0) * self.factor_max
         return viscous_time_step(max(self.nu, nu_b), state.r)
 
+    def max_time_step(self, state: SimState) -> float:
+        """``substeps`` times the diffusion condition (module docstring, "Sub-steps")."""
+        return self.substeps * self.diffusion_bound(state)
+
+    def substeps_of(self, state: SimState, dt: float) -> int:
+        """The viscous sub-steps of a step dt: ``ceil(dt / bound)``, between 1 and
+        ``substeps``."""
+        bound = self.diffusion_bound(state)
+        if not dt > bound:
+            return 1
+        return min(self.substeps, math.ceil(dt / bound * (1.0 - 1e-12)))
+
     def apply(self, state: SimState, dt: float) -> None:
-        """Add the viscous acceleration to ``state.fluid['a']``."""
+        """Add the viscous acceleration to ``state.fluid['a']``, in sub-steps where dt exceeds
+        the diffusion condition (module docstring)."""
+        f = state.fluid
+        n = self.substeps_of(state, dt)
+        if n == 1:
+            self._accelerate(state, f["v"], f["a"])
+            return
+        total = arrays.zeros(f["a"].shape, f["a"].dtype, like=f["a"])  # sum_k a(v_k)
+        v = f["v"]
+        for k in range(n):
+            self._accelerate(state, v, total)
+            if k < n - 1:  # v_{k+1} = v_0 + (dt / n) sum_k a(v_k)
+                v = arrays.axpy_into(f["v"], dt / n, total)
+        arrays.axpy(f["a"], 1.0 / n, total)
+
+    def _accelerate(self, state: SimState, v: Any, a: Any) -> None:
+        """Add the viscous acceleration of the fluid velocities v to a (both (dim, N))."""
         f, b = state.fluid, state.boundary
         register_wall_fields(b)
         walls = (b["x"], b["v"], b["V"], b["wall_normal"], b["wall_distance"],
                  b["viscosity_factor"], state.nl_fb.offsets, state.nl_fb.indices, self.nu,
                  self.nu_boundary, self.beta_max, self.eps, state.rho0, state.h, state.kid,
-                 state.dim, state.pair_period, f["a"])
+                 state.dim, state.pair_period, a)
         g = state.pair_grads  # the step's cached V_j grad W_ij (a solver that iterates on them)
         gw = g.gw if g is not None else arrays.empty((state.dim, 0), f.dtype, like=f["x"])
-        launch(standard_body, f.n, f["x"], f["v"], f["m"], f["rho0"], f["rho"],
+        launch(standard_body, f.n, f["x"], v, f["m"], f["rho0"], f["rho"],
                state.nl_ff.offsets, state.nl_ff.indices, gw, g is not None, *walls)
