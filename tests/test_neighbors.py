@@ -420,6 +420,33 @@ def test_search_rows_in_a_scratch_block_give_the_same_lists() -> None:
     assert scratch.nbytes == size  # the same block, not a new one
 
 
+def test_lists_in_kept_memory_are_the_same_aligned_and_reused() -> None:
+    # With a ``slot`` the lists' indices lie in memory the scratch keeps for that slot from step
+    # to step (Scratch.kept) instead of a fresh array mapped every step: the same lists, on
+    # ALIGN bytes (so the vectorised pair loops peel alike in every run, whatever the heap's
+    # layout: validation/README.md), each slot in its own memory, reused by the slot's next
+    # query while the other slot's lists stay intact.
+    from sphkit.core.arrays import Scratch
+
+    n, h = CASES[3]
+    rng = np.random.default_rng(43)
+    x, y = rng.uniform(-0.4, 0.6, size=(3, n)), rng.uniform(-0.4, 0.6, size=(3, n // 2))
+    scratch = Scratch()
+    grid, other = Grid(x, h), Grid(y, h)
+    own = grid.query_own(x, scratch=scratch, slot="fluid")
+    cross = other.query(x, scratch=scratch, slot="boundary")
+    for kept, fresh in ((own, grid.query_own(x)), (cross, other.query(x))):
+        np.testing.assert_array_equal(kept.offsets, fresh.offsets)
+        np.testing.assert_array_equal(kept.indices, fresh.indices)
+        assert kept.indices.ctypes.data % Scratch.ALIGN == 0
+    assert not np.shares_memory(own.indices, cross.indices)
+    before = cross.indices.copy()
+    half = x[:, : n // 2].copy()
+    again = Grid(half, h).query_own(half, scratch=scratch, slot="fluid")
+    assert again.indices.ctypes.data == own.indices.ctypes.data  # the slot's memory reused
+    np.testing.assert_array_equal(cross.indices, before)  # the other slot's lists intact
+
+
 def test_scratch_views_are_aligned_and_share_the_block() -> None:
     from sphkit.core.arrays import Scratch
 

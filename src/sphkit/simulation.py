@@ -378,7 +378,7 @@ class Simulation:
             st.nl_ff = self._search.lists(x)
         else:  # the fluid's grid serves the boundary's search too (its cells)
             st.fluid_grid = grid = Grid(x, st.h)
-            st.nl_ff = grid.query_own(x, st.periodic, scratch=st.scratch)
+            st.nl_ff = grid.query_own(x, st.periodic, scratch=st.scratch, slot="fluid")
         self.boundary_model.update(st)
         st.fluid_grid = None
 

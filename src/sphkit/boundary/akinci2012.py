@@ -171,6 +171,7 @@ class Akinci2012(BoundaryModel):
             state.nl_fb = self._hashed.query(x)
         elif state.fluid_grid is not None:  # cell by cell of the fluid's grid (same lists)
             state.nl_fb = self.grid.query_grid(state.fluid_grid, x, period=state.periodic,
-                                               scratch=state.scratch)
+                                               scratch=state.scratch, slot="boundary")
         else:  # the rows of the search in the step's scratch block (its cache is gone)
-            state.nl_fb = self.grid.query(x, period=state.periodic, scratch=state.scratch)
+            state.nl_fb = self.grid.query(x, period=state.periodic, scratch=state.scratch,
+                                          slot="boundary")

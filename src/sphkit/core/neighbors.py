@@ -174,21 +174,25 @@ def _scan(i, xq, dim, h2, inv_h, origin, mask, bucket_start, sorted_index, sorte
     return count
 
 
-@numba.njit(cache=True, parallel=True)
-def _compact(buf, counts, cap):
-    """CSR (offsets, indices, largest count) from rows of ``cap`` slots holding ``counts``."""
+@numba.njit(cache=True)
+def _row_offsets(counts, cap):
+    """CSR offsets of rows of ``counts`` entries (at most ``cap``) and the largest count."""
     n = counts.shape[0]
     offsets = np.zeros(n + 1, dtype=np.int64)
     largest = 0
     for i in range(n):
         offsets[i + 1] = offsets[i] + min(counts[i], cap)
         largest = max(largest, counts[i])
-    indices = np.empty(offsets[n], dtype=INDEX)
-    for i in numba.prange(n):
+    return offsets, largest
+
+
+@numba.njit(cache=True, parallel=True)
+def _compact(buf, offsets, cap, indices):
+    """The CSR ``indices`` of rows of ``cap`` slots (``buf``) at the rows' ``offsets``."""
+    for i in numba.prange(offsets.shape[0] - 1):
         o, b = np.uint64(offsets[i]), np.uint64(i * cap)
         for k in unsigned_range(0, offsets[i + 1] - offsets[i]):
             indices[o + k] = buf[b + k]
-    return offsets, indices, largest
 
 
 @numba.njit(cache=True, parallel=True, fastmath=True)
@@ -341,7 +345,8 @@ class Grid:
                        self.sorted_key, self.sorted_x)
 
     def query(self, xq: np.ndarray, exclude_self: bool = False,
-              period: Period = None, scratch: Scratch | None = None) -> NeighborList:
+              period: Period = None, scratch: Scratch | None = None,
+              slot: str | None = None) -> NeighborList:
         """Neighbours (distance < h) in this grid's set of every column of ``xq`` (dim, M).
 
         ``exclude_self`` drops ``j == i``; use it when ``xq`` is the set the grid was built on.
@@ -351,7 +356,9 @@ class Grid:
         the minimum-image distance (see :func:`_periodic_query`). ``scratch``: the block the
         one-pass search writes its fixed-stride rows into (:class:`sphkit.core.arrays.Scratch`,
         invalidating what was taken from it before; None, and periodic queries: fresh arrays);
-        the lists returned are arrays of their own.
+        the lists returned are arrays of their own, or with ``slot`` their indices lie in the
+        scratch's memory kept for that slot, valid until its next query
+        (:meth:`sphkit.core.arrays.Scratch.kept`).
         """
         if xq.shape[0] != self.dim:
             raise ValueError(f"query positions: dim {xq.shape[0]} != grid dim {self.dim}")
@@ -372,17 +379,17 @@ class Grid:
                 _query(xq, self.dim, self.h, self.origin, self.mask, self.bucket_start,
                        self.sorted_index, self.sorted_key, self.sorted_x, exclude_self, cap,
                        rows, counts)
-        return self._lists(m, scratch, fill)
+        return self._lists(m, scratch, fill, slot)
 
     def query_own(self, x: np.ndarray, period: Period = None,
-                  scratch: Scratch | None = None) -> NeighborList:
+                  scratch: Scratch | None = None, slot: str | None = None) -> NeighborList:
         """:meth:`query` of the point set x (dim, N) the grid was built on, self excluded: the
         same lists, on a dense grid without period found cell by cell
         (:func:`sphkit.core.densegrid._dense_cell_query`, about twice as fast)."""
-        return self.query_grid(self, x, period, scratch)
+        return self.query_grid(self, x, period, scratch, slot)
 
     def query_grid(self, queries: Grid, xq: np.ndarray, period: Period = None,
-                   scratch: Scratch | None = None) -> NeighborList:
+                   scratch: Scratch | None = None, slot: str | None = None) -> NeighborList:
         """:meth:`query` of the points xq (dim, M) that the grid ``queries`` was built on (self
         excluded where ``queries`` is this grid): the same lists, found cell by cell of
         ``queries`` (:func:`sphkit.core.densegrid._dense_cell_query`) where both grids are
@@ -393,7 +400,7 @@ class Grid:
         own = queries is self
         if (not (self.dense and queries.dense) or self.n == 0 or queries.n == 0
                 or queries.h != self.h or periodic_axes(period)):
-            return self.query(xq, exclude_self=own, period=period, scratch=scratch)
+            return self.query(xq, exclude_self=own, period=period, scratch=scratch, slot=slot)
         xq = np.ascontiguousarray(xq, dtype=self.sorted_x.dtype)
 
         def fill(cap: int, rows: np.ndarray, counts: np.ndarray) -> None:
@@ -402,11 +409,14 @@ class Grid:
                               queries.shape, queries.cell_start, queries.sorted_index,
                               queries.sorted_x, own, cap, rows, counts,
                               min(queries.n, 16 * numba.get_num_threads()))
-        return self._lists(queries.n, scratch, fill)
+        return self._lists(queries.n, scratch, fill, slot)
 
-    def _lists(self, m: int, scratch: Scratch | None, fill: Callable) -> NeighborList:
+    def _lists(self, m: int, scratch: Scratch | None, fill: Callable, slot: str | None
+               ) -> NeighborList:
         """CSR lists of m query points from ``fill(cap, rows, counts)``, which writes them into
-        rows of ``cap`` slots (repeated with a larger ``cap`` when a row overflows)."""
+        rows of ``cap`` slots (repeated with a larger ``cap`` when a row overflows); their
+        indices in ``scratch``'s memory kept for ``slot`` (:meth:`sphkit.core.arrays.Scratch.
+        kept`) where both are given, else in an array of their own."""
         cap = self.capacity
         while True:
             if scratch is None:
@@ -414,8 +424,12 @@ class Grid:
             else:
                 rows, counts = scratch.take(((m * cap,), INDEX), ((m,), np.int64))
             fill(cap, rows, counts)
-            offsets, indices, largest = _compact(rows, counts, cap)
+            offsets, largest = _row_offsets(counts, cap)
             if largest < cap:
+                size = int(offsets[m])
+                indices = (np.empty(size, dtype=INDEX) if scratch is None or slot is None
+                           else scratch.kept(slot, size, INDEX))
+                _compact(rows, offsets, cap, indices)
                 return NeighborList(offsets, indices)
             cap = int(largest) + 8  # rare: a denser neighbourhood than ever seen; redo
 
