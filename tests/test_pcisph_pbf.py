@@ -540,7 +540,13 @@ def test_pcisph_failed_solve_is_computed_again_with_half_the_step(
      "surface_tension": {"method": "akinci2013", "coefficient": 0.5,
                          "boundary_coefficient": 0.5},
      "vorticity": {"method": "confinement", "coefficient": 0.1}},
-    {"viscosity": {"method": "xsph", "coefficient": 0.05, "boundary_coefficient": 0.05}},
+    {"viscosity": {"method": "xsph", "coefficient": 0.05, "boundary_coefficient": 0.05},
+     "drag": {"method": "macklin2014", "coefficient": 0.1, "air_velocity": [0.5, 0.0]}},
+    {"surface_tension": {"method": "becker2007", "coefficient": 0.5,
+                         "boundary_coefficient": 0.1},
+     "drag": {"method": "gissler2017", "coefficient": 1.0}},
+    {"surface_tension": {"method": "he2014", "coefficient": 0.5, "boundary_coefficient": 0.1}},
+    {"surface_tension": {"method": "mueller2003", "coefficient": 0.5}},
 ])
 def test_repeatable_forces_give_the_same_step_twice(materials: dict) -> None:
     """The forces marked ``repeatable`` (a rejected step, ``time.retries``, applies them again

@@ -134,6 +134,7 @@ class Gissler2017(AirDrag):
     """
 
     name = "gissler2017"
+    repeatable = True  #: apply adds to a only
     unit = "(dimensionless)"
 
     def apply(self, state: SimState, dt: float) -> None:

@@ -45,6 +45,7 @@ class Macklin2014(AirDrag):
     """
 
     name = "macklin2014"
+    repeatable = True  #: apply adds to a only
     unit = "[kg/s]"
 
     def apply(self, state: SimState, dt: float) -> None:

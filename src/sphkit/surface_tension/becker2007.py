@@ -93,6 +93,7 @@ class BeckerTeschner2007(CohesionAdhesion):
     """
 
     name = "becker2007"
+    repeatable = True  #: apply adds to a only
 
     def apply(self, state: SimState, dt: float) -> None:
         """Add the cohesion (and boundary adhesion) acceleration to ``state.fluid['a']``."""

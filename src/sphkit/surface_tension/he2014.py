@@ -97,6 +97,7 @@ class He2014(CohesionAdhesion):
     """
 
     name = "he2014"
+    repeatable = True  #: apply adds to a (the colour fields it writes are made from x, m, rho)
 
     def init(self, state: SimState) -> None:
         """Register ``color`` and ``grad_c2`` on the fluid, ``V`` on the boundary."""

@@ -388,6 +388,7 @@ class Mueller2003(NonPressureForce):
     """
 
     name = "mueller2003"
+    repeatable = True  #: apply adds to a (normals, curvatures it writes are made from x, m, rho)
 
     @classmethod
     def from_config(cls, p: Any) -> Mueller2003:
