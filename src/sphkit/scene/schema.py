@@ -266,9 +266,10 @@ class ViscosityConfig(_Model):
     )
     substeps: int = Field(
         8, ge=1,
-        description="standard: the largest number of explicit sub-steps a time step is split "
-        "into where it exceeds the diffusion condition 0.125 (2r)^2 / nu (Morris et al. 1997); "
-        "the step is bound by substeps times the condition; 1: the step stays within it",
+        description="standard: the largest number of explicit sub-steps, each at most half the "
+        "diffusion condition 0.125 (2r)^2 / nu (Morris et al. 1997), a time step longer than "
+        "the condition is split into; the step is bound by substeps times half the condition; "
+        "1: the step stays within the condition",
     )
     max_iterations: int | None = Field(
         None, ge=1,
