@@ -143,8 +143,8 @@ def test_explicit_viscosity_bounds_the_time_step(substeps: int) -> None:
     condition ``dt <= 0.125 (2r)^2 / nu`` (1.25 ms at r = 5 mm, nu = 0.01 m^2/s; at 2 ms a 2D
     column at 0.4 x 0.6 m grew 3.8 m/s from rest within 0.3 s, validation/README.md). With
     ``substeps`` 1 the step stays within it; with the default 8 the scene's 2 ms steps are
-    taken in four viscous sub-steps each (at most half the condition each). Either way a small 2D column at rest stays at rest
-    (largest speed below 0.1 m/s over 0.1 s)."""
+    taken in four viscous sub-steps each (at most half the condition each). Either way a small
+    2D column at rest stays at rest (largest speed below 0.1 m/s over 0.1 s)."""
     r, nu = 0.005, 0.01
     sim = Simulation(Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": r, "gravity": [0.0, -9.81],
@@ -166,9 +166,10 @@ def test_explicit_viscosity_bounds_the_time_step(substeps: int) -> None:
 
 def test_viscous_substeps_damp_what_one_long_step_amplifies() -> None:
     """Sub-steps (``viscosity.substeps``): a step three times the diffusion condition is taken
-    as six explicit sub-steps of half the condition, ``v_{k+1} = v_k + (dt / 6) a(v_k)``, and the
-    step's acceleration is ``(v_6 - v_0) / dt``. On the lattice's shortest wave (x velocity alternating from particle
-    to particle, the mode the condition is about) one explicit step of that length amplifies the
+    as six explicit sub-steps of half the condition, ``v_{k+1} = v_k + (dt / 6) a(v_k)``, and
+    the step's acceleration is ``(v_6 - v_0) / dt``. On the lattice's shortest wave (x
+    velocity alternating from particle to particle, the mode the condition is about) one
+    explicit step of that length amplifies the
     velocity (explicit Euler's factor ``|1 - dt nu lambda| > 1``), the sub-steps damp it, as
     viscosity must; and within the condition the sub-stepped force is the single-step one, bit
     for bit."""
