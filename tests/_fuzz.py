@@ -391,11 +391,11 @@ class _StepLimit:
         self.original = Simulation.step
         self.count = 0
 
-    def __call__(self, sim: Any) -> Any:
+    def __call__(self, sim: Any, *args: Any) -> Any:
         self.count += 1
         if self.count > MAX_STEPS:
             raise KeyboardInterrupt
-        return self.original(sim)
+        return self.original(sim, *args)
 
 
 def run_example(ex: Example, folder: Path) -> tuple[int | None, str, BaseException | None]:
@@ -417,7 +417,7 @@ def run_example(ex: Example, folder: Path) -> tuple[int | None, str, BaseExcepti
     limit = _StepLimit()
     code, escaped = None, None
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out), \
-            mock.patch.object(Simulation, "step", lambda sim: limit(sim)):
+            mock.patch.object(Simulation, "step", lambda sim, *a: limit(sim, *a)):
         try:
             code = main(["run", str(path), "--out", str(folder / "out"), "--until", UNTIL,
                          "--max-particles", str(MAX_PARTICLES), "--quiet"])

@@ -255,8 +255,8 @@ def _with_solver_stats(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     original = Simulation.step
     reported: list[int] = []
 
-    def step(self: Simulation):  # noqa: ANN202
-        stats = original(self)
+    def step(self: Simulation, *args):  # noqa: ANN002, ANN202
+        stats = original(self, *args)
         fields = {k: v for k, v in vars(stats).items()
                   if k not in ("iterations", "divergence_iterations", "divergence_error")}
         reported.append(2 + len(reported) % 3)

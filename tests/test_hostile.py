@@ -175,6 +175,23 @@ def test_at_most_one_frame_per_step(tmp_path: Path, capsys: pytest.CaptureFixtur
         assert f["frame"] / 1e5 - 1e-9 <= f["time"] < (f["frame"] + 1) / 1e5 + 1e-9
 
 
+def test_a_scene_without_fluid_lands_on_until(tmp_path: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    # no fluid (a SPlisHSPlasH scene whose block holds no particle is translated with a
+    # warning) and a step of 1e300 s: the clock of the empty steps stopped past 1e300 s and the
+    # frame number's 302 digits made a file name too long (exit 1, found by validation/fuzz.py);
+    # the step without fluid lands on until
+    out = tmp_path / "o"
+    scene = _with("fluid_blocks", [])
+    scene["configuration"]["time"] = {"dt": 1e300, "until": 1e300}
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out", str(out),
+                               "--until", "0.05", "--quiet")
+    assert code == 0 and "Traceback" not in text and seconds < SECONDS, text
+    m = read_manifest(out)
+    assert [f["frame"] for f in m["frames"]] == [0, 2]  # t = 0 and t = 0.05 s (fps 40)
+    assert m["frames"][-1]["time"] == pytest.approx(0.05, rel=1e-12)
+
+
 def test_sigterm_while_frames_are_written_stops_the_run(tmp_path: Path,
                                                         monkeypatch: pytest.MonkeyPatch,
                                                         capsys: pytest.CaptureFixture[str]

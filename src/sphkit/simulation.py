@@ -433,7 +433,7 @@ class Simulation:
         f = st.fluid
         st.step = self.step_count + 1  # the step being computed (named in solver warnings)
         if f.n == 0:  # nothing to simulate before the first emission
-            return self._empty_step()
+            return self._empty_step(land_at)
         self._neighbors()  # neighbour search (and the boundary's neighbours)
         self.compute_density()  # densities
         dt = self._time_step()  # CFL step and the solver's own bound
@@ -521,11 +521,14 @@ class Simulation:
             self.pressure.init(self.state)
             self._empty_at_init = False
 
-    def _empty_step(self) -> StepStats:
-        """A step without fluid (an emitter starts later): the clock advances by time.dt."""
+    def _empty_step(self, land_at: float | None = None) -> StepStats:
+        """A step without fluid (an emitter starts later): the clock advances by time.dt, or
+        lands on ``land_at`` (a frame) where that is nearer, as a step with fluid does."""
         dt = self.scene.configuration.time.dt
+        if land_at is not None and self.time < land_at <= self.time + dt:
+            dt = land_at - self.time
         self.dt = dt
-        self.time += dt
+        self.time = land_at if land_at is not None and dt == land_at - self.time else self.time + dt
         self.step_count += 1
         self.state.time, self.state.step = self.time, self.step_count
         self._emit()
@@ -573,8 +576,9 @@ class Simulation:
                 self.host()
                 on_frame(self, 0)
         while self.time < until - 1e-12:
+            # a step without fluid (time.dt, any length) lands on until instead of passing it
             stats = (self.step(min((self._frame + 1) / fps, until)) if exact_frames
-                     else self.step())
+                     else self.step() if self.state.fluid.n else self.step(until))
             if on_step:
                 on_step(self, stats)
             if self.time >= (self._frame + 1) / fps - 1e-9:
