@@ -407,6 +407,13 @@ def test_fluid_through_the_floor_exits_3(tmp_path: Path,
     ("configuration.time", {"retries": -1}, "configuration.time.retries"),
     ("configuration.time", {"retries": 2.5}, "configuration.time.retries"),
     ("configuration.time", {"retries": "often"}, "configuration.time.retries"),
+    # the eighteenth session's: the standard viscosity's sub-steps (NaN, Infinity, zero, a
+    # fraction, a string, and set for a viscosity without sub-steps)
+    *[("materials", [{"viscosity": {"method": "standard", "coefficient": 0.01,
+                                    "substeps": bad}}], "materials[0].viscosity.substeps")
+      for bad in (math.nan, math.inf, 0, 2.5, "many")],
+    ("materials", [{"viscosity": {"method": "xsph", "coefficient": 0.1, "substeps": 2}}],
+     "substeps"),
 ])
 def test_non_finite_numbers_are_refused_naming_the_field(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], path: str, value: object,
