@@ -525,10 +525,11 @@ class Simulation:
         """A step without fluid (an emitter starts later): the clock advances by time.dt, or
         lands on ``land_at`` (a frame) where that is nearer, as a step with fluid does."""
         dt = self.scene.configuration.time.dt
-        if land_at is not None and self.time < land_at <= self.time + dt:
+        lands = land_at is not None and self.time < land_at <= self.time + dt
+        if lands:
             dt = land_at - self.time
         self.dt = dt
-        self.time = land_at if land_at is not None and dt == land_at - self.time else self.time + dt
+        self.time = land_at if lands else self.time + dt
         self.step_count += 1
         self.state.time, self.state.step = self.time, self.step_count
         self._emit()
@@ -576,9 +577,12 @@ class Simulation:
                 self.host()
                 on_frame(self, 0)
         while self.time < until - 1e-12:
-            # a step without fluid (time.dt, any length) lands on until instead of passing it
-            stats = (self.step(min((self._frame + 1) / fps, until)) if exact_frames
-                     else self.step() if self.state.fluid.n else self.step(until))
+            if exact_frames:
+                stats = self.step(min((self._frame + 1) / fps, until))
+            elif self.state.fluid.n:
+                stats = self.step()
+            else:  # a step without fluid (time.dt, any length) lands on until, not past it
+                stats = self.step(until)
             if on_step:
                 on_step(self, stats)
             if self.time >= (self._frame + 1) / fps - 1e-9:

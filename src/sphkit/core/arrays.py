@@ -170,7 +170,7 @@ class Scratch:
 
     def __init__(self) -> None:
         self._block = np.empty(0, dtype=np.float64)
-        self._kept: dict[str, np.ndarray] = {}
+        self._kept: dict[str, Scratch] = {}
 
     @property
     def nbytes(self) -> int:
@@ -196,22 +196,15 @@ class Scratch:
 
     def kept(self, slot: str, size: int, dtype: Any) -> np.ndarray:
         """A 1D array of ``size`` entries of ``dtype`` (contents undefined) in memory of its own
-        kept for ``slot`` from step to step (grown by :attr:`GROWTH` when a step needs more):
-        for results that live through the step while :meth:`take` reuses the block, such as
-        the step's neighbour lists (the fluid's 55 MB of indices at 493k particles were mapped
-        and faulted in afresh every step: their compaction 17 -> 4 ms), starting on
-        :attr:`ALIGN` bytes. **A view stays valid until the next call for the same slot**, which
-        reuses its memory."""
-        dtype = np.dtype(dtype)
-        store = self._kept.get(slot)
-        if store is None or store.dtype != dtype or store.shape[0] < size:
-            a = self.ALIGN  # on :attr:`ALIGN` bytes, as the block's views
-            raw = np.empty((int(size * self.GROWTH) + 1) * dtype.itemsize + a, dtype=np.uint8)
-            at = -raw.ctypes.data % a
-            store = raw[at:at + (raw.shape[0] - a) // dtype.itemsize * dtype.itemsize].view(dtype)
-            self._kept[slot] = store
-        return store[:size]
-
+        kept for ``slot`` from step to step (a :class:`Scratch` of the slot's own, so grown and
+        aligned as :meth:`take`): for results that live through the step while :meth:`take`
+        reuses the block, such as the step's neighbour lists (the fluid's 55 MB of indices at
+        493k particles were mapped and faulted in afresh every step: their compaction 17 -> 4
+        ms). **A view stays valid until the next call for the same slot**, which reuses its
+        memory."""
+        if slot not in self._kept:
+            self._kept[slot] = Scratch()
+        return self._kept[slot].take(((size,), dtype))[0]
 
 def empty_like(a: Any) -> Any:
     """An uninitialised array of ``a``'s shape and dtype, where ``a`` is."""
