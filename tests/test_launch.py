@@ -139,6 +139,32 @@ def test_a_body_specialized_on_dim_gets_a_driver_per_dimension() -> None:
                                                               names.index("s_corr") - 1)
 
 
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _switch_body(i, x, cached, out):
+    out[i] = x[i] + 1.0 if cached else x[i] * 2.0
+
+
+def test_fastmath_when_compiles_a_switchs_drivers_with_their_own_flags() -> None:
+    """``specialize(..., fastmath_when={name: flags})``: the drivers in which the constant is
+    true take ``flags`` (the standard viscosity's pass over cached pair gradients, scalar), the
+    others the body's own (its kernel path, vectorised); both compute the body; a name that is
+    not constant is refused."""
+    from sphkit.backend import specialize
+    from sphkit.core.ppe import GATHER_FASTMATH
+
+    flags = set(GATHER_FASTMATH)
+    specialize(_switch_body, "cached", fastmath_when={"cached": flags})
+    x = np.arange(4.0)
+    for cached, want in ((True, x + 1.0), (False, 2.0 * x)):
+        out = np.empty(4)
+        launch(_switch_body, 4, x, cached, out)
+        assert np.array_equal(out, want)
+    assert cpu_driver(_switch_body, 3, "each", (1,)).targetoptions["fastmath"] == flags
+    assert cpu_driver(_switch_body, 3, "each", (0,)).targetoptions["fastmath"] is True
+    with pytest.raises(ValueError, match="fastmath_when names a parameter that is not constant"):
+        specialize(_switch_body, fastmath_when={"cached": flags})
+
+
 def test_unknown_device_is_an_error() -> None:
     with pytest.raises(ValueError, match="device: 'gpu'; expected one of cpu, cuda"):
         launch(_scale_body, 1, np.zeros(1), 1.0, np.zeros(1), device="gpu")
