@@ -414,6 +414,12 @@ def test_fluid_through_the_floor_exits_3(tmp_path: Path,
       for bad in (math.nan, math.inf, 0, 2.5, "many")],
     ("materials", [{"viscosity": {"method": "xsph", "coefficient": 0.1, "substeps": 2}}],
      "substeps"),
+    # the nineteenth session's: the pair cache's type (unknown, not a string, float64 over
+    # float32 fields)
+    ("configuration.pair_cache", "float16", "configuration.pair_cache"),
+    ("configuration.pair_cache", math.nan, "configuration.pair_cache"),
+    ("configuration", {**TINY["configuration"], "precision": "float32", "pair_cache": "float64"},
+     "pair_cache"),
 ])
 def test_non_finite_numbers_are_refused_naming_the_field(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], path: str, value: object,

@@ -18,10 +18,12 @@ their iteration limit (PCISPH, IISPH): shrunk after an unconverged solve, grown 
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -44,6 +46,45 @@ log = logging.getLogger("sphkit")
 #: values grew to 1e5-1e8 and a 3D 1:10 heavy-over-light column blew up at 1.2 s, also with
 #: omega 0.1)
 WALL_CAP = 1.0
+
+
+#: the last-level cache :func:`pair_cache_dtype` compares with where the system does not say
+#: how large it is [bytes]
+LLC_BYTES = 32 * 2**20
+
+
+@functools.cache
+def last_level_cache() -> int:
+    """The size of the largest CPU cache that core 0 sees, in bytes (Linux: sysfs, the cache a
+    core shares with its neighbours, e.g. a Zen 4 CCD's 32 MB of L3); :data:`LLC_BYTES` where
+    the system does not say."""
+    sizes = []
+    for entry in Path("/sys/devices/system/cpu/cpu0/cache").glob("index*"):
+        try:
+            text = (entry / "size").read_text().strip().upper()
+            scale = {"K": 2**10, "M": 2**20, "G": 2**30}.get(text[-1:], 1)
+            sizes.append(int(text.rstrip("KMG")) * scale)
+        except (OSError, ValueError):
+            continue
+    return max(sizes) if sizes else LLC_BYTES
+
+
+def pair_cache_dtype(setting: str, values: int, fields: np.dtype) -> np.dtype:
+    """The floating-point type of a step's cached pair gradients (``values`` numbers) on the
+    CPU, by ``configuration.pair_cache``: "float64"/"float32" as given; "auto": float32 where
+    the cache in float64 would not fit in the last-level cache (:func:`last_level_cache`),
+    else the fields' type. Why: beyond the cache the passes over the pairs move memory at the
+    machine's bandwidth, and half the bytes made the DFSPH dam break's step at 59,319 and
+    493,039 particles 9-13 % faster; within it they are bound by arithmetic, and the conversion
+    of each value made the step 8-12 % slower at 6,859 and 24,389 particles
+    (benchmarks/README.md). The values differ from float64's by float32's rounding (relative
+    6e-8), far below the solvers' tolerances (validation/README.md, "float32")."""
+    fields = np.dtype(fields)
+    if setting == "float32" or fields == np.float32:
+        return np.dtype(np.float32)
+    if setting == "auto" and values * 8 > last_level_cache():
+        return np.dtype(np.float32)
+    return fields
 
 
 @dataclass
@@ -179,11 +220,15 @@ class PairGradients:
         nl, nb = state.nl_ff, state.nl_fb
         x = f["x"]
         shapes = (state.dim, nl.indices.shape[0]), (state.dim, nb.indices.shape[0])
-        if scratch is not None and not arrays.on_device(x):
-            self.gw, self.gwb = scratch.take((shapes[0], f.dtype), (shapes[1], f.dtype))
-        else:
+        if arrays.on_device(x):
             self.gw = arrays.empty(shapes[0], f.dtype, like=x)
             self.gwb = arrays.empty(shapes[1], f.dtype, like=x)
+        else:  # the fluid pairs' in the type of configuration.pair_cache
+            kind = pair_cache_dtype(state.pair_cache, shapes[0][0] * shapes[0][1], f.dtype)
+            if scratch is not None:
+                self.gw, self.gwb = scratch.take((shapes[0], kind), (shapes[1], f.dtype))
+            else:
+                self.gw, self.gwb = np.empty(shapes[0], kind), np.empty(shapes[1], f.dtype)
         if with_density:
             rest = state.rest()
             density_pair_gradients(f["x"], rest.mu, nl.offsets, nl.indices, b["x"], b["V"],

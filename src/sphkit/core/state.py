@@ -109,6 +109,9 @@ class SimState:
     #: this step's cached pair gradients ``V_j grad W_ij``, made with the densities for solvers
     #: that set ``uses_pair_gradients``; None outside that window
     pair_grads: PairGradients | None = None
+    #: their floating-point type on the CPU (``configuration.pair_cache``: "auto", "float64",
+    #: "float32"; :func:`sphkit.core.solver.pair_cache_dtype`)
+    pair_cache: str = "auto"
     #: periodic along x: particles live in ``[period_lo, period_lo + period)``; period = 0: not
     #: periodic. Pair loops take minimum-image x differences ``d - L round(d / L)`` [m]
     period_lo: float = 0.0

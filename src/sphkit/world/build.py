@@ -120,7 +120,7 @@ def _state(scene: Scene, mats: list[Material]) -> SimState:
     r = cfg.particle_radius
     state = SimState(fluid=fluid, boundary=boundary, dim=dim, h=4.0 * r,
                      kid=kernel_id(cfg.kernel), r=r, rho0=mat.density0,
-                     gravity=g.astype(dtype))
+                     gravity=g.astype(dtype), pair_cache=cfg.pair_cache)
     if cfg.periodic_x is not None:
         state.period_lo = float(cfg.periodic_x[0])
         state.period = float(cfg.periodic_x[1] - cfg.periodic_x[0])
