@@ -86,8 +86,9 @@ def accurate(boundary: str) -> str:
     return "mls" if registry.get("boundary", boundary).kind == "particles" else "hydrostatic"
 
 
-#: floating-point type of the runs (``--precision``)
+#: floating-point type of the runs (``--precision``) and of their pair cache (``--pair-cache``)
 PRECISION = "float64"
+PAIR_CACHE = "auto"
 
 
 def _set_pressure(scene: Scene, bp: str, cache: str, eta: float | None,
@@ -95,6 +96,7 @@ def _set_pressure(scene: Scene, bp: str, cache: str, eta: float | None,
     d = scene.model_dump()
     cfg = d["configuration"]
     cfg["precision"] = PRECISION
+    cfg["pair_cache"] = PAIR_CACHE
     cfg["boundary"]["map_cache_dir"] = cache
     if bp != "default":
         cfg["boundary"]["pressure"] = bp
@@ -318,9 +320,13 @@ def main() -> None:
                     help="run the dam break of each row instead of the column")
     ap.add_argument("--precision", choices=("float64", "float32"), default="float64",
                     help="floating-point type of the particle fields (default float64)")
+    ap.add_argument("--pair-cache", choices=("auto", "float64", "float32"), default="auto",
+                    help="floating-point type of the solvers' cached pair gradients "
+                    "(configuration.pair_cache; auto: float64 at these sizes)")
     args = ap.parse_args()
-    global PRECISION
+    global PRECISION, PAIR_CACHE
     PRECISION = args.precision
+    PAIR_CACHE = args.pair_cache
     logging.disable(logging.WARNING)
     rows = []
     for b, bp in itertools.product(args.boundaries, args.boundary_pressure):
