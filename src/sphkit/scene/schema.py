@@ -1097,9 +1097,9 @@ class Configuration(_Model):
     gravity: Vec = Field([0.0, -9.81, 0.0], description="gravitational acceleration [m/s^2]")
     precision: Literal["float64", "float32"] = Field(
         "float64", description="floating-point type of the particle fields and of the cached "
-        "pair values (pair gradients, MLS coefficients): float32 halves their memory (sphkit "
-        "run --precision); unset, float32 on the GPU and float64 on the CPU; the accuracy of "
-        "each is in validation/README.md, 'float32'")
+        "pair values (MLS coefficients; the pair gradients: pair_cache), float32 halves their "
+        "memory (sphkit run --precision); unset, float32 on the GPU and float64 on the CPU; "
+        "the accuracy of each is in validation/README.md, 'float32'")
     pair_cache: Literal["auto", "float64", "float32"] = Field(
         "auto", description="floating-point type of the pair gradients V_j grad W_ij that the "
         "pressure solvers cache for a step (on the CPU): auto is float32 where they would not "
