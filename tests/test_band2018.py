@@ -167,7 +167,7 @@ def test_mls_fits_each_phase_on_its_own(dim: int) -> None:
     # sample sees both phases: off both phases' values
     mixed_coef = np.empty(tfl.shape[0])
     mls_coefficients(st.fluid["x"], st.fluid["rho"] / st.fluid["rho0"], st.boundary["x"],
-                     ext.toff, tfl, ext.rows, ext.chunks, st.h, st.kid, dim, st.pair_period, 0.0,
+                     ext.toff, tfl, ext.rows, st.h, st.kid, dim, st.pair_period, 0.0,
                      mixed_coef, np.zeros(st.fluid.n, np.int64), 1)
     mixed = np.zeros(st.boundary.n)
     mls_extrapolate(k, ext.toff, tfl, ext.rows, ext.chunks, mixed_coef, mixed)

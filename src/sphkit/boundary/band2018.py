@@ -62,6 +62,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sphkit.backend import launch, specialize
 from sphkit.core.arrays import row_chunks
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
@@ -98,48 +99,47 @@ def _transpose(boff, bidx, nb):
     return count, tfluid
 
 
-@numba.njit(parallel=True, **_JIT)
-def mls_coefficients(x, rho_hat, bx, toff, tfluid, rows, chunks, h, kid, dim, L, ridge, coef,
-                     phase, nphase):
+def mls_coefficients(x: np.ndarray, rho_hat: np.ndarray, bx: np.ndarray, toff: np.ndarray,
+                     tfluid: np.ndarray, rows: np.ndarray, h: float, kid: int, dim: int,
+                     L: float | tuple, ridge: float, coef: np.ndarray, phase: np.ndarray,
+                     nphase: int) -> None:
     """``coef[t] = c_bf rho_hat_f^2`` for the t-th boundary -> fluid pair (module docstring).
 
     Only the samples ``rows`` (those extrapolated, with fluid neighbours: :func:`fitted`) are
-    fitted, in the balanced ranges ``chunks`` of ``rows``; the other samples' coefficients are
-    left as they are (never read). Positions are scaled by 1/h in the moment matrix for its
-    conditioning; ``ridge`` (:data:`RIDGE`) is the Tikhonov weight of its gradient block; a
-    pivot below 1e-6 of the matrix' largest diagonal entry selects the Shepard fallback.
-    ``phase`` (N,) and ``nphase``: each phase's fluid neighbours of b are fitted on their own
-    ("Several rest densities" in the module docstring; one fluid: zeros and 1)."""
-    for c in numba.prange(chunks.shape[0] - 1):
-        for a in pair_slots(chunks, c):
-            b = rows[a]
-            t0 = toff[b]
-            t1 = toff[b + 1]
-            for ph in range(nphase):
-                _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph)
+    fitted, one launch of :func:`coefficients_body` over them; the other samples'
+    coefficients are left as they are (never read). Positions are scaled by 1/h in the moment
+    matrix for its conditioning; ``ridge`` (:data:`RIDGE`) is the Tikhonov weight of its
+    gradient block; a pivot below 1e-6 of the matrix' largest diagonal entry selects the
+    Shepard fallback. ``phase`` (N,) and ``nphase``: each phase's fluid neighbours of b are
+    fitted on their own ("Several rest densities" in the module docstring; one fluid: zeros
+    and 1)."""
+    launch(coefficients_body, rows.shape[0], rows, toff, tfluid, x, rho_hat, bx, h, kid,
+           int(dim), L, ridge, phase, int(nphase), coef)
 
 
-@numba.njit(**_JIT)
-def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, w_out):
-    """The moment matrix ``M = sum_f W_bf [1, d_f] [1, d_f]^T`` of boundary sample b's fluid
-    neighbours f of phase ``ph`` (its pairs t0..t1; ``d_f = (x_f - x_b) / h``) with the Tikhonov
-    term on its gradient block, as its upper triangle ``(m00, m01, m02, m03, m11, m12, m13, m22,
-    m23, m33)`` (the rows beyond ``dim + 1`` zero; ``m00 = sum_f W_bf``), and the right-hand
-    side ``sum_f W_bf [1, d_f] q_f`` of the fluid values ``q`` (N,), or zeros for an empty q.
+@numba.njit(inline="always", **_JIT)
+def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, phase, ph, nphase, q, w_out):
+    """The sums of the moment matrix ``M = sum_f W_bf [1, d_f] [1, d_f]^T`` of boundary sample
+    b's fluid neighbours f of phase ``ph`` (its pairs t0..t1; ``d_f = (x_f - x_b) / h``; every
+    pair where ``nphase`` is 1), as its upper triangle ``m00, m01, m02, m03, m11, m12, m13,
+    m22, m23, m33`` (the rows beyond ``dim + 1`` zero; ``m00 = sum_f W_bf``), followed by the
+    right-hand side ``r0 .. r3 = sum_f W_bf [1, d_f] q_f`` of the fluid values ``q`` (N,), or
+    zeros for an empty q: fourteen scalars (a flat tuple: the pair loops inline it).
     ``w_out`` (pairs,) or empty: where given, each pair's ``W_bf`` is kept in it."""
     m00 = m01 = m02 = m03 = m11 = m12 = m13 = m22 = m23 = m33 = 0.0
     r0 = r1 = r2 = r3 = 0.0
     inv_h = 1.0 / h
     with_q = q.shape[0] > 0
+    keep = w_out.shape[0] > 0
     for t in unsigned_range(t0, t1):
         f = tfluid[t]
-        if phase[f] != ph:
+        if nphase > 1 and phase[f] != ph:
             continue
         xf0, xf1, xf2 = point(x, f, dim)
         d0, d1, d2, r = separation(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
         e1, e2, e3 = d0 * inv_h, d1 * inv_h, d2 * inv_h  # 0 beyond dim
         w = kernel_w(kid, r, h, dim)
-        if w_out.shape[0] > 0:
+        if keep:
             w_out[t] = w
         m00 += w
         m01 += w * e1
@@ -152,21 +152,26 @@ def _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q, w_ou
             r1 += wq * e1
             r2 += wq * e2
             r3 += wq * e3
-    # Tikhonov term on the gradient block: a gradient the neighbours do not determine (all
-    # of them on one row, as under a single fluid layer) is taken as 0 instead of noise
-    t = ridge * m00
-    return (m00, m01, m02, m03, m11 + t, m12, m13, m22 + t, m23, m33 + t), (r0, r1, r2, r3)
+    return m00, m01, m02, m03, m11, m12, m13, m22, m23, m33, r0, r1, r2, r3
 
 
 @numba.njit(**_JIT)
-def _solve(m, r, dim):
+def _solve(m, r, ridge, dim):
     """``(ok, y)``: the solution y (4,) of ``M y = r`` for the symmetric moment matrix m of
-    :func:`_moments` (its first ``dim + 1`` rows; y 0 beyond) by its factorisation ``L D L^T``
-    (M is positive definite where the neighbours determine the fit: the Tikhonov term makes its
-    gradient block so), ok False where a pivot of D falls below 1e-6 of M's largest diagonal
-    entry (M singular: the neighbours do not determine the fit)."""
+    :func:`_moments` (its first ``dim + 1`` rows; y 0 beyond) with the Tikhonov term ``ridge
+    m00`` added to its gradient block (a gradient the neighbours do not determine -- all of
+    them on one row, as under a single fluid layer -- is taken as 0 instead of noise), by its
+    factorisation ``L D L^T`` (M is positive definite where the neighbours determine the fit:
+    the Tikhonov term makes its gradient block so), ok False where a pivot of D falls below
+    1e-6 of M's largest diagonal entry (M singular: the neighbours do not determine the fit).
+    A function of its own (not inlined): Numba's parallel loops do not take the tuples
+    inlined."""
     m00, m01, m02, m03, m11, m12, m13, m22, m23, m33 = m
     r0, r1, r2, r3 = r
+    t = ridge * m00
+    m11 += t
+    m22 += t
+    m33 += t
     big = max(m00, m11)
     if dim > 1:
         big = max(big, m22)
@@ -206,50 +211,68 @@ def _solve(m, r, dim):
     return ok, (y0, y1, y2, y3)
 
 
-@numba.njit(**_JIT)
-def _fit(x, rho_hat, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, coef, phase, ph):
-    """The coefficients of boundary sample b's pairs t0..t1 with fluid of phase ``ph``: the
-    moving least-squares fit of :func:`mls_coefficients` over those fluid neighbours (``u``,
-    the first row of ``M^-1``, from ``M u = e_0``: M is symmetric)."""
-    # the pairs' W_bf wait in coef (the second pass only scales them)
-    m, _ = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, rho_hat[:0],
-                    coef)
-    wsum = m[0]
-    ok, u = _solve(m, (1.0, 0.0, 0.0, 0.0), dim)
-    u0, u1, u2, u3 = u
+@numba.njit(inline="always", **_JIT)
+def coefficients_body(a, rows, toff, tfluid, x, rho_hat, bx, h, kid, dim, L, ridge, phase,
+                      nphase, coef):
+    """The coefficients of the pairs of boundary sample ``rows[a]`` (:func:`mls_coefficients`),
+    each phase's fluid neighbours fitted on their own: the moving least-squares fit (``u``, the
+    first row of ``M^-1``, from ``M u = e_0``: M is symmetric), then ``c_bf = W_bf (u_0 + u .
+    d_f)`` times ``rho_hat_f^2`` (the Shepard weight where the fit fails)."""
+    b = rows[a]
+    t0 = toff[b]
+    t1 = toff[b + 1]
     inv_h = 1.0 / h
-    for t in unsigned_range(t0, t1):
-        f = tfluid[t]
-        if phase[f] != ph:
-            continue
-        xf0, xf1, xf2 = point(x, f, dim)
-        d0, d1, d2 = delta(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
-        w = coef[t]
-        lin = u0 + (u1 * d0 + u2 * d1 + u3 * d2) * inv_h
-        c_bf = w * lin if ok else (w / wsum if wsum > 0.0 else 0.0)
-        coef[t] = c_bf * rho_hat[f] * rho_hat[f]
+    for ph in range(nphase):
+        # the pairs' W_bf wait in coef (the second loop only scales them)
+        m00, m01, m02, m03, m11, m12, m13, m22, m23, m33, _, _, _, _ = _moments(
+            x, bx, b, t0, t1, tfluid, h, kid, dim, L, phase, ph, nphase, rho_hat[:0], coef)
+        ok, u = _solve((m00, m01, m02, m03, m11, m12, m13, m22, m23, m33),
+                       (1.0, 0.0, 0.0, 0.0), ridge, dim)
+        u0, u1, u2, u3 = u
+        for t in unsigned_range(t0, t1):
+            f = tfluid[t]
+            if nphase > 1 and phase[f] != ph:
+                continue
+            xf0, xf1, xf2 = point(x, f, dim)
+            d0, d1, d2 = delta(xf0, xf1, xf2, bx, b, dim, L)  # x_f - x_b
+            w = coef[t]
+            lin = u0 + (u1 * d0 + u2 * d1 + u3 * d2) * inv_h
+            c_bf = w * lin if ok else (w / m00 if m00 > 0.0 else 0.0)
+            coef[t] = c_bf * rho_hat[f] * rho_hat[f]
 
 
-@numba.njit(parallel=True, **_JIT)
-def mls_values(x, q, bx, toff, tfluid, rows, chunks, h, kid, dim, L, ridge, phase, out):
+@numba.njit(inline="always", **_JIT)
+def values_body(a, rows, toff, tfluid, x, q, bx, h, kid, dim, L, ridge, phase, out):
+    """``out[ph, b] = max(beta_0, 0)`` at boundary sample ``b = rows[a]`` for every phase ph
+    (:func:`mls_values`)."""
+    b = rows[a]
+    t0 = toff[b]
+    t1 = toff[b + 1]
+    nphase = out.shape[0]
+    for ph in range(nphase):
+        m00, m01, m02, m03, m11, m12, m13, m22, m23, m33, r0, r1, r2, r3 = _moments(
+            x, bx, b, t0, t1, tfluid, h, kid, dim, L, phase, ph, nphase, q, q[:0])
+        ok, y = _solve((m00, m01, m02, m03, m11, m12, m13, m22, m23, m33), (r0, r1, r2, r3),
+                       ridge, dim)
+        value = y[0] if ok else (r0 / m00 if m00 > 0.0 else 0.0)
+        out[ph, b] = max(value, 0.0)
+
+
+specialize(coefficients_body, "kid", "dim")
+specialize(values_body, "kid", "dim")
+
+
+def mls_values(x: np.ndarray, q: np.ndarray, bx: np.ndarray, toff: np.ndarray,
+               tfluid: np.ndarray, rows: np.ndarray, h: float, kid: int, dim: int,
+               L: float | tuple, ridge: float, phase: np.ndarray, out: np.ndarray) -> None:
     """``out[ph, b] = max(beta_0, 0)``: the value at boundary sample b of the linear field fitted
     to the fluid values q (N,) of phase ph (the module docstring's fit, solved for ``beta``
     directly: the one-shot form of :func:`mls_coefficients` then :func:`mls_extrapolate`, for a
-    solver that extrapolates once a step), at the samples ``rows`` (:func:`fitted`; in the
-    balanced ranges ``chunks`` of them); 0 where b has no fluid neighbour of the phase; the
-    other samples' entries are left as they are. ``out`` (phases, N_boundary)."""
-    for c in numba.prange(chunks.shape[0] - 1):
-        for a in pair_slots(chunks, c):
-            b = rows[a]
-            t0 = toff[b]
-            t1 = toff[b + 1]
-            for ph in range(out.shape[0]):
-                m, rhs = _moments(x, bx, b, t0, t1, tfluid, h, kid, dim, L, ridge, phase, ph, q,
-                                  q[:0])
-                ok, y = _solve(m, rhs, dim)
-                wsum = m[0]
-                value = y[0] if ok else (rhs[0] / wsum if wsum > 0.0 else 0.0)
-                out[ph, b] = max(value, 0.0)
+    solver that extrapolates once a step), at the samples ``rows`` (:func:`fitted`); 0 where b
+    has no fluid neighbour of the phase; the other samples' entries are left as they are.
+    ``out`` (phases, N_boundary)."""
+    launch(values_body, rows.shape[0], rows, toff, tfluid, x, q, bx, h, kid, int(dim), L, ridge,
+           phase, out)
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -308,6 +331,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.coef: np.ndarray | None = np.empty(0)  # this step's, once computed (:meth:`prepare`)
         self._fit_args: tuple = ()
         self.phase: np.ndarray | None = None  # the fluid's phases where fitted on their own
+        self._share: np.ndarray | None = None  # :meth:`diagonal_mirror`, once made
 
     def init(self, state: SimState) -> None:
         """Turn mirroring off where the extrapolation replaces it."""
@@ -318,8 +342,11 @@ class MLSPressureExtrapolation(BoundaryPressure):
         b["pressure_mirror"][self.use] = 0.0
 
     def diagonal_mirror(self) -> np.ndarray:
-        """Mirror share used in the Jacobi diagonals (the mirrored form, see the docstring)."""
-        return self.use.astype(np.float64)
+        """Mirror share used in the Jacobi diagonals (the mirrored form, see the docstring):
+        1 where extrapolated (made once: ``use`` does not change)."""
+        if self._share is None:
+            self._share = self.use.astype(np.float64)
+        return self._share
 
     def prepare(self, state: SimState) -> None:
         """This step's boundary -> fluid lists; the coefficients follow at the first
@@ -344,7 +371,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         if self.coef is None:
             x, rho_hat, bx, h, kid, dim, L, phase = self._fit_args
             self.coef = np.empty(self.tfluid.shape[0], dtype=x.dtype)
-            mls_coefficients(x, rho_hat, bx, self.toff, self.tfluid, self.rows, self.chunks, h,
+            mls_coefficients(x, rho_hat, bx, self.toff, self.tfluid, self.rows, h,
                              kid, dim, L, self.ridge, self.coef, phase, self.phases)
         return self.coef
 
@@ -368,7 +395,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         rest = state.rest()
         # kb = p_b / rho0_ref, one row per phase fitted on its own: the fit of p / rho0_ref
         mls_values(f["x"], f["p"] / state.rho0, b["x"], self.toff, self.tfluid, self.rows,
-                   self.chunks, state.h, state.kid, state.dim, state.pair_period, self.ridge,
+                   state.h, state.kid, state.dim, state.pair_period, self.ridge,
                    self._phase_rows(f.n), kb)
         replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
                          state.nl_fb.offsets, state.nl_fb.indices, self.use, kb,

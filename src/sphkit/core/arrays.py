@@ -17,6 +17,7 @@ of ``like`` (NumPy's own functions on the CPU).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba
@@ -181,13 +182,13 @@ class Scratch:
         """C-contiguous arrays of the given ``(shape, dtype)`` laid one after the other in the
         block, each starting on :attr:`ALIGN` bytes; their contents are undefined."""
         a = self.ALIGN
-        sizes = [int(np.prod(shape, dtype=np.int64)) * np.dtype(dt).itemsize for shape, dt in specs]
+        sizes = [math.prod(shape) * np.dtype(dt).itemsize for shape, dt in specs]
         spans = [(n + a - 1) // a * a for n in sizes]
         need = sum(spans) + a  # + a: room to align the first view
         if need > self._block.nbytes:
             self._block = np.empty(int(need * self.GROWTH) // 8 + 1, dtype=np.float64)
         raw = self._block.view(np.uint8)
-        at = -raw.ctypes.data % a
+        at = -raw.__array_interface__["data"][0] % a
         out = []
         for (shape, dt), n, span in zip(specs, sizes, spans, strict=True):
             out.append(raw[at:at + n].view(dt).reshape(shape))

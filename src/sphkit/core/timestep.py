@@ -168,7 +168,7 @@ def cfl_time_step(vmax: float, r: float, factor: float, dt_min: float, dt_max: f
     """``factor * 0.4 * 2r / vmax`` clamped to ``[dt_min, dt_max]`` (dt_max when at rest)."""
     if vmax <= 1e-12:
         return dt_max
-    return float(np.clip(factor * 0.4 * 2.0 * r / vmax, dt_min, dt_max))
+    return min(max(factor * 0.4 * 2.0 * r / vmax, dt_min), dt_max)
 
 
 #: SPlisHSPlasH's cflMethod 2: a solve of more than ITERATIONS_HIGH iterations shrinks the next
