@@ -43,10 +43,10 @@ PARTS = {
     "standard viscosity": ("_standard", "standard_body__launch_each"),
     "diagonal (factor alpha) and divergence source": ("diagonal_cached",
                                                       "diagonal_body__launch_each"),
-    "MLS boundary pressure (coefficients, extrapolation)": ("mls_coefficients", "mls_extrapolate",
-                                                            "mls_extrapolate_phases",
-                                                            "phase_kb_body__launch_each",
-                                                            "mls_values", "_transpose"),
+    "MLS boundary pressure (coefficients, extrapolation)": (
+        "coefficients_body__launch_each", "extrapolate_body__launch_each",
+        "extrapolate_phases_body__launch_each", "phase_kb_body__launch_each",
+        "values_body__launch_each", "_transpose", "_fitted_rows"),
 }
 
 

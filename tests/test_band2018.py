@@ -170,7 +170,7 @@ def test_mls_fits_each_phase_on_its_own(dim: int) -> None:
                      ext.toff, tfl, ext.rows, st.h, st.kid, dim, st.pair_period, 0.0,
                      mixed_coef, np.zeros(st.fluid.n, np.int64), 1)
     mixed = np.zeros(st.boundary.n)
-    mls_extrapolate(k, ext.toff, tfl, ext.rows, ext.chunks, mixed_coef, mixed)
+    mls_extrapolate(k, ext.toff, tfl, ext.rows, mixed_coef, mixed)
     both = (count[0] >= 1) & (count[1] >= 1) & (count.sum(axis=0) >= 2 * dim)
     assert both.sum() >= 2
     off = [np.abs(mixed[both] - exact[q][both]) / exact[q][both] for q in range(2)]

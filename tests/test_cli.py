@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sphkit.backend import cuda_available
 from sphkit.cli import main
 from sphkit.io.frames import FrameWriter, read_frame
 from sphkit.io.manifest import read_manifest
@@ -122,7 +123,9 @@ def test_tiny_run_writes_frames_and_manifest(tiny_run: dict) -> None:
     assert [f["frame"] for f in frames] == [0, 1, 2]
     assert frames[-1]["time"] >= 0.05 - 1e-9
     assert manifest["scene"]["name"] == "tiny"
-    assert manifest["device"] == "cpu"  # --device auto: WCSPH and MLS do not run on the GPU yet
+    # --device auto: the GPU where one is found (every method of the scene runs there), else
+    # the CPU
+    assert manifest["device"] == ("cuda" if cuda_available() else "cpu")
     assert manifest["last_step"]["step"] == frames[-1]["step"] > 0
     for rec in frames:
         assert rec["files"] == [f"frame_{rec['frame']:05d}.vtu", f"frame_{rec['frame']:05d}.ply"]

@@ -8,17 +8,18 @@ diagonal and pair divergence, DFSPH's factor and sources, the standard and XSPH 
 symplectic Euler step, the CFL speed and the leak check's count with the same bodies launched on
 the CPU, and the neighbour search whose passes are bodies (:class:`sphkit.core.hashgrid.HashGrid`,
 with the scan and the histogram of the counting sort; in 2D) against the CPU grid's lists, and one
-whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls, standard
-viscosity, the search of fluid and walls in 3D) against the CPU's, with the fields resident on the
-device, in float64 and in float32 (the device's default; against the CPU's float64 step), and one
-whole WCSPH, IISPH, PCISPH and PBF step (their per-particle passes bodies too) likewise in float64,
-one DFSPH step of a material with Weiler 2018 viscosity (its CG on the device), Akinci 2013 surface
-tension and micropolar vorticity, a DFSPH step with static density maps and with volume maps (their
-queries and packing as bodies), and two steps with an emitter (its layers appended to the fields on
-the device, and particles reused there). Each kernel launch under the simulator starts a Python
-thread per particle, so the cases are as small as their checks allow. Where a CUDA GPU is present
-the same script also runs on it (skipped otherwise, e.g. in CI). The subprocess also checks that
-importing sphkit and running on the CPU does not import numba.cuda.
+whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akinci walls with the
+default MLS boundary pressure, standard viscosity, the search of fluid and walls in 3D) against the
+CPU's, with the fields resident on the device, in float64 and in float32 (the device's default;
+against the CPU's float64 step), and one whole WCSPH, IISPH, PCISPH and PBF step (their
+per-particle passes bodies too) likewise in float64, one DFSPH step of a material with Weiler 2018
+viscosity (its CG on the device), Akinci 2013 surface tension and micropolar vorticity, a DFSPH
+step with static density maps and with volume maps (their queries and packing as bodies), and two
+steps with an emitter (its layers appended to the fields on the device, and particles reused
+there). Each kernel launch under the simulator starts a Python thread per particle, so the cases
+are as small as their checks allow. Where a CUDA GPU is present the same script also runs on it
+(skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
+the CPU does not import numba.cuda.
 """
 
 from __future__ import annotations
@@ -253,17 +254,18 @@ SCRIPT = textwrap.dedent(
     assert np.array_equal(ps["x"], x0[:, ::-1]) and np.all(ps["w"] == 2.0)
     assert np.all(ps["id"] == 7) and type(ps["x"]) is np.ndarray
 
-    # one whole DFSPH step (Akinci walls, mirrored boundary pressure, standard viscosity, CFL,
-    # symplectic Euler, z-order) through Simulation on the device against the CPU: a 2 x 2 x 2
-    # block thrown into the corner of a box (every kernel launch under the simulator starts a
-    # Python thread per particle: the fewer, the faster)
+    # one whole DFSPH step (Akinci walls with the default MLS boundary pressure: the lists'
+    # transpose by the counting sort's histogram and scan, the fit and the extrapolation as
+    # bodies; standard viscosity, CFL, symplectic Euler, z-order) through Simulation on the
+    # device against the CPU: a 2 x 2 x 2 block thrown into the corner of a box (every kernel
+    # launch under the simulator starts a Python thread per particle: the fewer, the faster)
     from sphkit.scene.schema import Scene
     from sphkit.simulation import Simulation
 
     scene = {"configuration": {
                  "dim": 3, "particle_radius": 0.05, "zsort_every": 1,
                  "pressure": {"method": "dfsph", "max_error": 0.5, "max_error_v": 5.0},
-                 "boundary": {"method": "akinci2012", "pressure": "mirror"}},
+                 "boundary": {"method": "akinci2012"}},
              "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
              "fluid_blocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2],
                                "velocity": [0.3, -1.0, 0.2]}],

@@ -178,10 +178,10 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
     registry's ``gpu`` capability (here projective fluids) is refused on ``cuda`` with the
     fields and names of those methods (never a silent CPU fallback), before anything is built;
     ``auto`` runs it on the CPU without probing for a GPU, and an unknown device names the
-    choices. DFSPH with Akinci walls, mirrored boundary pressure and the standard viscosity is
-    accepted (the whole step on the device: tests/test_cuda_simulator.py), unless a feature of
-    the scene that the device step lacks (Verlet lists) is named; float32 is accepted (and the
-    default there). (The manifest's record of the device: tests/test_cli.py's tiny run.)"""
+    choices. DFSPH with Akinci walls, mirrored or MLS boundary pressure and the standard
+    viscosity is accepted (the whole step on the device: tests/test_cuda_simulator.py), unless a
+    feature of the scene that the device step lacks (Verlet lists) is named; float32 is accepted
+    (and the default there). (The manifest's record of the device: tests/test_cli.py's tiny run.)"""
     from sphkit.cli import main
     from sphkit.scene.checks import check_device, methods_in_use
     from sphkit.scene.files import load_scene
@@ -208,9 +208,8 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
     assert check_device(scene, "cuda", lambda: True) == "cuda"
     assert check_device(scene, "auto", lambda: True) == "cuda"
     assert check_device(scene, "auto", lambda: False) == "cpu"
-    cfg.boundary.pressure = "mls"
-    with pytest.raises(SceneError, match="configuration.boundary.pressure 'mls'"):
-        check_device(scene, "cuda", lambda: True)
+    cfg.boundary.pressure = "mls"  # the default of Akinci walls runs there too
+    assert check_device(scene, "cuda", lambda: True) == "cuda"
     cfg.boundary.pressure, cfg.precision = "mirror", "float32"
     assert check_device(scene, "cuda", lambda: True) == "cuda"  # float32 runs there too
     # the precision of a run: the scene's where it sets one, else float32 on the GPU only

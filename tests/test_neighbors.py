@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from sphkit.core.arrays import row_chunks
 from sphkit.core.neighbors import Grid, NeighborList, neighbor_lists
 from sphkit.core.particles import ParticleSet
 from sphkit.core.zorder import zorder_permutation
@@ -461,23 +460,3 @@ def test_scratch_views_are_aligned_and_share_the_block() -> None:
     assert a.sum() == 21.0 and b.sum() == 35 and c.sum() == 12.0  # the views do not overlap
     (d,) = s.take(((4,), np.float64))  # a smaller take lies in the same memory
     assert d.ctypes.data == a.ctypes.data
-
-
-def test_row_chunks_cover_the_rows_with_balanced_work() -> None:
-    """The balanced ranges of :func:`row_chunks` tile the rows in order, and each holds at most
-    its share of the work plus one row's (a row cannot be split): here the filled rows lie
-    together, as the wall samples under the fluid do, which a split by row count gives to one
-    chunk alone."""
-    rng = np.random.default_rng(3)
-    counts = np.r_[np.zeros(500, np.int64), rng.integers(1, 30, 2000), np.zeros(15000, np.int64)]
-    off = np.r_[0, np.cumsum(counts)] + 11  # offsets need not start at 0
-    parts = 8
-    b = row_chunks(off, parts)
-    assert b.shape == (parts + 1,) and b[0] == 0 and b[-1] == counts.shape[0]
-    assert np.all(np.diff(b) >= 0)
-    work = counts + 1.0 / 8.0
-    per = np.array([work[b[c]:b[c + 1]].sum() for c in range(parts)])
-    assert per.max() <= work.sum() / parts + work.max() + 1e-9
-    # a split by row count would put every entry in the first two of eight chunks
-    assert per.min() > 0.5 * work.sum() / parts
-    assert np.array_equal(row_chunks(np.zeros(1, np.int64), 4), np.zeros(5, np.int64))

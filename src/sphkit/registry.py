@@ -246,7 +246,7 @@ register("boundary_pressure", "mirror", None,
 register("boundary_pressure", "mls", "sphkit.boundary.band2018:MLSPressureExtrapolation",
          paper="Band et al. 2018, Pressure boundaries for implicit incompressible SPH",
          summary="moving-least-squares extrapolation of the fluid pressure to the boundary "
-         "particles", boundary=("particles",), periodic=True)
+         "particles", boundary=("particles",), periodic=True, gpu=True)
 register("boundary_pressure", "hydrostatic", None,
          paper="Adami et al. 2012, A generalized wall boundary condition for SPH",
          summary="maps: p_b = p_i + rho_i g . (x_b - x_i), the walls' tangential moment",

@@ -92,6 +92,9 @@ helpers hide where the arrays live; each has a CPU and a CUDA version:
 
 from __future__ import annotations
 
+import ctypes
+import functools
+import os
 import sys
 import types
 from typing import Any
@@ -279,9 +282,32 @@ def register_typed(fn: Any, typer: Any) -> None:
         cuda_side.register_typed(fn, typer)
 
 
+#: the CUDA driver's library by platform (what numba-cuda loads; none on macOS)
+_DRIVER = {"win32": ("nvcuda.dll",), "darwin": ()}
+
+
+def _cuda_driver_present() -> bool:
+    """Whether the CUDA driver's library can be loaded (a fraction of a millisecond, without
+    importing ``numba.cuda``); ``NUMBA_CUDA_DRIVER`` (a driver of its own) and the CUDA
+    simulator (``NUMBA_ENABLE_CUDASIM=1``) are left to numba-cuda to judge."""
+    if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1" or os.environ.get("NUMBA_CUDA_DRIVER"):
+        return True
+    for name in _DRIVER.get(sys.platform, ("libcuda.so.1", "libcuda.so")):
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return False
+
+
+@functools.cache
 def cuda_available() -> bool:
-    """Whether numba-cuda finds a usable CUDA GPU (imports ``numba.cuda``: ask only when the
-    answer matters)."""
+    """Whether numba-cuda finds a usable CUDA GPU (asked once a process). Without a CUDA
+    driver the answer is no at once; else ``numba.cuda`` is imported to ask (about 0.5 s, and
+    :func:`device_of` then looks at its arguments): ask only when the answer matters."""
+    if not _cuda_driver_present():
+        return False
     try:
         from numba import cuda
 

@@ -59,11 +59,13 @@ over the pairs instead of three); PBF has no boundary pressure and gets no extra
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
-from sphkit.backend import launch, specialize
-from sphkit.core.arrays import row_chunks
+from sphkit.backend import device_of, exclusive_scan, histogram, launch, specialize, to_device
+from sphkit.core import arrays
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
 from sphkit.core.neighbors import INDEX
@@ -275,37 +277,75 @@ def mls_values(x: np.ndarray, q: np.ndarray, bx: np.ndarray, toff: np.ndarray,
            phase, out)
 
 
-@numba.njit(parallel=True, **_JIT)
-def mls_extrapolate(k, toff, tfluid, rows, chunks, coef, out):
+@numba.njit(inline="always", **_JIT)
+def extrapolate_body(a, rows, toff, tfluid, coef, k, out):
+    """``out[b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)`` at boundary sample ``b = rows[a]``."""
+    b = rows[a]
+    s = 0.0
+    for t in unsigned_range(toff[b], toff[b + 1]):
+        s += coef[t] * k[tfluid[t]]
+    out[b] = max(s, 0.0)
+
+
+@numba.njit(inline="always", **_JIT)
+def extrapolate_phases_body(a, rows, toff, tfluid, coef, phase, k, out):
+    """``out[q, b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)`` over the fluid neighbours f of phase
+    q of boundary sample ``b = rows[a]``, for every phase q (0 where none)."""
+    b = rows[a]
+    nq = out.shape[0]
+    for q in range(nq):
+        out[q, b] = 0.0
+    for t in unsigned_range(toff[b], toff[b + 1]):
+        f = tfluid[t]
+        out[phase[f], b] += coef[t] * k[f]
+    for q in range(nq):
+        out[q, b] = max(out[q, b], 0.0)
+
+
+def mls_extrapolate(k: np.ndarray, toff: np.ndarray, tfluid: np.ndarray, rows: np.ndarray,
+                    coef: np.ndarray, out: np.ndarray) -> None:
     """``out[b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)``: the boundary value ``p_b / rho0`` of the
-    fluid field k at the samples ``rows`` (:func:`fitted`), over the balanced ranges ``chunks``
-    of them (the other samples' entries are left as they are)."""
-    for c in numba.prange(chunks.shape[0] - 1):
-        for a in pair_slots(chunks, c):
-            b = rows[a]
-            s = 0.0
-            for t in pair_slots(toff, b):
-                s += coef[t] * k[tfluid[t]]
-            out[b] = max(s, 0.0)
+    fluid field k at the samples ``rows`` (:func:`fitted`; the other samples' entries are left
+    as they are)."""
+    launch(extrapolate_body, rows.shape[0], rows, toff, tfluid, coef, k, out)
 
 
-@numba.njit(parallel=True, **_JIT)
-def mls_extrapolate_phases(k, toff, tfluid, rows, chunks, coef, phase, out):
+def mls_extrapolate_phases(k: np.ndarray, toff: np.ndarray, tfluid: np.ndarray,
+                           rows: np.ndarray, coef: np.ndarray, phase: np.ndarray,
+                           out: np.ndarray) -> None:
     """``out[q, b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)`` over b's fluid neighbours f of phase
     q (coefficients of :func:`mls_coefficients` with the phases fitted on their own): one
     boundary value per phase (0 for a phase without fluid neighbours at b), at the samples
-    ``rows`` (:func:`fitted`), over the balanced ranges ``chunks`` of them."""
-    nq = out.shape[0]
-    for c in numba.prange(chunks.shape[0] - 1):
-        for a in pair_slots(chunks, c):
-            b = rows[a]
-            for q in range(nq):
-                out[q, b] = 0.0
-            for t in pair_slots(toff, b):
-                f = tfluid[t]
-                out[phase[f], b] += coef[t] * k[f]
-            for q in range(nq):
-                out[q, b] = max(out[q, b], 0.0)
+    ``rows`` (:func:`fitted`)."""
+    launch(extrapolate_phases_body, rows.shape[0], rows, toff, tfluid, coef, phase, k, out)
+
+
+@numba.njit(inline="always", cache=True)
+def transpose_body(i, boff, bidx, toff, rank, tfluid):
+    """Fluid particle i into the boundary -> fluid lists: ``tfluid[toff[b] + rank[k]] = i`` for
+    each of its pairs k with boundary sample ``b = bidx[k]`` (``rank``: the pair's place among
+    b's pairs, :func:`sphkit.backend.histogram`; the slots are distinct)."""
+    for k in unsigned_range(boff[i], boff[i + 1]):
+        tfluid[toff[bidx[k]] + rank[k]] = i
+
+
+def transposed(boff: Any, bidx: Any, nb: int) -> tuple[Any, Any]:
+    """CSR lists boundary -> fluid of the fluid -> boundary lists ``(boff, bidx)``: ``toff``
+    (nb + 1) and ``tfluid`` (the fluid particle of each pair), where the lists are. On the CPU
+    in fluid-index order within each sample (:func:`_transpose`, one serial pass, faster there
+    than the counting sort's three); on a device by the counting sort's histogram and scan and
+    :func:`transpose_body` (the order within a sample is that of the atomic increments)."""
+    dev = device_of(bidx)
+    if dev == "cpu":
+        return _transpose(boff, bidx, nb)
+    pairs = bidx.shape[0]
+    counts, rank = arrays.empty(nb, np.int64, like=bidx), arrays.empty(pairs, np.int64, like=bidx)
+    toff = arrays.empty(nb + 1, np.int64, like=bidx)
+    tfluid = arrays.empty(pairs, INDEX, like=bidx)
+    histogram(bidx, counts, rank, device=dev)
+    exclusive_scan(counts, toff, device=dev)
+    launch(transpose_body, boff.shape[0] - 1, boff, bidx, toff, rank, tfluid)
+    return toff, tfluid
 
 
 class MLSPressureExtrapolation(BoundaryPressure):
@@ -316,6 +356,10 @@ class MLSPressureExtrapolation(BoundaryPressure):
     before every evaluation of the pressure acceleration. ``use`` marks the boundary samples
     that are extrapolated; their ``pressure_mirror`` is set to 0 (the extrapolated value
     replaces the mirrored one) and :meth:`diagonal_mirror` is 1 there.
+
+    On a device (the boundary's fields device arrays) every pass runs there on the same bodies;
+    the samples fitted are then all of ``use``'s (those without fluid neighbours get 0), where
+    the CPU skips the ones without fluid neighbours (:func:`fitted`).
     """
 
     name = "mls"
@@ -325,13 +369,15 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.use = np.ascontiguousarray(use, dtype=np.bool_)
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
         self.rows = np.zeros(0, dtype=np.int64)  # the samples fitted this step (:func:`fitted`)
-        self.chunks = row_chunks(np.zeros(1, dtype=np.int64))  # balanced ranges of the rows
-        self._cleared: np.ndarray | None = None  # the output zeroed this step (:meth:`extrapolate`)
+        self._cleared: Any = None  # the output zeroed this step (:meth:`extrapolate`)
         self.tfluid = np.empty(0, dtype=INDEX)
-        self.coef: np.ndarray | None = np.empty(0)  # this step's, once computed (:meth:`prepare`)
+        self.coef: Any = np.empty(0)  # this step's, once computed (:meth:`prepare`)
         self._fit_args: tuple = ()
         self.phase: np.ndarray | None = None  # the fluid's phases where fitted on their own
-        self._share: np.ndarray | None = None  # :meth:`diagonal_mirror`, once made
+        #: ``use`` where the boundary's fields are: (the flags, the share of
+        #: :meth:`diagonal_mirror`, the flagged samples), made once per device and dtype
+        self._on: dict[tuple[str, Any], tuple[Any, Any, Any]] = {}
+        self._share: Any = None  # :meth:`diagonal_mirror`'s, as of the last :meth:`prepare`
 
     def init(self, state: SimState) -> None:
         """Turn mirroring off where the extrapolation replaces it."""
@@ -341,12 +387,20 @@ class MLSPressureExtrapolation(BoundaryPressure):
                              f"{b.n} boundary particles")
         b["pressure_mirror"][self.use] = 0.0
 
+    def _flags(self, like: Any) -> tuple[Any, Any, Any]:
+        """``use``, its share (1 where extrapolated, in ``like``'s dtype) and the indices of
+        the samples it flags, on ``like``'s device."""
+        key = (device_of(like), like.dtype)
+        if key not in self._on:
+            dev = key[0]
+            self._on[key] = (to_device(self.use, dev), to_device(self.use.astype(like.dtype), dev),
+                             to_device(np.flatnonzero(self.use).astype(np.int64), dev))
+        return self._on[key]
+
     def diagonal_mirror(self) -> np.ndarray:
         """Mirror share used in the Jacobi diagonals (the mirrored form, see the docstring):
-        1 where extrapolated (made once: ``use`` does not change)."""
-        if self._share is None:
-            self._share = self.use.astype(np.float64)
-        return self._share
+        1 where extrapolated, where the boundary's fields are (as of :meth:`prepare`)."""
+        return self._share if self._share is not None else self.use.astype(np.float64)
 
     def prepare(self, state: SimState) -> None:
         """This step's boundary -> fluid lists; the coefficients follow at the first
@@ -358,19 +412,20 @@ class MLSPressureExtrapolation(BoundaryPressure):
                              f"{b.n} boundary particles (the boundary changed after the model "
                              "was made)")
         nb = state.nl_fb
-        self.toff, self.tfluid = _transpose(nb.offsets, nb.indices, b.n)
-        self.rows, self.chunks = fitted(self.toff, self.use)
+        _, self._share, flagged = self._flags(b["x"])
+        self.toff, self.tfluid = transposed(nb.offsets, nb.indices, b.n)
+        self.rows = fitted(self.toff, self.use) if device_of(b["x"]) == "cpu" else flagged
         self._cleared = None
         self.phase = per_phase(state)
-        self._fit_args = (f["x"], f["rho"] / f["rho0"], b["x"], state.h, state.kid, state.dim,
-                          state.pair_period, self._phase_rows(f.n))
+        self._fit_args = (f["x"], arrays.divided_by(f["rho"], f["rho0"]), b["x"], state.h,
+                          state.kid, state.dim, state.pair_period, self._phase_rows(f))
         self.coef = None
 
-    def _coefficients(self) -> np.ndarray:
+    def _coefficients(self) -> Any:
         """This step's coefficients (:func:`mls_coefficients`), computed at the first call."""
         if self.coef is None:
             x, rho_hat, bx, h, kid, dim, L, phase = self._fit_args
-            self.coef = np.empty(self.tfluid.shape[0], dtype=x.dtype)
+            self.coef = arrays.empty(self.tfluid.shape[0], x.dtype, like=x)
             mls_coefficients(x, rho_hat, bx, self.toff, self.tfluid, self.rows, h,
                              kid, dim, L, self.ridge, self.coef, phase, self.phases)
         return self.coef
@@ -381,55 +436,54 @@ class MLSPressureExtrapolation(BoundaryPressure):
         own (:meth:`extrapolate` then fills ``out`` of shape (phases, N_boundary)), else 1."""
         return int(self.phase.max()) + 1 if self.phase is not None else 1
 
-    def _phase_rows(self, n: int) -> np.ndarray:
-        """The row of each of the n fluid particles in the per-phase passes: :attr:`phase`, or
-        zeros where one fit serves all (one row)."""
-        return self.phase if self.phase is not None else np.zeros(n, dtype=np.int64)
+    def _phase_rows(self, fluid: Any) -> Any:
+        """The row of each fluid particle in the per-phase passes: :attr:`phase`, or zeros
+        where one fit serves all (one row), where the fluid's fields are."""
+        if self.phase is not None:
+            return self.phase
+        return arrays.zeros(fluid.n, np.int64, like=fluid["x"])
 
-    def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:
+    def correct_mirrored(self, state: SimState, a: Any) -> None:
         """For a state-equation solver (WCSPH) whose boundary term mirrored ``p_b = p_i``:
         add to ``a`` the change to the extrapolated boundary pressure
         (:func:`sphkit.core.operators.replace_mirrored`)."""
         f, b = state.fluid, state.boundary
-        kb = np.zeros((self.phases, b.n), dtype=f.dtype)
+        kb = arrays.zeros((self.phases, b.n), f.dtype, like=f["x"])
         rest = state.rest()
+        phase = self._phase_rows(f)
         # kb = p_b / rho0_ref, one row per phase fitted on its own: the fit of p / rho0_ref
-        mls_values(f["x"], f["p"] / state.rho0, b["x"], self.toff, self.tfluid, self.rows,
-                   state.h, state.kid, state.dim, state.pair_period, self.ridge,
-                   self._phase_rows(f.n), kb)
+        mls_values(f["x"], arrays.divided(f["p"], state.rho0), b["x"], self.toff, self.tfluid,
+                   self.rows, state.h, state.kid, state.dim, state.pair_period, self.ridge,
+                   phase, kb)
         replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
-                         state.nl_fb.offsets, state.nl_fb.indices, self.use, kb,
-                         self._phase_rows(f.n), state.h, state.kid, state.dim,
-                         state.pair_period, a)
+                         state.nl_fb.offsets, state.nl_fb.indices, self._flags(b["x"])[0], kb,
+                         phase, state.h, state.kid, state.dim, state.pair_period, a)
 
-    def extrapolate(self, k: np.ndarray, out: np.ndarray) -> None:
+    def extrapolate(self, k: Any, out: Any) -> None:
         """``out[b] = p_b / rho0`` of the fluid field k (see :func:`mls_extrapolate`); with the
         phases fitted on their own ``out[q, b]``, (phases, N_boundary)
         (:func:`mls_extrapolate_phases`)."""
         coef = self._coefficients()
         if self._cleared is not out:  # the step's first call into out: 0 where nothing is fitted
-            out.fill(0.0)
+            arrays.fill(out, 0.0)
             self._cleared = out
         if out.ndim == 2:
-            mls_extrapolate_phases(k, self.toff, self.tfluid, self.rows, self.chunks, coef,
-                                   self.phase, out)
+            mls_extrapolate_phases(k, self.toff, self.tfluid, self.rows, coef, self.phase, out)
         else:
-            mls_extrapolate(k, self.toff, self.tfluid, self.rows, self.chunks, coef, out)
+            mls_extrapolate(k, self.toff, self.tfluid, self.rows, coef, out)
 
 
-def fitted(toff: np.ndarray, use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def fitted(toff: np.ndarray, use: np.ndarray) -> np.ndarray:
     """The samples that are extrapolated (``use``) and have fluid neighbours (rows of the
-    boundary -> fluid lists ``toff`` that are not empty), and balanced ranges of them for the
-    parallel loops (:func:`sphkit.core.arrays.row_chunks` of their rows): most wall samples
-    are far from the fluid, and the passes skip them."""
-    rows, offsets = _fitted_rows(toff, use)
-    return rows, row_chunks(offsets)
+    boundary -> fluid lists ``toff`` that are not empty): most wall samples are far from the
+    fluid, and the passes skip them."""
+    return _fitted_rows(toff, use)
 
 
 @numba.njit(**_JIT)
 def _fitted_rows(toff, use):
-    """:func:`fitted`'s rows and the CSR offsets of their lists (one pass: its NumPy form, five
-    array operations over all samples, took 65 us a step at 18,002 samples)."""
+    """:func:`fitted`'s rows (one pass: its NumPy form, five array operations over all samples,
+    took 65 us a step at 18,002 samples)."""
     nb = use.shape[0]
     rows = np.empty(nb, dtype=np.int64)
     m = 0
@@ -437,12 +491,7 @@ def _fitted_rows(toff, use):
         if use[b] and toff[b + 1] > toff[b]:
             rows[m] = b
             m += 1
-    offsets = np.empty(m + 1, dtype=np.int64)
-    offsets[0] = 0
-    for r in range(m):
-        b = rows[r]
-        offsets[r + 1] = offsets[r] + (toff[b + 1] - toff[b])
-    return rows[:m].copy(), offsets
+    return rows[:m].copy()
 
 
 def per_phase(state: SimState) -> np.ndarray | None:

@@ -331,39 +331,3 @@ def divided_by(x: Any, y: Any) -> Any:
     out = empty_like(x)
     launch(quotient_body, x.shape[0], x, y, out)
     return out
-
-
-def row_chunks(offsets: np.ndarray, parts: int | None = None) -> np.ndarray:
-    """Bounds (parts + 1,) of contiguous row ranges of CSR lists with about the same work
-    each, a row's work being its entries plus an eighth (an empty row costs little but not
-    nothing): chunk c is rows ``bounds[c]:bounds[c + 1]``.
-
-    A parallel loop over the chunks (``prange(parts)``) instead of over the rows balances lists
-    whose filled rows lie together, as the wall samples' lists of fluid neighbours do (only the
-    samples under the fluid have any: a loop over rows gave one thread all the work). ``parts``
-    defaults to four per thread of the compiled loops."""
-    if parts is None:
-        parts = 4 * numba.get_num_threads()
-    return _row_chunks(offsets, parts)
-
-
-@numba.njit(cache=True)
-def _row_chunks(offsets, parts):
-    """:func:`row_chunks`: each bound is the first row whose work up to it reaches its share
-    (a bisection over the rows, the work up to row i being ``offsets[i] - offsets[0] + i / 8``)."""
-    n = offsets.shape[0] - 1
-    total = (offsets[n] - offsets[0]) + n / 8.0
-    bounds = np.empty(parts + 1, dtype=np.int64)
-    bounds[0] = 0
-    bounds[parts] = n
-    for c in range(1, parts):
-        target = total * c / parts
-        lo, hi = bounds[c - 1], n  # the first row i in [lo, hi] whose work reaches target
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if (offsets[mid] - offsets[0]) + mid / 8.0 >= target:
-                hi = mid
-            else:
-                lo = mid + 1
-        bounds[c] = lo
-    return bounds

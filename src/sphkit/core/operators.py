@@ -30,6 +30,7 @@ pair helpers (:mod:`sphkit.core.pairs`).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
@@ -154,8 +155,30 @@ def pressure_accel_cpu(x: np.ndarray, m: np.ndarray, rho: np.ndarray, p: np.ndar
            float(h), int(kid), int(dim), a, period_arg(L), c, inv_c)
 
 
-@numba.njit(parallel=True, **_JIT)
-def replace_mirrored(x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, phase, h, kid, dim, L, a):
+@numba.njit(inline="always", **_JIT)
+def replace_mirrored_body(i, x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, phase, h, kid, dim,
+                          L, a):
+    """Particle i of :func:`replace_mirrored`."""
+    xi0, xi1, xi2 = point(x, i, dim)
+    ki = p[i] / rho0[i]
+    ici = inv_c[i]
+    ph = phase[i]
+    a0 = a1 = a2 = 0.0
+    for k in pair_slots(boff, i):
+        b = bidx[k]
+        if not use[b]:
+            continue
+        d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
+        s = -bV[b] * (kb[ph, b] * ici - ki) * kernel_dw(kid, r, h, dim)
+        a0 += s * d0
+        a1 += s * d1
+        a2 += s * d2
+    add_vector(a, i, dim, a0, a1, a2)
+
+
+def replace_mirrored(x: Any, p: Any, rho0: Any, inv_c: Any, bx: Any, bV: Any, boff: Any,
+                     bidx: Any, use: Any, kb: Any, phase: Any, h: float, kid: int, dim: int,
+                     L: Any, a: Any) -> None:
     """WCSPH: swap the mirrored boundary pressure ``p_b = p_i`` of :func:`pressure_accel_body`'s
     boundary term ``-sum_b rho0_i V_b (p_i / rho_i^2 + p_b / rho0_i^2) grad W_ib`` for another,
     ``a_i -= sum_b V_b (k_b / c_i - p_i / rho0_i) grad W_ib`` over the samples with ``use[b]``
@@ -164,22 +187,8 @@ def replace_mirrored(x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, phase, h, k
     density, ``inv_c`` = ``rho0_ref / rho0_i``, :class:`sphkit.core.state.RestArrays`). ``kb``
     holds a row per phase (``kb[phase[i], b]``: the phases fitted on their own; one row and
     phases 0 otherwise)."""
-    for i in numba.prange(x.shape[1]):
-        xi0, xi1, xi2 = point(x, i, dim)
-        ki = p[i] / rho0[i]
-        ici = inv_c[i]
-        ph = phase[i]
-        a0 = a1 = a2 = 0.0
-        for k in pair_slots(boff, i):
-            b = bidx[k]
-            if not use[b]:
-                continue
-            d0, d1, d2, r = separation(xi0, xi1, xi2, bx, b, dim, L)
-            s = -bV[b] * (kb[ph, b] * ici - ki) * kernel_dw(kid, r, h, dim)
-            a0 += s * d0
-            a1 += s * d1
-            a2 += s * d2
-        add_vector(a, i, dim, a0, a1, a2)
+    launch(replace_mirrored_body, x.shape[1], x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb,
+           phase, h, kid, int(dim), L, a)
 
 
 # ---------------------------------------------------------------------------------------------
