@@ -70,6 +70,12 @@ def fluid_blocks(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
                 f"to exceed start {start} on every axis after scale and translation "
                 f"(block {lo} .. {hi})",
             )
+        if not all(math.isfinite((h - l) / (2.0 * r)) for l, h in zip(lo, hi, strict=True)):
+            raise rd.error(
+                f"{w}.start", start,
+                f"a block whose extent in particle diameters is a finite number (block {lo} .. "
+                f"{hi} with end {end}, particle radius {r} m)",
+            )
         n = len(out)
         block: dict[str, Any] = {"start": [l + r for l in lo]}
         if mode:  # SPlisHSPlasH's denser lattices, sampled for its box [lo, hi]
