@@ -55,14 +55,14 @@ import time
 
 import numpy as np
 
-from sphkit.backend import cuda_available, launch, launch_reduce, to_device
+from sphkit.backend import cuda_available, launch, to_device
 from sphkit.core.hashgrid import HashGrid, hash_origin
 from sphkit.core.kernels import lattice_volume
 from sphkit.core.ppe import (
-    density_pair_gradients_body,
-    diagonal_body,
-    jacobi_body,
-    kappa_accel_body,
+    density_pair_gradients,
+    diagonal_cached,
+    jacobi_sweep,
+    kappa_accel_cached,
 )
 from sphkit.viscosity.standard import standard_body
 
@@ -101,6 +101,7 @@ class Passes:
         self.m = on(np.full(n, RHO0 * V0))
         self.V = on(np.full(n, V0))
         self.c = on(np.ones(n))
+        self.rho0 = on(np.full(n, RHO0))  # each particle's rest density (the viscosity's)
         self.bV = on(np.full(nb, (2 * R) ** 3))
         self.bv = on(np.zeros((3, nb)))
         self.bn = on(np.zeros((3, nb)))
@@ -140,35 +141,32 @@ class Passes:
         self.nl = self.grid.query(self.x, exclude_self=True)
         self.nb_ = self.walls.query(self.x)
 
+    # the passes through the step's own wrappers (their arguments as the step passes them)
     def density_grads(self) -> None:
         """The density and the cached pair gradients."""
-        launch(density_pair_gradients_body, self.n, self.x, self.m, self.nl.offsets,
-               self.nl.indices, self.bx, self.bV, self.nb_.offsets, self.nb_.indices, RHO0,
-               self.h, 0, 3, self.rho, self.gw, self.gwb, 0.0, self.V, self.c,
-               device=self.device)
+        density_pair_gradients(self.x, self.m, self.nl.offsets, self.nl.indices, self.bx,
+                               self.bV, self.nb_.offsets, self.nb_.indices, RHO0, self.h, 0, 3,
+                               self.rho, self.gw, self.gwb, 0.0, V=self.V, c=self.c)
 
     def diagonal(self) -> None:
         """The PPE diagonal from the cached gradients."""
-        launch(diagonal_body, self.n, self.nl.offsets, self.nl.indices, self.nb_.offsets,
-               self.nb_.indices, self.mirror, self.gw, self.gwb, 3, False, self.c, self.c,
-               self.D, device=self.device)
+        diagonal_cached(self.nl.offsets, self.nb_.offsets, self.nb_.indices, self.mirror,
+                        self.gw, self.gwb, 3, self.D)
 
     def viscosity(self) -> None:
-        """The standard viscosity, boundary term included."""
-        launch(standard_body, self.n, self.x, self.v, self.m, self.rho, self.nl.offsets,
-               self.nl.indices, self.bx, self.bv, self.bV, self.bn, self.bd, self.bf,
-               self.nb_.offsets, self.nb_.indices, 1e-3, 1e-3, 0.0, 0.01, RHO0, self.h, 0, 3,
-               0.0, self.a, device=self.device)
+        """The standard viscosity from the cached pair gradients, boundary term included."""
+        launch(standard_body, self.n, self.x, self.v, self.m, self.rho0, self.rho,
+               self.nl.offsets, self.nl.indices, self.gw, True, self.bx, self.bv, self.bV,
+               self.bn, self.bd, self.bf, self.nb_.offsets, self.nb_.indices, 1e-3, 1e-3, 0.0,
+               0.01, RHO0, self.h, 0, 3, 0.0, self.a)
 
     def jacobi(self) -> tuple[float, float]:
         """One Jacobi iteration: kappa acceleration, then the sweep with its reduction."""
-        launch(kappa_accel_body, self.n, self.k, self.kb, self.nl.offsets, self.nl.indices,
-               self.nb_.offsets, self.nb_.indices, self.mirror, self.gw, self.gwb, 3, self.a,
-               self.c, device=self.device)
-        return launch_reduce(jacobi_body, self.n, self.a, self.bv, self.nl.offsets,
-                             self.nl.indices, self.nb_.offsets, self.nb_.indices, self.gw,
-                             self.gwb, 3, self.q, self.s, 1.0, self.scale, 0.5, self.active,
-                             self.w, self.k, 0.0, 0.0, device=self.device)
+        kappa_accel_cached(self.k, self.kb, self.nl.offsets, self.nl.indices, self.nb_.offsets,
+                           self.nb_.indices, self.mirror, self.gw, self.gwb, 3, self.a)
+        return jacobi_sweep(self.a, self.bv, self.nl.offsets, self.nl.indices,
+                            self.nb_.offsets, self.nb_.indices, self.gw, self.gwb, 3, self.q,
+                            self.s, 1.0, self.scale, 0.5, self.active, self.w, self.k)
 
     def bytes_moved(self, name: str) -> float:
         """:func:`pass_bytes` of this block (float64 fields)."""

@@ -7,7 +7,8 @@
 # 2. in the background, pinned to two other cores: the CPU rows of benchmarks/gpu.py at
 #    CPU_SIZE particles with two threads (passes and whole DFSPH steps: the ratio's denominator);
 # 3. whole DFSPH steps on the GPU at SIZES particles (benchmarks/gpu.py --no-passes);
-# 4. validation/device_agreement.py (every solver, GPU float32 against CPU float64);
+# 4. validation/device_agreement.py (every solver, GPU float32 against CPU float64; the walls'
+#    default MLS boundary pressure: the mirrored one was checked on an H200 on 2026-12-04);
 # 5. the per-pass timings on the GPU at SIZES (benchmarks/gpu.py);
 # 6. the real-GPU test of tests/test_cuda_simulator.py.
 # Every part writes its JSON and log under $OUT as it goes and has its own time limit, so a run
@@ -64,7 +65,8 @@ gpu timeout $(t 200) "$PY" benchmarks/gpu.py --only cuda --no-passes --sizes $SI
   --json "$OUT/steps.json" 2>&1 | tee -a "$OUT/session.log"; echo "rc $?"
 echo "== agreement"
 # shellcheck disable=SC2086
-gpu timeout $(t 130) "$PY" validation/device_agreement.py $AGREE --json "$OUT/agree.json" 2>&1 \
+gpu timeout $(t 130) "$PY" validation/device_agreement.py --boundary-pressure mls $AGREE \
+  --json "$OUT/agree.json" 2>&1 \
   | tee -a "$OUT/session.log"; echo "rc $?"
 echo "== passes"
 # shellcheck disable=SC2086
