@@ -321,13 +321,17 @@ SCRIPT = textwrap.dedent(
     # one whole step of WCSPH (state equation, pressure force), IISPH (its setup and the Jacobi
     # solve), PCISPH (prediction, density at x*, the factor's cap check (no particle capped
     # here), pressure update) and PBF (prediction, the two projection passes with the artificial
-    # pressure, the velocity update), the rest as above, on both devices in float64
+    # pressure, the velocity update), the rest as above, on both devices in float64; WCSPH with
+    # the MLS walls (its own once-a-step fit of the values and the swap of the mirrored term),
+    # the others mirrored (their MLS passes are DFSPH's, above; each launch here costs a
+    # Python thread per particle)
     scene["configuration"]["precision"] = "float64"
     scene["configuration"]["start"] = {"settle": False}  # hundreds of steps under the simulator
     pressure = {"wcsph": {"stiffness": 1000.0}, "iisph": {"max_error": 0.5},
                 "pcisph": {"max_error": 0.5}, "pbf": {"max_error": 0.5, "pbf_s_corr": True}}
     for method in ("wcsph", "iisph", "pcisph", "pbf"):
         scene["configuration"]["pressure"] = {"method": method, **pressure[method]}
+        scene["configuration"]["boundary"]["pressure"] = "mls" if method == "wcsph" else "mirror"
         out, its = {}, {}
         for device in ("cpu", "cuda"):
             sim = Simulation(Scene.model_validate(scene), device=device)

@@ -64,7 +64,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from sphkit.backend import device_of, exclusive_scan, histogram, launch, specialize, to_device
+from sphkit.backend import device_of, exclusive_scan, histogram, launch, to_device
 from sphkit.core import arrays
 from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryPressure
@@ -258,10 +258,6 @@ def values_body(a, rows, toff, tfluid, x, q, bx, h, kid, dim, L, ridge, phase, o
                        ridge, dim)
         value = y[0] if ok else (r0 / m00 if m00 > 0.0 else 0.0)
         out[ph, b] = max(value, 0.0)
-
-
-specialize(coefficients_body, "kid", "dim")
-specialize(values_body, "kid", "dim")
 
 
 def mls_values(x: np.ndarray, q: np.ndarray, bx: np.ndarray, toff: np.ndarray,
