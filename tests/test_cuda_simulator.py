@@ -12,14 +12,14 @@ whole DFSPH time step of ``Simulation(..., device="cuda")`` (tiny 3D scene: Akin
 default MLS boundary pressure, standard viscosity, the search of fluid and walls in 3D) against the
 CPU's, with the fields resident on the device, in float64 and in float32 (the device's default;
 against the CPU's float64 step), and one whole WCSPH, IISPH, PCISPH and PBF step (their
-per-particle passes bodies too) likewise in float64, one DFSPH step of a material with Weiler 2018
-viscosity (its CG on the device), Akinci 2013 surface tension and micropolar vorticity, a DFSPH
-step with static density maps and with volume maps (their queries and packing as bodies), and two
-steps with an emitter (its layers appended to the fields on the device, and particles reused
-there). Each kernel launch under the simulator starts a Python thread per particle, so the cases
-are as small as their checks allow. Where a CUDA GPU is present the same script also runs on it
-(skipped otherwise, e.g. in CI). The subprocess also checks that importing sphkit and running on
-the CPU does not import numba.cuda.
+per-particle passes bodies too; WCSPH's with the MLS walls, the others' mirrored) in float64, one
+DFSPH step of a material with Weiler 2018 viscosity (its CG on the device), Akinci 2013 surface
+tension and micropolar vorticity, a DFSPH step with static density maps and with volume maps (their
+queries and packing as bodies), and two steps with an emitter (its layers appended to the fields on
+the device, and particles reused there). Each kernel launch under the simulator starts a Python
+thread per particle, so the cases are as small as their checks allow. Where a CUDA GPU is present
+the same script also runs on it (skipped otherwise, e.g. in CI). The subprocess also checks that
+importing sphkit and running on the CPU does not import numba.cuda.
 """
 
 from __future__ import annotations
