@@ -16,7 +16,8 @@ default). It prints per solver:
 * the densities after the first step, GPU against CPU (largest relative difference over the
   particles, matched by id): the issue's bound is 1e-5 in float32;
 * the mean iterations per step and the mean average density error over the steps on each
-  device, and their relative differences: the issue's bound is 5 %;
+  device, and their relative differences: the issue's bound is 5 % (mean errors both below
+  1e-7 of rho0 agree: their ratio means nothing);
 
 and PASS or FAIL per bound. Without a GPU it says so and stops (exit 2). Under
 ``NUMBA_ENABLE_CUDASIM=1`` it runs the simulator, for a check of the script itself
@@ -39,6 +40,9 @@ from sphkit.simulation import Simulation
 
 #: the issue's bounds: densities after one step (float32), iterations and density error (mean)
 RHO_BOUND, MEAN_BOUND = 1e-5, 0.05
+#: mean density errors both below this (a fraction of rho0) agree: their ratio means nothing
+#: (the simulator's 8-particle self-check, where PBF's are 0 to four digits)
+ERROR_FLOOR = 1e-7
 
 
 def scene(method: str, r: float, dt: float, precision: str | None,
@@ -104,8 +108,9 @@ def main(argv: list[str] | None = None) -> int:
         its = (float(cpu["iterations"].mean()), float(gpu_run["iterations"].mean()))
         err = (float(cpu["error"].mean()), float(gpu_run["error"].mean()))
         d_its, d_err = rel_diff(its[1], its[0]), rel_diff(err[1], err[0])
+        tiny = max(err) <= ERROR_FLOOR
         good = (drho <= RHO_BOUND or args.precision == "float64" and drho <= 1e-12) and \
-            d_its <= MEAN_BOUND and d_err <= MEAN_BOUND
+            d_its <= MEAN_BOUND and (d_err <= MEAN_BOUND or tiny)
         ok &= good
         print(f"{method:8} {cpu['n']:6d} {drho:11.2e} {its[0]:8.2f} {its[1]:8.2f} "
               f"{100 * d_its:6.2f}% {100 * err[0]:10.4f} {100 * err[1]:10.4f} "
@@ -113,7 +118,8 @@ def main(argv: list[str] | None = None) -> int:
         rows.append({"solver": method, "particles": cpu["n"], "rho_after_one_step": drho,
                      "iterations": its, "density_error": err, "pass": good})
     print(f"bounds: densities after one step {RHO_BOUND:g} (float32), means over "
-          f"{args.steps} steps within {100 * MEAN_BOUND:g} %")
+          f"{args.steps} steps within {100 * MEAN_BOUND:g} % (mean errors both below "
+          f"{ERROR_FLOOR:g} agree)")
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"steps": args.steps, "radius": args.radius, "dt": args.dt,
