@@ -460,3 +460,34 @@ def test_scratch_views_are_aligned_and_share_the_block() -> None:
     assert a.sum() == 21.0 and b.sum() == 35 and c.sum() == 12.0  # the views do not overlap
     (d,) = s.take(((4,), np.float64))  # a smaller take lies in the same memory
     assert d.ctypes.data == a.ctypes.data
+
+
+def test_a_grown_row_width_is_kept_for_the_slot(grid_mode: str) -> None:
+    # A search whose rows overflow is redone wider; with a scratch and a slot (the step's
+    # searches) the width it grew to is kept, so the next step's search of that slot (a new
+    # Grid, as every step builds one) starts wide enough and fills its rows once, not twice.
+    import sphkit.core.neighbors as nb
+    from sphkit.core.arrays import Scratch
+
+    x = np.random.default_rng(42).uniform(0.0, 1.0, size=(3, 2000))
+    h = 0.12  # about 14 neighbours a point
+    dense = Grid(x, h).dense
+    name, at = ("_dense_cell_query", 15) if dense else ("_query", 10)  # the row width's place
+    widths = []
+    real = getattr(nb, name)
+
+    def counted(*args):  # noqa: ANN002, ANN202 - the compiled search's arguments, passed on
+        widths.append(args[at])
+        return real(*args)
+
+    scratch = Scratch()
+    lists = []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(nb, name, counted)
+        for _ in range(2):
+            grid = Grid(x, h)
+            grid.capacity = 3  # fewer slots than the points' neighbours
+            lists.append(grid.query_own(x, scratch=scratch, slot="fluid"))
+    assert len(widths) == 3 and widths[0] == 3 and widths[1] == widths[2] > 3, widths
+    assert scratch.widths["fluid"] == widths[1]
+    _assert_lists(lists[1], _brute(x, x, h, exclude_self=True), x.shape[1])

@@ -172,6 +172,10 @@ class Scratch:
     def __init__(self) -> None:
         self._block = np.empty(0, dtype=np.float64)
         self._kept: dict[str, Scratch] = {}
+        #: per slot, the row width (slots per query point) its neighbour search last grew to:
+        #: the next step's search starts there instead of overflowing and searching twice
+        #: (:meth:`sphkit.core.neighbors.Grid.query`)
+        self.widths: dict[str, int] = {}
 
     @property
     def nbytes(self) -> int:

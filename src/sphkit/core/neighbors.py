@@ -416,8 +416,12 @@ class Grid:
         """CSR lists of m query points from ``fill(cap, rows, counts)``, which writes them into
         rows of ``cap`` slots (repeated with a larger ``cap`` when a row overflows); their
         indices in ``scratch``'s memory kept for ``slot`` (:meth:`sphkit.core.arrays.Scratch.
-        kept`) where both are given, else in an array of their own."""
-        cap = self.capacity
+        kept`) where both are given, else in an array of their own. The row width a slot's
+        search grew to is kept there too (:attr:`sphkit.core.arrays.Scratch.widths`): a scene
+        with more neighbours than :attr:`capacity` (a compressed start, dense wall samples)
+        searches once a step, not twice."""
+        remember = scratch is not None and slot is not None
+        cap = max(self.capacity, scratch.widths.get(slot, 0)) if remember else self.capacity
         while True:
             if scratch is None:
                 rows, counts = np.empty(m * cap, dtype=INDEX), np.empty(m, dtype=np.int64)
@@ -432,6 +436,8 @@ class Grid:
                 _compact(rows, offsets, cap, indices)
                 return NeighborList(offsets, indices)
             cap = int(largest) + 8  # rare: a denser neighbourhood than ever seen; redo
+            if remember:
+                scratch.widths[slot] = cap
 
     #: slots per query point of the one-pass search (grown on demand, see :meth:`query`)
     capacity: int = 64
