@@ -13,6 +13,7 @@ import pytest
 
 from sphkit.backend import cuda_available
 from sphkit.cli import main
+from sphkit.cli.common import COMPILING
 from sphkit.io.frames import FrameWriter, read_frame
 from sphkit.io.manifest import read_manifest
 
@@ -119,6 +120,10 @@ def test_tiny_run_writes_frames_and_manifest(tiny_run: dict) -> None:
     out: Path = tiny_run["out"]
     manifest = read_manifest(out)
     assert manifest["status"] == "finished" and manifest["message"] is None
+    # Numba's compilations of the run are timed; the first one is said (a cold cache: every
+    # pass; a warm one: none)
+    assert manifest["compile_seconds"] >= 0.0
+    assert (COMPILING in tiny_run["err"]) == (manifest["compile_seconds"] > 0.0)
     frames = manifest["frames"]
     assert [f["frame"] for f in frames] == [0, 1, 2]
     assert frames[-1]["time"] >= 0.05 - 1e-9

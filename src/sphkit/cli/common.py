@@ -65,6 +65,25 @@ def say(args: argparse.Namespace, text: str) -> None:
     log.info(text, extra={"console": False})
 
 
+#: the line said as a run's first compilation starts (:func:`watch_compiles`)
+COMPILING = ("compiling with Numba: the first run of these methods on this machine (about a "
+             "minute for the default scene; cached for the next runs)")
+
+
+def watch_compiles(args: argparse.Namespace) -> Any:
+    """Start the command's :class:`sphkit.backend.compiling.CompileWatch` (kept as
+    ``args.compile_watch``; call once the simulation's modules are imported): its first
+    compilation is announced with :data:`COMPILING` (unless ``--quiet``), since a first run
+    pauses for up to a minute before its first step with no progress to show."""
+    from sphkit.backend.compiling import CompileWatch
+
+    watch = getattr(args, "compile_watch", None)
+    if watch is None:
+        watch = CompileWatch(on_first=lambda: say(args, COMPILING)).start()
+        args.compile_watch = watch
+    return watch
+
+
 def open_log(args: argparse.Namespace, folder: Path) -> None:
     """Append the command's log to ``sphkit.log`` in ``folder`` (a run folder)."""
     session = getattr(args, "log_session", None)

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sphkit.cli.common import EXIT_USAGE, error
+from sphkit.cli.common import EXIT_USAGE, error, watch_compiles
 from sphkit.io.checkpoint import (
     CHECKPOINT_DIR,
     Checkpoint,
@@ -83,6 +83,8 @@ def prepare_resume(args: argparse.Namespace, argv: Sequence[str]) -> Resume | in
     (2)."""
     from sphkit.scene.schema import SceneError
     from sphkit.simulation import Simulation
+
+    watch_compiles(args)  # restoring the world compiles on a first run too
 
     out_dir = Path(args.resume)
     given = [name for name, value in (("SCENE", args.scene), ("--fps", args.fps),

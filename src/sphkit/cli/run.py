@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from sphkit.cli.common import (
+    COMPILING,
     EXIT_FAILED,
     EXIT_INTERRUPTED,
     EXIT_OK,
@@ -48,6 +49,7 @@ from sphkit.cli.common import (
     error,
     positive_float,
     positive_int,
+    watch_compiles,
 )
 from sphkit.cli.progress import Reporter, fmt, reporter
 from sphkit.cli.resume import CheckpointSchedule, prepare_resume
@@ -219,6 +221,7 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
         # imported once the scene has been read, so that an error in it is reported at once
         from sphkit.simulation import Simulation
 
+        watch_compiles(args)  # the world's build compiles too (walls, start-up)
         # a Ctrl-C that a library swallowed while the modules were imported (scipy and trimesh
         # catch every exception around some imports): stop before building the world (seconds
         # of sampling, start-up and compiling) rather than after it
@@ -239,6 +242,16 @@ def _build_new_run(args: argparse.Namespace) -> tuple[Any, Any] | int:
 
 def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     """``sphkit run``: simulate, write frames and the manifest; return the exit code."""
+    args.compile_watch = None  # this run's (cli.common.watch_compiles), stopped at its end
+    try:
+        return _run(args, argv)
+    finally:
+        if args.compile_watch is not None:
+            args.compile_watch.stop()
+
+
+def _run(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    """:func:`cmd_run`'s run."""
     resume = None
     if getattr(args, "resume", None) is not None:
         resume = prepare_resume(args, argv)
@@ -302,6 +315,10 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         return EXIT_FAILED
 
     report = reporter(until, args.quiet, sys.stderr)
+    watch = watch_compiles(args)
+    compiled_before = watch.seconds  # while the world was built (before the run's clock)
+    if not args.quiet:  # a first compilation from here on is said above the progress line
+        watch.on_first = lambda: _say(report, COMPILING)
     if session is not None and not args.quiet:
         session.console = report.message
     log.info("sphkit %s: %s", sphkit_version(), " ".join(["sphkit", *argv]),
@@ -368,6 +385,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
             return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
         if args.checkpoint_every is not None:
             checkpoints.write(sim)  # the end state, to extend the run with --resume --until
+        manifest.data["compile_seconds"] = round(watch.seconds, 3)
         manifest.finish("finished", stats=sim.last)
     except InstabilityError as e:
         _finish(manifest, "unstable", str(e), e.stats)
@@ -396,9 +414,14 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
                   f"density error {fmt(rs.mean('density_error'), '.3g', 100, '%')})")
     _say(report,
         f"finished: {len(manifest.frames)} frame(s), {sim.step_count} steps{solver} in "
-        f"{wall:.1f} s; output in {out_dir}"
+        f"{wall:.1f} s{_compiling(watch.seconds - compiled_before)}; output in {out_dir}"
     )
     return EXIT_OK
+
+
+def _compiling(seconds: float) -> str:
+    """`` (N s of it compiling)`` where Numba compiled for a tenth of a second or more."""
+    return f" ({seconds:.1f} s of it compiling)" if seconds >= 0.1 else ""
 
 
 def _finish(manifest: Manifest, status: str, message: str, stats: Any) -> None:
