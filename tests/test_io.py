@@ -240,3 +240,38 @@ def test_manifest_solver_statistics(tmp_path: Path) -> None:
     assert data["last_step"]["iterations"] == 3
     assert "divergence_iterations" not in data["last_step"]  # not reported by that step
     assert data["run_stats"]["steps"] == 3
+
+
+def test_compile_watch_times_each_outermost_compilation_and_says_the_first() -> None:
+    # Two functions compiled for the first time (cache=False: nothing to load), the second
+    # calling a third that compiles while the second's types are inferred (a nest): three
+    # compilations of which two are outermost; on_first runs once, as the first starts; after
+    # stop() nothing more is counted.
+    import numba
+
+    from sphkit.io.compiling import CompileWatch
+
+    @numba.njit(cache=False)
+    def inner(a):  # noqa: ANN001, ANN202
+        return a * 2.0
+
+    @numba.njit(cache=False)
+    def outer(a):  # noqa: ANN001, ANN202
+        return inner(a) + 1.0
+
+    @numba.njit(cache=False)
+    def alone(a):  # noqa: ANN001, ANN202
+        return a - 1.0
+
+    said = []
+    watch = CompileWatch(on_first=lambda: said.append(watch.count)).start()
+    try:
+        assert outer(1.0) == 3.0 and alone(1.0) == 0.0
+    finally:
+        watch.stop()
+    assert said == [0]  # once, before the first compilation was counted
+    assert watch.count == 2 and watch.seconds > 0.0
+    seconds = watch.seconds
+    assert alone(2.5) == 1.5 and outer(0.5) == 2.0  # compiled already: no compilation
+    assert alone(2) == 1  # a new signature compiles, but the watch is stopped
+    assert (watch.count, watch.seconds) == (2, seconds)

@@ -229,38 +229,3 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
     assert main(["run", "dambreak-2d", "--device", "cuda", "--quiet",
                  "--out", str(tmp_path / "refused")]) == 2
     assert not (tmp_path / "refused").exists()
-
-
-def test_compile_watch_times_each_outermost_compilation_and_says_the_first() -> None:
-    # Two functions compiled for the first time (cache=False: nothing to load), the second
-    # calling a third that compiles while the second's types are inferred (a nest): three
-    # compilations of which two are outermost; on_first runs once, as the first starts; after
-    # stop() nothing more is counted.
-    import numba
-
-    from sphkit.backend.compiling import CompileWatch
-
-    @numba.njit(cache=False)
-    def inner(a):  # noqa: ANN001, ANN202
-        return a * 2.0
-
-    @numba.njit(cache=False)
-    def outer(a):  # noqa: ANN001, ANN202
-        return inner(a) + 1.0
-
-    @numba.njit(cache=False)
-    def alone(a):  # noqa: ANN001, ANN202
-        return a - 1.0
-
-    said = []
-    watch = CompileWatch(on_first=lambda: said.append(watch.count)).start()
-    try:
-        assert outer(1.0) == 3.0 and alone(1.0) == 0.0
-    finally:
-        watch.stop()
-    assert said == [0]  # once, before the first compilation was counted
-    assert watch.count == 2 and watch.seconds > 0.0
-    seconds = watch.seconds
-    assert alone(2.5) == 1.5 and outer(0.5) == 2.0  # compiled already: no compilation
-    assert alone(2) == 1  # a new signature compiles, but the watch is stopped
-    assert (watch.count, watch.seconds) == (2, seconds)

@@ -71,11 +71,11 @@ COMPILING = ("compiling with Numba: the first run of these methods on this machi
 
 
 def watch_compiles(args: argparse.Namespace) -> Any:
-    """Start the command's :class:`sphkit.backend.compiling.CompileWatch` (kept as
+    """Start the command's :class:`sphkit.io.compiling.CompileWatch` (kept as
     ``args.compile_watch``; call once the simulation's modules are imported): its first
     compilation is announced with :data:`COMPILING` (unless ``--quiet``), since a first run
     pauses for up to a minute before its first step with no progress to show."""
-    from sphkit.backend.compiling import CompileWatch
+    from sphkit.io.compiling import CompileWatch
 
     watch = getattr(args, "compile_watch", None)
     if watch is None:
