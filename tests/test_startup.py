@@ -427,3 +427,45 @@ def test_fluid_inside_a_floating_body_is_removed(tmp_path: Path) -> None:
     # Akinci bodies the fluid rests at the mesh surface: the body's particles lie 1.2 r inside)
     x = sim.positions
     assert not np.any(np.all(np.abs(x - c) < side / 2 - r, axis=1))
+
+
+def test_relaxation_is_skipped_where_the_sampled_fluid_meets_its_constraint(
+        tmp_path: Path) -> None:
+    """The start-up first measures the relaxation's constraint with the density pass (which
+    every run compiles anyway): where no particle is over half the relaxation's tolerance
+    (1 %), the projection is neither run nor compiled. Its value agrees with the projection's
+    own first sweep (``relax_pass``) to round-off, on a 2D block at the walls (the projection
+    moves it) and the same block 3 r off them (nothing to move: no sweep at all)."""
+    import sphkit.world.startup as su
+
+    r, w = 0.02, 0.8
+    seen: dict[str, list] = {"density": [], "projection": []}
+    real_constraint, real_pass = su._constraint, su.relax_pass
+
+    def constraint(*args):  # noqa: ANN002, ANN202 - recorded and passed on
+        seen["density"].append(real_constraint(*args))
+        return seen["density"][-1]
+
+    def sweep(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202 - recorded and passed on
+        out = real_pass(*args, **kwargs)
+        seen["projection"].append(out[:2])
+        return out
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(su, "_constraint", constraint)
+        mp.setattr(su, "relax_pass", sweep)
+        for gap, moved in ((0.0, True), (3.0, False)):
+            seen["density"].clear()
+            seen["projection"].clear()
+            path = _tank_scene(tmp_path / f"gap{gap:g}", 2, r, 4, 0, (w, 0.6, 0.1),
+                               [-w / 2 + gap * r, gap * r, 0.0], [-w / 2 + 0.3, 0.3, 0.0])
+            sim, _ = _load(path)
+            report = sim.world.start
+            (avg, mx), = seen["density"]
+            if moved:
+                assert mx > su.RELAX_TOLERANCE and report.relax_iterations > 0
+                assert seen["projection"][0] == pytest.approx((avg, mx), rel=1e-9, abs=1e-15)
+            else:
+                assert mx <= 0.5 * su.RELAX_TOLERANCE and seen["projection"] == []
+                assert report.relax_iterations == 0 and report.max_displacement == 0.0
+                assert report.sampled_error == (avg, mx)

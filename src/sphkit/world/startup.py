@@ -386,6 +386,18 @@ def _density(state: SimState, m: np.ndarray, out: np.ndarray) -> np.ndarray:
     return out
 
 
+def _constraint(state: SimState, target: np.ndarray) -> tuple[float, float]:
+    """(mean, max) of the relaxation's clamped constraint ``C_i = rho_hat_i / t_i - 1`` at the
+    current positions (:func:`sphkit.core.relaxation.relax_pass`'s, values up to its tolerance
+    1e-6 counted as 0), from the summation density with the start masses: ``rho_hat_i =
+    rho_i / rho0_i`` is the same sum of the start volumes (rounding apart)."""
+    f = state.fluid
+    rho = _density(state, f["m"] * target, np.empty(f.n, dtype=f.dtype))
+    e = rho / (f["rho0"] * target) - 1.0
+    e = np.where(e > 1e-6, e, 0.0)
+    return (float(e.mean()), float(e.max())) if f.n else (0.0, 0.0)
+
+
 def _compression(rho: np.ndarray, target: np.ndarray) -> tuple[float, float]:
     e = np.maximum(rho / target - 1.0, 0.0)
     return (float(e.mean()), float(e.max())) if len(e) else (0.0, 0.0)
@@ -418,6 +430,15 @@ def relax(state: SimState, lists: _Lists, target: np.ndarray, iterations: int,
     f = state.fluid
     x0 = f["x"].copy()
     V = f["V0"] * target  # the start masses: lattice mass times the start compression
+    # the sampled constraint through the density pass every run compiles anyway: where no
+    # particle is near the tolerance nothing moves, and the projection's passes are neither run
+    # nor compiled (a first run of the default dam break: about 10 s of compilation less)
+    lists.update(state)
+    report.sampled_error = report.relaxed_error = _constraint(state, target)
+    report.relax_iterations = 0
+    if report.sampled_error[1] <= 0.5 * RELAX_TOLERANCE:
+        report.max_displacement = 0.0
+        return
     for k in range(iterations + 1):
         lists.update(state)
         b = state.boundary
