@@ -376,7 +376,7 @@ def _run(args: argparse.Namespace, argv: Sequence[str]) -> int:
             terminated = stop.signum == signal.SIGTERM
             why = "terminated (SIGTERM)" if terminated else "interrupted (Ctrl-C)"
             path = checkpoints.write(sim)
-            _finish(manifest, "interrupted",
+            _finish(manifest, watch, "interrupted",
                     f"{why} at step {sim.step_count}, t = {sim.time:.6g} s; checkpoint "
                     f"{checkpoints.relative(path)}", sim.last)
             error(f"{why} at t = {sim.time:.6g} s after step {sim.step_count}; the "
@@ -388,23 +388,23 @@ def _run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         manifest.data["compile_seconds"] = round(watch.seconds, 3)
         manifest.finish("finished", stats=sim.last)
     except InstabilityError as e:
-        _finish(manifest, "unstable", str(e), e.stats)
+        _finish(manifest, watch, "unstable", str(e), e.stats)
         error(f"{e}\nThe {len(manifest.frames)} frame(s) written so far are kept in {out_dir}.")
         return EXIT_UNSTABLE
     except KeyboardInterrupt as e:  # a second signal, or one outside the step loop
         terminated = isinstance(e, Terminated)
         why = "terminated (SIGTERM)" if terminated else "interrupted (Ctrl-C)"
-        _finish(manifest, "interrupted",
+        _finish(manifest, watch, "interrupted",
                 f"{why} at step {sim.step_count}, t = {sim.time:.6g} s", sim.last)
         error(f"{why} at t = {sim.time:.6g} s; the {len(manifest.frames)} frame(s) written so "
                f"far are kept in {out_dir}")
         return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
     except OSError as e:
-        _finish(manifest, "failed", f"{type(e).__name__}: {e}", sim.last)
+        _finish(manifest, watch, "failed", f"{type(e).__name__}: {e}", sim.last)
         error(f"writing the output failed: {e}")
         return EXIT_FAILED
     except BaseException as e:
-        _finish(manifest, "failed", f"{type(e).__name__}: {e}", sim.last)
+        _finish(manifest, watch, "failed", f"{type(e).__name__}: {e}", sim.last)
         raise
     wall = time.perf_counter() - report.t0
     rs = manifest.run_stats
@@ -424,8 +424,11 @@ def _compiling(seconds: float) -> str:
     return f" ({seconds:.1f} s of it compiling)" if seconds >= 0.1 else ""
 
 
-def _finish(manifest: Manifest, status: str, message: str, stats: Any) -> None:
-    """Record how a run ended; a manifest that cannot be written must not mask why it ended."""
+def _finish(manifest: Manifest, watch: Any, status: str, message: str, stats: Any) -> None:
+    """Record how a run ended (and how long it compiled, ``watch``: the run's
+    :class:`sphkit.io.compiling.CompileWatch`); a manifest that cannot be written must not mask
+    why it ended."""
+    manifest.data["compile_seconds"] = round(watch.seconds, 3)
     try:
         manifest.finish(status, message, stats=stats)
     except OSError as e:
