@@ -469,17 +469,12 @@ class MLSPressureExtrapolation(BoundaryPressure):
             mls_extrapolate(k, self.toff, self.tfluid, self.rows, coef, out)
 
 
-def fitted(toff: np.ndarray, use: np.ndarray) -> np.ndarray:
+@numba.njit(**_JIT)
+def fitted(toff, use):
     """The samples that are extrapolated (``use``) and have fluid neighbours (rows of the
     boundary -> fluid lists ``toff`` that are not empty): most wall samples are far from the
-    fluid, and the passes skip them."""
-    return _fitted_rows(toff, use)
-
-
-@numba.njit(**_JIT)
-def _fitted_rows(toff, use):
-    """:func:`fitted`'s rows (one pass: its NumPy form, five array operations over all samples,
-    took 65 us a step at 18,002 samples)."""
+    fluid, and the passes skip them. One pass (its NumPy form, five array operations over all
+    samples, took 65 us a step at 18,002 samples)."""
     nb = use.shape[0]
     rows = np.empty(nb, dtype=np.int64)
     m = 0
