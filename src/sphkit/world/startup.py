@@ -75,6 +75,9 @@ from sphkit.world.walls import gravity_axis
 
 #: relaxation stops once no particle's density exceeds its start density by more than this
 RELAX_TOLERANCE = 0.01
+#: a particle's density constraint up to this counts as met (0: the interior of a lattice sits
+#: at its target to round-off)
+RELAX_MET = 1e-6
 #: largest displacement of one relaxation sweep [r]
 RELAX_STEP = 0.25
 #: the masses' fixed point stops at this largest relative density deviation
@@ -388,18 +391,19 @@ def _density(state: SimState, m: np.ndarray, out: np.ndarray) -> np.ndarray:
 
 def _constraint(state: SimState, target: np.ndarray) -> tuple[float, float]:
     """(mean, max) of the relaxation's clamped constraint ``C_i = rho_hat_i / t_i - 1`` at the
-    current positions (:func:`sphkit.core.relaxation.relax_pass`'s, values up to its tolerance
-    1e-6 counted as 0), from the summation density with the start masses: ``rho_hat_i =
-    rho_i / rho0_i`` is the same sum of the start volumes (rounding apart)."""
+    current positions (:func:`sphkit.core.relaxation.relax_pass`'s, values up to
+    :data:`RELAX_MET` counted as 0), from the summation density with the start masses:
+    ``rho_hat_i = rho_i / rho0_i`` is the same sum of the start volumes (rounding apart)."""
     f = state.fluid
     rho = _density(state, f["m"] * target, np.empty(f.n, dtype=f.dtype))
-    e = rho / (f["rho0"] * target) - 1.0
-    e = np.where(e > 1e-6, e, 0.0)
-    return (float(e.mean()), float(e.max())) if f.n else (0.0, 0.0)
+    return _compression(rho, f["rho0"] * target, RELAX_MET)
 
 
-def _compression(rho: np.ndarray, target: np.ndarray) -> tuple[float, float]:
+def _compression(rho: np.ndarray, target: np.ndarray, met: float = 0.0) -> tuple[float, float]:
+    """(mean, max) of ``max(rho / target - 1, 0)``, values up to ``met`` counted as 0."""
     e = np.maximum(rho / target - 1.0, 0.0)
+    if met > 0.0:
+        e = np.where(e > met, e, 0.0)
     return (float(e.mean()), float(e.max())) if len(e) else (0.0, 0.0)
 
 
@@ -444,7 +448,7 @@ def relax(state: SimState, lists: _Lists, target: np.ndarray, iterations: int,
         b = state.boundary
         avg, mx, dx = relax_pass(f["x"], V, target, state.nl_ff, state.nl_fb, b["x"], b["V"],
                                  state.h, state.kid, state.dim, state.pair_period,
-                                 RELAX_STEP * state.r, tol=1e-6)
+                                 RELAX_STEP * state.r, tol=RELAX_MET)
         if k == 0:
             report.sampled_error = (avg, mx)
         report.relaxed_error = (avg, mx)
