@@ -46,7 +46,7 @@ PARTS = {
     "MLS boundary pressure (coefficients, extrapolation)": (
         "coefficients_body__launch_each", "extrapolate_body__launch_each",
         "extrapolate_phases_body__launch_each", "phase_kb_body__launch_each",
-        "values_body__launch_each", "_transpose", "fitted"),
+        "values_body__launch_each", "_transpose"),
 }
 
 

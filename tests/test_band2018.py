@@ -115,6 +115,28 @@ def test_mls_leaves_moving_bodies_and_mirror_alone() -> None:
     assert np.all(sim.state.boundary["pressure_mirror"] == 0.0)
 
 
+def test_boundary_values_kept_between_solves_read_as_fresh_ones() -> None:
+    """The coupling keeps one array for the extrapolated ``k_b`` of every solve (each solve's
+    values overwrite the last ones only at the samples fitted now): after a few steps, the
+    samples the pressure terms read (the fluid's boundary neighbours) hold exactly the values
+    an extrapolation into a fresh array of zeros gives."""
+    sim = _jittered(2)
+    for _ in range(3):
+        sim.step()
+    st = sim.state
+    sim._neighbors()
+    sim.compute_density()
+    k = np.random.default_rng(4).uniform(0.0, 50.0, st.fluid.n)
+    kb = st.coupling.boundary_kappa(st)
+    assert kb.kb is st.coupling.boundary_kappa(st).kb
+    got = kb(k)
+    fresh = np.zeros(st.boundary.n)
+    st.coupling.pressure.extrapolate(k, fresh)
+    read = np.unique(st.nl_fb.indices)
+    assert read.size >= 40  # the 2D tank: 50 wall samples with fluid neighbours
+    assert np.array_equal(got[read], fresh[read])
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_mls_fits_each_phase_on_its_own(dim: int) -> None:
     """Two fluids of rest density 1000 and 100, heavy below: the hydrostatic pressure is

@@ -153,6 +153,46 @@ def test_a_splash_over_an_open_box_is_no_leak() -> None:
         sim.step()
 
 
+@pytest.mark.parametrize("case", ["clean", "nan_velocity", "huge_velocity", "inf_position",
+                                  "outside", "above_the_top", "no_domain"])
+def test_step_check_agrees_with_the_separate_checks(case: str) -> None:
+    """The step's one-pass check (``step_check``) gives what the separate passes give: the
+    largest finite speed, the count of non-finite velocities, and ``clean`` exactly when no
+    velocity or position is non-finite and no particle is outside the domain (above the walls'
+    top is not outside); where it is not clean the counts come from the separate passes."""
+    from sphkit.core.timestep import (
+        Domain,
+        nonfinite_count,
+        outside_count,
+        speed_check,
+        step_check,
+    )
+
+    rng = np.random.default_rng(5)
+    x = rng.uniform(0.0, 1.0, (3, 500))
+    v = rng.normal(0.0, 2.0, (3, 500))
+    dom = Domain(np.zeros(3), np.ones(3), up=1, top=1.0, sgn=1.0)
+    if case == "nan_velocity":
+        v[1, 17] = np.nan
+    elif case == "huge_velocity":  # finite components whose square overflows
+        v[0, 3] = 1e200
+    elif case == "inf_position":
+        x[2, 40] = np.inf
+    elif case == "outside":
+        x[0, 99] = -0.5
+    elif case == "above_the_top":
+        x[:, 5] = (-0.5, 1.5, 0.5)  # beside the box but above the walls' top: not a leak
+    if case == "no_domain":
+        x[0, 9] = 7.0  # no box: nothing is outside
+        dom = None
+    vmax, bad, clean = step_check(x, v, dom)
+    vref, bref = speed_check(v)
+    outside = 0 if dom is None else outside_count(x, *dom)
+    assert (vmax, bad) == (vref, bref)
+    assert clean == (bref == 0 and nonfinite_count(x) == 0 and outside == 0)
+    assert clean == (case in ("clean", "above_the_top", "no_domain"))
+
+
 def test_lone_particle_bounces_off_a_volume_map_wall_without_gaining_speed(tmp_path) -> None:
     """A lone particle thrown at 6 m/s against a volume-map wall (3D, a 0.3 m box, no gravity,
     r = 1.5 cm, stiffness 50,000) comes back no faster than it came. The wall is a stiff

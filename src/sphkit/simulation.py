@@ -59,7 +59,7 @@ from sphkit.core.timestep import (
     instability,
     iteration_controlled_step,
     max_speed,
-    speed_check,
+    step_check,
     symplectic_euler,
     wrap_periodic,
 )
@@ -473,7 +473,7 @@ class Simulation:
         self.step_count += 1
         st.time, st.step = self.time, self.step_count
         self._emit()
-        vmax, bad = speed_check(f["v"])
+        vmax, bad, clean = step_check(f["x"], f["v"], self._domain)
         stats = StepStats(step=self.step_count, time=self.time, dt=dt, n_fluid=f.n,
                           max_velocity=vmax, cfl=vmax * dt / (2.0 * st.r),
                           density_error_avg=ps.density_error_avg,
@@ -488,7 +488,7 @@ class Simulation:
         if ks is not None:
             stats.viscosity_iterations, stats.viscosity_residual = ks.iterations, ks.residual
         self.last, self.last_solver = stats, ps
-        self._stability_guard(stats, bad)
+        self._stability_guard(stats, bad, clean)
         return stats
 
     def _forces_and_pressure(self, dt: float) -> SolverStats:
@@ -539,11 +539,12 @@ class Simulation:
         self.last, self.last_solver = stats, None
         return stats
 
-    def _stability_guard(self, s: StepStats, bad: int) -> None:
+    def _stability_guard(self, s: StepStats, bad: int, clean: bool = False) -> None:
         """Raise :class:`InstabilityError` when the step shows the run blowing up or leaking
-        (:func:`sphkit.core.timestep.instability`)."""
+        (:func:`sphkit.core.timestep.instability`; ``clean``: :func:`sphkit.core.timestep.
+        step_check` found the positions finite and inside the domain)."""
         what, advice = instability(self.scene.configuration, self.state.fluid["x"], s, bad,
-                                   self._domain)
+                                   self._domain, clean)
         if what:
             raise InstabilityError(diagnosis(s, what, advice), s)
 

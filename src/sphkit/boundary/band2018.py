@@ -81,14 +81,23 @@ RIDGE = 1e-2
 
 
 @numba.njit(**_JIT)
-def _transpose(boff, bidx, nb):
-    """CSR lists boundary -> fluid pairs: ``toff`` (nb + 1) and ``tfluid`` (the fluid particle
-    of each pair)."""
+def _transpose(boff, bidx, nb, use):
+    """CSR lists boundary -> fluid pairs: ``toff`` (nb + 1), ``tfluid`` (the fluid particle of
+    each pair, in fluid-index order within each sample) and the samples that are extrapolated
+    (``use``) and have fluid neighbours, found in the counts' scan. One serial pass over the
+    pairs to count, one to place (a parallel form, each thread counting and placing the pairs
+    of a range of fluid particles, took twice as long at 6,859 particles: the scan of the
+    per-range counts and the launches cost more than the halved passes)."""
     nf = boff.shape[0] - 1
     count = np.zeros(nb + 1, dtype=np.int64)
     for k in range(bidx.shape[0]):
         count[bidx[k] + 1] += 1
+    rows = np.empty(nb, dtype=np.int64)
+    m = 0
     for b in range(nb):
+        if use[b] and count[b + 1] > 0:
+            rows[m] = b
+            m += 1
         count[b + 1] += count[b]
     fill = count[:nb].copy()
     tfluid = np.empty(bidx.shape[0], dtype=INDEX)  # fluid indices, as the lists'
@@ -98,7 +107,7 @@ def _transpose(boff, bidx, nb):
             t = fill[b]
             tfluid[t] = i
             fill[b] += 1
-    return count, tfluid
+    return count, tfluid, rows[:m].copy()
 
 
 def mls_coefficients(x: np.ndarray, rho_hat: np.ndarray, bx: np.ndarray, toff: np.ndarray,
@@ -107,7 +116,7 @@ def mls_coefficients(x: np.ndarray, rho_hat: np.ndarray, bx: np.ndarray, toff: n
                      nphase: int) -> None:
     """``coef[t] = c_bf rho_hat_f^2`` for the t-th boundary -> fluid pair (module docstring).
 
-    Only the samples ``rows`` (those extrapolated, with fluid neighbours: :func:`fitted`) are
+    Only the samples ``rows`` (those extrapolated, with fluid neighbours: :func:`transposed`) are
     fitted, one launch of :func:`coefficients_body` over them; the other samples'
     coefficients are left as they are (never read). Positions are scaled by 1/h in the moment
     matrix for its conditioning; ``ridge`` (:data:`RIDGE`) is the Tikhonov weight of its
@@ -266,7 +275,7 @@ def mls_values(x: np.ndarray, q: np.ndarray, bx: np.ndarray, toff: np.ndarray,
     """``out[ph, b] = max(beta_0, 0)``: the value at boundary sample b of the linear field fitted
     to the fluid values q (N,) of phase ph (the module docstring's fit, solved for ``beta``
     directly: the one-shot form of :func:`mls_coefficients` then :func:`mls_extrapolate`, for a
-    solver that extrapolates once a step), at the samples ``rows`` (:func:`fitted`); 0 where b
+    solver that extrapolates once a step), at the samples ``rows`` (:func:`transposed`); 0 where b
     has no fluid neighbour of the phase; the other samples' entries are left as they are.
     ``out`` (phases, N_boundary)."""
     launch(values_body, rows.shape[0], rows, toff, tfluid, x, q, bx, h, kid, int(dim), L, ridge,
@@ -301,7 +310,7 @@ def extrapolate_phases_body(a, rows, toff, tfluid, coef, phase, k, out):
 def mls_extrapolate(k: np.ndarray, toff: np.ndarray, tfluid: np.ndarray, rows: np.ndarray,
                     coef: np.ndarray, out: np.ndarray) -> None:
     """``out[b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)``: the boundary value ``p_b / rho0`` of the
-    fluid field k at the samples ``rows`` (:func:`fitted`; the other samples' entries are left
+    fluid field k at the samples ``rows`` (:func:`transposed`; the other samples' entries are left
     as they are)."""
     launch(extrapolate_body, rows.shape[0], rows, toff, tfluid, coef, k, out)
 
@@ -312,7 +321,7 @@ def mls_extrapolate_phases(k: np.ndarray, toff: np.ndarray, tfluid: np.ndarray,
     """``out[q, b] = max(sum_f c_bf rho_hat_f^2 k_f, 0)`` over b's fluid neighbours f of phase
     q (coefficients of :func:`mls_coefficients` with the phases fitted on their own): one
     boundary value per phase (0 for a phase without fluid neighbours at b), at the samples
-    ``rows`` (:func:`fitted`)."""
+    ``rows`` (:func:`transposed`)."""
     launch(extrapolate_phases_body, rows.shape[0], rows, toff, tfluid, coef, phase, k, out)
 
 
@@ -325,15 +334,19 @@ def transpose_body(i, boff, bidx, toff, rank, tfluid):
         tfluid[toff[bidx[k]] + rank[k]] = i
 
 
-def transposed(boff: Any, bidx: Any, nb: int) -> tuple[Any, Any]:
+def transposed(boff: Any, bidx: Any, nb: int, use: Any) -> tuple[Any, Any, Any]:
     """CSR lists boundary -> fluid of the fluid -> boundary lists ``(boff, bidx)``: ``toff``
-    (nb + 1) and ``tfluid`` (the fluid particle of each pair), where the lists are. On the CPU
-    in fluid-index order within each sample (:func:`_transpose`, one serial pass, faster there
-    than the counting sort's three); on a device by the counting sort's histogram and scan and
-    :func:`transpose_body` (the order within a sample is that of the atomic increments)."""
+    (nb + 1) and ``tfluid`` (the fluid particle of each pair), where the lists are, and on the
+    CPU the samples to fit: those of ``use`` (extrapolated) with fluid neighbours (most wall
+    samples are far from the fluid, and the passes skip them). On the CPU in fluid-index order
+    within each sample (:func:`_transpose`, serial, faster there than the counting sort's three
+    passes); on a device by the counting sort's histogram and scan and
+    :func:`transpose_body` (the order within a sample is that of the atomic increments), and
+    None for the samples (the device fits every sample of ``use``; those without fluid
+    neighbours get 0)."""
     dev = device_of(bidx)
     if dev == "cpu":
-        return _transpose(boff, bidx, nb)
+        return _transpose(boff, bidx, nb, use)
     pairs = bidx.shape[0]
     counts, rank = arrays.empty(nb, np.int64, like=bidx), arrays.empty(pairs, np.int64, like=bidx)
     toff = arrays.empty(nb + 1, np.int64, like=bidx)
@@ -341,7 +354,7 @@ def transposed(boff: Any, bidx: Any, nb: int) -> tuple[Any, Any]:
     histogram(bidx, counts, rank, device=dev)
     exclusive_scan(counts, toff, device=dev)
     launch(transpose_body, boff.shape[0] - 1, boff, bidx, toff, rank, tfluid)
-    return toff, tfluid
+    return toff, tfluid, None
 
 
 class MLSPressureExtrapolation(BoundaryPressure):
@@ -355,7 +368,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
 
     On a device (the boundary's fields device arrays) every pass runs there on the same bodies;
     the samples fitted are then all of ``use``'s (those without fluid neighbours get 0), where
-    the CPU skips the ones without fluid neighbours (:func:`fitted`).
+    the CPU skips the ones without fluid neighbours (:func:`transposed`).
     """
 
     name = "mls"
@@ -364,8 +377,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.ridge = float(ridge)
         self.use = np.ascontiguousarray(use, dtype=np.bool_)
         self.toff = np.zeros(self.use.shape[0] + 1, dtype=np.int64)
-        self.rows = np.zeros(0, dtype=np.int64)  # the samples fitted this step (:func:`fitted`)
-        self._cleared: Any = None  # the output zeroed this step (:meth:`extrapolate`)
+        self.rows = np.zeros(0, dtype=np.int64)  # the samples fitted this step (:func:`transposed`)
         self.tfluid = np.empty(0, dtype=INDEX)
         self.coef: Any = np.empty(0)  # this step's, once computed (:meth:`prepare`)
         self._fit_args: tuple = ()
@@ -408,10 +420,9 @@ class MLSPressureExtrapolation(BoundaryPressure):
                              f"{b.n} boundary particles (the boundary changed after the model "
                              "was made)")
         nb = state.nl_fb
-        _, self._share, flagged = self._flags(b["x"])
-        self.toff, self.tfluid = transposed(nb.offsets, nb.indices, b.n)
-        self.rows = fitted(self.toff, self.use) if device_of(b["x"]) == "cpu" else flagged
-        self._cleared = None
+        use, self._share, flagged = self._flags(b["x"])
+        self.toff, self.tfluid, rows = transposed(nb.offsets, nb.indices, b.n, use)
+        self.rows = flagged if rows is None else rows
         self.phase = per_phase(state)
         self._fit_args = (f["x"], arrays.divided_by(f["rho"], f["rho0"]), b["x"], state.h,
                           state.kid, state.dim, state.pair_period, self._phase_rows(f))
@@ -460,29 +471,10 @@ class MLSPressureExtrapolation(BoundaryPressure):
         phases fitted on their own ``out[q, b]``, (phases, N_boundary)
         (:func:`mls_extrapolate_phases`)."""
         coef = self._coefficients()
-        if self._cleared is not out:  # the step's first call into out: 0 where nothing is fitted
-            arrays.fill(out, 0.0)
-            self._cleared = out
         if out.ndim == 2:
             mls_extrapolate_phases(k, self.toff, self.tfluid, self.rows, coef, self.phase, out)
         else:
             mls_extrapolate(k, self.toff, self.tfluid, self.rows, coef, out)
-
-
-@numba.njit(**_JIT)
-def fitted(toff, use):
-    """The samples that are extrapolated (``use``) and have fluid neighbours (rows of the
-    boundary -> fluid lists ``toff`` that are not empty): most wall samples are far from the
-    fluid, and the passes skip them. One pass (its NumPy form, five array operations over all
-    samples, took 65 us a step at 18,002 samples)."""
-    nb = use.shape[0]
-    rows = np.empty(nb, dtype=np.int64)
-    m = 0
-    for b in range(nb):
-        if use[b] and toff[b + 1] > toff[b]:
-            rows[m] = b
-            m += 1
-    return rows[:m].copy()
 
 
 def per_phase(state: SimState) -> np.ndarray | None:

@@ -66,6 +66,7 @@ class BoundaryCoupling:
         self.model = model
         self._still = np.zeros((0, 0))
         self._no_body: np.ndarray | None = None  # the body numbers of a boundary without bodies
+        self._kb: np.ndarray | None = None  # the model's k_b, kept from solve to solve
 
     def boundary_at(self, state: SimState, dx: np.ndarray, motion: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray, NeighborList, np.ndarray]:
@@ -148,7 +149,26 @@ class BoundaryCoupling:
     def boundary_kappa(self, state: SimState) -> BoundaryKappa:
         """The extrapolation ``k -> k_b`` of this step's pressure fields (see
         :class:`BoundaryKappa`)."""
-        return BoundaryKappa(None if self.symmetric or self.solved else self.pressure, state)
+        model = None if self.symmetric or self.solved else self.pressure
+        return BoundaryKappa(model, state, self._kb_array(model, state))
+
+    def _kb_array(self, model: BoundaryPressure | None, state: SimState) -> np.ndarray:
+        """The array a model's ``k_b`` go into, one for every solve: zeros when made (a new
+        shape, type or device), and the model writes only the samples it extrapolates
+        (:meth:`BoundaryPressure.extrapolate`), so the others stay 0, as the pressure terms
+        read them; an extrapolated sample without fluid neighbours in this step keeps an
+        older value, which no term reads (the terms read a fluid particle's boundary
+        neighbours). Empty without a model (mirroring only)."""
+        f = state.fluid
+        if model is None:
+            return arrays.empty(0, f.dtype, like=f["x"])
+        n = state.boundary.n
+        shape = (model.phases, n) if model.phase is not None else (n,)
+        kb = self._kb
+        if (kb is None or kb.shape != shape or kb.dtype != f.dtype
+                or device_of(kb) != device_of(f["x"])):
+            kb = self._kb = arrays.zeros(shape, f.dtype, like=f["x"])
+        return kb
 
     def symmetric_walls(self, state: SimState) -> np.ndarray:
         """Which boundary particles take the symmetric term ``V_b k_i`` (no mirrored share, no
@@ -323,14 +343,14 @@ class BoundaryKappa:
     :class:`BoundaryPressure` model when the scene has one, else none (an empty array, which the
     pass reads as 0: mirroring only)."""
 
-    def __init__(self, model: BoundaryPressure | None, state: SimState) -> None:
+    def __init__(self, model: BoundaryPressure | None, state: SimState, kb: np.ndarray) -> None:
+        """``kb``: the array the values go into (:meth:`BoundaryCoupling.boundary_kappa`'s,
+        empty without a model)."""
         self.model = model
-        n = state.boundary.n if model is not None else 0
         #: the fluid's phases where the model gives each phase its own k_b (several rest
         #: densities: ``kb`` is then (phases, N_boundary)), else None
         self.phase = model.phase if model is not None else None
-        shape = (model.phases, n) if self.phase is not None else n
-        self.kb = arrays.zeros(shape, state.fluid.dtype, like=state.fluid["x"])
+        self.kb = kb
 
     def __call__(self, k: np.ndarray) -> np.ndarray:
         """``k_b`` for the fluid field k (``k_b[q, b]`` per phase q where :attr:`phase` is

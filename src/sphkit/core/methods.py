@@ -311,7 +311,10 @@ class BoundaryPressure(Protocol):
     @abstractmethod
     def extrapolate(self, k: np.ndarray, out: np.ndarray) -> None:
         """``out[b] = p_b / rho0`` for the solver field k of the fluid (kappa units);
-        ``out[q, b]`` per phase q where :attr:`phase` is set."""
+        ``out[q, b]`` per phase q where :attr:`phase` is set; at the samples it extrapolates
+        (every such sample with fluid neighbours in this step), the others left as they are
+        (the coupling's array holds 0 there: :meth:`sphkit.core.coupling.BoundaryCoupling.
+        boundary_kappa`)."""
 
     @abstractmethod
     def correct_mirrored(self, state: SimState, a: np.ndarray) -> None:

@@ -107,6 +107,27 @@ def speed_check(v: np.ndarray) -> tuple[float, int]:
     return math.sqrt(m), int(bad)
 
 
+def step_check(x: np.ndarray, v: np.ndarray, domain: Domain | None) -> tuple[float, int, bool]:
+    """The end of a step's checks in one pass where nothing is wrong: ``(max finite speed,
+    particles with a non-finite velocity, clean)``; ``clean``: every velocity and position is
+    finite and no particle is outside ``domain`` (None: no box), which :func:`instability`
+    then need not count again. Where :func:`step_check_body` flags a particle, the speed and the
+    count come from :func:`speed_check`'s passes and ``clean`` is False (so the diagnosis is the
+    one those passes give)."""
+    if v.shape[1] == 0:
+        return 0.0, 0, True
+    box = ([-math.inf] * 3, [math.inf] * 3, -1, 0.0, 1.0) if domain is None else (
+        [float(t) for t in domain.lo] + [0.0] * 3, [float(t) for t in domain.hi] + [0.0] * 3,
+        int(domain.up), float(domain.top), float(domain.sgn))
+    lo, hi, up, top, sgn = box
+    m = launch_reduce(step_check_body, v.shape[1], x, v, v.shape[0], lo[0], lo[1], lo[2],
+                      hi[0], hi[1], hi[2], up, top, sgn)[1]
+    if math.isfinite(m):
+        return math.sqrt(m), 0, True
+    vmax, bad = speed_check(v)
+    return vmax, bad, False
+
+
 @numba.njit(cache=True, inline="always")
 def outside_body(i, x, dim, lo0, lo1, lo2, hi0, hi1, hi2, up, top, sgn):
     """1 where point i of x lies outside the box ``[lo, hi]`` (bounds may be infinite: no fast
@@ -157,6 +178,24 @@ def outside_count(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, up: int = -1,
                              t[1], t[2], int(up), float(top), float(sgn))[0])
 
 
+@numba.njit(cache=True, inline="always")
+def step_check_body(i, x, v, dim, lo0, lo1, lo2, hi0, hi1, hi2, up, top, sgn):
+    """``|v_i|^2``, or infinity where particle i's velocity or position is not finite or it lies
+    outside the box of :func:`outside_body` (no fast math: it must see NaN): the maximum is
+    finite exactly when :func:`speed_check`'s count, :func:`nonfinite_count` and
+    :func:`outside_count` would all be 0."""
+    s = 0.0
+    for d in range(dim):
+        if not math.isfinite(x[d, i]):
+            return math.inf
+        s += v[d, i] * v[d, i]
+    if not math.isfinite(s):
+        return math.inf
+    if outside_body(i, x, dim, lo0, lo1, lo2, hi0, hi1, hi2, up, top, sgn) > 0.0:
+        return math.inf
+    return s
+
+
 def nonfinite_count(x: np.ndarray) -> int:
     """The number of points of ``x`` ((dim, N)) with a NaN or infinite coordinate."""
     if x.shape[1] == 0:
@@ -189,13 +228,14 @@ def iteration_controlled_step(last: float, iterations: int, dt_min: float) -> fl
 
 
 def instability(cfg: Any, x: np.ndarray, s: Any, bad: int,
-                domain: Domain | None) -> tuple[str, str]:
+                domain: Domain | None, clean: bool = False) -> tuple[str, str]:
     """What shows the step of the statistics ``s`` blowing up or leaking, and the advice for it
     (empty strings: nothing): ``bad`` particles with a NaN/inf velocity, a position that is not
     finite, a speed above ``cfg.max_velocity``, a CFL number above ``cfg.max_cfl`` with the
     fixed step, fluid outside ``domain``. ``cfg`` is the scene's ``configuration``, x the fluid's
-    positions."""
-    if bad or nonfinite_count(x):
+    positions; ``clean``: :func:`step_check` found every position finite and inside ``domain``
+    (not counted again)."""
+    if bad or (not clean and nonfinite_count(x)):
         return f"{bad} particle(s) with NaN/inf velocity or position", ""
     if s.max_velocity > cfg.max_velocity:
         return (f"max velocity {s.max_velocity:.4g} m/s exceeds the limit "
@@ -205,7 +245,7 @@ def instability(cfg: Any, x: np.ndarray, s: Any, bad: int,
                 f"the fixed time step time.dt = {s.dt:g} s (time.cfl off)",
                 "Switch time.cfl on, or make time.dt smaller (the fixed step moves the fastest "
                 "particle more than the limit's share of a particle diameter).")
-    if domain is not None and (n := outside_count(x, *domain)):
+    if domain is not None and not clean and (n := outside_count(x, *domain)):
         box = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(domain.lo, domain.hi, strict=True))
         return (f"{n} fluid particle(s) left the domain {box} m (the static walls' bounding box "
                 f"plus configuration.domain_margin = {cfg.domain_margin:g} h, not checked above "

@@ -220,6 +220,8 @@ class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
         then the contacts and joints of all bodies at once (:meth:`_contact_rows`,
         :meth:`_constrain`), then the poses; then the
         bound boundary model is rebuilt (nothing happens without bodies)."""
+        if not self.bodies:
+            return
         g = np.zeros(3)
         g[: state.dim] = state.gravity
         Iinv = np.zeros((len(self.bodies), 3, 3))

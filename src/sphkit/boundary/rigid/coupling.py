@@ -397,6 +397,8 @@ class FluidCoupling(MovingBoundary):
         """Cache this step's centres and world inverse inertias for :meth:`response`, and the
         bodies' velocities as :meth:`motion`'s ``V*`` until :meth:`predict` advances them."""
         self._state = state
+        if not self.bodies and hasattr(self, "_Iinv"):
+            return  # no bodies: the empty caches of the first step stand
         self._c = np.array([b.c for b in self.bodies])
         self._vstar = np.array([np.concatenate([b.v, b.omega]) for b in self.bodies]
                                ).reshape(len(self.bodies), 6)
