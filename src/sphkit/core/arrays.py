@@ -171,6 +171,8 @@ class Scratch:
 
     def __init__(self) -> None:
         self._block = np.empty(0, dtype=np.float64)
+        self._raw = self._block.view(np.uint8)  # the block's bytes
+        self._first = 0  # the first aligned byte of the block
         self._kept: dict[str, Scratch] = {}
         #: per slot, the row width (slots per query point) its neighbour search last grew to:
         #: the next step's search starts there instead of overflowing and searching twice
@@ -191,8 +193,9 @@ class Scratch:
         need = sum(spans) + a  # + a: room to align the first view
         if need > self._block.nbytes:
             self._block = np.empty(int(need * self.GROWTH) // 8 + 1, dtype=np.float64)
-        raw = self._block.view(np.uint8)
-        at = -raw.__array_interface__["data"][0] % a
+            self._raw = self._block.view(np.uint8)
+            self._first = -self._raw.ctypes.data % a
+        raw, at = self._raw, self._first
         out = []
         for (shape, dt), n, span in zip(specs, sizes, spans, strict=True):
             out.append(raw[at:at + n].view(dt).reshape(shape))

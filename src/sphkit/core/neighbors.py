@@ -274,7 +274,10 @@ class Grid:
         n = x.shape[1]
         self.n = n
         xc = np.ascontiguousarray(x)
-        if n and not np.all(np.isfinite(x)):
+        # the extent along each axis; NumPy's min and max carry a NaN through, and an infinite
+        # coordinate is an extreme, so they tell whether every coordinate is finite too
+        lo, hi = (xc.min(axis=1), xc.max(axis=1)) if n else (None, None)
+        if n and not (np.isfinite(lo).all() and np.isfinite(hi).all()):
             raise ValueError("positions: contain NaN or inf; cannot build a neighbour grid")
         self.sorted_index = np.empty(n, dtype=INDEX)
         #: the packed cell key of each sorted point (hashed grid only: the dense grid has none)
@@ -282,17 +285,18 @@ class Grid:
         self.sorted_x = np.empty((3, n), dtype=x.dtype)  # zero-padded to 3 rows
         #: per dense cell, whether a point lies within reach (:meth:`mark_near`; empty: not kept)
         self.near = np.zeros(0, dtype=np.uint8)
-        self.dense = n > 0 and self._build_dense(xc)
+        self.dense = n > 0 and self._build_dense(xc, lo, hi)
         if not self.dense:
             self.sorted_key = np.empty(n, dtype=np.int64)
-            self._build_hashed(xc)
+            self._build_hashed(xc, lo, hi)
 
-    def _build_dense(self, xc: np.ndarray) -> bool:
-        """Set up the dense grid, or return False when it would have too many cells."""
+    def _build_dense(self, xc: np.ndarray, xlo: np.ndarray, xhi: np.ndarray) -> bool:
+        """Set up the dense grid (``xlo``, ``xhi``: the points' smallest and largest coordinate
+        along each axis), or return False when it would have too many cells."""
         n, dim = self.n, self.dim
         inv_a = self.SUB / self.h
-        flo = np.floor(xc.min(axis=1) * inv_a)
-        fhi = np.floor(xc.max(axis=1) * inv_a)
+        flo = np.floor(xlo * inv_a)
+        fhi = np.floor(xhi * inv_a)
         # the cell count in floating point first: far-flung points (or coordinates beyond the
         # int64 range) go to the hashed grid, which names the extent it cannot hold
         if float(np.prod(fhi - flo + 1.0)) > max(self.dense_cells_per_point * n,
@@ -319,12 +323,12 @@ class Grid:
             self.near = _dilated_occupancy(self.cell_start, self.shape, self.SUB)
         return self
 
-    def _build_hashed(self, xc: np.ndarray) -> None:
+    def _build_hashed(self, xc: np.ndarray, xlo: np.ndarray, xhi: np.ndarray) -> None:
         n, h = self.n, self.h
         origin = np.zeros(3, dtype=np.int64)
         if n:
-            flo = np.floor(xc.min(axis=1) / h)
-            ext = np.floor(xc.max(axis=1) / h) - flo  # in floating point: no int64 overflow
+            flo = np.floor(xlo / h)
+            ext = np.floor(xhi / h) - flo  # in floating point: no int64 overflow
             if np.any(ext > _LIMIT - 2):
                 raise ValueError(
                     f"positions: extent of {float(ext.max()):.4g} cells of size {h} exceeds the "
