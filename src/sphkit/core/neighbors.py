@@ -94,6 +94,46 @@ def _cells(x, dim, inv_h, origin, mask, keys, buckets):
 
 
 @numba.njit(cache=True)
+def _dense_box(x, inv_a):
+    """The box of cells of size ``1 / inv_a`` around the points x (dim, N), in one pass over
+    them: ``(finite, count, lo, shape, cells)``, whether every coordinate is finite, the box's
+    number of cells in floating point (``prod(floor(max inv_a) - floor(min inv_a) + 1)``, before
+    any conversion to integers: far-flung points would overflow them), its first cell and
+    cells per axis ((3,) int64, the data's axes last, 0 and 1 before them) and their product,
+    the last three meaningful only where ``count`` is within the int64 range. The floors are
+    those of :func:`sphkit.core.densegrid._dense_cells` (``x * inv_a`` in float64)."""
+    dim, n = x.shape
+    lo = np.zeros(3, dtype=np.int64)
+    shape = np.ones(3, dtype=np.int64)
+    finite = True
+    count = 1.0
+    cells = 1
+    for d in range(dim):
+        a = np.inf
+        b = -np.inf
+        bad = False
+        for i in range(n):
+            v = x[d, i] * 1.0
+            bad = bad | (v - v != 0.0)  # inf and NaN
+            if v < a:
+                a = v
+            if v > b:
+                b = v
+        finite = finite and not bad
+        if n == 0 or bad:
+            continue
+        flo = np.floor(a * inv_a)
+        fhi = np.floor(b * inv_a)
+        count *= fhi - flo + 1.0
+        if count < 2.0**62:
+            k = d + 3 - dim
+            lo[k] = np.int64(flo)
+            shape[k] = np.int64(fhi) - lo[k] + 1
+            cells *= shape[k]
+    return finite, count, lo, shape, cells
+
+
+@numba.njit(cache=True)
 def _counting_sort(buckets, keys, x, table_size, bucket_start, sorted_index, sorted_key, sorted_x):
     n = buckets.shape[0]
     for b in range(table_size + 1):
@@ -274,10 +314,8 @@ class Grid:
         n = x.shape[1]
         self.n = n
         xc = np.ascontiguousarray(x)
-        # the extent along each axis; NumPy's min and max carry a NaN through, and an infinite
-        # coordinate is an extreme, so they tell whether every coordinate is finite too
-        lo, hi = (xc.min(axis=1), xc.max(axis=1)) if n else (None, None)
-        if n and not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        finite, count, lo, shape, cells = _dense_box(xc, self.SUB / self.h)
+        if not finite:
             raise ValueError("positions: contain NaN or inf; cannot build a neighbour grid")
         self.sorted_index = np.empty(n, dtype=INDEX)
         #: the packed cell key of each sorted point (hashed grid only: the dense grid has none)
@@ -285,35 +323,27 @@ class Grid:
         self.sorted_x = np.empty((3, n), dtype=x.dtype)  # zero-padded to 3 rows
         #: per dense cell, whether a point lies within reach (:meth:`mark_near`; empty: not kept)
         self.near = np.zeros(0, dtype=np.uint8)
-        self.dense = n > 0 and self._build_dense(xc, lo, hi)
-        if not self.dense:
-            self.sorted_key = np.empty(n, dtype=np.int64)
-            self._build_hashed(xc, lo, hi)
-
-    def _build_dense(self, xc: np.ndarray, xlo: np.ndarray, xhi: np.ndarray) -> bool:
-        """Set up the dense grid (``xlo``, ``xhi``: the points' smallest and largest coordinate
-        along each axis), or return False when it would have too many cells."""
-        n, dim = self.n, self.dim
-        inv_a = self.SUB / self.h
-        flo = np.floor(xlo * inv_a)
-        fhi = np.floor(xhi * inv_a)
         # the cell count in floating point first: far-flung points (or coordinates beyond the
         # int64 range) go to the hashed grid, which names the extent it cannot hold
-        if float(np.prod(fhi - flo + 1.0)) > max(self.dense_cells_per_point * n,
-                                                 self.dense_min_cells):
-            return False
-        lo = np.zeros(3, dtype=np.int64)
-        shape = np.ones(3, dtype=np.int64)
-        lo[3 - dim:] = flo.astype(np.int64)
-        shape[3 - dim:] = fhi.astype(np.int64) - lo[3 - dim:] + 1
-        cells = int(np.prod(shape))
+        self.dense = n > 0 and count <= max(self.dense_cells_per_point * n,
+                                            self.dense_min_cells)
+        if self.dense:
+            self._build_dense(xc, lo, shape, cells)
+        else:
+            self.sorted_key = np.empty(n, dtype=np.int64)
+            self._build_hashed(xc)
+
+    def _build_dense(self, xc: np.ndarray, lo: np.ndarray, shape: np.ndarray,
+                     cells: int) -> None:
+        """Set up the dense grid of :func:`_dense_box`'s box (first cell ``lo``, ``shape``
+        cells per axis, ``cells`` in all)."""
+        n, dim = self.n, self.dim
         self.lo, self.shape = lo, shape
         cell = np.empty(n, dtype=np.int64)
-        _dense_cells(xc, dim, inv_a, lo, shape, cell)
+        _dense_cells(xc, dim, self.SUB / self.h, lo, shape, cell)
         self.cell_start = np.empty(cells + 1, dtype=_START)
         _counting_sort(cell, cell, xc, cells, self.cell_start, self.sorted_index,
                        self.sorted_key, self.sorted_x)
-        return True
 
     def mark_near(self) -> Grid:
         """Keep, per cell of a dense grid, whether any point lies in the cells a query from
@@ -323,12 +353,12 @@ class Grid:
             self.near = _dilated_occupancy(self.cell_start, self.shape, self.SUB)
         return self
 
-    def _build_hashed(self, xc: np.ndarray, xlo: np.ndarray, xhi: np.ndarray) -> None:
+    def _build_hashed(self, xc: np.ndarray) -> None:
         n, h = self.n, self.h
         origin = np.zeros(3, dtype=np.int64)
         if n:
-            flo = np.floor(xlo / h)
-            ext = np.floor(xhi / h) - flo  # in floating point: no int64 overflow
+            flo = np.floor(xc.min(axis=1) / h)
+            ext = np.floor(xc.max(axis=1) / h) - flo  # in floating point: no int64 overflow
             if np.any(ext > _LIMIT - 2):
                 raise ValueError(
                     f"positions: extent of {float(ext.max()):.4g} cells of size {h} exceeds the "
