@@ -11,8 +11,10 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING
 
+import numba
 import numpy as np
 
+from sphkit.backend import launch_reduce
 from sphkit.core import arrays
 from sphkit.core.coupling import BoundaryCoupling
 from sphkit.core.neighbors import Grid, NeighborList
@@ -46,11 +48,7 @@ class RestArrays:
     rho0: np.ndarray  #: the field rho0 [kg/m^3] (N,)
     m: np.ndarray  #: the field m [kg] (N,)
     uniform: bool  #: True when every particle has the reference rest density (c == 1)
-
-    @cached_property
-    def V(self) -> np.ndarray:  # noqa: N802 - the rest volume, as the formulas name it
-        """``m_i * (1 / rho0_i)``: the rest volume [m^dim] (N,), computed when first asked."""
-        return arrays.multiplied(self.m, arrays.reciprocal(self.rho0))
+    V: np.ndarray  #: ``m_i * (1 / rho0_i)``: the rest volume [m^dim] (N,)
 
     @property
     def sums_factor(self) -> np.ndarray | None:
@@ -68,18 +66,29 @@ class RestArrays:
 
     @staticmethod
     def of(fluid: ParticleSet, rho0_ref: float) -> RestArrays:
-        """The arrays of a fluid set (fields ``rho0`` and ``m``), on the set's device."""
-        rho0 = fluid["rho0"]
+        """The arrays of a fluid set (fields ``rho0`` and ``m``), on the set's device: c and V
+        in one pass (:func:`rest_body`, which also tells whether every rest density is the
+        reference), 1 / c and mu only where they differ from c and m."""
+        rho0, m = fluid["rho0"], fluid["m"]
+        c = arrays.empty(fluid.n, fluid.dtype, like=rho0)
+        V = arrays.empty(fluid.n, fluid.dtype, like=rho0)
         ref = fluid.dtype.type(rho0_ref)
-        uniform = not arrays.any_differs(rho0, float(ref))
-        if uniform:
-            c = arrays.full(fluid.n, 1.0, fluid.dtype, like=rho0)
-            mu = fluid["m"]
-        else:
-            c = arrays.divided(rho0, float(ref))
-            mu = arrays.divided_by(fluid["m"], c)
+        uniform = not fluid.n or launch_reduce(rest_body, fluid.n, rho0, m, ref, c, V)[1] == 0.0
+        mu = m if uniform else arrays.divided_by(m, c)
         inv_c = c if uniform else arrays.reciprocal(c)
-        return RestArrays(c=c, inv_c=inv_c, mu=mu, rho0=rho0, m=fluid["m"], uniform=uniform)
+        return RestArrays(c=c, inv_c=inv_c, mu=mu, rho0=rho0, m=m, uniform=uniform, V=V)
+
+
+@numba.njit(cache=True, inline="always")
+def rest_body(i, rho0, m, ref, c, V):
+    """Particle i's ``c_i = rho0_i / rho0_ref`` (exactly 1 where they are equal) and rest volume
+    ``V_i = m_i * (1 / rho0_i)``, each operation rounded to the fields' type as NumPy's element-wise
+    form rounds it (no fast math; ``ref`` in the fields' type); 1 where ``rho0_i`` differs from
+    the reference, else 0 (reduced: are the rest densities uniform)."""
+    c[i] = rho0[i] / ref
+    V[i] = 1.0 / rho0[i]
+    V[i] = m[i] * V[i]
+    return 1.0 if rho0[i] != ref else 0.0
 
 
 @dataclass
