@@ -382,6 +382,7 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.coef: Any = np.empty(0)  # this step's, once computed (:meth:`prepare`)
         self._fit_args: tuple = ()
         self.phase: np.ndarray | None = None  # the fluid's phases where fitted on their own
+        self._zero_rows: Any = None  # one fit for all: every fluid particle's row 0
         #: ``use`` where the boundary's fields are: (the flags, the share of
         #: :meth:`diagonal_mirror`, the flagged samples), made once per device and dtype
         self._on: dict[tuple[str, Any], tuple[Any, Any, Any]] = {}
@@ -448,7 +449,10 @@ class MLSPressureExtrapolation(BoundaryPressure):
         where one fit serves all (one row), where the fluid's fields are."""
         if self.phase is not None:
             return self.phase
-        return arrays.zeros(fluid.n, np.int64, like=fluid["x"])
+        z = self._zero_rows  # kept from step to step (the passes only read it)
+        if z is None or z.shape[0] != fluid.n or device_of(z) != device_of(fluid["x"]):
+            z = self._zero_rows = arrays.zeros(fluid.n, np.int64, like=fluid["x"])
+        return z
 
     def correct_mirrored(self, state: SimState, a: Any) -> None:
         """For a state-equation solver (WCSPH) whose boundary term mirrored ``p_b = p_i``:

@@ -28,7 +28,7 @@ from sphkit.backend import empty as backend_empty
 from sphkit.core.pairs import set_vector
 
 #: the passes and helpers, and where arrays are (the step reaches the backend through core)
-__all__ = ["above_body", "any_above", "any_differs", "axpy", "axpy_body", "axpy_into",
+__all__ = ["above_body", "absent", "any_above", "any_differs", "axpy", "axpy_body", "axpy_into",
            "axpy_rows_body", "axpy_rows_into_body", "copied", "copy_body", "copy_into",
            "differs_body", "divide_body", "divided", "divided_by", "empty", "empty_like", "fill",
            "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body", "gather_rows_body",
@@ -213,6 +213,25 @@ class Scratch:
         if slot not in self._kept:
             self._kept[slot] = Scratch()
         return self._kept[slot].take(((size,), dtype))[0]
+
+_ABSENT: dict[tuple[tuple[int, ...], np.dtype], np.ndarray] = {}
+
+
+def absent(shape: int | tuple[int, ...], dtype: Any, like: Any) -> Any:
+    """An array with no entries (a ``shape`` with a 0) of ``dtype`` on the device of ``like``:
+    what a kernel body reads as "no such array" (no weights, no boundary sums). On the CPU one
+    array per shape and type, kept for the process (nothing can be written into it): the
+    iteration passes ask for a few every sweep."""
+    if device_of(like) != "cpu":
+        return empty(shape, dtype, like)
+    key = ((shape,) if isinstance(shape, int) else tuple(shape), np.dtype(dtype))
+    a = _ABSENT.get(key)
+    if a is None:
+        if 0 not in key[0]:
+            raise ValueError(f"absent: shape {shape} has entries; expected a 0 in it")
+        a = _ABSENT[key] = np.empty(key[0], dtype=key[1])
+    return a
+
 
 def empty_like(a: Any) -> Any:
     """An uninitialised array of ``a``'s shape and dtype, where ``a`` is."""

@@ -161,7 +161,7 @@ class BoundaryCoupling:
         neighbours). Empty without a model (mirroring only)."""
         f = state.fluid
         if model is None:
-            return arrays.empty(0, f.dtype, like=f["x"])
+            return arrays.absent(0, f.dtype, like=f["x"])
         n = state.boundary.n
         shape = (model.phases, n) if model.phase is not None else (n,)
         kb = self._kb
@@ -332,7 +332,7 @@ class BoundaryCoupling:
         ``dt (v_b + dt a_b(k))`` where the boundary yields and 0 elsewhere (PCISPH's predicted
         positions); an empty array when nothing yields (the static boundary stays put)."""
         if not self.yields:  # where the boundary is (a device array on the device)
-            return arrays.empty((state.dim, 0), state.boundary.dtype, like=state.boundary["x"])
+            return arrays.absent((state.dim, 0), state.boundary.dtype, like=state.boundary["x"])
         ab = self.moving.response(k, gwb)
         return np.where(self.moving.yielding(state), dt * (state.boundary["v"] + dt * ab), 0.0)
 

@@ -161,11 +161,11 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
     """
     n = q.shape[0]
     if bsum is None:
-        bsum = arrays.empty((a.shape[0], 0), a.dtype, like=a)
+        bsum = arrays.absent((a.shape[0], 0), a.dtype, like=a)
     if w is None:
-        w = arrays.empty(0, q.dtype, like=q)
+        w = arrays.absent(0, q.dtype, like=q)
     if active is None:
-        active = arrays.empty(0, np.bool_, like=q)
+        active = arrays.absent(0, np.bool_, like=q)
     tot, mx = launch_reduce(jacobi_body, n, a, ab, off, idx, boff, bidx, gw, gwb, bsum, int(dim),
                             q, s, float(ap_factor), scale, float(omega), active, w, k,
                             float(shift), float(lo))
@@ -377,7 +377,7 @@ def kappa_accel_cached(k: np.ndarray, kb: np.ndarray, off: np.ndarray, idx: np.n
         launch(phase_kb_body, k.shape[0], kb, phase, boff, bidx, gwb, int(dim), a, inv_c)
         return
     if inv_c is None:  # one fluid: no factor read a particle
-        inv_c = arrays.empty(0, a.dtype, like=a)
+        inv_c = arrays.absent(0, a.dtype, like=a)
     launch(kappa_accel_body, k.shape[0], k, kb, off, idx, boff, bidx, bmirror, gw, gwb, int(dim),
            a, inv_c)
 
@@ -406,15 +406,15 @@ def diagonal_cached(off: np.ndarray, boff: np.ndarray, bidx: np.ndarray, bmirror
     0.231 -> 0.155 ms at 6,859 particles, two threads)."""
     n = off.shape[0] - 1
     weighted = c is not None and inv_c is not None
-    if not weighted:
-        c = inv_c = arrays.full(n, 1.0, out.dtype, like=out)
+    if not weighted:  # not read
+        c = inv_c = arrays.absent(0, out.dtype, like=out)
     if idx is None:
-        idx = arrays.zeros(0, INDEX, like=out)
+        idx = arrays.absent(0, INDEX, like=out)
     if bsum is None:
-        bsum = arrays.empty((gwb.shape[0], 0), out.dtype, like=out)
+        bsum = arrays.absent((gwb.shape[0], 0), out.dtype, like=out)
     if div is None:
         v, bv = bsum, bsum  # unread
-        div = arrays.empty(0, out.dtype, like=out)
+        div = arrays.absent(0, out.dtype, like=out)
     launch(diagonal_body, n, off, idx, boff, bidx, bmirror, gw, gwb, int(dim), weighted, c, inv_c,
            out, bsum, v, bv, div)
 
@@ -428,7 +428,7 @@ def diagonal_body(i, off, idx, boff, bidx, bmirror, gw, gwb, dim, weighted, c, i
     with_div = div.shape[0] > 0
     g0 = g1 = g2 = 0.0
     sq = 0.0
-    ci = c[i]
+    ci = c[i] if weighted else 1.0
     s = vi0 = vi1 = vi2 = 0.0
     if with_div:
         vi0, vi1, vi2 = point(v, i, dim)

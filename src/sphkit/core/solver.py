@@ -443,13 +443,15 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         return k if rest.uniform else arrays.multiplied(k, rest.inv_c)
 
     # a boundary that takes no pressure acceleration enters Ap_i as a_i . B_i (no pair pass)
-    bsum = None if coupling.yields else g.boundary_sums()
+    yields = coupling.yields
+    bsum = None if yields else g.boundary_sums()
+    ab_still = None if yields else coupling.response(state, k, g.gwb)  # zeros, every sweep's
 
     def sweep(_k: int) -> tuple[float, float]:
         kappa_accel_cached(k, kb(k), nl.offsets, nl.indices, nb.offsets, nb.indices, mirror, g.gw,
                            g.gwb, dim, a, rest.sums_factor, phase)
         # boundary particles take no pressure acceleration unless they yield (dynamic bodies)
-        ab = coupling.response(state, own(k), g.gwb)
+        ab = coupling.response(state, own(k), g.gwb) if yields else ab_still
         avg, mx = jacobi_sweep(a, ab, nl.offsets, nl.indices, nb.offsets, nb.indices, g.gw, g.gwb,
                                dim, q, s, ap_factor, scale, omega, active, w, k, shift, lo, bsum)
         if walls:  # the same accelerations: a Jacobi sweep over fluid and walls together
