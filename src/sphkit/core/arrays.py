@@ -28,12 +28,13 @@ from sphkit.backend import empty as backend_empty
 from sphkit.core.pairs import set_vector
 
 #: the passes and helpers, and where arrays are (the step reaches the backend through core)
-__all__ = ["above_body", "absent", "any_above", "any_differs", "axpy", "axpy_body", "axpy_into",
-           "axpy_rows_body", "axpy_rows_into_body", "copied", "copy_body", "copy_into",
-           "differs_body", "divide_body", "divided", "divided_by", "empty", "empty_like", "fill",
-           "fill_body", "fill_rows", "fill_rows_body", "full", "gather_body", "gather_rows_body",
-           "gathered", "multiplied", "multiply_body", "on_device", "quotient_body", "reciprocal",
-           "reciprocal_body", "scale_body", "scaled", "Scratch", "to_host", "zeros"]
+__all__ = ["above_body", "absent", "add_body", "added", "any_above", "any_differs", "axpy",
+           "axpy_body", "axpy_into", "axpy_rows_body", "axpy_rows_into_body", "copied",
+           "copy_body", "copy_into", "differs_body", "divide_body", "divided", "divided_by",
+           "empty", "empty_like", "fill", "fill_body", "fill_rows", "fill_rows_body", "full",
+           "gather_body", "gather_rows_body", "gathered", "multiplied", "multiply_body",
+           "on_device", "quotient_body", "reciprocal", "reciprocal_body", "scale_body", "scaled",
+           "Scratch", "to_host", "zeros"]
 
 _BODY = dict(cache=True, inline="always")
 
@@ -89,6 +90,12 @@ def scale_body(i, x, alpha, out):
 def divide_body(i, x, d, out):
     """``out[i] = x[i] / d``."""
     out[i] = x[i] / d
+
+
+@numba.njit(**_BODY)
+def add_body(i, x, y, out):
+    """``out[i] = x[i] + y[i]``."""
+    out[i] = x[i] + y[i]
 
 
 @numba.njit(**_BODY)
@@ -173,6 +180,7 @@ class Scratch:
         self._block = np.empty(0, dtype=np.float64)
         self._raw = self._block.view(np.uint8)  # the block's bytes
         self._first = 0  # the first aligned byte of the block
+        self._views: dict[tuple, list[np.ndarray]] = {}  # the last takes' views, by their specs
         self._kept: dict[str, Scratch] = {}
         #: per slot, the row width (slots per query point) its neighbour search last grew to:
         #: the next step's search starts there instead of overflowing and searching twice
@@ -186,7 +194,12 @@ class Scratch:
 
     def take(self, *specs: tuple[tuple[int, ...], Any]) -> list[np.ndarray]:
         """C-contiguous arrays of the given ``(shape, dtype)`` laid one after the other in the
-        block, each starting on :attr:`ALIGN` bytes; their contents are undefined."""
+        block, each starting on :attr:`ALIGN` bytes; their contents are undefined. The same
+        specs give the same views while the block stands (a step's searches ask for the same
+        rows every step)."""
+        views = self._views.get(specs)
+        if views is not None:
+            return views
         a = self.ALIGN
         sizes = [math.prod(shape) * np.dtype(dt).itemsize for shape, dt in specs]
         spans = [(n + a - 1) // a * a for n in sizes]
@@ -195,11 +208,15 @@ class Scratch:
             self._block = np.empty(int(need * self.GROWTH) // 8 + 1, dtype=np.float64)
             self._raw = self._block.view(np.uint8)
             self._first = -self._raw.ctypes.data % a
+            self._views = {}
         raw, at = self._raw, self._first
         out = []
         for (shape, dt), n, span in zip(specs, sizes, spans, strict=True):
             out.append(raw[at:at + n].view(dt).reshape(shape))
             at += span
+        if len(self._views) >= 8:  # the pair caches' sizes change every step
+            self._views = {}
+        self._views[specs] = out
         return out
 
     def kept(self, slot: str, size: int, dtype: Any) -> np.ndarray:
@@ -350,6 +367,13 @@ def gathered(a: Any, perm: Any) -> Any:
 def quotient_body(i, x, y, out):
     """``out[i] = x[i] / y[i]``."""
     out[i] = x[i] / y[i]
+
+
+def added(x: Any, y: Any) -> Any:
+    """A new (N,) array ``x + y`` (element-wise)."""
+    out = empty_like(x)
+    launch(add_body, x.shape[0], x, y, out)
+    return out
 
 
 def divided_by(x: Any, y: Any) -> Any:

@@ -135,8 +135,7 @@ class BoundaryCoupling:
         if self.solved:  # the static walls' own pressure k_b instead (solved_walls)
             return np.where(self.solved_walls(state), 0.0, m).astype(b.dtype)
         if diagonal and self.pressure is not None:  # m + share, where the fields are
-            m = arrays.copied(m)
-            arrays.axpy(m, 1.0, self.pressure.diagonal_mirror())
+            m = arrays.added(m, self.pressure.diagonal_mirror())
         return m
 
     @staticmethod

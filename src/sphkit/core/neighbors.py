@@ -442,7 +442,7 @@ class Grid:
                               self.sorted_index, self.sorted_x, self.near, queries.lo,
                               queries.shape, queries.cell_start, queries.sorted_index,
                               queries.sorted_x, own, cap, rows, counts,
-                              min(queries.n, 16 * numba.get_num_threads()))
+                              min(queries.n, 16 * numba.config.NUMBA_NUM_THREADS))
         return self._lists(queries.n, scratch, fill, slot)
 
     def _lists(self, m: int, scratch: Scratch | None, fill: Callable, slot: str | None
