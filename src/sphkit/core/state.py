@@ -49,6 +49,7 @@ class RestArrays:
     m: np.ndarray  #: the field m [kg] (N,)
     uniform: bool  #: True when every particle has the reference rest density (c == 1)
     V: np.ndarray  #: ``m_i * (1 / rho0_i)``: the rest volume [m^dim] (N,)
+    inv_rho0: np.ndarray  #: ``1 / rho0_i`` [m^3/kg] (N,)
 
     @property
     def sums_factor(self) -> np.ndarray | None:
@@ -70,24 +71,25 @@ class RestArrays:
         in one pass (:func:`rest_body`, which also tells whether every rest density is the
         reference), 1 / c and mu only where they differ from c and m."""
         rho0, m = fluid["rho0"], fluid["m"]
-        c = arrays.empty(fluid.n, fluid.dtype, like=rho0)
-        V = arrays.empty(fluid.n, fluid.dtype, like=rho0)
+        c, V, inv_rho0 = (arrays.empty(fluid.n, fluid.dtype, like=rho0) for _ in range(3))
         ref = fluid.dtype.type(rho0_ref)
-        uniform = not fluid.n or launch_reduce(rest_body, fluid.n, rho0, m, ref, c, V)[1] == 0.0
+        uniform = not fluid.n or launch_reduce(rest_body, fluid.n, rho0, m, ref, c, V,
+                                               inv_rho0)[1] == 0.0
         mu = m if uniform else arrays.divided_by(m, c)
         inv_c = c if uniform else arrays.reciprocal(c)
-        return RestArrays(c=c, inv_c=inv_c, mu=mu, rho0=rho0, m=m, uniform=uniform, V=V)
+        return RestArrays(c=c, inv_c=inv_c, mu=mu, rho0=rho0, m=m, uniform=uniform, V=V,
+                          inv_rho0=inv_rho0)
 
 
 @numba.njit(cache=True, inline="always")
-def rest_body(i, rho0, m, ref, c, V):
-    """Particle i's ``c_i = rho0_i / rho0_ref`` (exactly 1 where they are equal) and rest volume
-    ``V_i = m_i * (1 / rho0_i)``, each operation rounded to the fields' type as NumPy's element-wise
-    form rounds it (no fast math; ``ref`` in the fields' type); 1 where ``rho0_i`` differs from
-    the reference, else 0 (reduced: are the rest densities uniform)."""
+def rest_body(i, rho0, m, ref, c, V, inv_rho0):
+    """Particle i's ``c_i = rho0_i / rho0_ref`` (exactly 1 where they are equal), ``1 / rho0_i``
+    and rest volume ``V_i = m_i * (1 / rho0_i)``, each operation rounded to the fields' type as
+    NumPy's element-wise form rounds it (no fast math; ``ref`` in the fields' type); 1 where
+    ``rho0_i`` differs from the reference, else 0 (reduced: are the rest densities uniform)."""
     c[i] = rho0[i] / ref
-    V[i] = 1.0 / rho0[i]
-    V[i] = m[i] * V[i]
+    inv_rho0[i] = 1.0 / rho0[i]
+    V[i] = m[i] * inv_rho0[i]
     return 1.0 if rho0[i] != ref else 0.0
 
 

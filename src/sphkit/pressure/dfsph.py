@@ -209,7 +209,7 @@ class DFSPH(StepBounded, PressureSolver):
         div = self._grads.velocity_divergence(v_star)
         s = arrays.empty_like(div)
         kappa = arrays.empty_like(div)
-        launch(density_source_body, f.n, f["rho"], arrays.reciprocal(f["rho0"]), div, dt,
+        launch(density_source_body, f.n, f["rho"], state.rest().inv_rho0, div, dt,
                f["dfsph_kappa"], state.rest().inv_c, s, kappa)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, None, s,
                                          arrays.divided(alpha, dt * dt), dt * dt, OMEGA, None,

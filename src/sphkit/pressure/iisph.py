@@ -108,7 +108,7 @@ class IISPH(StepBounded, PressureSolver):
         div = grads.velocity_divergence(v_star)
         D = grads.diagonal()
         s, w, scale = (arrays.empty_like(div) for _ in range(3))
-        launch(setup_body, n, f["rho"], arrays.reciprocal(f["rho0"]), div, D, dt,
+        launch(setup_body, n, f["rho"], state.rest().inv_rho0, div, D, dt,
                1e-9 / state.h ** 2, s, w, scale)
         # warm start, normalized pressure 0.5 p / rho0
         p = arrays.divided_by(arrays.scaled(f["p"], 0.5), f["rho0"])
