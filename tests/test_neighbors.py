@@ -276,6 +276,8 @@ def test_extent_beyond_grid_limit_raises() -> None:
         (np.zeros(3), 0.1, "positions"),  # not (dim, N)
         (np.array([[0.0, np.nan]]), 0.1, "positions"),
         (np.array([[0.0, np.inf]]), 0.1, "positions"),
+        (np.array([[0.0, 0.1, 0.2], [0.0, 0.0, 0.0], [0.3, np.nan, 0.1]]), 0.1, "positions"),
+        (np.array([[0.0, 0.1], [-np.inf, 0.0]]), 0.1, "positions"),
         (np.zeros((2, 3)), 0.0, "h"),
         (np.zeros((2, 3)), -1.0, "h"),
     ],
