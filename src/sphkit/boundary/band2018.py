@@ -382,7 +382,6 @@ class MLSPressureExtrapolation(BoundaryPressure):
         self.coef: Any = np.empty(0)  # this step's, once computed (:meth:`prepare`)
         self._fit_args: tuple = ()
         self.phase: np.ndarray | None = None  # the fluid's phases where fitted on their own
-        self._zero_rows: Any = None  # one fit for all: every fluid particle's row 0
         #: ``use`` where the boundary's fields are: (the flags, the share of
         #: :meth:`diagonal_mirror`, the flagged samples), made once per device and dtype
         self._on: dict[tuple[str, Any], tuple[Any, Any, Any]] = {}
@@ -445,14 +444,12 @@ class MLSPressureExtrapolation(BoundaryPressure):
         return int(self.phase.max()) + 1 if self.phase is not None else 1
 
     def _phase_rows(self, fluid: Any) -> Any:
-        """The row of each fluid particle in the per-phase passes: :attr:`phase`, or zeros
-        where one fit serves all (one row), where the fluid's fields are."""
+        """The row of each fluid particle in the per-phase passes: :attr:`phase`, or an empty
+        array where one fit serves all (one row: the passes read no phase), where the fluid's
+        fields are."""
         if self.phase is not None:
             return self.phase
-        z = self._zero_rows  # kept from step to step (the passes only read it)
-        if z is None or z.shape[0] != fluid.n or device_of(z) != device_of(fluid["x"]):
-            z = self._zero_rows = arrays.zeros(fluid.n, np.int64, like=fluid["x"])
-        return z
+        return arrays.absent(0, np.int64, like=fluid["x"])
 
     def correct_mirrored(self, state: SimState, a: Any) -> None:
         """For a state-equation solver (WCSPH) whose boundary term mirrored ``p_b = p_i``:

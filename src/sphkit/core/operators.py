@@ -162,7 +162,7 @@ def replace_mirrored_body(i, x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb, pha
     xi0, xi1, xi2 = point(x, i, dim)
     ki = p[i] / rho0[i]
     ici = inv_c[i]
-    ph = phase[i]
+    ph = phase[i] if phase.shape[0] > 0 else 0
     a0 = a1 = a2 = 0.0
     for k in pair_slots(boff, i):
         b = bidx[k]
@@ -186,7 +186,7 @@ def replace_mirrored(x: Any, p: Any, rho0: Any, inv_c: Any, bx: Any, bV: Any, bo
     0, which leaves the symmetric term ``V_b k_i`` alone; ``rho0`` (N,) each particle's rest
     density, ``inv_c`` = ``rho0_ref / rho0_i``, :class:`sphkit.core.state.RestArrays`). ``kb``
     holds a row per phase (``kb[phase[i], b]``: the phases fitted on their own; one row and
-    phases 0 otherwise)."""
+    an empty ``phase`` otherwise)."""
     launch(replace_mirrored_body, x.shape[1], x, p, rho0, inv_c, bx, bV, boff, bidx, use, kb,
            phase, h, kid, int(dim), L, a)
 
