@@ -231,6 +231,7 @@ class Scratch:
             self._kept[slot] = Scratch()
         return self._kept[slot].take(((size,), dtype))[0]
 
+
 _ABSENT: dict[tuple[tuple[int, ...], np.dtype], np.ndarray] = {}
 
 

@@ -67,9 +67,9 @@ class RestArrays:
 
     @staticmethod
     def of(fluid: ParticleSet, rho0_ref: float) -> RestArrays:
-        """The arrays of a fluid set (fields ``rho0`` and ``m``), on the set's device: c and V
-        in one pass (:func:`rest_body`, which also tells whether every rest density is the
-        reference), 1 / c and mu only where they differ from c and m."""
+        """The arrays of a fluid set (fields ``rho0`` and ``m``), on the set's device: c,
+        1 / rho0 and V in one pass (:func:`rest_body`, which also tells whether every rest
+        density is the reference), 1 / c and mu only where they differ from c and m."""
         rho0, m = fluid["rho0"], fluid["m"]
         c, V, inv_rho0 = (arrays.empty(fluid.n, fluid.dtype, like=rho0) for _ in range(3))
         ref = fluid.dtype.type(rho0_ref)
