@@ -229,3 +229,51 @@ def test_device_choice_names_the_methods_that_keep_a_scene_on_the_cpu(tmp_path) 
     assert main(["run", "dambreak-2d", "--device", "cuda", "--quiet",
                  "--out", str(tmp_path / "refused")]) == 2
     assert not (tmp_path / "refused").exists()
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("densities", [(1000.0,), (1000.0, 123.4567)])
+def test_rest_arrays_are_the_element_wise_forms(dtype: type, densities: tuple) -> None:
+    """The rest arrays of one pass (``RestArrays.of``, :func:`sphkit.core.state.rest_body`)
+    equal NumPy's element-wise forms to the last bit in the fields' precision: ``c = rho0 /
+    rho0_ref`` (exactly 1 for one rest density), ``1 / rho0``, ``V = m * (1 / rho0)``, ``mu =
+    m / c`` and ``1 / c`` (c and m themselves for one density)."""
+    from sphkit.core.particles import ParticleSet
+    from sphkit.core.state import RestArrays
+
+    rng = np.random.default_rng(8)
+    f = ParticleSet(3, dtype)
+    f.register("rho0")
+    f.register("m")
+    f.add(rng.random((700, 3)))
+    f["rho0"][:] = rng.choice(densities, 700)
+    f["m"][:] = rng.uniform(1e-3, 1e-2, 700)
+    r = RestArrays.of(f, 1000.0)
+    rho0, m, ref = f["rho0"], f["m"], dtype(1000.0)
+    c = rho0 / ref
+    inv = dtype(1.0) / rho0
+    assert r.uniform == (len(densities) == 1)
+    assert np.array_equal(r.c, c) and np.array_equal(r.inv_rho0, inv)
+    assert np.array_equal(r.V, m * inv)
+    if r.uniform:
+        assert np.all(r.c == 1.0) and r.mu is m and r.inv_c is r.c
+    else:
+        assert np.array_equal(r.mu, m / c) and np.array_equal(r.inv_c, dtype(1.0) / c)
+    for a in (r.c, r.V, r.inv_rho0, r.mu, r.inv_c):
+        assert a.dtype == dtype
+
+
+def test_absent_arrays_are_kept_and_empty() -> None:
+    """``arrays.absent`` gives one empty array per shape and type on the CPU (what a kernel
+    body reads as "no such array"), refuses a shape with entries, and ``arrays.added`` is the
+    element-wise sum."""
+    from sphkit.core import arrays
+
+    like = np.zeros(3)
+    a = arrays.absent(0, np.float64, like)
+    assert a.size == 0 and a is arrays.absent(0, np.float64, like)
+    assert arrays.absent((3, 0), np.float32, like).shape == (3, 0)
+    with pytest.raises(ValueError, match="absent: shape"):
+        arrays.absent(4, np.float64, like)
+    x, y = np.array([0.1, 2.0, -3.0]), np.array([0.2, 1e-17, 3.0])
+    assert np.array_equal(arrays.added(x, y), x + y)
