@@ -116,12 +116,9 @@ def step_check(x: np.ndarray, v: np.ndarray, domain: Domain | None) -> tuple[flo
     one those passes give)."""
     if v.shape[1] == 0:
         return 0.0, 0, True
-    box = ([-math.inf] * 3, [math.inf] * 3, -1, 0.0, 1.0) if domain is None else (
-        [float(t) for t in domain.lo] + [0.0] * 3, [float(t) for t in domain.hi] + [0.0] * 3,
-        int(domain.up), float(domain.top), float(domain.sgn))
-    lo, hi, up, top, sgn = box
-    m = launch_reduce(step_check_body, v.shape[1], x, v, v.shape[0], lo[0], lo[1], lo[2],
-                      hi[0], hi[1], hi[2], up, top, sgn)[1]
+    inf = np.full(3, math.inf)
+    box = _box_args(-inf, inf) if domain is None else _box_args(*domain)
+    m = launch_reduce(step_check_body, v.shape[1], x, v, v.shape[0], *box)[1]
     if math.isfinite(m):
         return math.sqrt(m), 0, True
     vmax, bad = speed_check(v)
@@ -172,10 +169,17 @@ def outside_count(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, up: int = -1,
     :class:`Domain`)."""
     if x.shape[1] == 0:
         return 0
+    return int(launch_reduce(outside_body, x.shape[1], x, x.shape[0],
+                             *_box_args(lo, hi, up, top, sgn))[0])
+
+
+def _box_args(lo: np.ndarray, hi: np.ndarray, up: int = -1, top: float = 0.0,
+              sgn: float = 1.0) -> tuple:
+    """The box of :class:`Domain` as :func:`outside_body`'s scalar arguments after ``dim``:
+    ``lo0, lo1, lo2, hi0, hi1, hi2, up, top, sgn`` (bounds beyond the dimension 0)."""
     b = [float(t) for t in lo] + [0.0] * 3
     t = [float(u) for u in hi] + [0.0] * 3
-    return int(launch_reduce(outside_body, x.shape[1], x, x.shape[0], b[0], b[1], b[2], t[0],
-                             t[1], t[2], int(up), float(top), float(sgn))[0])
+    return b[0], b[1], b[2], t[0], t[1], t[2], int(up), float(top), float(sgn)
 
 
 @numba.njit(cache=True, inline="always")

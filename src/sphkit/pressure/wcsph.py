@@ -62,6 +62,7 @@ import numba
 import numpy as np
 
 from sphkit.backend import launch_reduce
+from sphkit.core import arrays
 from sphkit.core.kernels import kernel_dw
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.operators import pressure_accel_cpu, replace_mirrored
@@ -250,7 +251,8 @@ class WCSPH(PressureSolver):
         if use is not None:
             replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
                              state.nl_fb.offsets, state.nl_fb.indices, use,
-                             np.zeros((1, b.n), dtype=f.dtype), np.zeros(f.n, dtype=np.int64),
+                             np.zeros((1, b.n), dtype=f.dtype),
+                             arrays.absent(0, np.int64, like=f["x"]),
                              state.h, state.kid, state.dim, state.pair_period, f["a"])
         if not (cp.symmetric or cp.solved):
             cp.correct_mirrored(state, f["a"])  # extrapolated p_b, where modelled
