@@ -141,20 +141,25 @@ def test_spheric_test2_water_heights_in_the_first_passage(tmp_path: Path) -> Non
     t = 0.6 s, the first passage (the water column collapses, its front passes the box and
     reaches the back wall at 0.6 s). The water height at the four gauges on the centre line
     (the highest point of the gauge's vertical with kernel sum >= 0.5) against MARIN's record at
-    its 12 tabulated times: mean |h_sim - h_exp| below 0.05 m at every gauge (water heights
-    0-0.55 m). Measured (2026-12-06): 0.001 / 0.011 / 0.021 / 0.031 m at x = 0.496 / 0.992 /
-    1.488 / 2.638 m (the reservoir's level falls 0.035 m faster than the experiment's by 0.6 s:
-    the lead of every dam-break front here, validation/README.md); a reservoir that did not
-    drain would read 0.08 m off there. 2.7 s warm on one thread (build 1.2 s)."""
+    its 12 tabulated times (water heights 0-0.55 m), |h_sim - h_exp| per gauge. Measured
+    (2026-12-06) at x = 0.496 / 0.992 / 1.488 / 2.638 m: medians 0.001 / 0.001 / 0.017 / 0.035
+    m, means 0.001 / 0.011 / 0.021 / 0.031 m; with the positions moved by 1e-9 to 1e-3 r at the
+    start (round-off, amplified by the flow) the medians stay within 0.001-0.036 m, but a splash
+    crossing the x = 0.992 gauge's line in one row (0.29-0.32 m there) lifts its mean to 0.038
+    m. Bounds: every median below 0.05 m (the reservoir's 0.035 m is its level falling faster
+    than the experiment's, the lead of every dam-break front here, validation/README.md), every
+    mean below 0.08 m (two such rows); a reservoir that did not drain would be 0.08 m off.
+    2.7 s warm on one thread (build 1.2 s)."""
     mod = load_validation("spheric_test2.py")
     sim = Simulation(mod.scene(0.03, tmp_path))
     out = mod.run(sim, 0.6)
     te, he = mod.experiment()
     keep = te <= out["t"][-1]
     assert keep.sum() == 12, keep.sum()
-    err = [float(np.abs(np.interp(te[keep], out["t"], out["h"][i]) - he[x][keep]).mean())
-           for i, x in enumerate(mod.GAUGES)]
-    assert max(err) < 0.05, err
+    err = np.array([np.abs(np.interp(te[keep], out["t"], out["h"][i]) - he[x][keep])
+                    for i, x in enumerate(mod.GAUGES)])
+    assert np.median(err, axis=1).max() < 0.05, err
+    assert err.mean(axis=1).max() < 0.08, err
     assert out["h"][3][-1] < out["h"][3][0] - 0.1, out["h"][3]  # the reservoir drains
 
 def test_sloshing_wall_elevation_follows_linear_theory() -> None:
