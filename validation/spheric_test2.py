@@ -210,6 +210,14 @@ def run(sim: Simulation, t_end: float, every: float = 0.01) -> dict:
             "steps": sim.step_count, "n": sim.fluid.n}
 
 
+def gauge_errors(o: dict, te: np.ndarray, he: dict[float, np.ndarray]) -> np.ndarray:
+    """``|h_sim - h_exp|`` [m] (gauges, rows) at the experiment's rows ``te`` up to the run's
+    end: the run's heights (:func:`run`'s ``o``) interpolated to those times."""
+    keep = te <= o["t"][-1]
+    return np.array([np.abs(np.interp(te[keep], o["t"], o["h"][i]) - he[x][keep])
+                     for i, x in enumerate(GAUGES)])
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--r", type=float, nargs="+", default=[0.025], help="particle radii [m]")
@@ -253,8 +261,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{te[k]:6.3f}" + "".join(
                     f"{np.interp(te[k], o['t'], o['h'][i]):8.3f}/{he[x][k]:.3f}"
                     for i, x in enumerate(GAUGES)))
-            err = [np.abs(np.interp(te[keep], o["t"], o["h"][i]) - he[x][keep]).mean()
-                   for i, x in enumerate(GAUGES)]
+            err = gauge_errors(o, te, he).mean(axis=1)
             print("mean |h_sim - h_exp| [m]: " + ", ".join(
                 f"x = {x}: {e:.3f}" for x, e in zip(GAUGES, err, strict=True)), flush=True)
     tpe, pe = pressure_experiment()
