@@ -116,8 +116,7 @@ def step_check(x: np.ndarray, v: np.ndarray, domain: Domain | None) -> tuple[flo
     one those passes give)."""
     if v.shape[1] == 0:
         return 0.0, 0, True
-    inf = np.full(3, math.inf)
-    box = _box_args(-inf, inf) if domain is None else _box_args(*domain)
+    box = _NO_BOX if domain is None else _box_args(*domain)
     m = launch_reduce(step_check_body, v.shape[1], x, v, v.shape[0], *box)[1]
     if math.isfinite(m):
         return math.sqrt(m), 0, True
@@ -180,6 +179,9 @@ def _box_args(lo: np.ndarray, hi: np.ndarray, up: int = -1, top: float = 0.0,
     b = [float(t) for t in lo] + [0.0] * 3
     t = [float(u) for u in hi] + [0.0] * 3
     return b[0], b[1], b[2], t[0], t[1], t[2], int(up), float(top), float(sgn)
+
+
+_NO_BOX = _box_args(np.full(3, -math.inf), np.full(3, math.inf))  # no domain: nothing outside
 
 
 @numba.njit(cache=True, inline="always")

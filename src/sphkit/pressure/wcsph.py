@@ -251,7 +251,7 @@ class WCSPH(PressureSolver):
         if use is not None:
             replace_mirrored(f["x"], f["p"], rest.rho0, rest.inv_c, b["x"], b["V"],
                              state.nl_fb.offsets, state.nl_fb.indices, use,
-                             np.zeros((1, b.n), dtype=f.dtype),
+                             arrays.zeros((1, b.n), f.dtype, like=f["x"]),
                              arrays.absent(0, np.int64, like=f["x"]),
                              state.h, state.kid, state.dim, state.pair_period, f["a"])
         if not (cp.symmetric or cp.solved):

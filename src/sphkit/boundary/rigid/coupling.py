@@ -238,6 +238,7 @@ class FluidCoupling(MovingBoundary):
     bodies: list[RigidBody]
     _ab: np.ndarray | None
     _vstar: np.ndarray  #: the bodies' velocities (bodies, 6) of :meth:`begin_step`, :meth:`predict`
+    _cached: bool = False  #: whether :meth:`begin_step` has made the caches once
 
     @property
     def yields(self) -> bool:
@@ -397,8 +398,9 @@ class FluidCoupling(MovingBoundary):
         """Cache this step's centres and world inverse inertias for :meth:`response`, and the
         bodies' velocities as :meth:`motion`'s ``V*`` until :meth:`predict` advances them."""
         self._state = state
-        if not self.bodies and hasattr(self, "_Iinv"):
+        if not self.bodies and self._cached:
             return  # no bodies: the empty caches of the first step stand
+        self._cached = True
         self._c = np.array([b.c for b in self.bodies])
         self._vstar = np.array([np.concatenate([b.v, b.omega]) for b in self.bodies]
                                ).reshape(len(self.bodies), 6)
