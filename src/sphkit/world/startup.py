@@ -37,7 +37,10 @@ and bounces ("breathes") for seconds. The start-up, in this order
    the clamped density constraint (:func:`sphkit.core.relaxation.relax_pass`, PBF's, without
    gravity or time; bodies held still) move the particles that sit in a wall's range out of
    it, until no particle is more than 1 % denser than its start density (or
-   ``start.relax_iterations``).
+   ``start.relax_iterations``). A particle the sweeps moved onto the solid side of a wall (the
+   test of step 1; in the concave corner of a surface-sampled container, where every fluid
+   neighbour pushes it towards the corner, it can leave between the samples) goes back where
+   it was sampled.
 4. **Masses** (with ``start.relax``): each particle's mass is set so that its summation density
    is its start density (:func:`sphkit.core.relaxation.mass_pass`, to 1e-6). Where the kernel
    was filled as sampled (the summation density with the lattice masses reached the rest
@@ -107,6 +110,8 @@ class StartReport:
     #: the same after the relaxation (before the masses)
     relaxed_error: tuple[float, float] = (0.0, 0.0)
     max_displacement: float = 0.0  #: largest distance a particle was moved [m]
+    #: particles the relaxation moved onto a wall's solid side, put back where they were sampled
+    held_back: int = 0
     mass_iterations: int = 0
     #: smallest and largest mass over lattice mass times start compression
     min_mass_share: float = 1.0
@@ -462,6 +467,22 @@ def relax(state: SimState, lists: _Lists, target: np.ndarray, iterations: int,
     report.max_displacement = float(np.sqrt((d * d).sum(axis=0)).max()) if f.n else 0.0
 
 
+def hold_back(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
+              x0: np.ndarray, report: StartReport) -> None:
+    """Put the particles that the relaxation moved onto the solid side of a wall or body (the
+    test of step 1) back where they were sampled (``x0``); the masses then make them
+    consistent there. The relaxation pushes a particle away from its compressed neighbours as
+    much as from the walls: in the concave corner of a surface-sampled container every fluid
+    neighbour lies on one side, and a particle sampled r from both walls left through the
+    corner, between the samples."""
+    geo, _ = _geometry_inside(state, scene, meshes)
+    own, _ = model.inside(state)
+    crossed = (geo >= 0) | (own >= 0)
+    report.held_back = int(crossed.sum())
+    if report.held_back:
+        state.fluid["x"][:, crossed] = x0[:, crossed]
+
+
 def consistent_masses(state: SimState, lists: _Lists, rho_start: np.ndarray,
                       two_sided: np.ndarray, report: StartReport) -> np.ndarray:
     """Step 4 of the module docstring: the masses, and the removal of the particles the
@@ -518,7 +539,9 @@ def start_fluid(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bound
     p, rho_start = start_density(state, lists, pressure, cfg.hydrostatic)
     two_sided = filled(state, lists)
     if cfg.relax:
+        x0 = f["x"].copy()
         relax(state, lists, rho_start / f["rho0"], cfg.relax_iterations, report)
+        hold_back(state, scene, meshes, model, x0, report)
         p, rho_start = start_density(state, lists, pressure, cfg.hydrostatic)  # after the moves
         kept = consistent_masses(state, lists, rho_start, two_sided, report)
         p, two_sided = p[kept], two_sided[kept]
