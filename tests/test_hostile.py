@@ -592,6 +592,21 @@ def test_undecodable_mesh_names_the_file_not_a_module(tmp_path: Path,
     assert "charset" not in text and "module" not in text
 
 
+def test_2d_mesh_off_the_plane_is_named_for_every_boundary_model(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a 2D scene's meshes are their sections with z = 0; a cube beside that plane has none:
+    # the maps said so, Akinci particles (the default) ran without the obstacle
+    import trimesh
+
+    trimesh.creation.box(bounds=[[0.2, 0.0, 0.1], [0.3, 0.1, 0.2]]).export(tmp_path / "cube.obj")
+    for method in ("akinci2012", "koschier2017"):
+        scene = _with("meshes", [{"geometry_file": "cube.obj"}])
+        scene["configuration"]["boundary"] = {"method": method}
+        code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                                   str(tmp_path / method))
+        _refused(code, text, seconds, "meshes[0]", "cube.obj", "does not cross the plane z = 0")
+
+
 def test_fluid_outside_every_box_and_overlapping_blocks_warn(tmp_path: Path) -> None:
     scene = copy.deepcopy(TINY)
     scene["fluid_blocks"] = [{"start": [0.1, 0.1], "end": [0.3, 0.3]},

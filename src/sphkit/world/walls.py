@@ -12,6 +12,7 @@ and meshes become signed distances instead (:func:`map_geometries`).
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import numpy as np
 
@@ -44,6 +45,17 @@ def moving_meshes(scene: Scene) -> list[int]:
     return [k for k, mb in enumerate(scene.meshes) if mb.moving]
 
 
+def mesh_section(mesh: Any, k: int, geometry_file: str) -> tuple[np.ndarray, np.ndarray]:
+    """The segments (a, b) of ``scene.meshes[k]``'s section with the plane z = 0, the mesh's 2D
+    boundary for every boundary model; a :class:`SceneError` naming the mesh where it does not
+    cross the plane."""
+    a, b = section_segments(mesh)
+    if len(a) == 0:
+        raise SceneError(f"meshes[{k}]: {geometry_file!r} does not cross the plane z = 0; "
+                         "expected a mesh whose section is the 2D boundary")
+    return a, b
+
+
 def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
                        housings: list) -> None:
     """Sample boxes, meshes and emitter housings into ``state.boundary``."""
@@ -71,6 +83,8 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
     bodies = moving_meshes(scene)
     for k in range(len(scene.meshes)):
         mesh = meshes.mesh(k)
+        if dim == 2:  # a mesh that misses the plane would have no particles, silently
+            mesh_section(mesh, k, scene.meshes[k].geometry_file)
         pts = sample_mesh_surface(mesh, r, dim)
         if k in bodies:  # a moving rigid body (sphkit.boundary.rigid)
             # the fluid rests at the mesh surface (see inset_samples); 2D: the section's
@@ -122,13 +136,7 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
         if dim == 3:
             sdf = MeshDistance(mesh.vertices, mesh.faces)
         else:
-            a, b = section_segments(mesh)
-            if len(a) == 0:
-                raise SceneError(
-                    f"meshes[{k}]: {mb.geometry_file!r} does not cross the plane z = 0; "
-                    "expected a mesh whose section is the 2D boundary"
-                )
-            sdf = PolygonDistance(a, b)
+            sdf = PolygonDistance(*mesh_section(mesh, k, mb.geometry_file))
         mres = tuple(mb.map_resolution) if mb.map_resolution else res
         body, thick = 0, mb.map_thickness
         if k in bodies:  # a moving body: its map lives in its frame
