@@ -382,36 +382,67 @@ def test_fluid_in_a_box_wall_is_removed_with_a_warning() -> None:
         sim.step()
 
 
-def test_block_filling_a_mesh_container_stays_inside_it(tmp_path: Path) -> None:
-    """Own format, Akinci particles sampled on an inverted box mesh (a container), DFSPH, 2D: a
-    block written from wall to wall and from the floor (its first particles r from the mesh
-    surface). The relaxation pushes each particle away from its compressed neighbours as much
-    as from the walls, and in the floor's corners every fluid neighbour lies on one side: the
-    two corner particles left the tank between the surface samples (to 0.7 r outside both
-    walls; the first steps then lost them and the run stopped as a leak, 3D too). They are put
-    back where they were sampled (``held_back``), where the boundary claims most of their
-    volume, so the masses step removes them with its warning; every other particle stays
-    inside and none leaves in 0.1 s."""
+def test_block_flush_against_mesh_walls_starts_inside_and_rests(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Own format, Akinci particles sampled on meshes, 2D: blocks written flush against the
+    mesh surfaces, their first particles r from the surface samples.
+
+    1. A block filling an inverted box mesh (a container, 0.2 m wide, r = 1 cm, DFSPH): the
+       ring of particles r from the walls overlaps the wall particles by half a particle and
+       is removed (``akinci2012.STATIC_REACH`` = 1.5 r at static walls; 10 + 4 + 4 of the 10 x
+       5 block), with the block's warning; the rest is consistent as sampled and stays inside
+       for 0.1 s. Kept (the reach of r, as before), the relaxation squeezed the ring into the
+       block, and in the floor's corners, where every fluid neighbour lies on one side, pushed
+       the two corner particles out between the surface samples (0.7 r outside both walls;
+       the first steps lost them and the run stopped as a leak, 3D too): such particles are
+       now put back where they were sampled (``held_back``), where the masses step removes
+       them.
+    2. A pool filled over a solid box mesh standing on its floor (box walls 0.2 m wide, block
+       0.12 m deep, r = 5 mm, PCISPH): with the reach of r the relaxation pressed particles to
+       0.5 r above the floor and the first solves diverged (542 m/s at step 6); now the
+       columns flush against the obstacle are removed, and the pool rests (largest speed after
+       0.1 s below 5 cm/s: measured 1.5 cm/s)."""
     import trimesh
+
+    import sphkit.boundary.akinci2012 as akinci
 
     r, w = 0.01, 0.2
     trimesh.creation.box(bounds=[[0.0, 0.0, -0.5], [w, 0.3, 0.5]]).export(tmp_path / "tank.obj")
-    scene = Scene.model_validate({
+    tank = {
         "configuration": {"dim": 2, "particle_radius": r, "pressure": {"method": "dfsph"}},
         "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [w, 0.1]}],
-        "meshes": [{"geometry_file": str(tmp_path / "tank.obj"), "invert": True}]})
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        sim = Simulation(scene)
-    notes = [str(x.message) for x in caught if "removed" in str(x.message)]
-    assert sim.world.start.held_back == 2
-    assert len(notes) == 1 and notes[0].startswith("fluid_blocks[0]: 2 particle(s)"), notes
-    assert sim.fluid.n == 10 * 5 - 2
+        "meshes": [{"geometry_file": str(tmp_path / "tank.obj"), "invert": True}]}
+    for reach, removed, held in ((akinci.STATIC_REACH, 18, 0), (1.0, 2, 2)):
+        monkeypatch.setattr(akinci, "STATIC_REACH", reach)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            sim = Simulation(Scene.model_validate(tank))
+        notes = [str(x.message) for x in caught if "removed" in str(x.message)]
+        assert sim.world.start.held_back == held, reach
+        assert len(notes) == 1, notes
+        assert notes[0].startswith(f"fluid_blocks[0]: {removed} particle(s)"), notes
+        assert sim.fluid.n == 10 * 5 - removed
+        while sim.time < 0.1:
+            sim.step()
+            x = sim.positions
+            assert x[:, 0].min() > 0.0 and x[:, 0].max() < w and x[:, 1].min() > 0.0, reach
+    monkeypatch.undo()
+    r = 0.005
+    trimesh.creation.box(bounds=[[0.08, -0.05, -0.5], [0.14, 0.06, 0.5]]).export(
+        tmp_path / "cube.obj")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(Scene.model_validate({
+            "configuration": {"dim": 2, "particle_radius": r, "pressure": {"method": "pcisph"}},
+            "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
+            "fluid_blocks": [{"start": [0.0, 0.0], "end": [w, 0.12]}],
+            "boxes": [{"min": [0.0, 0.0], "max": [w, 0.3], "open_top": True}],
+            "meshes": [{"geometry_file": str(tmp_path / "cube.obj")}]}))
+    assert sim.world.start.relax_iterations == 0  # consistent as sampled
     while sim.time < 0.1:
         sim.step()
-        x = sim.positions
-        assert x[:, 0].min() > 0.0 and x[:, 0].max() < w and x[:, 1].min() > 0.0
+    assert np.abs(sim.fluid["v"]).max() < 0.05
 
 
 def test_block_overlapping_a_map_wall_is_removed_and_runs(tmp_path: Path) -> None:

@@ -17,8 +17,9 @@ and bounces ("breathes") for seconds. The start-up, in this order
    (signed distance on a lattice of spacing r, interpolated) -- or inside the boundary model's
    own solid (:meth:`sphkit.core.methods.BoundaryModel.inside`): density and volume maps, map
    distance ``phi <= 0`` (their surface moved into the fluid by the map's offset and the wall's
-   thickness); boundary particles, closer than r to one (the particles overlap by more than a
-   radius).
+   thickness); boundary particles, closer than 1.5 r to a static one, r to a moving body's
+   (:data:`sphkit.boundary.akinci2012.STATIC_REACH`: the particles overlap by more than half a
+   radius, or a radius).
 2. **Hydrostatic start** (``start.hydrostatic``, default on; as DualSPHysics starts its
    fluid): each particle's depth is measured along gravity from the top of its connected column
    of fluid -- the particles in the same column 2r wide (across gravity) with no vertical gap
