@@ -389,14 +389,14 @@ def test_block_flush_against_mesh_walls_starts_inside_and_rests(
 
     1. A block filling an inverted box mesh (a container, 0.2 m wide, r = 1 cm, DFSPH): the
        ring of particles r from the walls overlaps the wall particles by half a particle and
-       is removed (``akinci2012.STATIC_REACH`` = 1.5 r at static walls; 10 + 4 + 4 of the 10 x
-       5 block), with the block's warning; the rest is consistent as sampled and stays inside
-       for 0.1 s. Kept (the reach of r, as before), the relaxation squeezed the ring into the
-       block, and in the floor's corners, where every fluid neighbour lies on one side, pushed
-       the two corner particles out between the surface samples (0.7 r outside both walls;
-       the first steps lost them and the run stopped as a leak, 3D too): such particles are
-       now put back where they were sampled (``held_back``), where the masses step removes
-       them.
+       is removed (closer than 1.5 r to a static mesh's surface, ``Akinci2012.start_reach``;
+       10 + 4 + 4 of the 10 x 5 block), with the block's warning; the rest is
+       consistent as sampled and stays inside for 0.1 s. Kept (the reach of r, as before), the
+       relaxation squeezed the ring into the block, and in the floor's corners, where every
+       fluid neighbour lies on one side, pushed the two corner particles out between the
+       surface samples (0.7 r outside both walls; the first steps lost them and the run
+       stopped as a leak, 3D too): such particles are now put back where they were sampled
+       (``held_back``), where the masses step removes them.
     2. A pool filled over a solid box mesh standing on its floor (box walls 0.2 m wide, block
        0.12 m deep, r = 5 mm, PCISPH): with the reach of r the relaxation pressed particles to
        0.5 r above the floor and the first solves diverged (542 m/s at step 6); now the
@@ -413,8 +413,8 @@ def test_block_flush_against_mesh_walls_starts_inside_and_rests(
         "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [w, 0.1]}],
         "meshes": [{"geometry_file": str(tmp_path / "tank.obj"), "invert": True}]}
-    for reach, removed, held in ((akinci.STATIC_REACH, 18, 0), (1.0, 2, 2)):
-        monkeypatch.setattr(akinci, "STATIC_REACH", reach)
+    for reach, removed, held in ((akinci.Akinci2012.start_reach, 18, 0), (0.0, 2, 2)):
+        monkeypatch.setattr(akinci.Akinci2012, "start_reach", reach)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             sim = Simulation(Scene.model_validate(tank))

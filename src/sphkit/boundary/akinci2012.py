@@ -27,12 +27,6 @@ from sphkit.core.neighbors import Grid, NeighborList, Period, neighbor_lists, pa
 from sphkit.core.pairs import distance, pair_slots, point
 from sphkit.core.state import SimState
 
-#: a fluid particle starts inside a *static* wall particle's volume closer than this [r]: the
-#: samples of a static mesh lie on its surface, so a block written flush against the mesh (its
-#: first particles r from the surface) overlaps them by half a particle; a moving body's
-#: samples lie inside its mesh (the fluid rests at the mesh surface), where r stays the bound
-STATIC_REACH = 1.5
-
 
 @numba.njit(parallel=True, cache=True, fastmath=True)
 def _volumes(x, off, idx, h, kid, dim, L, V):
@@ -113,6 +107,16 @@ class Akinci2012(BoundaryModel):
     """Static boundary particles with Akinci volumes; rebuilds fluid-boundary neighbour lists."""
 
     name = "akinci2012"
+    #: a static mesh's samples lie on its surface, 2r apart, each standing for the volume r
+    #: around it: a fluid particle sampled r from the surface (a block written flush against
+    #: the mesh in sphkit's own format) overlaps them by half a particle. Kept, the start-up's
+    #: relaxation had to squeeze that layer into the block: next to an obstacle on the floor of
+    #: a full tank (2D, r = 5 mm) it pressed particles to 0.5 r above the floor and PCISPH
+    #: diverged at step 6 (542 m/s); in the floor corners of a mesh container it pushed the
+    #: corner particles out. SPlisHSPlasH's blocks start 2r from the surface (1.8 r on a
+    #: block's far side), which 1.5 r keeps (validation/README.md, "Own-format pools against
+    #: mesh walls")
+    start_reach = 1.5
 
     def __init__(self) -> None:
         self.grid: Grid | None = None
@@ -141,18 +145,9 @@ class Akinci2012(BoundaryModel):
         self._hashed = None
 
     def inside(self, state: SimState) -> tuple[np.ndarray, list[str]]:
-        """Fluid particles closer than :data:`STATIC_REACH` r to a static boundary particle or
-        r to a moving body's (their discs or spheres of radius r overlap by more than half a
-        radius, or a radius: the particle sits in the wall), indexed by the boundary particle's
-        object (``boxes[k]``, ``meshes[k]``, ``emitters[k].housing``).
-
-        Why 1.5 r at static walls: a block written flush against a static mesh starts r from
-        its surface samples; kept, it left the relaxation of :mod:`sphkit.world.startup` to
-        squeeze a layer of particles into the space of half a layer. Next to an obstacle on
-        the floor of a full tank (2D, r = 5 mm) that pressed particles to 0.5 r above the floor
-        and PCISPH's first solves diverged (542 m/s at step 6); removed, the rest of the block
-        starts consistent, without relaxation, and rests (validation/README.md, "Own-format
-        pools with mesh walls")."""
+        """Fluid particles closer than r to a boundary particle (their discs or spheres of
+        radius r overlap by more than a radius: the particle sits in the wall), indexed by the
+        boundary particle's object (``boxes[k]``, ``meshes[k]``, ``emitters[k].housing``)."""
         f, bd = state.fluid, state.boundary
         out = np.full(f.n, -1, dtype=np.int64)
         if self.grid is None or f.n == 0:
@@ -161,10 +156,7 @@ class Akinci2012(BoundaryModel):
         dist = np.empty(f.n, dtype=f.dtype)
         near = np.empty(f.n, dtype=np.int64)
         _nearest(f["x"], nl.offsets, nl.indices, bd["x"], state.dim, state.pair_period, dist, near)
-        reach = np.full(f.n, STATIC_REACH * state.r)
-        if "rigid_body" in bd.specs:  # the nearest particle of a moving body: r
-            reach[to_host(bd["rigid_body"])[near] > 0] = state.r
-        hit = dist < reach
+        hit = dist < state.r
         names = [o.name for o in bd.objects]
         if hit.any() and names:
             out[hit] = np.maximum(bd.object_index(bd["id"][near[hit]]), 0)

@@ -177,6 +177,9 @@ class BoundaryModel(Protocol):
     #: its boundary neighbours are virtual particles, each standing for the whole wall near a
     #: fluid particle (density and volume maps), not samples of the wall (boundary particles)
     virtual: ClassVar[bool] = False
+    #: distance [r] from a static mesh's surface within which the model's walls claim the
+    #: fluid's place: fluid sampled closer starts inside the wall (:mod:`sphkit.world.startup`)
+    start_reach: ClassVar[float] = 0.0
 
     @classmethod
     def moving_inset(cls, dim: int) -> float:

@@ -17,9 +17,9 @@ and bounces ("breathes") for seconds. The start-up, in this order
    (signed distance on a lattice of spacing r, interpolated) -- or inside the boundary model's
    own solid (:meth:`sphkit.core.methods.BoundaryModel.inside`): density and volume maps, map
    distance ``phi <= 0`` (their surface moved into the fluid by the map's offset and the wall's
-   thickness); boundary particles, closer than 1.5 r to a static one, r to a moving body's
-   (:data:`sphkit.boundary.akinci2012.STATIC_REACH`: the particles overlap by more than half a
-   radius, or a radius).
+   thickness); boundary particles, closer than r to one (the particles overlap by more than a
+   radius), or closer than 1.5 r to a static closed mesh's surface (its samples lie on the
+   surface: :attr:`sphkit.boundary.akinci2012.Akinci2012.start_reach`).
 2. **Hydrostatic start** (``start.hydrostatic``, default on; as DualSPHysics starts its
    fluid): each particle's depth is measured along gravity from the top of its connected column
    of fluid -- the particles in the same column 2r wide (across gravity) with no vertical gap
@@ -172,10 +172,12 @@ def _mesh_distance(mesh, dim: int, pts: np.ndarray, r: float) -> np.ndarray:
     return RegularGridInterpolator(axes, d, bounds_error=False, fill_value=1e30)(pts)
 
 
-def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes
+def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes, reach: float = 0.0
                      ) -> tuple[np.ndarray, list[str]]:
     """Fluid particles on the solid side of a box's or closed mesh's geometry (module
-    docstring, item 1): an index into the names (``boxes[k]``, ``meshes[k]``), -1 free."""
+    docstring, item 1), or closer than ``reach`` [m] to a static closed mesh's surface (the
+    boundary model's :attr:`~sphkit.core.methods.BoundaryModel.start_reach`): an index into
+    the names (``boxes[k]``, ``meshes[k]``), -1 free."""
     x = state.fluid.view("x")
     n, dim, h, r = len(x), state.dim, state.h, state.r
     out = np.full(n, -1, dtype=np.int64)
@@ -203,7 +205,8 @@ def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes
         if not near.any():
             continue
         d = _mesh_distance(mesh, dim, x[near], r)
-        hit = (d > 0.0) & (d < h) if mb.invert else d < 0.0
+        claim = 0.0 if mb.moving else reach
+        hit = (d > -claim) & (d < h) if mb.invert else d < claim
         idx = np.flatnonzero(near)[hit]
         out[idx] = name
     return out, names
@@ -246,7 +249,7 @@ def _remove(state: SimState, where: np.ndarray, walls: list[str], what: str,
 def remove_inside(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
                   report: StartReport) -> None:
     """Step 1 of the module docstring."""
-    geo, geo_names = _geometry_inside(state, scene, meshes)
+    geo, geo_names = _geometry_inside(state, scene, meshes, model.start_reach * state.r)
     own, own_names = model.inside(state)
     names = geo_names + [n for n in own_names if n not in geo_names]
     where = geo.copy()
