@@ -329,7 +329,9 @@ def test_block_at_the_walls_converges_at_step_1(boundary: int, tmp_path: Path) -
                        [-w / 2 + 0.2 * r, 0.0, -d / 2 + 0.2 * r], [-w / 2 + 0.3, 0.3,
                                                                   d / 2 - 0.2 * r])
     bound = 2.0 * math.sqrt(G * 0.3)
-    for start in (True, False):
+    # the contrast (start-up off) is asserted for the volume maps only: with Akinci particles
+    # that run checked nothing
+    for start in (True, False) if boundary == 2 else (True,):
         sim, _ = _load(path, start)
         st = sim.step()
         converged = sim.last_solver.converged
