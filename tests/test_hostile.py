@@ -607,6 +607,21 @@ def test_2d_mesh_off_the_plane_is_named_for_every_boundary_model(
         _refused(code, text, seconds, "meshes[0]", "cube.obj", "does not cross the plane z = 0")
 
 
+def test_a_rigid_body_whose_motion_overflows_stops_the_run_with_exit_3(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a finite but absurd gravity (the fuzz's -1e300) makes a dynamic body's pose non-finite
+    # within the step; keeping its rotation orthonormal raised numpy's "SVD did not converge"
+    import trimesh
+
+    trimesh.creation.box(bounds=[[-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]]).export(tmp_path / "b.obj")
+    scene = _with("meshes", [{"geometry_file": "b.obj", "translation": [0.45, 0.3, 0.0],
+                              "scale": [0.08, 0.08, 1.0], "dynamic": True, "density": 500.0}])
+    scene["configuration"]["gravity"] = [0.0, -1e300]
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "unstable", "rigid body meshes[0]", "not finite", expect=3)
+
+
 def test_fluid_outside_every_box_and_overlapping_blocks_warn(tmp_path: Path) -> None:
     scene = copy.deepcopy(TINY)
     scene["fluid_blocks"] = [{"start": [0.1, 0.1], "end": [0.3, 0.3]},

@@ -115,9 +115,15 @@ def test_round_trip_types_and_detail(tmp_path: Path) -> None:
         for key, a in arrays.items():
             expected = a.astype(np.int32) if a.dtype.kind in "ib" else a.astype(np.float32)
             np.testing.assert_array_equal(d[key], expected)
-    # the empty set
+    # the empty set, also with attributes (a run whose fluid is all gone: reshape(0, -1) failed)
     d = read_bgeo(write_bgeo(tmp_path / "e.bgeo", {"position": np.zeros((0, 3))}))
     assert d["position"].shape == (0, 3)
+    d = read_bgeo(write_bgeo(tmp_path / "e2.bgeo", {"position": np.zeros((0, 3)),
+                                                    "velocity": np.zeros((0, 3)),
+                                                    "density": np.zeros(0),
+                                                    "id": np.zeros(0, dtype=np.int64)}))
+    assert d["velocity"].shape == (0, 3) and d["density"].shape == (0,)
+    assert d["id"].shape == (0,)
 
 
 def test_bgeo_errors_name_file_and_problem(tmp_path: Path) -> None:

@@ -14,7 +14,7 @@ from scipy import integrate
 from sphkit.boundary.bender2019 import Bender2019
 from sphkit.boundary.bender2019 import gamma as vm_gamma
 from sphkit.boundary.koschier2017 import FACTOR_2D, Koschier2017
-from sphkit.boundary.maps import MapGeometry
+from sphkit.boundary.maps import MAX_AUTO_POINTS, MapGeometry, map_domain
 from sphkit.core.kernels import Kernel, kernel_dw, kernel_w
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
@@ -92,6 +92,21 @@ def test_polygon_sdf_of_unit_box_section() -> None:
     np.testing.assert_allclose(d, exact, atol=1e-12)
     off = np.abs(exact) > 1e-9
     assert np.all((d[off] < 0) == (exact[off] < 0))
+
+
+def test_automatic_map_grid_of_a_huge_box_stays_bounded() -> None:
+    """The automatic grid shrinks its cell counts until the map's lattice has at most
+    MAX_AUTO_POINTS points; for a box 5e16 m long the product of the counts overflowed int64,
+    went negative, and the unshrunk grid was allocated (the fuzz's "array is too big"
+    traceback). A box of ordinary size keeps its cells of h."""
+    h = 0.08
+    big = MapGeometry("boxes[0]", BoxDistance([0.0, 0.0], [4.9e16, 0.5]), invert=True)
+    _lo, res, cell = map_domain(big, h)
+    assert np.prod((3 * res + 1).astype(float)) <= MAX_AUTO_POINTS
+    assert np.all(res >= 2) and np.all(np.isfinite(cell))
+    _lo, res, cell = map_domain(MapGeometry("b", BoxDistance([0.0, 0.0], [1.0, 0.5]),
+                                            invert=True), h)
+    np.testing.assert_allclose(cell, h, rtol=0.1)
 
 
 def test_sdf_cache_hit_returns_identical_data(tmp_path: Path) -> None:

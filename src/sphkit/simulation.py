@@ -545,6 +545,8 @@ class Simulation:
         step_check` found the positions finite and inside the domain)."""
         what, advice = instability(self.scene.configuration, self.state.fluid["x"], s, bad,
                                    self._domain, clean)
+        if self.rigid.diverged:  # a body's pose stopped being finite (its particles stayed)
+            what, advice = self.rigid.divergence(), ""
         if what:
             raise InstabilityError(diagnosis(s, what, advice), s)
 

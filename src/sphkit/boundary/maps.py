@@ -184,9 +184,10 @@ def map_domain(geom: MapGeometry, h: float) -> tuple[np.ndarray, np.ndarray, np.
             raise ValueError(f"{geom.name}: map resolution {list(geom.resolution)}; expected "
                              f"{dim} positive cell counts")
     else:
-        res = np.maximum(np.ceil(ext / h), 2).astype(np.int64)
-        while np.prod(3 * res + 1) > MAX_AUTO_POINTS:
-            res = np.maximum((res * 0.9).astype(np.int64), 2)
+        res = np.maximum(np.ceil(ext / h), 2)
+        while np.prod(3 * res + 1) > MAX_AUTO_POINTS:  # (in floats: a huge box's product
+            res = np.maximum(np.floor(res * 0.9), 2)  # overflowed int64 and stopped the loop)
+        res = res.astype(np.int64)
     return lo, res, ext / res
 
 

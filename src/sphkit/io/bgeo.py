@@ -244,7 +244,7 @@ def write_bgeo(path: str | os.PathLike[str], arrays: Mapping[str, np.ndarray], *
             raise ValueError(
                 f"BGEO output: attribute {attr!r} of shape {a.shape}; expected ({n},) or ({n}, k)"
             )
-        a2 = a.reshape(n, -1)
+        a2 = a.reshape(n, a.shape[1] if a.ndim == 2 else 1)  # (-1 is ambiguous for n = 0)
         k = a2.shape[1]
         if a.dtype.kind in "iub":
             if a2.size and (a2.min() < np.iinfo(np.int32).min or a2.max() > np.iinfo(np.int32).max):

@@ -145,7 +145,16 @@ class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
         self.walls = walls or []
         self.contact_iterations = contact_iterations
         self._ab: np.ndarray | None = None  # _boundary_accel's buffer
+        #: the bodies whose motion stopped being finite in the last :meth:`advance` (names;
+        #: the simulation's stability guard stops the run naming them)
+        self.diverged: list[str] = []
         self.boundary_model: BoundaryModel | None = None  # rebuilt when the bodies moved
+
+    def divergence(self) -> str:
+        """What the simulation's stability guard says of :attr:`diverged` ('' for none)."""
+        if not self.diverged:
+            return ""
+        return f"the motion of the rigid body {', '.join(self.diverged)} is not finite"
 
     def bind(self, boundary_model: BoundaryModel, state: SimState) -> None:
         """The boundary model whose structures follow the bodies (after :meth:`init`): it
@@ -220,6 +229,7 @@ class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
         then the contacts and joints of all bodies at once (:meth:`_contact_rows`,
         :meth:`_constrain`), then the poses; then the
         bound boundary model is rebuilt (nothing happens without bodies)."""
+        self.diverged = []
         if not self.bodies:
             return
         g = np.zeros(3)
@@ -249,8 +259,13 @@ class RigidBodies(FluidCoupling, BodyContacts, BodyJoints):
                 continue
             b.c = b.c + dt * b.v
             R = rotation_exp(b.omega, dt) @ b.R
+            if not np.all(np.isfinite(R)) or not np.all(np.isfinite(b.c)):
+                self.diverged.append(b.name)  # its particles stay; the step's guard stops
+                continue
             u, _s, vt = np.linalg.svd(R)  # keep R orthonormal
             b.R = u @ vt
+        if self.diverged:
+            return
         self.place(state)
         if self.bodies and self.boundary_model is not None:  # the boundary grid follows
             self.boundary_model.rebuild(state)
