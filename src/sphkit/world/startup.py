@@ -246,10 +246,12 @@ def _remove(state: SimState, where: np.ndarray, walls: list[str], what: str,
             "walls, or make a container mesh a container)")
 
 
-def remove_inside(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
-                  report: StartReport) -> None:
-    """Step 1 of the module docstring."""
-    geo, geo_names = _geometry_inside(state, scene, meshes, model.start_reach * state.r)
+def _inside_walls(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
+                  reach: float) -> tuple[np.ndarray, list[str]]:
+    """The test of step 1: the fluid particles on a wall's or body's solid side (geometry,
+    ``reach`` [m] from a static closed mesh included) or inside the boundary model's own solid,
+    as an index into the returned wall names, -1 free."""
+    geo, geo_names = _geometry_inside(state, scene, meshes, reach)
     own, own_names = model.inside(state)
     names = geo_names + [n for n in own_names if n not in geo_names]
     where = geo.copy()
@@ -257,6 +259,13 @@ def remove_inside(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bou
     if own_names:
         remap = np.array([names.index(n) for n in own_names], dtype=np.int64)
         where[free & (own >= 0)] = remap[own[free & (own >= 0)]]
+    return where, names
+
+
+def remove_inside(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
+                  report: StartReport) -> None:
+    """Step 1 of the module docstring."""
+    where, names = _inside_walls(state, scene, meshes, model, model.start_reach * state.r)
     _remove(state, where, [_wall_label(scene, n) for n in names], "start inside",
             report.removed_inside)
 
@@ -479,9 +488,7 @@ def hold_back(state: SimState, scene: Scene, meshes: SceneMeshes, model: Boundar
     much as from the walls: in the concave corner of a surface-sampled container every fluid
     neighbour lies on one side, and a particle sampled r from both walls left through the
     corner, between the samples."""
-    geo, _ = _geometry_inside(state, scene, meshes)
-    own, _ = model.inside(state)
-    crossed = (geo >= 0) | (own >= 0)
+    crossed = _inside_walls(state, scene, meshes, model, 0.0)[0] >= 0
     report.held_back = int(crossed.sum())
     if report.held_back:
         state.fluid["x"][:, crossed] = x0[:, crossed]
