@@ -437,6 +437,8 @@ def test_non_finite_numbers_are_refused_naming_the_field(
     ("FluidBlocks", "end", [math.inf, 1.0, 1.0]),
     # finite, but its extent in particle diameters is not (fuzz.py --seed 92)
     ("FluidBlocks", "start", [0.1, -1.7976931348623157e308, 0.0]),
+    # a subnormal radius: the block's extent in diameters is infinite (fuzz.py --seed 100)
+    ("Configuration", "particleRadius", 5e-324),
 ])
 def test_non_finite_numbers_in_splishsplash_scenes(tmp_path: Path, where: str, key: str,
                                                    value: object,
@@ -486,6 +488,25 @@ def test_this_sessions_splishsplash_fields_refuse_garbage(
     code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
                                str(tmp_path / "o"))
     _refused(code, text, seconds, named)
+
+
+def test_an_emitter_outside_the_walls_is_refused(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """An emitter far below a closed tank (fuzz.py --seed 100: translation y = -4.8e16 m) would
+    emit outside the domain, and its housing made a neighbour grid of 6e17 cells (a ValueError
+    traceback): it exits 2 naming the emitter's translation."""
+    import trimesh
+
+    trimesh.creation.box(extents=[1.0, 1.0, 1.0]).export(tmp_path / "box.obj")
+    scene = {"Configuration": {"particleRadius": 0.025, "simulationMethod": 4},
+             "FluidBlocks": [{"start": [0.1, 0.1, 0.1], "end": [0.3, 0.3, 0.3]}],
+             "RigidBodies": [{"geometryFile": "box.obj", "translation": [0.3, 0.5, 0.3],
+                              "scale": [0.6, 1.0, 0.6], "isDynamic": False,
+                              "mapInvert": True}],
+             "Emitters": [{"width": 2, "translation": [0.1, -4.8e16, 0.1]}]}
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "Emitters[0].translation", "domain")
 
 
 # -- 7. Ctrl-C while the command starts ----------------------------------------------------------

@@ -37,7 +37,7 @@ from sphkit.world.fluid import add_fluid
 from sphkit.world.meshes import SceneMeshes
 from sphkit.world.settle import SettlePlan
 from sphkit.world.startup import StartReport, start_fluid
-from sphkit.world.walls import add_wall_particles, domain_box, map_geometries
+from sphkit.world.walls import add_wall_particles, check_emitters, domain_box, map_geometries
 
 
 @dataclass
@@ -253,6 +253,9 @@ def _build(scene: Scene) -> World:
     check_budget(scene, meshes.particle_estimates(r, dim, walls=not maps))
     emitters = [FluidEmitter(e, dim, r, h, name=f"emitters[{k}]")
                 for k, e in enumerate(scene.emitters)]
+    # an emitter outside the walls (its housing would widen the domain to it)
+    check_emitters(domain_box(state, scene, meshes, emitters, housings=False), scene,
+                   emitters)
     add_fluid(state, scene, meshes)
     if not maps:  # maps: boxes and meshes become signed distances (map_geometries)
         add_wall_particles(state, scene, meshes, emitters)

@@ -20,7 +20,7 @@ from sphkit.boundary.maps import MapGeometry
 from sphkit.boundary.rigid import inset_depth, inset_samples
 from sphkit.core.kernels import lattice_volume
 from sphkit.core.state import SimState
-from sphkit.core.timestep import Domain
+from sphkit.core.timestep import Domain, outside_count
 from sphkit.geometry.mesh_sampling import sample_mesh_surface
 from sphkit.geometry.meshes import section_segments
 from sphkit.geometry.sampling import (
@@ -197,7 +197,7 @@ def coarse_map_warnings(geometries: list[MapGeometry], fields: list[str], scene:
 
 
 def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
-               emitters: list) -> Domain | None:
+               emitters: list, housings: bool = True) -> Domain | None:
     """The region the fluid must stay in, for the step's stability guard: the bounding box of
     the static boundaries (boxes, static meshes, map geometries, emitter housings) widened by
     ``configuration.domain_margin`` kernel supports h, unbounded above the walls (against
@@ -208,7 +208,7 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     container: no box and no static mesh with the fluid inside it (``invert``), only solid
     obstacles the fluid may fall off or drain through -- a slab, a box with a hole --, moving
     bodies or emitter housings, or an emitter reuses particles, which then leave its
-    ``reuse_box`` by design and wait outside it)."""
+    ``reuse_box`` by design and wait outside it). ``housings`` False: the walls alone."""
     margin = scene.configuration.domain_margin
     if any(e.reuse_box is not None for e in scene.emitters):
         return None
@@ -228,7 +228,7 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     if margin is None or not containers:
         return None
     for em, cfg in zip(emitters, scene.emitters, strict=True):
-        if cfg.housing:
+        if cfg.housing and housings:
             b = em.housing_mesh().bounds
             lo.append(b[0, :dim])
             hi.append(b[1, :dim])
@@ -249,3 +249,25 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
         if a == up:
             up = -1
     return Domain(box_lo, box_hi, up, top, sgn)
+
+
+def check_emitters(domain: Domain | None, scene: Scene, emitters: list) -> None:
+    """A :class:`SceneError` naming the emitter's position where its first layer would lie
+    outside the domain (:func:`domain_box` of the walls without the emitters' housings): the
+    step's guard would stop the run at its first emission, and an emitter far away (a
+    position of 1e16 m) made a neighbour grid of 1e17 cells for its housing first."""
+    if domain is None:
+        return
+    for k, em in enumerate(emitters):
+        if scene.emitters[k].max_particles == 0:
+            continue
+        x = np.ascontiguousarray((em.x0 + em.offsets)[:, : em.dim].T)
+        if outside_count(x, *domain):
+            lo = [float(v) for v in domain.lo]
+            hi = [float(v) for v in domain.hi]
+            at = list(scene.emitters[k].position)
+            raise SceneError(
+                f"{scene.field(f'emitters[{k}].position')}: got {at}: "
+                f"expected an emitter whose layer lies inside the domain {lo} .. {hi} m (the "
+                "static walls' bounding box plus configuration.domain_margin h); its particles "
+                "would start outside it")

@@ -74,7 +74,7 @@ def fluid_blocks(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
             raise rd.error(
                 f"{w}.start", start,
                 f"a block whose extent in particle diameters is a finite number (block {lo} .. "
-                f"{hi} with end {end}, particle radius {r} m)",
+                f"{hi} with end {end}, Configuration.particleRadius {r} m)",
             )
         n = len(out)
         block: dict[str, Any] = {"start": [l + r for l in lo]}
@@ -230,6 +230,7 @@ def emitters(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
             entry["reuse_box"] = reuse[entry["material"]]
             rd.origin[f"emitters[{n}].reuse_box"] = "Materials[].emitterBoxMin/emitterBoxMax"
         rd.origin[f"emitters[{n}]"] = w
+        rd.origin[f"emitters[{n}].position"] = f"{w}.translation"
         out.append(entry)
     rd.origin["emitters"] = "Emitters"
     return out
