@@ -447,6 +447,54 @@ def test_block_flush_against_mesh_walls_starts_inside_and_rests(
     assert np.abs(sim.fluid["v"]).max() < 0.05
 
 
+def test_pool_flush_against_volume_maps_loses_its_wall_layer_and_rests(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Own format, volume maps, 3D, PCISPH: a pool 0.12 m deep filling an open box of walls
+    0.2 m wide, over a solid box mesh 0.06 m wide standing on the floor (r = 1 cm, the first
+    particles r from every surface). A volume map claims more room than boundary particles:
+    the layer r from the walls starts more than twice as dense, and kept (a reach of 0), the
+    relaxation squeezed it into the pool (which rose to 0.18 m), and PCISPH's fourth solve
+    diverged next to the obstacle (unstable at step 5, the contrast). Fluid within 1.5 r of a
+    box's face or a static mesh's surface is removed (``Bender2019.start_reach``, measured on
+    the geometry): every particle of the block's outer shell at the box walls and the floor and
+    the columns flush against the obstacle, 351 of the 600. The rest stays inside and rests:
+    for 0.1 s no particle is faster than one falling a particle radius, sqrt(2 g r) = 0.44 m/s
+    (measured 0.35 m/s during the start's settling)."""
+    import trimesh
+
+    import sphkit.boundary.bender2019 as bender
+
+    r, w = 0.01, 0.2
+    trimesh.creation.box(bounds=[[0.08, -0.05, 0.08], [0.14, 0.06, 0.14]]).export(
+        tmp_path / "cube.obj")
+    scene = {
+        "configuration": {"dim": 3, "particle_radius": r, "pressure": {"method": "pcisph"},
+                          "boundary": {"method": "bender2019",
+                                       "map_cache_dir": str(tmp_path)}},
+        "materials": [{"viscosity": {"method": "standard", "coefficient": 0.01}}],
+        "fluid_blocks": [{"start": [0.0, 0.0, 0.0], "end": [w, 0.12, w]}],
+        "boxes": [{"min": [0.0, 0.0, 0.0], "max": [w, 0.3, w], "open_top": True}],
+        "meshes": [{"geometry_file": str(tmp_path / "cube.obj")}]}
+    bound = math.sqrt(2.0 * G * r)
+    for reach in (bender.Bender2019.start_reach, 0.0):
+        monkeypatch.setattr(bender.Bender2019, "start_reach", reach)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sim = Simulation(Scene.model_validate(scene))
+        vmax = 0.0
+        try:
+            while sim.time < 0.1:
+                vmax = max(vmax, sim.step().max_velocity)
+        except InstabilityError:
+            assert reach == 0.0  # the contrast
+            continue
+        assert reach > 0.0, "the contrast ran"
+        assert sum(sim.world.start.removed_inside.values()) == 351
+        assert vmax < bound, vmax
+        x = sim.positions
+        assert x.min() > 0.0 and x[:, 0].max() < w and x[:, 2].max() < w
+
+
 def test_block_overlapping_a_map_wall_is_removed_and_runs(tmp_path: Path) -> None:
     """SPlisHSPlasH format, volume maps, DFSPH, 2D: a block written 4 r into the tank's left
     wall (the issue: "stops at step 1 with 'try a smaller time step'"). The particles behind

@@ -180,6 +180,10 @@ class BoundaryModel(Protocol):
     #: distance [r] from a static mesh's surface within which the model's walls claim the
     #: fluid's place: fluid sampled closer starts inside the wall (:mod:`sphkit.world.startup`)
     start_reach: ClassVar[float] = 0.0
+    #: whether :attr:`start_reach` also holds at a box's wall faces: the model's walls stand
+    #: on the face (a map's surface), where boundary particles' box walls are sampled outside
+    #: it, r off
+    reach_at_boxes: ClassVar[bool] = False
 
     @classmethod
     def moving_inset(cls, dim: int) -> float:

@@ -19,7 +19,10 @@ and bounces ("breathes") for seconds. The start-up, in this order
    distance ``phi <= 0`` (their surface moved into the fluid by the map's offset and the wall's
    thickness); boundary particles, closer than r to one (the particles overlap by more than a
    radius), or closer than 1.5 r to a static closed mesh's surface (its samples lie on the
-   surface: :attr:`sphkit.boundary.akinci2012.Akinci2012.start_reach`).
+   surface: :attr:`sphkit.boundary.akinci2012.Akinci2012.start_reach`); volume maps, closer
+   than 1.5 r to a static closed mesh's surface or a box's wall face (the map claims more room
+   than boundary particles: :attr:`sphkit.boundary.bender2019.Bender2019.start_reach`; measured
+   on the geometry, not on the interpolated map).
 2. **Hydrostatic start** (``start.hydrostatic``, default on; as DualSPHysics starts its
    fluid): each particle's depth is measured along gravity from the top of its connected column
    of fluid -- the particles in the same column 2r wide (across gravity) with no vertical gap
@@ -172,12 +175,13 @@ def _mesh_distance(mesh, dim: int, pts: np.ndarray, r: float) -> np.ndarray:
     return RegularGridInterpolator(axes, d, bounds_error=False, fill_value=1e30)(pts)
 
 
-def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes, reach: float = 0.0
-                     ) -> tuple[np.ndarray, list[str]]:
+def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes, reach: float = 0.0,
+                     box_reach: float = 0.0) -> tuple[np.ndarray, list[str]]:
     """Fluid particles on the solid side of a box's or closed mesh's geometry (module
     docstring, item 1), or closer than ``reach`` [m] to a static closed mesh's surface (the
-    boundary model's :attr:`~sphkit.core.methods.BoundaryModel.start_reach`): an index into
-    the names (``boxes[k]``, ``meshes[k]``), -1 free."""
+    boundary model's :attr:`~sphkit.core.methods.BoundaryModel.start_reach`) or than
+    ``box_reach`` [m] to a box's wall face (the open top is no wall): an index into the names
+    (``boxes[k]``, ``meshes[k]``), -1 free."""
     x = state.fluid.view("x")
     n, dim, h, r = len(x), state.dim, state.h, state.r
     out = np.full(n, -1, dtype=np.int64)
@@ -190,7 +194,10 @@ def _geometry_inside(state: SimState, scene: Scene, meshes: SceneMeshes, reach: 
             hi[up] = np.inf
         excess = np.maximum(np.maximum(lo - x, x - hi), 0.0)
         dist = np.linalg.norm(excess, axis=1)
-        hit = (dist > 0.0) & (dist < h) & (out < 0)
+        hit = (dist > 0.0) & (dist < h)
+        if box_reach > 0.0:  # inside, but closer to a wall face than the reach
+            hit |= (dist == 0.0) & (np.minimum(x - lo, hi - x).min(axis=1) < box_reach)
+        hit &= out < 0
         out[hit] = len(names)
         names.append(f"boxes[{k}]")
     for k, mb in enumerate(scene.meshes):
@@ -249,9 +256,11 @@ def _remove(state: SimState, where: np.ndarray, walls: list[str], what: str,
 def _inside_walls(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
                   reach: float) -> tuple[np.ndarray, list[str]]:
     """The test of step 1: the fluid particles on a wall's or body's solid side (geometry,
-    ``reach`` [m] from a static closed mesh included) or inside the boundary model's own solid,
-    as an index into the returned wall names, -1 free."""
-    geo, geo_names = _geometry_inside(state, scene, meshes, reach)
+    ``reach`` [m] from a static closed mesh included, and from a box's faces where the model's
+    walls stand on them, :attr:`~sphkit.core.methods.BoundaryModel.reach_at_boxes`) or inside
+    the boundary model's own solid, as an index into the returned wall names, -1 free."""
+    geo, geo_names = _geometry_inside(state, scene, meshes, reach,
+                                      reach if model.reach_at_boxes else 0.0)
     own, own_names = model.inside(state)
     names = geo_names + [n for n in own_names if n not in geo_names]
     where = geo.copy()
