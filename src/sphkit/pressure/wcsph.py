@@ -31,7 +31,10 @@ Becker & Teschner 2007, "Weakly compressible SPH for free surface flows", SCA:
   :data:`sphkit.boundary.bender2019.MOVING_INSET`) were made for the one-sided term; mirrored
   there, a floating body rode about 0.5-0.8 r higher than the PPE solvers float it
   (validation/README.md, "The WCSPH float with maps"). Static walls keep SPlisHSPlasH's
-  mirrored WCSPH term.
+  mirrored WCSPH term (and the model's extrapolated pressure) unless the scene's fluid is
+  nearly inviscid: ``symmetric`` left out resolves to true there
+  (:meth:`sphkit.scene.schema.Scene._inviscid_wcsph_walls`), since without a viscosity to take
+  it out the mirrored term's work made an inviscid dam break leak within 3 s.
 
 The speed of sound of the state equation, ``c = sqrt(dp/drho) = sqrt(B gamma / rho0)`` (Tait) or
 ``sqrt(k)`` (linear), bounds the time step by ``0.4 h_s / c`` with the smoothing length

@@ -35,6 +35,16 @@ Vec = list[float]
 #: solved walls changed (validation/README.md, "Several rest densities: the solved walls by
 #: default")
 SOLVED_WALLS_RATIO = 4.0
+#: WCSPH's walls take the symmetric term by default (``Scene._inviscid_wcsph_walls``) where the
+#: smallest kinematic viscosity of a scene's fluids is below this rate times (2r)^2 [1/s]: the
+#: mirrored and MLS wall terms are not the derivative of the elastic energy and pump energy
+#: into the flow, which only a viscosity of about that size takes out again (an inviscid 2D
+#: dam break in a closed box doubled its energy every 0.5 s and leaked at 2 s; stable from
+#: nu = 1e-3 at r = 1 cm, 3e-4 at r = 5 mm, unstable at 1e-4 and 3e-4 at r = 1 and 2 cm;
+#: validation/README.md, "WCSPH's walls by default: the energy they pump")
+WCSPH_WALL_DAMPING = 1.0
+#: the viscosity methods whose coefficient is a kinematic viscosity [m^2/s]
+KINEMATIC_VISCOSITY = ("standard", "weiler2018", "takahashi2015")
 
 
 def _choices(role: str) -> Any:
@@ -948,7 +958,11 @@ class BoundaryConfig(_Model):
         "under a heavy one between walls (density ratio 1:10), where the other forms make it "
         "indefinite and the Jacobi iterations diverge (validation/README.md, 'Several fluids'); "
         "WCSPH then uses the same term, which does no work on the fluid (the mirrored one "
-        "pumped energy into water at rest, validation/README.md, 'WCSPH in the tank at rest')",
+        "pumped energy into water at rest, validation/README.md, 'WCSPH in the tank at rest'). "
+        "Left out: false, but true for WCSPH where a fluid's kinematic viscosity is below "
+        "(2r)^2 times 1/s (none, or water's: the other wall terms pump energy into the flow "
+        "until it leaks; validation/README.md, \"WCSPH's walls by default: the energy they "
+        "pump\")",
     )
     solved: bool | Literal["velocity", "density"] = Field(
         False, description="the static wall particles (boxes, static meshes) get a pressure of "
@@ -1004,6 +1018,9 @@ class BoundaryConfig(_Model):
     #: ``solved`` was left out (the scene may solve the walls where its fluids differ in rest
     #: density, :meth:`Scene._several_densities_walls`)
     _solved_default: bool = PrivateAttr(False)
+    #: ``symmetric`` was left out (WCSPH takes it for nearly inviscid fluids,
+    #: :meth:`Scene._inviscid_wcsph_walls`)
+    _symmetric_default: bool = PrivateAttr(False)
 
     @model_validator(mode="wrap")
     @classmethod
@@ -1018,10 +1035,12 @@ class BoundaryConfig(_Model):
                 defaulted = True
         if isinstance(data, dict) and "solved" not in data:
             solved_default = True
+        symmetric_default = isinstance(data, dict) and "symmetric" not in data
         out = handler(data)
         if isinstance(out, BoundaryConfig):
             out._pressure_default = out._pressure_default or defaulted
             out._solved_default = solved_default
+            out._symmetric_default = symmetric_default
         return out
 
 
@@ -1384,6 +1403,26 @@ class Scene(_Model):
                 and max(rest) > SOLVED_WALLS_RATIO * min(rest)
                 and cfg.pressure.method in registry.with_capability("pressure", "solved_walls")):
             b.solved = "density"
+        return self
+
+    @model_validator(mode="after")
+    def _inviscid_wcsph_walls(self) -> Scene:
+        """``boundary.symmetric`` left out, WCSPH, and a fluid whose kinematic viscosity (0
+        without one; the methods of :data:`KINEMATIC_VISCOSITY`, the others count as
+        viscous) is below :data:`WCSPH_WALL_DAMPING` (2r)^2: the symmetric wall term, the
+        only one that does no work on the flow (measured in validation/README.md, "WCSPH's
+        walls by default: the energy they pump")."""
+        cfg = self.configuration
+        b = cfg.boundary
+        if not b._symmetric_default or b.symmetric or b.solved or cfg.pressure.method != "wcsph":
+            return self
+        used = {src.material for src in (*self.fluid_blocks, *self.fluid_files,
+                                         *self.fluid_meshes, *self.emitters)}
+        nus = [0.0 if m.viscosity.method == "none" else m.viscosity.coefficient
+               for m in self.materials if m.id in used
+               and (m.viscosity.method == "none" or m.viscosity.method in KINEMATIC_VISCOSITY)]
+        if nus and min(nus) < WCSPH_WALL_DAMPING * (2.0 * cfg.particle_radius) ** 2:
+            b.symmetric = True
         return self
 
     @model_validator(mode="after")
