@@ -34,7 +34,11 @@ precomputed on one more map field with the method's own solid weight (:func:`mom
 column's excess drops to about +8 % (density maps) and -4 % (volume maps). Moving bodies' maps
 keep SPlisHSPlasH's term (their wall acceleration would enter ``p_b``). The mirrored share may
 be less than 1 where a method's virtual particle overstates the map's own density gradient
-(volume maps at edges and corners, ``MapBoundaryModel._mirror_shares``).
+(volume maps at edges and corners, ``MapBoundaryModel._mirror_shares``). With
+``configuration.boundary.symmetric`` (SPlisHSPlasH's ``V_b k_i`` alone; WCSPH's default for
+nearly inviscid fluids) neither the mirrored share nor the moment acts: both are work the
+state equation's energy does not account for (validation/README.md, "WCSPH's walls by
+default: the energy they pump").
 
 :class:`sphkit.boundary.maps.MapBoundaryModel` builds the normal moment map of each static
 geometry with :func:`moment_nodes` (``init``) and adds the moment term with
