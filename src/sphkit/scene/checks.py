@@ -37,9 +37,7 @@ def fluid_materials(scene: Scene) -> list[Material]:
     ``materials``; the first when there is no fluid. Several are phases of one fluid
     (:mod:`sphkit.multiphase`): the pressure solver and the boundary model must read each
     particle's own rest density (registry capability ``multiphase``)."""
-    used = ({b.material for b in scene.fluid_blocks} | {f.material for f in scene.fluid_files}
-            | {b.material for b in scene.fluid_meshes}
-            | {e.material for e in scene.emitters}) or {scene.materials[0].id}
+    used = scene.fluid_material_ids() or {scene.materials[0].id}
     mats = [m for m in scene.materials if m.id in used]
     if len(mats) > 1:
         cfg = scene.configuration
@@ -287,9 +285,7 @@ def _solids(scene: Scene) -> None:
         if scene.material(e.material).elastic:
             raise SceneError(f"emitters[{k}].material: {e.material!r} is an elastic solid; "
                              "expected a fluid material (solids are not emitted)")
-    used = ({b.material for b in scene.fluid_blocks} | {f.material for f in scene.fluid_files}
-            | {b.material for b in scene.fluid_meshes}
-            | {e.material for e in scene.emitters}) or {scene.materials[0].id}
+    used = scene.fluid_material_ids() or {scene.materials[0].id}
     for k, m in enumerate(scene.materials):
         for axis in ("x", "y"):
             if m.elastic and getattr(cfg, f"periodic_{axis}") is not None:

@@ -1396,8 +1396,7 @@ class Scene(_Model):
         validation/README.md, "Several rest densities: the solved walls by default")."""
         cfg = self.configuration
         b = cfg.boundary
-        used = {src.material for src in (*self.fluid_blocks, *self.fluid_files,
-                                         *self.fluid_meshes, *self.emitters)}
+        used = self.fluid_material_ids()
         rest = [m.density0 for m in self.materials if m.id in used]
         if (b._solved_default and not b.symmetric and b.method == "akinci2012" and rest
                 and max(rest) > SOLVED_WALLS_RATIO * min(rest)
@@ -1416,8 +1415,7 @@ class Scene(_Model):
         b = cfg.boundary
         if not b._symmetric_default or b.symmetric or b.solved or cfg.pressure.method != "wcsph":
             return self
-        used = {src.material for src in (*self.fluid_blocks, *self.fluid_files,
-                                         *self.fluid_meshes, *self.emitters)}
+        used = self.fluid_material_ids()
         nus = [0.0 if m.viscosity.method == "none" else m.viscosity.coefficient
                for m in self.materials if m.id in used
                and (m.viscosity.method == "none" or m.viscosity.method in KINEMATIC_VISCOSITY)]
@@ -1529,6 +1527,12 @@ class Scene(_Model):
             if m.id == mid:
                 return m
         raise KeyError(mid)
+
+    def fluid_material_ids(self) -> set[str]:
+        """The ids of the materials the scene's fluid uses (blocks, files, meshes, emitters);
+        empty when the scene has no fluid."""
+        return {src.material for src in (*self.fluid_blocks, *self.fluid_files,
+                                         *self.fluid_meshes, *self.emitters)}
 
 
 class SceneError(ValueError):
