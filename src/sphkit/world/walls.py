@@ -45,14 +45,19 @@ def moving_meshes(scene: Scene) -> list[int]:
     return [k for k, mb in enumerate(scene.meshes) if mb.moving]
 
 
+def _no_section(k: int, geometry_file: str) -> SceneError:
+    """The error of ``scene.meshes[k]`` in 2D when it does not cross the plane z = 0."""
+    return SceneError(f"meshes[{k}]: {geometry_file!r} does not cross the plane z = 0; "
+                      "expected a mesh whose section is the 2D boundary")
+
+
 def mesh_section(mesh: Any, k: int, geometry_file: str) -> tuple[np.ndarray, np.ndarray]:
     """The segments (a, b) of ``scene.meshes[k]``'s section with the plane z = 0, the mesh's 2D
     boundary for every boundary model; a :class:`SceneError` naming the mesh where it does not
     cross the plane."""
     a, b = section_segments(mesh)
     if len(a) == 0:
-        raise SceneError(f"meshes[{k}]: {geometry_file!r} does not cross the plane z = 0; "
-                         "expected a mesh whose section is the 2D boundary")
+        raise _no_section(k, geometry_file)
     return a, b
 
 
@@ -83,9 +88,9 @@ def add_wall_particles(state: SimState, scene: Scene, meshes: SceneMeshes,
     bodies = moving_meshes(scene)
     for k in range(len(scene.meshes)):
         mesh = meshes.mesh(k)
-        if dim == 2:  # a mesh that misses the plane would have no particles, silently
-            mesh_section(mesh, k, scene.meshes[k].geometry_file)
         pts = sample_mesh_surface(mesh, r, dim)
+        if dim == 2 and len(pts) == 0:  # no section with z = 0: no particles, say so
+            raise _no_section(k, scene.meshes[k].geometry_file)
         if k in bodies:  # a moving rigid body (sphkit.boundary.rigid)
             # the fluid rests at the mesh surface (see inset_samples); 2D: the section's
             # samples (z = 0) move along the side faces' normals, which lie in the plane
