@@ -92,7 +92,8 @@ from sphkit.boundary.maps import (
     MapGeometry,
     map_domain,
 )
-from sphkit.core.kernels import kernel_dw, kernel_w
+from sphkit.boundary.virtual import place_virtual
+from sphkit.core.kernels import kernel_w
 from sphkit.core.state import SimState
 from sphkit.geometry.grids import (
     ball_quadrature,
@@ -150,22 +151,6 @@ def _densities(nodes, phi, o, s, shape, dim, qp, qw, h, f, kid, out):
         out[m] = SCALE * acc
 
 
-@numba.njit(cache=True, fastmath=True)
-def virtual_distance(ratio: float, h: float, kid: int, dim: int) -> float:
-    """The distance s with ``|W'(s)| / W(s) = ratio`` [1/m] (bisection on [0, h))."""
-    a = 0.0
-    b = h
-    for _ in range(48):
-        m = 0.5 * (a + b)
-        w = kernel_w(kid, m, h, dim)
-        g = -kernel_dw(kid, m, h, dim) * m
-        if w > 0.0 and g < ratio * w:
-            a = m
-        else:
-            b = m
-    return 0.5 * (a + b)
-
-
 @numba.njit(cache=True, fastmath=True, inline="always")
 def query_body(i, x, v, phi, rho_b, lo, cell, res, spacing, shape, dim, extend_axis, top, h, r,
                kid, reach, xb, Vb):
@@ -180,16 +165,7 @@ def query_body(i, x, v, phi, rho_b, lo, cell, res, spacing, shape, dim, extend_a
     if d > 0.0 and d < reach:
         rho, g0, g1, g2, _ok = grid_eval(rho_b, lo, cell, res, dim, p0, p1, p2)
         if rho > 1e-6:
-            gl = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
-            s = virtual_distance(gl / rho, h, kid, dim)
-            w = kernel_w(kid, s, h, dim)
-            if w > 0.0:
-                t = s / gl if gl > 0.0 else 0.0
-                xb[0, i] = x[0, i] + t * g0
-                xb[1, i] = x[1, i] + t * g1
-                if dim == 3:
-                    xb[2, i] = x[2, i] + t * g2
-                Vb[i] = rho / w
+            place_virtual(i, x, rho, g0, g1, g2, h, kid, dim, xb, Vb)
     elif d < 0.0:
         nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
         if nl > 1e-5:

@@ -358,6 +358,9 @@ class MapBoundaryModel(BoundaryModel):
     #: pressure (configuration.boundary.pressure "hydrostatic"; see
     #: :mod:`sphkit.boundary.maps_hydrostatic`); set before :meth:`init`
     hydrostatic = False
+    #: configuration.boundary.symmetric (set before :meth:`init`): ``V_b grad W`` is the gradient
+    #: of the density ``V_b W`` (:mod:`sphkit.boundary.virtual`; density maps: always)
+    symmetric = False
 
     def __init__(self, geometries: list[MapGeometry] | None = None,
                  cache_dir: str | Path | None = None, cache: bool = True) -> None:

@@ -281,6 +281,7 @@ def _build(scene: Scene) -> World:
         # in 2D, +55 % in 3 s in 3D; validation/README.md, "WCSPH's walls by default")
         model.hydrostatic = (cfg.boundary.pressure == "hydrostatic"
                              and not cfg.boundary.symmetric)
+        model.symmetric = bool(cfg.boundary.symmetric)
     else:
         model = model_cls()
     forces, roles = _forces(scene, mats)
