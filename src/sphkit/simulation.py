@@ -448,9 +448,9 @@ class Simulation:
             rejected += 1
             dt, lands = min(0.5 * dt, self.pressure.max_time_step(st)), False
             self._dt_control = dt  # the step taken is the last step of iteration_control
-            log.warning("step %d: the pressure solve failed (average error %.3g%% after %d "
-                        "iterations); computed again with dt %.4g s (time.retries)", st.step,
-                        100 * ps.density_error_avg, ps.iterations, dt)
+            log.warning("step %d: the pressure solve failed (error %.3g%%, %d iterations, a "
+                        "particle moved %.2g r); computed again with dt %.4g s (time.retries)",
+                        st.step, 100 * ps.density_error_avg, ps.iterations, ps.displacement, dt)
             ps = self._forces_and_pressure(dt)
         if self.rigid.bodies:  # the fluid's push on the bodies
             self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))

@@ -96,7 +96,9 @@ class SolverStats:
     ``density_error_avg``/``_max``: average / maximum compression error of the last iteration as
     fractions of rho0 (0.001 = 0.1 %). ``divergence_error``: average divergence error (|D rho/Dt|
     dt / rho0, a fraction) of DFSPH's divergence solver, else 0. ``converged`` is False when an
-    iteration limit stopped a solver.
+    iteration limit stopped a solver. ``displacement``: how far the solve's pressure acceleration
+    alone moves a particle within the step, ``dt^2 max_i |a_p,i|`` in particle radii (PCISPH,
+    whose density prediction is linear in it; 0 for the other solvers).
     """
 
     iterations: int = 0
@@ -105,6 +107,7 @@ class SolverStats:
     divergence_iterations: int = 0
     divergence_error: float = 0.0
     converged: bool = True
+    displacement: float = 0.0
 
 
 @dataclass

@@ -114,6 +114,18 @@ The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`). The bound on
 computed again with the shrunk bound (:meth:`PCISPH.rejects`, the simulation's
 ``configuration.time.retries``): a column-wide impact, 79 layers falling on the floor at 1 m/s
 in a 1.95 ms step, needs more sweeps than 100 and its error grew from the first sweep.
+
+**Thrown particles** (sphkit's; a force condition ``dt <= lambda sqrt(h_s / |a|)`` as Monaghan's
+and Ihmsen et al.'s, on the solve's own pressure acceleration, checked after the solve: with
+:data:`THROW` = 0.5, ``lambda`` = 0.5 and ``h_s = 2r``): the prediction is linear in the pressure
+displacement ``dt^2 a_p``, and a solve can converge on the average while
+one particle's prediction has left the linear range. Traced (validation/README.md, "PCISPH's
+energy bursts"): a splash particle with two fluid neighbours next to a wall's face, whose
+predicted density *rose* with its pressure once its predicted displacement neared r, ended a
+converged solve (0.0093 % against 0.01 %) with the pressure that threw it at 20 m/s; an inviscid
+2D dam break of 100 particles multiplied its energy by up to 36 and went unstable. So a solve
+whose pressure acceleration moves a particle more than :data:`THROW` r within the step counts as
+failed: the bound shrinks and the step is computed again (:meth:`PCISPH.rejects`).
 """
 
 from __future__ import annotations
@@ -144,6 +156,7 @@ from sphkit.core.solver import (
     WallRows,
 )
 from sphkit.core.state import SimState
+from sphkit.core.timestep import max_speed
 
 _JIT = dict(cache=True, fastmath=True)
 #: adaptive time step (module docstring, "Time step"; :class:`sphkit.core.solver.StepBound`):
@@ -158,6 +171,12 @@ DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.5, 1.1, 1e-4, 1.0
 #: 0.98 ms step was kept and the next solve diverged at every step down to 31 us, with 2 the
 #: step was computed again at 0.49 ms and the run went on
 REJECT = 2.0
+#: a solve whose pressure acceleration moves a particle more than THROW particle radii within
+#: the step threw it (module docstring, "Thrown particles"): the step is computed again and the
+#: bound shrinks. Measured (validation/energy.py's 2D PCISPH dam break with Akinci walls): 0.5
+#: took the largest energy from 4.3 to 1.04 times the start's with 24-38 retries in 4 s; 1.0
+#: left 1.4-1.7
+THROW = 0.5
 #: a particle's factor is capped where its own PPE diagonal exceeds CAP times the template's
 #: (:func:`diagonal_cap`): omega at most 0.5 CAP. Measured in validation/startup.py's 3D tank
 #: with volume maps: CAP 2 ran the dam break 3 s but the floating cube went unstable at
@@ -367,25 +386,29 @@ class PCISPH(StepBounded, PressureSolver):
             return tot / max(n, 1), mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
-        # fluid under pressure at the first step: the steps grow from the scene's initial one
-        self.step_bound.update(dt, its, self.control.max_iterations, ok,
+        throw = dt * dt * max_speed(ap) / state.r  # module docstring, "Thrown particles"
+        # fluid under pressure at the first step: the steps grow from the scene's initial one;
+        # a throw shrinks the bound as a failed solve does
+        self.step_bound.update(dt, its, self.control.max_iterations, ok and throw <= THROW,
                                start=state.step == 1 and arrays.any_above(p, 0.0))
         arrays.axpy(a, 1.0, ap)
         arrays.multiplied(p, f["rho0"], out=f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
-                           converged=ok)
+                           converged=ok, displacement=throw)
 
     def rejects(self, stats: SolverStats) -> bool:
         """A solve that stopped at its iteration limit with an average error above
         :data:`REJECT` times its tolerance failed (the impact that needs it: the iterate's error
-        grew from the first iteration), and the step is computed again with the shrunk step
-        bound (where :class:`~sphkit.core.solver.StepBound`, after Ihmsen et al. 2010, only
-        shrinks the next step). The solve changes nothing before it returns but ``a`` and
+        grew from the first iteration), and so did one that threw a particle (its pressure moves
+        it more than :data:`THROW` r within the step), and the step is computed again with the
+        shrunk step bound (where :class:`~sphkit.core.solver.StepBound`, after Ihmsen et al.
+        2010, only shrinks the next step). The solve changes nothing before it returns but ``a`` and
         ``p`` (its pressure starts from zero); solved walls, whose pressures it keeps as the
         next solve's warm start, make the world not repeatable
         (:attr:`sphkit.world.World.repeatable`)."""
         return (not stats.converged
-                and stats.density_error_avg > REJECT * self.control.tolerance)
+                and stats.density_error_avg > REJECT * self.control.tolerance
+                or stats.displacement > THROW)
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` with PCISPH's
