@@ -15,7 +15,8 @@ against the CPU's float64 step), and one whole WCSPH, IISPH, PCISPH and PBF step
 per-particle passes bodies too; WCSPH's with the MLS walls, the others' mirrored) in float64, one
 DFSPH step of a material with Weiler 2018 viscosity (its CG on the device), Akinci 2013 surface
 tension and micropolar vorticity, a DFSPH step with static density maps and with volume maps (their
-queries and packing as bodies), and two steps with an emitter (its layers appended to the fields on
+queries and packing as bodies), a WCSPH step with volume maps and the symmetric wall term, and
+two steps with an emitter (its layers appended to the fields on
 the device, and particles reused there). Each kernel launch under the simulator starts a Python
 thread per particle, so the cases are as small as their checks allow. Where a CUDA GPU is present
 the same script also runs on it (skipped otherwise, e.g. in CI). The subprocess also checks that
@@ -413,8 +414,16 @@ SCRIPT = textwrap.dedent(
             "fluid_blocks": [{"start": [0, 0, 0], "end": [0.3, 0.3, 0.3],
                               "velocity": [0.3, -3.0, 0.2]}],
             "boxes": [{"min": [-0.06, -0.06, -0.06], "max": [0.36, 0.5, 0.36]}]}
-    for bnd, bp in (("koschier2017", "mirror"), ("bender2019", "hydrostatic")):
-        maps["configuration"]["boundary"] = {"method": bnd, "pressure": bp}
+    # then WCSPH with volume maps and the symmetric wall term: the virtual particles placed
+    # for the exact gradient, the wall term swapped with a mask on the device
+    dfsph = maps["configuration"]["pressure"]
+    for bnd, bp in (("koschier2017", "mirror"), ("bender2019", "hydrostatic"),
+                    ("bender2019", "symmetric")):
+        maps["configuration"]["boundary"] = ({"method": bnd, "symmetric": True}
+                                             if bp == "symmetric" else
+                                             {"method": bnd, "pressure": bp})
+        maps["configuration"]["pressure"] = ({"method": "wcsph", "stiffness": 1000.0}
+                                             if bp == "symmetric" else dfsph)
         out, nbs = {}, {}
         for device in ("cpu", "cuda"):
             sim = Simulation(Scene.model_validate(maps), device=device)
@@ -443,7 +452,7 @@ SCRIPT = textwrap.dedent(
         for key in ("x", "v", "rho", "p"):
             e = rel(out["cuda"][key], out["cpu"][key])
             assert e <= 1e-12, (bnd, "step", key, e)
-        print(bnd, "step ok", nbs["cpu"], "virtual particles")
+        print(bnd, bp, "step ok", nbs["cpu"], "virtual particles")
 
     # an emitter on the device: two DFSPH steps of 30 ms, its layers of 4 particles added to
     # the resident fields (due at t = 0 and 0.05 s) and its region animated, against the CPU
@@ -524,7 +533,8 @@ def _run_script(env: dict) -> None:
     assert "step ok" in res.stdout and "float32 step ok" in res.stdout
     for method in ("wcsph", "iisph", "pcisph", "pbf"):
         assert f"{method} step ok" in res.stdout, method
-    assert "koschier2017 step ok" in res.stdout and "bender2019 step ok" in res.stdout
+    for bp in ("koschier2017 mirror", "bender2019 hydrostatic", "bender2019 symmetric"):
+        assert f"{bp} step ok" in res.stdout, bp
     assert "emitter ok" in res.stdout
     assert "forces step ok" in res.stdout
 

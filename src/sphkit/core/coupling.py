@@ -173,9 +173,10 @@ class BoundaryCoupling:
         """Which boundary particles take the symmetric term ``V_b k_i`` (no mirrored share, no
         extrapolated ``k_b``): all with ``symmetric``; with ``solved`` the static walls
         (:meth:`solved_walls`), not rigid bodies; none otherwise. The mask of :meth:`mirror`'s
-        zeros for WCSPH, whose boundary term mirrors every boundary particle otherwise."""
+        zeros for WCSPH, whose boundary term mirrors every boundary particle otherwise; with
+        ``symmetric`` on the device of the boundary's fields (WCSPH's step runs there too)."""
         if self.symmetric:
-            return np.ones(state.boundary.n, dtype=np.bool_)
+            return arrays.full(state.boundary.n, True, np.bool_, like=state.boundary["x"])
         return self.solved_walls(state)
 
     def one_sided_bodies(self, state: SimState) -> np.ndarray | None:

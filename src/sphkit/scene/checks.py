@@ -333,8 +333,6 @@ def device_features(scene: Scene) -> list[str]:
         out.append("configuration.neighbor_skin (Verlet lists)")
     if cfg.boundary.solved:
         out.append("configuration.boundary.solved (solved walls)")
-    if cfg.boundary.symmetric and cfg.pressure.method == "wcsph":
-        out.append("configuration.boundary.symmetric (WCSPH's symmetric wall term)")
     if len(scene.materials) > 1:
         out.append("materials (several fluids)")
     out += [f"animation_fields[{k}]" for k in range(len(scene.animation_fields))]
