@@ -164,7 +164,7 @@ def query_body(i, x, v, phi, vol, lo, cell, res, spacing, shape, dim, extend_axi
             # rho_B(x) = V_B(x) W(s(x)), s = max(phi + 0.5 r, 2 r): its value and gradient
             s = max(d + 0.5 * r, 2.0 * r)
             w = kernel_w(kid, s, h, dim)
-            if w > 0.0:
+            if V * w > 1e-6:  # as a density map's (koschier2017.query_body)
                 ds = kernel_dr(kid, s, h, dim) if d + 0.5 * r > 2.0 * r else 0.0
                 place_virtual(i, x, V * w, w * v0 + V * ds * n0, w * v1 + V * ds * n1,
                               w * v2 + V * ds * n2 if dim == 3 else 0.0, h, kid, dim, xb, Vb)
