@@ -181,6 +181,11 @@ class WallMomentForce(NonPressureForce):
     :meth:`sphkit.boundary.maps.MapBoundaryModel.wall_moment`, run with the other forces before
     the pressure solve."""
 
+    #: apply adds to a from the step start's state and virtual particles only. Left undeclared
+    #: before PCISPH computed a thrown particle's step again (validation/README.md, "PCISPH's
+    #: thrown particles"): the retries of failed solves alone gave mixed pools
+    repeatable = True
+
     def __init__(self, model: MapBoundaryModel) -> None:
         self.model = model
         self.count = 0  #: particle-map pairs it acted on in the last step
