@@ -719,3 +719,21 @@ def test_heavy_dynamic_body_lands_with_pbf(tmp_path: Path) -> None:
     assert track.lowest >= -0.1 * r, track.lowest / r
     assert track.rest_speed < 5e-2, track.rest_speed
     assert track.vmax_all < 3.0, track.vmax_all
+
+
+def test_a_huge_box_with_2d_density_maps_is_no_traceback(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]
+                                                          ) -> None:
+    """A box 5.6e16 m high with 2D density maps (fuzz.py --seed 105): the maps' 2D refinement
+    multiplied its cell counts in int64, whose product overflowed and let a lattice of 1e18
+    cells through (a ValueError traceback, "array is too big"). The counts are bounded in
+    floats now, and a geometry whose automatic map has cells of more than 100 kernel supports
+    is refused naming it before any map is built (exit 2; bounded, the build took 65 s and
+    claimed the whole block as wall)."""
+    scene = {"configuration": {"dim": 2, "particle_radius": 0.02,
+                               "boundary": {"method": "koschier2017", "map_cache": False}},
+             "fluid_blocks": [{"start": [0.1, 0.1], "end": [0.3, 0.3]}],
+             "boxes": [{"min": [0.0, 0.0], "max": [0.6, 5.6e16]}]}
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "boxes[0]", "automatic map grid")

@@ -247,9 +247,12 @@ def _fine_2d(geom: MapGeometry, h: float) -> MapGeometry:
     """``geom`` with a resolution whose cells are at most :data:`MAX_CELL_2D` h per axis (never
     coarser than its own, at most :data:`sphkit.boundary.maps.MAX_AUTO_POINTS` lattice points)."""
     lo, res, cell = map_domain(geom, h)
-    need = np.maximum(np.ceil(cell * res / (MAX_CELL_2D * h)).astype(np.int64), res)
-    while np.prod(3 * need + 1) > MAX_AUTO_POINTS and np.any(need > res):
-        need = np.maximum((need * 0.9).astype(np.int64), res)
+    # in floats: the cell counts of a huge box overflowed int64's product, which stopped the
+    # loop at 1e18 cells (fuzz seed 105: a box 5.6e16 m high, "array is too big")
+    need = np.maximum(np.ceil(cell * res / (MAX_CELL_2D * h)), res.astype(float))
+    while np.prod(3.0 * need + 1.0) > MAX_AUTO_POINTS and np.any(need > res):
+        need = np.maximum(np.floor(need * 0.9), res)
+    need = need.astype(np.int64)
     if np.all(need == res):
         return geom
     return dataclasses.replace(geom, resolution=tuple(int(v) for v in need))

@@ -152,6 +152,7 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
         fields.append(f"meshes[{k}].map_resolution" if mb.map_resolution
                       else "configuration.boundary.map_resolution")
     coarse_map_warnings(out, fields, scene, state.h)
+    check_automatic_maps(out, scene, state.h)
     # emitter housings (SPlisHSPlasH's housing is a boundary model of every kind), on the
     # automatic grid: no scene field sets their resolution
     for k, em in enumerate(emitters or []):
@@ -168,6 +169,33 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
 
 #: largest map cell, in kernel supports h, before :func:`coarse_map_warnings` warns
 MAP_CELL_LIMIT = 1.5
+
+
+#: largest cell of an automatic map grid, in kernel supports h, before
+#: :func:`check_automatic_maps` refuses the geometry
+MAP_CELL_REFUSE = 100.0
+
+
+def check_automatic_maps(geometries: list[MapGeometry], scene: Scene, h: float) -> None:
+    """Refuse (:class:`SceneError`, naming the box or mesh) a geometry whose automatic map grid
+    (no resolution given), held to :data:`sphkit.boundary.maps.MAX_AUTO_POINTS` lattice points,
+    has cells coarser than :data:`MAP_CELL_REFUSE` kernel supports: such a map cannot place a
+    wall within the kernel's reach. Found by fuzz.py --seed 105: a box 5.6e16 m high with 2D
+    density maps took 65 s to build and then claimed the whole fluid block as wall."""
+    from sphkit.boundary.maps import MAX_AUTO_POINTS, map_domain
+
+    for geom in geometries:
+        if geom.resolution is not None:
+            continue
+        _lo, res, cell = map_domain(geom, h)
+        if cell.max() > MAP_CELL_REFUSE * h:
+            raise SceneError(
+                f"{scene.field(geom.name)}: its map spans {float((res * cell).max()):.3g} m, and "
+                f"the automatic map grid (at most {MAX_AUTO_POINTS:,} lattice points) has cells "
+                f"of {cell.max():.3g} m, {cell.max() / h:.3g} times the kernel support h = "
+                f"{h:.3g} m; expected a geometry whose map fits cells of at most "
+                f"{MAP_CELL_REFUSE:g} h, a map resolution set, or boundary particles "
+                "(configuration.boundary.method akinci2012)")
 
 
 def coarse_map_warnings(geometries: list[MapGeometry], fields: list[str], scene: Scene,
