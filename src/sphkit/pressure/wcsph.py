@@ -58,8 +58,8 @@ The bound may grow by at most :data:`STEP_GROWTH` a step: a step that follows th
 while particles press on a wall, long when they leave it) is taken long on the way in, before
 the compression that would shorten it, and short on the way out, and symplectic Euler then
 gains energy with every contact. With the symmetric wall terms, which do no work, an inviscid 3D
-dam break with maps gained 10-27 % in 3 s at the free bound and keeps its energy within 2 % with
-the limit; with a fixed step it is conserved to 0.5 % (validation/README.md, "Volume maps'
+dam break with maps gained 10-27 % in 3 s at the free bound and keeps it within 4 % with the
+limit; with a fixed step it is conserved to 0.5 % (validation/README.md, "Volume maps'
 symmetric term"). Where the bound does not bind (Akinci walls, large scenes), the step is the
 same.
 """
