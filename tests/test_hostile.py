@@ -737,3 +737,15 @@ def test_a_huge_box_with_2d_density_maps_is_no_traceback(tmp_path: Path,
     code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
                                str(tmp_path / "o"))
     _refused(code, text, seconds, "boxes[0]", "automatic map grid")
+
+
+def test_a_block_outside_the_periodic_range_names_it(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """A fluid block at x 0.1-0.3 with ``periodic_x`` [1, 2] (fuzz.py --seed 107): every particle
+    lies outside the periodic range, and the message said the block was narrower than 2r. It
+    exits 2 naming the periodic range."""
+    scene = copy.deepcopy(TINY)
+    scene["configuration"]["periodic_x"] = [1, 2]
+    code, text, seconds = _run(capsys, "run", str(_scene(tmp_path, scene)), "--out",
+                               str(tmp_path / "o"))
+    _refused(code, text, seconds, "fluid_blocks[0]", "configuration.periodic_x")

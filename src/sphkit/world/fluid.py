@@ -49,15 +49,24 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
     for k, blk in enumerate(scene.fluid_blocks):
         bvol = vol
         if blk.lattice == "hexagonal":  # spacing 2r, V = 1 / sum_k W over that lattice
-            pts = periodic_clip(state, hexagonal_block(blk.start, blk.end, r))
+            raw = hexagonal_block(blk.start, blk.end, r)
             bvol = hexagonal_volume(2.0 * r, state.kid, state.h)
         elif blk.lattice in DENSE_LATTICES:  # V from a block of that lattice 6h wide
-            pts = periodic_clip(state, dense_block(blk.start, blk.end, r, blk.lattice))
+            raw = dense_block(blk.start, blk.end, r, blk.lattice)
             side = [6.0 * state.h] * dim
             bvol = block_volume(dense_block([0.0] * dim, side, r, blk.lattice), state.kid,
                                 state.h)
         else:
-            pts = periodic_clip(state, lattice_block(blk.start, blk.end, r))
+            raw = lattice_block(blk.start, blk.end, r)
+        pts = periodic_clip(state, raw)
+        if len(pts) == 0 and len(raw):  # every particle outside the periodic range
+            a, lo, L = next((a, lo, L) for a, lo, L in state.periodic_axes
+                            if not np.any((raw[:, a] >= lo) & (raw[:, a] < lo + L)))
+            name = scene.field(f"configuration.periodic_{'xy'[a]}")
+            raise SceneError(
+                f"fluid_blocks[{k}]: start {blk.start} end {blk.end} lies outside the periodic "
+                f"range {name} = [{lo:g}, {lo + L:g}) along {'xy'[a]}; expected a block that "
+                "overlaps it")
         if len(pts) == 0:
             raise SceneError(
                 f"fluid_blocks[{k}]: start {blk.start} end {blk.end} holds no particle of "
