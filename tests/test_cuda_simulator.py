@@ -417,13 +417,13 @@ SCRIPT = textwrap.dedent(
     # then WCSPH with volume maps and the symmetric wall term: the virtual particles placed
     # for the exact gradient, the wall term swapped with a mask on the device
     dfsph = maps["configuration"]["pressure"]
-    for bnd, bp in (("koschier2017", "mirror"), ("bender2019", "hydrostatic"),
-                    ("bender2019", "symmetric")):
-        maps["configuration"]["boundary"] = ({"method": bnd, "symmetric": True}
-                                             if bp == "symmetric" else
-                                             {"method": bnd, "pressure": bp})
-        maps["configuration"]["pressure"] = ({"method": "wcsph", "stiffness": 1000.0}
-                                             if bp == "symmetric" else dfsph)
+    wcsph = {"method": "wcsph", "stiffness": 1000.0}
+    for bnd, bp, walls, solver in (
+            ("koschier2017", "mirror", {"pressure": "mirror"}, dfsph),
+            ("bender2019", "hydrostatic", {"pressure": "hydrostatic"}, dfsph),
+            ("bender2019", "symmetric", {"symmetric": True}, wcsph)):
+        maps["configuration"]["boundary"] = {"method": bnd, **walls}
+        maps["configuration"]["pressure"] = solver
         out, nbs = {}, {}
         for device in ("cpu", "cuda"):
             sim = Simulation(Scene.model_validate(maps), device=device)

@@ -160,16 +160,16 @@ def query_body(i, x, v, phi, vol, lo, cell, res, spacing, shape, dim, extend_axi
     nl = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     if d > 0.0 and d < h:
         V, v0, v1, v2, _ok = grid_eval(vol, lo, cell, res, dim, p0, p1, p2)
+        s = max(d + 0.5 * r, 2.0 * r)  # the virtual particle's distance
         if V > 0.0 and nl > 1e-9 and exact:
-            # rho_B(x) = V_B(x) W(s(x)), s = max(phi + 0.5 r, 2 r): its value and gradient
-            s = max(d + 0.5 * r, 2.0 * r)
+            # rho_B(x) = V_B(x) W(s(x)): its value and gradient
             w = kernel_w(kid, s, h, dim)
             if V * w > 1e-6:  # as a density map's (koschier2017.query_body)
                 ds = kernel_dr(kid, s, h, dim) if d + 0.5 * r > 2.0 * r else 0.0
                 place_virtual(i, x, V * w, w * v0 + V * ds * n0, w * v1 + V * ds * n1,
                               w * v2 + V * ds * n2 if dim == 3 else 0.0, h, kid, dim, xb, Vb)
         elif V > 0.0 and nl > 1e-9:
-            t = max(d + 0.5 * r, 2.0 * r) / nl
+            t = s / nl
             xb[0, i] = x[0, i] - t * n0
             xb[1, i] = x[1, i] - t * n1
             if dim == 3:
