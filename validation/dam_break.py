@@ -19,10 +19,16 @@ precision):
 
 Both references are n^2 = 2 columns: inviscid and without surface tension the flow depends on
 a only through the scales sqrt(g a) and a, so one simulation (a = 0.146 m, Koshizuka & Oka's
-size) is compared with both. No table of Martin & Moyce's square column (n^2 = 1) was found
-reproduced; ``--columns 1`` runs it and compares it, on Martin & Moyce's scaled time, with the
-n^2 = 2 table (their scaling makes Ritter's fronts equal, not the early collapse: the square
-column runs well ahead, validation/README.md) and on T = t sqrt(2 g / a) (column 'MM 2g/a').
+size) is compared with both. ``--columns 1`` runs the square column in the same 4a tank and
+compares it, on Martin & Moyce's scaled time, with the n^2 = 2 table (their scaling makes
+Ritter's fronts equal, not the early collapse: the square column runs well ahead,
+validation/README.md) and on T = t sqrt(2 g / a) (column 'MM 2g/a').
+
+* ``--square``: Martin & Moyce's square column (n^2 = 1, a = 2.25 in) against its own table:
+  front Z = 6-13 and residual column against T = t sqrt(g / a), as plotted in Xie 2021
+  (arXiv:2108.08769, Fig. 7) and digitised from that figure by a third party (third hand; the
+  data files say so), in a tank 15 a long to T = 9.8 (:data:`SQUARE`); ``--floor-viscosity``
+  adds DFSPH runs with that floor friction at the middle resolution.
 
 Measures: the front ``max_i x_i + r`` (the leading particle's edge; Z = 1 at t = 0), the
 fronts of the water at least 0.02, 0.05, 0.1 a deep (the depth of each 2r-wide column of
@@ -99,6 +105,10 @@ REFERENCES = {  # name: (file, column n^2)
     "K&O": ("koshizuka_oka_1996_front.csv", 2),
 }
 HEIGHT = "martin_moyce_1952_n2_2_height.csv"
+#: ``--square``: Martin & Moyce's square column (n^2 = 1) in a tank long enough for its table
+SQUARE = {"front": "martin_moyce_1952_n2_1_front.csv",
+          "height": "martin_moyce_1952_n2_1_height.csv",
+          "tank": 15.0, "t_end": 9.8, "z_max": 13.5, "shift_max": 3.0}
 #: the front of the water at least this deep [a] (``Z<d>``): how much of the lead is a thin
 #: tongue
 DEPTHS = (0.02, 0.05, 0.1)
@@ -125,13 +135,14 @@ def _gate_obj(folder: Path, a: float, n2: float, width: float) -> Path:
 
 def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: float = A,
           gate_speed: float | None = None, gate_dir: Path | None = None, dim: int = 2,
-          solved_walls: bool | str = False) -> Scene:
+          solved_walls: bool | str = False, tank: float = TANK) -> Scene:
     """The dam break of the module docstring: ``per_a`` particles across the column; ``dim``
     3: the same in a channel WIDTH_3D a wide (y up, z across; walls on both sides);
     ``solved_walls``: ``configuration.boundary.solved`` (walls that do no work). ``wall``:
     ``free-slip``, ``no-slip`` (nu_b = nu), ``no-slip:<nu_b>`` (every wall), ``floor:<nu_b>``
     (the no-slip term on the floor only, ``boxes[].viscosity_factors``; the other walls
-    free-slip), ``sigma:<N/m>`` (free-slip walls, Mueller et al. 2003's surface tension)."""
+    free-slip), ``sigma:<N/m>`` (free-slip walls, Mueller et al. 2003's surface tension);
+    ``tank``: the tank's length [a]."""
     r = a / (2 * per_a)
     height = n2 * a
     pressure: dict = {"method": solver}
@@ -142,7 +153,7 @@ def scene(solver: str, per_a: int, wall: str = "free-slip", n2: float = 2.0, a: 
     if wall.startswith(("no-slip", "floor")):  # "<kind>:<nu_b>": the wall term's coefficient
         nu_b = float(wall.split(":")[1]) if ":" in wall else NU
         visc.update(boundary_coefficient=nu_b, boundary_velocity="morris1997")
-    lo, hi, start, end = [0.0, 0.0], [TANK * a, height + a], [0.0, 0.0], [a, height]
+    lo, hi, start, end = [0.0, 0.0], [tank * a, height + a], [0.0, 0.0], [a, height]
     if dim == 3:
         lo, hi = lo + [0.0], hi + [WIDTH_3D * a]
         start, end = start + [0.0], end + [WIDTH_3D * a]
@@ -201,7 +212,7 @@ def parse_thickness(labels: list[str]) -> str | None:
 
 
 def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END,
-        thick: list[tuple[str, float]] = ()) -> dict:
+        thick: list[tuple[str, float]] = (), tank: float = TANK) -> dict:
     """Step to Martin & Moyce's T = t_end (or until the front reaches the far wall): per step
     T, Z (front), tau, H (residual column); ``Z<d>``: the fronts of water at least d a deep
     (DEPTHS: the top of each 2r-wide column of particles); ``Zt<label>`` for each (label,
@@ -217,7 +228,7 @@ def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END,
     zd = [[1.0] for _ in DEPTHS]
     zt = [[1.0] for _ in thick]
     per_window = (2.0 * r) ** dim / (4.0 * r * (WIDTH_3D * a) ** (dim - 2))
-    while n * sim.time * s < t_end and zs[-1] < TANK - 0.05:
+    while n * sim.time * s < t_end and zs[-1] < tank - 0.05:
         sim.step()
         x = f["x"]
         ts.append(sim.time)
@@ -247,38 +258,41 @@ def run(sim: Simulation, n2: float, a: float = A, t_end: float = T_END,
     return out
 
 
-def front_error(T: np.ndarray, Z: np.ndarray, ref: str, shift: float = 0.0
-                ) -> tuple[float, float, int]:
-    """Mean signed and largest absolute relative front error against ``ref`` at its points
-    with T > 0, Z < Z_MAX and within the run (the run's times shifted by ``shift``)."""
-    tr, zr = reference(REFERENCES[ref][0])
-    keep = (tr > 0) & (zr < Z_MAX) & (tr <= T[-1] + shift)
+def front_error(T: np.ndarray, Z: np.ndarray, ref: str, shift: float = 0.0,
+                z_max: float = Z_MAX) -> tuple[float, float, int]:
+    """Mean signed and largest absolute relative front error against ``ref`` (a name of
+    REFERENCES or a ``validation/data`` file) at its points with T > 0, Z < z_max and within
+    the run (the run's times shifted by ``shift``)."""
+    tr, zr = reference(REFERENCES[ref][0] if ref in REFERENCES else ref)
+    keep = (tr > 0) & (zr < z_max) & (tr <= T[-1] + shift)
     if not keep.any():
         return math.nan, math.nan, 0
     e = np.interp(tr[keep], T + shift, Z) / zr[keep] - 1.0
     return float(e.mean()), float(np.abs(e).max()), int(keep.sum())
 
 
-def fit_shift(T: np.ndarray, Z: np.ndarray, ref: str) -> tuple[float, float, float]:
-    """The time shift T0 minimising the RMS relative error of Z_sim(T - T0) (grid search,
-    0.005 apart); returns T0 and the mean and largest errors after it."""
-    tr, zr = reference(REFERENCES[ref][0])
-    keep = (tr > 0) & (zr < Z_MAX)
+def fit_shift(T: np.ndarray, Z: np.ndarray, ref: str, z_max: float = Z_MAX,
+              shift_max: float = 0.8) -> tuple[float, float, float]:
+    """The time shift T0 minimising the RMS relative error of Z_sim(T - T0) (grid search
+    from -0.3 to ``shift_max``, 0.005 apart); returns T0 and the mean and largest errors
+    after it."""
+    tr, zr = reference(REFERENCES[ref][0] if ref in REFERENCES else ref)
+    keep = (tr > 0) & (zr < z_max)
     best = (math.inf, 0.0)
-    for t0 in np.arange(-0.3, 0.8, 0.005):
+    for t0 in np.arange(-0.3, shift_max, 0.005):
         k = keep & (tr <= T[-1] + t0)
-        if k.sum() < 5:
+        if k.sum() < min(5, keep.sum()):
             continue
         e = np.interp(tr[k], T + t0, Z) / zr[k] - 1.0
         best = min(best, (float(np.sqrt((e * e).mean())), float(t0)))
     t0 = best[1]
-    mean, mx, _ = front_error(T, Z, ref, t0)
+    mean, mx, _ = front_error(T, Z, ref, t0, z_max)
     return t0, mean, mx
 
 
-def height_error(tau: np.ndarray, H: np.ndarray) -> float:
+def height_error(tau: np.ndarray, H: np.ndarray, table: str = HEIGHT) -> float:
     """Mean |H_sim - H_exp| over Martin & Moyce's tabulated tau > 0 within the run."""
-    tr, hr = reference(HEIGHT)
+    tr, hr = reference(table)
     keep = (tr > 0) & (tr <= tau[-1])
     return float(np.abs(np.interp(tr[keep], tau, H) - hr[keep]).mean()) if keep.any() else math.nan
 
@@ -301,16 +315,18 @@ def order(runs: dict[int, dict]) -> list[tuple[int, int, float, float]]:
 
 def simulate(solver: str, per_a: int, wall: str, n2: float, gate: float | None = None,
              folder: Path | None = None, dim: int = 2, solved: bool | str = False,
-             thickness: list[str] = ()) -> dict | str:
+             thickness: list[str] = (), square: bool = False) -> dict | str:
     """One run; an error message if it blew up. ``thickness``: ``--front-thickness`` labels
-    (:func:`thickness_thresholds`)."""
+    (:func:`thickness_thresholds`); ``square``: the square column in SQUARE's long tank."""
+    tank, t_end = (SQUARE["tank"], SQUARE["t_end"]) if square else (TANK, T_END)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sim = Simulation(scene(solver, per_a, wall, n2, gate_speed=gate, gate_dir=folder,
-                               dim=dim, solved_walls=solved))
+        sim = Simulation(scene(solver, per_a, wall, 1.0 if square else n2, gate_speed=gate,
+                               gate_dir=folder, dim=dim, solved_walls=solved, tank=tank))
     t0 = time.perf_counter()
     try:
-        out = run(sim, n2, thick=thickness_thresholds(list(thickness), sim.state.r))
+        out = run(sim, 1.0 if square else n2, t_end=t_end,
+                  thick=thickness_thresholds(list(thickness), sim.state.r), tank=tank)
     except InstabilityError as e:
         return f"unstable at t = {sim.time:.3f} s: {str(e).splitlines()[0]}"
     out["wall"] = time.perf_counter() - t0
@@ -365,6 +381,23 @@ def row(key: tuple, o: dict | str) -> str:
             + f"{np.interp(1.0, o['T'], o['Z']):7.3f}{o['wall']:7.1f}")
 
 
+def square_row(key: tuple, o: dict | str) -> str:
+    """One line of the ``--square`` table: the front against Martin & Moyce's square column
+    (mean signed / largest |.|), the fitted time shift and the errors after it, the residual
+    column's mean |H - H_exp|, Z at the table's first point (T = 3.9), steps and wall time."""
+    solver, wall, per_a = key
+    head = f"{solver:7s}{wall:>10s}{per_a:5d}"
+    if isinstance(o, str):
+        return f"{head}  {o}"
+    z_max = SQUARE["z_max"]
+    mean, mx, _ = front_error(o["T"], o["Z"], SQUARE["front"], z_max=z_max)
+    t0, m0, x0 = fit_shift(o["T"], o["Z"], SQUARE["front"], z_max, SQUARE["shift_max"])
+    return (f"{head}{o['n']:6d}{o['steps']:6d}{mean:+8.1%}/{mx:6.1%} "
+            f"{t0:8.3f}{m0:+7.1%}/{x0:5.1%}"
+            f"{height_error(o['tau'], o['H'], SQUARE['height']):7.3f}"
+            f"{np.interp(3.9, o['T'], o['Z']):7.3f}{o['wall']:7.1f}")
+
+
 def depth_row(o: dict) -> str:
     """The fronts of water at least d deep (``Z<d>``) and at least as thick as each
     ``--front-thickness`` label (``Zt<label>``) against Martin & Moyce (2.25 in) and K&O."""
@@ -414,6 +447,11 @@ def main(argv: list[str] | None = None) -> int:
                     "windows): <k>L k particle layers, <d>mm millimetres at the simulation's "
                     "(Koshizuka & Oka's) scale, or a fraction of a; e.g. 2L 3L 5mm")
     ap.add_argument("--quick", action="store_true", help="DFSPH, free-slip, 10 and 20 across")
+    ap.add_argument("--square", action="store_true",
+                    help="only the square column (n^2 = 1) in a tank 15 a long to T = 9.8, "
+                    "against Martin & Moyce's square-column table (the --solvers, --walls, "
+                    "--per-a given, and with --floor-viscosity DFSPH at the middle resolution "
+                    "with that floor friction; plot dam_break_square.png)")
     ap.add_argument("--dim", type=int, default=2, choices=(2, 3),
                     help="3: the column in a channel 0.5 a wide between side walls (no gate)")
     ap.add_argument("--solved-walls", nargs="?", const=True, default=False,
@@ -434,6 +472,8 @@ def main(argv: list[str] | None = None) -> int:
         if vals and not all(math.isfinite(v) and v >= 0 for v in vals):
             ap.error(f"{opt} {vals}: expected finite values >= 0")
     logging.getLogger("sphkit").setLevel(logging.ERROR)
+    if args.square:
+        return square(args)
     walls = ("solved (density level)" if args.solved_walls == "density"
              else "solved" if args.solved_walls else "MLS")
     print(f"{args.dim}D dam break ({walls} walls), a = {A} m, tank {TANK} a, nu = {NU} m^2/s; "
@@ -484,6 +524,62 @@ def main(argv: list[str] | None = None) -> int:
                 f"{a}->{b}: {e:.4f}" + (f" (order {p:.2f})" if p == p else "")
                 for a, b, e, p in order(runs)))
     _plot(results, args.dim)
+    return 0
+
+
+def square(args: argparse.Namespace) -> int:
+    """``--square``: the square column against Martin & Moyce's n^2 = 1 table."""
+    print(f"2D square column (n^2 = 1), a = {A} m, tank {SQUARE['tank']:g} a, nu = {NU} m^2/s; "
+          "front Z = x/a against T = t sqrt(g/a), Martin & Moyce's square column (a = 2.25 in; "
+          "validation/data/martin_moyce_1952_n2_1_front.csv, Z = 6-13); errors (Z_sim/Z_exp - "
+          "1): mean (signed) / max |.|; T0: fitted time shift and the errors after it; dH: mean "
+          "|H - H_exp|; Z(3.9): the front at the table's first point (6.00)")
+    print(f"{'solver':7s}{'walls':>10s}{'a/2r':>5s}{'N':>6s}{'steps':>6s}{'MM n2=1':>16s}"
+          f"{'T0':>8s}{'after':>14s}{'dH':>7s}{'Z(3.9)':>7s}{'wall':>7s}")
+    results: dict = {}
+    cases = [(solver, wall, per_a) for solver in args.solvers for wall in args.walls
+             for per_a in args.per_a]
+    per_a = sorted(args.per_a)[len(args.per_a) // 2]  # --floor-viscosity: DFSPH, the middle
+    cases += [("dfsph", f"floor:{v:g}", per_a) for v in args.floor_viscosity or []]
+    for solver, wall, per_a in cases:
+        o = simulate(solver, per_a, wall, 1.0, square=True)
+        print(square_row((solver, wall, per_a), o), flush=True)
+        if not isinstance(o, str):
+            results[(solver, wall, per_a)] = o
+    for solver, wall in sorted({k[:2] for k in results}):
+        runs = {k[2]: o for k, o in results.items() if k[:2] == (solver, wall)}
+        if len(runs) > 1:
+            print(f"self-convergence {solver} {wall} n2 = 1: " + "; ".join(
+                f"{a}->{b}: {e:.4f}" + (f" (order {p:.2f})" if p == p else "")
+                for a, b, e, p in order(runs)))
+    plt = pyplot()
+    if plt is None or not results:
+        return 0
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4))
+    t, z = reference(SQUARE["front"])
+    ax.plot(t[1:], z[1:], "ko", ms=4, mfc="none", label="Martin & Moyce, n2 = 1")
+    tau, h = reference(SQUARE["height"])
+    bx.plot(tau, h, "ko", ms=4, mfc="none", label="Martin & Moyce, n2 = 1")
+    top = max(k[2] for k in results)
+    for (solver, wall, per_a), o in sorted(results.items()):
+        # the free-slip runs at the finest resolution, DFSPH's no-slip one and the floor's
+        if wall.startswith("floor") or (per_a == top and (
+                wall == "free-slip" or solver == "dfsph")):
+            ls = "-" if wall == "free-slip" else ":" if wall == "no-slip" else "--"
+            ax.plot(o["T"], o["Z"], ls, lw=1, label=f"{solver} {wall} a/2r={per_a}")
+            bx.plot(o["tau"], o["H"], ls, lw=1, label=f"{solver} {wall} a/2r={per_a}")
+    ax.set_xlabel("T = t sqrt(g/a)")
+    ax.set_ylabel("Z = x/a")
+    ax.set_title("Square column: surge front", fontsize=9)
+    ax.legend(fontsize=6)
+    bx.set_xlabel("tau = t sqrt(g/a)")
+    bx.set_ylabel("H = h/a")
+    bx.set_xlim(0, 7)
+    bx.set_title("Square column: residual column at the back wall", fontsize=9)
+    bx.legend(fontsize=6)
+    path = Path(__file__).with_name("dam_break_square.png")
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    print(f"plot: {path}")
     return 0
 
 
