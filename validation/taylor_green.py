@@ -30,7 +30,9 @@ at t = 0); velocities set to the field above at t = 0. Cases:
 * ``wcsph/weiler2018``: the same with Weiler et al.'s implicit viscosity (CG to 1e-7).
 * ``dfsph/standard``: DFSPH (sphkit's defaults: 0.01 % density, 0.1 % divergence error) with the
   standard viscosity, CFL step (``0.4 * 2r / max|v|``, at most 5 ms, and the explicit
-  viscosity's bound).
+  viscosity's bound); the doubly periodic, filled domain makes it solve as a closed domain
+  (``pressure.free_surface`` left null: sources relative to the mean, signed pressures;
+  :mod:`sphkit.pressure.dfsph`, "Closed domains").
 * ``wcsph/tvf``: ``wcsph/standard`` with the transport velocity of Adami, Hu & Adams 2013
   (``configuration.transport: adami2013``, :mod:`sphkit.transport.adami2013`) and their
   choices: background pressure ``p_b = rho0 c^2`` in the transport velocity, none in the state

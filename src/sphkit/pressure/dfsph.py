@@ -60,6 +60,23 @@ unconverged solve, so runs whose solves converge take the same steps as without 
 SPlisHSPlasH's 5 ms cap the 2D columns of validation/hydrostatic.py stopped at the 100
 iterations in every step and sloshed at 5 cm/s (validation/README.md, "DFSPH's step bound").
 The bound is kept in checkpoints.
+
+**Closed domains** (scene ``configuration.pressure.free_surface: false``; by default where every
+axis is periodic, there are no walls and the fluid fills the period; not in the papers nor in
+SPlisHSPlasH): without
+a free surface the fluid cannot expand, and the summed density of a disordered particle set
+exceeds rho0 on average (the self term; on the lattice it is rho0), so the clamped solves
+above, whose source counts compression only, never converge and push with growing pressure
+(the doubly periodic Taylor-Green vortex: 100 iterations in every step and 23 times its initial
+energy at 0.125 s). There both solves take their sources relative to the fluid's mean, the
+compatibility condition of a pressure equation without a free surface (its constant pressure
+is free): ``s_i = mean(rho_hat*) - rho_hat*_i`` and ``s_i = -(D rho_hat_i / Dt -
+mean(D rho_hat / Dt))`` for every particle; the pressures are signed (no clamp at 0; the warm
+starts' caps bound |kappa|), and the error is the compressive residual as before (the residual
+sums to about zero, so it is about half of the mean |residual|). Not with walls: next to a
+wall a negative pressure pulls the fluid in (the mirrored wall term), and a box filled to the
+lid lost volume into its walls (validation/README.md, "DFSPH in closed domains"); the scene
+check refuses it there.
 """
 
 from __future__ import annotations
@@ -104,6 +121,24 @@ def density_source_body(i, rho, inv_rho0, div, dt, kprev, inv_c, s, kappa):
 
 
 @numba.njit(**_BODY)
+def density_source_closed_body(i, rho, inv_rho0, div, dt, mean, kprev, inv_c, s, kappa):
+    """Closed domains (module docstring): the source relative to the mean predicted density
+    ``mean`` and a signed warm start (|kappa| within the open form's cap)."""
+    s[i] = mean - (rho[i] * inv_rho0[i] + dt * div[i])
+    cap = 0.00025 * inv_c[i]
+    kappa[i] = 0.5 * min(max(kprev[i], -cap), cap) / (dt * dt)
+
+
+@numba.njit(**_BODY)
+def divergence_source_closed_body(i, div, mean, dt, kprev, inv_c, s, kappa):
+    """Closed domains: the divergence relative to its mean ``mean``, every particle, signed
+    warm start."""
+    s[i] = mean - div[i]
+    cap = 0.5 * inv_c[i]
+    kappa[i] = 0.5 * min(max(kprev[i], -cap), cap) / dt
+
+
+@numba.njit(**_BODY)
 def divergence_source_body(i, div, active, dt, kprev, inv_c, s, kappa):
     """The divergence-free solve's source and warm start of particle i."""
     if active[i] and div[i] > 0.0:
@@ -132,6 +167,25 @@ OMEGA = 0.5
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.8, 1.02, 1e-4, 1.0
 
 
+#: a periodic domain counts as filled (closed) where the fluid's rest volume is at least this
+#: share of the period's (a free surface in a doubly periodic box leaves more room)
+FILLED = 0.95
+
+
+def filled_period(state: SimState) -> bool:
+    """True where every axis is periodic, there is no boundary and the fluid's rest volume
+    ``sum m_i / rho0_i`` fills at least :data:`FILLED` of the period (a closed domain, module
+    docstring)."""
+    axes = state.periodic_axes
+    if len(axes) < state.dim or state.fluid.n == 0 or state.boundary.n > 0:
+        return False
+    if getattr(state.coupling.model, "geometries", None):  # walls as maps
+        return False
+    f = state.fluid
+    volume = float(np.sum(np.asarray(f["m"]) / np.asarray(f["rho0"])))
+    return volume >= FILLED * float(np.prod([period for _axis, _lo, period in axes]))
+
+
 class DFSPH(StepBounded, PressureSolver):
     """Divergence-free SPH: constant-density and divergence-free solvers with warm starts."""
 
@@ -143,12 +197,16 @@ class DFSPH(StepBounded, PressureSolver):
         """The DFSPH of a scene's ``configuration.pressure`` (scene model)."""
         return cls(max_error=p.max_error, min_iterations=p.min_iterations,
                    max_iterations=p.max_iterations, max_error_v=p.max_error_v,
-                   max_iterations_v=p.max_iterations_v, divergence_solver=p.divergence_solver)
+                   max_iterations_v=p.max_iterations_v, divergence_solver=p.divergence_solver,
+                   free_surface=p.free_surface)
 
     def __init__(self, max_error: float = 0.01, max_error_v: float = 0.1,
                  min_iterations: int | None = None, max_iterations: int = 100,
-                 max_iterations_v: int = 100, divergence_solver: bool = True) -> None:
-        """``max_error``/``max_error_v`` in percent of rho0 (SPlisHSPlasH maxError/maxErrorV)."""
+                 max_iterations_v: int = 100, divergence_solver: bool = True,
+                 free_surface: bool | None = None) -> None:
+        """``max_error``/``max_error_v`` in percent of rho0 (SPlisHSPlasH maxError/maxErrorV);
+        ``free_surface`` False: a closed domain (module docstring), None: decided by
+        :meth:`init` from the domain."""
         self.density_control = IterationControl(
             "DFSPH density solver", 2 if min_iterations is None else min_iterations,
             max_iterations, max_error / 100.0)
@@ -160,12 +218,18 @@ class DFSPH(StepBounded, PressureSolver):
         self._grads: PairGradients | None = None  # this step's pair gradients
         #: the adaptive time-step bound (see max_time_step)
         self.step_bound = StepBound(DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE)
+        self.free_surface = free_surface
+        #: sources relative to the fluid's mean, signed pressures (module docstring)
+        self.closed = free_surface is False
 
     def init(self, state: SimState) -> None:
-        """Register DFSPH's fields: alpha, the stored kappas, pressure."""
+        """Register DFSPH's fields: alpha, the stored kappas, pressure; decide whether the
+        domain is closed where the scene left it open (``free_surface`` None)."""
         f = state.fluid
         for name in ("p", "dfsph_alpha", "dfsph_kappa", "dfsph_kappa_v"):
             f.register(name)
+        if self.free_surface is None:
+            self.closed = filled_period(state)
 
     def pre_forces(self, state: SimState, dt: float) -> None:
         """Factors alpha, then the divergence-free solve on the current velocities."""
@@ -181,15 +245,21 @@ class DFSPH(StepBounded, PressureSolver):
         self._kappa_v = None
         if not self.divergence_solver:
             return
-        active = surrounded(state.nl_ff.offsets, state.nl_fb.offsets,
-                            20 if state.dim == 3 else 7)
         s = arrays.empty_like(div)
         kappa = arrays.empty_like(div)
-        launch(divergence_source_body, f.n, div, active, dt, f["dfsph_kappa_v"],
-               state.rest().inv_c, s, kappa)
+        if self.closed:
+            active = None
+            launch(divergence_source_closed_body, f.n, div, float(np.mean(div)), dt,
+                   f["dfsph_kappa_v"], state.rest().inv_c, s, kappa)
+        else:
+            active = surrounded(state.nl_ff.offsets, state.nl_fb.offsets,
+                                20 if state.dim == 3 else 7)
+            launch(divergence_source_body, f.n, div, active, dt, f["dfsph_kappa_v"],
+                   state.rest().inv_c, s, kappa)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, None, s,
                                            arrays.divided(alpha, dt), dt, OMEGA, active,
                                            error_factor=dt, grads=self._grads,
+                                           clamp=not self.closed,
                                            **self._grads.wall_args(f["v"], 1.0, "dfsph_v", dt))
         arrays.axpy(f["v"], dt, a)
         # strong coupling: a boundary that yielded to kappa^v in the solve takes its velocity
@@ -209,11 +279,17 @@ class DFSPH(StepBounded, PressureSolver):
         div = self._grads.velocity_divergence(v_star)
         s = arrays.empty_like(div)
         kappa = arrays.empty_like(div)
-        launch(density_source_body, f.n, f["rho"], state.rest().inv_rho0, div, dt,
-               f["dfsph_kappa"], state.rest().inv_c, s, kappa)
+        rest = state.rest()
+        if self.closed:  # the mean predicted density rho_hat* = rho / rho0 + dt div
+            mean = float(np.mean(f["rho"] * rest.inv_rho0) + dt * np.mean(div))
+            launch(density_source_closed_body, f.n, f["rho"], rest.inv_rho0, div, dt, mean,
+                   f["dfsph_kappa"], rest.inv_c, s, kappa)
+        else:
+            launch(density_source_body, f.n, f["rho"], rest.inv_rho0, div, dt,
+                   f["dfsph_kappa"], rest.inv_c, s, kappa)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, None, s,
                                          arrays.divided(alpha, dt * dt), dt * dt, OMEGA, None,
-                                         grads=self._grads,
+                                         grads=self._grads, clamp=not self.closed,
                                          **self._grads.wall_args(v_star, dt, "dfsph", dt * dt,
                                                                   density=True))
         self._grads = None

@@ -95,6 +95,31 @@ def _boundary_pressure(scene: Scene) -> None:
                      f"configuration.boundary.method {expected}, got {bc.method!r}")
 
 
+def _free_surface(scene: Scene) -> None:
+    """``pressure.free_surface: false`` (a closed domain, :mod:`sphkit.pressure.dfsph`) is
+    DFSPH's, in a domain periodic along every axis without walls or bodies: next to a wall the
+    signed pressures pull the fluid in (the lid-driven cavity, a box filled to the lid, lost 10 %
+    of its volume into the walls in 2 s; validation/README.md, "DFSPH in closed domains")."""
+    cfg = scene.configuration
+    if cfg.pressure.free_surface is not False:
+        return
+    what = "configuration.pressure.free_surface: false"
+    if cfg.pressure.method != "dfsph":
+        raise SceneError(f"{what} with configuration.pressure.method "
+                         f"{cfg.pressure.method!r}; expected 'dfsph' (or free_surface true / "
+                         "null)")
+    missing = [f"configuration.periodic_{axis}" for axis in ("x", "y", "z")[:cfg.dim]
+               if getattr(cfg, f"periodic_{axis}", None) is None]
+    if missing:
+        raise SceneError(f"{what} needs a domain periodic along every axis; "
+                         f"{', '.join(missing)} not set (or free_surface true / null)")
+    walls = [f"{kind}[0]" for kind in ("boxes", "meshes") if getattr(scene, kind)]
+    if walls:
+        raise SceneError(f"{what} with walls or bodies ({', '.join(walls)}); expected none: "
+                         "next to a wall the signed pressures pull the fluid in (or "
+                         "free_surface true / null)")
+
+
 def _bodies(scene: Scene) -> None:
     solver = scene.configuration.pressure.method
     for k, mb in enumerate(scene.meshes):
@@ -254,6 +279,7 @@ def check_scene(scene: Scene) -> list[Material]:
             for mat in mats:
                 _periodic(scene, mat, axis)
     _boundary_pressure(scene)
+    _free_surface(scene)
     _transport(scene, mats)
     _lattices(scene)
     _bodies(scene)

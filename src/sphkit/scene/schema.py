@@ -166,6 +166,16 @@ class PressureConfig(_Model):
     )
     max_iterations_v: int = Field(100, ge=1, description="dfsph: maximum divergence iterations")
     divergence_solver: bool = Field(True, description="dfsph: run the divergence-free solver")
+    free_surface: bool | None = Field(
+        None,
+        description="dfsph: false: the fluid fills a domain periodic along every axis, without "
+        "walls (a doubly periodic flow): both solves take their sources relative to the "
+        "fluid's mean (predicted density, velocity divergence) and the pressures may be "
+        "negative (a clamped solve cannot lower the mean summed density of a disordered "
+        "particle set above rho0 and pushes without end); true: SPlisHSPlasH's clamped solves; "
+        "null (default): false where every axis is periodic, there are no walls and the fluid "
+        "fills the period, else true (sphkit.pressure.dfsph, 'Closed domains')",
+    )
     pbf_epsilon: float = Field(
         1e-6, gt=0,
         description="pbf: constraint-force-mixing relaxation epsilon of lambda [1/m^2], added "
