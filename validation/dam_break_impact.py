@@ -32,7 +32,8 @@ Sensor 4 (y = 0.267 H) is also compared with Buchner 2002's sensor P1
 the same height): the means over 3-4 and 4-5.3 and the second impact's peak (T 5.3-6.5).
 
 Run ``python validation/dam_break_impact.py`` (``--per-h 10 20 40``, ``--solvers dfsph
-wcsph``, ``--t-end 7``, ``--quick``: 10 and 20 across to T = 4). Prints the table and saves
+wcsph``, ``--t-end 7``, ``--quick``: 10 and 20 across to T = 4, ``--no-slip``: Morris et al.'s
+no-slip walls, the standard viscosity's wall term with nu_b = nu). Prints the table and saves
 ``validation/dam_break_impact.png`` (each run's 10 ms running mean against the experiment)
 when matplotlib is installed.
 """
@@ -279,6 +280,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="10 and 20 across, to T = 4")
     ap.add_argument("--solved-walls", action="store_true",
                     help="configuration.boundary.solved: wall pressures solved in the PPE")
+    ap.add_argument("--no-slip", action="store_true",
+                    help="Morris et al.'s no-slip walls (the standard viscosity's wall term, "
+                    "nu_b = nu); the rows' solver is then labelled <solver>/ns")
     ap.add_argument("--save", type=Path, help="write the runs' series to this .npz")
     ap.add_argument("--load", type=Path, nargs="*", default=[],
                     help="print and plot runs saved with --save (runs nothing)")
@@ -310,8 +314,9 @@ def main(argv: list[str] | None = None) -> int:
                 print(line, flush=True)
     for solver in [] if args.load else args.solvers:
         for per_h in args.per_h:
-            key = (solver, args.dim, per_h)
-            o = simulate(solver, per_h, args.t_end, args.dim, solved=args.solved_walls)
+            key = (solver + ("/ns" if args.no_slip else ""), args.dim, per_h)
+            o = simulate(solver, per_h, args.t_end, args.dim,
+                         "no-slip" if args.no_slip else "free-slip", solved=args.solved_walls)
             for line in rows(key, o, ref):
                 print(line, flush=True)
             if not isinstance(o, str):
