@@ -26,10 +26,14 @@ def test_expressions_follow_tinyexpr_and_refuse_python() -> None:
 
 
 def _scene(expression: list[str], field: str = "velocity") -> Scene:
+    # WCSPH without viscosity or walls: the passes tests/test_wcsph.py's elliptical drop
+    # compiles too (the fields act after the step, whatever the solver)
     return Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": 0.01, "gravity": [0.0, 0.0],
-                          "pressure": {"method": "dfsph"}, "time": {"dt_max": 0.002},
-                          "start": {"relax": False, "hydrostatic": False}},
+                          "pressure": {"method": "wcsph", "equation": "tait", "exponent": 7.0},
+                          "time": {"dt_max": 0.002},
+                          "start": {"relax": False, "hydrostatic": False, "settle": False}},
+        "materials": [{"viscosity": {"method": "none"}}],
         "fluid_blocks": [{"start": [0.0, 0.0], "end": [0.4, 0.2]}],
         "animation_fields": [{"field": field, "shape": "box", "translation": [0.1, 0.1, 0.0],
                               "scale": [0.1, 0.1, 1.0], "expression": expression}],
