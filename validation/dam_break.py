@@ -527,6 +527,14 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _label(ax: object, x: str, y: str, title: str) -> None:
+    """Axis labels, a small title and the legend of one plot panel."""
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6)
+
+
 def square(args: argparse.Namespace) -> int:
     """``--square``: the square column against Martin & Moyce's n^2 = 1 table."""
     print(f"2D square column (n^2 = 1), a = {A} m, tank {SQUARE['tank']:g} a, nu = {NU} m^2/s; "
@@ -568,15 +576,9 @@ def square(args: argparse.Namespace) -> int:
             ls = "-" if wall == "free-slip" else ":" if wall == "no-slip" else "--"
             ax.plot(o["T"], o["Z"], ls, lw=1, label=f"{solver} {wall} a/2r={per_a}")
             bx.plot(o["tau"], o["H"], ls, lw=1, label=f"{solver} {wall} a/2r={per_a}")
-    ax.set_xlabel("T = t sqrt(g/a)")
-    ax.set_ylabel("Z = x/a")
-    ax.set_title("Square column: surge front", fontsize=9)
-    ax.legend(fontsize=6)
-    bx.set_xlabel("tau = t sqrt(g/a)")
-    bx.set_ylabel("H = h/a")
+    _label(ax, "T = t sqrt(g/a)", "Z = x/a", "Square column: surge front")
     bx.set_xlim(0, 7)
-    bx.set_title("Square column: residual column at the back wall", fontsize=9)
-    bx.legend(fontsize=6)
+    _label(bx, "tau = t sqrt(g/a)", "H = h/a", "Square column: residual column at the back wall")
     path = Path(__file__).with_name("dam_break_square.png")
     fig.savefig(path, dpi=120, bbox_inches="tight")
     print(f"plot: {path}")
@@ -618,20 +620,12 @@ def _plot(results: dict, dim: int = 2) -> None:
                     marker=mk, ls="-" if wall == "free-slip" else ":", label=f"{solver} {wall}")
     ax.set_xlim(0, 3.4)
     ax.set_ylim(1, 4.2)
-    ax.set_xlabel("T = n t sqrt(g/a)")
-    ax.set_ylabel("Z = x/a")
-    ax.set_title("Surge front (free-slip walls, finest)", fontsize=9)
-    ax.legend(fontsize=6)
+    _label(ax, "T = n t sqrt(g/a)", "Z = x/a", "Surge front (free-slip walls, finest)")
     bx.set_xlim(0, 3.0)
-    bx.set_xlabel("tau = t sqrt(g/a)")
-    bx.set_ylabel("H = h/(n^2 a)")
-    bx.set_title("Residual column at the back wall (n2 = 2)", fontsize=9)
-    bx.legend(fontsize=6)
+    _label(bx, "tau = t sqrt(g/a)", "H = h/(n^2 a)", "Residual column at the back wall (n2 = 2)")
     cx.set_xscale("log")
-    cx.set_xlabel("particles across a")
-    cx.set_ylabel("mean (Z_sim / Z_exp - 1) against K&O")
-    cx.set_title("Front error against resolution (n2 = 2)", fontsize=9)
-    cx.legend(fontsize=6)
+    _label(cx, "particles across a", "mean (Z_sim / Z_exp - 1) against K&O",
+           "Front error against resolution (n2 = 2)")
     path = Path(__file__).with_name(f"dam_break{'_3d' if dim == 3 else ''}.png")
     fig.savefig(path, dpi=120, bbox_inches="tight")
     print(f"plot: {path}")
