@@ -12,24 +12,25 @@ reservoir), and the pressures at the eight sensors on the box, P1-P4 on the face
 (0.021, 0.061, 0.101, 0.141 m above the floor), P5-P8 on the top (0.021-0.141 m behind that
 face), all 0.176 m from one side of the box (the SPHERIC Test 2 description's Fig. 7).
 
-Scene (sphkit axes: y up, z across, the tank's centre line at z = 0.5 m): rho0 = 1000 kg/m^3,
-nu = 1e-6 m^2/s (standard viscosity), g = 9.81, DFSPH, a closed box of Akinci particles (two
-layers) and the box as a static mesh (surface-sampled Akinci particles), wall pressures solved
-in the PPE (``configuration.boundary.solved``: the default MLS walls pump energy into 3D flows,
-validation/README.md "Dam break in 3D"), free-slip, cubic spline h = 4r, CFL step (dt_max 4 ms),
-no settling. Height at a gauge: along the vertical line at the gauge, the highest point where
-the fluid's kernel sum ``sum_j V_j W`` (a Shepard fluid fraction: 1 inside, about 0.5 at a free
-surface) is at least 0.5, sampled every r/2 (the analogue of the VOF fraction 0.5 that Lethe's
-post-processing uses); a layer thinner than about h/2 reads 0. Pressure at a sensor: the
-Shepard average of the fluid pressure at the sensor's point on the box's surface
-(``validation/_probes.py``, as ``dam_break_impact.py``), after every step, 0 while the kernel
-sum there is below :data:`WET`. Measures per sensor, for the runs as for the experiment (less
-each sensor's offset while dry): the first impact's peak (0.35 <= t <= 0.6 s) raw and of a
-10 ms running mean, their times, the arrival (first p > 500 Pa) and the mean over 0.1 s from
-it (the impact's impulse without its timing), the rms of p less its running mean over
+Scene (sphkit axes: y up, z across, the tank's centre line at z = 0.5 m): rho0 = 1000 kg/m^3, nu
+= 1e-6 m^2/s (standard viscosity), g = 9.81, DFSPH (``--solver``), a closed box of Akinci
+particles (two layers) and the box as a static mesh (surface-sampled Akinci particles), wall
+pressures solved in the PPE (``configuration.boundary.solved``: the default MLS walls pumped
+energy into 3D flows, validation/README.md "Dam break in 3D"), free-slip, cubic spline h = 4r,
+CFL step (dt_max 4 ms), no settling. Height at a gauge: along the vertical line at the gauge,
+the highest point where the fluid's kernel sum ``sum_j V_j W`` (a Shepard fluid fraction: 1
+inside, about 0.5 at a free surface) is at least 0.5, sampled every r/2 (the analogue of the VOF
+fraction 0.5 that Lethe's post-processing uses); a layer thinner than about h/2 reads 0.
+Pressure at a sensor: the Shepard average of the fluid pressure at the sensor's point on the
+box's surface (``validation/_probes.py``, as ``dam_break_impact.py``), after every step, 0 while
+the kernel sum there is below :data:`WET`. Measures per sensor, for the runs as for the
+experiment (less each sensor's offset while dry): the first impact's peak (0.35 <= t <= 0.6 s)
+raw and of a 10 ms running mean, their times, the arrival (first p > 500 Pa) and the mean over
+0.1 s from it (the impact's impulse without its timing), the rms of p less its running mean over
 0.5-1 s (the noise), the means over the windows :data:`P_WINDOWS`.
 
-Run ``python validation/spheric_test2.py`` (``--r 0.025``, ``--t-end 2``). Prints the heights
+Run ``python validation/spheric_test2.py`` (``--r 0.025``, ``--t-end 2``, ``--solver dfsph``:
+another pressure solver with its defaults, its plots then suffixed by its name). Prints the heights
 at the tabulated times and the mean |h_sim - h_exp| per gauge over t <= t_end, the pressure
 table, and saves ``validation/spheric_test2.png`` (heights) and ``spheric_test2_pressure.png``
 when matplotlib is installed.
@@ -144,13 +145,14 @@ def _box_obj(folder: Path) -> Path:
     return path
 
 
-def scene(r: float, folder: Path) -> Scene:
-    """The tank, water and box of the module docstring with particle radius ``r``."""
+def scene(r: float, folder: Path, solver: str = "dfsph") -> Scene:
+    """The tank, water and box of the module docstring with particle radius ``r``; ``solver``:
+    the pressure solver (its defaults; WCSPH's stiffness SPlisHSPlasH's 50,000 Pa)."""
     data = {
         "name": "spheric-test2",
         "configuration": {
             "dim": 3, "particle_radius": r, "gravity": [0.0, -G, 0.0],
-            "pressure": {"method": "dfsph"},
+            "pressure": {"method": solver},
             "time": {"dt": 1e-4, "dt_min": 1e-7, "dt_max": 4e-3},
             "boundary": {"solved": True},
             "start": {"settle": False},
@@ -222,6 +224,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--r", type=float, nargs="+", default=[0.025], help="particle radii [m]")
     ap.add_argument("--t-end", type=float, default=2.0)
+    ap.add_argument("--solver", default="dfsph",
+                    choices=["dfsph", "iisph", "pcisph", "pbf", "wcsph"],
+                    help="pressure solver (default dfsph)")
     ap.add_argument("--save", type=Path, help="write the runs' gauges to this .npz")
     ap.add_argument("--load", type=Path, nargs="*", default=[],
                     help="print and plot runs saved with --save (runs nothing)")
@@ -244,7 +249,7 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    sim = Simulation(scene(r, Path(tmp)))
+                    sim = Simulation(scene(r, Path(tmp), args.solver))
                 t0 = time.perf_counter()
                 o = run(sim, args.t_end)
                 o["wall"] = time.perf_counter() - t0
@@ -253,7 +258,8 @@ def main(argv: list[str] | None = None) -> int:
             if args.save:
                 np.savez_compressed(args.save, **{f"{q}|{f}": v[f] for q, v in results.items()
                                                   for f in ("t", "h", "tp", "p", "info") if f in v})
-            print(f"r = {r} m: {o['n']} fluid particles, {o['steps']} steps, {o['wall']:.0f} s")
+            print(f"{args.solver}, r = {r} m: {o['n']} fluid particles, {o['steps']} steps, "
+                  f"{o['wall']:.0f} s")
             keep = te <= o["t"][-1]
             print(f"{'t':>6s}" + "".join(f"{'x=' + str(x):>16s}" for x in GAUGES)
                   + "   (sim / exp [m])")
@@ -267,8 +273,8 @@ def main(argv: list[str] | None = None) -> int:
     tpe, pe = pressure_experiment()
     for line in pressure_table(results, tpe, pe):
         print(line)
-    _plot(results, te, he)
-    _plot_pressure(results, tpe, pe)
+    _plot(results, te, he, args.solver)
+    _plot_pressure(results, tpe, pe, args.solver)
     return 0
 
 
@@ -295,7 +301,7 @@ def pressure_table(results: dict, tpe: np.ndarray, pe: np.ndarray) -> list[str]:
     return lines
 
 
-def _plot(results: dict, te: np.ndarray, he: dict) -> None:
+def _plot(results: dict, te: np.ndarray, he: dict, solver: str = "dfsph") -> None:
     plt = pyplot()
     if plt is None:
         return
@@ -303,18 +309,24 @@ def _plot(results: dict, te: np.ndarray, he: dict) -> None:
     for i, (x, ax) in enumerate(zip(GAUGES, axes.ravel(), strict=True)):
         ax.plot(te, he[x], "ko", ms=3, label="MARIN (Kleefsman 2005)")
         for r, o in results.items():
-            ax.plot(o["t"], o["h"][i], lw=1, label=f"DFSPH r = {r} m")
+            ax.plot(o["t"], o["h"][i], lw=1, label=f"{solver.upper()} r = {r} m")
         ax.set_title(f"gauge at x = {x} m", fontsize=9)
         ax.set_xlabel("t [s]")
         ax.set_ylabel("h [m]")
         if i == 0:
             ax.legend(fontsize=7)
-    path = Path(__file__).with_suffix(".png")
+    path = Path(__file__).with_name(f"spheric_test2{_suffix(solver)}.png")
     fig.savefig(path, dpi=110, bbox_inches="tight")
     print(f"plot: {path}")
 
 
-def _plot_pressure(results: dict, tpe: np.ndarray, pe: np.ndarray) -> None:
+def _suffix(solver: str) -> str:
+    """The plots' file-name suffix: none for DFSPH (the committed plots), else the solver's."""
+    return "" if solver == "dfsph" else f"_{solver}"
+
+
+def _plot_pressure(results: dict, tpe: np.ndarray, pe: np.ndarray, solver: str = "dfsph"
+                   ) -> None:
     plt = pyplot()
     if plt is None or not any("p" in o for o in results.values()):
         return
@@ -326,7 +338,7 @@ def _plot_pressure(results: dict, tpe: np.ndarray, pe: np.ndarray) -> None:
         for r, o in sorted(results.items()):
             if "p" in o:
                 ax.plot(o["tp"], running_mean(o["tp"], o["p"][k], PLOT_SMOOTH), lw=1,
-                        label=f"DFSPH r = {r} m, {PLOT_SMOOTH * 1e3:g} ms mean")
+                        label=f"{solver.upper()} r = {r} m, {PLOT_SMOOTH * 1e3:g} ms mean")
         x, y, _ = SENSORS[k]
         face = f"front, {y:.3f} m up" if k < 4 else f"top, {BOX[1][0] - x:.3f} m behind the front"
         ax.set_title(f"P{k + 1} ({face})", fontsize=9)
@@ -336,7 +348,7 @@ def _plot_pressure(results: dict, tpe: np.ndarray, pe: np.ndarray) -> None:
         if k == 0:
             ax.legend(fontsize=7)
     fig.tight_layout()
-    path = Path(__file__).with_name("spheric_test2_pressure.png")
+    path = Path(__file__).with_name(f"spheric_test2_pressure{_suffix(solver)}.png")
     fig.savefig(path, dpi=90, bbox_inches="tight")
     print(f"plot: {path}")
 
