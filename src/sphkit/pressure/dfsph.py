@@ -63,20 +63,17 @@ The bound is kept in checkpoints.
 
 **Closed domains** (scene ``configuration.pressure.free_surface: false``; by default where every
 axis is periodic, there are no walls and the fluid fills the period; not in the papers nor in
-SPlisHSPlasH): without
-a free surface the fluid cannot expand, and the summed density of a disordered particle set
-exceeds rho0 on average (the self term; on the lattice it is rho0), so the clamped solves
-above, whose source counts compression only, never converge and push with growing pressure
-(the doubly periodic Taylor-Green vortex: 100 iterations in every step and 23 times its initial
-energy at 0.125 s). There both solves take their sources relative to the fluid's mean, the
-compatibility condition of a pressure equation without a free surface (its constant pressure
-is free): ``s_i = mean(rho_hat*) - rho_hat*_i`` and ``s_i = -(D rho_hat_i / Dt -
-mean(D rho_hat / Dt))`` for every particle; the pressures are signed (no clamp at 0; the warm
-starts' caps bound |kappa|), and the error is the compressive residual as before (the residual
-sums to about zero, so it is about half of the mean |residual|). Not with walls: next to a
-wall a negative pressure pulls the fluid in (the mirrored wall term), and a box filled to the
-lid lost volume into its walls (validation/README.md, "DFSPH in closed domains"); the scene
-check refuses it there.
+SPlisHSPlasH): without a free surface the fluid cannot expand, and the summed density of a
+disordered particle set exceeds rho0 on average (the self term; on the lattice it is rho0), so
+the clamped solves above, whose source counts compression only, never converge and push with
+growing pressure (validation/README.md, "DFSPH in closed domains"). There both solves take their
+sources relative to the fluid's mean, the compatibility condition of a pressure equation without
+a free surface (its constant pressure is free): ``s_i = mean(rho_hat*) - rho_hat*_i`` and ``s_i
+= -(D rho_hat_i / Dt - mean(D rho_hat / Dt))`` for every particle; the pressures are signed (no
+clamp at 0; the warm starts' caps bound |kappa|), and the error is the compressive residual as
+before (the residual sums to about zero, so it is about half of the mean |residual|). Not with
+walls: next to a wall a negative pressure pulls the fluid in (the mirrored wall term), and a box
+filled to the lid loses volume into its walls; the scene check refuses it there.
 """
 
 from __future__ import annotations
