@@ -33,6 +33,8 @@ at t = 0); velocities set to the field above at t = 0. Cases:
   viscosity's bound); the doubly periodic, filled domain makes it solve as a closed domain
   (``pressure.free_surface`` left null: sources relative to the mean, signed pressures;
   :mod:`sphkit.pressure.dfsph`, "Closed domains").
+* ``iisph/standard``: IISPH (0.01 %) as ``dfsph/standard``, its closed domain chosen the same way
+  (:mod:`sphkit.pressure.iisph`).
 * ``wcsph/tvf``: ``wcsph/standard`` with the transport velocity of Adami, Hu & Adams 2013
   (``configuration.transport: adami2013``, :mod:`sphkit.transport.adami2013`) and their
   choices: background pressure ``p_b = rho0 c^2`` in the transport velocity, none in the state
@@ -83,6 +85,7 @@ TVF_EOS_BACKGROUND = 1e-6
 CASES = (("wcsph/standard", "wcsph", "standard", "none"),
          ("wcsph/weiler2018", "wcsph", "weiler2018", "none"),
          ("dfsph/standard", "dfsph", "standard", "none"),
+         ("iisph/standard", "iisph", "standard", "none"),
          ("wcsph/tvf", "wcsph", "standard", "adami2013"))
 #: the cases run by default (the others on request, ``--cases``; validation/README.md)
 DEFAULT_CASES = ("wcsph/standard", "wcsph/tvf")

@@ -208,8 +208,8 @@ register("pressure", "pbf", "sphkit.pressure.pbf:PBF", splishsplash=2,
          multiphase=True, gpu=True)
 register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
          paper="Ihmsen et al. 2014, Implicit incompressible SPH",
-         summary="relaxed Jacobi on the pressure Poisson equation", dynamic_bodies=True,
-         multiphase=True, gpu=True, solved_walls=True)
+         summary="relaxed Jacobi on the pressure Poisson equation", periodic=True,
+         periodic_y=True, dynamic_bodies=True, multiphase=True, gpu=True, solved_walls=True)
 register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
          paper="Bender & Koschier 2015/2017, Divergence-free SPH",
          summary="constant-density and divergence-free solvers with warm starts",

@@ -372,6 +372,26 @@ class WallRows:
         return cls(use, stored, Vf, D, np.empty(b.n, dtype=f.dtype))
 
 
+#: a periodic domain counts as filled (closed) where the fluid's rest volume is at least this
+#: share of the period's (a free surface in a doubly periodic box leaves more room)
+FILLED = 0.95
+
+
+def filled_period(state: SimState) -> bool:
+    """True where every axis is periodic, there is no boundary and the fluid's rest volume
+    ``sum m_i / rho0_i`` fills at least :data:`FILLED` of the period: a closed domain without a
+    free surface, whose PPE solvers take sources relative to the mean
+    (:mod:`sphkit.pressure.dfsph`, "Closed domains"; :mod:`sphkit.pressure.iisph`)."""
+    axes = state.periodic_axes
+    if len(axes) < state.dim or state.fluid.n == 0 or state.boundary.n > 0:
+        return False
+    if getattr(state.coupling.model, "geometries", None):  # walls as maps
+        return False
+    f = state.fluid
+    volume = float(np.sum(np.asarray(f["m"]) / np.asarray(f["rho0"])))
+    return volume >= FILLED * float(np.prod([period for _axis, _lo, period in axes]))
+
+
 def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray | None,
                s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
                active: np.ndarray | None, error_factor: float = 1.0,

@@ -93,6 +93,7 @@ from sphkit.core.solver import (
     SolverStats,
     StepBound,
     StepBounded,
+    filled_period,
     jacobi_ppe,
 )
 from sphkit.core.state import SimState
@@ -162,25 +163,6 @@ OMEGA = 0.5
 #: after an unconverged density solve, growth of the bound per easy solve, the smallest bound
 #: [s] and the bound above which it is dropped [s]
 DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.8, 1.02, 1e-4, 1.0
-
-
-#: a periodic domain counts as filled (closed) where the fluid's rest volume is at least this
-#: share of the period's (a free surface in a doubly periodic box leaves more room)
-FILLED = 0.95
-
-
-def filled_period(state: SimState) -> bool:
-    """True where every axis is periodic, there is no boundary and the fluid's rest volume
-    ``sum m_i / rho0_i`` fills at least :data:`FILLED` of the period (a closed domain, module
-    docstring)."""
-    axes = state.periodic_axes
-    if len(axes) < state.dim or state.fluid.n == 0 or state.boundary.n > 0:
-        return False
-    if getattr(state.coupling.model, "geometries", None):  # walls as maps
-        return False
-    f = state.fluid
-    volume = float(np.sum(np.asarray(f["m"]) / np.asarray(f["rho0"])))
-    return volume >= FILLED * float(np.prod([period for _axis, _lo, period in axes]))
 
 
 class DFSPH(StepBounded, PressureSolver):

@@ -36,6 +36,13 @@ at 2 ms it rests within 0.5 %). The constants (milder than PCISPH's 0.5 and 10 %
 unconverged solves did not diverge, and its warm start carries the pressure across steps) are
 the ones measured in validation/README.md; others were not compared. The bound is kept in
 checkpoints (:meth:`IISPH.checkpoint_state`).
+
+**Closed domains** (scene ``configuration.pressure.free_surface``, as DFSPH's; by default where
+every axis is periodic, there are no walls and the fluid fills the period,
+:func:`sphkit.core.solver.filled_period`; not in the paper nor in SPlisHSPlasH): the source
+``1 - rho_hat_adv`` less its mean over the fluid, and signed pressures (no clamp at 0), the
+compatibility condition of a pressure equation without a free surface
+(:mod:`sphkit.pressure.dfsph`, "Closed domains", for why the clamped solve fails there).
 """
 
 from __future__ import annotations
@@ -43,6 +50,7 @@ from __future__ import annotations
 from typing import Any
 
 import numba
+import numpy as np
 
 from sphkit.backend import launch
 from sphkit.core import arrays
@@ -53,6 +61,7 @@ from sphkit.core.solver import (
     SolverStats,
     StepBound,
     StepBounded,
+    filled_period,
     jacobi_ppe,
 )
 from sphkit.core.state import SimState
@@ -84,20 +93,28 @@ class IISPH(StepBounded, PressureSolver):
     def from_config(cls, p: Any) -> IISPH:
         """The IISPH of a scene's ``configuration.pressure`` (scene model)."""
         return cls(max_error=p.max_error, min_iterations=p.min_iterations,
-                   max_iterations=p.max_iterations)
+                   max_iterations=p.max_iterations, free_surface=p.free_surface)
 
     def __init__(self, max_error: float = 0.01, min_iterations: int | None = None,
-                 max_iterations: int = 100, omega: float = 0.5) -> None:
-        """``max_error`` in percent of rho0 (SPlisHSPlasH maxError)."""
+                 max_iterations: int = 100, omega: float = 0.5,
+                 free_surface: bool | None = None) -> None:
+        """``max_error`` in percent of rho0 (SPlisHSPlasH maxError); ``free_surface`` False: a
+        closed domain (module docstring), None: decided by :meth:`init` from the domain."""
         self.control = IterationControl("IISPH", 2 if min_iterations is None else min_iterations,
                                         max_iterations, max_error / 100.0)
         self.omega = omega
         #: the adaptive time-step bound (see max_time_step)
         self.step_bound = StepBound(DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE)
+        self.free_surface = free_surface
+        #: sources relative to the fluid's mean, signed pressures (module docstring)
+        self.closed = free_surface is False
 
     def init(self, state: SimState) -> None:
-        """Register the pressure field (p [Pa]; the warm start reads it back)."""
+        """Register the pressure field (p [Pa]; the warm start reads it back); decide whether
+        the domain is closed where the scene left it open (``free_surface`` None)."""
         state.fluid.register("p")
+        if self.free_surface is None:
+            self.closed = filled_period(state)
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Pressure solve on v_adv = v + dt a; adds the pressure acceleration to a."""
@@ -110,10 +127,13 @@ class IISPH(StepBounded, PressureSolver):
         s, w, scale = (arrays.empty_like(div) for _ in range(3))
         launch(setup_body, n, f["rho"], state.rest().inv_rho0, div, D, dt,
                1e-9 / state.h ** 2, s, w, scale)
+        if self.closed:  # the source relative to its mean (module docstring)
+            s -= np.mean(s)
         # warm start, normalized pressure 0.5 p / rho0
         p = arrays.divided_by(arrays.scaled(f["p"], 0.5), f["rho0"])
         a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
                                          self.omega, None, grads=grads,
+                                         clamp=not self.closed,
                                          **grads.wall_args(v_star, dt, "iisph", density=True))
         self.step_bound.update(dt, its, self.control.max_iterations, ok)
         arrays.axpy(f["a"], 1.0, a)

@@ -97,17 +97,17 @@ def _boundary_pressure(scene: Scene) -> None:
 
 def _free_surface(scene: Scene) -> None:
     """``pressure.free_surface: false`` (a closed domain, :mod:`sphkit.pressure.dfsph`) is
-    DFSPH's, in a domain periodic along every axis without walls or bodies: next to a wall the
-    signed pressures pull the fluid in (the lid-driven cavity, a box filled to the lid, lost 10 %
-    of its volume into the walls in 2 s; validation/README.md, "DFSPH in closed domains")."""
+    DFSPH's and IISPH's, in a domain periodic along every axis without walls or bodies: next to
+    a wall the signed pressures pull the fluid in (validation/README.md, "DFSPH in closed
+    domains")."""
     cfg = scene.configuration
     if cfg.pressure.free_surface is not False:
         return
     what = "configuration.pressure.free_surface: false"
-    if cfg.pressure.method != "dfsph":
+    if cfg.pressure.method not in ("dfsph", "iisph"):
         raise SceneError(f"{what} with configuration.pressure.method "
-                         f"{cfg.pressure.method!r}; expected 'dfsph' (or free_surface true / "
-                         "null)")
+                         f"{cfg.pressure.method!r}; expected 'dfsph' or 'iisph' (or "
+                         "free_surface true / null)")
     missing = [f"configuration.periodic_{axis}" for axis in ("x", "y", "z")[:cfg.dim]
                if getattr(cfg, f"periodic_{axis}", None) is None]
     if missing:

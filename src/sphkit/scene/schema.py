@@ -168,7 +168,8 @@ class PressureConfig(_Model):
     divergence_solver: bool = Field(True, description="dfsph: run the divergence-free solver")
     free_surface: bool | None = Field(
         None,
-        description="dfsph: false: the fluid fills a domain periodic along every axis, without "
+        description="dfsph, iisph: false: the fluid fills a domain periodic along every axis, "
+        "without "
         "walls (a doubly periodic flow): both solves take their sources relative to the "
         "fluid's mean (predicted density, velocity divergence) and the pressures may be "
         "negative (a clamped solve cannot lower the mean summed density of a disordered "
@@ -1183,12 +1184,12 @@ class Configuration(_Model):
         description="[xmin, xmax] [m]: the domain is periodic along x with period xmax - xmin "
         "(more than 2h = 8 particle radii); particles sampled outside [xmin, xmax) are left out, "
         "so a box spanning [xmin, xmax] in x keeps only its walls across the other axes. "
-        "Supported with the wcsph and dfsph pressure solvers",
+        "Supported with the wcsph, dfsph and iisph pressure solvers",
     )
     periodic_y: list[float] | None = Field(
         None,
         description="[ymin, ymax] [m]: periodic along y as periodic_x along x (2D and 3D; with "
-        "periodic_x too, a doubly periodic domain). Supported with the wcsph and dfsph "
+        "periodic_x too, a doubly periodic domain). Supported with the wcsph, dfsph and iisph "
         "pressure solvers and the standard and weiler2018 viscosities",
     )
 
