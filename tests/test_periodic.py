@@ -162,6 +162,10 @@ def test_periodic_scene_errors_name_the_field() -> None:
     closed = {"method": "dfsph", "free_surface": False}
     with pytest.raises(SceneError, match=r"free_surface: false.*periodic_y not set"):
         Simulation(Scene.model_validate(_scene(pressure=closed)))
+    sc = _scene(dim=3, gravity=[0.0, 0.0, 0.0], periodic_y=[0.0, 0.2], pressure=closed)
+    sc["fluid_blocks"] = [{"start": [0.0, 0.0, 0.0], "end": [0.2, 0.2, 0.1]}]
+    with pytest.raises(SceneError, match=r"free_surface: false.*3D scenes cannot"):
+        Simulation(Scene.model_validate(sc))
     with pytest.raises(SceneError, match=r"free_surface: false.*method 'wcsph'"):
         Simulation(Scene.model_validate(_scene(periodic_y=[0.0, 0.2], pressure={
             "method": "wcsph", "free_surface": False})))

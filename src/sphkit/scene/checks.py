@@ -108,8 +108,12 @@ def _free_surface(scene: Scene) -> None:
         raise SceneError(f"{what} with configuration.pressure.method "
                          f"{cfg.pressure.method!r}; expected 'dfsph' or 'iisph' (or "
                          "free_surface true / null)")
-    missing = [f"configuration.periodic_{axis}" for axis in ("x", "y", "z")[:cfg.dim]
-               if getattr(cfg, f"periodic_{axis}", None) is None]
+    if cfg.dim == 3:  # no periodic_z: a 3D domain is never periodic along every axis
+        raise SceneError(f"{what} needs a domain periodic along every axis, which 3D scenes "
+                         "cannot have (periodic_x and periodic_y only); expected dim 2 (or "
+                         "free_surface true / null)")
+    missing = [f"configuration.periodic_{axis}" for axis in ("x", "y")
+               if getattr(cfg, f"periodic_{axis}") is None]
     if missing:
         raise SceneError(f"{what} needs a domain periodic along every axis; "
                          f"{', '.join(missing)} not set (or free_surface true / null)")
