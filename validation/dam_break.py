@@ -313,6 +313,15 @@ def order(runs: dict[int, dict]) -> list[tuple[int, int, float, float]]:
     return out
 
 
+def print_convergence(label: str, runs: dict[int, dict]) -> None:
+    """The self-convergence line of one solver and wall model (:func:`order`) where it has
+    more than one resolution."""
+    if len(runs) > 1:
+        print(f"self-convergence {label}: " + "; ".join(
+            f"{a}->{b}: {e:.4f}" + (f" (order {p:.2f})" if p == p else "")
+            for a, b, e, p in order(runs)))
+
+
 def simulate(solver: str, per_a: int, wall: str, n2: float, gate: float | None = None,
              folder: Path | None = None, dim: int = 2, solved: bool | str = False,
              thickness: list[str] = (), square: bool = False) -> dict | str:
@@ -519,10 +528,7 @@ def main(argv: list[str] | None = None) -> int:
     groups = sorted({k[:3] + (k[4],) for k in results}, key=str)
     for n2, solver, wall, gate in groups:
         runs = {k[3]: o for k, o in results.items() if k[:3] == (n2, solver, wall) and k[4] == gate}
-        if len(runs) > 1:
-            print(f"self-convergence {solver} {wall} n2 = {n2:g}: " + "; ".join(
-                f"{a}->{b}: {e:.4f}" + (f" (order {p:.2f})" if p == p else "")
-                for a, b, e, p in order(runs)))
+        print_convergence(f"{solver} {wall} n2 = {n2:g}", runs)
     _plot(results, args.dim)
     return 0
 
@@ -556,10 +562,7 @@ def square(args: argparse.Namespace) -> int:
             results[(solver, wall, per_a)] = o
     for solver, wall in sorted({k[:2] for k in results}):
         runs = {k[2]: o for k, o in results.items() if k[:2] == (solver, wall)}
-        if len(runs) > 1:
-            print(f"self-convergence {solver} {wall} n2 = 1: " + "; ".join(
-                f"{a}->{b}: {e:.4f}" + (f" (order {p:.2f})" if p == p else "")
-                for a, b, e, p in order(runs)))
+        print_convergence(f"{solver} {wall} n2 = 1", runs)
     plt = pyplot()
     if plt is None or not results:
         return 0
