@@ -27,8 +27,10 @@ heavy rest density 1000 kg/m^3, light ``1000 / --ratio``:
   height of every particle are averaged over ``--average`` s, and the least-squares slope of
   pressure over height is fitted in each layer (the particles more than h from the interface,
   the free surface and the floor) and given as a multiple of its own rho0 g (1 is exact;
-  target within 2 %); also the pressure jump across the interface against the light layer's
-  weight rho0_light g H_light.
+  target within 2 %); the same fits without the particles within 3r of a side wall ("in":
+  where the walls carry the fluid beside them differently from the fluid's own pressure, the
+  two differ); also the pressure jump across the interface against the light layer's weight
+  rho0_light g H_light.
 
 * ``bubbles``: light particles in a heavy column at rest (``--study bubbles``, not in the
   default list): a heavy layer 0.3 m under a light one 0.04 m, both filling the box's width;
@@ -49,7 +51,10 @@ Morris et al. 1997, kinematic [m^2/s]; default none, SPlisHSPlasH's phases).
 ``interfaces[].tension``, ``hu2006`` [N/m; N in 2D]; default none).
 
 ``--dim 3``: the same column in 3D, ``--depth`` (0.2 m) deep along z between walls (a coarse
-slab; run it with ``--radius 0.02``: 0.4 x 0.6 x 0.2 m is 750 particles at r = 2 cm).
+slab; run it with ``--radius 0.02``: 0.4 x 0.6 x 0.2 m is 750 particles at r = 2 cm). For the
+``hydrostatic`` study use a square tank, ``--depth 0.4 --radius 0.01`` (20 x 20 particles
+across, 15 layers of 2r per layer, 24,000 particles): the 5- and 10-deep slabs leave 3-4
+layers per layer for the fit and rest within a few percent at one density already.
 """
 
 from __future__ import annotations
@@ -244,8 +249,8 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
     print(f"\nlight over heavy at rest, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
           f"units of the layer's rho0 g, averaged {settle}-{settle + average} s"
           + _walls(symmetric, solved))
-    print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'jump/rho_l g H_l':>17s} "
-          f"{'vmax':>6s} {'ms/step':>8s}  note")
+    print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'heavy in':>8s} {'light in':>8s} "
+          f"{'jump/rho_l g H_l':>17s} {'vmax':>6s} {'ms/step':>8s}  note")
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -260,12 +265,14 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
             n = f.n
             order = f.order_by_id()
             p_sum, y_sum, k = np.zeros(n), np.zeros(n), 0
+            x_sum = np.zeros((n, dim))
             while sim.time < settle + average - 1e-9:
                 sim.step()
                 steps += 1
                 order = f.order_by_id()
                 p_sum += f["p"][order]
                 y_sum += f.view("x")[order, 1]
+                x_sum += f.view("x")[order]
                 k += 1
         except InstabilityError as e:
             print(f"{method:8s} unstable at t = {e.stats.time:.3f} s", flush=True)
@@ -284,12 +291,19 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
         sel_l = ~heavy & (y > interface + h) & (y < top - h)
         slope_h = -np.polyfit(y[sel_h], p[sel_h], 1)[0] / (rho_h * G)
         slope_l = -np.polyfit(y[sel_l], p[sel_l], 1)[0] / (rho_l * G)
+        # the same fits without the particles within 3r of a side wall ("in"): where the
+        # walls' share of the support differs from the fluid's, it shows as the difference
+        across = x_sum[:, [0] + ([2] if dim == 3 else [])] / k
+        extent = [WIDTH] + ([depth] if dim == 3 else [])
+        inner = np.all((across > 3 * r) & (across < np.array(extent) - 3 * r), axis=1)
+        in_h = -np.polyfit(y[sel_h & inner], p[sel_h & inner], 1)[0] / (rho_h * G)
+        in_l = -np.polyfit(y[sel_l & inner], p[sel_l & inner], 1)[0] / (rho_l * G)
         # the jump: the heavy layer's fit at the interface against the light layer's weight
         p_int = np.polyval(np.polyfit(y[sel_h], p[sel_h], 1), interface)
         jump = p_int / (rho_l * G * (top - interface))
         vmax = float(np.sqrt((f["v"] ** 2).sum(axis=0)).max())
-        print(f"{method:8s} {slope_h:7.4f} {slope_l:7.4f} {jump:17.3f} {vmax:6.3f} "
-              f"{wall:8.1f}  {note}", flush=True)
+        print(f"{method:8s} {slope_h:7.4f} {slope_l:7.4f} {in_h:8.4f} {in_l:8.4f} "
+              f"{jump:17.3f} {vmax:6.3f} {wall:8.1f}  {note}", flush=True)
 
 
 def rest(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
