@@ -480,8 +480,7 @@ def test_rayleigh_taylor_mode_grows_at_the_linear_rate() -> None:
     rate fitted over the first e-folding and the one from the time the mode takes to grow by
     e must both lie within the issue's 15 % of n0 (measured here +3.8 % and +1.8 %; at 40, 80
     and 120 per wavelength the validation gives +12.0 / -1.7 / +13.7 % for the fit: the 15 %
-    are the issue's own line, not this resolution's error). A column whose pressure solve
-    ignored the rest-density ratio does not grow as a mode at all."""
+    are the issue's own line, not this resolution's error)."""
     from _validation import load_validation
 
     rt = load_validation("rayleigh_taylor.py")
@@ -501,8 +500,8 @@ def test_heavy_over_light_overturns(method: str) -> None:
     r = 2 cm, 2 s. Buoyancy must overturn it: the heavy phase's mean height ends below the
     light phase's, and the potential energy released is at least 60 % of what swapping the two
     layers releases (measured 71 % IISPH, 81 % DFSPH; the rest is the motion still under way at
-    1.4 m/s and the single light particles the validation counts as stragglers). A pressure
-    force without the rest-density ratio, or a run that blows up at 1:10, fails here."""
+    1.4 m/s and the single light particles the validation counts as stragglers). A run that
+    blows up at 1:10 fails here too."""
     from _validation import load_validation
 
     mp = load_validation("multiphase.py")
