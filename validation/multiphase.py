@@ -53,7 +53,7 @@ Morris et al. 1997, kinematic [m^2/s]; default none, SPlisHSPlasH's phases).
 ``--dim 3``: the same column in 3D, ``--depth`` (0.2 m) deep along z between walls (a coarse
 slab; run it with ``--radius 0.02``: 0.4 x 0.6 x 0.2 m is 750 particles at r = 2 cm). For the
 ``hydrostatic`` study use a square tank at r = 1 cm, ``--depth 0.4 --radius 0.01`` (20 x 20
-particles across, 15 rows of 2r per layer, 24,000 particles): at r = 2 cm a layer has 7-8 rows,
+particles across, 15 rows of 2r per layer, 12,000 particles): at r = 2 cm a layer has 7-8 rows,
 of which the fit (h away from the layer's ends) keeps 3-4, and one density already reads 3-9 %
 steep there (validation/README.md, "The two-layer column in a square 3D tank").
 """
