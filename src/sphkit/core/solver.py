@@ -392,6 +392,13 @@ def filled_period(state: SimState) -> bool:
     return volume >= FILLED * float(np.prod([period for _axis, _lo, period in axes]))
 
 
+def closed_domain(state: SimState, free_surface: bool | None) -> bool:
+    """Whether a PPE solver treats ``state`` as a closed domain (sources relative to the
+    fluid's mean, signed pressures): as the scene's ``pressure.free_surface`` says where it is
+    set (False: closed), else where :func:`filled_period` finds the period filled."""
+    return filled_period(state) if free_surface is None else not free_surface
+
+
 def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.ndarray | None,
                s: np.ndarray, scale: np.ndarray, ap_factor: float, omega: float,
                active: np.ndarray | None, error_factor: float = 1.0,

@@ -93,7 +93,7 @@ from sphkit.core.solver import (
     SolverStats,
     StepBound,
     StepBounded,
-    filled_period,
+    closed_domain,
     jacobi_ppe,
 )
 from sphkit.core.state import SimState
@@ -207,8 +207,7 @@ class DFSPH(StepBounded, PressureSolver):
         f = state.fluid
         for name in ("p", "dfsph_alpha", "dfsph_kappa", "dfsph_kappa_v"):
             f.register(name)
-        if self.free_surface is None:
-            self.closed = filled_period(state)
+        self.closed = closed_domain(state, self.free_surface)
 
     def pre_forces(self, state: SimState, dt: float) -> None:
         """Factors alpha, then the divergence-free solve on the current velocities."""

@@ -39,7 +39,7 @@ checkpoints (:meth:`IISPH.checkpoint_state`).
 
 **Closed domains** (scene ``configuration.pressure.free_surface``, as DFSPH's; by default where
 every axis is periodic, there are no walls and the fluid fills the period,
-:func:`sphkit.core.solver.filled_period`; not in the paper nor in SPlisHSPlasH): the source
+:func:`sphkit.core.solver.closed_domain`; not in the paper nor in SPlisHSPlasH): the source
 ``1 - rho_hat_adv`` less its mean over the fluid, and signed pressures (no clamp at 0), the
 compatibility condition of a pressure equation without a free surface
 (:mod:`sphkit.pressure.dfsph`, "Closed domains", for why the clamped solve fails there).
@@ -61,7 +61,7 @@ from sphkit.core.solver import (
     SolverStats,
     StepBound,
     StepBounded,
-    filled_period,
+    closed_domain,
     jacobi_ppe,
 )
 from sphkit.core.state import SimState
@@ -113,8 +113,7 @@ class IISPH(StepBounded, PressureSolver):
         """Register the pressure field (p [Pa]; the warm start reads it back); decide whether
         the domain is closed where the scene left it open (``free_surface`` None)."""
         state.fluid.register("p")
-        if self.free_surface is None:
-            self.closed = filled_period(state)
+        self.closed = closed_domain(state, self.free_surface)
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Pressure solve on v_adv = v + dt a; adds the pressure acceleration to a."""
