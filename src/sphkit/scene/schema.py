@@ -169,8 +169,7 @@ class PressureConfig(_Model):
     free_surface: bool | None = Field(
         None,
         description="dfsph, iisph: false: the fluid fills a domain periodic along every axis, "
-        "without "
-        "walls (a doubly periodic flow): both solves take their sources relative to the "
+        "without walls (a doubly periodic flow): both solves take their sources relative to the "
         "fluid's mean (predicted density, velocity divergence) and the pressures may be "
         "negative (a clamped solve cannot lower the mean summed density of a disordered "
         "particle set above rho0 and pushes without end); true: SPlisHSPlasH's clamped solves; "
