@@ -122,7 +122,7 @@ SCRIPT = textwrap.dedent(
                                        *map(on, (off, idx, boff, bidx)), gw, gwb,
                                        on(np.empty((dim, 0))), dim, q, on(s),
                                        1.0, on(np.full(N, 0.8)), 0.5, on(active), on(wq), k,
-                                       0.0, 0.0, device=device)
+                                       0.0, 0.0, on(np.empty(0)), device=device)
             out["q"], out["k"] = back(q), back(k)
             # DFSPH's factor (PPE diagonal, alpha) and sources from the pair divergence
             D = on(np.empty(N))

@@ -524,3 +524,34 @@ def test_heavy_over_light_overturns(method: str) -> None:
     heavy = f["phase"] == 0  # the reorder of the fluid permutes the fields
     assert y[heavy].mean() < y[~heavy].mean()
     assert (e0 - energy()) / (e0 - swapped) > 0.6
+
+
+@pytest.mark.parametrize("method", ["pcisph", "pbf", "iisph", "dfsph"])
+def test_each_rest_density_meets_the_tolerance_on_its_own(method: str) -> None:
+    """With several rest densities a solve stops when each rest density's own average error is
+    within the tolerance (SPlisHSPlasH tests each fluid model's), not the average over all
+    particles: heavy particles 1 % compressed (masses and rest volumes 1 % up) under light ones
+    1 % expanded (which count 0), no gravity, ``max_error`` 0.2 %. After one solve the heavy
+    phase's mean compression, read from the next step's densities (not from the solver), is
+    within 1.1 times the tolerance: the solves predict the density linearly in their
+    correction, and over one step of a column at rest that prediction is what the next density
+    evaluation finds to within a few per cent of the tolerance (measured 0.77-0.93 times it).
+    An average over all particles let the heavy phase stop at 1.22-1.62 times it (measured)."""
+    tol = 0.002
+    sc = _scene(method, [{"id": "heavy", "density0": 1000.0}, {"id": "light", "density0": 100.0}],
+                [(*BLOCKS[0], "heavy"), (*BLOCKS[1], "light")])
+    d = sc.model_dump(exclude_unset=True)
+    d["configuration"]["pressure"]["max_error"] = 100 * tol
+    d["configuration"]["gravity"] = [0.0, 0.0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(Scene.model_validate(d))
+    f = sim.fluid
+    heavy = f["phase"] == 0
+    for name, factor in (("m", 1.01), ("V0", 1.01)):
+        f[name][heavy] *= factor
+        f[name][~heavy] *= 2.0 - factor
+    sim.step()
+    after = {p["material"]: p["density_error_avg"] for p in sim.step().phases}
+    assert after["heavy"] <= 1.1 * tol, after
+    assert after["light"] <= 1.1 * tol, after

@@ -96,7 +96,7 @@ _JIT_GATHER = dict(cache=True, fastmath=set(GATHER_FASTMATH))
 
 @numba.njit(**_JIT_GATHER, inline="always")
 def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, bsum, dim, q, s, ap_factor, scale,
-                omega, active, w, k, shift, lo):
+                omega, active, w, k, shift, lo, err):
     """Particle i of :func:`jacobi_sweep`: updates ``q[i]``, ``k[i]`` and returns the compressive
     residual ``max(-r_i, 0)`` before the update if i is active, else 0 (the value
     :func:`sphkit.backend.launch_reduce` sums and maximizes). ``shift``: the diagonal term
@@ -105,7 +105,9 @@ def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, bsum, dim, q, s, ap_fac
     ``bsum`` (dim, N): the boundary sums ``B_i`` of a boundary that takes no acceleration (the
     boundary pairs' share is then ``a_i . B_i``, no pass over them); (dim, 0): the pairs with
     the boundary accelerations ``ab``. An empty ``w``: k is q itself (weight 1, nothing written
-    to k); an empty ``active``: every particle is active."""
+    to k); an empty ``active``: every particle is active; ``err`` with entries: the returned
+    residual is also written to ``err[i]`` (several rest densities: each class's mean,
+    :func:`sphkit.core.solver.group_error`)."""
     if bsum.shape[1] > 0:
         ai0, ai1, ai2 = point(a, i, dim)
         b0, b1, b2 = point(bsum, i, dim)
@@ -117,9 +119,10 @@ def jacobi_body(i, a, ab, off, idx, boff, bidx, gw, gwb, bsum, dim, q, s, ap_fac
     q[i] = qi
     if w.shape[0] > 0:  # weighted: k is its own array (else k is q itself)
         k[i] = w[i] * qi
-    if active.shape[0] == 0 or active[i]:
-        return max(-r, 0.0)
-    return 0.0
+    e = max(-r, 0.0) if active.shape[0] == 0 or active[i] else 0.0
+    if err.shape[0] > 0:
+        err[i] = e
+    return e
 
 
 #: run in every iteration of the pressure solvers: a driver per dimension (9-12 % faster)
@@ -131,7 +134,8 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
                  q: np.ndarray, s: np.ndarray, ap_factor: float, scale: np.ndarray, omega: float,
                  active: np.ndarray | None, w: np.ndarray | None, k: np.ndarray,
                  shift: float = 0.0, lo: float = 0.0,
-                 bsum: np.ndarray | None = None) -> tuple[float, float]:
+                 bsum: np.ndarray | None = None,
+                 err: np.ndarray | None = None) -> tuple[float, float]:
     """The second half of one Jacobi iteration, in one pass: for every particle the product
     ``Ap_i`` = :func:`pair_divergence_cached` of the pressure accelerations a (boundary
     accelerations ab), the residual ``r_i = s_i - f Ap_i`` (f = ap_factor), the update of q and
@@ -157,7 +161,8 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
 
     ``w`` None: the weight is 1 and k is q itself (DFSPH with one rest density: no weight read
     and no k written a particle, 0.08-0.15 ms of a 1.5 ms sweep at 59,319 particles, two
-    threads); ``active`` None: every particle counts.
+    threads); ``active`` None: every particle counts; ``err`` (N,): each particle's residual
+    as well (several rest densities; None: not written).
     """
     n = q.shape[0]
     if bsum is None:
@@ -166,9 +171,11 @@ def jacobi_sweep(a: np.ndarray, ab: np.ndarray, off: np.ndarray, idx: np.ndarray
         w = arrays.absent(0, q.dtype, like=q)
     if active is None:
         active = arrays.absent(0, np.bool_, like=q)
+    if err is None:
+        err = arrays.absent(0, q.dtype, like=q)
     tot, mx = launch_reduce(jacobi_body, n, a, ab, off, idx, boff, bidx, gw, gwb, bsum, int(dim),
                             q, s, float(ap_factor), scale, float(omega), active, w, k,
-                            float(shift), float(lo))
+                            float(shift), float(lo), err)
     return tot / max(n, 1), mx
 
 

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
-from sphkit.backend import launch_reduce
+from sphkit.backend import launch_reduce, to_host
 from sphkit.core import arrays
 from sphkit.core.coupling import BoundaryCoupling
 from sphkit.core.neighbors import Grid, NeighborList
@@ -64,6 +64,17 @@ class RestArrays:
         mu = self.mu
         on_host = isinstance(mu, np.ndarray)
         return bool(on_host and mu.shape[0] > 0 and not arrays.any_differs(mu, float(mu[0])))
+
+    @cached_property
+    def groups(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The particles' classes of equal rest density for the solvers' convergence test
+        (:func:`sphkit.core.solver.group_error`): (class of each particle (N,), particles per
+        class), on the host; None for one rest density. Classes, not materials: two materials
+        of one rest density solve as one (as one material would)."""
+        if self.uniform:
+            return None
+        values, index = np.unique(to_host(self.rho0), return_inverse=True)
+        return index, np.bincount(index, minlength=values.shape[0]).astype(np.float64)
 
     @staticmethod
     def of(fluid: ParticleSet, rho0_ref: float) -> RestArrays:

@@ -8,7 +8,9 @@ Per step, with ``a_ext`` = gravity + non-pressure accelerations already in ``sta
 1. prediction (paper Alg. 1, lines 2-3): ``v_pred = v + dt a_ext``, ``x* = x + dt v_pred``; the
    step-start positions ``x_old = x`` are kept;
 2. iterations through :class:`sphkit.core.solver.IterationControl` (default at least 2, as
-   SPlisHSPlasH), each a Jacobi sweep over all density constraints:
+   SPlisHSPlasH; with several rest densities each one's average error is tested, as
+   SPlisHSPlasH tests each fluid model's, :func:`sphkit.core.solver.group_error`), each a
+   Jacobi sweep over all density constraints:
 
    * ``rho_hat_i(x*) = V_i W(0) + sum_j V_j W(x*_i - x*_j) + sum_b V_b W(x*_i - x_b)`` -- the same
      sum as :func:`sphkit.core.ppe.density_at`, fused here with the gradients; density maps
@@ -143,7 +145,7 @@ from sphkit.core.kernels import kernel_w
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import lattice_diagonal
 from sphkit.core.projection import constraint_correction, constraint_lambda
-from sphkit.core.solver import IterationControl, SolverStats
+from sphkit.core.solver import IterationControl, SolverStats, group_error
 from sphkit.core.state import SimState
 
 #: the bodies of the prediction and the velocity update are compiled without fast math: each
@@ -266,6 +268,7 @@ class PBF(PressureSolver):
         rest = state.rest()  # several fluids: lambda_j weighs rho0_j / rho0_i
         # ... and lambda_i's denominator the neighbours by rho0_i / rho0_j (constraint_lambda)
         ratios = () if rest.uniform else (rest.c, rest.inv_c)
+        groups = rest.groups  # several rest densities: each one's average error is tested
 
         coupling = state.coupling
         self._forces = None  # the bodies' reaction, summed over the sweeps (module doc)
@@ -285,6 +288,8 @@ class PBF(PressureSolver):
                                         nb.offsets, nb.indices, state.h, state.kid,
                                         state.dim, 0.0, self.epsilon, 0.0, lam, rho_hat, bw,
                                         *ratios)
+            if groups is not None:  # C_i = max(rho_hat_i - 1, 0) per class (group_error)
+                avg = group_error(np.maximum(arrays.to_host(rho_hat) - 1.0, 0.0), groups, avg)
             constraint_correction(xp, V, lam, nl.offsets, nl.indices, bx, bV,
                                   nb.offsets, nb.indices, state.h, state.kid, state.dim, 0.0,
                                   self.s_corr, self.s_corr_k, self.s_corr_n, w_dq,
