@@ -4,7 +4,8 @@ Every iterative pressure solver (PCISPH, PBF, IISPH, DFSPH) runs its iterations 
 :class:`IterationControl`: at least ``min_iterations``, at most ``max_iterations``, stopping as
 soon as the average density error is at most the tolerance (SPlisHSPlasH's ``maxError``, a
 percentage of rho0, stored here as a fraction). With several rest densities the average is
-each rest density's own and the largest is tested (:func:`group_error`). Hitting the limit
+each rest density's own and the largest is tested (:func:`group_error`; PCISPH: the average
+over all particles). Hitting the limit
 without convergence logs a warning naming the solver, the step and the error. Each step
 reports :class:`SolverStats`.
 
@@ -118,11 +119,12 @@ def group_error(err: np.ndarray, groups: tuple[np.ndarray, np.ndarray] | None,
     one rest density (``groups`` None), else the largest of the averages of each class of
     equal rest density (:attr:`sphkit.core.state.RestArrays.groups`) over the per-particle
     errors ``err`` (N,). SPlisHSPlasH tests each fluid model's own average error
-    (``chk = chk && avg_density_err <= eta`` per fluid model in its DFSPH, IISPH, PBF and
-    PCISPH loops); one average over all particles let a 3D column of rest densities 1000 and
-    100 at rest stop its solves with the heavy layer at 0.1 % while the expanded light layer
-    above it counted 0, and the light layer bounced off the heavy one (validation/README.md,
-    "One convergence test per rest density")."""
+    (``chk = chk && avg_density_err <= eta`` per fluid model). With one average over all
+    particles a light phase that is expanded (its clamped errors 0) let a solve stop with the
+    heavy phase's error at twice the tolerance; in a column at rest the heavy layer then pushed
+    the light one up step after step (validation/README.md, "One convergence test per rest
+    density"). IISPH, DFSPH, ICSPH and PBF test this; PCISPH keeps the average over all
+    particles (:mod:`sphkit.pressure.pcisph`)."""
     if groups is None:
         return mean
     index, counts = groups

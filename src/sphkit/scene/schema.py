@@ -153,7 +153,8 @@ class PressureConfig(_Model):
     max_error: float = Field(
         0.01, gt=0, le=100,
         description="iterative solvers: target average density error [% of rho0] (SPlisHSPlasH "
-        "maxError, default 0.01 %); several rest densities: each one's own average",
+        "maxError, default 0.01 %); several rest densities: each one's own average (pcisph: "
+        "over all particles)",
     )
     min_iterations: int | None = Field(
         None, ge=0, description="iterative solvers: minimum iterations (default per solver)"
