@@ -8,10 +8,10 @@
         [--study bubbles --blob 1 4 9] [--every 0.5]
 
 Two studies in 2D, each a closed box 0.4 m wide, the fluid filling its width (lattice blocks from
-the walls, sphkit's start-up; each layer 0.3 m rounded to whole rows of 2r, ``layer_height``, so
-that the two blocks meet on one lattice), standard viscosity ``--viscosity`` (0.01 m^2/s, the
-value of SPlisHSPlasH's multiphase scenes) in each phase (within the phase, as SPlisHSPlasH),
-heavy rest density 1000 kg/m^3, light ``1000 / --ratio``:
+the walls, sphkit's start-up; each layer 0.3 m (``--layer``) rounded to whole rows of 2r,
+``layer_height``, so that the two blocks meet on one lattice), standard viscosity
+``--viscosity`` (0.01 m^2/s, the value of SPlisHSPlasH's multiphase scenes) in each phase
+(within the phase, as SPlisHSPlasH), heavy rest density 1000 kg/m^3, light ``1000 / --ratio``:
 
 * ``layers``: heavy over light, two layers 0.3 m each -- Rayleigh-Taylor unstable; the
   sampled particles are moved by a random displacement of up to ``--jitter`` r along each axis
@@ -29,8 +29,12 @@ heavy rest density 1000 kg/m^3, light ``1000 / --ratio``:
   the free surface and the floor) and given as a multiple of its own rho0 g (1 is exact;
   target within 2 %); the same fits without the particles within 3r of a side wall ("in":
   where the walls carry the fluid beside them differently from the fluid's own pressure, the
-  two differ); also the pressure jump across the interface against the light layer's weight
-  rho0_light g H_light.
+  two differ); the same fits over the particles more than 2h from the layer's ends ("2h": at
+  a density ratio of 1:10 the pressure ripples from row to row within about 2h of the
+  interface in every wall configuration, a periodic column without side walls included, and
+  a fit that starts h from the interface starts inside the ripple; validation/README.md, "The
+  light layer's steepness at 1:10 is the interface's ripple"); also the pressure jump across
+  the interface against the light layer's weight rho0_light g H_light.
 
 * ``bubbles``: light particles in a heavy column at rest (``--study bubbles``, not in the
   default list): a heavy layer 0.3 m under a light one 0.04 m, both filling the box's width;
@@ -52,10 +56,13 @@ Morris et al. 1997, kinematic [m^2/s]; default none, SPlisHSPlasH's phases).
 
 ``--dim 3``: the same column in 3D, ``--depth`` (0.2 m) deep along z between walls (a coarse
 slab; run it with ``--radius 0.02``: 0.4 x 0.6 x 0.2 m is 750 particles at r = 2 cm). For the
-``hydrostatic`` study use a square tank at r = 1 cm, ``--depth 0.4 --radius 0.01`` (20 x 20
-particles across, 15 rows of 2r per layer, 12,000 particles): at r = 2 cm a layer has 7-8 rows,
-of which the fit (h away from the layer's ends) keeps 3-4, and one density already reads 3-9 %
-steep there (validation/README.md, "The two-layer column in a square 3D tank").
+``hydrostatic`` study use a square tank at r = 1 cm with layers 0.6 m deep, ``--depth 0.4
+--radius 0.01 --layer 0.6`` (20 x 20 particles across, 30 rows of 2r per layer, 24,000
+particles): at r = 2 cm a layer has 7-8 rows, of which the fit (h away from the layer's ends)
+keeps 3-4, and one density already reads 3-9 % steep there (validation/README.md, "The
+two-layer column in a square 3D tank"); at 15 rows (0.3 m) the fit resolves the slope to about
++-3 % and its first light row lies in the interface's ripple ("The light layer's steepness at
+1:10 is the interface's ripple").
 """
 
 from __future__ import annotations
@@ -251,7 +258,8 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
           f"units of the layer's rho0 g, averaged {settle}-{settle + average} s"
           + _walls(symmetric, solved))
     print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'heavy in':>8s} {'light in':>8s} "
-          f"{'jump/rho_l g H_l':>17s} {'vmax':>6s} {'ms/step':>8s}  note")
+          f"{'heavy 2h':>8s} {'light 2h':>8s} {'jump/rho_l g H_l':>17s} {'vmax':>6s} "
+          f"{'ms/step':>8s}  note")
     for method in methods:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -299,12 +307,18 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
         inner = np.all((across > 3 * r) & (across < np.array(extent) - 3 * r), axis=1)
         in_h = -np.polyfit(y[sel_h & inner], p[sel_h & inner], 1)[0] / (rho_h * G)
         in_l = -np.polyfit(y[sel_l & inner], p[sel_l & inner], 1)[0] / (rho_l * G)
+        # the same fits 2h from each end of a layer ("2h": beyond the interface's ripple)
+        far_h = heavy & (y > 2 * h) & (y < interface - 2 * h)
+        far_l = ~heavy & (y > interface + 2 * h) & (y < top - 2 * h)
+        far_fits = [-np.polyfit(y[s], p[s], 1)[0] / (rho * G) if s.sum() > 2 else np.nan
+                    for s, rho in ((far_h, rho_h), (far_l, rho_l))]
         # the jump: the heavy layer's fit at the interface against the light layer's weight
         p_int = np.polyval(np.polyfit(y[sel_h], p[sel_h], 1), interface)
         jump = p_int / (rho_l * G * (top - interface))
         vmax = float(np.sqrt((f["v"] ** 2).sum(axis=0)).max())
         print(f"{method:8s} {slope_h:7.4f} {slope_l:7.4f} {in_h:8.4f} {in_l:8.4f} "
-              f"{jump:17.3f} {vmax:6.3f} {wall:8.1f}  {note}", flush=True)
+              f"{far_fits[0]:8.4f} {far_fits[1]:8.4f} {jump:17.3f} {vmax:6.3f} {wall:8.1f}  "
+              f"{note}", flush=True)
 
 
 def rest(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
@@ -409,7 +423,7 @@ def bubbles(methods: list[str], r: float, until: float, ratio: float, viscosity:
 
 
 def main() -> None:
-    global MAX_ERROR
+    global MAX_ERROR, LAYER
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--solvers", nargs="+", default=["pcisph", "pbf", "iisph", "dfsph"])
     ap.add_argument("--study", nargs="+", default=["layers", "hydrostatic"],
@@ -438,6 +452,9 @@ def main() -> None:
                          "default of fluids of one rest density)")
     ap.add_argument("--dim", type=int, default=2, choices=[2, 3])
     ap.add_argument("--depth", type=float, default=0.2, help="3D: depth of the box along z [m]")
+    ap.add_argument("--layer", type=float, default=LAYER,
+                    help="each layer's height [m] (rounded to whole rows of 2r): deeper layers "
+                         "give the hydrostatic fits more rows")
     ap.add_argument("--interface-viscosity", type=float, default=0.0,
                     help="layers: viscosity between the phases [m^2/s] (0: none)")
     ap.add_argument("--interface-tension", type=float, default=0.0,
@@ -449,7 +466,7 @@ def main() -> None:
     ap.add_argument("--blob", type=int, nargs="+", default=[1, 9],
                     help="bubbles: particles per blob (one table each)")
     args = ap.parse_args()
-    MAX_ERROR = args.max_error
+    MAX_ERROR, LAYER = args.max_error, args.layer
     logging.getLogger("sphkit").setLevel(logging.ERROR)
     if "hydrostatic" in args.study:
         hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
