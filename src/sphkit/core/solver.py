@@ -5,9 +5,8 @@ Every iterative pressure solver (PCISPH, PBF, IISPH, DFSPH) runs its iterations 
 soon as the average density error is at most the tolerance (SPlisHSPlasH's ``maxError``, a
 percentage of rho0, stored here as a fraction). With several rest densities the average is
 each rest density's own and the largest is tested (:func:`group_error`; PCISPH: the average
-over all particles). Hitting the limit
-without convergence logs a warning naming the solver, the step and the error. Each step
-reports :class:`SolverStats`.
+over all particles). Hitting the limit without convergence logs a warning naming the solver,
+the step and the error. Each step reports :class:`SolverStats`.
 
 :func:`jacobi_ppe` is the relaxed Jacobi engine of the survey (Sec. 4.4): for a variable q with
 pressure acceleration ``a = kappa_accel_cached(w q)`` it iterates
