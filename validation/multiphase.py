@@ -251,6 +251,20 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
               f"{np.mean(its):6.1f} {wall:8.1f}  {note}", flush=True)
 
 
+def layer_slopes(y: np.ndarray, p: np.ndarray, heavy: np.ndarray, interface: float,
+                 top: float, rho_h: float, rho_l: float, margin: float,
+                 where: np.ndarray | bool = True) -> tuple[float, float]:
+    """The least-squares slope of pressure p over height y in the heavy and the light layer, in
+    units of each layer's rho0 g, over the particles more than ``margin`` from the layer's ends
+    (floor, ``interface``, free surface ``top``) and with ``where``; nan with fewer than three."""
+    out = []
+    for sel, rho in ((heavy & (y > margin) & (y < interface - margin), rho_h),
+                     (~heavy & (y > interface + margin) & (y < top - margin), rho_l)):
+        sel = sel & where
+        out.append(-np.polyfit(y[sel], p[sel], 1)[0] / (rho * G) if sel.sum() > 2 else np.nan)
+    return out[0], out[1]
+
+
 def hydrostatic(methods: list[str], r: float, settle: float, average: float,
                 ratio: float, viscosity: float, symmetric: bool = False, dim: int = 2,
                 depth: float = 0.2, solved: bool | str | None = None) -> None:
@@ -296,28 +310,23 @@ def hydrostatic(methods: list[str], r: float, settle: float, average: float,
         top = y.max() + r
         interface = 0.5 * (y[heavy].max() + y[~heavy].min())
         rho_h, rho_l = 1000.0, 1000.0 / ratio
-        sel_h = heavy & (y > h) & (y < interface - h)
-        sel_l = ~heavy & (y > interface + h) & (y < top - h)
-        slope_h = -np.polyfit(y[sel_h], p[sel_h], 1)[0] / (rho_h * G)
-        slope_l = -np.polyfit(y[sel_l], p[sel_l], 1)[0] / (rho_l * G)
-        # the same fits without the particles within 3r of a side wall ("in"): where the
-        # walls' share of the support differs from the fluid's, it shows as the difference
         across = x_sum[:, [0] + ([2] if dim == 3 else [])] / k
         extent = [WIDTH] + ([depth] if dim == 3 else [])
         inner = np.all((across > 3 * r) & (across < np.array(extent) - 3 * r), axis=1)
-        in_h = -np.polyfit(y[sel_h & inner], p[sel_h & inner], 1)[0] / (rho_h * G)
-        in_l = -np.polyfit(y[sel_l & inner], p[sel_l & inner], 1)[0] / (rho_l * G)
+        layers = (y, p, heavy, interface, top, rho_h, rho_l)
+        slope_h, slope_l = layer_slopes(*layers, h)
+        # the same fits without the particles within 3r of a side wall ("in"): where the
+        # walls' share of the support differs from the fluid's, it shows as the difference
+        in_h, in_l = layer_slopes(*layers, h, inner)
         # the same fits 2h from each end of a layer ("2h": beyond the interface's ripple)
-        far_h = heavy & (y > 2 * h) & (y < interface - 2 * h)
-        far_l = ~heavy & (y > interface + 2 * h) & (y < top - 2 * h)
-        far_fits = [-np.polyfit(y[s], p[s], 1)[0] / (rho * G) if s.sum() > 2 else np.nan
-                    for s, rho in ((far_h, rho_h), (far_l, rho_l))]
+        far_h, far_l = layer_slopes(*layers, 2 * h)
         # the jump: the heavy layer's fit at the interface against the light layer's weight
+        sel_h = heavy & (y > h) & (y < interface - h)
         p_int = np.polyval(np.polyfit(y[sel_h], p[sel_h], 1), interface)
         jump = p_int / (rho_l * G * (top - interface))
         vmax = float(np.sqrt((f["v"] ** 2).sum(axis=0)).max())
         print(f"{method:8s} {slope_h:7.4f} {slope_l:7.4f} {in_h:8.4f} {in_l:8.4f} "
-              f"{far_fits[0]:8.4f} {far_fits[1]:8.4f} {jump:17.3f} {vmax:6.3f} {wall:8.1f}  "
+              f"{far_h:8.4f} {far_l:8.4f} {jump:17.3f} {vmax:6.3f} {wall:8.1f}  "
               f"{note}", flush=True)
 
 
