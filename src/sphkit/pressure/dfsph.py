@@ -61,9 +61,8 @@ within half of them raises it by ``DT_GROW``; the bound starts only with two unc
 in a row, so runs whose solves converge take the same steps as without it. Why: at
 SPlisHSPlasH's 5 ms cap the 2D columns of validation/hydrostatic.py stopped at the 100
 iterations in every step and sloshed at 5 cm/s (validation/README.md, "DFSPH's step bound").
-Why two in a row: after a single one (the rule until 2026-12-07) a deep two-layer column at
-1:10 (0.6 m layers) shrank its step to 1-1.5 ms after the landing that follows its start and
-never came to rest, as it does not at a fixed 1 ms either (IISPH's module docstring, "Time
+Why two in a row: a single one is a transient (the landing that follows a deep column's start),
+and a shorter step makes the per-step corrections faster (IISPH's module docstring, "Time
 step"; validation/README.md, "The step bound's patience"). The bound is kept in checkpoints.
 
 **Closed domains** (scene ``configuration.pressure.free_surface: false``; by default where every
