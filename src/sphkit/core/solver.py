@@ -161,37 +161,37 @@ class IterationControl:
 class StepBound:
     """An adaptive time-step bound [s] driven by the convergence of a solver's solves.
 
-    After each solve, :meth:`update`: the ``patience``-th unconverged solve in a row (one that
-    stopped at its iteration limit above the tolerance) sets the bound to ``shrink`` times that
-    step (at least ``floor``), and so does each further one of the row; a solve that converged
-    within half of the limit ("easy") multiplies a finite bound by ``grow``, and a bound above
-    ``free`` is dropped (inf: no bound). ``start``, given by the solver, sets an absent bound
-    to the step's dt before that rule (PCISPH: its first solve built pressure, so the steps
-    grow from the scene's initial step). Without ``patience`` unconverged solves in a row or a
-    start the bound stays inf and the run is what it would be without it. After Ihmsen,
-    Akinci, Gissler and Teschner 2010, "Boundary handling and adaptive time-stepping for
-    PCISPH", VRIPHYS, which shrinks the step when the density error is too large.
+    After each solve, :meth:`update`: a solve that stopped at its iteration limit with its error
+    above ``slack`` times the tolerance ("failed") sets the bound to ``shrink`` times that step
+    (at least ``floor``); a solve that converged within half of the limit ("easy") multiplies a
+    finite bound by ``grow``, and a bound above ``free`` is dropped (inf: no bound); a solve
+    that stopped at the limit within ``slack`` times the tolerance leaves the bound as it is.
+    ``start``, given by the solver, sets an absent bound to the step's dt before that rule
+    (PCISPH: its first solve built pressure, so the steps grow from the scene's initial step).
+    Without a failed solve or a start the bound stays inf and the run is what it would be
+    without it. After Ihmsen, Akinci, Gissler and Teschner 2010, "Boundary handling and
+    adaptive time-stepping for PCISPH", VRIPHYS, which shrinks the step when the density error
+    is too large.
     """
 
     def __init__(self, shrink: float, grow: float, floor: float, free: float,
-                 patience: int = 1) -> None:
-        """``shrink``: factor of the step after an unconverged solve (< 1); ``grow``: factor
-        per easy solve (> 1); ``floor``: the smallest bound [s]; ``free``: the bound [s] above
-        which it is dropped; ``patience``: the unconverged solves in a row that shrink it (1:
-        every one)."""
+                 slack: float = 1.0) -> None:
+        """``shrink``: factor of the step after a failed solve (< 1); ``grow``: factor per
+        easy solve (> 1); ``floor``: the smallest bound [s]; ``free``: the bound [s] above which
+        it is dropped; ``slack``: the error, in tolerances, up to which a solve stopped at the
+        limit does not count as failed (1: every unconverged solve fails)."""
         self.shrink, self.grow, self.floor, self.free = shrink, grow, floor, free
-        self.patience = patience
+        self.slack = slack
         self.value = math.inf  #: the bound [s] (inf: none)
-        self.unconverged = 0  #: the unconverged solves in a row up to the last one
 
     def update(self, dt: float, iterations: int, max_iterations: int, converged: bool,
-               start: bool = False) -> None:
+               start: bool = False, miss: float = math.inf) -> None:
         """The rule after a solve of step ``dt`` [s] that took ``iterations`` of at most
-        ``max_iterations`` and ``converged`` (or not)."""
-        self.unconverged = 0 if converged else self.unconverged + 1
+        ``max_iterations`` and ``converged`` (or not), ending at ``miss`` times its tolerance
+        (inf when not given: an unconverged solve fails)."""
         if start and math.isinf(self.value):
             self.value = dt
-        if self.unconverged >= self.patience:
+        if not converged and miss > self.slack:
             self.value = max(self.shrink * dt, self.floor)
         elif iterations <= max_iterations // 2 and math.isfinite(self.value):
             self.value *= self.grow
@@ -199,17 +199,14 @@ class StepBound:
                 self.value = math.inf
 
     def checkpoint_state(self) -> dict:
-        """The bound and the unconverged solves in a row, for checkpoints (JSON-ready; None
-        for no bound)."""
-        return {"dt_bound": None if math.isinf(self.value) else float(self.value),
-                "unconverged": int(self.unconverged)}
+        """The bound, for checkpoints (JSON-ready; None for no bound)."""
+        return {"dt_bound": None if math.isinf(self.value) else float(self.value)}
 
     def restore(self, state: dict) -> None:
-        """Take the bound back from :meth:`checkpoint_state` (no bound and no row when absent:
-        checkpoints written before the bound or the row existed)."""
+        """Take the bound back from :meth:`checkpoint_state` (no bound when absent: checkpoints
+        written before the bound existed)."""
         b = state.get("dt_bound")
         self.value = math.inf if b is None else float(b)
-        self.unconverged = int(state.get("unconverged", 0))
 
 
 
