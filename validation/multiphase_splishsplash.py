@@ -15,7 +15,7 @@ steps and mean / largest iterations since the last line, and per layer the rms a
 speed and the mean vertical velocity [m/s]. A run whose fastest particle exceeds 100 m/s is
 reported as blown up and stopped. SPlisHSPlasH places the first particle 2r inside a block, so
 its fluid stands 2r off the walls (19 particles across at the defaults, 29 rows a layer).
-Results: validation/README.md, "The step bound's patience".
+Results: validation/README.md, "The step bound's slack".
 """
 
 from __future__ import annotations
