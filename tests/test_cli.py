@@ -98,6 +98,54 @@ def test_module_entry_point() -> None:
     assert proc.returncode == 0 and proc.stdout.startswith("sphkit ")
 
 
+def test_console_shows_a_repeated_warning_three_times_and_counts_the_rest(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A solver that misses its tolerance step after step (SPlisHSPlasH's CoilingModel with
+    Bender 2017 viscosity: 377 warnings in a second) fills the console with one kind of
+    warning: the console shows three of a kind, the log file all of them, and the command's
+    end says how many it left out. Python warnings (a scene field sphkit ignores) read as
+    ``WARNING: message`` lines, without Python's file, line and source display, and go to the
+    log file too, also when they come before it exists."""
+    import logging
+    import warnings
+
+    from sphkit.io.log import command_logging, get_logger
+
+    # pytest records warnings in every test; a plain writer is what the command meets
+    monkeypatch.setattr(warnings, "_showwarnmsg_impl", lambda msg: None)
+    log = get_logger("test")
+    with command_logging() as session:
+        warnings.warn("scene 'x': ignored 1 field(s): Configuration.scriptFile", stacklevel=1)
+        session.add_file(tmp_path)
+        for step in range(10):
+            log.warning("viscosity: no convergence in 100 iterations at step %d: error %.3g",
+                        step, 0.05 + step * 1e-4)
+        log.warning("a warning of another kind")
+        log.error("an error at step %d", 11)
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "WARNING: scene 'x': ignored 1 field(s): Configuration.scriptFile"
+    assert not any("UserWarning" in line or "warnings.warn" in line for line in err)
+    shown = [line for line in err if "no convergence" in line and "more like" not in line]
+    assert [line.split("step ")[1][:1] for line in shown] == ["0", "1", "2"]
+    assert "[shown 3 times" in shown[2] and "[shown" not in shown[1]
+    assert "WARNING: a warning of another kind" in err
+    assert "ERROR: an error at step 11" in err
+    summary = [line for line in err if "more like" in line]
+    assert len(summary) == 1 and summary[0].startswith("WARNING: 7 more like ")
+    assert str(tmp_path / "sphkit.log") in summary[0]
+    text = (tmp_path / "sphkit.log").read_text()
+    assert text.count("no convergence") == 10 and "[shown" not in text
+    assert "ignored 1 field(s)" in text.splitlines()[0]
+    # where warnings are recorded (catch_warnings(record=True), pytest), they stay recorded
+    monkeypatch.undo()
+    with warnings.catch_warnings(record=True) as caught, command_logging():
+        warnings.warn("recorded, not logged", stacklevel=1)
+    assert [str(w.message) for w in caught] == ["recorded, not logged"]
+    assert "recorded, not logged" not in capsys.readouterr().err
+    assert logging.getLogger("sphkit").handlers == []
+
+
 # -- runs --------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
