@@ -374,9 +374,11 @@ def test_progress_shows_iterations_since_the_last_update() -> None:
 
 def test_run_writes_the_moving_bodies_at_their_pose(tmp_path: Path) -> None:
     """A kinematic paddle turning at pi rad/s about its centre (0.3, 0.3): each frame's
-    ``bodies_*.vtu`` and ``bodies_*.obj`` hold its mesh turned by pi t about z, which is the
-    prescribed motion (exact up to the float printing of OBJ, 1e-8 m, and the rotation's
-    round-off); the manifest lists them; a rerun into the folder without bodies removes them."""
+    ``bodies_*.vtu``, ``bodies_*.obj`` and ``bodies_*.ply`` hold its mesh turned by pi t about
+    z, which is the prescribed motion (exact up to the float printing of OBJ, 1e-8 m, and the
+    rotation's round-off), the PLY with the body's number as vertex data (meshio's PLY writer
+    dropped it); the manifest lists them; a rerun into the folder without bodies removes
+    them."""
     import meshio
     import trimesh
 
@@ -387,7 +389,7 @@ def test_run_writes_the_moving_bodies_at_their_pose(tmp_path: Path) -> None:
              "boxes": [{"min": [0, 0], "max": [0.6, 0.6]}],
              "meshes": [{"geometry_file": str(tmp_path / "paddle.obj"),
                          "translation": [0.3, 0.3, 0.0], "angular_velocity": [0, 0, np.pi]}],
-             "output": {"fps": 50, "formats": ["vtk", "bgeo"]}}
+             "output": {"fps": 50, "formats": ["vtk", "bgeo", "ply"]}}
     path = tmp_path / "paddle.json"
     path.write_text(json.dumps(scene))
     out = tmp_path / "out"
@@ -396,13 +398,17 @@ def test_run_writes_the_moving_bodies_at_their_pose(tmp_path: Path) -> None:
     rest = trimesh.load(tmp_path / "paddle.obj").vertices
     for rec in man["frames"]:
         k, t = rec["frame"], rec["time"]
-        assert rec["body_files"] == [f"bodies_{k:05d}.vtu", f"bodies_{k:05d}.obj"]
+        assert rec["body_files"] == [f"bodies_{k:05d}.vtu", f"bodies_{k:05d}.obj",
+                                     f"bodies_{k:05d}.ply"]
         c, s = np.cos(np.pi * t), np.sin(np.pi * t)
         want = rest @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]).T + [0.3, 0.3, 0.0]
         got = meshio.read(out / rec["body_files"][0]).points
         np.testing.assert_allclose(got, want, atol=1e-12)
         obj = trimesh.load(out / rec["body_files"][1], force="mesh", process=False)
         np.testing.assert_allclose(obj.vertices, want, atol=1e-8)
+        ply = meshio.read(out / rec["body_files"][2])  # with the body number, no warning
+        np.testing.assert_allclose(ply.points, want, atol=1e-12)
+        assert set(ply.point_data["body"]) == {1} and len(ply.cells[0].data) == 12
     assert json.loads((out / "bodies.vtu.series").read_text())["files"][-1]["time"] == t
     scene["meshes"] = []
     path.write_text(json.dumps(scene))

@@ -17,7 +17,7 @@ import pytest
 
 from sphkit.core.particles import ParticleSet
 from sphkit.io.bgeo import BgeoError, read_bgeo, write_bgeo
-from sphkit.io.frames import FrameWriter, read_frame, write_ply, write_vtu
+from sphkit.io.frames import FrameFormatError, FrameWriter, read_frame, write_ply, write_vtu
 from sphkit.io.particle_files import (
     ParticleFileError,
     load_fluid_particles,
@@ -175,6 +175,26 @@ def test_frame_attributes_select_fields(tmp_path: Path) -> None:
     np.testing.assert_allclose(bgeo["acceleration"], sim.fluid.view("a")[order], rtol=1e-6)
     with pytest.raises(ValueError, match="output.attributes: got 'vorticity'.*expected one of"):
         FrameWriter(tmp_path, ["vtk"], 3, attributes=["vorticity"]).write(sim, 1)
+
+
+def test_ply_holds_the_phase_of_several_fluids_as_int(tmp_path: Path) -> None:
+    """A multiphase run's frames carry each particle's ``phase`` as int64; PLY has no 64-bit
+    integer, and ``sphkit run --format ply`` of SPlisHSPlasH's DoubleDamBreakMultiPhase stopped
+    with a traceback. Integer fields are written as PLY 'int' where they fit, and a value that
+    does not fit is refused naming the field and the formats that hold it."""
+    n = 5
+    arrays = {"position": np.arange(3.0 * n).reshape(n, 3), "id": np.arange(n, dtype=np.int64),
+              "phase": np.array([0, 1, 2, 1, 0], dtype=np.int64),
+              "rest_density": np.array([1000.0, 500, 250, 500, 1000])}
+    back = read_frame(write_ply(tmp_path / "f.ply", arrays))
+    assert back["phase"].dtype == np.int32
+    np.testing.assert_array_equal(back["phase"], arrays["phase"])
+    np.testing.assert_array_equal(back["rest_density"], arrays["rest_density"])
+    arrays["phase"][2] = 2**40
+    with pytest.raises(FrameFormatError, match="field 'phase' holds values up to 1099511627776"
+                       ".*use the vtk or bgeo format"):
+        write_ply(tmp_path / "g.ply", arrays)
+    assert not (tmp_path / "g.ply").exists()
 
 
 # -- the wheel itself -------------------------------------------------------------------------

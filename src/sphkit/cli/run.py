@@ -54,7 +54,13 @@ from sphkit.cli.common import (
 from sphkit.cli.progress import Reporter, fmt, reporter
 from sphkit.cli.resume import CheckpointSchedule, prepare_resume
 from sphkit.io.bodies import BodyWriter, body_formats
-from sphkit.io.frames import FORMATS, MULTIPHASE_FIELDS, FrameWriter, resolve_attributes
+from sphkit.io.frames import (
+    FORMATS,
+    MULTIPHASE_FIELDS,
+    FrameFormatError,
+    FrameWriter,
+    resolve_attributes,
+)
 from sphkit.io.log import get_logger
 from sphkit.io.manifest import MANIFEST_NAME, Manifest, read_manifest, sphkit_version
 from sphkit.registry import DEVICE_CHOICES
@@ -399,7 +405,7 @@ def _run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         error(f"{why} at t = {sim.time:.6g} s; the {len(manifest.frames)} frame(s) written so "
                f"far are kept in {out_dir}")
         return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
-    except OSError as e:
+    except (OSError, FrameFormatError) as e:
         _finish(manifest, watch, "failed", f"{type(e).__name__}: {e}", sim.last)
         error(f"writing the output failed: {e}")
         return EXIT_FAILED

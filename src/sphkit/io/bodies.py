@@ -12,7 +12,8 @@ where R is the identity), all bodies of a frame in one file, atomically:
   order of the bodies in the manifest's ``rigid_bodies``, the boundary field ``rigid_body``),
   and ``bodies.vtu.series`` (ParaView's file series with the simulated times);
 * ``"obj"`` -- ``bodies_00042.obj``, one object (``o meshes[k]``) per body (Houdini, Blender);
-* ``"ply"`` -- ``bodies_00042.ply``, binary PLY with faces and the face property ``body``.
+* ``"ply"`` -- ``bodies_00042.ply``, binary PLY with faces and the vertex property ``body``
+  (:func:`write_body_ply`).
 
 Static walls do not move and are not written (their meshes are the scene's files). In 2D the
 bodies' 3D meshes are written (their z = 0 section is what the simulation samples). The frame
@@ -112,13 +113,13 @@ class BodyWriter:
             path = self.path(frame, fmt)
             if fmt == "obj":
                 self._write_obj(path, points, faces, tags, frame, float(sim.time))
+            elif fmt == "ply":
+                write_body_ply(path, points, faces, tags,
+                               comment=f"sphkit bodies frame {frame} time {float(sim.time)!r} s")
             else:
                 mesh = meshio.Mesh(points, [("triangle", faces)], cell_data={"body": [tags]})
                 with atomic_path(path) as tmp:
-                    if fmt == "vtk":
-                        meshio.write(tmp, mesh, file_format="vtu", binary=True, compression=None)
-                    else:
-                        meshio.write(tmp, mesh, file_format="ply", binary=True)
+                    meshio.write(tmp, mesh, file_format="vtu", binary=True, compression=None)
                 if fmt == "vtk":
                     self._series = [e for e in self._series if e["name"] != path.name]
                     self._series.append({"name": path.name, "time": float(sim.time)})
@@ -144,3 +145,35 @@ class BodyWriter:
             entries = []
         keep = {self.path(k, "vtk").name for k in range(frame + 1)}
         self._series = [e for e in entries if e.get("name") in keep]
+
+
+def write_body_ply(path: str | os.PathLike[str], points: np.ndarray, faces: np.ndarray,
+                   tags: np.ndarray, comment: str | None = None) -> Path:
+    """Triangles as a binary little-endian PLY, atomically: the vertices (``double x, y, z``
+    and ``int body``, the 1-based number of the body the vertex belongs to: the bodies share
+    no vertex) and the faces (``vertex_indices``, 32-bit). ``tags``: each face's body number.
+    meshio's PLY writer drops cell data and prints a warning for 64-bit indices; its reader
+    (and ParaView's, Blender's, trimesh's) reads this file with ``body`` as point data."""
+    points = np.asarray(points, dtype="<f8").reshape(-1, 3)
+    faces = np.asarray(faces)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(points)):
+        raise ValueError(f"body PLY: face indices {faces.min()}..{faces.max()} outside the "
+                         f"{len(points)} vertices")
+    vert = np.empty(len(points), dtype=np.dtype([("x", "<f8", (3,)), ("body", "<i4")]))
+    vert["x"] = points
+    vert["body"] = 0
+    vert["body"][faces.ravel()] = np.repeat(np.asarray(tags), 3)
+    rec = np.empty(len(faces), dtype=np.dtype([("n", "u1"), ("v", "<i4", (3,))]))  # packed
+    rec["n"] = 3
+    rec["v"] = faces
+    header = ["ply", "format binary_little_endian 1.0"]
+    if comment:
+        header += [f"comment {line}" for line in comment.splitlines()]
+    header += [f"element vertex {len(points)}", "property double x", "property double y",
+               "property double z", "property int body", f"element face {len(faces)}",
+               "property list uchar int vertex_indices", "end_header\n"]
+    with atomic_open(path, "wb") as f:
+        f.write("\n".join(header).encode("ascii"))
+        f.write(vert.tobytes())
+        f.write(rec.tobytes())
+    return Path(path)

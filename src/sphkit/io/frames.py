@@ -102,6 +102,11 @@ def resolve_attributes(names: Sequence[str], fluid: Any) -> dict[str, str]:
         out[frame_name] = field
     return out
 
+class FrameFormatError(ValueError):
+    """A frame's arrays that the chosen format cannot hold (a PLY column of a type PLY does not
+    have); ``sphkit run`` stops with the message and exit code 1, keeping the frames written."""
+
+
 _PLY_TYPES = {
     np.dtype("<f8"): "double", np.dtype("<f4"): "float",
     np.dtype("<i4"): "int", np.dtype("<u4"): "uint",
@@ -227,11 +232,13 @@ def _ply_columns(arrays: dict[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
                 tuple(f"{name}_{c}" for c in "xyz")
             )
             cols.extend(zip(names, a.T, strict=True))
-        elif name == "id":
-            if a.size and (a.min() < np.iinfo(np.int32).min or a.max() > np.iinfo(np.int32).max):
-                raise ValueError(
-                    f"PLY output: particle ids up to {a.max()} do not fit the PLY 'int' type "
-                    "(32 bit); use the vtk format"
+        elif a.dtype.kind in "iu" and a.dtype.newbyteorder("<") not in _PLY_TYPES:
+            # 64-bit integers (ids, the phase of several fluids): PLY's 'int' has 32 bits
+            i32 = np.iinfo(np.int32)
+            if a.size and (a.min() < i32.min or a.max() > i32.max):
+                raise FrameFormatError(
+                    f"PLY output: field {name!r} holds values up to {a.max()}, which do not fit "
+                    "the PLY 'int' type (32 bit); use the vtk or bgeo format"
                 )
             cols.append((name, a.astype("<i4")))
         else:
@@ -247,7 +254,8 @@ def write_ply(path: str | os.PathLike[str], arrays: dict[str, np.ndarray],
     dtype = np.dtype([(name, col.dtype.newbyteorder("<")) for name, col in cols])
     unknown = [f"{n_} ({dtype[n_]})" for n_ in dtype.names or () if dtype[n_] not in _PLY_TYPES]
     if unknown:
-        raise ValueError(f"PLY output: no PLY type for the field(s) {', '.join(unknown)}")
+        raise FrameFormatError(f"PLY output: no PLY type for the field(s) {', '.join(unknown)}; "
+                               "use the vtk or bgeo format")
     rec = np.empty(n, dtype=dtype)
     for name, col in cols:
         rec[name] = col
