@@ -360,6 +360,38 @@ def test_recorder_orders_fluid_walls_and_bodies() -> None:
         rec.record(fluid, bd, 2)
 
 
+def test_several_fluids_get_a_particle_type_per_phase() -> None:
+    """Two fluids in one dataset were both labelled FLUID (0), so a learned simulator could not
+    tell them apart: the first phase keeps 0 and phase k >= 1 gets 3 + k (types LagrangeBench's
+    NodeType leaves free below its SIZE 9), in the recorder's id order, and every phase counts
+    as fluid in the velocity statistics."""
+    from sphkit.core.particles import ParticleSet
+    from sphkit.io.datasets import (
+        TrajectoryRecorder,
+        fluid_types,
+        frame_statistics,
+        is_fluid,
+    )
+
+    fluid = ParticleSet(2)
+    fluid.register("phase", "scalar", np.int64)
+    fluid.add(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]))
+    fluid["phase"][:] = [0, 1, 0, 2]
+    fluid.permute(np.array([3, 1, 0, 2]))  # the recorder stores the fluid by id
+    bd = ParticleSet(2)
+    bd.add(np.array([[5.0, 0.0]]))
+    rec = TrajectoryRecorder(fluid, bd, {})
+    assert rec.particle_type.tolist() == [0, 4, 0, 5, 1]
+    assert is_fluid(rec.particle_type).tolist() == [True, True, True, True, False]
+    with pytest.raises(ValueError, match="fluid phase 6: a dataset labels at most 6"):
+        fluid_types(np.array([0, 6]))
+    # only the second phase moves (0.1 per frame along x): its velocity is in the statistics
+    x = np.zeros((3, 5, 2), np.float32)
+    x[:, 1, 0] = [0.0, 0.1, 0.2]
+    stats = frame_statistics([(x, rec.particle_type)])
+    assert stats["vel_mean"][0] == pytest.approx(0.1 / 4, rel=1e-6)
+
+
 def test_without_the_extra_exits_2(scene_file: Path, tmp_path: Path,
                                    monkeypatch: pytest.MonkeyPatch,
                                    capsys: pytest.CaptureFixture[str]) -> None:

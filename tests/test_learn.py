@@ -145,6 +145,24 @@ def test_normalisation_round_trip(dataset: Path) -> None:
     np.testing.assert_allclose(restored.acc_std, n.acc_std)
 
 
+def test_every_fluid_phase_moves_and_walls_stay() -> None:
+    """A dataset of several fluids labels phase k >= 1 with type 3 + k (sphkit.io.datasets):
+    the rollouts move those particles as fluid and keep walls (1) in place, the constant-
+    velocity baseline and the GNS step alike (the step's fixed particles are the non-fluid
+    ones)."""
+    from sphkit.learn.rollout import constant_velocity
+    from sphkit.learn.sanchez_gonzalez2020 import LearnedSimulator
+
+    hist = np.zeros((6, 3, 2))
+    hist[-1, :, 0] = 0.1  # every particle moved by 0.1 in the last frame
+    ptype = np.array([0, 4, 1])
+    out = constant_velocity(hist, ptype, 2)
+    np.testing.assert_allclose(out[:, :, 0], [[0.2, 0.2, 0.1], [0.3, 0.3, 0.1]])
+    gns = LearnedSimulator.__new__(LearnedSimulator)  # a model predicting no acceleration
+    gns.acceleration = lambda history, particle_type: np.zeros((len(history), 2))
+    np.testing.assert_allclose(gns.step(hist.transpose(1, 0, 2), ptype)[:, 0], [0.2, 0.2, 0.1])
+
+
 def test_random_walk_noise() -> None:
     rng = np.random.default_rng(0)
     noise = random_walk_noise(20000, 5, 2, 0.01, rng)

@@ -14,13 +14,21 @@ at b880a6c: ``lagrangebench/data/data.py`` (H5Dataset), ``lagrangebench/data/uti
                                       f["00000/position"].shape[0] as the sequence length)
         <group>/particle_type         int32 (N,) (the test dataset's dtype): NodeType of
                                       lagrangebench/utils.py: 0 FLUID, 1 SOLID_WALL,
-                                      2 MOVING_WALL, 3 RIGID_BODY (-1 is its padding value)
+                                      2 MOVING_WALL, 3 RIGID_BODY (-1 is its padding value);
+                                      several fluids: phase k >= 1 is type 3 + k (4 to 8,
+                                      :func:`fluid_types`)
         <group> attributes            sphkit's: variant (index), values (JSON of the sampled
                                       parameters); LagrangeBench ignores them
     DIR/metadata.json
     DIR/variants/variant-00007.h5     one file per variant (the Dask tasks' results, written
                                       atomically; a rerun skips the complete ones), and
                                       variant-00007.failed.json for an unstable variant
+
+Several fluids (``materials``, :mod:`sphkit.multiphase`): the first phase keeps FLUID (0) and
+phase k >= 1 gets type 3 + k, the types LagrangeBench's NodeType leaves free below its ``SIZE``
+9 (its models embed every type and move every particle that is not kinematic, 1 and 2), so a
+learned simulator can tell the phases apart (at most six phases); every fluid type counts as
+fluid for the statistics and in :mod:`sphkit.learn` (:func:`is_fluid`).
 
 Particles keep one order for the whole trajectory: the fluid sorted by its stable id (sphkit
 reorders it along a z-curve while it runs), then the particles of static walls (type 1), then
@@ -51,9 +59,10 @@ LagrangeBench's loader handles with its ``matscipy`` neighbour backend (it pads 
   sphkit's own smoothing length h = 4 r = 2 dx is recorded in ``sphkit.smoothing_length``,
 * ``num_particles_max`` (case.py, data.py),
 * ``vel_mean``, ``vel_std``, ``acc_mean``, ``acc_std`` [dim each] (data/utils.py): as
-  gen_dataset.py's compute_statistics_h5 defines them, from the fluid particles (type 0) only:
-  velocity = the position difference of consecutive frames x[t+1] - x[t] (a length per frame,
-  not divided by dt; minimum image along periodic axes), acceleration = the difference of
+  gen_dataset.py's compute_statistics_h5 defines them, from the fluid particles (type 0; 4-8
+  of further phases) only: velocity = the position difference of consecutive frames x[t+1] -
+  x[t] (a length per frame, not divided by dt; minimum image along periodic axes),
+  acceleration = the difference of
   consecutive velocities; the mean is the mean over trajectories of each trajectory's mean over
   frames and particles, the std the square root of the mean over trajectories of the mean squared
   deviation from that mean; a std below 1e-7 becomes 1. sphkit computes them over the training
@@ -87,17 +96,38 @@ import numpy as np
 from sphkit.io.atomic import atomic_path, atomic_write_text
 
 __all__ = [
-    "FLUID", "MOVING_WALL", "RIGID_BODY", "SOLID_WALL", "SPLITS", "TrajectoryRecorder",
-    "assemble_dataset", "connectivity_radius", "frame_statistics", "iter_trajectories",
-    "read_dataset", "read_variant", "split_counts", "variant_path", "write_variant",
+    "FLUID", "MOVING_WALL", "PHASE_TYPES", "RIGID_BODY", "SOLID_WALL", "SPLITS",
+    "TrajectoryRecorder", "assemble_dataset", "connectivity_radius", "fluid_types",
+    "frame_statistics", "is_fluid", "iter_trajectories", "read_dataset", "read_variant",
+    "split_counts", "variant_path", "write_variant",
 ]
 
 #: LagrangeBench's NodeType (lagrangebench/utils.py)
 FLUID, SOLID_WALL, MOVING_WALL, RIGID_BODY = 0, 1, 2, 3
+#: the particle type of each fluid phase (several fluids: the module docstring): 0 for the
+#: first, then the types LagrangeBench's NodeType leaves free below its SIZE 9
+PHASE_TYPES = (FLUID, 4, 5, 6, 7, 8)
 SPLITS = ("train", "valid", "test")
 METADATA_NAME = "metadata.json"
 VARIANTS_DIR = "variants"
 FORMAT_VERSION = 1
+
+
+def fluid_types(phase: np.ndarray) -> np.ndarray:
+    """The particle type (int32) of fluid particles of the given phases (:data:`PHASE_TYPES`);
+    ValueError beyond the sixth phase."""
+    phase = np.asarray(phase, dtype=np.int64)
+    if phase.size and (phase.min() < 0 or phase.max() >= len(PHASE_TYPES)):
+        raise ValueError(f"fluid phase {int(phase.max())}: a dataset labels at most "
+                         f"{len(PHASE_TYPES)} fluid phases (LagrangeBench's particle types)")
+    return np.asarray(PHASE_TYPES, dtype=np.int32)[phase]
+
+
+def is_fluid(particle_type: Any) -> Any:
+    """Boolean mask of the fluid particles (every phase's type, :data:`PHASE_TYPES`) of a
+    NumPy array of particle types."""
+    t = np.asarray(particle_type)
+    return (t == FLUID) | ((t >= PHASE_TYPES[1]) & (t <= PHASE_TYPES[-1]))
 
 
 def variant_path(folder: str | os.PathLike[str], k: int, failed: bool = False) -> Path:
@@ -140,8 +170,10 @@ class TrajectoryRecorder:
         else:
             self.boundary_order = np.zeros(0, np.int64)
             types = np.zeros(0, np.int64)
-        self.particle_type = np.concatenate([np.full(self.n_fluid, FLUID), types]).astype(
-            np.int32)
+        order = np.argsort(fluid["id"], kind="stable")  # the order record() stores
+        fluid_type = (fluid_types(np.asarray(fluid["phase"])[order]) if "phase" in fluid.fields
+                      else np.full(self.n_fluid, FLUID))
+        self.particle_type = np.concatenate([fluid_type, types]).astype(np.int32)
         self.frames: list[int] = []
         self.positions: list[np.ndarray] = []
         #: the extent (lo, hi) per axis of the walls' and of all particles' centres over the
@@ -237,7 +269,7 @@ def frame_statistics(trajectories: Sequence[tuple[np.ndarray, np.ndarray]],
     ``box[a] > 0``: axis a is periodic with that period."""
     vels = []
     for x, ptype in trajectories:
-        v = _differences(x[:, np.asarray(ptype) == FLUID], box)
+        v = _differences(x[:, is_fluid(ptype)], box)
         vels.append((v, np.diff(v, axis=0)))
     if not vels:
         raise ValueError("no trajectories to compute statistics from")
@@ -332,7 +364,7 @@ def assemble_dataset(folder: str | os.PathLike[str], variants: Sequence[int],
                 n_frames = t
                 records.append({"split": split, "key": key, "variant": int(k),
                                 "values": meta.get("values", {}), "particle_radius": r,
-                                "n_particles": int(n), "n_fluid": int((ptype == FLUID).sum())})
+                                "n_particles": int(n), "n_fluid": int(is_fluid(ptype).sum())})
     if bounds_lo is None or bounds_hi is None or n_frames is None:
         raise ValueError("no complete variants to assemble")
     bounds = [[float(a), float(b)] for a, b in zip(bounds_lo, bounds_hi, strict=True)]

@@ -36,7 +36,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from sphkit.io.datasets import FLUID, SOLID_WALL
+from sphkit.io.datasets import FLUID, SOLID_WALL, is_fluid  # noqa: F401 (FLUID: re-exported)
 
 #: the static walls' particle type (LagrangeBench's NodeType SOLID_WALL)
 WALL = SOLID_WALL
@@ -93,7 +93,7 @@ class Trajectory:
     @property
     def fluid(self) -> np.ndarray:
         """Boolean mask of the fluid particles."""
-        return self.particle_type == FLUID
+        return is_fluid(self.particle_type)
 
 
 def load_split(folder: str | os.PathLike[str], split: str,

@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from sphkit.io.atomic import atomic_write_text
-from sphkit.learn.data import FLUID, INPUT_SEQ_LENGTH, load_split, read_metadata
+from sphkit.learn.data import INPUT_SEQ_LENGTH, load_split, read_metadata
 from sphkit.learn.rollout import constant_velocity, outside, rollout, sph_density
 from sphkit.learn.walls import WallCollision
 
@@ -97,7 +97,7 @@ def evaluate(model: str | os.PathLike[str], dataset: str | os.PathLike[str],
         steps = T - INPUT_SEQ_LENGTH
         if steps < 1:
             continue
-        fluid = tr.particle_type == FLUID
+        fluid = tr.fluid
         walls = pos[0, ~fluid]
         hist = pos[:INPUT_SEQ_LENGTH]
         collide = WallCollision(walls, dx) if collisions else None

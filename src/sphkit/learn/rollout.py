@@ -26,7 +26,8 @@ import numpy as np
 
 from sphkit.core.kernels import Kernel, lattice_volume
 from sphkit.core.neighbors import Grid
-from sphkit.learn.data import FLUID, INPUT_SEQ_LENGTH, WALL
+from sphkit.io.datasets import fluid_types
+from sphkit.learn.data import FLUID, INPUT_SEQ_LENGTH, WALL, is_fluid
 from sphkit.learn.walls import WallCollision
 
 
@@ -41,7 +42,7 @@ def rollout(simulator: Any, history: np.ndarray, particle_type: np.ndarray, step
     x)`` after each step may return True to stop (the result is then shorter); ``collide``
     moves the fluid's predicted positions out of the walls (:mod:`sphkit.learn.walls`)."""
     hist = np.asarray(history, dtype=np.float64)[-INPUT_SEQ_LENGTH:].transpose(1, 0, 2).copy()
-    fluid = np.asarray(particle_type) == FLUID
+    fluid = is_fluid(particle_type)
     out = []
     for k in range(steps):
         nxt = simulator.step(hist, particle_type)
@@ -60,7 +61,7 @@ def constant_velocity(history: np.ndarray, particle_type: np.ndarray, steps: int
     """The baseline ``x[t+1] = 2 x[t] - x[t-1]`` (non-fluid particles fixed): (steps, N, dim);
     with ``collide``, step by step with the same wall collisions as a model's rollout."""
     x1, x0 = np.asarray(history[-1], np.float64), np.asarray(history[-2], np.float64)
-    fluid = particle_type == FLUID
+    fluid = is_fluid(particle_type)
     v = np.where(fluid[:, None], x1 - x0, 0.0)
     if collide is None:
         k = np.arange(1, steps + 1, dtype=np.float64)[:, None, None]
@@ -167,7 +168,9 @@ def rollout_scene(model: str | os.PathLike[str], scene: Any, out: str | os.PathL
     nf = len(fx)
     x0 = np.concatenate([fx, walls])
     v0 = np.concatenate([fv, np.zeros_like(walls)])
-    ptype = np.concatenate([np.full(nf, FLUID), np.full(len(walls), WALL)]).astype(np.int64)
+    fluid_type = (fluid_types(np.asarray(sim.fluid["phase"])[order])
+                  if "phase" in sim.fluid.fields else np.full(nf, FLUID))  # several fluids
+    ptype = np.concatenate([fluid_type, np.full(len(walls), WALL)]).astype(np.int64)
     history = np.stack([x0 - k * dt * v0 for k in range(INPUT_SEQ_LENGTH - 1, -1, -1)])
     formats = list(formats or scene.output.formats)
     out = Path(out)

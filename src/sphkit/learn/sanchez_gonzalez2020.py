@@ -38,7 +38,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from sphkit.learn.data import FLUID, NUM_TYPES, Normalizer
+from sphkit.learn.data import NUM_TYPES, Normalizer, is_fluid
 from sphkit.learn.graph import displacement, radius_graph
 
 
@@ -196,7 +196,7 @@ class FeatureBuilder:
                     if p:
                         lo[:, k] = hi[:, k] = 1.0
             nodes.append(np.concatenate([vel.reshape(len(x), -1), lo, hi], axis=1))
-            s, r = radius_graph(cur, R, pt == FLUID, self.periodic, self.bounds)
+            s, r = radius_graph(cur, R, is_fluid(pt), self.periodic, self.bounds)
             d = displacement(cur, s, r, self.periodic, self.bounds) / R
             edges.append(np.concatenate([d, np.linalg.norm(d, axis=1, keepdims=True)], axis=1))
             ss.append(s + offset)
@@ -239,6 +239,6 @@ class LearnedSimulator:
     def step(self, history: np.ndarray, particle_type: np.ndarray) -> np.ndarray:
         """The next positions (N, dim); non-fluid particles keep their last positions."""
         nxt = integrate(history, self.acceleration(history, particle_type))
-        fixed = particle_type != FLUID
+        fixed = ~is_fluid(particle_type)
         nxt[fixed] = history[fixed, -1]
         return nxt

@@ -42,10 +42,10 @@ import torch
 
 from sphkit.io.atomic import atomic_path
 from sphkit.learn.data import (
-    FLUID,
     INPUT_SEQ_LENGTH,
     Normalizer,
     WindowDataset,
+    is_fluid,
     load_split,
     read_metadata,
 )
@@ -110,7 +110,7 @@ def noisy_window(window: np.ndarray, particle_type: np.ndarray, noise_std: float
     x = window.astype(np.float64)
     inputs, target = x[:, :-1].copy(), x[:, -1].copy()
     if noise_std > 0:
-        fluid = particle_type == FLUID
+        fluid = is_fluid(particle_type)
         noise = random_walk_noise(int(fluid.sum()), inputs.shape[1] - 1, x.shape[2], noise_std, rng)
         inputs[fluid] += noise
         target[fluid] += noise[:, -1]
@@ -196,7 +196,7 @@ class Trainer:
         f = self.features(hists, types, self.device)
         pred = self.model(f.node, f.particle_type, f.edge, f.senders, f.receivers)
         tgt = torch.as_tensor(np.concatenate(targets), dtype=torch.float32, device=self.device)
-        fluid = f.particle_type == FLUID
+        fluid = is_fluid(f.particle_type)
         return ((pred - tgt)[fluid] ** 2).mean()
 
     def train_step(self) -> float:
