@@ -142,6 +142,67 @@ def test_render_3d_draws_the_surface_meshes(blob_run: Path) -> None:
     assert "(3D, surface meshes)" in log
 
 
+def _two_phase_run(folder: Path) -> Path:
+    """A 3D run folder of one frame: two lattice cubes of 5 x 5 x 5 particles (r = 0.02 m), the
+    left one phase 0, the right one phase 1 (several fluids' ``phase`` attribute), as PLY."""
+    fluid = ParticleSet(3, "float64")
+    for name in ("rho", "p"):
+        fluid.register(name)
+    fluid.register("v", "vector")
+    fluid.register("phase", "scalar", np.int64)
+    g = np.stack(np.meshgrid(*[np.arange(5)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    x = 0.1 + 0.04 * g
+    fluid.add(np.concatenate([x, x + [0.3, 0.0, 0.0]]), v=np.zeros((250, 3)), rho=1000.0,
+              p=0.0)
+    fluid["phase"][125:] = 1
+    sim = SimpleNamespace(fluid=fluid, time=0.0, dim=3, step_count=0, dt=1e-3, last=None)
+    writer = FrameWriter(folder, ["ply"], 3, extra_fields=("phase",))
+    man = Manifest(folder, {"name": "two", "configuration": {"dim": 3, "particle_radius": 0.02},
+                            "materials": [{"density0": 1000.0}, {"density0": 500.0}]},
+                   output={"dim": 3, "fps": 10.0, "formats": ["ply"]})
+    man.add_frame(sim, 0, writer.write(sim, 0))
+    man.finish("finished")
+    return folder
+
+
+@pytest.mark.skipif(not (HAVE_SPLASHSURF and HAVE_MPL),
+                    reason="pysplashsurf or matplotlib is not installed")
+def test_surface_by_phase_gives_each_fluid_its_mesh(tmp_path: Path, blob_run: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """``--by-phase``: one closed mesh per phase around that phase's particles only (a renderer
+    gives each liquid its material), listed per phase in surface.json and drawn by ``sphkit
+    render`` in a colour per phase; a run of one fluid is refused naming the flag."""
+    import trimesh
+
+    from sphkit.io.preview import PHASE_COLORS, merged_meshes
+
+    run = _two_phase_run(tmp_path / "two")
+    assert main(["surface", str(run), "--by-phase", "-q"]) == 0
+    rec = json.loads((run / "surface" / "surface.json").read_text())["frames"][0]
+    assert rec["files"] == ["surface_00000_phase0.obj", "surface_00000_phase1.obj"]
+    pos = read_frame(run / "frame_00000.ply")
+    for entry, shift in zip(rec["phases"], (0.0, 0.3), strict=True):
+        assert entry["n_particles"] == 125
+        mesh = trimesh.load(run / "surface" / entry["files"][0], process=False)
+        assert mesh.is_watertight
+        # each mesh is its own cube (centres 0.10 .. 0.26 m, shifted by 0.3 m along x)
+        np.testing.assert_allclose(mesh.bounds[:, 0], [0.08 + shift, 0.28 + shift], atol=0.01)
+        mine = pos["position"][pos["phase"] == entry["phase"]]
+        np.testing.assert_allclose(_points_inside(mesh.vertices, mesh.faces, mine), 1.0,
+                                   atol=1e-6)
+    v, t, c = merged_meshes([(0, np.zeros((3, 3)), np.array([[0, 1, 2]])),
+                             (1, np.ones((3, 3)), np.array([[0, 1, 2]]))])
+    assert t.tolist() == [[0, 1, 2], [3, 4, 5]]
+    np.testing.assert_allclose(c, [PHASE_COLORS[0], PHASE_COLORS[1]])
+    assert main(["render", str(run), "--out", str(run / "r"), "--video", "none",
+                 "--size", "160x120", "-q"]) == 0
+    assert (run / "r" / "frame_00000.png").is_file()
+    capsys.readouterr()
+    assert main(["surface", str(blob_run), "--by-phase", "--frames", "0"]) == 2  # one fluid
+    assert "--by-phase: frame 0 (frame_00000.bgeo) has no 'phase' attribute" in (
+        capsys.readouterr().err)
+
+
 def test_surface_needs_a_3d_run_and_a_manifest(tmp_path: Path,
                                                capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["surface", str(tmp_path)]) == 2

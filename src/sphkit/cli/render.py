@@ -114,7 +114,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     r.set_defaults(handler=cmd_render)
 
 
-def _surface_meshes(outdir: Path, mode: str) -> dict[int, Path]:
+def _surface_meshes(outdir: Path, mode: str) -> dict[int, list[tuple[int | None, Path]]]:
+    """The surface meshes of each frame that ``sphkit surface`` listed: one ``(None, path)``,
+    or ``(phase, path)`` per phase of a ``--by-phase`` reconstruction."""
     folder = outdir / SURFACE_DIR
     index = folder / SURFACE_MANIFEST
     if mode == "off":
@@ -127,9 +129,15 @@ def _surface_meshes(outdir: Path, mode: str) -> dict[int, Path]:
     data = json.loads(index.read_text(encoding="utf-8"))
     out = {}
     for rec in data.get("frames", []):
-        files = [folder / f for f in rec.get("files", []) if (folder / f).is_file()]
-        if files:
-            out[int(rec["frame"])] = files[0]
+        parts = ([(int(e["phase"]), e.get("files", [])) for e in rec["phases"]]
+                 if rec.get("phases") else [(None, rec.get("files", []))])
+        found = []
+        for phase, names in parts:
+            files = [folder / f for f in names if (folder / f).is_file()]
+            if files:
+                found.append((phase, files[0]))
+        if found:
+            out[int(rec["frame"])] = found
     return out
 
 
@@ -148,6 +156,7 @@ def _render(args: argparse.Namespace) -> int:
         choose_video,
         color_values,
         load_mesh,
+        merged_meshes,
         robust_range,
         write_gif,
         write_mp4,
@@ -208,7 +217,8 @@ def _render(args: argparse.Namespace) -> int:
         for rec in frames:
             k = int(rec["frame"])
             data = read_frame(frame_file(outdir, rec))
-            mesh = load_mesh(meshes[k]) if k in meshes else None
+            mesh = merged_meshes([(phase, *load_mesh(path)) for phase, path in meshes[k]]
+                                 ) if k in meshes else None
             body_files = [outdir / f for f in rec.get("body_files", []) if (outdir / f).is_file()]
             bodies = load_mesh(body_files[0]) if body_files else None
             try:

@@ -4,13 +4,17 @@
 
     sphkit surface OUTDIR [--format obj,ply,vtk] [--out DIR] [--radius R] [--smoothing-length 2]
                           [--cube-size 0.5] [--threshold 0.6] [--mesh-smoothing-iters 25]
-                          [--mesh-cleanup] [--frames SPEC] [--quiet | --verbose]
+                          [--mesh-cleanup] [--by-phase] [--frames SPEC] [--quiet | --verbose]
 
 Reads the run's ``manifest.json`` (the frames, their times, the particle radius and rest density
 of the scene) and writes ``OUTDIR/surface/surface_00000.obj`` ... and ``surface.json``
 (parameters, files and mesh sizes per frame), which ``sphkit render`` draws for a 3D run
 (:mod:`sphkit.io.surface`; pip install 'sphkit[surface]'). ``--frames`` selects frame numbers:
-``7``, ``0:50`` (end excluded), ``0:50:5`` or a comma-separated list of those. Exit codes as for
+``7``, ``0:50`` (end excluded), ``0:50:5`` or a comma-separated list of those. ``--by-phase``
+(a run of several fluids, whose frames carry ``phase``): one mesh per phase of each frame,
+``surface_00000_phase1.obj``, from that phase's particles alone (a renderer gives each liquid
+its own material; the meshes of two phases meet at their interface), listed per phase in
+``surface.json``; ``sphkit render`` draws them in a colour per phase. Exit codes as for
 ``sphkit run``: 0 done, 1 an output file could not be written, 2 bad arguments, a folder without
 a manifest, a 2D run, pysplashsurf missing, 130 interrupted.
 """
@@ -22,6 +26,8 @@ import json
 import time
 from collections.abc import Sequence
 from pathlib import Path
+
+import numpy as np
 
 from sphkit.cli.common import (
     EXIT_FAILED,
@@ -74,6 +80,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    help="weighted Laplacian mesh smoothing iterations (default 25, 0: off)")
     s.add_argument("--mesh-cleanup", action="store_true",
                    help="marching-cubes mesh clean-up (fewer, better-shaped triangles)")
+    s.add_argument("--by-phase", action="store_true",
+                   help="several fluids: one mesh per phase (surface_00000_phase1.obj) instead "
+                        "of one of all the fluid")
     s.add_argument("--frames", type=parse_frames, metavar="SPEC",
                    help="frame numbers: 7, 0:50, 0:50:5 or a comma-separated list (default all)")
     add_verbosity(s)
@@ -133,22 +142,40 @@ def _surface(args: argparse.Namespace) -> int:
             log.warning("frame %d: no particle file on disk (listed: %s); skipped", k,
                         ", ".join(rec.get("files", [])))
             continue
-        pos = read_frame(src)["position"]
-        vertices, triangles = reconstruct_surface(pos, params)
-        files = []
-        try:
-            for fmt in args.formats:
-                path = dest / f"surface_{k:05d}{MESH_FORMATS[fmt]}"
-                write_mesh(path, vertices, triangles, fmt)
-                files.append(path.name)
-        except OSError as e:
-            error(f"writing the mesh of frame {k} failed: {e}")
-            return EXIT_FAILED
-        records.append({"frame": k, "time": rec.get("time"), "source": src.name, "files": files,
-                        "n_particles": int(len(pos)), "n_vertices": int(len(vertices)),
-                        "n_triangles": int(len(triangles))})
-        say(args, f"frame {k} (t = {rec.get('time', 0.0):.4g} s): {len(pos)} particles -> "
-                   f"{len(vertices)} vertices, {len(triangles)} triangles")
+        arrays = read_frame(src)
+        pos = arrays["position"]
+        if args.by_phase and "phase" not in arrays:
+            raise UsageError(f"--by-phase: frame {k} ({src.name}) has no 'phase' attribute: the "
+                             "run has one fluid (or its frames were written without it, "
+                             "output.attributes)")
+        parts = ([(int(p), pos[arrays["phase"] == p]) for p in np.unique(arrays["phase"])]
+                 if args.by_phase else [(None, pos)])
+        record: dict = {"frame": k, "time": rec.get("time"), "source": src.name, "files": [],
+                        "n_particles": int(len(pos)), "n_vertices": 0, "n_triangles": 0}
+        for phase, points in parts:
+            vertices, triangles = reconstruct_surface(points, params)
+            suffix = "" if phase is None else f"_phase{phase}"
+            files = []
+            try:
+                for fmt in args.formats:
+                    path = dest / f"surface_{k:05d}{suffix}{MESH_FORMATS[fmt]}"
+                    write_mesh(path, vertices, triangles, fmt)
+                    files.append(path.name)
+            except OSError as e:
+                error(f"writing the mesh of frame {k} failed: {e}")
+                return EXIT_FAILED
+            record["files"] += files
+            record["n_vertices"] += int(len(vertices))
+            record["n_triangles"] += int(len(triangles))
+            if phase is not None:
+                record.setdefault("phases", []).append({
+                    "phase": phase, "files": files, "n_particles": int(len(points)),
+                    "n_vertices": int(len(vertices)), "n_triangles": int(len(triangles))})
+        records.append(record)
+        each = (" (" + ", ".join(f"phase {e['phase']}: {e['n_particles']}"
+                                 for e in record["phases"]) + ")") if args.by_phase else ""
+        say(args, f"frame {k} (t = {rec.get('time', 0.0):.4g} s): {len(pos)} particles{each} -> "
+                   f"{record['n_vertices']} vertices, {record['n_triangles']} triangles")
         atomic_write_text(dest / SURFACE_MANIFEST, json.dumps({
             "format": "sphkit-surface", "format_version": 1, "run": str(outdir),
             "method": "splashsurf (pysplashsurf)", "parameters": params.as_dict(),

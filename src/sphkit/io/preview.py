@@ -34,6 +34,10 @@ COLOR_FIELDS = ("velocity", "pressure", "density", "phase", "stress", "displacem
 VIDEO_FORMATS = ("auto", "mp4", "gif", "none")
 #: the colour of the moving rigid bodies in previews (RGB)
 BODY_COLOR = (0.6, 0.6, 0.63)
+#: the colour of a surface mesh of all the fluid, and of each phase's (``--by-phase``)
+SURFACE_COLOR = (0.20, 0.45, 0.85)
+PHASE_COLORS = ((0.20, 0.45, 0.85), (0.90, 0.45, 0.15), (0.25, 0.65, 0.30),
+                (0.75, 0.25, 0.55), (0.85, 0.75, 0.20), (0.45, 0.35, 0.75))
 _UNITS = {"velocity": "|v| [m/s]", "pressure": "pressure [Pa]", "density": "density [kg/m^3]",
           "phase": "phase (material index)", "stress": "von Mises stress [Pa]",
           "displacement": "|displacement| [m]", "object": "object (-1: fluid)"}
@@ -119,9 +123,11 @@ class PreviewRenderer:
         return [others[0], others[1], self.up]
 
     def draw(self, arrays: dict[str, np.ndarray], time: float,
-             mesh: tuple[np.ndarray, np.ndarray] | None = None,
+             mesh: tuple[np.ndarray, ...] | None = None,
              bodies: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Draw one frame (particle arrays, or a surface mesh in 3D) at simulated ``time``;
+        ``mesh``: (vertices (V, 3), triangles (T, 3)) or with the triangles' colours (T, 3) as
+        third item (:func:`merged_meshes`);
         ``bodies``: the moving rigid bodies' triangles (vertices (V, 3), triangles (T, 3)) at
         the frame's pose, drawn grey (:mod:`sphkit.io.bodies`; in 2D their outline in the
         xy-plane)."""
@@ -205,14 +211,17 @@ class PreviewRenderer:
                                           pad=0.12)
         return ax, order
 
-    def _draw_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> tuple[Any, list[int]]:
+    def _draw_mesh(self, vertices: np.ndarray, triangles: np.ndarray,
+                   colors: np.ndarray | None = None) -> tuple[Any, list[int]]:
         ax, order = self._axes3d()
-        self._add_mesh(ax, order, vertices, triangles, np.array([0.20, 0.45, 0.85]))
+        self._add_mesh(ax, order, vertices, triangles,
+                       np.array(SURFACE_COLOR) if colors is None else colors)
         return ax, order
 
     def _add_mesh(self, ax: Any, order: list[int], vertices: np.ndarray,
                   triangles: np.ndarray, base: np.ndarray) -> None:
-        """Triangles shaded by a light above and left of the viewer, in colour ``base``."""
+        """Triangles shaded by a light above and left of the viewer, in colour ``base`` (3,)
+        or one colour per triangle (T, 3)."""
         from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
         if len(triangles) == 0:
@@ -229,7 +238,7 @@ class PreviewRenderer:
         # a light above and to the left of the viewer
         light = direction(self.s.azim - 40.0, min(self.s.elev + 40.0, 85.0))
         shade = 0.15 + 0.85 * np.clip(n @ light, 0.0, 1.0)
-        colors = np.clip(shade[:, None] * base[None, :], 0, 1)
+        colors = np.clip(shade[:, None] * (base if base.ndim == 2 else base[None, :]), 0, 1)
         coll = Poly3DCollection(tri, facecolors=colors, edgecolors="none", linewidths=0)
         ax.add_collection3d(coll)
 
@@ -320,6 +329,23 @@ def bounds_of(positions: Sequence[np.ndarray], pad: float) -> np.ndarray:
 def load_frame(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """A particle frame of a run (any format :func:`sphkit.io.frames.read_frame` reads)."""
     return read_frame(path)
+
+
+def merged_meshes(parts: list[tuple[int | None, np.ndarray, np.ndarray]]
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One mesh of several ``(phase, vertices, triangles)``, with each triangle's colour:
+    :data:`SURFACE_COLOR` for a mesh of all the fluid (phase None), else the phase's colour of
+    :data:`PHASE_COLORS` (the meshes of ``sphkit surface --by-phase``)."""
+    vertices, triangles, colors, start = [], [], [], 0
+    for phase, v, t in parts:
+        vertices.append(np.asarray(v, dtype=np.float64).reshape(-1, 3))
+        triangles.append(np.asarray(t, dtype=np.int64).reshape(-1, 3) + start)
+        c = SURFACE_COLOR if phase is None else PHASE_COLORS[phase % len(PHASE_COLORS)]
+        colors.append(np.tile(np.asarray(c, dtype=np.float64), (len(triangles[-1]), 1)))
+        start += len(vertices[-1])
+    if not parts:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3))
+    return np.concatenate(vertices), np.concatenate(triangles), np.concatenate(colors)
 
 
 def load_mesh(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
