@@ -10,9 +10,8 @@ radii, where the one-fluid floats of every solver and boundary model are within 
 the pool split into two materials: heavy (1000 kg/m^3) from the floor to 0.15 m, light (250
 kg/m^3) from there to 0.40 m (the light block drawn from 2r lower, so that the blocks meet on
 one lattice: drawn from 0.15 m its first row would sit a row's gap above the heavy layer and
-land on it at the start, and WCSPH's pressure pulse of that landing, about rho c v, threw the
-body at eight times its weight), and a body of density 600 starting with 10 % of its height
-below the interface. At rest the body is fully submerged (the light layer reaches about 0.16 m above
+land on it at the start), and a body of density 600 starting with 10 % of its height below
+the interface. At rest the body is fully submerged (the light layer reaches about 0.16 m above
 it) and, by Archimedes, the share of its height in the heavy layer is
 
     f = (rho_b - rho_l) / (rho_h - rho_l) = 350 / 750 = 0.4667.

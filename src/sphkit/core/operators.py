@@ -84,13 +84,18 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
                         L, c, inv_c):
     """Add the symmetric pressure acceleration of fluid particle i to ``a[:, i]``.
 
-    ``a_i = -sum_j m_j (rho0_i/rho0_j p_i/rho_i^2 + p_j/rho_j^2) grad W_ij
+    ``a_i = -sum_j m_j (rho0_i/rho0_j p_i/rho_i^2 + rho0_j/rho0_i p_j/rho_j^2) grad W_ij
             - sum_b rho0_i V_b (p_i/rho_i^2 + p_i/rho0_i^2) grad W_ib``
-    (SPlisHSPlasH's ``-rho0_i sum_j V_j (p_i/rho_i^2 + rho0_j/rho0_i p_j/rho_j^2)`` of several
-    fluids written with masses; ``rho0`` the reference rest density, ``rho0_i = c_i rho0``,
-    ``rho0_i/rho0_j = c_i inv_c_j``, :class:`sphkit.core.state.RestArrays`; boundary pressure
-    mirrored, p_b = p_i, rho_b = rho0_i; Akinci et al. 2012). ``L`` > 0: periodic along x with
-    period L [m].
+    (Solenthaler & Pajarola 2008's number-density force of several fluids, ``-rho0_i sum_j V_j
+    (p_i/rho_i^2 + p_j/rho~_j^2)`` with the neighbour's density taken to i's rest density,
+    ``rho~_j = rho_j rho0_i / rho0_j``, as SPlisHSPlasH's WCSPH, written with masses: near rest
+    ``-sum_j V_j (p_i + p_j) / rho0_i grad W_ij``, the pair's forces equal and opposite; with
+    ``p_j / rho_j^2`` alone, the neighbour's pressure over its own rest density, a heavy
+    particle took a light neighbour's pressure 4 times (1:4) and the heavy layer under a light
+    one carried 4 times its weight, validation/README.md, "A body between two layers";
+    ``rho0`` the reference rest density, ``rho0_i = c_i rho0``, ``rho0_i/rho0_j = c_i
+    inv_c_j``, :class:`sphkit.core.state.RestArrays`; boundary pressure mirrored, p_b = p_i,
+    rho_b = rho0_i; Akinci et al. 2012). ``L`` > 0: periodic along x with period L [m].
     """
     xi0, xi1, xi2 = point(x, i, dim)
     dpi = p[i] / (rho[i] * rho[i])
@@ -101,7 +106,8 @@ def pressure_accel_body(i, x, m, rho, p, off, idx, bx, bV, boff, bidx, rho0, h, 
     for k in pair_slots(off, i):
         j = idx[k]
         d0, d1, d2, r = separation(xi0, xi1, xi2, x, j, dim, L)
-        s = -m[j] * (dpc * inv_c[j] + p[j] / (rho[j] * rho[j])) * kernel_dw(kid, r, h, dim)
+        s = -m[j] * (dpc * inv_c[j] + p[j] / (rho[j] * rho[j]) * (c[j] * ici)) * kernel_dw(
+            kid, r, h, dim)
         a0 += s * d0
         a1 += s * d1
         a2 += s * d2
