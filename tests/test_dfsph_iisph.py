@@ -200,10 +200,11 @@ def test_iteration_limit_is_a_logged_warning(caplog: pytest.LogCaptureFixture) -
     # DFSPH's step bound (its module docstring, "Time step"; the rule itself is tested with
     # IISPH below): the failed solve (far above its 1e-6 % tolerance) set it to 0.8 of its
     # step, and it goes through a checkpoint (exact: a float product and a JSON round trip)
-    from sphkit.pressure.dfsph import DFSPH, DT_FLOOR
+    from sphkit.core.solver import JACOBI_STEP_BOUND
+    from sphkit.pressure.dfsph import DFSPH
 
     bound = sim.pressure.step_bound.value
-    assert bound == max(0.8 * sim.dt, DT_FLOOR), (bound, sim.dt)
+    assert bound == max(0.8 * sim.dt, JACOBI_STEP_BOUND["floor"]), (bound, sim.dt)
     t = DFSPH()
     t.restore_checkpoint_state(json.loads(json.dumps(sim.pressure.checkpoint_state())))
     assert t.step_bound.value == bound
@@ -249,7 +250,10 @@ def test_iisph_step_bound_rule_and_checkpoint() -> None:
     within half the limit, unchanged after a converged but hard one; never below the floor (the
     default dt_min); dropped above 1 s; the same through a JSON checkpoint round trip. Exact
     comparisons: the rule is a few float products."""
-    from sphkit.pressure.iisph import DT_FLOOR, IISPH
+    from sphkit.core.solver import JACOBI_STEP_BOUND
+    from sphkit.pressure.iisph import IISPH
+
+    floor = JACOBI_STEP_BOUND["floor"]
 
     def restored(s: IISPH) -> IISPH:
         t = IISPH(max_iterations=100)
@@ -273,7 +277,7 @@ def test_iisph_step_bound_rule_and_checkpoint() -> None:
     assert b.value == 0.8 * 0.005 * 1.02
     assert restored(s).step_bound.value == b.value
     b.update(1.1e-4, 100, 100, False)  # no error given: an unconverged solve fails
-    assert b.value == DT_FLOOR  # 0.8 * 1.1e-4 is below the floor
+    assert b.value == floor  # 0.8 * 1.1e-4 is below the floor
     b.value = 0.99
     b.update(0.005, 10, 100, True)
     assert b.value == float("inf")  # above 1 s: no bound

@@ -158,6 +158,14 @@ class IterationControl:
         return self.max_iterations, avg, mx, False
 
 
+#: the adaptive step bound of the relaxed-Jacobi density solves of IISPH and DFSPH
+#: (:class:`StepBound`'s arguments; :mod:`sphkit.pressure.iisph`, "Time step"): the step after
+#: a failed solve ``shrink`` times that step, the bound's growth per easy solve, the smallest
+#: bound [s] (the default time.dt_min), the bound above which it is dropped [s], and the error,
+#: in tolerances, up to which a solve stopped at max_iterations does not fail
+JACOBI_STEP_BOUND = {"shrink": 0.8, "grow": 1.02, "floor": 1e-4, "free": 1.0, "slack": 1.5}
+
+
 class StepBound:
     """An adaptive time-step bound [s] driven by the convergence of a solver's solves.
 

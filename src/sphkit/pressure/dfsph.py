@@ -54,11 +54,11 @@ columns".) Both solvers are :func:`sphkit.core.solver.jacobi_ppe` with A from
 :mod:`sphkit.core.ppe`.
 
 **Time step** (not in the papers nor in SPlisHSPlasH; :class:`sphkit.core.solver.StepBound`
-with IISPH's constants and rule, :mod:`sphkit.pressure.iisph`): a constant-density solve that
-stops at ``max_iterations`` with its average error above ``DT_SLACK`` times the tolerance sets a
-bound of ``DT_SHRINK`` times its step, each solve converged within half of them raises it by
-``DT_GROW``; the bound starts only with such a failed solve, so runs whose solves converge take
-the same steps as without it. Why: at SPlisHSPlasH's 5 ms cap the 2D columns of
+with IISPH's constants and rule, :data:`sphkit.core.solver.JACOBI_STEP_BOUND`): a
+constant-density solve that stops at ``max_iterations`` with its average error above ``slack``
+times the tolerance sets a bound of ``shrink`` times its step, each solve converged within half
+of them raises it by ``grow``; the bound starts only with such a failed solve, so runs whose
+solves converge take the same steps as without it. Why: at SPlisHSPlasH's 5 ms cap the 2D columns of
 validation/hydrostatic.py stopped at the 100 iterations in every step and sloshed at 5 cm/s
 (validation/README.md, "DFSPH's step bound"); most of their solves stopped at 2-7 times the
 tolerance. Why the slack: a solve just above the tolerance (a deep column's landing after its
@@ -93,6 +93,7 @@ from sphkit.core import arrays
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import surrounded
 from sphkit.core.solver import (
+    JACOBI_STEP_BOUND,
     IterationControl,
     PairGradients,
     SolverStats,
@@ -164,12 +165,6 @@ def pressure_body(i, kappa, kappa_v, with_v, rho, rho0, p):
 #: aij_pj) factor_i, 0)`` (``TimeStepDFSPH::pressureSolveIteration`` and
 #: ``divergenceSolveIteration``).
 OMEGA = 0.5
-#: adaptive time step (module docstring, "Time step"; IISPH's constants): factor of the step
-#: after an unconverged density solve, growth of the bound per easy solve, the smallest bound
-#: [s] and the bound above which it is dropped [s]; the error, in tolerances, up to which a
-#: solve stopped at max_iterations does not shrink it
-DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.8, 1.02, 1e-4, 1.0
-DT_SLACK = 1.5
 
 
 class DFSPH(StepBounded, PressureSolver):
@@ -203,7 +198,7 @@ class DFSPH(StepBounded, PressureSolver):
         self._kappa_v: np.ndarray | None = None  # this step's divergence kappa (for p)
         self._grads: PairGradients | None = None  # this step's pair gradients
         #: the adaptive time-step bound (see max_time_step)
-        self.step_bound = StepBound(DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE, DT_SLACK)
+        self.step_bound = StepBound(**JACOBI_STEP_BOUND)
         self.free_surface = free_surface
         #: sources relative to the fluid's mean, signed pressures (module docstring)
         self.closed = free_surface is False

@@ -26,10 +26,11 @@ Ihmsen, Cornelis, Solenthaler, Horvath, Teschner 2014, "Implicit incompressible 
 The loop is :func:`sphkit.core.solver.jacobi_ppe` with weight ``w = 1 / rho_hat^2``.
 
 **Time step** (not in the paper nor in SPlisHSPlasH; :class:`sphkit.core.solver.StepBound`, as
-PCISPH's): a solve that stops at ``max_iterations`` with its average error above
-``DT_SLACK`` times the tolerance sets a bound of ``DT_SHRINK`` times its step (at least
-``DT_FLOOR``); each solve that converges within half of ``max_iterations`` raises the bound by
-``DT_GROW`` (dropped above ``DT_FREE``). The bound starts only with such a failed solve, so runs
+PCISPH's, with :data:`sphkit.core.solver.JACOBI_STEP_BOUND`): a solve that stops at
+``max_iterations`` with its average error above ``slack`` (1.5) times the tolerance sets a bound
+of ``shrink`` (0.8) times its step (at least ``floor``, 0.1 ms); each solve that converges
+within half of ``max_iterations`` raises the bound by ``grow`` (2 %; dropped above ``free``,
+1 s). The bound starts only with such a failed solve, so runs
 whose solves converge take the same steps as without it. Why: at SPlisHSPlasH's 5 ms cap IISPH's
 2D column with volume maps stopped at its 100 iterations in most steps and sloshed at 8 cm/s
 without coming to rest (slope 2.9 % high; at 2 ms it rests within 0.5 %); most of its solves
@@ -62,6 +63,7 @@ from sphkit.backend import launch
 from sphkit.core import arrays
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.solver import (
+    JACOBI_STEP_BOUND,
     IterationControl,
     PairGradients,
     SolverStats,
@@ -71,13 +73,6 @@ from sphkit.core.solver import (
     jacobi_ppe,
 )
 from sphkit.core.state import SimState
-
-#: adaptive time step (module docstring, "Time step"): factor of the step after an unconverged
-#: solve, growth of the bound per easy solve, the smallest bound [s] (the default time.dt_min)
-#: and the bound above which it is dropped [s]; the error, in tolerances, up to which a solve
-#: stopped at max_iterations does not shrink it
-DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE = 0.8, 1.02, 1e-4, 1.0
-DT_SLACK = 1.5
 
 
 @numba.njit(cache=True, fastmath=True, inline="always")
@@ -112,7 +107,7 @@ class IISPH(StepBounded, PressureSolver):
                                         max_iterations, max_error / 100.0)
         self.omega = omega
         #: the adaptive time-step bound (see max_time_step)
-        self.step_bound = StepBound(DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE, DT_SLACK)
+        self.step_bound = StepBound(**JACOBI_STEP_BOUND)
         self.free_surface = free_surface
         #: sources relative to the fluid's mean, signed pressures (module docstring)
         self.closed = free_surface is False
