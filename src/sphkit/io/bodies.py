@@ -116,15 +116,14 @@ class BodyWriter:
             elif fmt == "ply":
                 write_body_ply(path, points, faces, tags,
                                comment=f"sphkit bodies frame {frame} time {float(sim.time)!r} s")
-            else:
+            else:  # vtk
                 mesh = meshio.Mesh(points, [("triangle", faces)], cell_data={"body": [tags]})
                 with atomic_path(path) as tmp:
                     meshio.write(tmp, mesh, file_format="vtu", binary=True, compression=None)
-                if fmt == "vtk":
-                    self._series = [e for e in self._series if e["name"] != path.name]
-                    self._series.append({"name": path.name, "time": float(sim.time)})
-                    atomic_write_text(self.series_path, json.dumps(
-                        {"file-series-version": "1.0", "files": self._series}, indent=1) + "\n")
+                self._series = [e for e in self._series if e["name"] != path.name]
+                self._series.append({"name": path.name, "time": float(sim.time)})
+                atomic_write_text(self.series_path, json.dumps(
+                    {"file-series-version": "1.0", "files": self._series}, indent=1) + "\n")
             paths.append(path)
         return paths
 

@@ -97,9 +97,9 @@ from sphkit.io.atomic import atomic_path, atomic_write_text
 
 __all__ = [
     "FLUID", "MOVING_WALL", "PHASE_TYPES", "RIGID_BODY", "SOLID_WALL", "SPLITS",
-    "TrajectoryRecorder", "assemble_dataset", "connectivity_radius", "fluid_types",
-    "frame_statistics", "is_fluid", "iter_trajectories", "read_dataset", "read_variant",
-    "split_counts", "variant_path", "write_variant",
+    "TrajectoryRecorder", "assemble_dataset", "connectivity_radius", "fluid_particle_types",
+    "fluid_types", "frame_statistics", "is_fluid", "iter_trajectories", "read_dataset",
+    "read_variant", "split_counts", "variant_path", "write_variant",
 ]
 
 #: LagrangeBench's NodeType (lagrangebench/utils.py)
@@ -121,6 +121,14 @@ def fluid_types(phase: np.ndarray) -> np.ndarray:
         raise ValueError(f"fluid phase {int(phase.max())}: a dataset labels at most "
                          f"{len(PHASE_TYPES)} fluid phases (LagrangeBench's particle types)")
     return np.asarray(PHASE_TYPES, dtype=np.int32)[phase]
+
+
+def fluid_particle_types(fluid: Any, order: np.ndarray) -> np.ndarray:
+    """The particle types (int32) of the particle set ``fluid`` in the order ``order``: FLUID,
+    or per phase (:func:`fluid_types`) where the fluid has several materials."""
+    if "phase" in fluid.fields:
+        return fluid_types(np.asarray(fluid["phase"])[order])
+    return np.full(len(order), FLUID, dtype=np.int32)
 
 
 def is_fluid(particle_type: Any) -> Any:
@@ -170,9 +178,8 @@ class TrajectoryRecorder:
         else:
             self.boundary_order = np.zeros(0, np.int64)
             types = np.zeros(0, np.int64)
-        order = np.argsort(fluid["id"], kind="stable")  # the order record() stores
-        fluid_type = (fluid_types(np.asarray(fluid["phase"])[order]) if "phase" in fluid.fields
-                      else np.full(self.n_fluid, FLUID))
+        # the fluid in the order record() stores it
+        fluid_type = fluid_particle_types(fluid, np.argsort(fluid["id"], kind="stable"))
         self.particle_type = np.concatenate([fluid_type, types]).astype(np.int32)
         self.frames: list[int] = []
         self.positions: list[np.ndarray] = []

@@ -102,6 +102,7 @@ def resolve_attributes(names: Sequence[str], fluid: Any) -> dict[str, str]:
         out[frame_name] = field
     return out
 
+
 class FrameFormatError(ValueError):
     """A frame's arrays that the chosen format cannot hold (a PLY column of a type PLY does not
     have); ``sphkit run`` stops with the message and exit code 1, keeping the frames written."""

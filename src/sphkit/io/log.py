@@ -130,11 +130,13 @@ class LogSession:
         fh = logging.FileHandler(path, mode="a" if append else "w", encoding="utf-8")
         fh.setLevel(logging.DEBUG if self.verbose else logging.INFO)
         fh.setFormatter(logging.Formatter(_FILE_FORMAT))
-        if self.log_file is None:
+        if self._early in self._handlers:  # the first file: the records so far, then no more
             for record in self._early.records:
                 if record.levelno >= fh.level:
                     fh.handle(record)
-            self._early.records.clear()
+            self._handlers.remove(self._early)
+            self.logger.removeHandler(self._early)
+            self._early.close()
         self._attach(fh)
         self.log_file = path
         return path

@@ -26,8 +26,8 @@ import numpy as np
 
 from sphkit.core.kernels import Kernel, lattice_volume
 from sphkit.core.neighbors import Grid
-from sphkit.io.datasets import fluid_types
-from sphkit.learn.data import FLUID, INPUT_SEQ_LENGTH, WALL, is_fluid
+from sphkit.io.datasets import fluid_particle_types
+from sphkit.learn.data import INPUT_SEQ_LENGTH, WALL, is_fluid
 from sphkit.learn.walls import WallCollision
 
 
@@ -168,9 +168,8 @@ def rollout_scene(model: str | os.PathLike[str], scene: Any, out: str | os.PathL
     nf = len(fx)
     x0 = np.concatenate([fx, walls])
     v0 = np.concatenate([fv, np.zeros_like(walls)])
-    fluid_type = (fluid_types(np.asarray(sim.fluid["phase"])[order])
-                  if "phase" in sim.fluid.fields else np.full(nf, FLUID))  # several fluids
-    ptype = np.concatenate([fluid_type, np.full(len(walls), WALL)]).astype(np.int64)
+    ptype = np.concatenate([fluid_particle_types(sim.fluid, order),
+                            np.full(len(walls), WALL)]).astype(np.int64)
     history = np.stack([x0 - k * dt * v0 for k in range(INPUT_SEQ_LENGTH - 1, -1, -1)])
     formats = list(formats or scene.output.formats)
     out = Path(out)
