@@ -258,6 +258,22 @@ def test_scene_with_emitters_is_refused(tmp_path: Path, capsys: pytest.CaptureFi
     assert "emitters" in capsys.readouterr().err
 
 
+def test_scene_with_more_fluids_than_particle_types_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A dataset gives each fluid material a particle type (FLUID and LagrangeBench's free 4-8):
+    a seventh fluid is refused before anything runs, naming ``materials`` (exit 2)."""
+    mats = [{"id": f"m{k}", "density0": 1000.0 - 100.0 * k} for k in range(7)]
+    blocks = [{"start": [0.04 + 0.16 * k, 0.04], "end": [0.16 + 0.16 * k, 0.3],
+               "material": f"m{k}"} for k in range(7)]
+    path = tmp_path / "seven.json"
+    path.write_text(json.dumps(dict(TINY, materials=mats, fluid_blocks=blocks)))
+    assert main(["dataset", str(path), "--count", "1", "--workers", "0",
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "materials: 7 fluid materials; a dataset labels at most 6" in err
+    assert "Traceback" not in err and not (tmp_path / "o").exists()
+
+
 def test_split_counts() -> None:
     assert split_counts(20, [0.8, 0.1, 0.1]) == (16, 2, 2)
     assert split_counts(5, [0.8, 0.1, 0.1]) == (3, 1, 1)

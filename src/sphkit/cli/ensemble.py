@@ -332,6 +332,16 @@ def plan(args: Any, kind: str) -> Plan:
                          "a scene of fixed particle count (a dataset and a sweep vary a scene "
                          "whose trajectories keep their particles)" if kind == "dataset" else
                          f"scene {args.scene!r}: emitters are not supported in a sweep")
+    if kind == "dataset":
+        from sphkit.io.datasets import PHASE_TYPES
+        from sphkit.scene.checks import fluid_materials
+
+        fluids = fluid_materials(base)
+        if len(fluids) > len(PHASE_TYPES):
+            raise SceneError(
+                f"scene {args.scene!r}: materials: {len(fluids)} fluid materials; a dataset "
+                f"labels at most {len(PHASE_TYPES)} (one particle type each, LagrangeBench's "
+                "free types 4-8 beside its FLUID 0)")
     if args.until is not None:
         base.configuration.time.until = args.until
     if args.fps is not None:
