@@ -441,3 +441,67 @@ def test_exact_frames_land_on_frame_times(scene_file: Path) -> None:
     assert all(t == k / fps for k, t in times)  # bit-exact: the landing step sets the time
     tc = sim.scene.configuration.time
     assert max(cfl) <= 0.4 * tc.cfl_factor + 1e-9
+
+
+def test_splishsplash_scene_varies_in_its_own_field_names(tmp_path: Path) -> None:
+    """A SPlisHSPlasH file is varied by the paths its users write (``Materials.0.Standard
+    viscosity.viscosity``, ``FluidBlocks.0.end.1``, a field it leaves to the default), beside
+    sphkit's own paths; each variant is the file with the value set, translated as ``sphkit
+    run`` translates it; a field sphkit does not use for the scene is refused by name."""
+    import trimesh
+
+    from sphkit.cli.ensemble import plan
+    from sphkit.scene.files import scene_from_dict
+    from sphkit.scene.schema import SceneError
+
+    trimesh.creation.box(extents=[1.0, 1.0, 1.0]).export(tmp_path / "UnitBox.obj")
+    raw = {"Configuration": {"sim2D": True, "particleRadius": 0.025, "simulationMethod": 0,
+                             "boundaryHandlingMethod": 0},
+           "Materials": [{"id": "Fluid", "viscosityMethod": 1,
+                          "Standard viscosity": {"viscosity": 0.01}}],
+           "RigidBodies": [{"geometryFile": "UnitBox.obj", "isWall": True,
+                            "translation": [0, 1, 0], "scale": [2, 2, 1]}],
+           "FluidBlocks": [{"start": [-0.9, 0.05, -0.5], "end": [0.0, 0.8, 0.5]}]}
+    path = tmp_path / "sph.json"
+    path.write_text(json.dumps(raw))
+
+    def planned(*vary: str):
+        argv = ["sweep", str(path), "--count", "3", "--until", "0.05", "--workers", "0"]
+        for v in vary:
+            argv += ["--vary", v]
+        return plan(build_parser().parse_args(argv), "sweep")
+
+    p = planned("Materials.0.Standard viscosity.viscosity=0.02:0.04",
+                "FluidBlocks[0].end[1]=0.5:0.7", "Configuration.stiffness=1000:5000",
+                "configuration.time.cfl_factor=0.3:0.5")
+    assert [s.native for s in p.specs] == [True, True, True, False]
+    assert p.specs[1].path == "FluidBlocks.0.end.1"
+    assert p.specs[0].as_dict()["format"] == "splishsplash"
+    for _k, values, scene in p.variants:
+        edited = json.loads(json.dumps(raw))
+        edited["Materials"][0]["Standard viscosity"]["viscosity"] = values[p.specs[0].path]
+        edited["FluidBlocks"][0]["end"][1] = values["FluidBlocks.0.end.1"]
+        edited["Configuration"]["stiffness"] = values["Configuration.stiffness"]
+        expected = scene_from_dict(edited, path)
+        assert scene["materials"][0]["viscosity"]["coefficient"] == pytest.approx(
+            values[p.specs[0].path])
+        assert scene["fluid_blocks"][0]["end"] == pytest.approx(expected.fluid_blocks[0].end)
+        assert scene["configuration"]["pressure"]["stiffness"] == pytest.approx(
+            values["Configuration.stiffness"])
+        # sphkit's own path and the command's end time on top of the translated file
+        assert scene["configuration"]["time"]["cfl_factor"] == pytest.approx(
+            values["configuration.time.cfl_factor"])
+        assert scene["configuration"]["time"]["until"] == 0.05
+    # sphkit's WCSPH reads no DFSPH block; a misspelt field changes nothing either
+    for spec, path_named in (("Configuration.DFSPH.maxIterations=50:200",
+                              "Configuration.DFSPH"),
+                             ("Materials.0.viscosty=0.01:0.02", "Materials.0.viscosty")):
+        if path_named == "Configuration.DFSPH":
+            raw["Configuration"]["DFSPH"] = {"maxIterations": 100}
+            path.write_text(json.dumps(raw))
+        with pytest.raises(SceneError, match="give the same scene") as err:
+            planned(spec)
+        assert path_named in str(err.value)
+    with pytest.raises(SceneError, match="SPlisHSPlasH file's blocks") as err:
+        planned("Fluidd.viscosity=0.01:0.02")
+    assert "'Fluidd'" in str(err.value)

@@ -21,3 +21,11 @@ def test_frame_counter_without_callback_matches_the_callback_path() -> None:
     c = Simulation(load_scene("hydrostatic-2d"), settle=False)
     c.run(until=0.01, fps=1e9)  # returns promptly: about 1e7 frames, not looped over
     assert abs(c._frame - c.time * 1e9) <= 2
+    # a frame rate or end time that is no number is refused naming it, before any step
+    for kwargs, word in (({"fps": 0.0}, "fps 0.0"), ({"until": float("nan")}, "until nan")):
+        try:
+            c.run(**kwargs)
+        except ValueError as e:
+            assert word in str(e)
+        else:
+            raise AssertionError(f"run({kwargs}) was accepted")

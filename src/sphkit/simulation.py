@@ -571,6 +571,8 @@ class Simulation:
         fps = self.scene.output.fps if fps is None else float(fps)
         if not 0.0 < fps < math.inf:
             raise ValueError(f"fps {fps}: expected a positive finite frame rate [1/s]")
+        if math.isnan(until):
+            raise ValueError(f"until {until}: expected a simulated end time [s]")
         if self._frame < 0:
             if self.step_count == 0 and self.state.fluid.n:
                 self._neighbors()

@@ -321,8 +321,14 @@ def plan(args: Any, kind: str) -> Plan:
     """Load the scene, apply --until/--fps, parse --vary (the dataset's default variation
     without it) and draw and validate every variant; SceneError naming path and value."""
     from sphkit.scene.files import load_scene
-    from sphkit.scene.schema import SceneError
-    from sphkit.scene.variants import default_specs, parse_vary, sample_values, variant_scene
+    from sphkit.scene.schema import Scene, SceneError
+    from sphkit.scene.variants import (
+        NativeScene,
+        default_specs,
+        parse_vary,
+        sample_values,
+        variant_scene,
+    )
 
     if args.workers < 0:
         raise SceneError(f"--workers {args.workers}: expected 0 or more worker processes")
@@ -342,11 +348,17 @@ def plan(args: Any, kind: str) -> Plan:
                 f"scene {args.scene!r}: materials: {len(fluids)} fluid materials; a dataset "
                 f"labels at most {len(PHASE_TYPES)} (one particle type each, LagrangeBench's "
                 "free types 4-8 beside its FLUID 0)")
-    if args.until is not None:
-        base.configuration.time.until = args.until
-    if args.fps is not None:
-        base.output.fps = args.fps
-    specs = [parse_vary(s, base) for s in args.vary]
+
+    def adjust(scene: Scene) -> None:  # the command's end time and frame rate
+        if args.until is not None:
+            scene.configuration.time.until = args.until
+        if args.fps is not None:
+            scene.output.fps = args.fps
+
+    adjust(base)
+    # a SPlisHSPlasH file may be varied in its own field names (Fluid.viscosity, ...)
+    native = NativeScene.of(args.scene) if args.vary else None
+    specs = [parse_vary(s, base, native) for s in args.vary]
     defaulted = False
     if not specs:
         if kind != "dataset":
@@ -355,7 +367,7 @@ def plan(args: Any, kind: str) -> Plan:
     variants = []
     for k in range(args.count):
         values = sample_values(specs, args.seed, k)
-        scene = variant_scene(base, values)
+        scene = variant_scene(base, values, native, adjust)
         variants.append((k, values, scene.model_dump(mode="json")))
     return Plan(base, specs, variants, defaulted)
 

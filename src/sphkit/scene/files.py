@@ -36,6 +36,7 @@ __all__ = [
     "builtin_scene_path",
     "load_scene",
     "load_scene_file",
+    "read_scene_mapping",
     "scene_from_dict",
 ]
 
@@ -189,6 +190,16 @@ def _read_mapping(path: Path) -> dict[str, Any]:
             "expected a mapping of scene fields"
         )
     return data
+
+
+def read_scene_mapping(src: str | os.PathLike[str]) -> tuple[dict[str, Any], Path] | None:
+    """The parsed top-level mapping of a scene file or built-in scene name, and its path, before
+    validation (``--vary`` paths in SPlisHSPlasH's own field names,
+    :mod:`sphkit.scene.variants`); None where ``src`` names neither."""
+    path = Path(os.fspath(src)).expanduser()
+    if not path.is_file():
+        path = _builtin_files().get(os.fspath(src), path)
+    return (_read_mapping(path), path) if path.is_file() else None
 
 
 def load_scene_file(path: str | Path) -> Scene:

@@ -14,23 +14,38 @@ many variants are drawn, so a rerun with a larger ``--count`` keeps the first va
 variant passes the normal scene validation (:func:`sphkit.scene.files.scene_from_dict`); a bad
 value is a :class:`~sphkit.scene.schema.SceneError` naming the path, the value and what was
 expected.
+
+A SPlisHSPlasH scene (:class:`NativeScene`) may also be varied in its own field names, as its
+users write them: ``Fluid.viscosity``, ``Configuration.particleRadius``,
+``RigidBodies.0.translation.1``, ``FluidBlocks.0.end.1``. Such a path (its first part one of
+the file's top-level blocks) is set in the file's JSON, which is then translated as
+``sphkit run`` translates it; the translated scene's own paths can be varied beside it. A
+field the file does not write (left to SPlisHSPlasH's default) can be varied in a block it
+writes. A SPlisHSPlasH path whose two ends of the range give the same translated scene (a
+field sphkit ignores for this scene, e.g. ``Configuration.stiffness`` of a DFSPH scene, or a
+misspelt one) is refused.
 """
 
 from __future__ import annotations
 
 import copy
 import math
+import os
 import re
-from collections.abc import Mapping, Sequence
+import warnings
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from sphkit.scene.files import scene_from_dict
+from sphkit.scene.files import read_scene_mapping, scene_from_dict
 from sphkit.scene.schema import Scene, SceneError, clip
+from sphkit.scene.splishsplash import is_splishsplash
 
-__all__ = ["VarySpec", "default_specs", "parse_vary", "sample_values", "variant_scene"]
+__all__ = ["NativeScene", "VarySpec", "default_specs", "parse_vary", "sample_values",
+           "variant_scene"]
 
 _BRACKET = re.compile(r"\[(\d+)\]")
 
@@ -44,6 +59,9 @@ class VarySpec:
     high: float | None = None
     choices: tuple[float, ...] | None = None
     integer: bool = False
+    #: the path names a field of the SPlisHSPlasH file (:class:`NativeScene`), not of sphkit's
+    #: scene model
+    native: bool = False
 
     def text(self) -> str:
         """The spec as it is written on the command line."""
@@ -54,6 +72,8 @@ class VarySpec:
     def as_dict(self) -> dict[str, Any]:
         """JSON form (provenance)."""
         d: dict[str, Any] = {"path": self.path, "integer": self.integer}
+        if self.native:
+            d["format"] = "splishsplash"
         if self.choices is not None:
             d["choices"] = list(self.choices)
         else:
@@ -111,9 +131,49 @@ def _lookup(data: Any, parts: Sequence[str], spec: str) -> Any:
     return node
 
 
-def parse_vary(spec: str, base: Scene | Mapping[str, Any]) -> VarySpec:
-    """Parse ``PATH=LO:HI`` or ``PATH=V1,V2,...`` against the scene ``base``; SceneError naming
-    the path, the value and what was expected."""
+@dataclass(frozen=True)
+class NativeScene:
+    """A SPlisHSPlasH scene file as written (its parsed JSON and its path), for ``--vary`` paths
+    in its own field names (module docstring)."""
+
+    data: Mapping[str, Any]
+    path: Path
+
+    @staticmethod
+    def of(src: str | os.PathLike[str]) -> NativeScene | None:
+        """The scene file or built-in scene ``src`` if it is in SPlisHSPlasH's format, else
+        None."""
+        found = read_scene_mapping(src)
+        return NativeScene(*found) if found is not None and is_splishsplash(found[0]) else None
+
+    def names(self, parts: Sequence[str]) -> bool:
+        """Whether the path ``parts`` starts with one of the file's top-level blocks."""
+        return bool(parts) and parts[0] in self.data
+
+    def scene(self, values: Mapping[str, float | int]) -> Scene:
+        """The file with ``values`` (its own paths -> numbers) set, translated (the file's
+        warnings were shown when it was loaded and are not repeated for every variant)."""
+        data = copy.deepcopy(dict(self.data))
+        _assign(data, values)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return scene_from_dict(data, self.path)
+
+
+def _assign(data: Any, values: Mapping[str, float | int]) -> None:
+    """Set each path of ``values`` in the dict ``data`` (paths checked by :func:`parse_vary`)."""
+    for path, value in values.items():
+        parts = _parts(path)
+        parent = _lookup(data, parts[:-1], path) if len(parts) > 1 else data
+        key: Any = int(parts[-1]) if isinstance(parent, list) else parts[-1]
+        parent[key] = value
+
+
+def parse_vary(spec: str, base: Scene | Mapping[str, Any],
+               native: NativeScene | None = None) -> VarySpec:
+    """Parse ``PATH=LO:HI`` or ``PATH=V1,V2,...`` against the scene ``base`` (or, for a path
+    that starts with one of its blocks, against the SPlisHSPlasH file ``native``); SceneError
+    naming the path, the value and what was expected."""
     data = base.model_dump(mode="json") if isinstance(base, Scene) else base
     if "=" not in spec:
         raise SceneError(f"--vary {clip(spec)}: expected PATH=LO:HI or PATH=V1,V2,... , e.g. "
@@ -124,11 +184,22 @@ def parse_vary(spec: str, base: Scene | Mapping[str, Any]) -> VarySpec:
         raise SceneError(f"--vary {clip(spec)}: empty path; expected a field path like "
                          "materials.0.viscosity.coefficient")
     path = ".".join(parts)
-    current = _lookup(data, parts, spec)
-    if isinstance(current, bool) or not isinstance(current, (int, float)):
-        raise SceneError(f"--vary {clip(spec)}: {path} is {clip(current)}; expected a path to "
-                         "a number of the scene")
-    integer = isinstance(current, int)
+    own = native is not None and native.names(parts)
+    if native is not None and not own and parts[0] not in data:
+        raise SceneError(
+            f"--vary {clip(spec)}: path {parts[0]!r}: no field {parts[0]!r}; expected one of "
+            f"the SPlisHSPlasH file's blocks ({', '.join(sorted(map(str, native.data)))}) or "
+            f"of sphkit's scene ({', '.join(sorted(map(str, data)))})")
+    if own and _unwritten(native, parts, spec):
+        # a field the file leaves to SPlisHSPlasH's default (Configuration.stiffness): integer
+        # when both ends are written as integers; _effective checks that it changes the scene
+        integer = all(re.fullmatch(r"\s*[+-]?\d+\s*", t) for t in re.split(r"[:,]", values))
+    else:
+        current = _lookup(native.data if own else data, parts, spec)
+        if isinstance(current, bool) or not isinstance(current, (int, float)):
+            raise SceneError(f"--vary {clip(spec)}: {path} is {clip(current)}; expected a path "
+                             "to a number of the scene")
+        integer = isinstance(current, int)
     if ":" in values:
         lo_text, _, hi_text = values.partition(":")
         lo, hi = _number(lo_text, spec, path), _number(hi_text, spec, path)
@@ -138,7 +209,8 @@ def parse_vary(spec: str, base: Scene | Mapping[str, Any]) -> VarySpec:
         if integer and (lo != int(lo) or hi != int(hi)):
             raise SceneError(f"--vary {clip(spec)}: {path} is an integer field; expected "
                              "integer bounds")
-        return VarySpec(path, low=lo, high=hi, integer=integer)
+        return _effective(VarySpec(path, low=lo, high=hi, integer=integer, native=own),
+                          native, spec)
     items = [s for s in values.split(",") if s.strip()]
     if not items:
         raise SceneError(f"--vary {clip(spec)}: {path}: no values; expected LO:HI or "
@@ -146,7 +218,37 @@ def parse_vary(spec: str, base: Scene | Mapping[str, Any]) -> VarySpec:
     choices = tuple(_number(s, spec, path) for s in items)
     if integer and any(v != int(v) for v in choices):
         raise SceneError(f"--vary {clip(spec)}: {path} is an integer field; expected integers")
-    return VarySpec(path, choices=choices, integer=integer)
+    return _effective(VarySpec(path, choices=choices, integer=integer, native=own), native,
+                      spec)
+
+
+def _unwritten(native: NativeScene | None, parts: Sequence[str], spec: str) -> bool:
+    """Whether ``parts`` names a field that the SPlisHSPlasH file does not write, in a block it
+    does write (``Configuration.stiffness`` of a file without it)."""
+    if native is None or len(parts) < 2:
+        return False
+    parent = _lookup(native.data, parts[:-1], spec)
+    return isinstance(parent, Mapping) and parts[-1] not in parent
+
+
+def _effective(vs: VarySpec, native: NativeScene | None, spec: str) -> VarySpec:
+    """``vs``, after checking that a SPlisHSPlasH path changes the translated scene: the
+    smallest and largest value it can draw must give different scenes (SceneError naming the
+    path otherwise: sphkit ignores that field for this scene)."""
+    ends = (vs.low, vs.high) if vs.choices is None else (min(vs.choices), max(vs.choices))
+    if not vs.native or native is None or ends[0] == ends[1]:
+        return vs
+    cast = int if vs.integer else float
+    try:
+        a, b = (native.scene({vs.path: cast(v)}).model_dump(mode="json") for v in ends)
+    except SceneError as e:
+        raise SceneError(f"--vary {clip(spec)}: {e}") from None
+    if a == b:
+        raise SceneError(f"--vary {clip(spec)}: {vs.path}: {ends[0]:g} and {ends[1]:g} give the "
+                         "same scene; sphkit does not use this SPlisHSPlasH field for this "
+                         "scene (its methods or blocks do not read it); expected a field that "
+                         "changes the simulation")
+    return vs
 
 
 def default_specs(base: Scene) -> list[VarySpec]:
@@ -168,15 +270,26 @@ def sample_values(specs: Sequence[VarySpec], seed: int, k: int) -> dict[str, flo
     return {s.path: s.draw(rng) for s in specs}
 
 
-def variant_scene(base: Scene, values: Mapping[str, float | int]) -> Scene:
-    """``base`` with ``values`` (path -> number) set, validated like a scene file."""
-    data = copy.deepcopy(base.model_dump(mode="json"))
-    for path, value in values.items():
-        parts = _parts(path)
-        parent = _lookup(data, parts[:-1], path) if len(parts) > 1 else data
-        key: Any = int(parts[-1]) if isinstance(parent, list) else parts[-1]
-        parent[key] = value
+def variant_scene(base: Scene, values: Mapping[str, float | int],
+                  native: NativeScene | None = None,
+                  adjust: Callable[[Scene], None] | None = None) -> Scene:
+    """``base`` with ``values`` (path -> number) set, validated like a scene file. Paths of the
+    SPlisHSPlasH file ``native`` are set in it first and the file translated anew, then
+    ``adjust`` (the command's end time and frame rate, which ``base`` has already) applied to
+    it, then sphkit's paths set."""
+    theirs = {p: v for p, v in values.items() if native is not None and native.names(_parts(p))}
     shown = ", ".join(f"{p}={v:.6g}" for p, v in values.items())
+    data = copy.deepcopy(base.model_dump(mode="json"))
+    if theirs:
+        assert native is not None
+        try:
+            start = native.scene(theirs)
+        except SceneError as e:
+            raise SceneError(f"variant ({shown}): {e}") from None
+        if adjust is not None:
+            adjust(start)
+        data = start.model_dump(mode="json")
+    _assign(data, {p: v for p, v in values.items() if p not in theirs})
     try:
         return scene_from_dict(data)
     except SceneError as e:
