@@ -24,12 +24,11 @@ The world (particles, walls, bodies, emitters and the methods a scene names) is 
 8. emitters (:mod:`sphkit.world.emitters`): particles in an emitter's region move with it;
    animation fields (:mod:`sphkit.world.animation`) set their particle field inside their
    regions; then the emitters' layers due by the new time are added;
-9. stability guard: NaN/inf velocities, a speed above ``configuration.max_velocity``, fluid
-   outside the domain (the static walls' bounding box plus ``configuration.domain_margin`` h,
-   computed once, for scenes with a container: fluid that leaked through) or, with a fixed time
-   step (``time.cfl`` off), a CFL number above ``configuration.max_cfl`` raise
-   :class:`InstabilityError` with a diagnosis (which of them, step, time, max velocity, CFL
-   number, density error).
+9. stability guard: NaN/inf velocities, a speed above ``configuration.max_velocity``, fluid outside
+   the domain (the static walls' bounding box plus ``configuration.domain_margin`` h, computed once,
+   for scenes with a container: fluid that leaked through) or, with a fixed time step (``time.cfl``
+   off), a CFL number above ``configuration.max_cfl`` raise :class:`InstabilityError` with a
+   diagnosis (which of them, step, time, max velocity, CFL number, density error).
 
 On a device (``device="cuda"``) the fields stay there between steps and each pass is a kernel
 body launched there (:mod:`sphkit.backend`); :meth:`Simulation.host` copies them back.
@@ -569,10 +568,9 @@ class Simulation:
         frame rate that lag is as large as a frame's change of velocity."""
         until = self.scene.configuration.time.until if until is None else float(until)
         fps = self.scene.output.fps if fps is None else float(fps)
-        if not 0.0 < fps < math.inf:
-            raise ValueError(f"fps {fps}: expected a positive finite frame rate [1/s]")
-        if math.isnan(until):
-            raise ValueError(f"until {until}: expected a simulated end time [s]")
+        if not 0.0 < fps < math.inf or math.isnan(until):
+            raise ValueError(f"fps {fps}, until {until}: expected a positive finite frame rate "
+                             "[1/s] and a simulated end time [s]")
         if self._frame < 0:
             if self.step_count == 0 and self.state.fluid.n:
                 self._neighbors()
