@@ -278,7 +278,8 @@ def add_ensemble_arguments(p: Any, default_count: int | None = None) -> None:
     p.add_argument("--vary", action="append", default=[], metavar="PATH=LO:HI",
                    help="vary a number of the scene by its path, uniformly in [LO, HI] or "
                         "among V1,V2,... (repeatable), e.g. fluid_blocks.0.end.1=0.6:1.0, "
-                        "materials.0.viscosity.coefficient=0.001:0.05")
+                        "materials.0.viscosity.coefficient=0.001:0.05; a SPlisHSPlasH scene "
+                        "also by its own fields, e.g. FluidBlocks.0.end.1=1:1.5")
     p.add_argument("--seed", type=int, default=0, metavar="S",
                    help="random seed; variant k draws from default_rng([S, k]) (default 0)")
     p.add_argument("--out", type=Path, metavar="DIR", help="output folder")
