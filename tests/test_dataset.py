@@ -505,3 +505,23 @@ def test_splishsplash_scene_varies_in_its_own_field_names(tmp_path: Path) -> Non
     with pytest.raises(SceneError, match="SPlisHSPlasH file's blocks") as err:
         planned("Fluidd.viscosity=0.01:0.02")
     assert "'Fluidd'" in str(err.value)
+    # a number the file writes as 2 is a float field where sphkit reads one (an emitter's
+    # velocity), an integer field where it takes integers only (maxIterations); a sweep runs
+    # an emitting scene, a dataset (fixed particle counts) refuses it
+    raw["Configuration"]["simulationMethod"] = 4
+    raw["Configuration"]["DFSPH"] = {"maxIterations": 100}
+    raw["Emitters"] = [{"width": 3, "height": 3, "translation": [-0.5, 1.2, 0.0],
+                        "velocity": 2, "type": 0, "emitEndTime": 1}]
+    path.write_text(json.dumps(raw))
+    p = planned("Emitters.0.velocity=1:3", "Configuration.DFSPH.maxIterations=50:200")
+    assert [s.integer for s in p.specs] == [False, True]
+    assert all(isinstance(v["Configuration.DFSPH.maxIterations"], int)
+               and v["Emitters.0.velocity"] != int(v["Emitters.0.velocity"])
+               for _k, v, _s in p.variants)
+    assert [sc["emitters"][0]["velocity"] for _k, _v, sc in p.variants] == pytest.approx(
+        [v["Emitters.0.velocity"] for _k, v, _s in p.variants])
+    with pytest.raises(SceneError, match="integer field"):
+        planned("Configuration.DFSPH.maxIterations=50.5:200")
+    args = build_parser().parse_args(["dataset", str(path), "--count", "2", "--workers", "0"])
+    with pytest.raises(SceneError, match="emitters"):
+        plan(args, "dataset")

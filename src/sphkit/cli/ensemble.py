@@ -334,11 +334,10 @@ def plan(args: Any, kind: str) -> Plan:
     if args.workers < 0:
         raise SceneError(f"--workers {args.workers}: expected 0 or more worker processes")
     base = load_scene(args.scene)
-    if base.emitters:
+    if base.emitters and kind == "dataset":  # a sweep runs each variant as sphkit run does
         raise SceneError(f"scene {args.scene!r}: emitters[0]: the scene has emitters; expected "
-                         "a scene of fixed particle count (a dataset and a sweep vary a scene "
-                         "whose trajectories keep their particles)" if kind == "dataset" else
-                         f"scene {args.scene!r}: emitters are not supported in a sweep")
+                         "a scene of fixed particle count (a dataset's trajectories keep their "
+                         "particles; vary an emitting scene with sphkit sweep)")
     if kind == "dataset":
         from sphkit.io.datasets import PHASE_TYPES
         from sphkit.scene.checks import fluid_materials

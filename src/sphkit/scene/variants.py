@@ -21,9 +21,11 @@ users write them: ``Fluid.viscosity``, ``Configuration.particleRadius``,
 the file's top-level blocks) is set in the file's JSON, which is then translated as
 ``sphkit run`` translates it; the translated scene's own paths can be varied beside it. A
 field the file does not write (left to SPlisHSPlasH's default) can be varied in a block it
-writes. A SPlisHSPlasH path whose two ends of the range give the same translated scene (a
-field sphkit ignores for this scene, e.g. ``Configuration.stiffness`` of a DFSPH scene, or a
-misspelt one) is refused.
+writes. Such a field is an integer one where the translation accepts whole numbers only
+(``Configuration.DFSPH.maxIterations``), else a float one, however the file writes its value
+(SPlisHSPlasH's files write 2 for 2.0). A SPlisHSPlasH path whose two ends of the range give
+the same translated scene (a field sphkit ignores for this scene, e.g.
+``Configuration.stiffness`` of a DFSPH scene, or a misspelt one) is refused.
 """
 
 from __future__ import annotations
@@ -190,11 +192,7 @@ def parse_vary(spec: str, base: Scene | Mapping[str, Any],
             f"--vary {clip(spec)}: path {parts[0]!r}: no field {parts[0]!r}; expected one of "
             f"the SPlisHSPlasH file's blocks ({', '.join(sorted(map(str, native.data)))}) or "
             f"of sphkit's scene ({', '.join(sorted(map(str, data)))})")
-    if own and _unwritten(native, parts, spec):
-        # a field the file leaves to SPlisHSPlasH's default (Configuration.stiffness): integer
-        # when both ends are written as integers; _effective checks that it changes the scene
-        integer = all(re.fullmatch(r"\s*[+-]?\d+\s*", t) for t in re.split(r"[:,]", values))
-    else:
+    if not (own and _unwritten(native, parts, spec)):  # a field the file leaves to its default
         current = _lookup(native.data if own else data, parts, spec)
         if isinstance(current, bool) or not isinstance(current, (int, float)):
             raise SceneError(f"--vary {clip(spec)}: {path} is {clip(current)}; expected a path "
@@ -206,20 +204,37 @@ def parse_vary(spec: str, base: Scene | Mapping[str, Any],
         if hi < lo:
             raise SceneError(f"--vary {clip(spec)}: {path}: the range {lo:g}:{hi:g} is "
                              "reversed; expected LO <= HI")
-        if integer and (lo != int(lo) or hi != int(hi)):
-            raise SceneError(f"--vary {clip(spec)}: {path} is an integer field; expected "
-                             "integer bounds")
-        return _effective(VarySpec(path, low=lo, high=hi, integer=integer, native=own),
-                          native, spec)
-    items = [s for s in values.split(",") if s.strip()]
-    if not items:
-        raise SceneError(f"--vary {clip(spec)}: {path}: no values; expected LO:HI or "
-                         "V1,V2,...")
-    choices = tuple(_number(s, spec, path) for s in items)
-    if integer and any(v != int(v) for v in choices):
-        raise SceneError(f"--vary {clip(spec)}: {path} is an integer field; expected integers")
-    return _effective(VarySpec(path, choices=choices, integer=integer, native=own), native,
-                      spec)
+        ends: tuple[float, ...] = (lo, hi)
+    else:
+        items = [s for s in values.split(",") if s.strip()]
+        if not items:
+            raise SceneError(f"--vary {clip(spec)}: {path}: no values; expected LO:HI or "
+                             "V1,V2,...")
+        ends = tuple(_number(s, spec, path) for s in items)
+    if own:  # SPlisHSPlasH's JSON writes 2 for 2.0: its fields' type is the translation's
+        assert native is not None
+        integer = _integer_field(native, path, ends[0])
+    if integer and any(v != int(v) for v in ends):
+        raise SceneError(f"--vary {clip(spec)}: {path} is an integer field; expected integer "
+                         "values")
+    vs = (VarySpec(path, low=ends[0], high=ends[1], integer=integer, native=own)
+          if ":" in values else VarySpec(path, choices=ends, integer=integer, native=own))
+    return _effective(vs, native, spec)
+
+
+def _integer_field(native: NativeScene, path: str, value: float) -> bool:
+    """Whether the SPlisHSPlasH field ``path`` takes integers only: the file translates with
+    ``floor(value)`` but not with ``floor(value) + 0.5``."""
+    whole = math.floor(value)
+    try:
+        native.scene({path: whole + 0.5})
+    except SceneError:
+        try:
+            native.scene({path: int(whole)})
+        except SceneError:
+            return False
+        return True
+    return False
 
 
 def _unwritten(native: NativeScene | None, parts: Sequence[str], spec: str) -> bool:
