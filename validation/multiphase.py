@@ -267,67 +267,91 @@ def layer_slopes(y: np.ndarray, p: np.ndarray, heavy: np.ndarray, interface: flo
 
 def hydrostatic(methods: list[str], r: float, settle: float, average: float,
                 ratio: float, viscosity: float, symmetric: bool = False, dim: int = 2,
-                depth: float = 0.2, solved: bool | str | None = None) -> None:
+                depth: float = 0.2, solved: bool | str | None = None,
+                realizations: int = 1, jitter: float = 0.1) -> None:
+    """Light over heavy at rest (module docstring, ``hydrostatic``); ``realizations`` K > 1:
+    realization k > 0 starts from the lattice jittered by up to ``jitter`` r (seed k, before the
+    start-up), a row each, then the mean and standard deviation of the K rows' whole-layer
+    fits (a single run of a 15-row 2D column scatters by 2-3 points between windows)."""
     print(f"\nlight over heavy at rest, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}; slopes in "
           f"units of the layer's rho0 g, averaged {settle}-{settle + average} s"
-          + _walls(symmetric, solved))
+          + _walls(symmetric, solved)
+          + (f", {realizations} realizations (jitter {jitter} r)" if realizations > 1 else ""))
     print(f"{'solver':8s} {'heavy':>7s} {'light':>7s} {'heavy in':>8s} {'light in':>8s} "
           f"{'heavy 2h':>8s} {'light 2h':>8s} {'jump/rho_l g H_l':>17s} {'vmax':>6s} "
           f"{'ms/step':>8s}  note")
     for method in methods:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            sim = Simulation(scene(method, r, False, ratio, viscosity, symmetric, dim, depth,
-                                   solved=solved))
-        note = ""
-        t0 = time.perf_counter()
-        steps = 0
-        try:
-            sim.run(until=settle)
-            f = sim.fluid
-            n = f.n
-            order = f.order_by_id()
-            p_sum, y_sum, k = np.zeros(n), np.zeros(n), 0
-            x_sum = np.zeros((n, dim))
-            while sim.time < settle + average - 1e-9:
-                sim.step()
-                steps += 1
-                order = f.order_by_id()
-                p_sum += f["p"][order]
-                y_sum += f.view("x")[order, 1]
-                x_sum += f.view("x")[order]
-                k += 1
-        except InstabilityError as e:
-            print(f"{method:8s} unstable at t = {e.stats.time:.3f} s", flush=True)
-            continue
-        wall = (time.perf_counter() - t0) / max(steps + 1, 1) * 1e3
+        fits = []
+        for k in range(realizations):
+            fit = _hydrostatic_run(method, r, settle, average, ratio, viscosity, symmetric, dim,
+                                   depth, solved, jitter if k else 0.0, k)
+            if fit is not None:
+                fits.append(fit)
+        if realizations > 1 and fits:
+            f = np.array(fits)
+            print(f"{'  mean':8s} {f[:, 0].mean():7.4f} {f[:, 1].mean():7.4f}   (std "
+                  f"{f[:, 0].std():.4f} / {f[:, 1].std():.4f} over {len(fits)})", flush=True)
+
+
+def _hydrostatic_run(method: str, r: float, settle: float, average: float, ratio: float,
+                     viscosity: float, symmetric: bool, dim: int, depth: float,
+                     solved: bool | str | None, jitter: float,
+                     seed: int) -> tuple[float, float] | None:
+    """One run of :func:`hydrostatic` (a table row); its whole-layer fits, None if unstable."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sc = scene(method, r, False, ratio, viscosity, symmetric, dim, depth, solved=solved)
+        sim = Simulation(_perturbed_world(sc, jitter, seed) if jitter > 0 else sc)
+    note = "" if seed == 0 else f"realization {seed}"
+    t0 = time.perf_counter()
+    steps = 0
+    try:
+        sim.run(until=settle)
         f = sim.fluid
+        n = f.n
         order = f.order_by_id()
-        p, y = p_sum / k, y_sum / k
-        phase = f["phase"][order]
-        h = sim.state.h
-        heavy = phase == 0
-        top = y.max() + r
-        interface = 0.5 * (y[heavy].max() + y[~heavy].min())
-        rho_h, rho_l = 1000.0, 1000.0 / ratio
-        across = x_sum[:, [0] + ([2] if dim == 3 else [])] / k
-        extent = [WIDTH] + ([depth] if dim == 3 else [])
-        inner = np.all((across > 3 * r) & (across < np.array(extent) - 3 * r), axis=1)
-        layers = (y, p, heavy, interface, top, rho_h, rho_l)
-        slope_h, slope_l = layer_slopes(*layers, h)
-        # the same fits without the particles within 3r of a side wall ("in"): where the
-        # walls' share of the support differs from the fluid's, it shows as the difference
-        in_h, in_l = layer_slopes(*layers, h, inner)
-        # the same fits 2h from each end of a layer ("2h": beyond the interface's ripple)
-        far_h, far_l = layer_slopes(*layers, 2 * h)
-        # the jump: the heavy layer's fit at the interface against the light layer's weight
-        sel_h = heavy & (y > h) & (y < interface - h)
-        p_int = np.polyval(np.polyfit(y[sel_h], p[sel_h], 1), interface)
-        jump = p_int / (rho_l * G * (top - interface))
-        vmax = float(np.sqrt((f["v"] ** 2).sum(axis=0)).max())
-        print(f"{method:8s} {slope_h:7.4f} {slope_l:7.4f} {in_h:8.4f} {in_l:8.4f} "
-              f"{far_h:8.4f} {far_l:8.4f} {jump:17.3f} {vmax:6.3f} {wall:8.1f}  "
-              f"{note}", flush=True)
+        p_sum, y_sum, k = np.zeros(n), np.zeros(n), 0
+        x_sum = np.zeros((n, dim))
+        while sim.time < settle + average - 1e-9:
+            sim.step()
+            steps += 1
+            order = f.order_by_id()
+            p_sum += f["p"][order]
+            y_sum += f.view("x")[order, 1]
+            x_sum += f.view("x")[order]
+            k += 1
+    except InstabilityError as e:
+        print(f"{method:8s} unstable at t = {e.stats.time:.3f} s", flush=True)
+        return None
+    wall = (time.perf_counter() - t0) / max(steps + 1, 1) * 1e3
+    f = sim.fluid
+    order = f.order_by_id()
+    p, y = p_sum / k, y_sum / k
+    phase = f["phase"][order]
+    h = sim.state.h
+    heavy = phase == 0
+    top = y.max() + r
+    interface = 0.5 * (y[heavy].max() + y[~heavy].min())
+    rho_h, rho_l = 1000.0, 1000.0 / ratio
+    across = x_sum[:, [0] + ([2] if dim == 3 else [])] / k
+    extent = [WIDTH] + ([depth] if dim == 3 else [])
+    inner = np.all((across > 3 * r) & (across < np.array(extent) - 3 * r), axis=1)
+    layers = (y, p, heavy, interface, top, rho_h, rho_l)
+    slope_h, slope_l = layer_slopes(*layers, h)
+    # the same fits without the particles within 3r of a side wall ("in"): where the
+    # walls' share of the support differs from the fluid's, it shows as the difference
+    in_h, in_l = layer_slopes(*layers, h, inner)
+    # the same fits 2h from each end of a layer ("2h": beyond the interface's ripple)
+    far_h, far_l = layer_slopes(*layers, 2 * h)
+    # the jump: the heavy layer's fit at the interface against the light layer's weight
+    sel_h = heavy & (y > h) & (y < interface - h)
+    p_int = np.polyval(np.polyfit(y[sel_h], p[sel_h], 1), interface)
+    jump = p_int / (rho_l * G * (top - interface))
+    vmax = float(np.sqrt((f["v"] ** 2).sum(axis=0)).max())
+    print(f"{method:8s} {slope_h:7.4f} {slope_l:7.4f} {in_h:8.4f} {in_l:8.4f} "
+          f"{far_h:8.4f} {far_l:8.4f} {jump:17.3f} {vmax:6.3f} {wall:8.1f}  "
+          f"{note}", flush=True)
+    return slope_h, slope_l
 
 
 def rest(methods: list[str], r: float, until: float, ratio: float, viscosity: float,
@@ -442,7 +466,12 @@ def main() -> None:
     ap.add_argument("--ratio", type=float, default=10.0)
     ap.add_argument("--settle", type=float, default=1.5)
     ap.add_argument("--average", type=float, default=0.5)
-    ap.add_argument("--jitter", type=float, default=0.1)
+    ap.add_argument("--jitter", type=float, default=0.1,
+                    help="layers: the start lattice's jitter [r]; hydrostatic: that of "
+                         "realizations 1, 2, ...")
+    ap.add_argument("--realizations", type=int, default=1,
+                    help="hydrostatic: runs per solver, the first from the lattice, the others "
+                         "jittered (--jitter); the mean and spread of their fits")
     ap.add_argument("--viscosity", type=float, default=0.01)
     ap.add_argument("--max-error", type=float, default=MAX_ERROR,
                     help="the pressure solvers' tolerance [%%] (SPlisHSPlasH's multiphase "
@@ -480,7 +509,7 @@ def main() -> None:
     if "hydrostatic" in args.study:
         hydrostatic(args.solvers, args.radius, args.settle, args.average, args.ratio,
                     args.viscosity, args.symmetric_walls, args.dim, args.depth,
-                    args.solved_walls)
+                    args.solved_walls, args.realizations, args.jitter)
     if "rest" in args.study:
         rest(args.solvers, args.radius, args.until, args.ratio, args.viscosity,
              args.symmetric_walls, args.dim, args.depth, args.solved_walls)
