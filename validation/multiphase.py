@@ -34,7 +34,10 @@ the walls, sphkit's start-up; each layer 0.3 m (``--layer``) rounded to whole ro
   interface in every wall configuration, a periodic column without side walls included, and
   a fit that starts h from the interface starts inside the ripple; validation/README.md, "The
   light layer's steepness at 1:10 is the interface's ripple"); also the pressure jump across
-  the interface against the light layer's weight rho0_light g H_light.
+  the interface against the light layer's weight rho0_light g H_light. ``--realizations K``:
+  K runs per solver, the first from the lattice, the others from the lattice jittered by up to
+  ``--jitter`` r (seeds 1, 2, ...), and the mean and standard deviation of their whole-layer
+  fits (validation/README.md, "Realizations: how far a 2D column's fit moves with its start").
 
 * ``bubbles``: light particles in a heavy column at rest (``--study bubbles``, not in the
   default list): a heavy layer 0.3 m under a light one 0.04 m, both filling the box's width;
