@@ -28,7 +28,7 @@ def _scene(method: str, materials: list[dict], blocks: list[tuple[list, list, st
            start: dict | None = None, viscosity: bool = False,
            walls: str | None = None) -> Scene:
     """``walls``: None, the scene's default wall term; "symmetric"; "mls" (the MLS boundary
-    pressure, ``solved`` false)."""
+    pressure, ``solved`` false); "density" (every static wall particle solved)."""
     mats = []
     for m in materials:
         m = dict(m)
@@ -43,7 +43,8 @@ def _scene(method: str, materials: list[dict], blocks: list[tuple[list, list, st
                           "pressure": pressure, "time": {"dt_max": 0.004},
                           **({"start": start} if start else {}),
                           **({"boundary": {"symmetric": True}} if walls == "symmetric"
-                             else {"boundary": {"solved": False}} if walls == "mls" else {})},
+                             else {"boundary": {"solved": False}} if walls == "mls"
+                             else {"boundary": {"solved": walls}} if walls else {})},
         "materials": mats,
         "fluid_blocks": [{"start": s, "end": e, "material": k} for s, e, k in blocks],
         "boxes": [{"min": [0.0, 0.0], "max": [0.5, 1.0]}],  # the blocks fill its width
@@ -434,13 +435,13 @@ def _ppe_matrix(sim: Simulation) -> tuple[np.ndarray, np.ndarray]:
     return A, g.diagonal()
 
 
-@pytest.mark.parametrize("walls", ["symmetric", None, "mls"])
-def test_two_phase_ppe_is_positive_with_a_consistent_diagonal(walls: str | None) -> None:
+@pytest.mark.parametrize("walls", ["symmetric", "density", "mls"])
+def test_two_phase_ppe_is_positive_with_a_consistent_diagonal(walls: str) -> None:
     """Heavy (1000) over light (100) between walls, with the symmetric wall term
-    (configuration.boundary.symmetric) or with the default of fluids of different rest density
-    (the solved walls at density level, whose fluid rows see the walls through the same
-    symmetric term ``V_b k_i``; the walls' own pressures are further unknowns, not in this fluid
-    operator): the operator of the Jacobi PPE solvers (DFSPH, IISPH, PCISPH) in the pressure
+    (configuration.boundary.symmetric) or with every static wall particle solved
+    (``solved: "density"``, whose fluid rows see the walls through the same symmetric term
+    ``V_b k_i``; the walls' own pressures are further unknowns, not in this fluid operator):
+    the operator of the Jacobi PPE solvers (DFSPH, IISPH, PCISPH) in the pressure
     p = rho0_i q_i is symmetric positive semidefinite (-A = D C^-1 D^T for equal rest volumes),
     and the Jacobi diagonal D_i is its diagonal. Tolerances: symmetry 2 % of the largest entry
     (the rest volumes of the start-up lattice differ by up to 1.5 %), diagonal 2 % (the same),
@@ -449,12 +450,14 @@ def test_two_phase_ppe_is_positive_with_a_consistent_diagonal(walls: str | None)
     -0.0025 after 5 steps of a 1:10 column) and the Jacobi iterations diverged along it: DFSPH
     and IISPH blew up at 1.1-1.6 s. The MLS case (``solved`` false) is checked to stay
     asymmetric (in this smaller box its smallest eigenvalue is still positive: 0.015 with each
-    phase's MLS fit on its own, 0.024 with one fit over both phases)."""
+    phase's MLS fit on its own, 0.024 with one fit over both phases). The default,
+    ``"stratified"``, solves the wall particles beside the light fluid below the heavy one and
+    takes MLS at the others (test_stratified_walls_solve_where_light_lies_below_heavy)."""
     sc = _scene("dfsph", [{"id": "heavy", "density0": 1000.0},
                           {"id": "light", "density0": 100.0}],
                 [(BLOCKS[0][0], BLOCKS[0][1], "light"), (BLOCKS[1][0], BLOCKS[1][1], "heavy")],
                 walls=walls)
-    assert sc.configuration.boundary.solved == (False if walls else "density")
+    assert sc.configuration.boundary.solved == (False if walls != "density" else "density")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         sim = Simulation(sc)
@@ -470,6 +473,43 @@ def test_two_phase_ppe_is_positive_with_a_consistent_diagonal(walls: str | None)
     assert np.abs(Ap - Ap.T).max() < 0.02 * np.abs(Ap).max()
     np.testing.assert_allclose(np.diag(A), D, rtol=0.02)
     assert ev.real.min() > -1e-9
+
+
+def test_stratified_walls_solve_where_light_lies_below_heavy() -> None:
+    """The default wall term of fluids whose rest densities differ by more than a factor 4,
+    ``solved: "stratified"``: a wall particle's pressure is solved only where a lighter fluid
+    lies below the heaviest among its fluid neighbours; elsewhere the MLS value. Light over
+    heavy (at rest) gives no rows; heavy over light gives rows on the side walls at the
+    interface's height (within a kernel support) and none elsewhere, and every row has a light
+    neighbour lower than a heavy one (counted from the step's lists here)."""
+    mats = [{"id": "heavy", "density0": 1000.0}, {"id": "light", "density0": 100.0}]
+    for lower, upper, rows_expected in (("heavy", "light", False), ("light", "heavy", True)):
+        sc = _scene("dfsph", mats, [(BLOCKS[0][0], BLOCKS[0][1], lower),
+                                    (BLOCKS[1][0], BLOCKS[1][1], upper)])
+        assert sc.configuration.boundary.solved == "stratified"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sim = Simulation(sc)
+        sim.step()
+        st = sim.state
+        use = st.coupling.solved_walls(st)
+        if not rows_expected:
+            assert not use.any(), int(use.sum())
+            continue
+        bx = np.asarray(st.boundary["x"])
+        assert use.sum() >= 2  # both side walls
+        interface = BLOCKS[0][1][1]
+        assert np.abs(bx[1, use] - interface).max() < st.h
+        assert bx[0, use].min() < 0.0 and bx[0, use].max() > BLOCKS[0][1][0]  # left and right
+        # each row, from the lists: a light neighbour below a heavy one
+        f = st.fluid
+        boff, bidx = st.nl_fb.offsets, st.nl_fb.indices
+        owner = np.repeat(np.arange(f.n), np.diff(boff))
+        y = np.asarray(f["x"])[1][owner]
+        light = np.asarray(f["rho0"])[owner] < 1000.0
+        for b in np.flatnonzero(use):
+            here = bidx == b
+            assert y[here & light].min() < y[here & ~light].max()
 
 
 def test_rest_arrays_are_held_within_a_step_only() -> None:

@@ -155,20 +155,22 @@ def test_solved_walls_exclude_the_symmetric_term() -> None:
 
 @pytest.mark.parametrize("value", ["densty", 3, float("nan"), None, [True]])
 def test_solved_walls_refuse_other_values(value: object) -> None:
-    """``configuration.boundary.solved`` takes true/false, "velocity" or "density"; anything
-    else is refused naming the field and the two words (the CLI's exit 2)."""
-    with pytest.raises(ValidationError, match=r"boundary\.solved[\s\S]*'velocity' or 'density'"):
+    """``configuration.boundary.solved`` takes true/false, "velocity", "density" or
+    "stratified"; anything else is refused naming the field and the words (the CLI's exit 2)."""
+    with pytest.raises(ValidationError,
+                       match=r"boundary\.solved[\s\S]*'velocity', 'density' or 'stratified'"):
         Scene.model_validate({"configuration": {"dim": 2, "boundary": {"solved": value}},
                               "materials": [{"id": "fluid"}]})
 
 
 @pytest.mark.parametrize(("solver", "light", "boundary", "expected"), [
-    ("iisph", 100.0, {}, "density"),  # rest densities 1:10: solved by default
-    ("dfsph", 200.0, {}, "density"),  # 1:5
+    ("iisph", 100.0, {}, "stratified"),  # rest densities 1:10: solved by default
+    ("dfsph", 200.0, {}, "stratified"),  # 1:5
     ("dfsph", 250.0, {}, False),  # 1:4, where MLS was measured stable: kept
     ("iisph", 500.0, {}, False),  # 1:2 (the Rayleigh-Taylor validation's)
     ("dfsph", 1000.0, {}, False),  # two materials of one rest density: one fluid
-    ("pcisph", 100.0, {}, "density"),
+    ("pcisph", 100.0, {}, "stratified"),
+    ("iisph", 100.0, {"solved": "density"}, "density"),  # every static wall particle
     ("wcsph", 100.0, {}, False),  # WCSPH does not solve the walls
     ("dfsph", 100.0, {"solved": False}, False),  # said: kept
     ("iisph", 100.0, {"solved": "velocity"}, "velocity"),
@@ -178,7 +180,7 @@ def test_solved_walls_refuse_other_values(value: object) -> None:
 def test_several_rest_densities_solve_the_walls_by_default(solver: str, light: float,
                                                            boundary: dict,
                                                            expected: bool | str) -> None:
-    """``configuration.boundary.solved`` left out: ``"density"`` where the scene's fluids'
+    """``configuration.boundary.solved`` left out: ``"stratified"`` where the scene's fluids'
     rest densities differ by more than a factor 4 (``SOLVED_WALLS_RATIO``), with boundary
     particles and IISPH, DFSPH or PCISPH (validation/README.md, "Several rest densities: the
     solved walls by default"); else false; a value given is kept. The unused material (10 kg/m^3)

@@ -24,8 +24,9 @@ if TYPE_CHECKING:
     from sphkit.core.state import SimState
 
 
-#: ``solved: "density"``: a wall particle holds its start value only where every fluid
-#: neighbour had a filled kernel then, ``rho / rho0 >= 1 - COVERED_TOLERANCE``
+#: ``solved: "density"`` (and its rows of ``"stratified"``): a wall particle holds its start
+#: value only where every fluid neighbour had a filled kernel then, ``rho / rho0 >= 1 -
+#: COVERED_TOLERANCE``
 #: (:meth:`BoundaryCoupling.wall_rest`). The start-up's masses make filled kernels exact to
 #: 1e-6 (:data:`sphkit.world.startup.MASS_TOLERANCE`); a free surface's top row lacks 10-20 %.
 COVERED_TOLERANCE = 1e-3
@@ -53,15 +54,22 @@ class BoundaryCoupling:
                  model: BoundaryModel | None = None, symmetric: bool = False,
                  solved: bool | str = False) -> None:
         """``solved``: the scene's ``configuration.boundary.solved`` (False; True or
-        ``"velocity"``; ``"density"``: see :meth:`solved_walls` and :meth:`wall_rest`)."""
+        ``"velocity"``; ``"density"`` and ``"stratified"``: see :meth:`solved_walls` and
+        :meth:`wall_rest`)."""
         self.pressure = pressure
         #: the symmetric boundary term ``V_b k_i`` in the PPE solvers (see :meth:`mirror`)
         self.symmetric = symmetric
         #: the static walls' pressures are unknowns of the PPE (:meth:`solved_walls`)
         self.solved = bool(solved)
-        #: ``solved: "density"``: the density solves hold the fluid's density at each wall
-        #: particle at its rest value (:meth:`wall_rest`), not only its rate
-        self.density_walls = solved == "density"
+        #: ``solved: "density"`` or ``"stratified"``: the density solves hold the fluid's
+        #: density at each solved wall particle at its rest value (:meth:`wall_rest`), not only
+        #: its rate
+        self.density_walls = solved in ("density", "stratified")
+        #: ``solved: "stratified"``: only the wall particles beside a lighter fluid below a
+        #: heavier one are solved, the others take the boundary pressure model's value
+        #: (:meth:`solved_walls`)
+        self.stratified = solved == "stratified"
+        self._rows: tuple[int, int, np.ndarray] | None = None  # the step's stratified rows
         self.moving = moving
         self.model = model
         self._still = np.zeros((0, 0))
@@ -132,7 +140,10 @@ class BoundaryCoupling:
         if self.symmetric:  # the symmetric term (see below)
             return arrays.zeros(b.n, b.dtype, like=b["x"])
         m = self._mirror_field(state)
-        if self.solved:  # the static walls' own pressure k_b instead (solved_walls)
+        if self.solved:  # the walls' own k_b instead (solved_walls); with "stratified" the
+            # model's k_b at the others, whose share the diagonals leave out (with it PCISPH's
+            # 1:10 overturn blew up at 1.63 s; validation/README.md, "Solved walls where the
+            # fluid is stratified")
             return np.where(self.solved_walls(state), 0.0, m).astype(b.dtype)
         if diagonal and self.pressure is not None:  # m + share, where the fields are
             m = arrays.added(m, self.pressure.diagonal_mirror())
@@ -148,7 +159,8 @@ class BoundaryCoupling:
     def boundary_kappa(self, state: SimState) -> BoundaryKappa:
         """The extrapolation ``k -> k_b`` of this step's pressure fields (see
         :class:`BoundaryKappa`)."""
-        model = None if self.symmetric or self.solved else self.pressure
+        model = (None if self.symmetric or (self.solved and not self.stratified)
+                 else self.pressure)
         return BoundaryKappa(model, state, self._kb_array(model, state))
 
     def _kb_array(self, model: BoundaryPressure | None, state: SimState) -> np.ndarray:
@@ -208,12 +220,48 @@ class BoundaryCoupling:
         itself at its rest value in the density solves (:meth:`wall_rest`); it does not make
         the split of the support between ``k_b`` and the fluid's pressure unique
         (validation/README.md, "Solved walls at density level")."""
+        static = self._static_walls(state)
+        return static & self._stratified_rows(state) if self.stratified else static
+
+    def _static_walls(self, state: SimState) -> np.ndarray:
+        """The boundary particles that may be solved: the static walls, not rigid bodies (all
+        False when the walls are not solved)."""
         b = state.boundary
         if not self.solved:
             return np.zeros(b.n, dtype=np.bool_)
         if "rigid_body" in b.specs and b["rigid_body"].shape[0] == b.n:
             return b["rigid_body"] == 0
         return np.ones(b.n, dtype=np.bool_)
+
+    def _stratified_rows(self, state: SimState) -> np.ndarray:
+        """``solved: "stratified"``: the boundary particles among whose fluid neighbours a
+        particle of a lighter fluid lies lower (against gravity) than one of the heaviest
+        fluid, i.e. where the fluid beside the wall is stratified the unstable way (computed
+        once per step and neighbour list). There the walls' rows keep a heavy-over-light
+        overturn stable, where the extrapolated (MLS) pressure threw light particles up the
+        walls; elsewhere the MLS pressure carries a column at rest without the rows' excess
+        beside 2D side walls (validation/README.md, "Solved walls where the fluid is
+        stratified")."""
+        b, f = state.boundary, state.fluid
+        boff, bidx = state.nl_fb.offsets, state.nl_fb.indices
+        key = (state.step, id(bidx))
+        if self._rows is not None and self._rows[:2] == key and self._rows[2].shape[0] == b.n:
+            return self._rows[2]
+        out = np.zeros(b.n, dtype=np.bool_)
+        if f.n and boff.shape[0] == f.n + 1 and bidx.shape[0]:
+            rho0 = np.asarray(f["rho0"])
+            rows = np.repeat(np.arange(f.n), np.diff(boff))
+            light = (rho0 < rho0.max())[rows]
+            g = np.asarray(state.gravity, dtype=np.float64)
+            up = -g / max(float(np.linalg.norm(g)), 1e-300)
+            height = (up @ np.asarray(f["x"], dtype=np.float64))[rows]
+            top_heavy = np.full(b.n, -np.inf)
+            low_light = np.full(b.n, np.inf)
+            np.maximum.at(top_heavy, bidx[~light], height[~light])
+            np.minimum.at(low_light, bidx[light], height[light])
+            out = low_light < top_heavy
+        self._rows = (*key, out)
+        return out
 
     def wall_rest(self, state: SimState) -> np.ndarray:
         """The rest value of the fluid's normalized density ``rho_hat_b = sum_f V_f W_fb`` at
@@ -223,6 +271,10 @@ class BoundaryCoupling:
         a filled kernel (``rho / rho0 >= 1 -`` :data:`COVERED_TOLERANCE`) --, else -2 (the
         wall particle keeps the velocity-level constraint, that of ``solved: true``); -1 where
         not yet computed. Kept in the boundary field ``wall_rest`` (so checkpoints keep it).
+        With ``solved: "stratified"`` a wall particle that becomes a row later in the flow
+        takes its value at that solve (where it is covered then): the start value, held from
+        a later moment, pushed the fluid there at once and PCISPH's 1:10 overturn blew up at
+        1.69 s (validation/README.md, "Solved walls where the fluid is stratified").
 
         Why the start value: the start-up sets every fluid mass so that its density is exactly
         its start density (rest density for the incompressible solvers) with the walls as

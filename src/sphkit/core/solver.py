@@ -26,6 +26,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -40,6 +41,9 @@ from sphkit.core.ppe import (
 )
 from sphkit.core.solved_walls import wall_diagonal, wall_sums, wall_update
 from sphkit.core.state import SimState
+
+if TYPE_CHECKING:
+    from sphkit.core.coupling import BoundaryKappa
 
 log = logging.getLogger("sphkit")
 
@@ -407,6 +411,23 @@ class WallRows:
         return cls(use, stored, Vf, D, np.empty(b.n, dtype=f.dtype))
 
 
+def solved_kappa(model_kb: BoundaryKappa, use: np.ndarray,
+                 wk: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """The boundary values ``k_b`` of a solve with solved walls: the walls' own ``wk`` where
+    they are solved (``use``) and, with ``solved: "stratified"``, the boundary pressure model's
+    extrapolation of the fluid's field at the others (every phase's row of a per-phase model);
+    ``wk`` alone where the model is off (every static wall solved)."""
+    if model_kb.model is None:
+        return lambda _k: wk
+
+    def kb(k: np.ndarray) -> np.ndarray:
+        out = model_kb(k)
+        out[..., use] = wk[use]
+        return out
+
+    return kb
+
+
 #: a periodic domain counts as filled (closed) where the fluid's rest volume is at least this
 #: share of the period's (a free surface in a doubly periodic box leaves more room)
 FILLED = 0.95
@@ -500,8 +521,7 @@ def jacobi_ppe(state: SimState, control: IterationControl, q: np.ndarray, w: np.
         wap = np.empty(b.n, dtype=f.dtype)
         still = np.zeros_like(b["x"])  # the walls' accelerations: pressure does not move them
 
-        def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the solved walls' own values)
-            return wk
+        kb = solved_kappa(kb, use, wk)  # the solved walls' own values (and the model's)
     # no clamping: a finite bound (the passes are compiled with fast math's no-infinities flag)
     lo = 0.0 if clamp else -1e300
 

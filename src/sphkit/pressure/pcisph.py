@@ -159,6 +159,7 @@ from sphkit.core.solver import (
     StepBound,
     StepBounded,
     WallRows,
+    solved_kappa,
 )
 from sphkit.core.state import SimState
 from sphkit.core.timestep import max_speed
@@ -335,7 +336,7 @@ class PCISPH(StepBounded, PressureSolver):
         mirror = coupling.mirror(state)
         kb = coupling.boundary_kappa(state)
         kb_phase = kb.phase  # several rest densities: the MLS values of each phase (None
-        # with solved walls, whose k_b has one value per wall particle)
+        # with every static wall solved, whose k_b has one value per wall particle)
         g = PairGradients.of(state)  # a_p is evaluated at the step-start positions every sweep
         rest = state.rest()  # several fluids: the pressure sums weigh p~_j by rho0_j / rho0_i
         pc = p if rest.uniform else arrays.empty_like(p)
@@ -362,8 +363,7 @@ class PCISPH(StepBounded, PressureSolver):
             zero = np.zeros(b.n, dtype=f.dtype)
             L = period_arg(state.pair_period)
 
-            def kb(_k: np.ndarray) -> np.ndarray:  # noqa: F811 (the walls' own values)
-                return wk
+            kb = solved_kappa(kb, use, wk)  # the walls' own values (and the model's)
 
         def sweep(_k: int) -> tuple[float, float]:
             launch(predict_body, n, x, v, a, ap, float(dt), int(state.dim), dx, xp)

@@ -975,7 +975,7 @@ class BoundaryConfig(_Model):
         "until it leaks; validation/README.md, \"WCSPH's walls by default: the energy they "
         "pump\")",
     )
-    solved: bool | Literal["velocity", "density"] = Field(
+    solved: bool | Literal["velocity", "density", "stratified"] = Field(
         False, description="the static wall particles (boxes, static meshes) get a pressure of "
         "their own that IISPH and DFSPH solve for in the same Jacobi iteration as the fluid's "
         "and PCISPH in the same predict-correct sweep, so that the fluid's density at each wall "
@@ -987,12 +987,16 @@ class BoundaryConfig(_Model):
         "(velocity level); 'density': the density solves hold the density itself at its start "
         "value at every wall particle whose fluid neighbours all had full kernels at the start "
         "(the others, and DFSPH's divergence solve, keep the rate); validation/README.md, "
-        "'Solved walls at density level'. Left out: 'density' in a scene whose fluids' rest "
-        "densities differ by more than a factor 4, with akinci2012 and a pressure solver that "
-        "solves the walls (iisph, dfsph, pcisph; validation/README.md, 'Several rest densities: "
-        "the solved walls by default': they keep heavy-over-light overturns stable; a column "
-        "at rest is more accurate with false, the MLS term fitted per phase, 'MLS wall "
-        "pressure per phase'), else false",
+        "'Solved walls at density level'. 'stratified': as 'density', but only the wall "
+        "particles among whose fluid neighbours a lighter fluid lies below the heaviest one "
+        "(each step); the others take the boundary pressure model's value (MLS per phase): "
+        "in 2D the rows of every wall particle hold the fluid column beside a side wall and "
+        "steepen a resting column by 1-6 %, where they are needed only to keep a heavy-over-"
+        "light overturn stable (validation/README.md, 'Solved walls where the fluid is "
+        "stratified'). Left out: 'stratified' in a scene whose fluids' rest densities differ "
+        "by more than a factor 4, with akinci2012 and a pressure solver that solves the walls "
+        "(iisph, dfsph, pcisph; validation/README.md, 'Several rest densities: the solved "
+        "walls by default'), else false",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
@@ -1402,9 +1406,11 @@ class Scene(_Model):
     def _several_densities_walls(self) -> Scene:
         """``boundary.solved`` left out, in a scene whose fluids' rest densities differ by more
         than :data:`SOLVED_WALLS_RATIO`, with boundary particles and a pressure solver that
-        solves the walls: ``"density"`` (the MLS wall term made a light fluid under a heavy
+        solves the walls: ``"stratified"`` (the MLS wall term made a light fluid under a heavy
         one blow up from 1:6 on with PCISPH, from 1:8 with IISPH and DFSPH; measured in
-        validation/README.md, "Several rest densities: the solved walls by default")."""
+        validation/README.md, "Several rest densities: the solved walls by default"; the rows
+        only where the fluid beside a wall is stratified the unstable way: "Solved walls where
+        the fluid is stratified")."""
         cfg = self.configuration
         b = cfg.boundary
         used = self.fluid_material_ids()
@@ -1412,7 +1418,7 @@ class Scene(_Model):
         if (b._solved_default and not b.symmetric and b.method == "akinci2012" and rest
                 and max(rest) > SOLVED_WALLS_RATIO * min(rest)
                 and cfg.pressure.method in registry.with_capability("pressure", "solved_walls")):
-            b.solved = "density"
+            b.solved = "stratified"
         return self
 
     @model_validator(mode="after")
