@@ -219,7 +219,9 @@ class BoundaryCoupling:
         level) and its Jacobi update are sphkit's. ``solved: "density"`` holds the density
         itself at its rest value in the density solves (:meth:`wall_rest`); it does not make
         the split of the support between ``k_b`` and the fluid's pressure unique
-        (validation/README.md, "Solved walls at density level")."""
+        (validation/README.md, "Solved walls at density level"). ``solved: "stratified"``
+        solves only the rows of :meth:`_stratified_rows` (the others keep the boundary
+        pressure model's ``k_b``, :func:`sphkit.core.solver.solved_kappa`)."""
         static = self._static_walls(state)
         return static & self._stratified_rows(state) if self.stratified else static
 

@@ -64,21 +64,22 @@ SPlisHSPlasH's final ``v = v_last + dt (a + a_p)``, ``x = x_last + dt v``.
 The reported pressure is ``p = rho0 p~`` [Pa].
 
 **Solved walls** (scene ``configuration.boundary.solved``; the default where the fluids' rest
-densities differ by more than a factor 4, :mod:`sphkit.scene.schema`): each static wall
-particle b carries its own ``k_b >= 0`` (in the boundary term ``-V_b (p~_i + k_b) grad W_ib``
-instead of the MLS or mirrored value), updated in every sweep after the fluid's pressures from
-the wall's predicted number density ``rho_hat*_b = sum_f V_f W(x*_f - x_b)``:
-``k_b <- min(max(k_b + 0.5 (rho_hat*_b - rho_target_b) / (dt^2 D_b), 0), cap max_f k_f)``
-(:func:`sphkit.core.solved_walls.wall_update` with the walls' Jacobi scale D_b of
-:func:`sphkit.core.solved_walls.wall_diagonal`, as IISPH's and DFSPH's solved walls), the target the
-wall's density at the step start (``true``/``"velocity"``: its rate held) or, with
-``"density"``, its start-up value where the wall was covered
-(:meth:`sphkit.core.coupling.BoundaryCoupling.wall_rest`); warm-started from the last step's
-``k_b`` (the fluid's ``p~`` starts from zero, as in the paper). The convergence test stays the
-fluid's. Why: with the MLS term a light fluid under a heavy one (1:6 to 1:10) threw single light
-particles up the side walls at 8-15 m/s until a solve failed (2D unstable at 1.4 s, 3D at
-0.41 s); with the solved walls those columns run (validation/README.md, "Several rest
-densities: the solved walls by default").
+densities differ by more than a factor 4, :mod:`sphkit.scene.schema`): each static wall particle b
+carries its own ``k_b >= 0`` (in the boundary term ``-V_b (p~_i + k_b) grad W_ib`` instead of the
+MLS or mirrored value), updated in every sweep after the fluid's pressures from the wall's predicted
+number density ``rho_hat*_b = sum_f V_f W(x*_f - x_b)``: ``k_b <- min(max(k_b + 0.5 (rho_hat*_b -
+rho_target_b) / (dt^2 D_b), 0), cap max_f k_f)`` (:func:`sphkit.core.solved_walls.wall_update` with
+the walls' Jacobi scale D_b of :func:`sphkit.core.solved_walls.wall_diagonal`, as IISPH's and
+DFSPH's solved walls), the target the wall's density at the step start (``true``/``"velocity"``: its
+rate held) or, with ``"density"``, its start-up value where the wall was covered
+(:meth:`sphkit.core.coupling.BoundaryCoupling.wall_rest`; ``"stratified"`` solves only the wall
+particles beside a lighter fluid below the heaviest one, each holding its value of the solve that
+first made it a row, and takes the MLS value elsewhere); warm-started from the last step's ``k_b``
+(the fluid's ``p~`` starts from zero, as in the paper). The convergence test stays the fluid's. Why:
+with the MLS term a light fluid under a heavy one (1:6 to 1:10) threw single light particles up the
+side walls at 8-15 m/s until a solve failed (2D unstable at 1.4 s, 3D at 0.41 s); with the solved
+walls those columns run (validation/README.md, "Several rest densities: the solved walls by
+default").
 
 Several fluids (``p~_i = p_i / rho0_i``, neighbour weight ``rho0_j / rho0_i``): the factor is
 per particle, ``delta D_i(ratio 1) / D_i(ratios)`` (:func:`phase_factor`), the template's step
