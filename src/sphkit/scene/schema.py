@@ -35,6 +35,12 @@ Vec = list[float]
 #: solved walls changed (validation/README.md, "Several rest densities: the solved walls by
 #: default")
 SOLVED_WALLS_RATIO = 4.0
+#: up to this ratio the default solved walls are ``"stratified"`` (rows only where a lighter
+#: fluid lies below a heavier one at a wall, MLS elsewhere: the resting columns' accuracy),
+#: above it ``"density"`` (every static wall particle: 2D heavy-over-light overturns ran at 1:50
+#: with PCISPH, IISPH and DFSPH, where the stratified rows ran PCISPH to 1:10, DFSPH to 1:20
+#: and IISPH to 1:30; validation/README.md, "Solved walls where the fluid is stratified")
+STRATIFIED_WALLS_RATIO = 10.0
 #: WCSPH's walls take the symmetric term by default (``Scene._inviscid_wcsph_walls``) where the
 #: smallest kinematic viscosity of a scene's fluids is below this rate times (2r)^2 [1/s]: the
 #: mirrored and MLS wall terms are not the derivative of the elastic energy and pump energy
@@ -994,9 +1000,10 @@ class BoundaryConfig(_Model):
         "steepen a resting column by 1-6 %, where they are needed only to keep a heavy-over-"
         "light overturn stable (validation/README.md, 'Solved walls where the fluid is "
         "stratified'). Left out: 'stratified' in a scene whose fluids' rest densities differ "
-        "by more than a factor 4, with akinci2012 and a pressure solver that solves the walls "
-        "(iisph, dfsph, pcisph; validation/README.md, 'Several rest densities: the solved "
-        "walls by default'), else false",
+        "by more than a factor 4 and at most 10, 'density' beyond 10 (every wall row keeps "
+        "overturns stable to 1:50, the stratified rows to 1:10-1:30), with akinci2012 and a "
+        "pressure solver that solves the walls (iisph, dfsph, pcisph; validation/README.md, "
+        "'Several rest densities: the solved walls by default'), else false",
     )
     map_resolution: list[int] | None = Field(
         None, description="maps: default grid cells per axis; None: cells of about one support "
@@ -1406,11 +1413,12 @@ class Scene(_Model):
     def _several_densities_walls(self) -> Scene:
         """``boundary.solved`` left out, in a scene whose fluids' rest densities differ by more
         than :data:`SOLVED_WALLS_RATIO`, with boundary particles and a pressure solver that
-        solves the walls: ``"stratified"`` (the MLS wall term made a light fluid under a heavy
-        one blow up from 1:6 on with PCISPH, from 1:8 with IISPH and DFSPH; measured in
-        validation/README.md, "Several rest densities: the solved walls by default"; the rows
-        only where the fluid beside a wall is stratified the unstable way: "Solved walls where
-        the fluid is stratified")."""
+        solves the walls: ``"stratified"`` up to :data:`STRATIFIED_WALLS_RATIO`, ``"density"``
+        beyond (the MLS wall term made a light fluid under a heavy one blow up from 1:6 on
+        with PCISPH, from 1:8 with IISPH and DFSPH; measured in validation/README.md, "Several
+        rest densities: the solved walls by default"; the rows only where the fluid beside a
+        wall is stratified the unstable way, and every wall row beyond 1:10: "Solved walls
+        where the fluid is stratified")."""
         cfg = self.configuration
         b = cfg.boundary
         used = self.fluid_material_ids()
@@ -1418,7 +1426,8 @@ class Scene(_Model):
         if (b._solved_default and not b.symmetric and b.method == "akinci2012" and rest
                 and max(rest) > SOLVED_WALLS_RATIO * min(rest)
                 and cfg.pressure.method in registry.with_capability("pressure", "solved_walls")):
-            b.solved = "stratified"
+            b.solved = ("stratified" if max(rest) <= STRATIFIED_WALLS_RATIO * min(rest)
+                        else "density")
         return self
 
     @model_validator(mode="after")
