@@ -512,6 +512,25 @@ def test_stratified_walls_solve_where_light_lies_below_heavy() -> None:
             assert y[here & light].min() < y[here & ~light].max()
 
 
+def test_stratified_walls_resume_bit_for_bit(tmp_path: Path) -> None:
+    """A heavy-over-light column with the stratified walls (DFSPH, rows switching on as the
+    overturn starts) continued from a checkpoint repeats the uninterrupted run bit for bit: the
+    rows are recomputed from the step's lists, and the rest values and warm starts of the rows
+    are boundary fields that the checkpoint keeps."""
+    from _restart import continued_from_checkpoint
+
+    mats = [{"id": "heavy", "density0": 1000.0}, {"id": "light", "density0": 100.0}]
+    sc = _scene("dfsph", mats, [(BLOCKS[0][0], BLOCKS[0][1], "light"),
+                                (BLOCKS[1][0], BLOCKS[1][1], "heavy")])
+    assert sc.configuration.boundary.solved == "stratified"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(sc)
+        sim.run(until=0.3)
+        assert sim.state.coupling.solved_walls(sim.state).any()
+        continued_from_checkpoint(sim, tmp_path, 100)
+
+
 def test_rest_arrays_are_held_within_a_step_only() -> None:
     """The step holds the rest arrays from its densities to the end of its pressure solve
     (``SimState.hold_rest``: made once, not at each of the solvers' calls); outside that window

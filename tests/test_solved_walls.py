@@ -169,7 +169,7 @@ def test_solved_walls_refuse_other_values(value: object) -> None:
     ("dfsph", 250.0, {}, False),  # 1:4, where MLS was measured stable: kept
     ("iisph", 500.0, {}, False),  # 1:2 (the Rayleigh-Taylor validation's)
     ("dfsph", 1000.0, {}, False),  # two materials of one rest density: one fluid
-    ("pcisph", 100.0, {}, "stratified"),
+    ("pcisph", 100.0, {}, "density"),  # PCISPH keeps every wall row
     ("iisph", 100.0, {"solved": "density"}, "density"),  # every static wall particle
     ("dfsph", 50.0, {}, "density"),  # 1:20: every wall row (the overturns' reach)
     ("wcsph", 100.0, {}, False),  # WCSPH does not solve the walls
@@ -182,11 +182,11 @@ def test_several_rest_densities_solve_the_walls_by_default(solver: str, light: f
                                                            boundary: dict,
                                                            expected: bool | str) -> None:
     """``configuration.boundary.solved`` left out: ``"stratified"`` where the scene's fluids' rest
-    densities differ by more than a factor 4 and at most 10, ``"density"`` beyond
-    (``SOLVED_WALLS_RATIO``, ``STRATIFIED_WALLS_RATIO``), with boundary particles and IISPH,
-    DFSPH or PCISPH (validation/README.md, "Several rest densities: the solved walls by
-    default"); else false; a value given is kept. The unused material (10 kg/m^3) does not
-    count."""
+    densities differ by more than a factor 4 and at most 10 with IISPH or DFSPH, ``"density"``
+    beyond and with PCISPH (``SOLVED_WALLS_RATIO``, ``STRATIFIED_WALLS_RATIO``), with boundary
+    particles and IISPH, DFSPH or PCISPH (validation/README.md, "Several rest densities: the
+    solved walls by default"); else false; a value given is kept. The unused material (10
+    kg/m^3) does not count."""
     sc = Scene.model_validate({
         "configuration": {"dim": 2, "particle_radius": R, "pressure": {"method": solver},
                           "boundary": boundary},

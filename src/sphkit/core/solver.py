@@ -419,11 +419,16 @@ def solved_kappa(model_kb: BoundaryKappa, use: np.ndarray,
     ``wk`` alone where the model is off (every static wall solved)."""
     if model_kb.model is None:
         return lambda _k: wk
+    out: list[np.ndarray] = []  # the mixed values, apart from the model's own array, which it
+    # keeps from solve to solve as it wrote it
 
     def kb(k: np.ndarray) -> np.ndarray:
-        out = model_kb(k)
-        out[..., use] = wk[use]
-        return out
+        model = model_kb(k)
+        if not out or out[0].shape != model.shape:
+            out[:] = [np.empty_like(model)]
+        np.copyto(out[0], model)
+        out[0][..., use] = wk[use]
+        return out[0]
 
     return kb
 
