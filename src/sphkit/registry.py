@@ -27,6 +27,12 @@ Capabilities (keyword flags of :func:`register`):
   with the fluid's (``configuration.boundary.solved``; the others then use the symmetric wall
   term); scenes whose fluids' rest densities differ by more than a factor 4 get it by
   default (the scene schema's ``Scene._several_densities_walls``);
+* ``stratified_walls``: a ``solved_walls`` solver whose default solved walls are
+  ``"stratified"`` (rows only where a lighter fluid lies below a heavier one at a wall, MLS
+  elsewhere) up to the schema's ``STRATIFIED_WALLS_RATIO``; the others solve every static wall
+  particle (PCISPH: with the stratified rows its heavy-over-light column blew up at 1:20 and,
+  at r = 2 cm and 0.01 %, at 1:10 at 0.27 s; validation/README.md, "Solved walls where the
+  fluid is stratified");
 * ``gpu``: its part of the time step runs on ``--device cuda`` with the fields resident on the
   device (DFSPH, IISPH, WCSPH, Akinci boundary particles with mirrored boundary pressure, the
   standard, XSPH and Weiler 2018 viscosities, Akinci 2013 surface tension and micropolar
@@ -74,7 +80,7 @@ INTERFACE_ROLES: tuple[str, ...] = ("interface_viscosity", "interface_tension")
 SOLID_ROLES: tuple[str, ...] = ("elasticity",)
 #: the capability flags a method may have
 CAPABILITIES: tuple[str, ...] = ("periodic", "periodic_y", "dynamic_bodies", "multiphase",
-                                  "gpu", "solved_walls")
+                                  "gpu", "solved_walls", "stratified_walls")
 #: the devices a simulation runs on (``Simulation(device=...)``, ``sphkit run --device``):
 #: ``auto`` takes the GPU when one is found and every method of the scene has ``gpu``
 DEVICE_CHOICES: tuple[str, ...] = ("auto", "cpu", "cuda")
@@ -128,7 +134,8 @@ _METHODS: dict[str, dict[str, Method]] = {role: {} for role in ROLES}
 def register(role: str, name: str, target: str | None, *, paper: str, summary: str,
              splishsplash: int | None = None, periodic: bool = False, periodic_y: bool = False,
              dynamic_bodies: bool = False, multiphase: bool = False, gpu: bool = False,
-             solved_walls: bool = False, boundary: tuple[str, ...] = (), kind: str = "",
+             solved_walls: bool = False, stratified_walls: bool = False,
+             boundary: tuple[str, ...] = (), kind: str = "",
              boundary_pressure: str = "", boundary_pressure_moving: str = "") -> Method:
     """Register a method (see the module docstring); returns its entry."""
     if role not in _METHODS:
@@ -141,7 +148,8 @@ def register(role: str, name: str, target: str | None, *, paper: str, summary: s
     caps = frozenset(c for c, on in (("periodic", periodic), ("periodic_y", periodic_y),
                                      ("dynamic_bodies", dynamic_bodies),
                                      ("multiphase", multiphase), ("gpu", gpu),
-                                     ("solved_walls", solved_walls)) if on)
+                                     ("solved_walls", solved_walls),
+                                     ("stratified_walls", stratified_walls)) if on)
     if role == "boundary" and not boundary_pressure:
         raise ValueError(f"registry: boundary model {name!r} names no default boundary_pressure")
     m = Method(role, name, target, paper, summary, splishsplash, caps, tuple(boundary), kind,
@@ -209,12 +217,13 @@ register("pressure", "pbf", "sphkit.pressure.pbf:PBF", splishsplash=2,
 register("pressure", "iisph", "sphkit.pressure.iisph:IISPH", splishsplash=3,
          paper="Ihmsen et al. 2014, Implicit incompressible SPH",
          summary="relaxed Jacobi on the pressure Poisson equation", periodic=True,
-         periodic_y=True, dynamic_bodies=True, multiphase=True, gpu=True, solved_walls=True)
+         periodic_y=True, dynamic_bodies=True, multiphase=True, gpu=True, solved_walls=True,
+         stratified_walls=True)
 register("pressure", "dfsph", "sphkit.pressure.dfsph:DFSPH", splishsplash=4,
          paper="Bender & Koschier 2015/2017, Divergence-free SPH",
          summary="constant-density and divergence-free solvers with warm starts",
          periodic=True, periodic_y=True, dynamic_bodies=True, multiphase=True, gpu=True,
-         solved_walls=True)
+         solved_walls=True, stratified_walls=True)
 register("pressure", "pf", "sphkit.pressure.pf:PF", splishsplash=5,
          paper="Weiler, Koschier & Bender 2016, Projective fluids",
          summary="projective dynamics: local density-constraint projections, global CG; "

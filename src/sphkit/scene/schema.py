@@ -41,10 +41,6 @@ SOLVED_WALLS_RATIO = 4.0
 #: with PCISPH, IISPH and DFSPH, where the stratified rows ran PCISPH to 1:10, DFSPH to 1:20
 #: and IISPH to 1:30; validation/README.md, "Solved walls where the fluid is stratified")
 STRATIFIED_WALLS_RATIO = 10.0
-#: the solvers whose default solved walls are ``"stratified"`` (up to the ratio above); PCISPH
-#: keeps every wall row: with the stratified rows its heavy-over-light column blew up at 1:20
-#: and, at r = 2 cm and 0.01 %, at 1:10 (0.27 s; tests/test_multiphase.py's column)
-STRATIFIED_WALLS_SOLVERS = ("iisph", "dfsph")
 #: WCSPH's walls take the symmetric term by default (``Scene._inviscid_wcsph_walls``) where the
 #: smallest kinematic viscosity of a scene's fluids is below this rate times (2r)^2 [1/s]: the
 #: mirrored and MLS wall terms are not the derivative of the elastic energy and pump energy
@@ -1001,7 +997,7 @@ class BoundaryConfig(_Model):
         "particles among whose fluid neighbours a lighter fluid lies below the heaviest one "
         "(each step); the others take the boundary pressure model's value (MLS per phase): "
         "in 2D the rows of every wall particle hold the fluid column beside a side wall and "
-        "steepen a resting column by 1-6 %, where they are needed only to keep a heavy-over-"
+        "steepen a resting column by 3-8 %, where they are needed only to keep a heavy-over-"
         "light overturn stable (validation/README.md, 'Solved walls where the fluid is "
         "stratified'). Left out: 'stratified' with iisph and dfsph in a scene whose fluids' "
         "rest densities differ by more than a factor 4 and at most 10, 'density' beyond 10 "
@@ -1418,7 +1414,7 @@ class Scene(_Model):
         """``boundary.solved`` left out, in a scene whose fluids' rest densities differ by more than
         :data:`SOLVED_WALLS_RATIO`, with boundary particles and a pressure solver that
         solves the walls: ``"stratified"`` up to :data:`STRATIFIED_WALLS_RATIO` with the
-        solvers of :data:`STRATIFIED_WALLS_SOLVERS`, ``"density"`` beyond and with PCISPH
+        solvers of registry capability ``stratified_walls``, ``"density"`` beyond and with PCISPH
         (the MLS wall term made a light fluid under a heavy one blow up from 1:6 on with
         PCISPH, from 1:8 with IISPH and DFSPH; measured in validation/README.md, "Several
         rest densities: the solved walls by default"; the rows only where the fluid beside a
@@ -1432,7 +1428,9 @@ class Scene(_Model):
                 and max(rest) > SOLVED_WALLS_RATIO * min(rest)
                 and cfg.pressure.method in registry.with_capability("pressure", "solved_walls")):
             b.solved = ("stratified" if max(rest) <= STRATIFIED_WALLS_RATIO * min(rest)
-                        and cfg.pressure.method in STRATIFIED_WALLS_SOLVERS else "density")
+                        and cfg.pressure.method
+                        in registry.with_capability("pressure", "stratified_walls")
+                        else "density")
         return self
 
     @model_validator(mode="after")
