@@ -36,7 +36,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from sphkit.io.datasets import FLUID, SOLID_WALL, is_fluid  # noqa: F401 (FLUID: re-exported)
+from sphkit.io.datasets import SOLID_WALL, is_fluid
 
 #: the static walls' particle type (LagrangeBench's NodeType SOLID_WALL)
 WALL = SOLID_WALL

@@ -294,7 +294,6 @@ def variant_scene(base: Scene, values: Mapping[str, float | int],
     it, then sphkit's paths set."""
     theirs = {p: v for p, v in values.items() if native is not None and native.names(_parts(p))}
     shown = ", ".join(f"{p}={v:.6g}" for p, v in values.items())
-    data = copy.deepcopy(base.model_dump(mode="json"))
     if theirs:
         assert native is not None
         try:
@@ -303,7 +302,9 @@ def variant_scene(base: Scene, values: Mapping[str, float | int],
             raise SceneError(f"variant ({shown}): {e}") from None
         if adjust is not None:
             adjust(start)
-        data = start.model_dump(mode="json")
+    else:
+        start = base
+    data = start.model_dump(mode="json")  # a new dict: setting paths leaves base as it is
     _assign(data, {p: v for p, v in values.items() if p not in theirs})
     try:
         return scene_from_dict(data)
