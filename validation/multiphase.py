@@ -55,7 +55,9 @@ the walls, sphkit's start-up; each layer 0.3 m (``--layer``) rounded to whole ro
 ``--interface-viscosity``: the viscosity between the two phases (scene ``interfaces``,
 Morris et al. 1997, kinematic [m^2/s]; default none, SPlisHSPlasH's phases).
 ``--interface-tension``: an interface tension between them (Hu & Adams 2006, scene
-``interfaces[].tension``, ``hu2006`` [N/m; N in 2D]; default none).
+``interfaces[].tension``, ``hu2006`` [N/m; N in 2D]; default none). ``--phase-tension METHOD
+COEFF``: a surface tension within each material instead (``materials[].surface_tension``, no
+adhesion; validation/README.md, "Cohesion within each phase against the stragglers").
 
 ``--dim 3``: the same column in 3D, ``--depth`` (0.2 m) deep along z between walls (a coarse
 slab; run it with ``--radius 0.02``: 0.4 x 0.6 x 0.2 m is 750 particles at r = 2 cm). For the
@@ -101,12 +103,18 @@ def layer_height(r: float) -> float:
 def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
           viscosity: float = 0.01, symmetric: bool = False, dim: int = 2,
           depth: float = 0.2, interface_viscosity: float = 0.0,
-          solved: bool | str | None = None, interface_tension: float = 0.0) -> Scene:
+          solved: bool | str | None = None, interface_tension: float = 0.0,
+          phase_tension: tuple[str, float] | None = None) -> Scene:
     """Two layers of :func:`layer_height` m (LAYER rounded) in a box WIDTH m wide (and
-    ``depth`` m deep in 3D; module docstring)."""
+    ``depth`` m deep in 3D; module docstring); ``phase_tension``: (method, coefficient) of a
+    surface tension within each material (no adhesion to the walls)."""
     lower, upper = ("light", "heavy") if heavy_on_top else ("heavy", "light")
     layer = layer_height(r)
     visc = {"method": "standard", "coefficient": viscosity}
+    tension = ({} if phase_tension is None else
+               {"surface_tension": {"method": phase_tension[0],
+                                    "coefficient": phase_tension[1],
+                                    "boundary_coefficient": 0.0}})
     pressure: dict = {"method": method, "max_error": MAX_ERROR}
     if method == "wcsph":
         pressure = {"method": "wcsph", "stiffness": 1e5, "exponent": 7.0}
@@ -117,8 +125,9 @@ def scene(method: str, r: float, heavy_on_top: bool, ratio: float,
                           "pressure": pressure, "time": {"dt_max": 0.002},
                           "boundary": {"symmetric": symmetric,
                                        **({} if solved is None else {"solved": solved})}},
-        "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc},
-                      {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc}],
+        "materials": [{"id": "heavy", "density0": 1000.0, "viscosity": visc, **tension},
+                      {"id": "light", "density0": 1000.0 / ratio, "viscosity": visc,
+                       **tension}],
         "fluid_blocks": [{"start": [0.0, 0.0, *z], "end": [WIDTH, layer, *zd],
                           "material": lower},
                          {"start": [0.0, layer, *z], "end": [WIDTH, 2 * layer, *zd],
@@ -214,14 +223,18 @@ def _perturbed_world(scene: Scene, jitter: float, seed: int = 1) -> World:
 def layers(methods: list[str], r: float, until: float, ratio: float, jitter: float,
            viscosity: float, symmetric: bool = False, dim: int = 2, depth: float = 0.2,
            interface_viscosity: float = 0.0, solved: bool | str | None = None,
-           every: float = 0.0, interface_tension: float = 0.0) -> None:
+           every: float = 0.0, interface_tension: float = 0.0,
+           phase_tension: tuple[str, float] | None = None) -> None:
     """Heavy over light (module docstring, ``layers``); ``every`` > 0: a line every ``every``
-    s with the counts and the light stragglers of :func:`stragglers`."""
+    s with the counts and the light stragglers of :func:`stragglers`; ``phase_tension`` as
+    :func:`scene`'s."""
     print(f"\nheavy over light, {dim}D, r = {r} m, rho0 1000 / {1000 / ratio:g}, until {until} s, "
           f"jitter {jitter} r, viscosity {viscosity} m^2/s"
           + _walls(symmetric, solved)
           + (f", interface viscosity {interface_viscosity} m^2/s" if interface_viscosity else "")
-          + (f", interface tension {interface_tension} N" if interface_tension else ""))
+          + (f", interface tension {interface_tension} N" if interface_tension else "")
+          + (f", {phase_tension[0]} {phase_tension[1]:g} within each phase"
+             if phase_tension else ""))
     print(f"{'solver':8s} {'n':>5s} {'heavy up':>9s} {'light down':>10s} {'deepest':>8s} "
           f"{'vmax':>6s} {'its':>6s} {'ms/step':>8s}  note")
     for method in methods:
@@ -229,7 +242,8 @@ def layers(methods: list[str], r: float, until: float, ratio: float, jitter: flo
             warnings.simplefilter("ignore")
             sim = Simulation(_perturbed_world(
                 scene(method, r, True, ratio, viscosity, symmetric, dim, depth,
-                      interface_viscosity, solved, interface_tension), jitter))
+                      interface_viscosity, solved, interface_tension, phase_tension),
+                jitter))
         its, steps, note = [], 0, ""
         next_t = every
         t0 = time.perf_counter()
@@ -501,6 +515,9 @@ def main() -> None:
     ap.add_argument("--interface-tension", type=float, default=0.0,
                     help="layers: interface tension between the phases (hu2006) [N/m; N in "
                          "2D] (0: none)")
+    ap.add_argument("--phase-tension", nargs=2, metavar=("METHOD", "COEFF"), default=None,
+                    help="layers: a surface tension within each material (akinci2013, he2014, "
+                         "becker2007, ...) and its coefficient (none by default)")
     ap.add_argument("--every", type=float, default=0.0,
                     help="layers: print the counts and the stragglers every EVERY s (0: at "
                          "the end only)")
@@ -523,7 +540,9 @@ def main() -> None:
     if "layers" in args.study:
         layers(args.solvers, args.radius, args.until, args.ratio, args.jitter, args.viscosity,
                args.symmetric_walls, args.dim, args.depth, args.interface_viscosity,
-               args.solved_walls, args.every, args.interface_tension)
+               args.solved_walls, args.every, args.interface_tension,
+               None if args.phase_tension is None
+               else (args.phase_tension[0], float(args.phase_tension[1])))
 
 
 if __name__ == "__main__":
