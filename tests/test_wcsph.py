@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -203,6 +204,33 @@ def test_instability_is_diagnosed() -> None:
     for word in ("step", "time", "max velocity", "CFL number", "density error"):
         assert word in msg
     assert e.value.stats.max_velocity > 0.5
+
+
+def test_a_state_equation_too_soft_for_the_fall_is_warned_about() -> None:
+    """The world warns when WCSPH's speed of sound c = sqrt(B gamma / rho0) is below 5 times
+    the speed v = sqrt(2 g H) the fluid reaches falling H from its highest particle to the
+    lowest wall particle: a 1 m column at r = 5 cm (H = 1.1 m, v = 4.6 m/s) with B = 50,000 Pa
+    (c = 18.7 m/s, 4 v) is named with both speeds and the stiffness that gives c = 10 v, B (10 v
+    / c)^2; at that stiffness nothing is said (the built-in dam breaks are set so)."""
+    from sphkit.world.build import build_world
+
+    sc = _column(width=0.3, height=1.0, r=0.05)
+    sc.configuration.pressure.stiffness = 50000.0
+    with pytest.warns(UserWarning, match="speed of sound") as rec:
+        world = build_world(sc)
+    msg = next(str(w.message) for w in rec if "speed of sound" in str(w.message))
+    y, yb = world.state.fluid["x"][1], world.state.boundary["x"][1]
+    H = y.max() - min(y.min(), yb.min())
+    c, v = np.sqrt(50000.0 * 7.0 / 1000.0), np.sqrt(2.0 * G * H)
+    assert 1.0 < H < 1.2 and 4.0 < c / v < 5.0
+    assert "configuration.pressure.stiffness: 50000" in msg and f"falling {H:.3g} m" in msg
+    assert f"{c:.3g} m/s" in msg and f"{v:.3g} m/s" in msg
+    need = 50000.0 * (10.0 * v / c) ** 2
+    assert f"{need:.3g}" in msg
+    sc.configuration.pressure.stiffness = need
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        build_world(sc)
 
 
 def test_a_splash_over_an_open_box_is_no_leak() -> None:

@@ -9,6 +9,7 @@ registry, checking the scene across its fields -- happens here, never in the ste
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
@@ -318,6 +319,7 @@ def _build(scene: Scene) -> World:
                                       solved=cfg.boundary.solved)
     # the fluid's start: out of the walls, consistent next to them, hydrostatic
     start, settle = start_fluid(state, scene, meshes, model, pressure)
+    sound_speed_warning(state, scene, pressure)
     for force in forces:
         force.init(state)
     pressure.init(state)
@@ -338,3 +340,65 @@ def _build(scene: Scene) -> World:
                  start=start, animation_fields=animations, materials=mats,
                  solids=solids, settle=settle)
 
+
+
+#: the ratio of a state equation's speed of sound to the fastest speed the fluid is expected to
+#: reach below which :func:`sound_speed_warning` warns: there the density varies by (v / c)^2 =
+#: 4 % and more (Monaghan's c >= 10 v keeps it near 1 %)
+SOUND_SPEED_RATIO = 5.0
+
+
+def sound_speed_warning(state: SimState, scene: Scene, pressure: PressureSolver) -> str | None:
+    """Warn (``UserWarning``, also returned) when the pressure solver's speed of sound c (a
+    state equation's: WCSPH; the incompressible solvers have none) is below
+    :data:`SOUND_SPEED_RATIO` times the fastest speed v the fluid is expected to reach: its
+    start speed and the fall from its highest particle (and each emitter's layer) to the
+    lowest of the fluid and the static boundary particles, ``v = sqrt(v0^2 + 2 |g| H)``, or an
+    emitter's speed. Weakly compressible SPH compresses by about (v / c)^2 where the fluid
+    moves at v, and fluid that hits a wall near the speed of sound bounces off faster than it
+    came: the built-in 3D dam break (1.23 m of water) with WCSPH's default stiffness, 50,000
+    Pa (c = 18.7 m/s, 3.8 v), threw particles at 15 m/s through its walls (validation/README.md,
+    "WCSPH's speed of sound against the fall"). The stiffness that gives c = 10 v is named
+    (the stiffness scales with c^2 in the Tait and the linear equation)."""
+    c = pressure.acoustic_speed(state)
+    f = state.fluid
+    if not math.isfinite(c) or not f.n:
+        return None
+    x, v = np.asarray(f["x"], float), np.asarray(f["v"], float)
+    v0 = float(np.sqrt((v * v).sum(axis=0)).max())
+    g = np.asarray(state.gravity, float)[:state.dim]
+    gn = float(np.linalg.norm(g))
+    cfg = scene.configuration
+    periodic = [cfg.periodic_x is not None, cfg.periodic_y is not None, False][:state.dim]
+    falls = gn > 0.0 and not any(p and abs(gi) > 0.0 for p, gi in zip(periodic, g, strict=True))
+    up = -g / gn if falls else np.zeros_like(g)
+    heights = up @ x
+    low = float(heights.min())
+    b = state.boundary
+    if falls and b.n:
+        static = np.asarray(b["rigid_body"]) == 0
+        if static.any():
+            low = min(low, float((up @ np.asarray(b["x"], float)[:, static]).min()))
+    top = float(heights.max())
+    speed = math.sqrt(v0 * v0 + 2.0 * gn * max(top - low, 0.0)) if falls else v0
+    what = (f"the fluid reaches falling {top - low:.3g} m (its highest particle to the lowest "
+            "fluid or wall particle)" if falls else "the fluid moves at")
+    for k, em in enumerate(scene.emitters):
+        drop = float(up @ np.asarray(em.position[:state.dim], float)) - low if falls else 0.0
+        ve = math.sqrt(em.velocity ** 2 + 2.0 * gn * max(drop, 0.0))
+        if ve > speed:
+            speed, what = ve, f"{scene.field(f'emitters[{k}]')}'s fluid reaches"
+    if speed <= 0.0 or c >= SOUND_SPEED_RATIO * speed:
+        return None
+    ratio = (speed / c) ** 2
+    squeeze = f"{100.0 * ratio:.0f} %" if ratio < 1.0 else "more than 100 % (supersonic flow)"
+    field_name = scene.field("configuration.pressure.stiffness")
+    stiffness = cfg.pressure.stiffness
+    note = (f"{field_name}: {stiffness:g} gives a speed of sound of {c:.3g} m/s, {c / speed:.1f} "
+            f"times the {speed:.3g} m/s {what}; weakly compressible SPH then compresses by "
+            f"about (v/c)^2 = {squeeze} where the fluid moves that fast, and fluid hitting a "
+            "wall bounces off faster than it came and can pass through it; "
+            f"expected a speed of sound of at least 10 times that speed: a stiffness of "
+            f"{stiffness * (10.0 * speed / c) ** 2:.3g} or more (or an incompressible solver)")
+    warnings.warn(note, UserWarning, stacklevel=3)
+    return note
