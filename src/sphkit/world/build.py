@@ -350,7 +350,8 @@ SOUND_SPEED_RATIO = 5.0
 
 def sound_speed_warning(state: SimState, scene: Scene, pressure: PressureSolver) -> str | None:
     """Warn (``UserWarning``, also returned) when the pressure solver's speed of sound c (a
-    state equation's: WCSPH; the incompressible solvers have none) is below
+    state equation's: WCSPH, with several fluids the lightest one's, the fastest; the
+    incompressible solvers have none) is below
     :data:`SOUND_SPEED_RATIO` times the fastest speed v the fluid is expected to reach: its
     start speed and the fall from its highest particle (and each emitter's layer) to the
     lowest of the fluid and the static boundary particles, ``v = sqrt(v0^2 + 2 |g| H)``, or an
