@@ -183,18 +183,47 @@ def test_reuse_box_recycles_particles() -> None:
     assert (e.reuse_box.min, e.reuse_box.max) == ([-2.0, -1.0], [2.0, 3.0])
 
 
+def test_emitter_2d_scene_keeps_its_fluid_in_the_tank_after_the_second_emitter_starts() -> None:
+    """SPlisHSPlasH's ``Emitter_2D.json`` unchanged (DFSPH, volume maps, two emitters, the
+    second from 2 s beside the tank's right wall) to 2.6 s: the pool spills over the second
+    housing into the gap behind it; with housing walls h thick (a gap of 6r) two volume-map
+    walls pressed single particles together there and one was thrown through the tank's wall
+    at 470 m/s at 2.54 s. Every particle stays inside the tank's interior (x in [-1.25, 1.25],
+    y >= 0; the fluid rests up to 2.6 r off a map wall, so the bound is loose by that) and
+    none is faster than 10 m/s (the emitters' 2 m/s plus the fall of the pool's 1 m: about 5
+    m/s, 5.9 m/s measured to 3 s)."""
+    from sphkit.cli.compat import wheel_scene_folder
+
+    folder = wheel_scene_folder()
+    if folder is None:
+        pytest.skip("pysplishsplash is not installed: its scene files are not available")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the scene's coarse map resolution, its comment field
+        sim = Simulation.from_scene(folder / "Emitter_2D.json")
+    fastest = 0.0
+    while sim.time < 2.6:
+        sim.step()
+        fastest = max(fastest, float(np.linalg.norm(sim.velocities, axis=1).max()))
+    x = sim.positions
+    assert sim.fluid.n > 700  # both emitters ran
+    assert x[:, 0].min() > -1.25 and x[:, 0].max() < 1.25 and x[:, 1].min() > 0.0
+    assert fastest < 10.0, fastest
+
+
 def test_housing_walls_are_maps_with_density_and_volume_maps() -> None:
     """With maps the emitter's housing is map geometries too (SPlisHSPlasH builds it as a
     boundary model of any kind; before, sphkit had no housing there and the pool flowed
-    through a waiting emitter: Emitter_2D.json, validation/README.md): closed walls h thick
-    around the housing's box, open towards the emit direction. Signed distances (negative in
-    the solid): the emitter's centre and the open side are fluid space; the middle of the back
-    wall and of a side wall are solid. The 2D world is built (its volume-map model holds the
-    walls); the 3D box and circle housings are checked on their wall solids."""
+    through a waiting emitter: Emitter_2D.json, validation/README.md): closed walls
+    ``HOUSING_WALL`` r thick around the housing's box, open towards the emit direction. Signed
+    distances (negative in the solid): the emitter's centre and the open side are fluid
+    space; the middle of the back wall and of a side wall are solid. The 2D world is built
+    (its volume-map model holds the walls); the 3D box and circle housings are checked on
+    their wall solids."""
     from sphkit.geometry.sdf import MeshDistance
     from sphkit.world import build_world
-    from sphkit.world.emitters import FluidEmitter
+    from sphkit.world.emitters import HOUSING_WALL, FluidEmitter
 
+    t = HOUSING_WALL * R
     for dim, shape in ((2, "box"), (3, "box"), (3, "circle")):
         pos = [0.3, 0.3] if dim == 2 else [0.3, 0.3, 0.3]
         cfg = {"shape": shape, "position": pos, "width": 0.16, "velocity": 1.0,
@@ -210,15 +239,15 @@ def test_housing_walls_are_maps_with_density_and_volume_maps() -> None:
             assert len(walls) == 3
         else:
             em = FluidEmitter(Scene.model_validate({"emitters": [cfg]}).emitters[0], 3, R, h)
-            solids = em.housing_walls(h)
+            solids = em.housing_walls(t)
             assert len(solids) == (2 if shape == "circle" else 5)
             assert all(w.is_watertight for w in solids)
             walls = [MeshDistance(w.vertices, w.faces) for w in solids]
         s0, s1 = em.size[0], em.size[1]
         d, side, x0 = em.direction[:dim], em.R[:dim, 1], em.x0[:dim]
         points = {"centre": x0, "open side": x0 + (0.5 * s0 + h) * d,
-                  "back wall": x0 - (0.5 * s0 + 0.5 * h) * d,
-                  "side wall": x0 + (0.5 * s1 + 0.5 * h) * side}
+                  "back wall": x0 - (0.5 * s0 + 0.5 * t) * d,
+                  "side wall": x0 + (0.5 * s1 + 0.5 * t) * side}
         for name, p in points.items():
             phi = min(float(g.lattice(p, [1.0] * dim, [1] * dim).ravel()[0]) for g in walls)
             assert (phi < 0.0) == (name in ("back wall", "side wall")), (dim, shape, name, phi)

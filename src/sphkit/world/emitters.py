@@ -25,7 +25,8 @@ scene fields (:class:`sphkit.scene.schema.Emitter`):
 * housing: a box (cylinder) of boundary particles around the emitter, ``2h`` long along d and
   centred on ``x0``, open towards d (SPlisHSPlasH's ``EmitterBox.obj``/``EmitterCylinder.obj``
   scaled by ``Emitter::getSize``), unless ``housing`` is false; with density and volume maps
-  its walls, h thick outside that box, are map geometries (:meth:`FluidEmitter.housing_walls`).
+  its walls, :data:`HOUSING_WALL` (2r) thick outside that box, are map geometries
+  (:meth:`FluidEmitter.housing_walls`).
 
 Emitted particles get the lattice mass ``rho0 V`` of the scene's fluid blocks. ``max_particles``
 (SPlisHSPlasH's per-material ``maxEmitterParticles``) caps the particles the emitters of a
@@ -54,6 +55,16 @@ from sphkit.geometry.rotations import rotation_matrix
 
 #: SPlisHSPlasH starts animating (clearing) the emitter region this long before start_time [s]
 CLEAR_AHEAD = 0.25
+#: thickness of a housing's map walls [particle radii] (:meth:`FluidEmitter.housing_walls`):
+#: 2r, so that fluid resting at a map wall on either side (1-2.6 r off its surface) lies a
+#: kernel support apart and does not interact through it. SPlisHSPlasH's housing meshes are
+#: thinner still (``EmitterCylinder.obj``: walls a tenth of the housing's size). With walls h
+#: (4r) thick, ``Emitter_2D.json``'s second housing left a gap of 6r to the tank's wall, into
+#: which the pool spilled over it; single particles there were pressed together by the two
+#: volume-map walls and one was thrown through the tank's wall at 470 m/s (2.54 s; with
+#: other tolerances or IISPH at 2.7-3.0 s); with 2r walls (gap 8r) every variant ran 4 s
+#: (validation/README.md, "Emitter_2D.json's gap behind its second housing")
+HOUSING_WALL = 2.0
 
 
 @numba.njit(inline="always", cache=True, fastmath=True)

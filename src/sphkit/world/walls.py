@@ -29,6 +29,7 @@ from sphkit.geometry.sampling import (
     box_wall_distance,
 )
 from sphkit.scene.schema import Scene, SceneError
+from sphkit.world.emitters import HOUSING_WALL
 from sphkit.world.fluid import periodic_clip, periodic_mask
 from sphkit.world.meshes import SceneMeshes
 
@@ -115,7 +116,8 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
 
     Boxes are containers (the fluid inside, ``invert``), analytic; an open box extends to
     infinity along the gravity axis. Emitter housings (``emitters``, unless ``housing`` is
-    false) are their walls h thick (:meth:`sphkit.world.emitters.FluidEmitter.housing_walls`),
+    false) are their walls, :data:`sphkit.world.emitters.HOUSING_WALL` r thick
+    (:meth:`sphkit.world.emitters.FluidEmitter.housing_walls`),
     each a map with the automatic grid. Meshes: 3D triangle meshes, in 2D the section of the
     mesh with the plane z = 0 (as for boundary particles). A moving mesh's map lives in its
     body's frame (:mod:`sphkit.boundary.maps`, "Moving rigid bodies"), its surface moved
@@ -158,7 +160,7 @@ def map_geometries(state: SimState, scene: Scene, meshes: SceneMeshes,
     for k, em in enumerate(emitters or []):
         if not scene.emitters[k].housing:
             continue
-        for j, wall in enumerate(em.housing_walls(state.h)):
+        for j, wall in enumerate(em.housing_walls(HOUSING_WALL * state.r)):
             if dim == 3:
                 sdf = MeshDistance(wall.vertices, wall.faces)
             else:
