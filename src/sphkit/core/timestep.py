@@ -253,9 +253,11 @@ def instability(cfg: Any, x: np.ndarray, s: Any, bad: int,
                 "particle more than the limit's share of a particle diameter).")
     if domain is not None and not clean and (n := outside_count(x, *domain)):
         box = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(domain.lo, domain.hi, strict=True))
+        where = ("not checked above the walls' top): the fluid leaked through a wall, or fell "
+                 "beside it" if domain.up >= 0 else "the fluid shut in by closed boxes): the "
+                 "fluid leaked through a wall or the lid")
         return (f"{n} fluid particle(s) left the domain {box} m (the static walls' bounding box "
-                f"plus configuration.domain_margin = {cfg.domain_margin:g} h, not checked above "
-                f"the walls' top): the fluid leaked through a wall, or fell beside it",
+                f"plus configuration.domain_margin = {cfg.domain_margin:g} h, {where}",
                 "Make the pressure stiffer or use an iterative pressure solver, a smaller time "
                 "step (time.dt_max, time.cfl_factor), thicker walls (boxes[].layers), or set "
                 "configuration.domain_margin to null if fluid may leave the walls.")

@@ -1174,9 +1174,10 @@ class Configuration(_Model):
         10.0, ge=0,
         description="fluid farther than this many kernel supports h outside the bounding box of "
         "the static boundaries (boxes, meshes, map geometries, emitter housings) stops the run "
-        "as unstable (it leaked through a wall); not checked above the walls (against gravity), "
-        "nor in a scene without a container (a box or a static mesh with invert: solid "
-        "obstacles alone, the fluid may fall off them); null: never checked",
+        "as unstable (it leaked through a wall); not checked above the walls (against gravity) "
+        "unless closed boxes shut the fluid in, nor in a scene without a container (a box or a "
+        "static mesh with invert: solid obstacles alone, the fluid may fall off them); null: "
+        "never checked",
     )
     contact_tolerance: float = Field(
         0.0, ge=0, le=1e6, allow_inf_nan=False,

@@ -239,9 +239,13 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     gravity: fluid thrown up comes back) and along a periodic axis; fluid above the walls' top
     (the bounding box's, against gravity) is not checked at all: a splash thrown over the top of
     an open box flies beside it, not through a wall (validation/README.md, "Where WCSPH's
-    dam-break impact lost a particle"). None: no check (the margin is null, the scene has no
-    container: no box and no static mesh with the fluid inside it (``invert``), only solid
-    obstacles the fluid may fall off or drain through -- a slab, a box with a hole --, moving
+    dam-break impact lost a particle"). Where the fluid is shut in -- every container a closed
+    box (no ``open_top``, no container mesh) and every fluid particle and emitter inside one
+    (:func:`_shut_in`) -- the top is bounded too: fluid above it went through the lid
+    (validation/README.md, "WCSPH's speed of sound against the fall"). None: no check (the
+    margin is null, the scene has no container: no box and no static mesh with the fluid
+    inside it (``invert``), only solid obstacles the fluid may fall off or drain through -- a
+    slab, a box with a hole --, moving
     bodies or emitter housings, or an emitter reuses particles, which then leave its
     ``reuse_box`` by design and wait outside it). ``housings`` False: the walls alone."""
     margin = scene.configuration.domain_margin
@@ -271,7 +275,7 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     box_lo, box_hi = np.min(lo, axis=0) - pad, np.max(hi, axis=0) + pad
     g = state.gravity
     up, top, sgn = -1, 0.0, 1.0
-    if np.any(g):
+    if np.any(g) and not _shut_in(state, scene, bodies):
         up = gravity_axis(state)
         if g[up] < 0:
             box_hi[up] = np.inf
@@ -284,6 +288,26 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
         if a == up:
             up = -1
     return Domain(box_lo, box_hi, up, top, sgn)
+
+
+def _shut_in(state: SimState, scene: Scene, bodies: list) -> bool:
+    """Whether the fluid is shut in by closed boxes: the scene's containers are boxes without
+    ``open_top`` (no static mesh with ``invert``), and every fluid particle of the state and
+    every emitter's position lies inside one of them (within r)."""
+    if not scene.boxes or any(b.open_top for b in scene.boxes):
+        return False
+    if any(scene.meshes[k].invert for k in range(len(scene.meshes)) if k not in bodies):
+        return False
+    dim, r = state.dim, state.r
+    lo = np.array([b.min[:dim] for b in scene.boxes], float)[:, :, None] - r
+    hi = np.array([b.max[:dim] for b in scene.boxes], float)[:, :, None] + r
+    pts = [np.asarray(state.fluid["x"], float)] if state.fluid.n else []
+    pts += [np.asarray(e.position[:dim], float)[:, None] for e in scene.emitters]
+    for x in pts:
+        inside = np.all((x[None] >= lo) & (x[None] <= hi), axis=1).any(axis=0)
+        if not inside.all():
+            return False
+    return True
 
 
 def check_emitters(domain: Domain | None, scene: Scene, emitters: list) -> None:
