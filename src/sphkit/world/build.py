@@ -341,7 +341,6 @@ def _build(scene: Scene) -> World:
                  solids=solids, settle=settle)
 
 
-
 #: the ratio of a state equation's speed of sound to the fastest speed the fluid is expected to
 #: reach below which :func:`sound_speed_warning` warns: there the density varies by (v / c)^2 =
 #: 4 % and more (Monaghan's c >= 10 v keeps it near 1 %)
@@ -370,8 +369,7 @@ def sound_speed_warning(state: SimState, scene: Scene, pressure: PressureSolver)
     g = np.asarray(state.gravity, float)[:state.dim]
     gn = float(np.linalg.norm(g))
     cfg = scene.configuration
-    periodic = [cfg.periodic_x is not None, cfg.periodic_y is not None, False][:state.dim]
-    falls = gn > 0.0 and not any(p and abs(gi) > 0.0 for p, gi in zip(periodic, g, strict=True))
+    falls = gn > 0.0 and not any(abs(g[a]) > 0.0 for a, _lo, _L in state.periodic_axes)
     up = -g / gn if falls else np.zeros_like(g)
     heights = up @ x
     low = float(heights.min())

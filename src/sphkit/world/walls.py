@@ -262,8 +262,9 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
             b = meshes.mesh(k).bounds
             lo.append(b[0, :dim])
             hi.append(b[1, :dim])
-    containers = len(scene.boxes) + sum(scene.meshes[k].invert for k in range(len(scene.meshes))
-                                        if k not in bodies)
+    mesh_containers = sum(scene.meshes[k].invert for k in range(len(scene.meshes))
+                          if k not in bodies)
+    containers = len(scene.boxes) + mesh_containers
     if margin is None or not containers:
         return None
     for em, cfg in zip(emitters, scene.emitters, strict=True):
@@ -275,7 +276,7 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     box_lo, box_hi = np.min(lo, axis=0) - pad, np.max(hi, axis=0) + pad
     g = state.gravity
     up, top, sgn = -1, 0.0, 1.0
-    if np.any(g) and not _shut_in(state, scene, bodies):
+    if np.any(g) and not (mesh_containers == 0 and _shut_in(state, scene)):
         up = gravity_axis(state)
         if g[up] < 0:
             box_hi[up] = np.inf
@@ -290,13 +291,11 @@ def domain_box(state: SimState, scene: Scene, meshes: SceneMeshes,
     return Domain(box_lo, box_hi, up, top, sgn)
 
 
-def _shut_in(state: SimState, scene: Scene, bodies: list) -> bool:
-    """Whether the fluid is shut in by closed boxes: the scene's containers are boxes without
-    ``open_top`` (no static mesh with ``invert``), and every fluid particle of the state and
-    every emitter's position lies inside one of them (within r)."""
+def _shut_in(state: SimState, scene: Scene) -> bool:
+    """Whether closed boxes shut the fluid in: the scene has boxes, none with ``open_top``, and
+    every fluid particle of the state and every emitter's position lies inside one of them
+    (within r). (:func:`domain_box` asks only where no static mesh is a container.)"""
     if not scene.boxes or any(b.open_top for b in scene.boxes):
-        return False
-    if any(scene.meshes[k].invert for k in range(len(scene.meshes)) if k not in bodies):
         return False
     dim, r = state.dim, state.r
     lo = np.array([b.min[:dim] for b in scene.boxes], float)[:, :, None] - r
