@@ -3,6 +3,14 @@
     python validation/splishsplash_scenes.py [--until 1.0] [--scenes DamBreakModel_2D.json ...]
     python validation/splishsplash_scenes.py --all [--until 1.0] [--budget 300]
                                              [--max-particles 100000] [--json FILE]
+    python validation/splishsplash_scenes.py --scenes DoubleDamBreak.json --methods 0 1 2 3 4
+                                             --boundaries 0 1 2
+
+``--methods`` and ``--boundaries`` run each scene once per ``Configuration.simulationMethod``
+(0 WCSPH, 1 PCISPH, 2 PBF, 3 IISPH, 4 DFSPH) and ``boundaryHandlingMethod`` (0 Akinci
+particles, 1 density maps, 2 volume maps) given, as a user who changes only that line of the
+file would (a copy in a temporary folder beside a link to the wheel's models); the row's name
+says the variant, e.g. ``DoubleDamBreak.json m1 b2``.
 
 The scene files are those of the installed pysplishsplash wheel (``data/Scenes``), read with
 sphkit's SPlisHSPlasH front end without any edit (not even the particle radius). For each scene
@@ -30,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -192,6 +201,28 @@ def row(name: str, r: dict) -> str:
             f"{100 * r['err_max']:.2f} % | {r['vmax']:.3g} | {left} | {bodies} |")
 
 
+def variant(folder: Path, name: str, method: int | None, boundary: int | None,
+            tmp: Path) -> Path:
+    """The scene ``name`` with its ``simulationMethod`` / ``boundaryHandlingMethod`` replaced
+    (None: the file's own), written to ``tmp/Scenes`` beside a link to the wheel's models."""
+    if method is None and boundary is None:
+        return folder / name
+    data = json.loads((folder / name).read_text())
+    cfg = data.setdefault("Configuration", {})
+    if method is not None:
+        cfg["simulationMethod"] = method
+    if boundary is not None:
+        cfg["boundaryHandlingMethod"] = boundary
+    scenes = tmp / "Scenes"
+    scenes.mkdir(exist_ok=True)
+    models = tmp / "models"
+    if not models.exists():
+        models.symlink_to(folder.parent / "models", target_is_directory=True)
+    out = scenes / f"m{method}_b{boundary}_{name}"
+    out.write_text(json.dumps(data, indent=1))
+    return out
+
+
 def main() -> None:
     from sphkit.cli.compat import wheel_scene_folder
 
@@ -207,6 +238,10 @@ def main() -> None:
     ap.add_argument("--margin", type=float, default=3.0,
                     help="the domain's margin around the boundaries' bounding box [h]")
     ap.add_argument("--json", type=Path, default=None, help="append one JSON line per scene")
+    ap.add_argument("--methods", type=int, nargs="+", default=[None], choices=range(7),
+                    help="run each scene with these simulationMethod values")
+    ap.add_argument("--boundaries", type=int, nargs="+", default=[None], choices=range(3),
+                    help="run each scene with these boundaryHandlingMethod values")
     args = ap.parse_args()
     if not (args.until > 0 and args.budget > 0 and args.margin >= 0):
         ap.error("--until and --budget must be positive, --margin not negative")
@@ -220,14 +255,20 @@ def main() -> None:
     print(f"scenes of {folder}, until t = {args.until:g} s, {numba.get_num_threads()} threads")
     print(HEADER)
     print("|---" * HEADER.count(" | ") + "|---|")
-    for name in names:
-        r = run(folder / name, args.until, args.budget, args.max_particles, args.margin)
-        print(row(name, r), flush=True)
-        for note in r.get("notes", []):
-            print(f"  warning: {note}")
-        if args.json is not None:
-            with args.json.open("a") as fh:
-                fh.write(json.dumps({"scene": name, **r}) + "\n")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in names:
+            for m in args.methods:
+                for b in args.boundaries:
+                    path = variant(folder, name, m, b, Path(tmp))
+                    label = name + "".join(f" {k}{v}" for k, v in (("m", m), ("b", b))
+                                           if v is not None)
+                    r = run(path, args.until, args.budget, args.max_particles, args.margin)
+                    print(row(label, r), flush=True)
+                    for note in r.get("notes", []):
+                        print(f"  warning: {note}")
+                    if args.json is not None:
+                        with args.json.open("a") as fh:
+                            fh.write(json.dumps({"scene": label, **r}) + "\n")
 
 
 if __name__ == "__main__":
