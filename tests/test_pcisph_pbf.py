@@ -360,10 +360,14 @@ def test_dambreak_2d_stays_in_tank(method: str) -> None:
 
 
 @pytest.mark.parametrize("method", ["pcisph", "pbf"])
-def test_max_iterations_warning(method: str, caplog: pytest.LogCaptureFixture) -> None:
+def test_max_iterations_warning(method: str, caplog: pytest.LogCaptureFixture,
+                                monkeypatch: pytest.MonkeyPatch) -> None:
     """With max_iterations 1 and a tolerance (0.001 %) one sweep cannot reach -- the column is
     sampled 2r from the walls, so it starts up to 4.5 % compressed there -- every step logs the
-    shared iteration control's warning and reports converged = False after 1 iteration."""
+    shared iteration control's warning and reports converged = False after 1 iteration.
+    (PCISPH's load bound is lifted: it would shrink the step until one sweep holds the
+    column, and this test is of the warning.)"""
+    monkeypatch.setattr(pcisph_module, "LOAD", float("inf"))
     sim = Simulation(_column(method, width=0.1, height=0.2, max_error=0.001, max_iterations=1,
                              margin=0.0))
     with caplog.at_level(logging.WARNING, logger="sphkit"):
@@ -438,6 +442,48 @@ def test_pcisph_splishsplash_column_lands_stably() -> None:
     assert sim.positions[:, 1].min() > 0.0
 
 
+@pytest.mark.parametrize("boundary", [1, 2])
+def test_pcisph_block_dropped_onto_a_map_floor_lands_stably(boundary: int) -> None:
+    """A 2D block 1.6 m wide and 0.6 m high in SPlisHSPlasH's format (PCISPH's defaults: 0.01 %,
+    100 sweeps, steps up to 5 ms), written 0.1 m above the floor of a density-map (1) or
+    volume-map (2) tank, falls for 0.14 s. Its solves carry no pressure in the fall, so the
+    adaptive bound grew by 10 % a step to 5 ms, and the landing -- the whole column's pressure
+    from p = 0 in one step, which maps cannot compute again -- diverged (before the load
+    bound: unstable at 0.144 s with density maps, 0.138 s with volume maps, at hundreds of
+    m/s). The load bound keeps the step where 100 sweeps hold a column of the fluid's depth.
+    Bound on the speed: three times the free-fall speed from the block's top, sqrt(2 g 0.7 m) =
+    3.7 m/s; a landing splash stays within it, a diverged solve does not."""
+    box = Path(__file__).resolve().parent.parent / "benchmarks" / "scenes" / "UnitBox.obj"
+    scene = {
+        "Configuration": {"sim2D": True, "particleRadius": 0.02, "simulationMethod": 1,
+                          "boundaryHandlingMethod": boundary, "gravitation": [0, -G, 0],
+                          "cflFactor": 0.5},
+        "Materials": [{"id": "Fluid", "density0": RHO0, "viscosityMethod": 1,
+                       "Standard viscosity": {"viscosity": 0.01}}],
+        "RigidBodies": [{"geometryFile": str(box), "translation": [0, 1.0, 0],
+                         "scale": [2.0, 2.0, 1.0], "isWall": True, "mapInvert": True}],
+        "FluidBlocks": [{"denseMode": 0, "start": [-0.8, 0.1, -0.1], "end": [0.8, 0.7, 0.1]}],
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(from_splishsplash(scene))
+    solver = sim.pressure
+    bounds = []
+    steps = []
+
+    def record(s: Simulation, st) -> None:
+        steps.append(st)
+        bounds.append(solver.load_bound(s.state))
+
+    sim.run(until=0.2, on_step=record)
+    assert max(st.max_velocity for st in steps) < 3.0 * np.sqrt(2.0 * G * 0.7)
+    x = sim.positions
+    assert x[:, 1].min() > 0.0 and np.abs(x[:, 0]).max() < 1.0  # nothing left the tank
+    # the landing (from 0.14 s) was taken at steps within the load bound, below the 5 ms cap
+    landing = [st.dt for st in steps if st.time > 0.14]
+    assert landing and max(landing) <= max(bounds) * (1 + 1e-9) < 0.005
+
+
 def test_pcisph_checkpoint_keeps_the_step_bound(tmp_path: Path) -> None:
     """A PCISPH run continued from a checkpoint repeats the uninterrupted one bit for bit while
     the adaptive step bound acts (sampled 2r from the walls, the column starts compressed there
@@ -497,14 +543,17 @@ def test_pcisph_lone_particle_is_not_thrown_off_a_volume_map_wall(tmp_path) -> N
 
 
 def test_pcisph_failed_solve_is_computed_again_with_half_the_step(
-        caplog: pytest.LogCaptureFixture) -> None:
+        caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
     """A block falling at 3 m/s one radius above the floor, first step 5 ms (1.5 r of
     penetration predicted at the floor; CFL factor 2): PCISPH's solve stops at its 10
     iterations far above its tolerance (more than ``REJECT`` times), so with ``time.retries``
     the step is computed again with half the step, each time logged, until the solve no
     longer fails; with ``retries: 0`` the failed step is kept, as before. The step that was
     computed again is shorter and ends with a smaller density error than the kept failed one
-    (the point of repeating it), and no particle crosses the floor."""
+    (the point of repeating it), and no particle crosses the floor. (PCISPH's load bound is
+    lifted: with 10 sweeps it would take the first step below 5 ms, and this test is of the
+    retry of a failed step.)"""
+    monkeypatch.setattr(pcisph_module, "LOAD", float("inf"))
     r = 0.01
 
     def scene(retries: int) -> Scene:

@@ -120,6 +120,16 @@ The bound is kept in checkpoints (:meth:`PCISPH.checkpoint_state`). The bound on
 computed again with the shrunk bound (:meth:`PCISPH.rejects`, the simulation's
 ``configuration.time.retries``): a column-wide impact, 79 layers falling on the floor at 1 m/s
 in a 1.95 ms step, needs more sweeps than 100 and its error grew from the first sweep.
+The adaptive bound learns from failed solves only, and a fluid that carries no pressure (a
+block falling onto its floor) solves easily at any step, so the bound grows by 10 % a step
+while it falls. Hence a second, predictive bound (:meth:`PCISPH.load_bound`): the step at
+which a column as deep as the fluid (its extent along gravity, H) needs :data:`LOAD` times
+``max_iterations`` sweeps from p = 0 by the estimate above, ``dt <= sqrt(2 delta eta LOAD
+N_max / (|g| H))``. Where maps cannot compute a step again (below), the landing of such a
+fluid at a grown step diverged: SPlisHSPlasH's DamBreakWithObjects with PCISPH and density
+maps (its block sampled 2r above a 3D density map's floor, where the map holds fluid about 1.1
+r off) fell for 17 steps while the bound grew from 1 to 5 ms, and stopped as unstable at step
+19 (validation/README.md, "SPlisHSPlasH's scenes with another solver and boundary model").
 
 **Thrown particles** (sphkit's; a force condition ``dt <= lambda sqrt(h_s / |a|)`` as Monaghan's
 and Ihmsen et al.'s, on the solve's own pressure acceleration, checked after the solve: with
@@ -136,6 +146,7 @@ failed: the bound shrinks and the step is computed again (:meth:`PCISPH.rejects`
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba
@@ -190,6 +201,41 @@ THROW = 0.5
 #: 1.45 s, CAP 3 runs both, CAP 5 left the dam break unstable at 1.52 s (none: 0.42 s); Akinci
 #: walls reach 4.2 in validation/single_fluid_identity.py's small 2D dam break
 CAP = 3.0
+#: the load bound (module docstring, "Time step"): a step at most that at which a column as
+#: deep as the fluid needs LOAD times ``max_iterations`` sweeps from p = 0 (measured on
+#: SPlisHSPlasH's DamBreakWithObjects with PCISPH and density maps: the fluid fell 1 r onto the
+#: 3D map's floor while the bound grew to 5 ms, and the landing diverged at step 19 (0.046 s);
+#: with 1 it runs, benchmarks/scenes/dambreak_pcisph.json takes 321 steps instead of 314)
+LOAD = 1.0
+#: added to every height of :func:`height_body` so that the reduction's maximum is positive
+_HEIGHT_SHIFT = 1.0e6
+
+
+@numba.njit(**_JIT, inline="always")
+def height_body(i, x, u0, u1, u2, dim):
+    """``u . x_i + _HEIGHT_SHIFT`` (u: a unit direction; the maximum of a reduction is kept)."""
+    s = u0 * x[0, i] + u1 * x[1, i]
+    if dim == 3:
+        s += u2 * x[2, i]
+    return s + _HEIGHT_SHIFT
+
+
+specialize(height_body, "dim")
+
+
+def fluid_depth(state: SimState) -> float:
+    """The fluid's extent along gravity [m] (0 without gravity or fluid)."""
+    f = state.fluid
+    g = np.asarray(state.gravity, float)[: state.dim]
+    gn = float(np.linalg.norm(g))
+    if f.n == 0 or gn == 0.0:
+        return 0.0
+    u = np.zeros(3)
+    u[: state.dim] = -g / gn
+    x = f["x"]
+    top = launch_reduce(height_body, f.n, x, u[0], u[1], u[2], state.dim)[1]
+    bottom = launch_reduce(height_body, f.n, x, -u[0], -u[1], -u[2], state.dim)[1]
+    return max(top + bottom - 2.0 * _HEIGHT_SHIFT, 0.0)
 
 
 @numba.njit(**_JIT, inline="always")
@@ -401,6 +447,21 @@ class PCISPH(StepBounded, PressureSolver):
         arrays.multiplied(p, f["rho0"], out=f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            converged=ok, displacement=throw)
+
+    def max_time_step(self, state: SimState) -> float:
+        """The adaptive bound and the load bound [s] (module docstring, "Time step")."""
+        return min(self.step_bound.value, self.load_bound(state))
+
+    def load_bound(self, state: SimState) -> float:
+        """``sqrt(2 delta eta LOAD N / (|g| H))`` [s]: the step at which holding a column of
+        the fluid's depth H (:func:`fluid_depth`, plus 2r) from p = 0 takes ``LOAD`` times the
+        ``N = max_iterations`` sweeps at the tolerance eta (inf without gravity)."""
+        gn = float(np.linalg.norm(np.asarray(state.gravity, float)))
+        if gn == 0.0 or self.delta <= 0.0 or state.fluid.n == 0:
+            return float("inf")
+        depth = fluid_depth(state) + 2.0 * state.r
+        return math.sqrt(2.0 * self.delta * self.control.tolerance * LOAD
+                         * self.control.max_iterations / (gn * depth))
 
     def rejects(self, stats: SolverStats) -> bool:
         """A solve that stopped at its iteration limit with an average error above
