@@ -223,10 +223,19 @@ def height_body(i, x, u0, u1, u2, dim):
 specialize(height_body, "dim")
 
 
+def standing_gravity(state: SimState) -> np.ndarray:
+    """Gravity (dim,) without its components along periodic axes, which drive a flow and load
+    no column."""
+    g = np.array(state.gravity, float)[: state.dim]
+    for axis, _lo, _length in state.periodic_axes:
+        g[axis] = 0.0
+    return g
+
+
 def fluid_depth(state: SimState) -> float:
-    """The fluid's extent along gravity [m] (0 without gravity or fluid)."""
+    """The fluid's extent along :func:`standing_gravity` [m] (0 without it or fluid)."""
     f = state.fluid
-    g = np.asarray(state.gravity, float)[: state.dim]
+    g = standing_gravity(state)
     gn = float(np.linalg.norm(g))
     if f.n == 0 or gn == 0.0:
         return 0.0
@@ -455,8 +464,9 @@ class PCISPH(StepBounded, PressureSolver):
     def load_bound(self, state: SimState) -> float:
         """``sqrt(2 delta eta LOAD N / (|g| H))`` [s]: the step at which holding a column of
         the fluid's depth H (:func:`fluid_depth`, plus 2r) from p = 0 takes ``LOAD`` times the
-        ``N = max_iterations`` sweeps at the tolerance eta (inf without gravity)."""
-        gn = float(np.linalg.norm(np.asarray(state.gravity, float)))
+        ``N = max_iterations`` sweeps at the tolerance eta (inf without gravity; g without its
+        components along periodic axes)."""
+        gn = float(np.linalg.norm(standing_gravity(state)))
         if gn == 0.0 or self.delta <= 0.0 or state.fluid.n == 0:
             return float("inf")
         depth = fluid_depth(state) + 2.0 * state.r
