@@ -65,7 +65,7 @@ from sphkit.core.krylov import BlockJacobiPreconditioner, KrylovStats, cg
 from sphkit.core.methods import NonPressureForce
 from sphkit.core.pairs import grad_w, pair_slots, point, separation
 from sphkit.core.state import SimState
-from sphkit.core.viscous import add_velocity_change, wall_friction
+from sphkit.core.viscous import add_velocity_change, forget_lone, wall_friction
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -261,6 +261,7 @@ class Takahashi2015(NonPressureForce):
         x, v, rho, a = f["x"], f["v"], f["rho"], f["a"]
         dv = f["takahashi_dv"]
         if self.nu > 0.0:
+            forget_lone(state, dv, False)  # the system is the fluid's alone (walls: friction)
             matvec = self.operator(state, dt)
             v64 = np.ascontiguousarray(v, dtype=np.float64).ravel()
             rhs = np.empty_like(v64)

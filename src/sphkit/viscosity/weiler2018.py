@@ -69,6 +69,7 @@ from sphkit.core.viscous import (
     TANGENTIAL_DISTANCE,
     add_velocity_change,
     check_wall_options,
+    forget_lone,
     laplacian_diagonal_pair,
     laplacian_pair,
     outer_add,
@@ -242,6 +243,7 @@ class Weiler2018(NonPressureForce):
                    out.reshape(dim, n))
 
         dv = f["weiler_dv"]
+        forget_lone(state, dv, cb > 0.0)  # a lone particle's row: no change (its docstring)
         x0 = arrays.axpy_into(v, 1.0, dv).ravel()  # v + dv: the warm start
         sol, self.stats = cg(matvec, rhs.ravel(), x0, precond=BlockJacobiPreconditioner(blocks),
                              tol=self.max_error, max_iter=self.max_iterations,
