@@ -210,3 +210,17 @@ class SimState:
         if self.period_y > 0.0:
             out.append((1, self.period_lo_y, self.period_y))
         return out
+
+    @property
+    def gravity_along_period(self) -> bool:
+        """Whether gravity has a component along a periodic axis: the fluid is a flow that
+        gravity drives, not a column at rest (no hydrostatic start, no fall to a floor)."""
+        return any(self.gravity[a] != 0.0 for a, _lo, _length in self.periodic_axes)
+
+    def standing_gravity(self) -> np.ndarray:
+        """Gravity (dim,) without its components along periodic axes, which drive a flow and
+        load no column."""
+        g = np.array(self.gravity, float)[: self.dim]
+        for axis, _lo, _length in self.periodic_axes:
+            g[axis] = 0.0
+        return g

@@ -207,44 +207,33 @@ CAP = 3.0
 #: 3D map's floor while the bound grew to 5 ms, and the landing diverged at step 19 (0.046 s);
 #: with 1 it runs, benchmarks/scenes/dambreak_pcisph.json takes 321 steps instead of 314)
 LOAD = 1.0
-#: added to every height of :func:`height_body` so that the reduction's maximum is positive
-_HEIGHT_SHIFT = 1.0e6
 
 
 @numba.njit(**_JIT, inline="always")
 def height_body(i, x, u0, u1, u2, dim):
-    """``u . x_i + _HEIGHT_SHIFT`` (u: a unit direction; the maximum of a reduction is kept)."""
-    s = u0 * x[0, i] + u1 * x[1, i]
+    """``u . (x_i - x_0)``: particle i's height along the unit direction u above particle 0's
+    (0 for particle 0 itself, so the reduction's maximum, which starts at 0, is the largest)."""
+    s = u0 * (x[0, i] - x[0, 0]) + u1 * (x[1, i] - x[1, 0])
     if dim == 3:
-        s += u2 * x[2, i]
-    return s + _HEIGHT_SHIFT
+        s += u2 * (x[2, i] - x[2, 0])
+    return s
 
 
 specialize(height_body, "dim")
 
 
-def standing_gravity(state: SimState) -> np.ndarray:
-    """Gravity (dim,) without its components along periodic axes, which drive a flow and load
-    no column."""
-    g = np.array(state.gravity, float)[: state.dim]
-    for axis, _lo, _length in state.periodic_axes:
-        g[axis] = 0.0
-    return g
-
-
-def fluid_depth(state: SimState) -> float:
-    """The fluid's extent along :func:`standing_gravity` [m] (0 without it or fluid)."""
+def fluid_depth(state: SimState, g: np.ndarray) -> float:
+    """The fluid's extent [m] along the gravity g (dim,; not zero): the highest particle's
+    height above particle 0 plus the lowest's depth below it (0 without fluid)."""
     f = state.fluid
-    g = standing_gravity(state)
-    gn = float(np.linalg.norm(g))
-    if f.n == 0 or gn == 0.0:
+    if f.n == 0:
         return 0.0
     u = np.zeros(3)
-    u[: state.dim] = -g / gn
+    u[: state.dim] = -g / float(np.linalg.norm(g))
     x = f["x"]
-    top = launch_reduce(height_body, f.n, x, u[0], u[1], u[2], state.dim)[1]
-    bottom = launch_reduce(height_body, f.n, x, -u[0], -u[1], -u[2], state.dim)[1]
-    return max(top + bottom - 2.0 * _HEIGHT_SHIFT, 0.0)
+    above = launch_reduce(height_body, f.n, x, u[0], u[1], u[2], state.dim)[1]
+    below = launch_reduce(height_body, f.n, x, -u[0], -u[1], -u[2], state.dim)[1]
+    return above + below
 
 
 @numba.njit(**_JIT, inline="always")
@@ -466,10 +455,11 @@ class PCISPH(StepBounded, PressureSolver):
         the fluid's depth H (:func:`fluid_depth`, plus 2r) from p = 0 takes ``LOAD`` times the
         ``N = max_iterations`` sweeps at the tolerance eta (inf without gravity; g without its
         components along periodic axes)."""
-        gn = float(np.linalg.norm(standing_gravity(state)))
+        g = state.standing_gravity()
+        gn = float(np.linalg.norm(g))
         if gn == 0.0 or self.delta <= 0.0 or state.fluid.n == 0:
             return float("inf")
-        depth = fluid_depth(state) + 2.0 * state.r
+        depth = fluid_depth(state, g) + 2.0 * state.r
         return math.sqrt(2.0 * self.delta * self.control.tolerance * LOAD
                          * self.control.max_iterations / (gn * depth))
 

@@ -369,7 +369,7 @@ def sound_speed_warning(state: SimState, scene: Scene, pressure: PressureSolver)
     g = np.asarray(state.gravity, float)[:state.dim]
     gn = float(np.linalg.norm(g))
     cfg = scene.configuration
-    falls = gn > 0.0 and not any(abs(g[a]) > 0.0 for a, _lo, _L in state.periodic_axes)
+    falls = gn > 0.0 and not state.gravity_along_period
     up = -g / gn if falls else np.zeros_like(g)
     heights = up @ x
     low = float(heights.min())

@@ -363,8 +363,7 @@ def start_density(state: SimState, lists: _Lists, pressure: PressureSolver,
     f = state.fluid
     rho0 = f["rho0"]
     # a flow, not a column
-    along_period = any(state.gravity[a] != 0.0 for a, _lo, _L in state.periodic_axes)
-    if not hydrostatic or not np.any(state.gravity) or along_period:
+    if not hydrostatic or not np.any(state.gravity) or state.gravity_along_period:
         return np.zeros(f.n), rho0.astype(float).copy()
     lists.update(state)
     g = float(np.linalg.norm(state.gravity))
