@@ -421,6 +421,19 @@ class Simulation:
             dt = min(dt, tc.dt)
         return float(dt)
 
+    def _mark_animated(self, dt: float) -> None:
+        """``state.animated``: the particles that the emitters' regions move in this step (at
+        the step-start positions), None where no emitter animates."""
+        st = self.state
+        st.animated = None
+        if not self.emitters:
+            return
+        f = st.fluid
+        mask = arrays.zeros(f.n, np.int8, like=f["x"])
+        t = self.time + dt
+        if any([em.mark(f, t, mask) for em in self.emitters]):
+            st.animated = mask
+
     def step(self, land_at: float | None = None) -> StepStats:
         """Advance one time step; raises :class:`InstabilityError` when the state blows up.
 
@@ -441,6 +454,7 @@ class Simulation:
             parts = math.ceil((land_at - self.time) / dt * (1.0 - 1e-12))
             dt, lands = (land_at - self.time) / parts, parts == 1
         self.rigid.begin_step(st)  # this step's body frames
+        self._mark_animated(dt)
         ps = self._forces_and_pressure(dt)
         rejected = 0  # a failed solve: the step again with the solver's shrunk bound
         while rejected < self._retries and self.pressure.rejects(ps):

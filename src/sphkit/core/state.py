@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
@@ -154,6 +154,11 @@ class SimState:
     #: search against the fluid's cells (:meth:`sphkit.core.neighbors.Grid.query_grid`); None
     #: outside that window and where the fluid's lists come another way (device, Verlet lists)
     fluid_grid: Grid | None = field(default=None, repr=False)
+    #: fluid particles the step moves by prescription (an emitter's region,
+    #: :meth:`sphkit.world.emitters.FluidEmitter.mark`): int8 (N,), 1 where animated, from the
+    #: step-start positions; None where no emitter animates. A pressure solve leaves their
+    #: compression out (PCISPH)
+    animated: Any = field(default=None, repr=False)
     _rest: tuple | None = field(default=None, repr=False)  # this step's RestArrays on a device
     _held: RestArrays | None = field(default=None, repr=False)  # see hold_rest
 

@@ -131,6 +131,15 @@ maps (its block sampled 2r above a 3D density map's floor, where the map holds f
 r off) fell for 17 steps while the bound grew from 1 to 5 ms, and stopped as unstable at step
 19 (validation/README.md, "SPlisHSPlasH's scenes with another solver and boundary model").
 
+**Emitters** (sphkit's; SPlisHSPlasH's DFSPH leaves such particles out of its pressure solve,
+its PCISPH does not): a particle that an emitter's region moves rigidly in this step
+(``state.animated``, :meth:`sphkit.world.emitters.FluidEmitter.mark`) keeps ``p~ = 0`` and its
+compression counts as none. Emitted layers start compressed where the emitter lies near a wall
+(``Emitter_2D.json``'s, 2r off a volume-map wall: 10-20 %, from the wall's volume beside a
+lattice), and the solve cannot move them: its pressure on them pushed the layers ahead, and with
+volume maps a solve diverged at the 15th layer (0.50-0.55 s; validation/README.md, "PCISPH at an
+emitter").
+
 **Thrown particles** (sphkit's; a force condition ``dt <= lambda sqrt(h_s / |a|)`` as Monaghan's
 and Ihmsen et al.'s, on the solve's own pressure acceleration, checked after the solve: with
 :data:`THROW` = 0.5, ``lambda`` = 0.5 and ``h_s = 2r``): the prediction is linear in the pressure
@@ -248,10 +257,13 @@ specialize(predict_body, "dim")  # an element loop: unrolled per dimension
 
 
 @numba.njit(**_JIT, inline="always")
-def pressure_update_body(i, rho_hat, factor, factors, each, p):
+def pressure_update_body(i, rho_hat, factor, factors, each, animated, p):
     """``p_i += f_i max(rho_hat_i - 1, 0)`` with ``f_i = factors[i]`` if ``each`` (several
     fluids, capped factors), else ``factor``; returns the compression ``max(rho_hat_i - 1, 0)``
-    before the update."""
+    before the update, 0 for a particle an emitter animates (``animated[i]``; an empty array:
+    none), whose pressure stays 0."""
+    if animated.shape[0] > 0 and animated[i]:
+        return 0.0
     e = max(rho_hat[i] - 1.0, 0.0)
     if each:
         p[i] += factors[i] * e
@@ -393,6 +405,9 @@ class PCISPH(StepBounded, PressureSolver):
             scale = phase if scale is None else arrays.multiplied(scale, phase)
         each = scale is not None
         factors = arrays.scaled(scale, factor) if each else arrays.empty(0, f.dtype, like=x)
+        # particles an emitter moves are not the solve's to hold (module docstring, "Emitters")
+        animated = (state.animated if state.animated is not None
+                    else arrays.empty(0, np.int8, like=x))
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
@@ -421,7 +436,7 @@ class PCISPH(StepBounded, PressureSolver):
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat, rest.one_mass)
             tot, mx = launch_reduce(pressure_update_body, n, rho_hat, float(factor), factors,
-                                    each, p)
+                                    each, animated, p)
             if not rest.uniform:
                 arrays.multiplied(p, rest.c, out=pc)
             if walls:  # each wall particle's k_b from its predicted density (omega 0.5)

@@ -68,10 +68,10 @@ HOUSING_WALL = 2.0
 
 
 @numba.njit(inline="always", cache=True, fastmath=True)
-def animate_body(i, x, v, dim, x0, R, lo, hi, hy, hz, circle, r2, vel, dt):
-    """Move particle ``i`` rigidly with ``vel`` if it lies in the emitter region (local
-    coordinates ``u = R^T (x - x0)``: ``lo <= u0 <= hi`` and ``|u1| <= hy, |u2| <= hz`` (box) or
-    ``u1^2 + u2^2 <= r2`` (cylinder))."""
+def in_region(i, x, dim, x0, R, lo, hi, hy, hz, circle, r2):
+    """Whether particle ``i`` lies in the emitter region (local coordinates ``u = R^T (x -
+    x0)``: ``lo <= u0 <= hi`` and ``|u1| <= hy, |u2| <= hz`` (box) or ``u1^2 + u2^2 <= r2``
+    (cylinder))."""
     u0 = 0.0
     u1 = 0.0
     u2 = 0.0
@@ -81,11 +81,24 @@ def animate_body(i, x, v, dim, x0, R, lo, hi, hy, hz, circle, r2, vel, dt):
         u1 += R[d, 1] * t
         u2 += R[d, 2] * t
     if u0 < lo or u0 > hi:
-        return
+        return False
     if circle:
-        if u1 * u1 + u2 * u2 > r2:
-            return
-    elif abs(u1) > hy or abs(u2) > hz:
+        return u1 * u1 + u2 * u2 <= r2
+    return abs(u1) <= hy and abs(u2) <= hz
+
+
+@numba.njit(inline="always", cache=True, fastmath=True)
+def mark_body(i, x, dim, x0, R, lo, hi, hy, hz, circle, r2, out):
+    """``out[i] = 1`` where particle ``i`` lies in the emitter region (:func:`in_region`)."""
+    if in_region(i, x, dim, x0, R, lo, hi, hy, hz, circle, r2):
+        out[i] = 1
+
+
+@numba.njit(inline="always", cache=True, fastmath=True)
+def animate_body(i, x, v, dim, x0, R, lo, hi, hy, hz, circle, r2, vel, dt):
+    """Move particle ``i`` rigidly with ``vel`` if it lies in the emitter region
+    (:func:`in_region`)."""
+    if not in_region(i, x, dim, x0, R, lo, hi, hy, hz, circle, r2):
         return
     for d in range(dim):
         x[d, i] -= dt * (v[d, i] - vel[d])
@@ -231,20 +244,36 @@ class FluidEmitter:
             self.emitted += take
             added += take
 
+    def animates(self, t: float) -> bool:
+        """Whether the region moves particles at time ``t`` (from :data:`CLEAR_AHEAD` before
+        ``start_time`` to ``end_time``)."""
+        return self.start - CLEAR_AHEAD <= t <= self.end
+
+    def _region(self, dev: str) -> tuple:
+        """The region arguments of :func:`in_region` after the particle's (``dim`` to
+        ``r2``), on device ``dev``."""
+        half = 0.5 * self.size
+        return (self.dim, to_device(self.x0, dev), to_device(self.R, dev), -0.5 * self.h,
+                1.5 * self.h, float(half[1]), float(half[2]), self.circle,
+                float(half[1] * half[1]))
+
     def animate(self, fluid: ParticleSet, t: float, dt: float) -> None:
         """After the integration of the step ending at time ``t``: particles in the emitter region
         move rigidly with its velocity (see the module docstring)."""
-        if fluid.n == 0 or not (self.start - CLEAR_AHEAD <= t <= self.end):
+        if fluid.n == 0 or not self.animates(t):
             return
-        vel = self.velocity(t)
-        h = self.h
-        half = 0.5 * self.size
-        r_cyl = half[1]
         dev = fluid.device
-        launch(animate_body, fluid.n, fluid["x"], fluid["v"], self.dim, to_device(self.x0, dev),
-               to_device(self.R, dev), -0.5 * h, 1.5 * h, float(half[1]), float(half[2]),
-               self.circle, float(r_cyl * r_cyl), to_device(vel.astype(fluid.dtype), dev),
-               float(dt))
+        launch(animate_body, fluid.n, fluid["x"], fluid["v"], *self._region(dev),
+               to_device(self.velocity(t).astype(fluid.dtype), dev), float(dt))
+
+    def mark(self, fluid: ParticleSet, t: float, out) -> bool:
+        """``out[i] = 1`` (int8 (N,)) for the particles in the region that the step ending at
+        time ``t`` animates (the others are left as they are); returns whether it animates
+        then."""
+        if fluid.n == 0 or not self.animates(t):
+            return False
+        launch(mark_body, fluid.n, fluid["x"], *self._region(fluid.device), out)
+        return True
 
     def _housing_extent(self) -> np.ndarray:
         """The housing box's extent in the emitter's frame (``size``; in 2D ``2h`` along z,
