@@ -841,3 +841,25 @@ def test_animated_body_without_its_script_stays_in_place(sph_dir: Path) -> None:
     with pytest.raises(SceneError, match=r"RigidBodies\[1\]\.isAnimated: got True: expected "
                                          r"false for a dynamic body"):
         from_splishsplash(data, sph_dir / "animated.json")
+
+
+def test_poly6_for_the_pressure_is_warned_about(sph_dir: Path) -> None:
+    """poly6's gradient vanishes as two particles close in (the pairing instability;
+    validation/README.md, "Kernels other than the cubic spline": the built-in 3D dam break's
+    closest pairs fall to 0.01-0.1 r and DFSPH stops as unstable at 0.2 s): a 3D scene with it
+    is warned about, naming the field as written (SPlisHSPlasH's ``kernel`` 2 too); the
+    other kernels and 2D scenes, where SPlisHSPlasH reads 2 as the cubic spline, are not."""
+    from sphkit.world.build import kernel_warning
+
+    for number, warned in ((2, True), (0, False), (1, False), (3, False)):
+        data = _sph_scene(kernel=number, gradKernel=number)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            note = kernel_warning(from_splishsplash(data, sph_dir / "dam.json"))
+        assert (note is not None) == warned, number
+        if warned:
+            assert note.startswith("Configuration.kernel") and "pairs" in note
+    data = _sph_scene(kernel=2, gradKernel=2, sim2D=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert kernel_warning(from_splishsplash(data, sph_dir / "dam.json")) is None

@@ -37,6 +37,7 @@ emitter reuses particles.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import tempfile
 import time
@@ -202,10 +203,11 @@ def row(name: str, r: dict) -> str:
 
 
 def variant(folder: Path, name: str, method: int | None, boundary: int | None,
-            tmp: Path) -> Path:
-    """The scene ``name`` with its ``simulationMethod`` / ``boundaryHandlingMethod`` replaced
-    (None: the file's own), written to ``tmp/Scenes`` beside a link to the wheel's models."""
-    if method is None and boundary is None:
+            tmp: Path, kernel: int | None = None) -> Path:
+    """The scene ``name`` with its ``simulationMethod`` / ``boundaryHandlingMethod`` /
+    ``kernel`` and ``gradKernel`` replaced (None: the file's own), written to ``tmp/Scenes``
+    beside a link to the wheel's models."""
+    if method is None and boundary is None and kernel is None:
         return folder / name
     data = json.loads((folder / name).read_text())
     cfg = data.setdefault("Configuration", {})
@@ -213,12 +215,14 @@ def variant(folder: Path, name: str, method: int | None, boundary: int | None,
         cfg["simulationMethod"] = method
     if boundary is not None:
         cfg["boundaryHandlingMethod"] = boundary
+    if kernel is not None:
+        cfg["kernel"] = cfg["gradKernel"] = kernel
     scenes = tmp / "Scenes"
     scenes.mkdir(exist_ok=True)
     models = tmp / "models"
     if not models.exists():
         models.symlink_to(folder.parent / "models", target_is_directory=True)
-    out = scenes / f"m{method}_b{boundary}_{name}"
+    out = scenes / f"m{method}_b{boundary}_k{kernel}_{name}"
     out.write_text(json.dumps(data, indent=1))
     return out
 
@@ -242,6 +246,8 @@ def main() -> None:
                     help="run each scene with these simulationMethod values")
     ap.add_argument("--boundaries", type=int, nargs="+", default=[None], choices=range(3),
                     help="run each scene with these boundaryHandlingMethod values")
+    ap.add_argument("--kernels", type=int, nargs="+", default=[None], choices=range(5),
+                    help="run each scene with these kernel (and gradKernel) values")
     args = ap.parse_args()
     if not (args.until > 0 and args.budget > 0 and args.margin >= 0):
         ap.error("--until and --budget must be positive, --margin not negative")
@@ -257,18 +263,17 @@ def main() -> None:
     print("|---" * HEADER.count(" | ") + "|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for name in names:
-            for m in args.methods:
-                for b in args.boundaries:
-                    path = variant(folder, name, m, b, Path(tmp))
-                    label = name + "".join(f" {k}{v}" for k, v in (("m", m), ("b", b))
-                                           if v is not None)
-                    r = run(path, args.until, args.budget, args.max_particles, args.margin)
-                    print(row(label, r), flush=True)
-                    for note in r.get("notes", []):
-                        print(f"  warning: {note}")
-                    if args.json is not None:
-                        with args.json.open("a") as fh:
-                            fh.write(json.dumps({"scene": label, **r}) + "\n")
+            for m, b, k in itertools.product(args.methods, args.boundaries, args.kernels):
+                path = variant(folder, name, m, b, Path(tmp), k)
+                label = name + "".join(f" {key}{v}" for key, v in
+                                       (("m", m), ("b", b), ("k", k)) if v is not None)
+                r = run(path, args.until, args.budget, args.max_particles, args.margin)
+                print(row(label, r), flush=True)
+                for note in r.get("notes", []):
+                    print(f"  warning: {note}")
+                if args.json is not None:
+                    with args.json.open("a") as fh:
+                        fh.write(json.dumps({"scene": label, **r}) + "\n")
 
 
 if __name__ == "__main__":

@@ -320,6 +320,7 @@ def _build(scene: Scene) -> World:
     # the fluid's start: out of the walls, consistent next to them, hydrostatic
     start, settle = start_fluid(state, scene, meshes, model, pressure)
     sound_speed_warning(state, scene, pressure)
+    kernel_warning(scene)
     for force in forces:
         force.init(state)
     pressure.init(state)
@@ -339,6 +340,30 @@ def _build(scene: Scene) -> World:
                  force_roles=roles, domain=domain_box(state, scene, meshes, emitters),
                  start=start, animation_fields=animations, materials=mats,
                  solids=solids, settle=settle)
+
+
+def kernel_warning(scene: Scene) -> str | None:
+    """Warn (``UserWarning``, also returned) when the scene's kernel is poly6 in 3D (in 2D
+    SPlisHSPlasH's numbers other than 0 and 1 read as the cubic spline): its gradient
+    vanishes as two particles close in, so the pressure stops keeping them apart (the pairing
+    instability; Mueller et al. 2003 use poly6 for densities and the spiky kernel for the
+    pressure). Measured (validation/README.md, "Kernels other than the cubic spline"): in the
+    built-in 3D dam break the closest pairs fall to 0.01-0.1 r within 0.25 s with every
+    solver, DFSPH and IISPH stop as unstable at 0.17-0.2 s, where the cubic, Wendland and
+    spiky kernels keep every pair at least 1.1 r apart; SPlisHSPlasH's scenes run with it
+    because SPlisHSPlasH's AVX build (the pysplishsplash wheel) computes the densities, and
+    DFSPH its gradients, with the cubic spline whatever ``kernel`` says."""
+    cfg = scene.configuration
+    if cfg.kernel != "poly6" or cfg.dim != 3:
+        return None
+    note = (f"{scene.field('configuration.kernel')}: poly6's gradient vanishes as two particles "
+            "close in, so the pressure does not keep them apart and particles merge in pairs "
+            "(the pairing instability; the built-in 3D dam break with it goes unstable at "
+            "0.2 s); SPlisHSPlasH's AVX build computes its densities (and DFSPH its gradients) "
+            "with the cubic spline whatever this says; expected the cubic spline, Wendland or "
+            "spiky (SPlisHSPlasH's kernel 0, 1 or 3)")
+    warnings.warn(note, UserWarning, stacklevel=3)
+    return note
 
 
 #: the ratio of a state equation's speed of sound to the fastest speed the fluid is expected to

@@ -125,6 +125,7 @@ def configuration(
         "configuration.time.until": f"{w}.stopAt",
         "configuration.time": f"{w}.cflMinTimeStepSize/cflMaxTimeStepSize",
         "configuration.particle_radius": f"{w}.particleRadius",
+        "configuration.kernel": f"{w}.kernel",
         "configuration.gravity": f"{w}.gravitation",
     })
     stop_at = rd.num(cfg, "stopAt", w, -1.0)
