@@ -253,6 +253,27 @@ def test_housing_walls_are_maps_with_density_and_volume_maps() -> None:
             assert (phi < 0.0) == (name in ("back wall", "side wall")), (dim, shape, name, phi)
 
 
+def _wheel_variant(tmp_path: Path, name: str, **config: object) -> Simulation:
+    """The simulation of the wheel's scene ``name`` with ``config`` set in its
+    ``Configuration`` (a copy beside a link to the wheel's models); skips without the wheel."""
+    import json
+
+    from sphkit.cli.compat import wheel_scene_folder
+
+    folder = wheel_scene_folder()
+    if folder is None:
+        pytest.skip("pysplishsplash is not installed: its scene files are not available")
+    scene = json.loads((folder / name).read_text())
+    scene["Configuration"].update(config)
+    (tmp_path / "models").symlink_to(folder.parent / "models")
+    (tmp_path / "Scenes").mkdir()
+    path = tmp_path / "Scenes" / name
+    path.write_text(json.dumps(scene))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the scene's coarse map resolution, its comment field
+        return Simulation.from_scene(path)
+
+
 def test_pcisph_leaves_the_layers_an_emitter_moves_out_of_its_solve(tmp_path: Path) -> None:
     """``Emitter_2D.json`` with PCISPH (``simulationMethod`` 1, nothing else changed) to
     0.7 s. Its emitter lies 2r off the tank's volume-map wall, so every layer it emits starts
@@ -263,22 +284,7 @@ def test_pcisph_leaves_the_layers_an_emitter_moves_out_of_its_solve(tmp_path: Pa
     compression not counted) the run is stable, the emitted stream keeps to the emitter's 2
     m/s plus its fall (under 5 m/s: 4.1 m/s measured; bound 10 m/s as the DFSPH test above),
     and the particles in the emitter's region carry no pressure."""
-    import json
-
-    from sphkit.cli.compat import wheel_scene_folder
-
-    folder = wheel_scene_folder()
-    if folder is None:
-        pytest.skip("pysplishsplash is not installed: its scene files are not available")
-    scene = json.loads((folder / "Emitter_2D.json").read_text())
-    scene["Configuration"]["simulationMethod"] = 1
-    (tmp_path / "models").symlink_to(folder.parent / "models")
-    (tmp_path / "Scenes").mkdir()
-    path = tmp_path / "Scenes" / "Emitter_2D_pcisph.json"
-    path.write_text(json.dumps(scene))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the scene's coarse map resolution, its comment field
-        sim = Simulation.from_scene(path)
+    sim = _wheel_variant(tmp_path, "Emitter_2D.json", simulationMethod=1)
     fastest = 0.0
     while sim.time < 0.7:
         sim.step()
@@ -288,3 +294,23 @@ def test_pcisph_leaves_the_layers_an_emitter_moves_out_of_its_solve(tmp_path: Pa
     # (the step's last emission appended particles after those it marked)
     assert np.all(sim.fluid["p"][: animated.size][animated.astype(bool)] == 0.0)
     assert fastest < 10.0, fastest
+
+
+def test_dfsph_leaves_the_layers_an_emitter_moves_out_of_its_solves(tmp_path: Path) -> None:
+    """``Emitter_2D.json`` at twice its particle radius (DFSPH, its own solver): the emitter
+    then lies r off the tank's wall, every layer starts compressed, and DFSPH solved for
+    them -- 13-15 iterations in every step, which the scene's step control (``cflMethod`` 2:
+    10 % shorter after more than 10 iterations) answered by shrinking the step to a fifth of a
+    millisecond (3,866 steps for 1 s; unstable at 2.4 s). SPlisHSPlasH's DFSPH leaves the
+    particles an emitter moves out of both solves; so does sphkit's now: 201 steps for 1 s.
+    To 0.4 s (0.2 s of the emitter's layers against the wall): fewer than 150 steps (5 ms
+    steps would be 80; before, 1,083), and the particles in the emitter's region carry no
+    pressure."""
+    sim = _wheel_variant(tmp_path, "Emitter_2D.json", particleRadius=0.05)
+    while sim.time < 0.4:
+        sim.step()
+    assert sim.step_count < 150, sim.step_count
+    animated = sim.state.animated
+    assert animated is not None and animated.sum() >= 3  # at least the newest layer
+    # (the step's last emission appended particles after those it marked)
+    assert np.all(sim.fluid["p"][: animated.size][animated.astype(bool)] == 0.0)

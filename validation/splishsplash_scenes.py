@@ -203,11 +203,11 @@ def row(name: str, r: dict) -> str:
 
 
 def variant(folder: Path, name: str, method: int | None, boundary: int | None,
-            tmp: Path, kernel: int | None = None) -> Path:
+            tmp: Path, kernel: int | None = None, radius: float | None = None) -> Path:
     """The scene ``name`` with its ``simulationMethod`` / ``boundaryHandlingMethod`` /
-    ``kernel`` and ``gradKernel`` replaced (None: the file's own), written to ``tmp/Scenes``
-    beside a link to the wheel's models."""
-    if method is None and boundary is None and kernel is None:
+    ``kernel`` and ``gradKernel`` replaced and its ``particleRadius`` scaled by ``radius`` (None:
+    the file's own), written to ``tmp/Scenes`` beside a link to the wheel's models."""
+    if method is None and boundary is None and kernel is None and radius is None:
         return folder / name
     data = json.loads((folder / name).read_text())
     cfg = data.setdefault("Configuration", {})
@@ -217,12 +217,14 @@ def variant(folder: Path, name: str, method: int | None, boundary: int | None,
         cfg["boundaryHandlingMethod"] = boundary
     if kernel is not None:
         cfg["kernel"] = cfg["gradKernel"] = kernel
+    if radius is not None:
+        cfg["particleRadius"] = radius * cfg.get("particleRadius", 0.025)
     scenes = tmp / "Scenes"
     scenes.mkdir(exist_ok=True)
     models = tmp / "models"
     if not models.exists():
         models.symlink_to(folder.parent / "models", target_is_directory=True)
-    out = scenes / f"m{method}_b{boundary}_k{kernel}_{name}"
+    out = scenes / f"m{method}_b{boundary}_k{kernel}_r{radius}_{name}"
     out.write_text(json.dumps(data, indent=1))
     return out
 
@@ -248,9 +250,13 @@ def main() -> None:
                     help="run each scene with these boundaryHandlingMethod values")
     ap.add_argument("--kernels", type=int, nargs="+", default=[None], choices=range(5),
                     help="run each scene with these kernel (and gradKernel) values")
+    ap.add_argument("--radius-scales", type=float, nargs="+", default=[None],
+                    help="run each scene with its particleRadius times these factors")
     args = ap.parse_args()
-    if not (args.until > 0 and args.budget > 0 and args.margin >= 0):
-        ap.error("--until and --budget must be positive, --margin not negative")
+    if not (args.until > 0 and args.budget > 0 and args.margin >= 0
+            and all(rs is None or rs > 0 for rs in args.radius_scales)):
+        ap.error("--until, --budget and --radius-scales must be positive, --margin not "
+                 "negative")
     folder = wheel_scene_folder()
     if folder is None:
         print("pysplishsplash is not installed: its scenes are not available")
@@ -263,10 +269,12 @@ def main() -> None:
     print("|---" * HEADER.count(" | ") + "|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for name in names:
-            for m, b, k in itertools.product(args.methods, args.boundaries, args.kernels):
-                path = variant(folder, name, m, b, Path(tmp), k)
-                label = name + "".join(f" {key}{v}" for key, v in
-                                       (("m", m), ("b", b), ("k", k)) if v is not None)
+            for m, b, k, rs in itertools.product(args.methods, args.boundaries, args.kernels,
+                                                 args.radius_scales):
+                path = variant(folder, name, m, b, Path(tmp), k, rs)
+                label = name + "".join(f" {key}{v:g}" for key, v in
+                                       (("m", m), ("b", b), ("k", k), ("r x", rs))
+                                       if v is not None)
                 r = run(path, args.until, args.budget, args.max_particles, args.margin)
                 print(row(label, r), flush=True)
                 for note in r.get("notes", []):

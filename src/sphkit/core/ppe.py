@@ -59,6 +59,8 @@ CPU, a CUDA kernel with ``device="cuda"``; the bodies carry their fast-math flag
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numba
 import numpy as np
 
@@ -77,6 +79,9 @@ from sphkit.core.pairs import (
     separation,
     set_vector,
 )
+
+if TYPE_CHECKING:
+    from sphkit.core.state import SimState
 
 _JIT = dict(cache=True, fastmath=True)
 
@@ -242,6 +247,35 @@ def surrounded(off: np.ndarray, boff: np.ndarray, least: int) -> np.ndarray:
     out = arrays.empty(n, np.bool_, like=off)
     launch(surrounded_body, n, off, boff, int(least), out)
     return out
+
+
+@numba.njit(cache=True, inline="always")
+def held_body(i, animated, active, out):
+    """``out[i]``: particle i is one a pressure solve holds: not animated (``animated[i]`` 0)
+    and, where ``active`` has entries, active."""
+    out[i] = animated[i] == 0 and (active.shape[0] == 0 or active[i])
+
+
+def held(state: SimState, active: np.ndarray | None = None) -> np.ndarray | None:
+    """The fluid particles a pressure solve holds (bool (N,)): those of ``active`` (None: all)
+    that no emitter moves in this step (``state.animated``; SPlisHSPlasH's solvers leave its
+    ``AnimatedByEmitter`` particles out, DFSPH of the solve, the others of the integration);
+    ``active`` itself where no emitter animates. A solve keeps the others' pressure at 0 and
+    leaves their residual out of its error."""
+    if state.animated is None:
+        return active
+    n = state.fluid.n
+    out = arrays.empty(n, np.bool_, like=state.animated)
+    act = active if active is not None else arrays.absent(0, np.bool_, like=state.animated)
+    launch(held_body, n, state.animated, act, out)
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def release_body(i, rows, x):
+    """``x[i] = 0`` where particle i is not held (``rows[i]`` false)."""
+    if not rows[i]:
+        x[i] = 0.0
 
 
 @numba.njit(parallel=True, **_JIT)

@@ -36,6 +36,16 @@ Per step (2017 paper, Alg. 1): after the neighbour search and the densities,
    1, full mirroring, for lattice walls; see :mod:`sphkit.core.ppe`) is added to the
    particle accelerations and the simulation integrates.
 
+**Emitters** (SPlisHSPlasH's ``TimeStepDFSPH``: a particle whose state is not ``Active`` is
+skipped by both solves' iterations and gets no pressure acceleration): a particle that an
+emitter's region moves rigidly in this step (``state.animated``, :func:`sphkit.core.ppe.held`)
+has no factor (alpha 0), so its kappa and kappa^v stay 0, and its residual is left out of both
+errors. Layers emitted within 2r of a wall start compressed and the solves cannot move them:
+``Emitter_2D.json`` at twice its particle radius (its emitter then r off the tank's wall) took
+13-15 iterations in every step, which the scene's step control (``cflMethod`` 2) answered by
+shrinking the step 10 % a step, to 3,866 steps for 1 s (validation/README.md, "PCISPH at an
+emitter").
+
 ``kappa = p / (rho0 rho_hat^2)`` is stored time-step independent (times dt^2, resp. dt) for the
 warm start, as SPlisHSPlasH does; the reported pressure is ``p = (kappa + kappa^v) rho^2 / rho0``
 (both solves apply pressure impulses within the step).
@@ -91,7 +101,7 @@ import numpy as np
 from sphkit.backend import launch
 from sphkit.core import arrays
 from sphkit.core.methods import BoundaryReaction, PressureSolver
-from sphkit.core.ppe import surrounded
+from sphkit.core.ppe import held, release_body, surrounded
 from sphkit.core.solver import (
     JACOBI_STEP_BOUND,
     IterationControl,
@@ -197,6 +207,7 @@ class DFSPH(StepBounded, PressureSolver):
         self._div_stats = (0, 0.0)
         self._kappa_v: np.ndarray | None = None  # this step's divergence kappa (for p)
         self._grads: PairGradients | None = None  # this step's pair gradients
+        self._rows: np.ndarray | None = None  # the particles this step's solves hold
         #: the adaptive time-step bound (see max_time_step)
         self.step_bound = StepBound(**JACOBI_STEP_BOUND)
         self.free_surface = free_surface
@@ -221,6 +232,11 @@ class DFSPH(StepBounded, PressureSolver):
         else:
             D = self._grads.diagonal()
         launch(alpha_body, f.n, D, 1e-5, alpha)  # SPlisHSPlasH's epsilon [1/m^2]
+        # particles an emitter moves are left out of both solves (module docstring, "Emitters"):
+        # without a factor their kappa stays at 0
+        self._rows = held(state)
+        if self._rows is not None:
+            launch(release_body, f.n, self._rows, alpha)
         self._div_stats = (0, 0.0)
         self._kappa_v = None
         if not self.divergence_solver:
@@ -228,12 +244,14 @@ class DFSPH(StepBounded, PressureSolver):
         s = arrays.empty_like(div)
         kappa = arrays.empty_like(div)
         if self.closed:
-            active = None
+            active = self._rows
             launch(divergence_source_closed_body, f.n, div, float(np.mean(div)), dt,
                    f["dfsph_kappa_v"], state.rest().inv_c, s, kappa)
+            if active is not None:
+                launch(release_body, f.n, active, kappa)
         else:
-            active = surrounded(state.nl_ff.offsets, state.nl_fb.offsets,
-                                20 if state.dim == 3 else 7)
+            active = held(state, surrounded(state.nl_ff.offsets, state.nl_fb.offsets,
+                                            20 if state.dim == 3 else 7))
             launch(divergence_source_body, f.n, div, active, dt, f["dfsph_kappa_v"],
                    state.rest().inv_c, s, kappa)
         a, its, avg, _mx, _ok = jacobi_ppe(state, self.divergence_control, kappa, None, s,
@@ -267,8 +285,11 @@ class DFSPH(StepBounded, PressureSolver):
         else:
             launch(density_source_body, f.n, f["rho"], rest.inv_rho0, div, dt,
                    f["dfsph_kappa"], rest.inv_c, s, kappa)
+        if self._rows is not None:
+            launch(release_body, f.n, self._rows, kappa)
         a, its, avg, mx, ok = jacobi_ppe(state, self.density_control, kappa, None, s,
-                                         arrays.divided(alpha, dt * dt), dt * dt, OMEGA, None,
+                                         arrays.divided(alpha, dt * dt), dt * dt, OMEGA,
+                                         self._rows,
                                          grads=self._grads, clamp=not self.closed,
                                          **self._grads.wall_args(v_star, dt, "dfsph", dt * dt,
                                                                   density=True))

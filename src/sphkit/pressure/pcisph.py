@@ -133,12 +133,12 @@ r off) fell for 17 steps while the bound grew from 1 to 5 ms, and stopped as uns
 
 **Emitters** (sphkit's; SPlisHSPlasH's DFSPH leaves such particles out of its pressure solve,
 its PCISPH does not): a particle that an emitter's region moves rigidly in this step
-(``state.animated``, :meth:`sphkit.world.emitters.FluidEmitter.mark`) keeps ``p~ = 0`` and its
-compression counts as none. Emitted layers start compressed where the emitter lies near a wall
-(``Emitter_2D.json``'s, 2r off a volume-map wall: 10-20 %, from the wall's volume beside a
-lattice), and the solve cannot move them: its pressure on them pushed the layers ahead, and with
-volume maps a solve diverged at the 15th layer (0.50-0.55 s; validation/README.md, "PCISPH at an
-emitter").
+(``state.animated``, :meth:`sphkit.world.emitters.FluidEmitter.mark`,
+:func:`sphkit.core.ppe.held`) keeps ``p~ = 0`` and its compression counts as none. Emitted
+layers start compressed where the emitter lies near a wall (``Emitter_2D.json``'s, 2r off a
+volume-map wall: 10-20 %, from the wall's volume beside a lattice), and the solve cannot move
+them: its pressure on them pushed the layers ahead, and with volume maps a solve diverged at
+the 15th layer (0.50-0.55 s; validation/README.md, "PCISPH at an emitter").
 
 **Thrown particles** (sphkit's; a force condition ``dt <= lambda sqrt(h_s / |a|)`` as Monaghan's
 and Ihmsen et al.'s, on the solve's own pressure acceleration, checked after the solve: with
@@ -169,6 +169,7 @@ from sphkit.core.pairs import period_arg
 from sphkit.core.ppe import (
     density_at,
     diagonal_cached,
+    held,
     kappa_accel_cached,
     lattice_diagonal,
 )
@@ -257,12 +258,12 @@ specialize(predict_body, "dim")  # an element loop: unrolled per dimension
 
 
 @numba.njit(**_JIT, inline="always")
-def pressure_update_body(i, rho_hat, factor, factors, each, animated, p):
+def pressure_update_body(i, rho_hat, factor, factors, each, rows, p):
     """``p_i += f_i max(rho_hat_i - 1, 0)`` with ``f_i = factors[i]`` if ``each`` (several
     fluids, capped factors), else ``factor``; returns the compression ``max(rho_hat_i - 1, 0)``
-    before the update, 0 for a particle an emitter animates (``animated[i]``; an empty array:
-    none), whose pressure stays 0."""
-    if animated.shape[0] > 0 and animated[i]:
+    before the update, 0 for a particle the solve does not hold (``rows[i]`` false; an empty
+    array: it holds every particle), whose pressure stays 0."""
+    if rows.shape[0] > 0 and not rows[i]:
         return 0.0
     e = max(rho_hat[i] - 1.0, 0.0)
     if each:
@@ -406,8 +407,9 @@ class PCISPH(StepBounded, PressureSolver):
         each = scale is not None
         factors = arrays.scaled(scale, factor) if each else arrays.empty(0, f.dtype, like=x)
         # particles an emitter moves are not the solve's to hold (module docstring, "Emitters")
-        animated = (state.animated if state.animated is not None
-                    else arrays.empty(0, np.int8, like=x))
+        rows = held(state)
+        if rows is None:
+            rows = arrays.absent(0, np.bool_, like=x)
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
@@ -417,8 +419,8 @@ class PCISPH(StepBounded, PressureSolver):
             use, wk, Vf, wd, wkmax = rows.use, rows.stored, rows.Vf, rows.D, rows.kmax
             target = coupling.wall_density(state, use)  # the step start's: the rate held
             if coupling.density_walls:  # the start's density where the wall was covered
-                held = coupling.wall_rest(state)
-                target = np.where(held >= 0.0, held, target)
+                covered = coupling.wall_rest(state)
+                target = np.where(covered >= 0.0, covered, target)
             rho_b, src = (np.zeros(b.n, dtype=f.dtype) for _ in range(2))
             zero = np.zeros(b.n, dtype=f.dtype)
             L = period_arg(state.pair_period)
@@ -436,7 +438,7 @@ class PCISPH(StepBounded, PressureSolver):
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat, rest.one_mass)
             tot, mx = launch_reduce(pressure_update_body, n, rho_hat, float(factor), factors,
-                                    each, animated, p)
+                                    each, rows, p)
             if not rest.uniform:
                 arrays.multiplied(p, rest.c, out=pc)
             if walls:  # each wall particle's k_b from its predicted density (omega 0.5)
