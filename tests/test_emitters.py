@@ -253,9 +253,9 @@ def test_housing_walls_are_maps_with_density_and_volume_maps() -> None:
             assert (phi < 0.0) == (name in ("back wall", "side wall")), (dim, shape, name, phi)
 
 
-def _wheel_variant(tmp_path: Path, name: str, **config: object) -> Simulation:
-    """The simulation of the wheel's scene ``name`` with ``config`` set in its
-    ``Configuration`` (a copy beside a link to the wheel's models); skips without the wheel."""
+def _wheel_variant(tmp_path: Path, name: str, **config: object) -> Path:
+    """The wheel's scene ``name`` with ``config`` set in its ``Configuration``, copied beside a
+    link to the wheel's models; skips without the wheel."""
     import json
 
     from sphkit.cli.compat import wheel_scene_folder
@@ -269,6 +269,10 @@ def _wheel_variant(tmp_path: Path, name: str, **config: object) -> Simulation:
     (tmp_path / "Scenes").mkdir()
     path = tmp_path / "Scenes" / name
     path.write_text(json.dumps(scene))
+    return path
+
+
+def _quiet(path: Path) -> Simulation:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the scene's coarse map resolution, its comment field
         return Simulation.from_scene(path)
@@ -284,7 +288,7 @@ def test_pcisph_leaves_the_layers_an_emitter_moves_out_of_its_solve(tmp_path: Pa
     compression not counted) the run is stable, the emitted stream keeps to the emitter's 2
     m/s plus its fall (under 5 m/s: 4.1 m/s measured; bound 10 m/s as the DFSPH test above),
     and the particles in the emitter's region carry no pressure."""
-    sim = _wheel_variant(tmp_path, "Emitter_2D.json", simulationMethod=1)
+    sim = _quiet(_wheel_variant(tmp_path, "Emitter_2D.json", simulationMethod=1))
     fastest = 0.0
     while sim.time < 0.7:
         sim.step()
@@ -306,7 +310,7 @@ def test_dfsph_leaves_the_layers_an_emitter_moves_out_of_its_solves(tmp_path: Pa
     To 0.4 s (0.2 s of the emitter's layers against the wall): fewer than 150 steps (5 ms
     steps would be 80; before, 1,083), and the particles in the emitter's region carry no
     pressure."""
-    sim = _wheel_variant(tmp_path, "Emitter_2D.json", particleRadius=0.05)
+    sim = _quiet(_wheel_variant(tmp_path, "Emitter_2D.json", particleRadius=0.05))
     while sim.time < 0.4:
         sim.step()
     assert sim.step_count < 150, sim.step_count
@@ -314,3 +318,25 @@ def test_dfsph_leaves_the_layers_an_emitter_moves_out_of_its_solves(tmp_path: Pa
     assert animated is not None and animated.sum() >= 3  # at least the newest layer
     # (the step's last emission appended particles after those it marked)
     assert np.all(sim.fluid["p"][: animated.size][animated.astype(bool)] == 0.0)
+
+
+def test_an_emitter_layer_in_a_wall_is_warned_about(tmp_path: Path) -> None:
+    """An emitter whose layer starts inside a wall, or closer to it than a fluid block may
+    start, is named at the build: ``Emitter_2D.json`` at twice its radius (its emitters are
+    sized in particles: the first then lies r off the tank's wall, the second, 7 particles
+    tall, reaches into the floor). The scene as shipped is not warned about."""
+    from sphkit.cli.compat import wheel_scene_folder
+    from sphkit.world import build_world
+
+    path = _wheel_variant(tmp_path, "Emitter_2D.json", particleRadius=0.05)
+    with pytest.warns(UserWarning) as rec:
+        build_world(load_scene(path))
+    notes = [str(w.message) for w in rec if "particles of its layer" in str(w.message)]
+    assert len(notes) == 2
+    assert notes[0].startswith("Emitters[0]") and "5 of the 5" in notes[0]
+    assert notes[1].startswith("Emitters[1]") and "RigidBodies[0]" in notes[1]
+    folder = wheel_scene_folder()
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        build_world(load_scene(folder / "Emitter_2D.json"))
+    assert not [w for w in rec if "particles of its layer" in str(w.message)]
