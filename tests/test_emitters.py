@@ -300,17 +300,20 @@ def test_pcisph_leaves_the_layers_an_emitter_moves_out_of_its_solve(tmp_path: Pa
     assert fastest < 10.0, fastest
 
 
-def test_dfsph_leaves_the_layers_an_emitter_moves_out_of_its_solves(tmp_path: Path) -> None:
-    """``Emitter_2D.json`` at twice its particle radius (DFSPH, its own solver): the emitter
+@pytest.mark.parametrize("method", [3, 4])
+def test_iisph_and_dfsph_leave_the_layers_an_emitter_moves_out(tmp_path: Path,
+                                                               method: int) -> None:
+    """``Emitter_2D.json`` at twice its particle radius (DFSPH, its own solver; IISPH): the emitter
     then lies r off the tank's wall, every layer starts compressed, and DFSPH solved for
     them -- 13-15 iterations in every step, which the scene's step control (``cflMethod`` 2:
     10 % shorter after more than 10 iterations) answered by shrinking the step to a fifth of a
-    millisecond (3,866 steps for 1 s; unstable at 2.4 s). SPlisHSPlasH's DFSPH leaves the
-    particles an emitter moves out of both solves; so does sphkit's now: 201 steps for 1 s.
-    To 0.4 s (0.2 s of the emitter's layers against the wall): fewer than 150 steps (5 ms
-    steps would be 80; before, 1,083), and the particles in the emitter's region carry no
-    pressure."""
-    sim = _quiet(_wheel_variant(tmp_path, "Emitter_2D.json", particleRadius=0.05))
+    millisecond (3,866 steps for 1 s; unstable at 2.4 s; IISPH 4,123 steps to 0.95 s).
+    SPlisHSPlasH's DFSPH leaves the particles an emitter moves out of both solves; so do
+    sphkit's DFSPH and IISPH now: 201 / 212 steps for 1 s. To 0.4 s (0.2 s of the emitter's
+    layers against the wall): fewer than 150 steps (5 ms steps would be 80; before, 1,083 with
+    DFSPH), and the particles in the emitter's region carry no pressure."""
+    sim = _quiet(_wheel_variant(tmp_path, "Emitter_2D.json", particleRadius=0.05,
+                                simulationMethod=method))
     while sim.time < 0.4:
         sim.step()
     assert sim.step_count < 150, sim.step_count
