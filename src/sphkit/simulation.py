@@ -66,7 +66,7 @@ from sphkit.core.verlet import VerletLists
 from sphkit.core.zorder import zorder_permutation
 from sphkit.scene.schema import Scene
 from sphkit.world import World, build_world, resolve_device
-from sphkit.world.emitters import emit_all
+from sphkit.world.emitters import animated, emit_all
 from sphkit.world.fluid import phase_statistics
 from sphkit.world.settle import SettlePlan
 
@@ -421,19 +421,6 @@ class Simulation:
             dt = min(dt, tc.dt)
         return float(dt)
 
-    def _mark_animated(self, dt: float) -> None:
-        """``state.animated``: the particles that the emitters' regions move in this step (at
-        the step-start positions), None where no emitter animates."""
-        st = self.state
-        st.animated = None
-        if not self.emitters:
-            return
-        f = st.fluid
-        mask = arrays.zeros(f.n, np.int8, like=f["x"])
-        t = self.time + dt
-        if any([em.mark(f, t, mask) for em in self.emitters]):
-            st.animated = mask
-
     def step(self, land_at: float | None = None) -> StepStats:
         """Advance one time step; raises :class:`InstabilityError` when the state blows up.
 
@@ -454,7 +441,7 @@ class Simulation:
             parts = math.ceil((land_at - self.time) / dt * (1.0 - 1e-12))
             dt, lands = (land_at - self.time) / parts, parts == 1
         self.rigid.begin_step(st)  # this step's body frames
-        self._mark_animated(dt)
+        st.animated = animated(self.emitters, f, self.time + dt)  # moved, not solved for
         ps = self._forces_and_pressure(dt)
         rejected = 0  # a failed solve: the step again with the solver's shrunk bound
         while rejected < self._retries and self.pressure.rejects(ps):
@@ -526,10 +513,9 @@ class Simulation:
 
     def _emit(self) -> None:
         """Add the emitters' layers due by the current time."""
-        if not self.emitters:
-            return
         f = self.state.fluid
-        emit_all(self.emitters, f, self.time, self.scene, self._lattice_volume)
+        if self.emitters:
+            emit_all(self.emitters, f, self.time, self.scene, self._lattice_volume)
         if self._empty_at_init and f.n:  # e.g. PCISPH's template reads the fluid's volume
             self.pressure.init(self.state)
             self._empty_at_init = False

@@ -33,11 +33,11 @@ from sphkit.scene.checks import check_budget, check_device, check_scene, device_
 from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.animation import AnimationField
 from sphkit.world.bodies import rigid_bodies
-from sphkit.world.emitters import FluidEmitter
+from sphkit.world.emitters import FluidEmitter, layer_warnings
 from sphkit.world.fluid import add_fluid
 from sphkit.world.meshes import SceneMeshes
 from sphkit.world.settle import SettlePlan
-from sphkit.world.startup import StartReport, emitter_warnings, start_fluid
+from sphkit.world.startup import StartReport, start_fluid
 from sphkit.world.walls import add_wall_particles, check_emitters, domain_box, map_geometries
 
 
@@ -319,7 +319,7 @@ def _build(scene: Scene) -> World:
                                       solved=cfg.boundary.solved)
     # the fluid's start: out of the walls, consistent next to them, hydrostatic
     start, settle = start_fluid(state, scene, meshes, model, pressure)
-    emitter_warnings(state, scene, meshes, model, emitters)
+    layer_warnings(state, scene, meshes, model, emitters)
     sound_speed_warning(state, scene, pressure)
     kernel_warning(scene)
     for force in forces:

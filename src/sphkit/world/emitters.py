@@ -45,13 +45,22 @@ model's capacity).
 from __future__ import annotations
 
 import math
+import warnings
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
 
 from sphkit.backend import launch, to_device, to_host
+from sphkit.core import arrays
 from sphkit.core.particles import ParticleSet
 from sphkit.geometry.rotations import rotation_matrix
+
+if TYPE_CHECKING:
+    from sphkit.core.methods import BoundaryModel
+    from sphkit.core.state import SimState
+    from sphkit.scene.schema import Scene
+    from sphkit.world.meshes import SceneMeshes
 
 #: SPlisHSPlasH starts animating (clearing) the emitter region this long before start_time [s]
 CLEAR_AHEAD = 0.25
@@ -345,6 +354,50 @@ class FluidEmitter:
         """Restore :meth:`state`."""
         self.count = int(state["count"])
         self.emitted = int(state["emitted"])
+
+
+def animated(emitters: list[FluidEmitter], fluid: ParticleSet, t: float) -> Any:
+    """The particles the emitters' regions move in the step ending at time ``t``, at their
+    positions now: int8 (N,), 1 where animated (``SimState.animated``); None where no emitter
+    animates then."""
+    if not emitters:
+        return None
+    mask = arrays.zeros(fluid.n, np.int8, like=fluid["x"])
+    return mask if any([em.mark(fluid, t, mask) for em in emitters]) else None
+
+
+def layer_warnings(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
+                   emitters: list[FluidEmitter]) -> list[str]:
+    """Warn (``UserWarning``, one per emitter; also returned) where an emitter's layer lies
+    inside a wall or closer to its surface than the boundary model lets a fluid block start
+    (the test of step 1 on the layer's positions): those particles are emitted there anyway, as
+    SPlisHSPlasH emits them, and the walls throw them out. Found with a scene sized in
+    particles run at twice its radius (``Emitter.json``: its second emitter, a circle 7
+    particles across, reached into the floor, and the run stopped as unstable at 2.1 s;
+    validation/README.md, "PCISPH at an emitter")."""
+    import dataclasses
+
+    from sphkit.world.startup import inside_walls, wall_label
+
+    notes = []
+    for k, em in enumerate(emitters):
+        layer = ParticleSet(state.dim, state.fluid.dtype)
+        layer.add(np.ascontiguousarray((em.x0 + em.offsets)[:, : state.dim]))
+        probe = dataclasses.replace(state, fluid=layer)
+        where, names = inside_walls(probe, scene, meshes, model, model.start_reach * state.r)
+        hit = where >= 0
+        if not hit.any():
+            continue
+        walls = ", ".join(wall_label(scene, names[w]) for w in np.unique(where[hit]))
+        near = f" or within {model.start_reach:g} r of" if model.start_reach > 0 else ""
+        notes.append(f"{scene.field(f'emitters[{k}]')}: {int(hit.sum())} of the "
+                     f"{em.per_layer} particles of its layer start inside{near} {walls}; they "
+                     "are emitted there and thrown out; expected an emitter whose layer "
+                     "(width x height in particle diameters) fits between the walls")
+    for note in notes:
+        warnings.warn(note, UserWarning, stacklevel=3)
+    return notes
+
 
 
 def emit_all(emitters: list[FluidEmitter], fluid: ParticleSet, t: float, scene,

@@ -253,7 +253,7 @@ def _remove(state: SimState, where: np.ndarray, walls: list[str], what: str,
             "walls, or make a container mesh a container)")
 
 
-def _inside_walls(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
+def inside_walls(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
                   reach: float) -> tuple[np.ndarray, list[str]]:
     """The test of step 1: the fluid particles on a wall's or body's solid side (geometry,
     ``reach`` [m] from a static closed mesh included, and from a box's faces where the model's
@@ -274,45 +274,12 @@ def _inside_walls(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bou
 def remove_inside(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
                   report: StartReport) -> None:
     """Step 1 of the module docstring."""
-    where, names = _inside_walls(state, scene, meshes, model, model.start_reach * state.r)
-    _remove(state, where, [_wall_label(scene, n) for n in names], "start inside",
+    where, names = inside_walls(state, scene, meshes, model, model.start_reach * state.r)
+    _remove(state, where, [wall_label(scene, n) for n in names], "start inside",
             report.removed_inside)
 
 
-def emitter_warnings(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
-                     emitters: list) -> list[str]:
-    """Warn (``UserWarning``, one per emitter; also returned) where an emitter's layer lies
-    inside a wall or closer to its surface than the boundary model lets a fluid block start
-    (the test of step 1 on the layer's positions): those particles are emitted there anyway, as
-    SPlisHSPlasH emits them, and the walls throw them out. Found with a scene sized in
-    particles run at twice its radius (``Emitter.json``: its second emitter, a circle 7
-    particles across, reached into the floor, and the run stopped as unstable at 2.1 s;
-    validation/README.md, "PCISPH at an emitter")."""
-    import dataclasses
-
-    from sphkit.core.particles import ParticleSet
-
-    notes = []
-    for k, em in enumerate(emitters):
-        layer = ParticleSet(state.dim, state.fluid.dtype)
-        layer.add(np.ascontiguousarray((em.x0 + em.offsets)[:, : state.dim]))
-        probe = dataclasses.replace(state, fluid=layer)
-        where, names = _inside_walls(probe, scene, meshes, model, model.start_reach * state.r)
-        hit = where >= 0
-        if not hit.any():
-            continue
-        walls = ", ".join(_wall_label(scene, names[w]) for w in np.unique(where[hit]))
-        near = f" or within {model.start_reach:g} r of" if model.start_reach > 0 else ""
-        notes.append(f"{scene.field(f'emitters[{k}]')}: {int(hit.sum())} of the "
-                     f"{em.per_layer} particles of its layer start inside{near} {walls}; they "
-                     "are emitted there and thrown out; expected an emitter whose layer "
-                     "(width x height in particle diameters) fits between the walls")
-    for note in notes:
-        warnings.warn(note, UserWarning, stacklevel=3)
-    return notes
-
-
-def _wall_label(scene: Scene, name: str) -> str:
+def wall_label(scene: Scene, name: str) -> str:
     """A wall (``boxes[k]``, ``meshes[k]``, ...) as messages name it: the field the user wrote,
     and for a mesh that is a solid (not ``invert``) the field that would make it a container."""
     label = scene.field(name)
@@ -529,7 +496,7 @@ def hold_back(state: SimState, scene: Scene, meshes: SceneMeshes, model: Boundar
     much as from the walls: in the concave corner of a surface-sampled container every fluid
     neighbour lies on one side, and a particle sampled r from both walls left through the
     corner, between the samples."""
-    crossed = _inside_walls(state, scene, meshes, model, 0.0)[0] >= 0
+    crossed = inside_walls(state, scene, meshes, model, 0.0)[0] >= 0
     report.held_back = int(crossed.sum())
     if report.held_back:
         state.fluid["x"][:, crossed] = x0[:, crossed]
