@@ -407,9 +407,9 @@ class PCISPH(StepBounded, PressureSolver):
         each = scale is not None
         factors = arrays.scaled(scale, factor) if each else arrays.empty(0, f.dtype, like=x)
         # particles an emitter moves are not the solve's to hold (module docstring, "Emitters")
-        rows = held(state)
-        if rows is None:
-            rows = arrays.absent(0, np.bool_, like=x)
+        solved = held(state)
+        if solved is None:
+            solved = arrays.absent(0, np.bool_, like=x)
         # bodies that yield to the pressure are predicted as the fluid is (strong coupling)
         bdx = [coupling.displacement(state, p, g.gwb, dt)]
         still = arrays.empty((state.dim, 0), x.dtype, like=x)  # no boundary displacement
@@ -438,7 +438,7 @@ class PCISPH(StepBounded, PressureSolver):
                        nbp.offsets, nbp.indices, state.rho0, state.h, state.kid, state.dim,
                        rho_hat, rest.one_mass)
             tot, mx = launch_reduce(pressure_update_body, n, rho_hat, float(factor), factors,
-                                    each, rows, p)
+                                    each, solved, p)
             if not rest.uniform:
                 arrays.multiplied(p, rest.c, out=pc)
             if walls:  # each wall particle's k_b from its predicted density (omega 0.5)
