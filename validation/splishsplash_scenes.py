@@ -203,13 +203,26 @@ def row(name: str, r: dict) -> str:
 
 
 def variant(folder: Path, name: str, method: int | None, boundary: int | None,
-            tmp: Path, kernel: int | None = None, radius: float | None = None) -> Path:
+            tmp: Path, kernel: int | None = None, radius: float | None = None,
+            settings: list[tuple[str, object]] | None = None) -> Path:
     """The scene ``name`` with its ``simulationMethod`` / ``boundaryHandlingMethod`` /
-    ``kernel`` and ``gradKernel`` replaced and its ``particleRadius`` scaled by ``radius`` (None:
-    the file's own), written to ``tmp/Scenes`` beside a link to the wheel's models."""
-    if method is None and boundary is None and kernel is None and radius is None:
+    ``kernel`` and ``gradKernel`` replaced, its ``particleRadius`` scaled by ``radius`` (None:
+    the file's own) and each ``(path, value)`` of ``settings`` set (``Configuration.DFSPH.
+    maxError``; every material's with ``Materials[*].``), written to ``tmp/Scenes`` beside a
+    link to the wheel's models."""
+    if method is None and boundary is None and kernel is None and radius is None and not settings:
         return folder / name
     data = json.loads((folder / name).read_text())
+    for path, value in settings or []:
+        keys = path.split(".")
+        targets = [data]
+        for key in keys[:-1]:
+            if key.endswith("[*]"):
+                targets = [t for o in targets for t in o.get(key[:-3], [])]
+            else:
+                targets = [o.setdefault(key, {}) for o in targets]
+        for t in targets:
+            t[keys[-1]] = value
     cfg = data.setdefault("Configuration", {})
     if method is not None:
         cfg["simulationMethod"] = method
@@ -224,7 +237,8 @@ def variant(folder: Path, name: str, method: int | None, boundary: int | None,
     models = tmp / "models"
     if not models.exists():
         models.symlink_to(folder.parent / "models", target_is_directory=True)
-    out = scenes / f"m{method}_b{boundary}_k{kernel}_r{radius}_{name}"
+    tag = abs(hash(json.dumps(settings))) % 10**8 if settings else 0
+    out = scenes / f"m{method}_b{boundary}_k{kernel}_r{radius}_s{tag}_{name}"
     out.write_text(json.dumps(data, indent=1))
     return out
 
@@ -252,7 +266,19 @@ def main() -> None:
                     help="run each scene with these kernel (and gradKernel) values")
     ap.add_argument("--radius-scales", type=float, nargs="+", default=[None],
                     help="run each scene with its particleRadius times these factors")
+    ap.add_argument("--set", nargs="+", default=[], metavar="PATH=JSON",
+                    help="set these fields in each scene (Configuration.cflMethod=0, "
+                         "Materials[*].viscosityMethod=6; the value is JSON)")
     args = ap.parse_args()
+    settings = []
+    for item in args.set:
+        path, sep, value = item.partition("=")
+        try:
+            settings.append((path, json.loads(value)))
+        except json.JSONDecodeError:
+            ap.error(f"--set {item!r}: expected PATH=JSON (a number, true, \"text\", ...)")
+        if not sep or not path:
+            ap.error(f"--set {item!r}: expected PATH=JSON")
     if not (args.until > 0 and args.budget > 0 and args.margin >= 0
             and all(rs is None or rs > 0 for rs in args.radius_scales)):
         ap.error("--until, --budget and --radius-scales must be positive, --margin not "
@@ -271,10 +297,10 @@ def main() -> None:
         for name in names:
             for m, b, k, rs in itertools.product(args.methods, args.boundaries, args.kernels,
                                                  args.radius_scales):
-                path = variant(folder, name, m, b, Path(tmp), k, rs)
+                path = variant(folder, name, m, b, Path(tmp), k, rs, settings)
                 label = name + "".join(f" {key}{v:g}" for key, v in
                                        (("m", m), ("b", b), ("k", k), ("r x", rs))
-                                       if v is not None)
+                                       if v is not None) + "".join(f" {x}" for x in args.set)
                 r = run(path, args.until, args.budget, args.max_particles, args.margin)
                 print(row(label, r), flush=True)
                 for note in r.get("notes", []):
