@@ -156,8 +156,8 @@ class SimState:
     fluid_grid: Grid | None = field(default=None, repr=False)
     #: fluid particles the step moves by prescription (an emitter's region,
     #: :meth:`sphkit.world.emitters.FluidEmitter.mark`): int8 (N,), 1 where animated, from the
-    #: step-start positions; None where no emitter animates. A pressure solve leaves their
-    #: compression out (PCISPH)
+    #: step-start positions; None where no emitter animates. PCISPH, IISPH and DFSPH leave
+    #: them out of their solves (:func:`sphkit.core.ppe.held`)
     animated: Any = field(default=None, repr=False)
     _rest: tuple | None = field(default=None, repr=False)  # this step's RestArrays on a device
     _held: RestArrays | None = field(default=None, repr=False)  # see hold_rest

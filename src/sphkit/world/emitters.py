@@ -22,6 +22,9 @@ scene fields (:class:`sphkit.scene.schema.Emitter`):
   pushed out at ``10 r / 0.25 s``. Here this is applied after the integration: a particle found
   in the region gets ``v = v_e`` and ``x = x_new - dt (v_new - v_e)``, which is ``x_old + dt v_e``
   for the symplectic Euler step (a kernel body, :func:`animate_body`, run where the fluid is);
+  the particles in the region at the step's start (:func:`animated`, ``state.animated``) are
+  left out of PCISPH's, IISPH's and DFSPH's solves (:func:`sphkit.core.ppe.held`; SPlisHSPlasH's
+  DFSPH skips its ``AnimatedByEmitter`` particles so);
 * housing: a box (cylinder) of boundary particles around the emitter, ``2h`` long along d and
   centred on ``x0``, open towards d (SPlisHSPlasH's ``EmitterBox.obj``/``EmitterCylinder.obj``
   scaled by ``Emitter::getSize``), unless ``housing`` is false; with density and volume maps
