@@ -273,3 +273,11 @@ def test_splishsplash_joint_translation_errors(tmp_path: Path) -> None:
     data["TargetAngleMotorHingeJoints"] = [{"bodyID1": 3, "bodyID2": 7}]
     with pytest.raises(SceneError, match="TargetAngleMotorHingeJoints"):
         from_splishsplash(data)
+    # a check across fields (a 2D hinge turns about z) names the SPlisHSPlasH field too: a 3D
+    # scene turned 2D by sim2D (MotorScene.json's motor axis is y)
+    del data["TargetAngleMotorHingeJoints"]
+    data["HingeJoints"][0].update(bodyID2=7, axis=[0, 1, 0])
+    data["Configuration"]["sim2D"] = True
+    with pytest.raises(SceneError, match=r"HingeJoints\[0\]\.axis \(sphkit joints\[0\]\.axis\)"
+                                         r": \[0\.0, 1\.0, 0\.0\]: in 2D bodies turn about z"):
+        from_splishsplash(data)

@@ -55,6 +55,8 @@ def joints(rd: Reader, rigid: list[dict[str, Any]]) -> list[dict[str, Any]]:
             n = len(out)
             rd.origin[f"joints[{n}]"] = w
             rd.origin[f"joints[{n}].bodies"] = f"{w}.bodyID1/bodyID2"
+            rd.origin[f"joints[{n}].axis"] = f"{w}.axis"
+            rd.origin[f"joints[{n}].position"] = f"{w}.position"
             if motor:
                 seq = jd.get("targetSequence")
                 if seq is not None and seq != []:

@@ -12,6 +12,7 @@ error names SPlisHSPlasH's field next to sphkit's) and reports the ignored field
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -179,6 +180,10 @@ def translate(rd: Reader) -> dict[str, Any]:
     return scene
 
 
+#: the field a check across the scene's fields names first ("Value error, joints[0].axis ...")
+_CHECK = re.compile(r"Value error, ([A-Za-z_][\w\[\].]*)")
+
+
 def validate(rd: Reader, scene: dict[str, Any]) -> Scene:
     """The translated ``scene`` validated; errors name SPlisHSPlasH's field paths too."""
     try:
@@ -188,8 +193,12 @@ def validate(rd: Reader, scene: dict[str, Any]) -> Scene:
         for line in format_validation_error(err).splitlines():
             path, sep, rest = line.partition(": ")
             origin = rd.origin_of(path)
+            inner = _CHECK.search(rest) if not origin else None
+            if inner and rd.origin_of(inner.group(1)):  # a check across fields names its own
+                path, rest = inner.group(1), rest[inner.end(1):].lstrip(": ")
+                origin = rd.origin_of(path)
             if origin:
-                lines.append(f"{origin} (sphkit {path}){sep}{rest}")
+                lines.append(f"{origin} (sphkit {path}): {rest}")
             else:
                 lines.append(line)
         raise SceneError(
