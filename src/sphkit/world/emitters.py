@@ -402,7 +402,6 @@ def layer_warnings(state: SimState, scene: Scene, meshes: SceneMeshes, model: Bo
     return notes
 
 
-
 def emit_all(emitters: list[FluidEmitter], fluid: ParticleSet, t: float, scene,
              lattice_volume: float) -> None:
     """The layers of every emitter due by time ``t``: each material's emitters share its

@@ -254,7 +254,7 @@ def _remove(state: SimState, where: np.ndarray, walls: list[str], what: str,
 
 
 def inside_walls(state: SimState, scene: Scene, meshes: SceneMeshes, model: BoundaryModel,
-                  reach: float) -> tuple[np.ndarray, list[str]]:
+                 reach: float) -> tuple[np.ndarray, list[str]]:
     """The test of step 1: the fluid particles on a wall's or body's solid side (geometry,
     ``reach`` [m] from a static closed mesh included, and from a box's faces where the model's
     walls stand on them, :attr:`~sphkit.core.methods.BoundaryModel.reach_at_boxes`) or inside
