@@ -197,9 +197,7 @@ def test_emitter_2d_scene_keeps_its_fluid_in_the_tank_after_the_second_emitter_s
     folder = wheel_scene_folder()
     if folder is None:
         pytest.skip("pysplishsplash is not installed: its scene files are not available")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the scene's coarse map resolution, its comment field
-        sim = Simulation.from_scene(folder / "Emitter_2D.json")
+    sim = _quiet(folder / "Emitter_2D.json")
     fastest = 0.0
     while sim.time < 2.6:
         sim.step()
