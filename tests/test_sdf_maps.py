@@ -32,7 +32,7 @@ from sphkit.geometry.sdf import (
     sdf_lattice_cached,
 )
 from sphkit.scene.files import load_scene
-from sphkit.scene.schema import Scene
+from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation
 
 UNIT_BOX = Path(__file__).resolve().parent.parent / "benchmarks" / "scenes" / "UnitBox.obj"
@@ -369,6 +369,100 @@ def test_fluid_meshes_from_scene_files(tmp_path: Path) -> None:
     sim = Simulation(scene)
     assert sim.fluid.n == 125
     np.testing.assert_allclose(sim.positions.min(axis=0), [-0.1, -0.2, -0.2], atol=1e-12)  # lo + r
+
+
+def _volume_sampling_loops(lo, hi, r: float, mode: int) -> np.ndarray:
+    """SPlisHSPlasH's ``VolumeSampling::sampleMesh`` candidate loops, transcribed point by
+    point (z, y, x from the box's corner while the coordinate is at most the far corner)."""
+    d = 2.0 * r
+    xs, ys = (d, np.sqrt(3.0) * r) if mode == 1 else (np.sqrt(3.0) * r, np.sqrt(6.0) * d / 3.0)
+    out = []
+    for kz in range(int((hi[2] - lo[2]) / d + 1e-9) + 1):
+        for cy in range(int((hi[1] - lo[1]) / ys + 1e-9) + 1):
+            for cx in range(int((hi[0] - lo[0]) / xs + 1e-9) + 1):
+                x, y, z = lo[0] + cx * xs, lo[1] + cy * ys, lo[2] + kz * d
+                if mode == 1:
+                    p = [x, y + r, z + r] if cy % 2 == 0 else [x + r, y + r, z]
+                else:
+                    p = [x, y + r, z + r]
+                    if cx % 2:
+                        p[2] += d / (2.0 * (-1 if cy % 2 else 1))
+                    if cy % 2:
+                        p[0] += xs / 2.0
+                        p[2] += d / 2.0
+                out.append(p)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("mode", [1, 2])
+def test_dense_mesh_sampling_follows_splishsplash_loops(mode: int) -> None:
+    """FluidModels' denseMode 1 and 2 sample a closed mesh on SPlisHSPlasH's VolumeSampling
+    lattices: for a box mesh the kept points are exactly the loops' points strictly inside
+    the box (3D), and in 2D their section's (x, y) (the z offsets dropped)."""
+    r = 0.025
+    mesh = load_mesh(UNIT_BOX)
+    mesh.apply_scale([0.5, 0.4, 0.3])
+    mesh.apply_translation([0.1, 0.2, 0.0])
+    lo, hi = mesh.bounds
+    ref = _volume_sampling_loops(lo, hi, r, mode)
+    ref = ref[np.all((ref > lo + 1e-9) & (ref < hi - 1e-9), axis=1)]
+    lattice = {1: "layered", 2: "close_packed"}[mode]
+    got = sample_mesh_volume(mesh, r, 3, lattice=lattice)
+
+    def rows(a: np.ndarray) -> np.ndarray:
+        return np.unique(np.round(a / r, 6), axis=0)
+
+    assert len(got) == len(ref) > 100
+    np.testing.assert_array_equal(rows(got), rows(ref))
+    np.testing.assert_array_equal(rows(sample_mesh_volume(mesh, r, 2, lattice=lattice)),
+                                  rows(ref[:, :2]))  # every z layer's (x, y): the same set
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_fluid_starts_turning_at_rest_density(tmp_path: Path, dim: int) -> None:
+    """SPlisHSPlasH's initialAngularVelocity on a fluid block and on a mesh sampled with
+    denseMode 2: every particle starts with ``v0 + omega x (x - centre)`` about its object's
+    centre (``SimulatorBase::setInitialVelocity``), so the object's momentum is m v0 and its
+    angular momentum about the centre sum m |x - c|_perp^2 omega (z axis); the dense lattice's
+    particle volume puts its interior at the rest density (to rounding: the volume is the
+    inverse kernel sum averaged over a sample of the same lattice)."""
+    r, omega, v0 = 0.025, 2.0, [0.5, 0.0, 0.0]
+    sph = {
+        "Configuration": {"particleRadius": r, "boundaryHandlingMethod": 0, "sim2D": dim == 2},
+        "FluidBlocks": [{"start": [-0.9, -0.9, -0.4], "end": [-0.5, -0.5, 0.0],
+                         "initialVelocity": v0, "initialAngularVelocity": [0, 0, omega]}],
+        "FluidModels": [{"particleFile": str(UNIT_BOX), "scale": [0.5, 0.5, 0.5],
+                         "translation": [0.3, 0.3, 0.0], "denseMode": 2,
+                         "initialAngularVelocity": [0, 0, omega]}],
+        "RigidBodies": [{"geometryFile": str(UNIT_BOX), "scale": [2, 2, 2], "mapInvert": True}],
+    }
+    (tmp_path / "sph.json").write_text(json.dumps(sph))
+    scene = load_scene(tmp_path / "sph.json")
+    assert scene.fluid_blocks[0].angular_velocity == [0, 0, omega]
+    assert scene.fluid_meshes[0].lattice == "close_packed"
+    sim = Simulation(scene)
+    sim.compute_density()
+    x, v, m = sim.positions, sim.velocities, sim.fluid["m"]
+    for obj, vel in zip(sim.fluid.objects, (v0[:dim], [0.0] * dim), strict=True):
+        s = slice(obj.start, obj.end)
+        c = x[s].mean(axis=0)
+        np.testing.assert_allclose((m[s, None] * v[s]).sum(axis=0), m[s].sum() * np.array(vel),
+                                   atol=1e-9)
+        dx = x[s] - c
+        lz = (m[s] * (dx[:, 0] * v[s, 1] - dx[:, 1] * v[s, 0])).sum()
+        assert lz == pytest.approx((m[s] * (dx[:, 0] ** 2 + dx[:, 1] ** 2)).sum() * omega,
+                                   rel=1e-12)
+    mesh = slice(sim.fluid.objects[1].start, sim.fluid.objects[1].end)
+    inner = np.all(np.abs(x[mesh] - x[mesh].mean(axis=0)) < 0.25 - 4.0 * r, axis=1)
+    assert inner.sum() > 5
+    np.testing.assert_allclose(sim.densities[mesh][inner], 1000.0, rtol=2e-3)
+    # a start faster than the stability guard's limit is the scene's error, not the step's
+    sph["FluidModels"][0]["initialAngularVelocity"] = [0, 0, 1e4]  # 0.25 m x 1e4/s > 100 m/s
+    (tmp_path / "sph.json").write_text(json.dumps(sph))
+    with pytest.raises(SceneError, match=r"FluidModels\[0\] .*starts at up to .* m/s "
+                       r"\(FluidModels\[0\]\.initialAngularVelocity .*configuration"
+                       r"\.max_velocity = 100 m/s"):
+        Simulation(load_scene(tmp_path / "sph.json"))
 
 
 # -- simulations ---------------------------------------------------------------------------------

@@ -306,22 +306,90 @@ def _sample_polyline(p: np.ndarray, spacing: float, closed: bool) -> np.ndarray:
     return np.concatenate(out, axis=0) if out else np.empty((0, 2))
 
 
-def sample_mesh_volume(mesh: trimesh.Trimesh, r: float, dim: int = 3,
-                       invert: bool = False) -> np.ndarray:
-    """Fluid particles filling a closed mesh (SPlisHSPlasH's ``VolumeSampling``, mode 0).
+Lattice = tuple[np.ndarray, np.ndarray, np.ndarray]  # origin, spacing, points per axis
 
-    The candidates are the lattice points ``lo + r + 2r k`` at or below ``hi - r`` (as
-    :func:`sphkit.geometry.sampling.lattice_block`) in the mesh's bounding box ``[lo, hi]``; a
-    point is kept when its signed distance to the mesh (:mod:`sphkit.geometry.sdf`, exact at the
-    points) is negative (inside), or positive with ``invert`` (the box around the mesh is filled
-    instead). A block-shaped mesh thus gives
-    the same particles as the fluid block of the same extent.
+
+def volume_lattices(lo: np.ndarray, hi: np.ndarray, r: float, lattice: str = "square"
+                    ) -> list[Lattice]:
+    """The candidate points of SPlisHSPlasH's ``VolumeSampling::sampleMesh`` over the box
+    ``[lo, hi]`` (2D or 3D), as rectangular lattices ``(origin, spacing, shape)``.
+
+    * ``square`` (mode 0): ``lo + r + 2r k`` at or below ``hi - r`` (as
+      :func:`sphkit.geometry.sampling.lattice_block`);
+    * ``layered`` (mode 1): columns ``2r`` apart along x and z, rows ``sqrt(3) r`` apart along y
+      from ``lo``; a point ``(x, y + r, z + r)`` in even rows, ``(x + r, y + r, z)`` in odd ones;
+    * ``close_packed`` (mode 2): columns ``sqrt(3) r`` apart along x, rows ``2 sqrt(6) r / 3``
+      along y, ``2r`` along z; ``(x, y + r, z + r)``, odd columns shifted by ``+r`` along z in
+      even rows and ``-r`` in odd ones, odd rows by half a column along x and ``+r`` along z.
+
+    SPlisHSPlasH's loops run from ``lo`` while the coordinate is at most ``hi``, so the dense
+    lattices are split by the parity of row (and, in 3D mode 2, column) into lattices of twice
+    the spacing. In 2D the z offsets are dropped (the section z = 0 is sampled).
+    """
+    dim = len(lo)
+    if lattice == "square":
+        n = np.array([lattice_count(a, b, r) for a, b in zip(lo, hi, strict=True)], np.int64)
+        return [(lo + r, np.full(dim, 2.0 * r), n)]
+    if lattice not in ("layered", "close_packed"):
+        raise ValueError(f"lattice {lattice!r}; expected square, layered or close_packed")
+    d = 2.0 * r
+    layered = lattice == "layered"
+    steps = [d if layered else np.sqrt(3.0) * r,
+             np.sqrt(3.0) * r if layered else np.sqrt(6.0) * d / 3.0, d][:dim]
+    count = [int(np.floor((b - a) / s + 1e-9)) + 1 if b >= a else 0
+             for a, b, s in zip(lo, hi, steps, strict=True)]
+    xs, ys = steps[0], steps[1]
+    out = []
+    for row in (0, 1):
+        ny = (count[1] - row + 1) // 2
+        if layered:  # even rows (x, y + r, z + r), odd rows (x + r, y + r, z)
+            cols = [(row * r, count[0], d, (1 - row) * r)]
+        elif dim == 2:  # the z shifts dropped: every column, odd rows half a column along x
+            cols = [(row * xs / 2.0, count[0], xs, 0.0)]
+        else:  # mode 2 in 3D: even and odd columns apart
+            cols = [(c * xs + row * xs / 2.0, (count[0] - c + 1) // 2, 2.0 * xs,
+                     r + (r if c and not row else 0.0) + (r if row and not c else 0.0))
+                    for c in (0, 1)]
+        for x0, nx, sx, z0 in cols:
+            origin = [lo[0] + x0, lo[1] + row * ys + r]
+            spacing = [sx, 2.0 * ys]
+            shape = [nx, ny]
+            if dim == 3:
+                origin.append(lo[2] + z0)
+                spacing.append(d)
+                shape.append(count[2])
+            out.append((np.array(origin), np.array(spacing), np.array(shape, np.int64)))
+    return out
+
+
+def lattice_volume_points(r: float, lattice: str, dim: int, side: float) -> np.ndarray:
+    """The points of :func:`volume_lattices` in the cube ``[0, side]^dim`` (M, dim): a sample
+    of the lattice from which the particle volume is computed."""
+    from sphkit.geometry.sdf import lattice_points
+
+    pts = [lattice_points(o, s, n).reshape(dim, -1).T
+           for o, s, n in volume_lattices(np.zeros(dim), np.full(dim, side), r, lattice)
+           if np.all(n > 0)]
+    return np.concatenate(pts)
+
+
+def sample_mesh_volume(mesh: trimesh.Trimesh, r: float, dim: int = 3,
+                       invert: bool = False, lattice: str = "square") -> np.ndarray:
+    """Fluid particles filling a closed mesh (SPlisHSPlasH's ``VolumeSampling``).
+
+    The candidates are the points of :func:`volume_lattices` in the mesh's bounding box
+    ``[lo, hi]`` (``square``: the lattice points ``lo + r + 2r k`` at or below ``hi - r``, as
+    :func:`sphkit.geometry.sampling.lattice_block`); a point is kept when its signed distance to
+    the mesh (:mod:`sphkit.geometry.sdf`, exact at the points) is negative (inside), or positive
+    with ``invert`` (the box around the mesh is filled instead). A block-shaped mesh thus gives
+    the same particles as the fluid block of the same extent on the square lattice.
 
     Args:
         mesh: closed mesh, already placed in the scene.
         r: particle radius [m].
         dim: 3, or 2 for the section with z = 0 (sampled in the xy-plane).
         invert: keep the points outside the mesh.
+        lattice: ``square``, ``layered`` or ``close_packed`` (SPlisHSPlasH's modes 0, 1, 2).
 
     Returns:
         ``(M, dim)`` float64 positions.
@@ -340,21 +408,20 @@ def sample_mesh_volume(mesh: trimesh.Trimesh, r: float, dim: int = 3,
         lo, hi = p.min(axis=0), p.max(axis=0)
     else:
         raise ValueError(f"dim must be 2 or 3, got {dim}")
-    n = np.array([lattice_count(a, b, r) for a, b in zip(lo, hi, strict=True)], dtype=np.int64)
-    if np.any(n == 0):
-        return np.empty((0, dim))
-    if np.prod(n.astype(float)) > 2e8:
+    lattices = [la for la in volume_lattices(lo, hi, r, lattice) if np.all(la[2] > 0)]
+    if sum(np.prod(n.astype(float)) for _, _, n in lattices) > 2e8:
         raise GeometryError(f"mesh of extent {(hi - lo).tolist()} m holds more than 2e8 "
                             f"lattice points of radius {r} m")
-    origin = lo + r
-    spacing = np.full(dim, 2.0 * r)
-    if dim == 3:
-        d = mesh_sdf_lattice(mesh.vertices, mesh.faces, origin, spacing, n)
-    else:
-        d = polygon_sdf_lattice(a, b, origin, spacing, n)
-    keep = d > 0.0 if invert else d < 0.0
-    idx = np.argwhere(keep)
-    return origin[None] + idx * spacing[None]
+    out = [np.empty((0, dim))]
+    for origin, spacing, n in lattices:
+        if dim == 3:
+            d = mesh_sdf_lattice(mesh.vertices, mesh.faces, origin, spacing, n)
+        else:
+            d = polygon_sdf_lattice(a, b, origin, spacing, n)
+        tol = 1e-9 * r  # a point on the surface (a dense lattice's face row) stays out
+        keep = d > tol if invert else d < -tol
+        out.append(origin[None] + np.argwhere(keep) * spacing[None])
+    return np.concatenate(out)
 
 
 def _sample_section_2d(mesh: trimesh.Trimesh, spacing: float) -> np.ndarray:

@@ -732,11 +732,22 @@ class FluidBlock(_Model):
     end: Vec = Field(description="upper corner [m]")
     material: str = "fluid"
     velocity: Vec | None = Field(None, description="initial velocity [m/s]")
+    angular_velocity: Vec | None = Field(
+        None, description="initial angular velocity [rad/s] (3 components; in 2D only z "
+        "acts): the block starts with ``velocity + angular_velocity x (x - centre)`` about "
+        "the centre of its particles (SPlisHSPlasH's initialAngularVelocity)")
     lattice: Literal["square", "hexagonal", "layered", "close_packed"] = Field(
         "square", description="'square': spacing 2r (SPlisHSPlasH's denseMode 0); 'hexagonal' "
         "(2D only): touching discs (spacing 2r, rows along x), the packing a 2D fluid at rest "
         "settles into; 'layered' and 'close_packed': SPlisHSPlasH's denseMode 1 and 2 "
         "(sphkit.geometry.sampling.dense_block); particle volume 1 / sum_k W over the lattice")
+
+    @field_validator("angular_velocity")
+    @classmethod
+    def _three(cls, v: Vec | None) -> Vec | None:
+        if v is not None and len(v) != 3:
+            raise ValueError(f"{v} must have 3 components")
+        return v
 
     @model_validator(mode="after")
     def _ordered(self) -> FluidBlock:
@@ -903,6 +914,22 @@ class FluidMesh(_Model):
     )
     material: str = "fluid"
     velocity: Vec | None = Field(None, description="initial velocity [m/s]")
+    angular_velocity: Vec | None = Field(
+        None, description="initial angular velocity [rad/s] (3 components; in 2D only z "
+        "acts) about the centre of the mesh's particles, added to velocity")
+    lattice: Literal["square", "layered", "close_packed"] = Field(
+        "square", description="the sampling lattice (SPlisHSPlasH's FluidModels mode 0, 1, 2: "
+        "VolumeSampling's lattices, sphkit.geometry.mesh_sampling.volume_lattices): "
+        "'square' spacing 2r; 'layered' rows sqrt(3) r apart, alternate rows shifted by r; "
+        "'close_packed' x spacing sqrt(3) r, rows 2 sqrt(6) r / 3 apart, shifted as "
+        "SPlisHSPlasH shifts them. Particle volume 1 / sum_k W over the lattice")
+
+    @field_validator("angular_velocity")
+    @classmethod
+    def _three(cls, v: Vec | None) -> Vec | None:
+        if v is not None and len(v) != 3:
+            raise ValueError(f"{v} must have 3 components")
+        return v
 
 
 class Emitter(_Model):

@@ -15,7 +15,7 @@ import numpy as np
 from sphkit.core.kernels import block_volume, hexagonal_volume, lattice_volume
 from sphkit.core.particles import ParticleSet
 from sphkit.core.state import SimState
-from sphkit.geometry.mesh_sampling import sample_mesh_volume
+from sphkit.geometry.mesh_sampling import lattice_volume_points, sample_mesh_volume
 from sphkit.geometry.sampling import DENSE_LATTICES, dense_block, hexagonal_block, lattice_block
 from sphkit.scene.schema import Material, Scene, SceneError
 from sphkit.world.meshes import SceneMeshes
@@ -74,13 +74,15 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
                 f"{2 * r} wide on every axis"
             )
         mat = scene.material(blk.material)
-        vel = np.zeros(dim) if blk.velocity is None else np.asarray(blk.velocity, float)
+        vel = start_velocity(pts, blk.velocity, blk.angular_velocity)
+        check_start_speed(scene, f"fluid_blocks[{k}]", vel, blk)
         fluid.add(pts, name=f"fluid_blocks[{k}]", m=mat.density0 * bvol, V0=bvol, v=vel,
                   rho=mat.density0, rho0=mat.density0, **_phase(fluid, scene, mat))
     for k, ff in enumerate(scene.fluid_files):
         _add_fluid_file(state, scene, meshes, k, ff, vol)
     for k, fm in enumerate(scene.fluid_meshes):
-        pts = sample_mesh_volume(meshes.fluid_mesh(k), r, dim, invert=fm.invert)
+        pts = sample_mesh_volume(meshes.fluid_mesh(k), r, dim, invert=fm.invert,
+                                 lattice=fm.lattice)
         if len(pts) == 0:
             raise SceneError(
                 f"fluid_meshes[{k}]: {fm.geometry_file!r} holds no particle of radius "
@@ -89,9 +91,47 @@ def add_fluid(state: SimState, scene: Scene, meshes: SceneMeshes) -> None:
                                                              else "")
             )
         mat = scene.material(fm.material)
-        vel = np.zeros(dim) if fm.velocity is None else np.asarray(fm.velocity, float)
-        fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * vol, V0=vol, v=vel,
+        vel = start_velocity(pts, fm.velocity, fm.angular_velocity)
+        check_start_speed(scene, f"fluid_meshes[{k}]", vel, fm)
+        mvol = vol
+        if fm.lattice != "square":  # V from a sample of that lattice 6h wide
+            mvol = block_volume(lattice_volume_points(r, fm.lattice, dim, 6.0 * state.h),
+                                state.kid, state.h)
+        fluid.add(pts, name=f"fluid_meshes[{k}]", m=mat.density0 * mvol, V0=mvol, v=vel,
                   rho=mat.density0, rho0=mat.density0, **_phase(fluid, scene, mat))
+
+
+def start_velocity(pts: np.ndarray, velocity: list[float] | None,
+                   angular_velocity: list[float] | None) -> np.ndarray:
+    """Initial velocities ``velocity + angular_velocity x (x - mean(x))`` of the points (M, dim)
+    (SPlisHSPlasH's ``SimulatorBase::setInitialVelocity``; in 2D the z component of the
+    angular velocity turns the block in its plane) -> (M, dim), or the constant velocity (dim,)
+    when there is no rotation."""
+    dim = pts.shape[1]
+    if angular_velocity is None or not any(angular_velocity):
+        return np.zeros(dim) if velocity is None else np.asarray(velocity, float)
+    from sphkit.io.particle_files import initial_velocity
+
+    x3 = np.zeros((len(pts), 3))
+    x3[:, :dim] = pts
+    v0 = None if velocity is None else list(velocity) + [0.0] * (3 - dim)
+    return initial_velocity(x3, v0, angular_velocity)[:, :dim].copy()
+
+
+def check_start_speed(scene: Scene, what: str, vel: np.ndarray, obj) -> None:
+    """Raise :class:`SceneError` when the initial velocities (dim,) or (M, dim) of the scene's
+    object ``obj`` (named ``what``) exceed ``configuration.max_velocity``: the stability guard
+    would stop the run at its first step and blame the time step."""
+    limit = scene.configuration.max_velocity
+    speed = float(np.max(np.linalg.norm(np.atleast_2d(vel), axis=1), initial=0.0))
+    if speed > limit:
+        names = [f for f in ("velocity", "angular_velocity", "use_file_velocity")
+                 if getattr(obj, f, None)]
+        fields = ", ".join(scene.field(f"{what}.{f}") for f in names)
+        raise SceneError(
+            f"{scene.field(what)}: the fluid starts at up to {speed:.4g} m/s ({fields}), "
+            f"over {scene.field('configuration.max_velocity')} = {limit:g} m/s, the speed that "
+            "stops a run as unstable; expected a slower start (or a higher max_velocity)")
 
 
 def _add_fluid_file(state: SimState, scene: Scene, meshes: SceneMeshes, k: int, ff,
@@ -117,6 +157,7 @@ def _add_fluid_file(state: SimState, scene: Scene, meshes: SceneMeshes, k: int, 
     note = spacing_warning(x, state.r, f"fluid_files[{k}] ({ff.file})")
     if note:
         warnings.warn(note, UserWarning, stacklevel=4)
+    check_start_speed(scene, f"fluid_files[{k}]", v, ff)
     mat = scene.material(ff.material)
     state.fluid.add(x, name=f"fluid_files[{k}]", m=mat.density0 * vol, V0=vol, v=v,
                     rho=mat.density0, rho0=mat.density0, **_phase(state.fluid, scene, mat))

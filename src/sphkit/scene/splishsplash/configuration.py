@@ -271,6 +271,10 @@ def iterative_solver(rd: Reader, cfg: dict[str, Any], method: int) -> dict[str, 
             "pressureClamping": "icsph_clamping"}
     for key in keys:
         rd.origin[f"configuration.pressure.{ours[key]}"] = f"{where(key)}.{key}"
+        if key in ns and key in cfg and ns[key] != cfg[key]:
+            rd.notes.append(
+                f"{w}.{key}: {cfg[key]!r} is not used: {nsw}.{key} = {ns[key]!r} sets it (the "
+                "method's own block wins, as SPlisHSPlasH since 2.16 reads only that block)")
     if pressure["method"] == "dfsph":
         pressure["max_iterations_v"] = integer("maxIterationsV", 100)
         pressure["max_error_v"] = num("maxErrorV", 0.1)

@@ -56,12 +56,6 @@ def fluid_blocks(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
                            "0 (regular lattice), 1 (layered) or 2 (close packed)")
         velocity = rd.vec3(b, "initialVelocity", w, [0.0, 0.0, 0.0])
         omega = rd.vec3(b, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
-        if any(omega):
-            raise rd.unsupported(
-                f"{w}.initialAngularVelocity",
-                f"{omega}: rotating initial velocity fields are not supported yet; "
-                "expected [0, 0, 0]",
-            )
         lo = [s * a + t for s, a, t in zip(scale, start, translation, strict=True)][:dim]
         hi = [s * a + t for s, a, t in zip(scale, end, translation, strict=True)][:dim]
         if not all(h > l for l, h in zip(lo, hi, strict=True)):
@@ -97,8 +91,11 @@ def fluid_blocks(rd: Reader, dim: int, r: float) -> list[dict[str, Any]]:
         rd.origin[f"fluid_blocks[{n}]"] = w
         rd.origin[f"fluid_blocks[{n}].material"] = f"{w}.id"
         rd.origin[f"fluid_blocks[{n}].velocity"] = f"{w}.initialVelocity"
+        rd.origin[f"fluid_blocks[{n}].angular_velocity"] = f"{w}.initialAngularVelocity"
         if any(velocity[:dim]):
             block["velocity"] = velocity[:dim]
+        if any(omega):
+            block["angular_velocity"] = omega
         out.append(block)
     rd.origin["fluid_blocks"] = "FluidBlocks"
     return out
@@ -410,19 +407,10 @@ def fluid_mesh_models(rd: Reader, dim: int) -> list[dict[str, Any]]:
             raise rd.error(f"{w}.particleFile", f,
                            f"an existing mesh file (looked for {str(base / p)!r})")
         mode = rd.integer(fm, "denseMode", w, 0)
-        if mode != 0:
-            raise rd.unsupported(
-                f"{w}.denseMode",
-                f"{mode} ({_DENSE_MODES.get(mode, 'unknown mode')}) is not supported yet; "
-                "supported: 0 (regular lattice)",
-            )
+        if mode not in (0, 1, 2):
+            raise rd.error(f"{w}.denseMode", mode,
+                           "0 (regular lattice), 1 (layered) or 2 (close packed)")
         omega = rd.vec3(fm, "initialAngularVelocity", w, [0.0, 0.0, 0.0])
-        if any(omega):
-            raise rd.unsupported(
-                f"{w}.initialAngularVelocity",
-                f"{omega}: rotating initial velocity fields are not supported yet; "
-                "expected [0, 0, 0]",
-            )
         scale = rd.vec3(fm, "scale", w, [1.0, 1.0, 1.0])
         if not all(scale):
             raise rd.error(f"{w}.scale", scale, "non-zero scale factors")
@@ -445,6 +433,13 @@ def fluid_mesh_models(rd: Reader, dim: int) -> list[dict[str, Any]]:
         }
         if any(velocity[:dim]):
             entry["velocity"] = velocity[:dim]
+        rd.origin[f"fluid_meshes[{n}].velocity"] = f"{w}.initialVelocity"
+        if any(omega):
+            entry["angular_velocity"] = omega
+            rd.origin[f"fluid_meshes[{n}].angular_velocity"] = f"{w}.initialAngularVelocity"
+        if mode:  # VolumeSampling's denser lattices
+            entry["lattice"] = _DENSE_MODES[mode]
+            rd.origin[f"fluid_meshes[{n}].lattice"] = f"{w}.denseMode"
         out.append(entry)
     return out
 
