@@ -346,7 +346,7 @@ def test_splishsplash_older_flat_parameters_and_xsph() -> None:
         "Configuration": {"simulationMethod": 0, "stiffness": 20000, "exponent": 1,
                           "cflMethod": 2, "cflFactor": 1},
         "Materials": [
-            {"id": "A", "viscosityMethod": 1, "viscosity": 0.05},
+            {"id": "A", "viscosityMethod": 1, "viscosity": 0.05, "XSPH": {"xsph": 0.2}},
             {"id": "B", "XSPH": {"xsph": 0.1, "xsphBoundary": 0.05}},
         ],
         "FluidBlocks": [{"start": [0, 0, 0], "end": [0.5, 0.5, 0.5], "id": "A"}],
@@ -356,6 +356,7 @@ def test_splishsplash_older_flat_parameters_and_xsph() -> None:
     assert scene.configuration.time.cfl is True and scene.configuration.time.cfl_factor == 1.0
     a, b = scene.materials
     assert (a.viscosity.method, a.viscosity.coefficient) == ("standard", 0.05)
+    assert (a.viscosity.xsph, a.viscosity.xsph_boundary) == (0.2, 0.0)  # XSPH beside it
     assert (b.viscosity.method, b.viscosity.coefficient) == ("xsph", 0.1)
     assert b.viscosity.boundary_coefficient == 0.05
 
@@ -680,7 +681,7 @@ def test_benchmark_scenes_share_their_settings() -> None:
          r"Materials\[0\]\.viscosityMethod: 7 \(unknown method\) is not supported yet"),
         ({"Materials": {"surfaceTensionMethod": 6}},
          r"Materials\[0\]\.surfaceTensionMethod: 6 \(unknown method\) is not supported yet"),
-        ({"Materials": {"XSPH": {"xsph": 0.1}}}, r"Materials\[0\]\.XSPH: xsph 0\.1 together"),
+        ({"Materials": {"XSPH": {"xsph": 1.5}}}, r"Materials\[0\]\.XSPH\.xsph .*1\.5"),
         ({"RigidBodies": {"isDynamic": True, "density": -5}},
          r"RigidBodies\[0\]\.density: got -5: expected a number > 0"),
         ({"RigidBodies": {"geometryFile": "../models/Missing.obj"}},

@@ -12,11 +12,11 @@ G = 9.81
 
 
 def _block(method: str, coeff: float, boundary: float = 0.0, box: bool = False,
-           pressure: str | None = None) -> Simulation:
+           pressure: str | None = None, **extra: float) -> Simulation:
     sc = {
         "configuration": {"dim": 3, "particle_radius": 0.02, "gravity": [0.0, 0.0, 0.0]},
         "materials": [{"viscosity": {"method": method, "coefficient": coeff,
-                                     "boundary_coefficient": boundary}}],
+                                     "boundary_coefficient": boundary, **extra}}],
         "fluid_blocks": [{"start": [0.0, 0.0, 0.0], "end": [0.4, 0.4, 0.4]}],
     }
     if pressure:
@@ -73,6 +73,21 @@ def test_standard_viscosity_from_the_cached_pair_gradients(several: bool) -> Non
     sim.state.pair_grads = None
     direct = _viscous_accel(sim, v)
     assert np.abs(cached - direct).max() <= 1e-12 * np.abs(direct).max()
+
+
+def test_xsph_beside_a_viscosity_adds_its_smoothing() -> None:
+    """SPlisHSPlasH applies its XSPH on top of the material's viscosity method
+    (``Simulation::computeNonPressureForces``): ``viscosity.xsph`` beside the standard
+    viscosity gives the standard model's accelerations plus XSPH's alone, walls included
+    (to round-off), and the sum still only dissipates a random field's energy."""
+    v = np.random.default_rng(2).normal(0.0, 0.1, (3, 1000))
+    both = _block("standard", 0.01, 0.01, box=True, xsph=0.1, xsph_boundary=0.05)
+    assert len(both.forces) == 2
+    a = _viscous_accel(both, v[:, :both.fluid.n])
+    parts = (_viscous_accel(_block("standard", 0.01, 0.01, box=True), v[:, :both.fluid.n])
+             + _viscous_accel(_block("xsph", 0.1, 0.05, box=True), v[:, :both.fluid.n]))
+    assert np.abs(a - parts).max() <= 1e-12 * np.abs(parts).max()
+    assert float(np.sum(both.fluid["m"] * np.sum(a * both.fluid["v"], axis=0))) < 0.0
 
 
 @pytest.mark.parametrize("method,coeff", [("standard", 0.01), ("xsph", 0.1)])

@@ -74,6 +74,10 @@ def _periodic(scene: Scene, mat: Material, axis: str = "x") -> None:
             expected = sorted(ok) if role == "pressure" else sorted(("none", *ok))
             raise SceneError(f"{where}: {name!r} does not support {field} yet; "
                              f"expected one of {expected}")
+        if role == "viscosity" and (mat.viscosity.xsph or mat.viscosity.xsph_boundary) and (
+                "xsph" not in ok):
+            raise SceneError(f"materials[{k}].viscosity.xsph: XSPH does not support {field} "
+                             "yet; expected 0")
     if any(mb.moving for mb in scene.meshes):
         k = next(k for k, mb in enumerate(scene.meshes) if mb.moving)
         raise SceneError(f"meshes[{k}]: moving rigid bodies do not support {field} yet")
@@ -343,6 +347,8 @@ def methods_in_use(scene: Scene) -> list[tuple[str, str, str]]:
     for k, mat in enumerate(scene.materials):
         for role in (*registry.OPTIONAL_ROLES, *registry.SOLID_ROLES):
             used.append((f"materials[{k}].{role}.method", role, getattr(mat, role).method))
+        if mat.viscosity.xsph or mat.viscosity.xsph_boundary:
+            used.append((f"materials[{k}].viscosity.xsph", "viscosity", "xsph"))
     for k, face in enumerate(scene.interfaces):
         used.append((f"interfaces[{k}].viscosity.method", "interface_viscosity",
                      face.viscosity.method))

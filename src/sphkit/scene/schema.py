@@ -319,10 +319,26 @@ class ViscosityConfig(_Model):
         description="peer2016: relative-residual tolerance of the vorticity diffusion solve "
         "(SPlisHSPlasH viscoMaxErrorOmega)",
     )
+    xsph: float = Field(
+        0.0, ge=0, le=1,
+        description="XSPH smoothing factor c in [0, 1] applied beside the viscosity method "
+        "(SPlisHSPlasH's XSPH block, which it applies on top of its viscosityMethod); 0: none. "
+        "For XSPH alone use method 'xsph' and coefficient",
+    )
+    xsph_boundary: float = Field(
+        0.0, ge=0, le=1,
+        description="XSPH smoothing factor for fluid-boundary pairs beside the viscosity "
+        "method (SPlisHSPlasH's xsphBoundary)",
+    )
 
     @model_validator(mode="after")
     def _ranges(self) -> ViscosityConfig:
         m = self.method
+        if (self.xsph or self.xsph_boundary) and m in ("none", "xsph"):
+            raise ValueError(
+                f"xsph {self.xsph} / xsph_boundary {self.xsph_boundary}: the smoothing beside "
+                f"a viscosity method, but method is {m!r}; expected method 'xsph' with "
+                "coefficient and boundary_coefficient for XSPH alone")
         if m in ("bender2017", "peer2015", "peer2016") and not self.coefficient <= 1.0:
             raise ValueError(
                 f"coefficient {self.coefficient}: {m}'s viscosity is a dimensionless factor; "

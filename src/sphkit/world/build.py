@@ -139,12 +139,16 @@ def _forces(scene: Scene, mats: list[Material]) -> tuple[list[NonPressureForce],
     for role in registry.OPTIONAL_ROLES:
         for mat in mats:
             conf = getattr(mat, role)
-            if conf.method != "none":
-                force = registry.get(role, conf.method).load().from_config(conf)
-                if len(mats) > 1:
-                    force = PhaseForce(force, scene.materials.index(mat), mat.density0)
-                forces.append(force)
-                roles.append(role)
+            if conf.method == "none":
+                continue
+            built = [registry.get(role, conf.method).load().from_config(conf)]
+            if role == "viscosity" and (conf.xsph or conf.xsph_boundary):
+                xsph = registry.get("viscosity", "xsph").load()  # SPlisHSPlasH's XSPH beside
+                built.append(xsph(conf.xsph, conf.xsph_boundary))
+            if len(mats) > 1:
+                built = [PhaseForce(f, scene.materials.index(mat), mat.density0) for f in built]
+            forces.extend(built)
+            roles.extend([role] * len(built))
     return forces, roles
 
 

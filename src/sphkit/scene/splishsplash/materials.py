@@ -114,14 +114,12 @@ def materials(rd: Reader) -> list[dict[str, Any]]:
         cb = rd.num(m, "xsphBoundary", w, 0.0, nonneg=True)
         c = rd.num(xs, "xsph", f"{w}.XSPH", c, nonneg=True)
         cb = rd.num(xs, "xsphBoundary", f"{w}.XSPH", cb, nonneg=True)
-        if c > 0 or cb > 0:
-            if vm != 0:
-                raise rd.unsupported(
-                    f"{w}.XSPH",
-                    f"xsph {c} together with viscosityMethod {vm} "
-                    f"({VISCOSITY_METHODS[vm]}) is not supported yet; sphkit applies one "
-                    "viscosity model per material, expected one of them",
-                )
+        if (c > 0 or cb > 0) and vm != 0:  # SPlisHSPlasH applies its XSPH on top
+            src = f"{w}.XSPH" if xs else w
+            viscosity.update(xsph=c, xsph_boundary=cb)
+            rd.origin[f"materials[{k}].viscosity.xsph"] = f"{src}.xsph"
+            rd.origin[f"materials[{k}].viscosity.xsph_boundary"] = f"{src}.xsphBoundary"
+        elif c > 0 or cb > 0:
             viscosity = {"method": "xsph", "coefficient": c, "boundary_coefficient": cb}
             src = f"{w}.XSPH" if xs else w
             rd.origin[f"materials[{k}].viscosity.coefficient"] = f"{src}.xsph"
