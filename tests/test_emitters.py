@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sphkit.scene.files import load_scene
-from sphkit.scene.schema import Scene
+from sphkit.scene.schema import Scene, SceneError
 from sphkit.simulation import Simulation
 
 R = 0.02  # particle radius [m]
@@ -103,6 +103,10 @@ def test_max_particles_caps_emission() -> None:
     _run_recording(sim, 0.2)
     assert sim.fluid.n == 12  # 2 full layers of 5 and 2 particles of the third
     assert len(np.unique(sim.ids)) == 12
+    # an emitter faster than the stability guard's limit is the scene's error, not the step's
+    with pytest.raises(SceneError, match=r"emitters\[0\]\.velocity: got 150 m/s: expected "
+                       r"at most configuration\.max_velocity = 100 m/s"):
+        Simulation(_scene(2, {"position": [0, 0], "width": 0.2, "velocity": 150}))
 
 
 def test_checkpoint_restores_emitter_state_bit_for_bit(tmp_path: Path) -> None:

@@ -314,6 +314,13 @@ def check_emitters(domain: Domain | None, scene: Scene, emitters: list) -> None:
     outside the domain (:func:`domain_box` of the walls without the emitters' housings): the
     step's guard would stop the run at its first emission, and an emitter far away (a
     position of 1e16 m) made a neighbour grid of 1e17 cells for its housing first."""
+    limit = scene.configuration.max_velocity
+    for k, e in enumerate(scene.emitters):  # the guard would stop the first emission
+        if e.max_particles != 0 and e.velocity > limit:
+            raise SceneError(
+                f"{scene.field(f'emitters[{k}].velocity')}: got {e.velocity:g} m/s: expected "
+                f"at most {scene.field('configuration.max_velocity')} = {limit:g} m/s, the "
+                "speed that stops a run as unstable (or a higher max_velocity)")
     if domain is None:
         return
     for k, em in enumerate(emitters):
