@@ -359,6 +359,28 @@ def test_fixed_step_beyond_the_cfl_limit_exits_3(tmp_path: Path,
     assert m["status"] == "unstable" and m["frames"][0]["frame"] == 0  # frames are kept
 
 
+def test_the_diagnosis_names_a_splishsplash_scene_s_own_fields() -> None:
+    """The guard's diagnosis names the fields as a SPlisHSPlasH scene wrote them (its own name
+    first, sphkit's in brackets), so the advice points at the file the user edits."""
+    from sphkit.core.timestep import diagnosis, instability
+    from sphkit.scene.splishsplash import from_splishsplash
+    from sphkit.simulation import StepStats
+
+    scene = from_splishsplash({"Configuration": {"cflMethod": 0, "timeStepSize": 0.02}})
+    stats = StepStats(step=7, time=0.14, dt=0.02, n_fluid=1, max_velocity=2.5,
+                      cfl=2.0, density_error_avg=0.0, density_error_max=0.0)
+    x = np.zeros((3, 1))
+    what, advice = instability(scene.configuration, x, stats, 0, None, True, scene.field)
+    text = diagnosis(stats, what, advice, scene.field)
+    for field in ("Configuration.timeStepSize (sphkit configuration.time.dt) = 0.02 s",
+                  "Switch Configuration.cflMethod (sphkit configuration.time.cfl) on"):
+        assert field in text, text
+    stats.cfl, stats.max_velocity = 0.5, 150.0
+    what, advice = instability(scene.configuration, x, stats, 0, None, True, scene.field)
+    assert "Configuration.cflFactor (sphkit configuration.time.cfl_factor)" in diagnosis(
+        stats, what, advice, scene.field)
+
+
 def test_fluid_through_the_floor_exits_3(tmp_path: Path,
                                          capsys: pytest.CaptureFixture[str]) -> None:
     # the CFL limit out of the way, stiffness 1 cannot hold the column: it falls through the

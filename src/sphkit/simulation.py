@@ -543,11 +543,11 @@ class Simulation:
         (:func:`sphkit.core.timestep.instability`; ``clean``: :func:`sphkit.core.timestep.
         step_check` found the positions finite and inside the domain)."""
         what, advice = instability(self.scene.configuration, self.state.fluid["x"], s, bad,
-                                   self._domain, clean)
+                                   self._domain, clean, self.scene.field)
         if self.rigid.diverged:  # a body's pose stopped being finite (its particles stayed)
             what, advice = self.rigid.divergence(), ""
-        if what:
-            raise InstabilityError(diagnosis(s, what, advice), s)
+        if what:  # fields named as the scene wrote them (a translated scene's own first)
+            raise InstabilityError(diagnosis(s, what, advice, self.scene.field), s)
 
     def run(self, until: float | None = None, fps: float | None = None,
             on_frame: Callable[[Simulation, int], None] | None = None,

@@ -20,6 +20,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numba
@@ -233,46 +234,59 @@ def iteration_controlled_step(last: float, iterations: int, dt_min: float) -> fl
     return max(last, dt_min)
 
 
-def instability(cfg: Any, x: np.ndarray, s: Any, bad: int,
-                domain: Domain | None, clean: bool = False) -> tuple[str, str]:
+def _as_is(path: str) -> str:
+    return path
+
+
+def instability(cfg: Any, x: np.ndarray, s: Any, bad: int, domain: Domain | None,
+                clean: bool = False, name: Callable[[str], str] = _as_is) -> tuple[str, str]:
     """What shows the step of the statistics ``s`` blowing up or leaking, and the advice for it
     (empty strings: nothing): ``bad`` particles with a NaN/inf velocity, a position that is not
     finite, a speed above ``cfg.max_velocity``, a CFL number above ``cfg.max_cfl`` with the
     fixed step, fluid outside ``domain``. ``cfg`` is the scene's ``configuration``, x the fluid's
     positions; ``clean``: :func:`step_check` found every position finite and inside ``domain``
-    (not counted again)."""
+    (not counted again); ``name``: a field path as the messages name it (the scene's
+    :meth:`~sphkit.scene.schema.Scene.field`: a translated scene's own field first)."""
     if bad or (not clean and nonfinite_count(x)):
         return f"{bad} particle(s) with NaN/inf velocity or position", ""
     if s.max_velocity > cfg.max_velocity:
         return (f"max velocity {s.max_velocity:.4g} m/s exceeds the limit "
-                f"configuration.max_velocity = {cfg.max_velocity:.4g} m/s"), ""
+                f"{name('configuration.max_velocity')} = {cfg.max_velocity:.4g} m/s"), ""
     if not cfg.time.cfl and s.cfl > cfg.max_cfl:
-        return (f"CFL number {s.cfl:.3g} exceeds configuration.max_cfl = {cfg.max_cfl:g} with "
-                f"the fixed time step time.dt = {s.dt:g} s (time.cfl off)",
-                "Switch time.cfl on, or make time.dt smaller (the fixed step moves the fastest "
-                "particle more than the limit's share of a particle diameter).")
+        dt = name("configuration.time.dt")
+        return (f"CFL number {s.cfl:.3g} exceeds {name('configuration.max_cfl')} = "
+                f"{cfg.max_cfl:g} with the fixed time step {dt} = {s.dt:g} s "
+                f"({name('configuration.time.cfl')} off)",
+                f"Switch {name('configuration.time.cfl')} on, or make {dt} smaller (the fixed "
+                "step moves the fastest particle more than the limit's share of a particle "
+                "diameter).")
     if domain is not None and not clean and (n := outside_count(x, *domain)):
         box = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(domain.lo, domain.hi, strict=True))
         where = ("not checked above the walls' top): the fluid leaked through a wall, or fell "
                  "beside it" if domain.up >= 0 else "the fluid shut in by closed boxes): the "
                  "fluid leaked through a wall or the lid")
         return (f"{n} fluid particle(s) left the domain {box} m (the static walls' bounding box "
-                f"plus configuration.domain_margin = {cfg.domain_margin:g} h, {where}",
+                f"plus {name('configuration.domain_margin')} = {cfg.domain_margin:g} h, {where}",
                 "Make the pressure stiffer or use an iterative pressure solver, a smaller time "
-                "step (time.dt_max, time.cfl_factor), thicker walls (boxes[].layers), or set "
-                "configuration.domain_margin to null if fluid may leave the walls.")
+                f"step ({_step_fields(name)}), thicker walls (boxes[].layers), or set "
+                f"{name('configuration.domain_margin')} to null if fluid may leave the walls.")
     return "", ""
 
 
-def diagnosis(s: Any, what: str, advice: str = "") -> str:
+def _step_fields(name: Callable[[str], str]) -> str:
+    return f"{name('configuration.time.dt_max')}, {name('configuration.time.cfl_factor')}"
+
+
+def diagnosis(s: Any, what: str, advice: str = "", name: Callable[[str], str] = _as_is) -> str:
     """The message of an unstable step: its step, time, ``what`` (:func:`instability`), the
     largest speed, dt, CFL number and density errors of the statistics ``s``, and ``advice``
-    (default: a smaller step or a stiffer or iterative solver)."""
+    (default: a smaller step, its fields named by ``name`` as in :func:`instability`, or a
+    stiffer or iterative solver)."""
     return (
         f"simulation unstable at step {s.step}, time {s.time:.6g} s: {what}; "
         f"max velocity {s.max_velocity:.4g} m/s, dt {s.dt:.4g} s, CFL number {s.cfl:.3g}, "
         f"density error avg {100 * s.density_error_avg:.3g}% max "
         f"{100 * s.density_error_max:.3g}%. "
-        + (advice or "Try a smaller time step (time.dt_max, time.cfl_factor) or a "
-           "stiffer/iterative pressure solver.")
+        + (advice or f"Try a smaller time step ({_step_fields(name)}) or a stiffer/iterative "
+           "pressure solver.")
     )

@@ -122,6 +122,7 @@ def configuration(
         "configuration.time.dt_min": f"{w}.cflMinTimeStepSize",
         "configuration.time.dt_max": f"{w}.cflMaxTimeStepSize",
         "configuration.time.iteration_control": f"{w}.cflMethod",
+        "configuration.time.cfl": f"{w}.cflMethod",
         "configuration.time.until": f"{w}.stopAt",
         "configuration.time": f"{w}.cflMinTimeStepSize/cflMaxTimeStepSize",
         "configuration.particle_radius": f"{w}.particleRadius",
