@@ -76,6 +76,20 @@ start) does not show that the step is too long, and a shorter step makes the per
 corrections faster (IISPH's module docstring, "Time step"; validation/README.md, "The step
 bound's slack"). The bound is kept in checkpoints.
 
+**Impacts** (sphkit's; :data:`sphkit.core.solver.THROW`): where the divergence-free solve's
+velocity change ``dt a_v`` would carry a particle more than THROW (0.5) r within the step
+(``dt^2 max |a_v| > 0.5 r``), the rest of the step -- the non-pressure forces, the
+constant-density solve and the position update -- takes the shorter step ``dt 0.5 r / (dt^2
+max |a_v|)``, with the same velocity change (the solve projects the velocities; its pressure
+is scaled to the shorter step). A fluid block landing flat is stopped within one step:
+``DamBreakModel_2D.json``'s block raised 2.45 m lands at 6.9 m/s, its landing step (2.9 ms, the
+CFL step) moved the bottom row 0.58 r, and with volume maps the next steps pressed the row to
+2 r from the floor, where the virtual particle pushes 2.7 times as hard as the fluid and the
+mirrored share doubles it, and threw the fluid at the wall's corner apart (unstable 7 steps
+later at 111 m/s); with the landing step cut to 2.5 ms it lands (35-37 m/s jets; SPlisHSPlasH
+22 m/s). The benchmark dam breaks never cut a step; ``DamBreakModel_2D.json`` cuts one of 834
+(validation/README.md, "A block dropped onto a volume-map floor").
+
 **Closed domains** (scene ``configuration.pressure.free_surface: false``; by default where every
 axis is periodic, there are no walls and the fluid fills the period; not in the papers nor in
 SPlisHSPlasH): without a free surface the fluid cannot expand, and the summed density of a
@@ -93,17 +107,19 @@ filled to the lid loses volume into its walls; the scene check refuses it there.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba
 import numpy as np
 
-from sphkit.backend import launch
+from sphkit.backend import launch, launch_reduce
 from sphkit.core import arrays
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import held, release_body, surrounded
 from sphkit.core.solver import (
     JACOBI_STEP_BOUND,
+    THROW,
     IterationControl,
     PairGradients,
     SolverStats,
@@ -161,6 +177,17 @@ def divergence_source_body(i, div, active, dt, kprev, inv_c, s, kappa):
     else:
         s[i] = 0.0
         kappa[i] = 0.0
+
+
+@numba.njit(cache=True, inline="always")  # v as arrays.axpy adds (no contraction)
+def kick_body(i, v, dt, a, dim):
+    """``v_i += dt a_i``; returns ``|a_i|^2`` (the largest: how far the change moves a particle
+    within the step, module docstring, "Impacts")."""
+    s = 0.0
+    for d in range(dim):
+        v[d, i] += dt * a[d, i]
+        s += a[d, i] * a[d, i]
+    return s
 
 
 @numba.njit(cache=True, inline="always")
@@ -222,8 +249,9 @@ class DFSPH(StepBounded, PressureSolver):
             f.register(name)
         self.closed = closed_domain(state, self.free_surface)
 
-    def pre_forces(self, state: SimState, dt: float) -> None:
-        """Factors alpha, then the divergence-free solve on the current velocities."""
+    def pre_forces(self, state: SimState, dt: float) -> float | None:
+        """Factors alpha, then the divergence-free solve on the current velocities; returns
+        the shorter step of an impact (module docstring, "Impacts"), else None."""
         f = state.fluid
         self._grads = PairGradients.of(state)
         alpha = f["dfsph_alpha"]
@@ -240,7 +268,7 @@ class DFSPH(StepBounded, PressureSolver):
         self._div_stats = (0, 0.0)
         self._kappa_v = None
         if not self.divergence_solver:
-            return
+            return None
         s = arrays.empty_like(div)
         kappa = arrays.empty_like(div)
         if self.closed:
@@ -259,13 +287,20 @@ class DFSPH(StepBounded, PressureSolver):
                                            error_factor=dt, grads=self._grads,
                                            clamp=not self.closed,
                                            **self._grads.wall_args(f["v"], 1.0, "dfsph_v", dt))
-        arrays.axpy(f["v"], dt, a)
+        v = f["v"]  # v += dt a and the largest |a|^2 in one pass
+        a2 = launch_reduce(kick_body, f.n, v, v.dtype.type(dt), a, state.dim)[1]
         # strong coupling: a boundary that yielded to kappa^v in the solve takes its velocity
         # change too, so that the density solve sees the bodies as the fluid does
         state.coupling.take_impulse(state, kappa, self._grads.gwb, dt)
         arrays.scaled(kappa, dt, out=f["dfsph_kappa_v"])
         self._kappa_v = kappa
         self._div_stats = (its, avg)
+        throw = dt * dt * math.sqrt(a2) / state.r  # how far the velocity change moves [r]
+        if throw <= THROW:
+            return None
+        cut = dt * THROW / throw  # the same velocity change, the rest of the step shorter:
+        arrays.scaled(kappa, dt / cut, out=kappa)  # its pressure over the shorter step
+        return cut
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Constant-density solve on v* = v + dt a; adds the pressure acceleration to a."""
