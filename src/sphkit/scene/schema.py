@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     ConfigDict,
     Field,
@@ -28,6 +29,16 @@ from sphkit.scene.expressions import ExpressionError, compile_expression
 from sphkit.scene.limits import CLIP, MAX_FPS, MAX_PARTICLES
 
 Vec = list[float]
+
+
+def _three_components(v: Vec) -> Vec:
+    if len(v) != 3:
+        raise ValueError(f"{v} must have 3 components")
+    return v
+
+
+#: a vector of exactly 3 components, also in 2D (an angular velocity, a file's placement)
+Vec3 = Annotated[Vec, AfterValidator(_three_components)]
 #: the ratio of the largest to the smallest rest density of a scene's fluids above which the
 #: static walls are solved by default (``Scene._several_densities_walls``): with the MLS wall
 #: term every heavy-over-light column ran up to 1:4, and PCISPH blew up from 1:6 on (2D),
@@ -748,7 +759,7 @@ class FluidBlock(_Model):
     end: Vec = Field(description="upper corner [m]")
     material: str = "fluid"
     velocity: Vec | None = Field(None, description="initial velocity [m/s]")
-    angular_velocity: Vec | None = Field(
+    angular_velocity: Vec3 | None = Field(
         None, description="initial angular velocity [rad/s] (3 components; in 2D only z "
         "acts): the block starts with ``velocity + angular_velocity x (x - centre)`` about "
         "the centre of its particles (SPlisHSPlasH's initialAngularVelocity)")
@@ -757,13 +768,6 @@ class FluidBlock(_Model):
         "(2D only): touching discs (spacing 2r, rows along x), the packing a 2D fluid at rest "
         "settles into; 'layered' and 'close_packed': SPlisHSPlasH's denseMode 1 and 2 "
         "(sphkit.geometry.sampling.dense_block); particle volume 1 / sum_k W over the lattice")
-
-    @field_validator("angular_velocity")
-    @classmethod
-    def _three(cls, v: Vec | None) -> Vec | None:
-        if v is not None and len(v) != 3:
-            raise ValueError(f"{v} must have 3 components")
-        return v
 
     @model_validator(mode="after")
     def _ordered(self) -> FluidBlock:
@@ -785,13 +789,13 @@ class FluidFile(_Model):
     """
 
     file: str = Field(description="particle file, relative to the scene file")
-    translation: Vec = Field([0.0, 0.0, 0.0], description="offset [m] (3 components)")
+    translation: Vec3 = Field([0.0, 0.0, 0.0], description="offset [m] (3 components)")
     scale: float = Field(1.0, gt=0, description="uniform scale factor of the file's positions")
-    rotation_axis: Vec = Field([1.0, 0.0, 0.0], description="rotation axis (3 components)")
+    rotation_axis: Vec3 = Field([1.0, 0.0, 0.0], description="rotation axis (3 components)")
     rotation_angle: float = Field(0.0, description="rotation about rotation_axis [rad]")
     material: str = "fluid"
-    velocity: Vec | None = Field(None, description="initial velocity [m/s] (3 components)")
-    angular_velocity: Vec | None = Field(
+    velocity: Vec3 | None = Field(None, description="initial velocity [m/s] (3 components)")
+    angular_velocity: Vec3 | None = Field(
         None, description="initial angular velocity [rad/s] about the particles' centre (3)"
     )
     use_file_velocity: bool = Field(
@@ -799,12 +803,6 @@ class FluidFile(_Model):
         "angular_velocity); SPlisHSPlasH ignores it"
     )
 
-    @field_validator("translation", "rotation_axis", "velocity", "angular_velocity")
-    @classmethod
-    def _three(cls, v: Vec | None) -> Vec | None:
-        if v is not None and len(v) != 3:
-            raise ValueError(f"{v} must have 3 components")
-        return v
 
 
 class Box(_Model):
@@ -930,7 +928,7 @@ class FluidMesh(_Model):
     )
     material: str = "fluid"
     velocity: Vec | None = Field(None, description="initial velocity [m/s]")
-    angular_velocity: Vec | None = Field(
+    angular_velocity: Vec3 | None = Field(
         None, description="initial angular velocity [rad/s] (3 components; in 2D only z "
         "acts) about the centre of the mesh's particles, added to velocity")
     lattice: Literal["square", "layered", "close_packed"] = Field(
@@ -939,13 +937,6 @@ class FluidMesh(_Model):
         "'square' spacing 2r; 'layered' rows sqrt(3) r apart, alternate rows shifted by r; "
         "'close_packed' x spacing sqrt(3) r, rows 2 sqrt(6) r / 3 apart, shifted as "
         "SPlisHSPlasH shifts them. Particle volume 1 / sum_k W over the lattice")
-
-    @field_validator("angular_velocity")
-    @classmethod
-    def _three(cls, v: Vec | None) -> Vec | None:
-        if v is not None and len(v) != 3:
-            raise ValueError(f"{v} must have 3 components")
-        return v
 
 
 class Emitter(_Model):
