@@ -223,6 +223,8 @@ def _sph_extras() -> list[tuple[tuple, st.SearchStrategy]]:
         (("Materials", 0, "maxEmitterParticles"), VALUES),
         (("FluidBlocks", 0, "initialVelocity"), VALUES),
         (("FluidBlocks", 0, "denseMode"), st.one_of(st.integers(-1, 3), VALUES)),
+        (("FluidBlocks", 0, "initialAngularVelocity"), VALUES),
+        (("Materials", 0, "XSPH"), st.one_of(st.just({"xsph": 0.1}), VALUES)),
         (("FluidBlocks", 0, "translation"), VALUES),
         (("RigidBodies", 0, "isDynamic"), st.one_of(st.booleans(), VALUES)),
         (("RigidBodies", 0, "mapResolution"), VALUES),
