@@ -81,14 +81,12 @@ velocity change ``dt a_v`` would carry a particle more than THROW (0.5) r within
 (``dt^2 max |a_v| > 0.5 r``), the rest of the step -- the non-pressure forces, the
 constant-density solve and the position update -- takes the shorter step ``dt 0.5 r / (dt^2
 max |a_v|)``, with the same velocity change (the solve projects the velocities; its pressure
-is scaled to the shorter step). A fluid block landing flat is stopped within one step:
-``DamBreakModel_2D.json``'s block raised 2.45 m lands at 6.9 m/s, its landing step (2.9 ms, the
-CFL step) moved the bottom row 0.58 r, and with volume maps the next steps pressed the row to
-2 r from the floor, where the virtual particle pushes 2.7 times as hard as the fluid and the
-mirrored share doubles it, and threw the fluid at the wall's corner apart (unstable 7 steps
-later at 111 m/s); with the landing step cut to 2.5 ms it lands (35-37 m/s jets; SPlisHSPlasH
-22 m/s). The benchmark dam breaks never cut a step; ``DamBreakModel_2D.json`` cuts one of 834
-(validation/README.md, "A block dropped onto a volume-map floor").
+is scaled to the shorter step). Why: a fluid block landing flat is stopped within one CFL
+step, and with volume maps the steps after such a landing pressed the bottom row to 2 r from
+the floor, where the virtual particle out-pushes the fluid it stands for and the mirrored
+share doubles that, and threw the fluid at a wall's corner apart; with the landing step cut it
+lands. Dam breaks rarely cut a step (validation/README.md, "A block dropped onto a volume-map
+floor", for the measurements).
 
 **Closed domains** (scene ``configuration.pressure.free_surface: false``; by default where every
 axis is periodic, there are no walls and the fluid fills the period; not in the papers nor in

@@ -47,13 +47,12 @@ and a deep two-layer column at 1:10 does not come to rest at 1 ms while it does 
 **Impacts** (sphkit's): a solve whose pressure acceleration would carry a particle more than
 :data:`THROW_PLAIN` (1.25) r within the step is made again, from the same warm start, with the
 walls' plain term ``V_b k_i`` (no mirrored share ``m_b``, SPlisHSPlasH's; the maps' wall moment
-stays). At a wall the mirror doubles the push of a virtual particle that a landing presses
-to 2 r, where it already pushes harder than the fluid it stands for; ``DamBreakModel_2D.json``'s
-block raised 2.45 m and switched to IISPH lands at 6.9 m/s, 1.47 r at the CFL step, and with
-volume maps the steps after it threw the fluid at the wall's corner apart (unstable at
-0.710 s, where SPlisHSPlasH's IISPH lands); with the plain term in those steps it lands
-(38-56 m/s jets). Dam breaks stay below the threshold and take the same steps
-(validation/README.md, "A block dropped onto a volume-map floor").
+stays). Why: at a wall the mirror doubles the push of a virtual particle that a landing
+presses to 2 r, where it already pushes harder than the fluid it stands for, and with volume
+maps the steps after a block's flat landing threw the fluid at a wall's corner apart (where
+SPlisHSPlasH's IISPH, with the plain term, lands it); with the plain term in those steps it
+lands, and dam breaks stay below the threshold (validation/README.md, "A block dropped onto a
+volume-map floor", for the measurements).
 
 **Emitters** (sphkit's; SPlisHSPlasH's IISPH solves for them and only leaves them out of the
 integration): a particle that an emitter's region moves rigidly in this step
