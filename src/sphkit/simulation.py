@@ -440,9 +440,7 @@ class Simulation:
             dt, lands = (land_at - self.time) / parts, parts == 1
         self.rigid.begin_step(st)  # this step's body frames
         st.animated = animated(self.emitters, f, self.time + dt)  # moved, not solved for
-        ps, taken = self._forces_and_pressure(dt)
-        if taken < dt:  # the solver shortened the step (DFSPH at an impact)
-            dt, lands, self._dt_control = taken, False, taken
+        ps = self._forces_and_pressure(dt)
         rejected = 0  # a failed solve: the step again with the solver's shrunk bound
         while rejected < self._retries and self.pressure.rejects(ps):
             rejected += 1
@@ -451,7 +449,7 @@ class Simulation:
             log.warning("step %d: the pressure solve failed (error %.3g%%, %d iterations, a "
                         "particle moved %.2g r); computed again with dt %.4g s (time.retries)",
                         st.step, 100 * ps.density_error_avg, ps.iterations, ps.displacement, dt)
-            ps, dt = self._forces_and_pressure(dt)
+            ps = self._forces_and_pressure(dt)
         if self.rigid.bodies:  # the fluid's push on the bodies
             self.rigid.fluid_forces(st, self.pressure.boundary_reaction(st))
         st.pair_grads = None  # positions change: the cache is stale
@@ -490,18 +488,17 @@ class Simulation:
         self._stability_guard(stats, bad, clean)
         return stats
 
-    def _forces_and_pressure(self, dt: float) -> tuple[SolverStats, float]:
-        """The non-pressure forces and the pressure solve of a step of ``dt`` [s]: the solve's
-        statistics and the step taken (shorter where the solver's ``pre_forces`` cut it)."""
+    def _forces_and_pressure(self, dt: float) -> SolverStats:
+        """The non-pressure forces and the pressure solve of a step of ``dt`` [s]."""
         st = self.state
-        dt = self.pressure.pre_forces(st, dt) or dt  # DFSPH: factors, divergence-free solve
+        self.pressure.pre_forces(st, dt)  # DFSPH: factors and the divergence-free solve
         arrays.fill_rows(st.fluid["a"], st.gravity)  # non-pressure forces
         for force in self.forces:
             force.apply(st, dt)
         for solid in self.solids:  # elasticity of the solid materials
             solid.apply(st, dt)
         st.coupling.predict(st, dt)  # yielding bodies take their non-pressure velocity change
-        return self.pressure.solve(st, dt), dt  # pressure
+        return self.pressure.solve(st, dt)  # pressure
 
     def _viscosity_stats(self) -> KrylovStats | None:
         """The last solve of the material's viscosity, when it is implicit (several fluids:

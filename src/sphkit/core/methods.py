@@ -89,9 +89,8 @@ class PressureSolver(Protocol):
         """The solver's own bound on the time step [s] (inf: only the CFL step)."""
         return math.inf
 
-    def pre_forces(self, state: SimState, dt: float) -> float | None:
-        """Work before the non-pressure forces (DFSPH: factors, divergence-free solve); returns
-        a shorter step for the rest of the step (DFSPH at an impact) or None (``dt``)."""
+    def pre_forces(self, state: SimState, dt: float) -> None:
+        """Work before the non-pressure forces (DFSPH: factors, divergence-free solve)."""
         return None
 
     @abstractmethod

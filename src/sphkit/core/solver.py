@@ -168,13 +168,6 @@ class IterationControl:
 #: bound [s] (the default time.dt_min), the bound above which it is dropped [s], and the error,
 #: in tolerances, up to which a solve stopped at max_iterations does not fail
 JACOBI_STEP_BOUND = {"shrink": 0.8, "grow": 1.02, "floor": 1e-4, "free": 1.0, "slack": 1.5}
-#: a solve whose pressure moves a particle more than THROW particle radii within the step threw
-#: it. PCISPH computes the step again with half of it (its density prediction is linear in that
-#: displacement; measured on validation/energy.py's 2D PCISPH dam break with Akinci walls: 0.5
-#: took the largest energy from 4.3 to 1.04 times the start's with 24-38 retries in 4 s, 1.0
-#: left 1.4-1.7); DFSPH shortens the step after a divergence-free solve that does
-#: (:mod:`sphkit.pressure.dfsph`, "Impacts")
-THROW = 0.5
 
 
 class StepBound:

@@ -76,18 +76,6 @@ start) does not show that the step is too long, and a shorter step makes the per
 corrections faster (IISPH's module docstring, "Time step"; validation/README.md, "The step
 bound's slack"). The bound is kept in checkpoints.
 
-**Impacts** (sphkit's; :data:`sphkit.core.solver.THROW`): where the divergence-free solve's
-velocity change ``dt a_v`` would carry a particle more than THROW (0.5) r within the step
-(``dt^2 max |a_v| > 0.5 r``), the rest of the step -- the non-pressure forces, the
-constant-density solve and the position update -- takes the shorter step ``dt 0.5 r / (dt^2
-max |a_v|)``, with the same velocity change (the solve projects the velocities; its pressure
-is scaled to the shorter step). Why: a fluid block landing flat is stopped within one CFL
-step, and with volume maps the steps after such a landing pressed the bottom row to 2 r from
-the floor, where the virtual particle out-pushes the fluid it stands for and the mirrored
-share doubles that, and threw the fluid at a wall's corner apart; with the landing step cut it
-lands. Dam breaks rarely cut a step (validation/README.md, "A block dropped onto a volume-map
-floor", for the measurements).
-
 **Closed domains** (scene ``configuration.pressure.free_surface: false``; by default where every
 axis is periodic, there are no walls and the fluid fills the period; not in the papers nor in
 SPlisHSPlasH): without a free surface the fluid cannot expand, and the summed density of a
@@ -105,20 +93,17 @@ filled to the lid loses volume into its walls; the scene check refuses it there.
 
 from __future__ import annotations
 
-import logging
-import math
 from typing import Any
 
 import numba
 import numpy as np
 
-from sphkit.backend import launch, launch_reduce
+from sphkit.backend import launch
 from sphkit.core import arrays
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.ppe import held, release_body, surrounded
 from sphkit.core.solver import (
     JACOBI_STEP_BOUND,
-    THROW,
     IterationControl,
     PairGradients,
     SolverStats,
@@ -130,7 +115,6 @@ from sphkit.core.solver import (
 from sphkit.core.state import SimState
 
 _BODY = dict(cache=True, fastmath=True, inline="always")
-log = logging.getLogger("sphkit")
 
 
 @numba.njit(**_BODY)
@@ -177,17 +161,6 @@ def divergence_source_body(i, div, active, dt, kprev, inv_c, s, kappa):
     else:
         s[i] = 0.0
         kappa[i] = 0.0
-
-
-@numba.njit(cache=True, inline="always")  # v as arrays.axpy adds (no contraction)
-def kick_body(i, v, dt, a, dim):
-    """``v_i += dt a_i``; returns ``|a_i|^2`` (the largest: how far the change moves a particle
-    within the step, module docstring, "Impacts")."""
-    s = 0.0
-    for d in range(dim):
-        v[d, i] += dt * a[d, i]
-        s += a[d, i] * a[d, i]
-    return s
 
 
 @numba.njit(cache=True, inline="always")
@@ -249,9 +222,8 @@ class DFSPH(StepBounded, PressureSolver):
             f.register(name)
         self.closed = closed_domain(state, self.free_surface)
 
-    def pre_forces(self, state: SimState, dt: float) -> float | None:
-        """Factors alpha, then the divergence-free solve on the current velocities; returns
-        the shorter step of an impact (module docstring, "Impacts"), else None."""
+    def pre_forces(self, state: SimState, dt: float) -> None:
+        """Factors alpha, then the divergence-free solve on the current velocities."""
         f = state.fluid
         self._grads = PairGradients.of(state)
         alpha = f["dfsph_alpha"]
@@ -268,7 +240,7 @@ class DFSPH(StepBounded, PressureSolver):
         self._div_stats = (0, 0.0)
         self._kappa_v = None
         if not self.divergence_solver:
-            return None
+            return
         s = arrays.empty_like(div)
         kappa = arrays.empty_like(div)
         if self.closed:
@@ -287,22 +259,13 @@ class DFSPH(StepBounded, PressureSolver):
                                            error_factor=dt, grads=self._grads,
                                            clamp=not self.closed,
                                            **self._grads.wall_args(f["v"], 1.0, "dfsph_v", dt))
-        v = f["v"]  # v += dt a and the largest |a|^2 in one pass
-        a2 = launch_reduce(kick_body, f.n, v, v.dtype.type(dt), a, state.dim)[1]
+        arrays.axpy(f["v"], dt, a)
         # strong coupling: a boundary that yielded to kappa^v in the solve takes its velocity
         # change too, so that the density solve sees the bodies as the fluid does
         state.coupling.take_impulse(state, kappa, self._grads.gwb, dt)
         arrays.scaled(kappa, dt, out=f["dfsph_kappa_v"])
         self._kappa_v = kappa
         self._div_stats = (its, avg)
-        throw = dt * dt * math.sqrt(a2) / state.r  # how far the velocity change moves [r]
-        if throw <= THROW:
-            return None
-        cut = dt * THROW / throw  # the same velocity change, the rest of the step shorter:
-        arrays.scaled(kappa, dt / cut, out=kappa)  # its pressure over the shorter step
-        log.info("step %d: DFSPH's divergence-free solve moves a particle %.3g r within %.4g s; "
-                 "the step goes on with %.4g s", state.step, throw, dt, cut)
-        return cut
 
     def solve(self, state: SimState, dt: float) -> SolverStats:
         """Constant-density solve on v* = v + dt a; adds the pressure acceleration to a."""
