@@ -104,8 +104,9 @@ def test_max_particles_caps_emission() -> None:
     assert sim.fluid.n == 12  # 2 full layers of 5 and 2 particles of the third
     assert len(np.unique(sim.ids)) == 12
     # an emitter faster than the stability guard's limit is the scene's error, not the step's
-    with pytest.raises(SceneError, match=r"emitters\[0\]\.velocity: got 150 m/s: expected "
-                       r"at most configuration\.max_velocity = 100 m/s"):
+    with pytest.raises(SceneError, match=r"emitters\[0\]: the fluid starts at up to 150 m/s "
+                       r"\(emitters\[0\]\.velocity\), over configuration\.max_velocity = "
+                       r"100 m/s"):
         Simulation(_scene(2, {"position": [0, 0], "width": 0.2, "velocity": 150}))
 
 

@@ -160,17 +160,23 @@ class IISPH(StepBounded, PressureSolver):
                1e-9 / state.h ** 2, s, w, scale)
         if self.closed:  # the source relative to its mean (module docstring)
             s -= np.mean(s)
-        # warm start, normalized pressure 0.5 p / rho0
-        p = arrays.divided_by(arrays.scaled(f["p"], 0.5), f["rho0"])
         # particles an emitter moves are left out (module docstring, "Emitters")
         rows = held(state)
         if rows is not None:
             launch(release_body, n, rows, scale)
-            launch(release_body, n, rows, p)
         walls = grads.wall_args(v_star, dt, "iisph", density=True)
-        a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
-                                         self.omega, rows, grads=grads,
-                                         clamp=not self.closed, **walls)
+
+        def relaxed_jacobi(mirror: np.ndarray | None) -> tuple:
+            """The solve from the warm start (normalized pressure 0.5 p / rho0), with the
+            walls' mirror weights ``mirror`` (None: the coupling's): (p, a, its, avg, mx, ok)."""
+            p = arrays.divided_by(arrays.scaled(f["p"], 0.5), f["rho0"])
+            if rows is not None:
+                launch(release_body, n, rows, p)
+            return p, *jacobi_ppe(state, self.control, p, w, s, scale, dt * dt, self.omega,
+                                  rows, grads=grads, clamp=not self.closed, mirror=mirror,
+                                  **walls)
+
+        p, a, its, avg, mx, ok = relaxed_jacobi(None)
         self.mirrored = 1.0
         throw = dt * dt * max_speed(a) / state.r  # module docstring, "Impacts"
         if throw > THROW_PLAIN and state.boundary.n:  # again with the plain wall term
@@ -178,14 +184,7 @@ class IISPH(StepBounded, PressureSolver):
                      "solved again with the walls' plain term", state.step, throw)
             b = state.boundary
             self.mirrored = 0.0
-            p = arrays.divided_by(arrays.scaled(f["p"], 0.5), f["rho0"])
-            if rows is not None:
-                launch(release_body, n, rows, p)
-            a, its, avg, mx, ok = jacobi_ppe(state, self.control, p, w, s, scale, dt * dt,
-                                             self.omega, rows, grads=grads,
-                                             clamp=not self.closed,
-                                             mirror=arrays.zeros(b.n, b["V"].dtype, b["V"]),
-                                             **walls)
+            p, a, its, avg, mx, ok = relaxed_jacobi(arrays.zeros(b.n, b["V"].dtype, b["V"]))
         self.step_bound.update(dt, its, self.control.max_iterations, ok,
                                miss=avg / self.control.tolerance)
         arrays.axpy(f["a"], 1.0, a)

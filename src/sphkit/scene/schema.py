@@ -804,7 +804,6 @@ class FluidFile(_Model):
     )
 
 
-
 class Box(_Model):
     """A box container of boundary particles: the fluid lives inside [min, max]."""
 

@@ -120,8 +120,9 @@ def start_velocity(pts: np.ndarray, velocity: list[float] | None,
 
 def check_start_speed(scene: Scene, what: str, vel: np.ndarray, obj) -> None:
     """Raise :class:`SceneError` when the initial velocities (dim,) or (M, dim) of the scene's
-    object ``obj`` (named ``what``) exceed ``configuration.max_velocity``: the stability guard
-    would stop the run at its first step and blame the time step."""
+    object ``obj`` (named ``what``: a fluid block, file or mesh, an emitter) exceed
+    ``configuration.max_velocity``: the stability guard would stop the run at its first step
+    (or emission) and blame the time step."""
     limit = scene.configuration.max_velocity
     speed = float(np.max(np.linalg.norm(np.atleast_2d(vel), axis=1), initial=0.0))
     if speed > limit:

@@ -30,7 +30,7 @@ from sphkit.geometry.sampling import (
 )
 from sphkit.scene.schema import Scene, SceneError
 from sphkit.world.emitters import HOUSING_WALL
-from sphkit.world.fluid import periodic_clip, periodic_mask
+from sphkit.world.fluid import check_start_speed, periodic_clip, periodic_mask
 from sphkit.world.meshes import SceneMeshes
 
 
@@ -313,14 +313,12 @@ def check_emitters(domain: Domain | None, scene: Scene, emitters: list) -> None:
     """A :class:`SceneError` naming the emitter's position where its first layer would lie
     outside the domain (:func:`domain_box` of the walls without the emitters' housings): the
     step's guard would stop the run at its first emission, and an emitter far away (a
-    position of 1e16 m) made a neighbour grid of 1e17 cells for its housing first."""
-    limit = scene.configuration.max_velocity
+    position of 1e16 m) made a neighbour grid of 1e17 cells for its housing first; and one
+    naming its velocity where that exceeds ``configuration.max_velocity``
+    (:func:`sphkit.world.fluid.check_start_speed`, as for the fluid that starts in the scene)."""
     for k, e in enumerate(scene.emitters):  # the guard would stop the first emission
-        if e.max_particles != 0 and e.velocity > limit:
-            raise SceneError(
-                f"{scene.field(f'emitters[{k}].velocity')}: got {e.velocity:g} m/s: expected "
-                f"at most {scene.field('configuration.max_velocity')} = {limit:g} m/s, the "
-                "speed that stops a run as unstable (or a higher max_velocity)")
+        if e.max_particles != 0:
+            check_start_speed(scene, f"emitters[{k}]", np.array([e.velocity]), e)
     if domain is None:
         return
     for k, em in enumerate(emitters):
