@@ -866,3 +866,26 @@ def test_poly6_for_the_pressure_is_warned_about(sph_dir: Path) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert kernel_warning(from_splishsplash(data, sph_dir / "dam.json")) is None
+
+
+@pytest.mark.parametrize("data,field", [
+    ({"fluid_blocks": [{"start": [0, 0, 0], "end": [1, 1, 1],
+                        "angular_velocity": [math.nan, 0, 0]}]},
+     r"fluid_blocks\[0\]\.angular_velocity\[0\]: got nan"),
+    ({"fluid_blocks": [{"start": [0, 0, 0], "end": [1, 1, 1], "angular_velocity": "x"}]},
+     r"fluid_blocks\[0\]\.angular_velocity: got 'x'"),
+    ({"fluid_blocks": [{"start": [0, 0, 0], "end": [1, 1, 1], "angular_velocity": [0, 1]}]},
+     r"fluid_blocks\[0\]\.angular_velocity: got \[0, 1\].*3 components"),
+    ({"fluid_meshes": [{"geometry_file": "a.obj", "lattice": "hex"}]},
+     r"fluid_meshes\[0\]\.lattice: got 'hex'"),
+    ({"materials": [{"viscosity": {"method": "standard", "coefficient": 0.01,
+                                   "xsph": math.inf}}]},
+     r"materials\[0\]\.viscosity\.xsph: got inf"),
+    ({"materials": [{"viscosity": {"method": "none", "xsph": 0.1}}]},
+     r"materials\[0\]\.viscosity: .*xsph 0\.1.*method is 'none'"),
+])
+def test_new_fields_refuse_garbage_by_name(data: dict, field: str) -> None:
+    """The fields added for SPlisHSPlasH's initialAngularVelocity, mesh denseMode and XSPH
+    beside a viscosity reject NaN, Infinity, wrong types and lengths, naming the field."""
+    with pytest.raises(SceneError, match=field):
+        load_scene(data)
