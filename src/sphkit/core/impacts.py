@@ -1,0 +1,113 @@
+"""Impacts: a pressure solve that would throw a particle (sphkit's; IISPH and DFSPH use it).
+
+At a wall the mirrored share ``m_b`` of the boundary term (:mod:`sphkit.core.ppe`) doubles the
+push of a boundary neighbour. When a block lands flat on a volume-map floor, the landing presses
+the bottom row to 2 r, where the map's virtual particle already pushes 2.7 times as hard as the
+fluid it stands for; the mirror doubles that, the row bounces back, and in the steps after it
+the solves throw the fluid at the wall's corner apart (SPlisHSPlasH, whose boundary term is the
+plain ``V_b k_i``, lands the same block with IISPH and DFSPH).
+
+The rule: a solve whose pressure acceleration ``a`` would carry a particle more than
+:data:`THROW_PLAIN` r within the step, ``dt^2 max_i |a_i| > 1.25 r``, is made again, from the
+same warm start, with the walls' plain term (``m_b = 0``; the maps' wall moment stays); the
+walls keep the plain term in every solve of the next :data:`PLAIN_STEPS` (10) steps (DFSPH: both
+solves), and the solver's adaptive step bound (:class:`sphkit.core.solver.StepBound`) is cut to
+:data:`IMPACT_BOUND` (0.5) times the step, from which it grows back as usual. The threshold lies
+between the landings (1.33-1.75 r) and what dam breaks, starts from jittered lattices and
+columns at rest reach (at most 1.0-1.1 r); validation/README.md, "A block dropped onto a
+volume-map floor", holds the measurements.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from sphkit.core import arrays
+from sphkit.core.solver import StepBound, StepBounded
+from sphkit.core.state import SimState
+from sphkit.core.timestep import max_speed
+
+log = logging.getLogger("sphkit")
+
+#: the displacement [r] that a solve's pressure gives a particle within the step above which
+#: the solve is made again with the walls' plain term (module docstring). Measured: landings of
+#: 2D blocks dropped 0.8-3 m onto a volume-map floor 1.33-1.75 r; SPlisHSPlasH's 2D dam break
+#: (``DamBreakModel_2D``, IISPH, 3 s) at most 1.09 r, the 3D volume-map benchmark dam break
+#: (DFSPH) 1.00 r, settling columns 0.5 r
+THROW_PLAIN = 1.25
+#: the steps after an impact whose solves keep the walls' plain term, and the step bound an
+#: impact sets as a fraction of its step (module docstring). Of the drops measured there, with
+#: the re-solve alone 5 of 40 still went unstable (IISPH 2 of 20), with 10 plain steps and no
+#: cut 1 of 10 (DFSPH)
+PLAIN_STEPS, IMPACT_BOUND = 10, 0.5
+
+
+class Impacts:
+    """The impact rule of one pressure solver (module docstring): which steps' solves take the
+    walls' plain term, and whether a solve threw a particle."""
+
+    def __init__(self, solver: str, steps: int = PLAIN_STEPS,
+                 bound: float | None = IMPACT_BOUND) -> None:
+        """``solver``: the name in the log message; ``steps``: the steps after an impact whose
+        solves keep the plain term; ``bound``: the step bound after an impact as a fraction of
+        its step (None: the bound is left as it is)."""
+        self.solver, self.steps, self.bound = solver, steps, bound
+        self.until = -1  #: the last step whose solves take the plain term
+
+    def plain(self, state: SimState) -> bool:
+        """Whether this step's solves take the walls' plain term (an impact within ``steps``)."""
+        return state.step <= self.until
+
+    def mirror(self, state: SimState) -> np.ndarray | None:
+        """The walls' mirror weights for :func:`sphkit.core.solver.jacobi_ppe`: zeros (the
+        plain term) in the steps after an impact, None (the coupling's) otherwise."""
+        if not self.plain(state):
+            return None
+        b = state.boundary
+        return arrays.zeros(b.n, b["V"].dtype, b["V"])
+
+    def thrown(self, state: SimState, a: np.ndarray, dt: float) -> bool:
+        """Whether the solve whose pressure acceleration is ``a`` (step ``dt`` [s]) threw a
+        particle with the mirrored walls (it is then to be made again with :meth:`mirror`,
+        which from now on gives the plain term for ``steps`` steps)."""
+        if self.plain(state) or not state.boundary.n:
+            return False
+        throw = dt * dt * max_speed(a) / state.r
+        if throw <= THROW_PLAIN:
+            return False
+        log.info("step %d: %s's pressure moves a particle %.3g r within the step; solved again "
+                 "with the walls' plain term", state.step, self.solver, throw)
+        self.until = state.step + self.steps
+        return True
+
+    def cut(self, step_bound: StepBound, dt: float) -> None:
+        """After an impact (:meth:`thrown`), the solver's :class:`~sphkit.core.solver.StepBound`
+        ``step_bound`` at ``bound`` times the step ``dt`` [s] at most."""
+        if self.bound is not None:
+            step_bound.value = min(step_bound.value, max(self.bound * dt, step_bound.floor))
+
+    def checkpoint_state(self) -> dict:
+        """The last step with the plain term, for checkpoints (JSON-ready)."""
+        return {"plain_until": self.until}
+
+    def restore(self, state: dict) -> None:
+        """Take :meth:`checkpoint_state` back (none: checkpoints written before the rule)."""
+        self.until = int(state.get("plain_until", -1))
+
+
+class ImpactBounded(StepBounded):
+    """:class:`~sphkit.core.solver.StepBounded` for a solver with an :class:`Impacts` rule in
+    ``self.impacts``: both kept in checkpoints. Put it before the solver's role in the bases."""
+
+    impacts: Impacts
+
+    def checkpoint_state(self) -> dict:
+        """The adaptive step bound and the impact rule's last plain step (JSON-ready)."""
+        return {**super().checkpoint_state(), **self.impacts.checkpoint_state()}
+
+    def restore_checkpoint_state(self, state: dict) -> None:
+        """Take :meth:`checkpoint_state` back."""
+        super().restore_checkpoint_state(state)
+        self.impacts.restore(state)
