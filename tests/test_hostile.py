@@ -381,6 +381,32 @@ def test_the_diagnosis_names_a_splishsplash_scene_s_own_fields() -> None:
         stats, what, advice, scene.field)
 
 
+def test_the_cfl_guard_lets_single_steps_above_the_limit_through() -> None:
+    """With a fixed step, a CFL number above ``configuration.max_cfl`` stops the run when it
+    lasts 5 steps in a row or exceeds twice the limit: SPlisHSPlasH's
+    ``SurfaceTension_FluidChain_JWL+23.json`` (fixed 1 ms) peaks at 1.02-1.10 in single steps
+    and was stopped at 0.033-0.04 s; the WCSPH of stiffness 1 at 20 ms (4.96) still stops at
+    once."""
+    from sphkit.core.timestep import CFL_STEPS, CflStreak, instability
+    from sphkit.scene.splishsplash import from_splishsplash
+    from sphkit.simulation import StepStats
+
+    cfg = from_splishsplash({"Configuration": {"cflMethod": 0, "timeStepSize": 0.001}}
+                            ).configuration
+    x = np.zeros((3, 1))
+    streak = CflStreak()
+
+    def stops(cfl: float) -> bool:
+        s = StepStats(step=1, time=0.001, dt=0.001, n_fluid=1, max_velocity=cfl * 20.0,
+                      cfl=cfl, density_error_avg=0.0, density_error_max=0.0)
+        return bool(instability(cfg, x, s, 0, None, True, streak=streak(cfg, s))[0])
+
+    assert not any(stops(c) for c in (1.05, 1.1, 0.9, 1.02))  # spikes, a step below between
+    assert not stops(0.5) and streak.steps == 0
+    assert [stops(1.05) for _ in range(CFL_STEPS)] == [False] * (CFL_STEPS - 1) + [True]
+    assert not stops(0.5) and stops(2.5)  # twice the limit: at once
+
+
 def test_fluid_through_the_floor_exits_3(tmp_path: Path,
                                          capsys: pytest.CaptureFixture[str]) -> None:
     # the CFL limit out of the way, stiffness 1 cannot hold the column: it falls through the
