@@ -381,30 +381,41 @@ def test_the_diagnosis_names_a_splishsplash_scene_s_own_fields() -> None:
         stats, what, advice, scene.field)
 
 
-def test_the_cfl_guard_lets_single_steps_above_the_limit_through() -> None:
-    """With a fixed step, a CFL number above ``configuration.max_cfl`` stops the run when it
-    lasts 5 steps in a row or exceeds twice the limit: SPlisHSPlasH's
-    ``SurfaceTension_FluidChain_JWL+23.json`` (fixed 1 ms) peaks at 1.02-1.10 in single steps
-    and was stopped at 0.033-0.04 s; the WCSPH of stiffness 1 at 20 ms (4.96) still stops at
-    once."""
-    from sphkit.core.timestep import CFL_STEPS, CflStreak, instability
+def test_the_cfl_guard_judges_the_fluid_at_the_walls() -> None:
+    """With a fixed step the guard stops a run when the CFL number of the fluid with a boundary
+    neighbour exceeds ``configuration.max_cfl`` in 5 steps in a row, or the CFL number anywhere
+    exceeds twice the limit. SPlisHSPlasH's ``SurfaceTension_FluidChain_JWL+23.json`` (fixed
+    1 ms, no container) was stopped at 0.033-0.44 s by its free-falling chain (CFL 1.02-1.27,
+    its fluid at the emitters' housings at most 0.62); the WCSPH of stiffness 1 at 20 ms (4.96
+    at the floor) still stops at once. Here: two particles, one at a wall (a boundary
+    neighbour), one in free fall."""
+    from types import SimpleNamespace
+
+    from sphkit.core.timestep import CFL_STEPS, WallCfl, instability
     from sphkit.scene.splishsplash import from_splishsplash
     from sphkit.simulation import StepStats
 
     cfg = from_splishsplash({"Configuration": {"cflMethod": 0, "timeStepSize": 0.001}}
                             ).configuration
-    x = np.zeros((3, 1))
-    streak = CflStreak()
+    r, x = 0.01, np.zeros((3, 2))
+    walls = WallCfl()
+    offsets = np.array([0, 1, 1], dtype=np.int32)  # particle 0 has a boundary neighbour
 
-    def stops(cfl: float) -> bool:
-        s = StepStats(step=1, time=0.001, dt=0.001, n_fluid=1, max_velocity=cfl * 20.0,
-                      cfl=cfl, density_error_avg=0.0, density_error_max=0.0)
-        return bool(instability(cfg, x, s, 0, None, True, streak=streak(cfg, s))[0])
+    def stops(cfl_wall: float, cfl_free: float) -> bool:
+        speeds = np.array([cfl_wall, cfl_free]) * 2.0 * r / 0.001
+        v = np.zeros((3, 2))
+        v[1] = -speeds
+        state = SimpleNamespace(fluid={"v": v}, nl_fb=SimpleNamespace(offsets=offsets), r=r)
+        s = StepStats(step=1, time=0.001, dt=0.001, n_fluid=2, max_velocity=speeds.max(),
+                      cfl=max(cfl_wall, cfl_free), density_error_avg=0.0, density_error_max=0.0)
+        return bool(instability(cfg, x, s, 0, None, True, walls=walls(cfg, s, state))[0])
 
-    assert not any(stops(c) for c in (1.05, 1.1, 0.9, 1.02))  # spikes, a step below between
-    assert not stops(0.5) and streak.steps == 0
-    assert [stops(1.05) for _ in range(CFL_STEPS)] == [False] * (CFL_STEPS - 1) + [True]
-    assert not stops(0.5) and stops(2.5)  # twice the limit: at once
+    assert not any(stops(0.6, 1.27) for _ in range(3 * CFL_STEPS))  # the chain falling free
+    assert abs(walls.cfl - 0.6) < 1e-9 and walls.steps == 0
+    assert not any(stops(c, 0.5) for c in (1.05, 1.1, 0.9, 1.02))  # spikes at the wall
+    assert not stops(0.5, 0.5) and walls.steps == 0
+    assert [stops(1.05, 0.5) for _ in range(CFL_STEPS)] == [False] * (CFL_STEPS - 1) + [True]
+    assert not stops(0.5, 0.5) and stops(0.5, 2.5)  # twice the limit anywhere: at once
 
 
 def test_fluid_through_the_floor_exits_3(tmp_path: Path,

@@ -53,7 +53,7 @@ from sphkit.core.operators import density_cpu
 from sphkit.core.particles import ParticleSet
 from sphkit.core.solver import PairGradients, SolverStats, log
 from sphkit.core.timestep import (
-    CflStreak,
+    WallCfl,
     cfl_time_step,
     diagnosis,
     instability,
@@ -148,7 +148,7 @@ class Simulation:
         self.emitters = world.emitters
         self._lattice_volume = world.lattice_volume
         self._domain = world.domain
-        self._cfl_streak = CflStreak()  # steps in a row above max_cfl (the guard)
+        self._wall_cfl = WallCfl()  # the guard's CFL number at the walls
         #: a failed solve's step is computed again at most this often (time.retries)
         self._retries = self.scene.configuration.time.retries if world.repeatable else 0
         self._empty_at_init = self.state.fluid.n == 0  # methods reading the fluid: at emission
@@ -543,7 +543,7 @@ class Simulation:
         step_check` found the positions finite and inside the domain)."""
         cfg = self.scene.configuration
         what, advice = instability(cfg, self.state.fluid["x"], s, bad, self._domain, clean,
-                                   self.scene.field, self._cfl_streak(cfg, s))
+                                   self.scene.field, self._wall_cfl(cfg, s, self.state))
         if self.rigid.diverged:  # a body's pose stopped being finite (its particles stayed)
             what, advice = self.rigid.divergence(), ""
         if what:  # fields named as the scene wrote them (a translated scene's own first)

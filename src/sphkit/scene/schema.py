@@ -1200,9 +1200,9 @@ class Configuration(_Model):
     )
     max_cfl: float = Field(
         1.0, gt=0,
-        description="with time.cfl off: a CFL number max|v| dt / (2r) above this "
-        "(dimensionless) in 5 steps in a row, or above twice this in one step, stops the run as "
-        "unstable (the fixed time.dt is too large)",
+        description="with time.cfl off: a CFL number max|v| dt / (2r) of the fluid with a "
+        "boundary neighbour above this (dimensionless) in 5 steps in a row, or of any fluid "
+        "above twice this, stops the run as unstable (the fixed time.dt is too large)",
     )
     domain_margin: float | None = Field(
         10.0, ge=0,
