@@ -39,8 +39,8 @@ log = logging.getLogger("sphkit")
 THROW_PLAIN = 1.25
 #: the steps after an impact whose solves keep the walls' plain term, and the step bound an
 #: impact sets as a fraction of its step (module docstring). Of the drops measured there, with
-#: the re-solve alone 5 of 40 still went unstable (IISPH 2 of 20), with 10 plain steps and no
-#: cut 1 of 10 (DFSPH)
+#: the re-solve alone IISPH still went unstable in 2 of 20, with 10 plain steps and no cut
+#: DFSPH in 1 of 10; with both, DFSPH in none of 20 and IISPH in 1 of 20
 PLAIN_STEPS, IMPACT_BOUND = 10, 0.5
 
 
