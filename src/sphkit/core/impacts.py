@@ -21,6 +21,7 @@ volume-map floor", holds the measurements.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 import numpy as np
 
@@ -81,6 +82,19 @@ class Impacts:
                  "with the walls' plain term", state.step, self.solver, throw)
         self.until = state.step + self.steps
         return True
+
+    def solve(self, state: SimState, dt: float,
+              relaxed_jacobi: Callable[[np.ndarray | None], tuple]) -> tuple[tuple, bool]:
+        """A solve of step ``dt`` [s] under the rule: ``relaxed_jacobi(mirror)`` solves from the
+        warm start with the walls' mirror weights (None: the coupling's) and returns a tuple
+        whose second item is the pressure acceleration; made again with the plain term where it
+        threw a particle (:meth:`thrown`). Returns its last result and whether it threw (then
+        :meth:`cut` the step bound after its update)."""
+        out = relaxed_jacobi(self.mirror(state))
+        hit = self.thrown(state, out[1], dt)
+        if hit:
+            out = relaxed_jacobi(self.mirror(state))
+        return out, hit
 
     def cut(self, step_bound: StepBound, dt: float) -> None:
         """After an impact (:meth:`thrown`), the solver's :class:`~sphkit.core.solver.StepBound`

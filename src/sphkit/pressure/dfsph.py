@@ -320,11 +320,7 @@ class DFSPH(ImpactBounded, PressureSolver):
                                       mirror=mirror, **walls)
 
         impacts = self.impacts  # module docstring, "Impacts"
-        plain = impacts.plain(state)  # both solves of this step with the plain term
-        kappa, a, its, avg, mx, ok = relaxed_jacobi(impacts.mirror(state))
-        hit = impacts.thrown(state, a, dt)
-        if hit:  # again with the plain wall term
-            kappa, a, its, avg, mx, ok = relaxed_jacobi(impacts.mirror(state))
+        (kappa, a, its, avg, mx, ok), hit = impacts.solve(state, dt, relaxed_jacobi)
         self._grads = None
         self.step_bound.update(dt, its, self.density_control.max_iterations, ok,
                                miss=avg / self.density_control.tolerance)
@@ -338,7 +334,10 @@ class DFSPH(ImpactBounded, PressureSolver):
                f["rho0"], f["p"])
         # the bodies' reaction: the mirrored share of the solves that took it (in an impact's
         # step the divergence solve's alone: its share of kappa + kappa^v)
-        self._mirrored = (kappa, self._kappa_v) if hit and with_v else 0.0 if plain or hit else 1.0
+        if hit and with_v:
+            self._mirrored = (kappa, self._kappa_v)
+        else:
+            self._mirrored = 0.0 if impacts.plain(state) else 1.0
         its_v, err_v = self._div_stats
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            divergence_iterations=its_v, divergence_error=err_v, converged=ok)

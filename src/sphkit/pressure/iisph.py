@@ -169,10 +169,7 @@ class IISPH(ImpactBounded, PressureSolver):
                                   **walls)
 
         impacts = self.impacts  # module docstring, "Impacts"
-        p, a, its, avg, mx, ok = relaxed_jacobi(impacts.mirror(state))
-        hit = impacts.thrown(state, a, dt)
-        if hit:  # again with the plain wall term
-            p, a, its, avg, mx, ok = relaxed_jacobi(impacts.mirror(state))
+        (p, a, its, avg, mx, ok), hit = impacts.solve(state, dt, relaxed_jacobi)
         self.mirrored = 0.0 if impacts.plain(state) else 1.0
         self.step_bound.update(dt, its, self.control.max_iterations, ok,
                                miss=avg / self.control.tolerance)
