@@ -361,7 +361,7 @@ def test_a_block_dropped_onto_a_volume_map_floor_lands(method: int, raised: floa
     IISPH (raised 2.45 m: it lands flat at 6.9 m/s at 0.704 s) or DFSPH (0.825 m: 4 m/s at
     0.40 s). The steps after the landing threw the fluid at the wall's corner until the guard
     stopped the run (IISPH over 100 m/s at 0.707 s, DFSPH at 0.418 s). Now a solve that would
-    throw a particle more than 1.25 r is made again with the walls' plain term (and DFSPH keeps
+    throw a particle more than 1.15 r is made again with the walls' plain term (and DFSPH keeps
     it for ten steps at half the step, :mod:`sphkit.core.impacts`), and both land (IISPH 28-56
     m/s, DFSPH 57 m/s within the window). The bounds: SPlisHSPlasH 2.19 throws the landing's
     jets at up to 18-25 m/s on the scene's file raised 1-2.45 m; a run that blows up passes

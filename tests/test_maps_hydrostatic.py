@@ -67,13 +67,14 @@ def test_plane_moment_reference_is_the_kernel_identity(dim: int) -> None:
     assert abs(t - 1.0) < 1e-6 and abs(n - 1.0) < 1e-6, (t, n)
 
 
-def _weight(method: str, dim: int, h: float, r: float):
-    """The method's solid weight 0.8 gamma(d), its map offset and the kinks of gamma."""
+def _weight(method: str, dim: int, h: float):
+    """The method's solid weight 0.8 gamma(d) and the kinks of gamma (the map distance of a
+    plane wall is the distance to its surface for both methods)."""
     if method == "koschier2017":
         f = FACTOR_3D if dim == 3 else FACTOR_2D
-        return (lambda d: 0.8 * (1.0 - f * d / h) if d < h / f else 0.0), 0.0, (h / f,)
+        return (lambda d: 0.8 * (1.0 - f * d / h) if d < h / f else 0.0), (h / f,)
     f = 1.0 if dim == 3 else 1.75
-    return (lambda d: 0.8 * vm_gamma(d, h, f)), 0.5 * r, (0.0, 0.5 * h / f, h / f)
+    return (lambda d: 0.8 * vm_gamma(d, h, f)), (0.0, 0.5 * h / f, h / f)
 
 
 @pytest.mark.parametrize("method", ["koschier2017", "bender2019"])
@@ -89,7 +90,7 @@ def test_normal_moment_map_of_a_plane_wall(method: str, dim: int) -> None:
     wall = MapGeometry("wall", BoxDistance([-0.05] * dim, [0.05] * (dim - 1) + [0.0]),
                        resolution=(21,) * dim)
     model = (Koschier2017 if method == "koschier2017" else Bender2019)([wall], cache=False)
-    weight, offset, kinks = _weight(method, dim, h, r)
+    weight, kinks = _weight(method, dim, h)
     model.hydrostatic = True
     model.init(st)
     nmap = model.moment_maps[0]
@@ -97,7 +98,7 @@ def test_normal_moment_map_of_a_plane_wall(method: str, dim: int) -> None:
         x = np.zeros((dim, 1))
         x[0] = 0.013
         x[-1] = y
-        n_ref = _plane_moments(weight, y - offset, h, dim, kinks)[1]
+        n_ref = _plane_moments(weight, y, h, dim, kinks)[1]
         # the map's product Gauss rule over a kinked integrand plus the cubic interpolation:
         # 1.5 % of the full kernel's moment (1), as for the volume map itself
         assert abs(nmap.eval_values(x)[0] - n_ref) < 0.015, (y / r, nmap.eval_values(x), n_ref)
@@ -113,12 +114,12 @@ def test_tangential_moment_of_a_plane_wall_is_its_density(dim: int) -> None:
     wall = MapGeometry("wall", BoxDistance([-0.3] * dim, [0.3] * (dim - 1) + [0.0]))
     model = Koschier2017([wall], cache=False)
     model.init(st)
-    weight, offset, kinks = _weight("koschier2017", dim, h, r)
+    weight, kinks = _weight("koschier2017", dim, h)
     for y in (0.5 * r, 1.5 * r, 3 * r):
         x = np.zeros((dim, 1))
         x[0] = 0.013
         x[-1] = y
-        t_ref = _plane_moments(weight, y - offset, h, dim, kinks)[0]
+        t_ref = _plane_moments(weight, y, h, dim, kinks)[0]
         # the density map's quadrature and interpolation (1.5 % of the full kernel, as in
         # test_sdf_maps); the identity itself is exact
         assert abs(model.maps[0].eval_values(x)[0] - t_ref) < 0.015, (y / r, t_ref)

@@ -194,7 +194,8 @@ def _wall(dim: int) -> MapGeometry:
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_volume_map_of_a_plane_wall(dim: int) -> None:
-    """V_B(x) = 0.8 int gamma(phi(x + xi)) dxi for the half-space phi = y - 0.5 r reduces to a
+    """V_B(x) = 0.8 int gamma(phi(x + xi)) dxi for the half-space phi = y (the map distance is the
+    distance to the wall's surface, as SPlisHSPlasH's since 2021) reduces to a
     1D integral over slices of the ball (reference by scipy's adaptive quadrature)."""
     st = _state(dim)
     r, h = st.r, st.h
@@ -206,7 +207,7 @@ def test_volume_map_of_a_plane_wall(dim: int) -> None:
         return np.pi * (h * h - s * s) if dim == 3 else 2 * np.sqrt(max(h * h - s * s, 0.0))
 
     for y in (0.5 * r, r, 2 * r, 3 * r, 5 * r):
-        phi0 = y - 0.5 * r
+        phi0 = y
         ref = 0.8 * integrate.quad(lambda s, p=phi0: vm_gamma(p + s, h, f) * area(s), -h, h,
                                    points=[-phi0, h / f - phi0], limit=200)[0]
         x = np.zeros((dim, 1))

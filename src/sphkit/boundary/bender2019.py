@@ -4,8 +4,8 @@ implements them (``BoundaryModel_Bender2019``, ``SimulatorBase::initVolumeMap``,
 ``TimeStep::computeVolumeAndBoundaryX``; its ``boundaryHandlingMethod`` 2, the default).
 
 Precomputation, per static body (:mod:`sphkit.boundary.maps`): the map distance ``phi``
-(positive in the fluid, moved ``0.5 r`` into the fluid "to prevent penetration", plus the wall
-thickness) and the boundary volume inside the support sphere of a point x (paper, Eq. 7-8),
+(positive in the fluid, zero on the geometry's surface, as SPlisHSPlasH since 2021) and the
+boundary volume inside the support sphere of a point x (paper, Eq. 7-8),
 
     V_B(x) = 0.8 * integral_{|xi| <= h} gamma(phi(x + xi)) dxi,
     gamma(d) = 1 - 0.1 d / h                for d <= 0    (inside the solid),
@@ -13,8 +13,11 @@ thickness) and the boundary volume inside the support sphere of a point x (paper
              = 0                            otherwise,
 
 with the cubic spline W, ``f = 1`` in 3D and 1.75 in 2D, and ``V_B = 0`` where ``phi > 2h``
-(SPlisHSPlasH's constants; the paper's gamma is the plain indicator, the smooth extension and
-the factor 0.8 are SPlisHSPlasH's tuning). V_B is stored on the map grid and interpolated with
+(SPlisHSPlasH's constants of 2019; the paper's gamma is the plain indicator, the smooth extension
+and the factor 0.8 are SPlisHSPlasH's tuning; since 2020 SPlisHSPlasH takes ``gamma = 1`` inside
+and ``f = 1`` in 2D as well, which sphkit does not: with ``f = 1`` a 2D block dropped 2.75 m onto a
+volume-map floor blew up, with 1.75 it lands, validation/README.md, "Volume maps on the
+geometry's surface"). V_B is stored on the map grid and interpolated with
 the cubic serendipity scheme, as is phi, whose gradient gives the normal n.
 
 Per step, for a fluid particle at map distance ``0 < phi < h`` (paper, Sec. 4: the boundary acts
@@ -100,15 +103,16 @@ from sphkit.geometry.grids import (
 )
 
 #: depth [particle radii] by which the map surface of a *moving* body is moved into its mesh.
-#: Measured (3D, cubic kernel, r = 12.5 mm, DFSPH, a 0.2 m deep tank at rest): fluid rests
-#: 2.8 r above a volume-map floor (bottom layer mean; 2.5 r at the side walls), against 1.2 r on
-#: Akinci walls and 1.1 r on density maps, i.e. the volume map keeps the fluid about 1.7 r further
-#: off its surface than the lattice does. For static walls sphkit keeps SPlisHSPlasH's geometry
-#: (scenes place their fluid 2 r off the walls); a floating body would displace a shell 1.7 r
-#: thick too many and float too high (submerged fraction 0.22 instead of 0.5 for a cube of
-#: density 500, side 16 r), so its map is built for the mesh shrunk by this depth and the fluid
+#: Measured (3D, cubic kernel, r = 12.5 mm, DFSPH, a 0.2 m deep tank at rest, with the map
+#: surface then 0.5 r off the mesh): fluid rested 2.8 r above a volume-map floor (bottom layer
+#: mean; 2.5 r at the side walls), against 1.2 r on Akinci walls and 1.1 r on density maps, i.e.
+#: the volume map kept the fluid about 1.7 r further off its mesh than the lattice does. A
+#: floating body would displace a shell that thick too many and float too high (submerged
+#: fraction 0.22 instead of 0.5 for a cube of density 500, side 16 r), so its map is built for
+#: the mesh shrunk by 1.7 r less the 0.5 r the map surface then stood off it -- this 1.2 r,
+#: the same map distance as before the static maps' surface moved onto the mesh -- and the fluid
 #: rests about r outside the mesh, as at Akinci bodies (:data:`sphkit.boundary.rigid.INSET`).
-MOVING_INSET = 1.7
+MOVING_INSET = 1.2
 #: SPlisHSPlasH's constants: volume scale, integration cut-off (in h), 2D ramp factor
 SCALE = 0.8
 CUTOFF = 2.0
@@ -237,7 +241,6 @@ class Bender2019(MapBoundaryModel):
     """Volume maps: one virtual boundary particle per fluid particle near each static body."""
 
     name = "bender2019"
-    offset_in_radii = 0.5  # phi = s d - thickness - 0.5 r
     #: the volume map claims more room than boundary particles: fluid sampled r from the
     #: wall (a block written flush against a box or mesh in sphkit's own format) starts more
     #: than twice as dense there in 3D, and the start-up's relaxation had to squeeze that layer

@@ -193,7 +193,6 @@ class Koschier2017(MapBoundaryModel):
     particle near each static body."""
 
     name = "koschier2017"
-    offset_in_radii = 0.0
 
     def init(self, state: SimState) -> None:
         """Build the maps; in 2D on cells of at most :data:`MAX_CELL_2D` h (the scene's

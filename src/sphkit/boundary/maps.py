@@ -10,11 +10,14 @@ quadrature does; the map field (field 1) is computed at the serendipity nodes on
 
 Domain and distance, as SPlisHSPlasH's ``SimulatorBase::initDensityMap`` / ``initVolumeMap``:
 the bounding box of the geometry grown by ``4 h + thickness`` on every side, and the map distance
-``phi = s d - thickness - offset`` with ``s = -1`` for ``invert`` (containers: the fluid is inside
-the geometry) and ``offset`` chosen by the method (volume maps: 0.5 r). ``phi`` is positive in the
-fluid. SPlisHSPlasH writes ``s (d - thickness - offset)``, which for inverted maps moves the
-surface *away* from the fluid; sphkit moves it into the fluid in both cases (the thickness of a
-wall is added on the fluid side, and so is the volume map's margin against penetration).
+``phi = s d - thickness`` with ``s = -1`` for ``invert`` (containers: the fluid is inside the
+geometry). ``phi`` is positive in the fluid, and zero on the geometry's surface where the
+thickness is zero (every shipped SPlisHSPlasH scene). SPlisHSPlasH writes ``s (d - thickness)``,
+which for inverted maps moves the surface *away* from the fluid; sphkit adds a wall's thickness
+on the fluid side in both cases. (SPlisHSPlasH's volume maps subtracted a further 0.5 r until
+2021, ``s (d - thickness - 0.5 r)``; sphkit moved its volume maps' surface 0.5 r into the fluid
+until 2026-12, which made every container claim 0.5 r of the fluid's room:
+validation/README.md, "Volume maps on the geometry's surface".)
 
 Resolution: ``res`` cells per axis (SPlisHSPlasH's ``mapResolution``), or automatic: cells of
 about one support radius h (SPlisHSPlasH's shipped scenes use about that), reduced uniformly if
@@ -191,7 +194,7 @@ def map_domain(geom: MapGeometry, h: float) -> tuple[np.ndarray, np.ndarray, np.
     return lo, res, ext / res
 
 
-def build_map(geom: MapGeometry, h: float, offset: float, method: str, params: list,
+def build_map(geom: MapGeometry, h: float, method: str, params: list,
               integrate: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
                                   np.ndarray],
               folder: Path | None) -> tuple[BoundaryMap, bool]:
@@ -209,7 +212,7 @@ def build_map(geom: MapGeometry, h: float, offset: float, method: str, params: l
     def compute() -> dict[str, np.ndarray]:
         d, _ = sdf_lattice_cached(geom.sdf, lo, spacing, shape, folder)
         sign = -1.0 if geom.invert else 1.0
-        phi = sign * d - geom.thickness - offset
+        phi = sign * d - geom.thickness
         mask = serendipity_mask(shape)
         idx = np.argwhere(mask)
         nodes = np.zeros((3, len(idx)))
@@ -220,8 +223,7 @@ def build_map(geom: MapGeometry, h: float, offset: float, method: str, params: l
         vals[mask] = integrate(nodes, np.ascontiguousarray(phi).ravel(), o3, s3, n3)
         return {"phi": phi, "values": vals}
 
-    key = [geom.sdf.key(), geom.invert, float(geom.thickness), lo, res, float(h), float(offset),
-           params]
+    key = [geom.sdf.key(), geom.invert, float(geom.thickness), lo, res, float(h), params]
     arrays, hit = cached_arrays(f"{method}-map", key, compute, folder)
     return BoundaryMap(geom, lo, res, cell, arrays["phi"], arrays["values"]), hit
 
@@ -344,7 +346,7 @@ def from_body_frame(xl, xl0, ul, c, R, vc, w, c0, Vb, xb, vb, x, v):
 class MapBoundaryModel(BoundaryModel):
     """Base of the map boundary models: builds one map per geometry, assembles virtual particles.
 
-    Subclasses set ``name``, ``offset`` (added to the map distance's shift), implement
+    Subclasses set ``name``, implement
     ``_integrate(state)`` (returning the node-integration callable and its cache parameters) and
     ``_query(bmap, state, x, v, xb, Vb) -> int`` (fills one map's virtual particles for the
     fluid positions x and velocities v (dim, N) given in the map's frame, pushes particles found
@@ -353,7 +355,6 @@ class MapBoundaryModel(BoundaryModel):
 
     name = "map"
     virtual = True
-    offset_in_radii = 0.0
     #: the wall's share of the tangential pressure gradient with a hydrostatic boundary
     #: pressure (configuration.boundary.pressure "hydrostatic"; see
     #: :mod:`sphkit.boundary.maps_hydrostatic`); set before :meth:`init`
@@ -382,8 +383,7 @@ class MapBoundaryModel(BoundaryModel):
         for g in self.geometries:
             if g.sdf.dim != state.dim:
                 raise ValueError(f"{g.name}: a {g.sdf.dim}D geometry in a {state.dim}D scene")
-            bmap, hit = build_map(g, state.h, self.offset_in_radii * state.r, self.name, params,
-                                  integrate, self.folder)
+            bmap, hit = build_map(g, state.h, self.name, params, integrate, self.folder)
             self.maps.append(bmap)
             self.cache_hits += int(hit)
         #: per geometry, with :attr:`hydrostatic`: its normal moment map N
@@ -408,8 +408,8 @@ class MapBoundaryModel(BoundaryModel):
                 if g.body != 0:
                     self.moment_maps.append(None)
                     continue
-                bmap, hit = build_map(g, state.h, self.offset_in_radii * state.r,
-                                      f"{self.name}-normal-moment", mparams, moments, self.folder)
+                bmap, hit = build_map(g, state.h, f"{self.name}-normal-moment", mparams, moments,
+                                      self.folder)
                 self.moment_maps.append(bmap)
                 self.cache_hits += int(hit)
 
@@ -435,8 +435,8 @@ class MapBoundaryModel(BoundaryModel):
 
     def inside(self, state: SimState) -> tuple[np.ndarray, list[str]]:
         """Fluid particles inside a map's solid at t = 0: map distance ``phi <= 0``, i.e.
-        behind the surface the model moves into the fluid by its offset and the wall's
-        thickness (the particles the query would push out). Moving bodies' maps are read
+        behind the geometry's surface moved into the fluid by the wall's thickness (the
+        particles the query would push out). Moving bodies' maps are read
         directly: at t = 0 their frames are the world's."""
         f = state.fluid
         out = np.full(f.n, -1, dtype=np.int64)

@@ -64,7 +64,7 @@ columns".) Both solvers are :func:`sphkit.core.solver.jacobi_ppe` with A from
 :mod:`sphkit.core.ppe`.
 
 **Impacts** (sphkit's; :mod:`sphkit.core.impacts`): a constant-density solve whose pressure
-would carry a particle more than 1.25 r within the step is made again, from the same warm start,
+would carry a particle more than 1.15 r within the step is made again, from the same warm start,
 with the walls' plain term ``V_b kappa_i`` (``m_b = 0``, SPlisHSPlasH's); both solves keep the
 plain term for the next ten steps, and the step bound below is cut to half the step. Why: with
 volume maps a block landing flat on the floor went unstable in the steps after the landing in 5

@@ -45,7 +45,7 @@ and a deep two-layer column at 1:10 does not come to rest at 1 ms while it does 
 (:meth:`IISPH.checkpoint_state`).
 
 **Impacts** (sphkit's; :mod:`sphkit.core.impacts`): a solve whose pressure acceleration would
-carry a particle more than 1.25 r within the step is made again, from the same warm start, with
+carry a particle more than 1.15 r within the step is made again, from the same warm start, with
 the walls' plain term ``V_b k_i`` (no mirrored share ``m_b``, SPlisHSPlasH's; the maps' wall
 moment stays); the walls keep the plain term for the next ten steps, and the step bound below is
 cut to half the step. With volume maps the steps after a block's flat landing threw the fluid

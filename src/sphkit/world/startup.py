@@ -4,11 +4,11 @@ rest under its own weight. Run once by :func:`sphkit.world.build_world`, before 
 Users write fluid blocks up to the walls (SPlisHSPlasH's scenes place the first particle 2r off
 the wall surface, or a block overlaps a wall), but every boundary model claims some space next
 to its surface: lattice-sampled fluid there starts too dense (7 % at Akinci particles, 6 % at
-density maps, 29 % (2D) and 100 % (3D) at volume maps, for the first particle 2r off the
-surface), so the first pressure solve cannot converge and a state equation explodes. A fluid
-column sampled at rest density also lacks its hydrostatic compression, so a WCSPH column drops
-and bounces ("breathes") for seconds. The start-up, in this order
-(``configuration.start`` switches its parts):
+density maps, 22 % at 3D volume maps, for the first particle 2r off the surface), so the
+first pressure solve cannot converge and a state equation explodes. A fluid column sampled at
+rest density also lacks its hydrostatic compression, so a WCSPH column drops and bounces
+("breathes") for seconds. The start-up, in this order (``configuration.start`` switches its
+parts):
 
 1. **Inside walls and bodies** (always): a fluid particle is removed, with one warning per fluid
    object naming it, the count and the walls, when it lies on the solid side of a wall's or
@@ -16,9 +16,9 @@ and bounces ("breathes") for seconds. The start-up, in this order
    closed (watertight) mesh, or outside a closed container mesh (``invert``) within h of it
    (signed distance on a lattice of spacing r, interpolated) -- or inside the boundary model's
    own solid (:meth:`sphkit.core.methods.BoundaryModel.inside`): density and volume maps, map
-   distance ``phi <= 0`` (their surface moved into the fluid by the map's offset and the wall's
-   thickness); boundary particles, closer than r to one (the particles overlap by more than a
-   radius), or closer than 1.5 r to a static closed mesh's surface (its samples lie on the
+   distance ``phi <= 0`` (their surface moved into the fluid by the wall's thickness);
+   boundary particles, closer than r to one (the particles overlap by more than a radius), or
+   closer than 1.5 r to a static closed mesh's surface (its samples lie on the
    surface: :attr:`sphkit.boundary.akinci2012.Akinci2012.start_reach`); volume maps, closer
    than 1.5 r to a static closed mesh's surface or a box's wall face (the map claims more room
    than boundary particles: :attr:`sphkit.boundary.bender2019.Bender2019.start_reach`; measured
