@@ -331,8 +331,8 @@ def diagonal_cap(state: SimState, g: PairGradients, d0: float) -> Any:
     overshoots the predicted density below rho0, where the clamped update stops: the solve
     "converges" in 3 sweeps with MPa pressures and throws the particle off at 14-70 m/s (the
     3D dam break of validation/startup.py, unstable at 0.42 s). Capped at omega = 0.5 CAP = 1
-    the sweep does not overshoot a linear prediction; particles with ``D_i <= CAP d0`` keep the template's
-    factor exactly."""
+    the sweep does not overshoot a linear prediction; particles with ``D_i <= CAP d0`` keep the
+    template's factor exactly."""
     if d0 <= 0.0:
         return None
     st = state
