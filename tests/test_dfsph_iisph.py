@@ -353,19 +353,24 @@ def test_jacobi_sweep_with_the_boundary_sums() -> None:
 
 
 @pytest.mark.parametrize(("method", "raised", "until", "bound"),
-                         [(3, 2.45, 0.76, 80.0), (4, 0.825, 0.5, 90.0)], ids=["iisph", "dfsph"])
+                         [(3, 2.45, 0.76, 80.0), (4, 0.825, 0.5, 90.0), (1, 0.025, 0.3, 15.0)],
+                         ids=["iisph", "dfsph", "pcisph"])
 def test_a_block_dropped_onto_a_volume_map_floor_lands(method: int, raised: float, until: float,
                                                        bound: float) -> None:
     """``DamBreakModel_2D.json`` (volume maps, its viscosity; its vorticity left out, which the
-    instability does not need) with the block raised, touching the left wall, switched to
-    IISPH (raised 2.45 m: it lands flat at 6.9 m/s at 0.704 s) or DFSPH (0.825 m: 4 m/s at
-    0.40 s). The steps after the landing threw the fluid at the wall's corner until the guard
-    stopped the run (IISPH over 100 m/s at 0.707 s, DFSPH at 0.418 s). Now a solve that would
-    throw a particle more than 1.15 r is made again with the walls' plain term (and DFSPH keeps
-    it for ten steps at half the step, :mod:`sphkit.core.impacts`), and both land (IISPH 28-56
-    m/s, DFSPH 57 m/s within the window). The bounds: SPlisHSPlasH 2.19 throws the landing's
-    jets at up to 18-25 m/s on the scene's file raised 1-2.45 m; a run that blows up passes
-    100 m/s, the guard's limit."""
+    instability does not need) switched to IISPH with the block raised 2.45 m (it lands flat at
+    6.9 m/s at 0.704 s), to DFSPH raised 0.825 m (4 m/s at 0.40 s), or to PCISPH as the file
+    writes it (0.025 m above the floor). While the maps' surface stood 0.5 r into the fluid,
+    the steps after the IISPH and DFSPH landings threw the fluid at the wall's corner until the
+    guard stopped the run (over 100 m/s at 0.707 s and 0.418 s); with the surface on the mesh
+    they land without the rule too (28 and 58 m/s within the windows), and PCISPH's dam break
+    goes unstable at step 66 (0.11 s, 174 m/s). With the rule (a solve that would throw a
+    particle more than 1.15 r is made again with the walls' plain term, kept for ten steps at
+    half the step, :mod:`sphkit.core.impacts`) it acts in each, and all three land (measured
+    IISPH 50, DFSPH 16, PCISPH 8.7 m/s). The bounds: SPlisHSPlasH 2.19 throws the drops' jets
+    at up to 18-25 m/s on the scene's file raised 1-2.45 m; a run that blows up passes 100 m/s,
+    the guard's limit; PCISPH's dam break has not reached the far wall by 0.3 s: twice its
+    1.5 m column's front speed 2 sqrt(g H), 15 m/s."""
     from sphkit.scene.splishsplash import from_splishsplash
 
     box = Path(__file__).resolve().parent.parent / "benchmarks" / "scenes" / "UnitBox.obj"

@@ -454,8 +454,9 @@ def test_pool_flush_against_volume_maps_loses_its_wall_layer_and_rests(
     0.2 m wide, over a solid box mesh 0.06 m wide standing on the floor (r = 1 cm, the first
     particles r from every surface). A volume map claims more room than boundary particles:
     the layer r from the walls starts more than twice as dense, and kept (a reach of 0), the
-    relaxation squeezed it into the pool (which rose to 0.18 m), and PCISPH's fourth solve
-    diverged next to the obstacle (unstable at step 5, the contrast). Fluid within 1.5 r of a
+    relaxation squeezes it into the pool, which rises to 0.185 m (the contrast: a top above
+    0.15 m, or unstable: PCISPH's fourth solve diverged next to the obstacle at step 5 before
+    its impact rule). Fluid within 1.5 r of a
     box's face or a static mesh's surface is removed (``Bender2019.start_reach``, measured on
     the geometry): every particle of the block's outer shell at the box walls and the floor and
     the columns flush against the obstacle, 351 of the 600. The rest stays inside and comes to
@@ -506,7 +507,9 @@ def test_pool_flush_against_volume_maps_loses_its_wall_layer_and_rests(
         except InstabilityError:
             assert reach == 0.0  # the contrast
             continue
-        assert reach > 0.0, "the contrast ran"
+        if reach == 0.0:  # the contrast, stable: the pool stands far above its 0.12 m
+            assert sim.positions[:, 1].max() > 0.15
+            continue
         assert sum(sim.world.start.removed_inside.values()) == removed  # 351 of 600
         assert vmax < fall, vmax
         assert vrest < rest, vrest

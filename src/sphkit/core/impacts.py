@@ -1,4 +1,5 @@
-"""Impacts: a pressure solve that would throw a particle (sphkit's; IISPH and DFSPH use it).
+"""Impacts: a pressure solve that would throw a particle (sphkit's; IISPH, DFSPH and PCISPH use
+it).
 
 At a wall the mirrored share ``m_b`` of the boundary term (:mod:`sphkit.core.ppe`) doubles the
 push of a boundary neighbour. When a block lands flat on a volume-map floor, the landing presses
