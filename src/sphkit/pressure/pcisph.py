@@ -157,10 +157,8 @@ would carry a particle more than :data:`sphkit.core.impacts.THROW_PLAIN` r withi
 made again from p = 0 with the walls' plain term, kept for the next ten steps, and the step
 bound is cut to half the step; where the step can be computed again, the thrown-particle test
 above then judges the second solve. It matters where it cannot (map walls, bodies: the world is
-not repeatable). ``DamBreakModel_2D.json`` switched to PCISPH (volume maps at the scene's
-resolution) went unstable at step 66 (0.11 s, 174 m/s) without it; the 2D drops of
-validation/README.md ("Volume maps on the geometry's surface") go unstable in 3 of 10 with it,
-9 of 10 without. Not with solved walls, whose pressures the sweeps carry.
+not repeatable; validation/README.md, "Volume maps on the geometry's surface"). Not with
+solved walls, whose pressures the sweeps carry.
 """
 
 from __future__ import annotations
@@ -381,6 +379,7 @@ class PCISPH(ImpactBounded, PressureSolver):
         #: the adaptive time-step bound (see max_time_step)
         self.step_bound = StepBound(DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE)
         self.impacts = Impacts("PCISPH")
+        self.mirrored = 1.0  #: the last solve's mirrored share factor (0: the plain wall term)
 
     def init(self, state: SimState) -> None:
         """Register the pressure field and precompute the template factor delta."""
@@ -483,6 +482,7 @@ class PCISPH(ImpactBounded, PressureSolver):
                                start=state.step == 1 and arrays.any_above(p, 0.0))
         if hit:
             self.impacts.cut(self.step_bound, dt)
+        self.mirrored = 0.0 if self.impacts.plain(state) else 1.0
         arrays.axpy(a, 1.0, ap)
         arrays.multiplied(p, f["rho0"], out=f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
@@ -521,5 +521,5 @@ class PCISPH(ImpactBounded, PressureSolver):
 
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` with PCISPH's
-        variable ``p~ = p / rho0``, mirrored share included."""
-        return BoundaryReaction(state.fluid["p"] / state.fluid["rho0"], 1.0)
+        variable ``p~ = p / rho0``, mirrored share included (none in an impact's plain steps)."""
+        return BoundaryReaction(state.fluid["p"] / state.fluid["rho0"], self.mirrored)
