@@ -72,13 +72,16 @@ class Impacts:
         b = state.boundary
         return arrays.zeros(b.n, b["V"].dtype, b["V"])
 
-    def thrown(self, state: SimState, a: np.ndarray, dt: float) -> bool:
+    def thrown(self, state: SimState, a: np.ndarray, dt: float,
+               throw: float | None = None) -> bool:
         """Whether the solve whose pressure acceleration is ``a`` (step ``dt`` [s]) threw a
         particle with the mirrored walls (it is then to be made again with :meth:`mirror`,
-        which from now on gives the plain term for ``steps`` steps)."""
+        which from now on gives the plain term for ``steps`` steps). ``throw``:
+        ``dt^2 max_i |a_i| / r`` where the caller has it already."""
         if self.plain(state) or not state.boundary.n:
             return False
-        throw = dt * dt * max_speed(a) / state.r
+        if throw is None:
+            throw = dt * dt * max_speed(a) / state.r
         if throw <= THROW_PLAIN:
             return False
         log.info("step %d: %s's pressure moves a particle %.3g r within the step; solved again "

@@ -466,16 +466,17 @@ class PCISPH(ImpactBounded, PressureSolver):
             return tot / max(n, 1), mx
 
         its, avg, mx, ok = self.control.run(sweep, state.step)
+        throw = dt * dt * max_speed(ap) / state.r  # module docstring, "Thrown particles"
         # an impact (module docstring, "Impacts"): the solve made again from p = 0 with the
         # walls' plain term (not with solved walls, whose pressures the sweeps carry)
-        hit = not walls and self.impacts.thrown(state, ap, dt)
+        hit = not walls and self.impacts.thrown(state, ap, dt, throw)
         if hit:
             mirror = self.impacts.mirror(state)
             arrays.fill(p, 0.0)
             arrays.fill(ap, 0.0)
             bdx[0] = coupling.displacement(state, p, g.gwb, dt)
             its, avg, mx, ok = self.control.run(sweep, state.step)
-        throw = dt * dt * max_speed(ap) / state.r  # module docstring, "Thrown particles"
+            throw = dt * dt * max_speed(ap) / state.r
         # fluid under pressure at the first step: the steps grow from the scene's initial one;
         # a throw shrinks the bound as a failed solve does
         self.step_bound.update(dt, its, self.control.max_iterations, ok and throw <= THROW,
