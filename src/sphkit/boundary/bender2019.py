@@ -17,8 +17,9 @@ with the cubic spline W, ``f = 1`` in 3D and 1.75 in 2D, and ``V_B = 0`` where `
 and the factor 0.8 are SPlisHSPlasH's tuning; since 2020 SPlisHSPlasH takes ``gamma = 1`` inside
 and ``f = 1`` in 2D as well, which sphkit does not: with ``f = 1`` one of twenty 2D drops onto
 a volume-map floor blew up and the jets reached 93 m/s, with 1.75 none did (both with the impact
-rule's earlier threshold), validation/README.md, "Volume maps on the geometry's surface"). V_B is stored on the map grid and interpolated with
-the cubic serendipity scheme, as is phi, whose gradient gives the normal n.
+rule's earlier threshold), validation/README.md, "Volume maps on the geometry's surface").
+V_B is stored on the map grid and interpolated with the cubic serendipity scheme, as is phi,
+whose gradient gives the normal n.
 
 Per step, for a fluid particle at map distance ``0 < phi < h`` (paper, Sec. 4: the boundary acts
 as one particle at the closest surface point, carrying the volume V_B): one virtual boundary
