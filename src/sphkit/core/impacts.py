@@ -64,6 +64,11 @@ class Impacts:
         """Whether this step's solves take the walls' plain term (an impact within ``steps``)."""
         return state.step <= self.until
 
+    def share(self, state: SimState) -> float:
+        """The factor of the mirrored share in this step's boundary reaction
+        (:class:`~sphkit.core.methods.BoundaryReaction`): 0 with the walls' plain term, else 1."""
+        return 0.0 if self.plain(state) else 1.0
+
     def mirror(self, state: SimState) -> np.ndarray | None:
         """The walls' mirror weights for :func:`sphkit.core.solver.jacobi_ppe`: zeros (the
         plain term) in the steps after an impact, None (the coupling's) otherwise."""

@@ -229,8 +229,8 @@ class DFSPH(ImpactBounded, PressureSolver):
         self.step_bound = StepBound(**JACOBI_STEP_BOUND)
         #: the walls' plain term after a solve that threw a particle (module docstring)
         self.impacts = Impacts("DFSPH")
-        #: the reaction's mirrored share: a factor, or the impact step's (kappa, kappa^v)
-        self._mirrored: float | tuple = 1.0
+        #: an impact step's (kappa, kappa^v) for the reaction's mirrored share (None: the rule's)
+        self._impact_kappas: tuple | None = None
         self.free_surface = free_surface
         #: sources relative to the fluid's mean, signed pressures (module docstring)
         self.closed = free_surface is False
@@ -334,10 +334,7 @@ class DFSPH(ImpactBounded, PressureSolver):
                f["rho0"], f["p"])
         # the bodies' reaction: the mirrored share of the solves that took it (in an impact's
         # step the divergence solve's alone: its share of kappa + kappa^v)
-        if hit and with_v:
-            self._mirrored = (kappa, self._kappa_v)
-        else:
-            self._mirrored = 0.0 if impacts.plain(state) else 1.0
+        self._impact_kappas = (kappa, self._kappa_v) if hit and with_v else None
         its_v, err_v = self._div_stats
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
                            divergence_iterations=its_v, divergence_error=err_v, converged=ok)
@@ -346,6 +343,6 @@ class DFSPH(ImpactBounded, PressureSolver):
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` for both solves
         together: ``k_i = kappa_i + kappa^v_i = p_i rho0 / rho_i^2``, mirrored share included."""
         f = state.fluid
-        m = self._mirrored
+        k = self._impact_kappas
         return BoundaryReaction(f["p"] * f["rho0"] / f["rho"] ** 2,
-                                m if isinstance(m, float) else mirrored_share(*m))
+                                self.impacts.share(state) if k is None else mirrored_share(*k))

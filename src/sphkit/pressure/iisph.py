@@ -124,7 +124,6 @@ class IISPH(ImpactBounded, PressureSolver):
         self.control = IterationControl("IISPH", 2 if min_iterations is None else min_iterations,
                                         max_iterations, max_error / 100.0)
         self.omega = omega
-        self.mirrored = 1.0  #: the last solve's mirrored share factor (0: the plain wall term)
         #: the walls' plain term after a solve that threw a particle (module docstring)
         self.impacts = Impacts("IISPH")
         #: the adaptive time-step bound (see max_time_step)
@@ -170,7 +169,6 @@ class IISPH(ImpactBounded, PressureSolver):
 
         impacts = self.impacts  # module docstring, "Impacts"
         (p, a, its, avg, mx, ok), hit = impacts.solve(state, dt, relaxed_jacobi)
-        self.mirrored = 0.0 if impacts.plain(state) else 1.0
         self.step_bound.update(dt, its, self.control.max_iterations, ok,
                                miss=avg / self.control.tolerance)
         if hit:
@@ -184,4 +182,4 @@ class IISPH(ImpactBounded, PressureSolver):
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached`:
         ``k_i = p_i rho0 / rho_i^2``, mirrored share included."""
         f = state.fluid
-        return BoundaryReaction(f["p"] * f["rho0"] / f["rho"] ** 2, self.mirrored)
+        return BoundaryReaction(f["p"] * f["rho0"] / f["rho"] ** 2, self.impacts.share(state))

@@ -379,7 +379,6 @@ class PCISPH(ImpactBounded, PressureSolver):
         #: the adaptive time-step bound (see max_time_step)
         self.step_bound = StepBound(DT_SHRINK, DT_GROW, DT_FLOOR, DT_FREE)
         self.impacts = Impacts("PCISPH")
-        self.mirrored = 1.0  #: the last solve's mirrored share factor (0: the plain wall term)
 
     def init(self, state: SimState) -> None:
         """Register the pressure field and precompute the template factor delta."""
@@ -483,7 +482,6 @@ class PCISPH(ImpactBounded, PressureSolver):
                                start=state.step == 1 and arrays.any_above(p, 0.0))
         if hit:
             self.impacts.cut(self.step_bound, dt)
-        self.mirrored = 0.0 if self.impacts.plain(state) else 1.0
         arrays.axpy(a, 1.0, ap)
         arrays.multiplied(p, f["rho0"], out=f["p"])
         return SolverStats(iterations=its, density_error_avg=avg, density_error_max=mx,
@@ -523,4 +521,4 @@ class PCISPH(ImpactBounded, PressureSolver):
     def boundary_reaction(self, state: SimState) -> BoundaryReaction:
         """The boundary term of :func:`sphkit.core.ppe.kappa_accel_cached` with PCISPH's
         variable ``p~ = p / rho0``, mirrored share included (none in an impact's plain steps)."""
-        return BoundaryReaction(state.fluid["p"] / state.fluid["rho0"], self.mirrored)
+        return BoundaryReaction(state.fluid["p"] / state.fluid["rho0"], self.impacts.share(state))
