@@ -352,6 +352,27 @@ def test_jacobi_sweep_with_the_boundary_sums() -> None:
     np.testing.assert_array_equal(np.array(err), outs[1][2])
 
 
+def test_the_re_solve_leaves_out_only_the_held_particles_the_first_solve_threw() -> None:
+    """PCISPH's re-solve after a throw (:meth:`sphkit.core.impacts.Impacts.released`) keeps a
+    held particle whose first solve's pressure acceleration moved it at most THROW_PLAIN =
+    1.15 r within the step: r = 1 cm and dt = 10 ms put the line at |a| = 1.15 * 0.01 / 1e-4 =
+    115 m/s^2, so 114 (along x) and (60, 80) (100) stay and 116 goes; a particle the
+    solve does not hold (an emitter's) stays out and is not counted as released."""
+    from types import SimpleNamespace
+
+    from sphkit.core.impacts import Impacts
+
+    state = SimpleNamespace(fluid=SimpleNamespace(n=5), r=0.01, dim=2, step=7)
+    a = np.array([[0.0, 114.0, 60.0, 116.0, 300.0], [0.0, 0.0, 80.0, 0.0, 0.0]])
+    rule = Impacts("PCISPH")
+    keep, count = rule.released(state, a, 0.01, np.array([True, True, True, True, False]))
+    np.testing.assert_array_equal(keep, [True, True, True, False, False])
+    assert count == 1
+    keep, count = rule.released(state, a, 0.01, np.zeros(0, bool))  # every particle held
+    np.testing.assert_array_equal(keep, [True, True, True, False, False])
+    assert count == 2
+
+
 @pytest.mark.parametrize(("method", "raised", "until", "bound"),
                          [(3, 2.45, 0.76, 80.0), (4, 0.825, 0.5, 90.0), (1, 0.025, 0.3, 15.0)],
                          ids=["iisph", "dfsph", "pcisph"])

@@ -572,7 +572,7 @@ def test_pcisph_failed_solve_is_computed_again_with_half_the_step(
     assert failed.rejected == 0 and failed.dt == pytest.approx(0.005)
     assert failed.density_error_avg > REJECT * 0.0005  # the solve failed by the rule
     sim = Simulation(scene(4))
-    assert sim._retries == 4  # the column's standard viscosity only adds to a
+    assert sim.state.retries == 4  # the column's standard viscosity only adds to a
     with caplog.at_level(logging.WARNING, logger="sphkit"):
         s = sim.step()
     msgs = [rec.getMessage() for rec in caplog.records if "time.retries" in rec.getMessage()]
@@ -583,7 +583,7 @@ def test_pcisph_failed_solve_is_computed_again_with_half_the_step(
     # solved walls keep their pressures as the next solve's warm start: no retries there
     walled = scene(4)
     walled.configuration.boundary.solved = True
-    assert Simulation(walled)._retries == 0
+    assert Simulation(walled).state.retries == 0
 
 
 @pytest.mark.parametrize("materials", [

@@ -150,7 +150,7 @@ class Simulation:
         self._domain = world.domain
         self._wall_cfl = WallCfl()  # the guard's CFL number at the walls
         #: a failed solve's step is computed again at most this often (time.retries)
-        self._retries = self.scene.configuration.time.retries if world.repeatable else 0
+        self.state.retries = self.scene.configuration.time.retries if world.repeatable else 0
         self._empty_at_init = self.state.fluid.n == 0  # methods reading the fluid: at emission
         self.time = 0.0
         self.step_count = 0
@@ -444,7 +444,7 @@ class Simulation:
         st.animated = animated(self.emitters, f, self.time + dt)  # moved, not solved for
         ps = self._forces_and_pressure(dt)
         rejected = 0  # a failed solve: the step again with the solver's shrunk bound
-        while rejected < self._retries and self.pressure.rejects(ps):
+        while rejected < st.retries and self.pressure.rejects(ps):
             rejected += 1
             dt, lands = min(0.5 * dt, self.pressure.max_time_step(st)), False
             self._dt_control = dt  # the step taken is the last step of iteration_control

@@ -159,6 +159,10 @@ class SimState:
     #: step-start positions; None where no emitter animates. PCISPH, IISPH and DFSPH leave
     #: them out of their solves (:func:`sphkit.core.ppe.held`)
     animated: Any = field(default=None, repr=False)
+    #: how often a failed solve's step may be computed again (``configuration.time.retries``
+    #: where the world is repeatable, :attr:`sphkit.world.World.repeatable`; else 0): PCISPH
+    #: leaves thrown particles out of a solve only where it cannot (:mod:`sphkit.core.impacts`)
+    retries: int = 0
     _rest: tuple | None = field(default=None, repr=False)  # this step's RestArrays on a device
     _held: RestArrays | None = field(default=None, repr=False)  # see hold_rest
 

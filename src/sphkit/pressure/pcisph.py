@@ -154,11 +154,14 @@ failed: the bound shrinks and the step is computed again (:meth:`PCISPH.rejects`
 
 **Impacts** (sphkit's; :mod:`sphkit.core.impacts`, as IISPH and DFSPH): a solve whose pressure
 would carry a particle more than :data:`sphkit.core.impacts.THROW_PLAIN` r within the step is
-made again from p = 0 with the walls' plain term, kept for the next ten steps, and the step
-bound is cut to half the step; where the step can be computed again, the thrown-particle test
-above then judges the second solve. It matters where it cannot (map walls, bodies: the world is
-not repeatable; validation/README.md, "Volume maps on the geometry's surface"). Not with
-solved walls, whose pressures the sweeps carry.
+made again from p = 0 with the walls' plain term (and where that solve throws as well and the
+step cannot be computed again, once more without the particles it threw, their pressure 0 in
+this step: :meth:`sphkit.core.impacts.Impacts.released`), the plain term kept for the next ten
+steps, and the step bound is cut to half the step; where the step can be computed again, the
+thrown-particle test above then judges the second solve. It matters where it cannot (map walls,
+bodies: the world is not repeatable; validation/README.md, "Volume maps on the geometry's
+surface" and "PCISPH's thrown particles left out of the re-solve"). Not with solved
+walls, whose pressures the sweeps carry.
 """
 
 from __future__ import annotations
@@ -172,7 +175,7 @@ import numpy as np
 from sphkit.backend import launch, launch_reduce, specialize
 from sphkit.core import arrays
 from sphkit.core import solver as solver_module
-from sphkit.core.impacts import ImpactBounded, Impacts
+from sphkit.core.impacts import THROW_PLAIN, ImpactBounded, Impacts
 from sphkit.core.methods import BoundaryReaction, PressureSolver
 from sphkit.core.pairs import period_arg
 from sphkit.core.ppe import (
@@ -471,11 +474,16 @@ class PCISPH(ImpactBounded, PressureSolver):
         hit = not walls and self.impacts.thrown(state, ap, dt, throw)
         if hit:
             mirror = self.impacts.mirror(state)
-            arrays.fill(p, 0.0)
-            arrays.fill(ap, 0.0)
-            bdx[0] = coupling.displacement(state, p, g.gwb, dt)
-            its, avg, mx, ok = self.control.run(sweep, state.step)
-            throw = dt * dt * max_speed(ap) / state.r
+            for attempt in range(2):  # the plain term; then without the particles it threw
+                if attempt:  # where the step cannot be computed again (Impacts.released)
+                    if throw <= THROW_PLAIN or state.retries:
+                        break
+                    solved, _ = self.impacts.released(state, ap, dt, solved)
+                arrays.fill(p, 0.0)
+                arrays.fill(ap, 0.0)
+                bdx[0] = coupling.displacement(state, p, g.gwb, dt)
+                its, avg, mx, ok = self.control.run(sweep, state.step)
+                throw = dt * dt * max_speed(ap) / state.r
         # fluid under pressure at the first step: the steps grow from the scene's initial one;
         # a throw shrinks the bound as a failed solve does
         self.step_bound.update(dt, its, self.control.max_iterations, ok and throw <= THROW,
