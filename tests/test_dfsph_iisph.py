@@ -352,23 +352,29 @@ def test_jacobi_sweep_with_the_boundary_sums() -> None:
     np.testing.assert_array_equal(np.array(err), outs[1][2])
 
 
-def test_the_re_solve_leaves_out_only_the_held_particles_the_first_solve_threw() -> None:
-    """PCISPH's re-solve after a throw (:meth:`sphkit.core.impacts.Impacts.released`) keeps a
-    held particle whose first solve's pressure acceleration moved it at most THROW_PLAIN =
-    1.15 r within the step: r = 1 cm and dt = 10 ms put the line at |a| = 1.15 * 0.01 / 1e-4 =
-    115 m/s^2, so 114 (along x) and (60, 80) (100) stay and 116 goes; a particle the
-    solve does not hold (an emitter's) stays out and is not counted as released."""
+def test_the_third_solve_leaves_out_only_held_particles_the_pressure_speeds_up() -> None:
+    """PCISPH's third solve after a throw (:meth:`sphkit.core.impacts.Impacts.released`)
+    keeps a held particle unless its pressure acceleration adds more than THROW_PLAIN r / dt =
+    1.15 * 0.01 / 0.01 = 1.15 m/s to its speed within the step (r = 1 cm, dt = 10 ms): at rest,
+    turned at a wall from +2 to -2 m/s (|dt^2 a_p| = 4 r, a large pressure but no gain) and
+    sped up from 2 to 3 m/s (gain 1) it stays; sped up from 2 to 4 m/s (gain 2) it goes. A
+    particle the solve does not hold (an emitter's) stays out and is not counted."""
     from types import SimpleNamespace
 
     from sphkit.core.impacts import Impacts
 
-    state = SimpleNamespace(fluid=SimpleNamespace(n=5), r=0.01, dim=2, step=7)
-    a = np.array([[0.0, 114.0, 60.0, 116.0, 300.0], [0.0, 0.0, 80.0, 0.0, 0.0]])
+    class Fluid(dict):
+        n = 5
+
+    v = np.array([[0.0, 2.0, 2.0, 2.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0]])
+    state = SimpleNamespace(fluid=Fluid(v=v), r=0.01, dim=2, step=7)
+    ap = np.array([[0.0, -400.0, 100.0, 200.0, 900.0], [0.0, 0.0, 0.0, 0.0, 0.0]])
+    a = np.zeros_like(ap)  # no non-pressure acceleration
     rule = Impacts("PCISPH")
-    keep, count = rule.released(state, a, 0.01, np.array([True, True, True, True, False]))
+    keep, count = rule.released(state, a, ap, 0.01, np.array([True, True, True, True, False]))
     np.testing.assert_array_equal(keep, [True, True, True, False, False])
     assert count == 1
-    keep, count = rule.released(state, a, 0.01, np.zeros(0, bool))  # every particle held
+    keep, count = rule.released(state, a, ap, 0.01, np.zeros(0, bool))  # every one held
     np.testing.assert_array_equal(keep, [True, True, True, False, False])
     assert count == 2
 

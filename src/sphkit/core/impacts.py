@@ -25,19 +25,23 @@ wall, at 7.5 m/s towards it) sees its predicted density *rise* with its pressure
 wall's virtual particle, ten fluid volumes large, comes into range, and the solve pushes it on
 through the wall (12 r within the step) while the average converges; the walls' plain term
 does not change that. Where the plain term's solve throws as well, PCISPH solves once more
-without the particles that solve threw (:meth:`Impacts.released`): their pressure stays 0 in
-this step, their neighbours' pressures still act on them, and the next step's solve linearizes
-at their new positions. Not after the first solve: in the landings, whose first solve the
-plain term calms, leaving its thrown particles out made 8 of 10 PCISPH drops unstable; and not
-where the step can be computed again (``state.retries``, Akinci walls), where PCISPH's shorter
-step (:meth:`sphkit.pressure.pcisph.PCISPH.rejects`) does better: there leaving them out let
-the energy of validation/energy.py's small inviscid 2D dam break reach 3.3 times its start
+without the particles whose speed that solve's pressure raised by more than THROW_PLAIN r / dt
+(:meth:`Impacts.released`): their pressure stays 0 in this step, their neighbours' pressures
+still act on them, and the next step's solve linearizes at their new positions. The speed's
+gain, not the displacement, tells a throw from a stop: a particle arriving at a wall at
+10 m/s is stopped or turned by a pressure that moves it more than r within the step (small
+blocks thrown at a volume-map wall, 2D and 3D: leaving such particles out threw them back at
+20-42 m/s). Not after the first solve: in the landings, whose first solve the plain term
+calms, leaving its thrown particles out made 8 of 10 PCISPH drops unstable; and not where the
+step can be computed again (``state.retries``, Akinci walls without bodies), where PCISPH's
+shorter step (:meth:`sphkit.pressure.pcisph.PCISPH.rejects`) does better
 (validation/README.md, "PCISPH's thrown particles left out of the re-solve").
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 
 import numba
@@ -67,15 +71,21 @@ PLAIN_STEPS, IMPACT_BOUND = 10, 0.5
 
 
 @numba.njit(cache=True, inline="always")
-def release_body(i, a, limit2, dim, held, out):
-    """``out[i]``: particle i stays in the solve: held (``held[i]``; an empty array: every
-    particle) and ``|a_i|^2 <= limit2``; returns 1 where a held particle is released."""
-    s = a[0, i] * a[0, i] + a[1, i] * a[1, i]
+def release_body(i, v, a, ap, dt, limit, dim, held, out):
+    """``out[i]``: particle i stays in the solve: held (``held[i]``; an empty array holds every
+    particle) and its pressure acceleration ``ap_i`` adds at most ``limit`` [m/s] to its speed
+    within the step ``dt``: ``|w + dt ap_i| - |w| <= limit`` with ``w = v_i + dt
+    a_i`` (``a``: the non-pressure accelerations). Returns 1 where a held particle is released."""
+    w0 = v[0, i] + dt * a[0, i]
+    w1 = v[1, i] + dt * a[1, i]
+    w2 = v[2, i] + dt * a[2, i] if dim == 3 else 0.0
+    u0, u1, u2 = w0 + dt * ap[0, i], w1 + dt * ap[1, i], w2
     if dim == 3:
-        s += a[2, i] * a[2, i]
+        u2 += dt * ap[2, i]
+    gain = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2) - math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     h = held.shape[0] == 0 or held[i]
-    out[i] = h and s <= limit2
-    return 1.0 if h and s > limit2 else 0.0
+    out[i] = h and gain <= limit
+    return 1.0 if h and gain > limit else 0.0
 
 
 class Impacts:
@@ -124,17 +134,18 @@ class Impacts:
         self.until = state.step + self.steps
         return True
 
-    def released(self, state: SimState, a: np.ndarray, dt: float,
+    def released(self, state: SimState, a: np.ndarray, ap: np.ndarray, dt: float,
                  held: np.ndarray) -> tuple[np.ndarray, int]:
         """The particles a re-solve holds where the plain term's solve threw as well (PCISPH's;
         module docstring, "The thrown particles"): those of ``held`` (bool (N,); an empty
-        array: every particle) whose pressure acceleration ``a`` moved them at most
-        :data:`THROW_PLAIN` r within the step ``dt`` [s], and how many it released."""
-        n = state.fluid.n
-        out = arrays.empty(n, np.bool_, like=a)
-        limit = THROW_PLAIN * state.r / (dt * dt)
-        count, _ = launch_reduce(release_body, n, a, float(limit * limit), int(state.dim),
-                                 held, out)
+        array: every particle) whose pressure acceleration ``ap`` adds at most
+        :data:`THROW_PLAIN` r / dt to their speed within the step ``dt`` [s] (a pressure that
+        stops or turns a particle at a wall is not a throw), ``a`` the non-pressure
+        accelerations; and how many it released."""
+        f = state.fluid
+        out = arrays.empty(f.n, np.bool_, like=ap)
+        count, _ = launch_reduce(release_body, f.n, f["v"], a, ap, float(dt),
+                                 THROW_PLAIN * state.r / dt, int(state.dim), held, out)
         if count:
             log.info("step %d: %s leaves %d thrown particle(s) out of the re-solve",
                      state.step, self.solver, int(count))

@@ -155,8 +155,9 @@ failed: the bound shrinks and the step is computed again (:meth:`PCISPH.rejects`
 **Impacts** (sphkit's; :mod:`sphkit.core.impacts`, as IISPH and DFSPH): a solve whose pressure
 would carry a particle more than :data:`sphkit.core.impacts.THROW_PLAIN` r within the step is
 made again from p = 0 with the walls' plain term (and where that solve throws as well and the
-step cannot be computed again, once more without the particles it threw, their pressure 0 in
-this step: :meth:`sphkit.core.impacts.Impacts.released`), the plain term kept for the next ten
+step cannot be computed again, once more without the particles whose speed its pressure
+raised by more than that per step, their pressure 0 in this step:
+:meth:`sphkit.core.impacts.Impacts.released`), the plain term kept for the next ten
 steps, and the step bound is cut to half the step; where the step can be computed again, the
 thrown-particle test above then judges the second solve. It matters where it cannot (map walls,
 bodies: the world is not repeatable; validation/README.md, "Volume maps on the geometry's
@@ -478,7 +479,9 @@ class PCISPH(ImpactBounded, PressureSolver):
                 if attempt:  # where the step cannot be computed again (Impacts.released)
                     if throw <= THROW_PLAIN or state.retries:
                         break
-                    solved, _ = self.impacts.released(state, ap, dt, solved)
+                    solved, count = self.impacts.released(state, a, ap, dt, solved)
+                    if not count:  # the pressure stops them: not thrown
+                        break
                 arrays.fill(p, 0.0)
                 arrays.fill(ap, 0.0)
                 bdx[0] = coupling.displacement(state, p, g.gwb, dt)
