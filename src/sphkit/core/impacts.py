@@ -30,8 +30,8 @@ without the particles whose speed that solve's pressure raised by more than THRO
 still act on them, and the next step's solve linearizes at their new positions. The speed's
 gain, not the displacement, tells a throw from a stop: a particle arriving at a wall at
 10 m/s is stopped or turned by a pressure that moves it more than r within the step (small
-blocks thrown at a volume-map wall, 2D and 3D: leaving such particles out threw them back at
-20-42 m/s). Not after the first solve: in the landings, whose first solve the plain term
+blocks thrown at a volume-map wall in 2D: leaving such particles out threw them back at
+19-42 m/s). Not after the first solve: in the landings, whose first solve the plain term
 calms, leaving its thrown particles out made 8 of 10 PCISPH drops unstable; and not where the
 step can be computed again (``state.retries``, Akinci walls without bodies), where PCISPH's
 shorter step (:meth:`sphkit.pressure.pcisph.PCISPH.rejects`) does better
