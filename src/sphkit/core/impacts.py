@@ -41,7 +41,6 @@ shorter step (:meth:`sphkit.pressure.pcisph.PCISPH.rejects`) does better
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable
 
 import numba
@@ -49,6 +48,7 @@ import numpy as np
 
 from sphkit.backend import launch_reduce
 from sphkit.core import arrays
+from sphkit.core.pairs import norm, point
 from sphkit.core.solver import StepBound, StepBounded
 from sphkit.core.state import SimState
 from sphkit.core.timestep import max_speed
@@ -76,13 +76,11 @@ def release_body(i, v, a, ap, dt, limit, dim, held, out):
     particle) and its pressure acceleration ``ap_i`` adds at most ``limit`` [m/s] to its speed
     within the step ``dt``: ``|w + dt ap_i| - |w| <= limit`` with ``w = v_i + dt
     a_i`` (``a``: the non-pressure accelerations). Returns 1 where a held particle is released."""
-    w0 = v[0, i] + dt * a[0, i]
-    w1 = v[1, i] + dt * a[1, i]
-    w2 = v[2, i] + dt * a[2, i] if dim == 3 else 0.0
-    u0, u1, u2 = w0 + dt * ap[0, i], w1 + dt * ap[1, i], w2
-    if dim == 3:
-        u2 += dt * ap[2, i]
-    gain = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2) - math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    v0, v1, v2 = point(v, i, dim)
+    a0, a1, a2 = point(a, i, dim)
+    p0, p1, p2 = point(ap, i, dim)
+    w0, w1, w2 = v0 + dt * a0, v1 + dt * a1, v2 + dt * a2
+    gain = norm(w0 + dt * p0, w1 + dt * p1, w2 + dt * p2) - norm(w0, w1, w2)
     h = held.shape[0] == 0 or held[i]
     out[i] = h and gain <= limit
     return 1.0 if h and gain > limit else 0.0

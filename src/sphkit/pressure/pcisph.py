@@ -473,20 +473,24 @@ class PCISPH(ImpactBounded, PressureSolver):
         # an impact (module docstring, "Impacts"): the solve made again from p = 0 with the
         # walls' plain term (not with solved walls, whose pressures the sweeps carry)
         hit = not walls and self.impacts.thrown(state, ap, dt, throw)
+
+        def again() -> None:  # the solve made again from p = 0
+            nonlocal its, avg, mx, ok, throw
+            arrays.fill(p, 0.0)
+            arrays.fill(ap, 0.0)
+            bdx[0] = coupling.displacement(state, p, g.gwb, dt)
+            its, avg, mx, ok = self.control.run(sweep, state.step)
+            throw = dt * dt * max_speed(ap) / state.r
+
         if hit:
             mirror = self.impacts.mirror(state)
-            for attempt in range(2):  # the plain term; then without the particles it threw
-                if attempt:  # where the step cannot be computed again (Impacts.released)
-                    if throw <= THROW_PLAIN or state.retries:
-                        break
-                    solved, count = self.impacts.released(state, a, ap, dt, solved)
-                    if not count:  # the pressure stops them: not thrown
-                        break
-                arrays.fill(p, 0.0)
-                arrays.fill(ap, 0.0)
-                bdx[0] = coupling.displacement(state, p, g.gwb, dt)
-                its, avg, mx, ok = self.control.run(sweep, state.step)
-                throw = dt * dt * max_speed(ap) / state.r
+            again()
+            # it threw as well, and the step cannot be computed again: once more without the
+            # particles whose speed its pressure raised (Impacts.released)
+            if throw > THROW_PLAIN and not state.retries:
+                solved, count = self.impacts.released(state, a, ap, dt, solved)
+                if count:
+                    again()
         # fluid under pressure at the first step: the steps grow from the scene's initial one;
         # a throw shrinks the bound as a failed solve does
         self.step_bound.update(dt, its, self.control.max_iterations, ok and throw <= THROW,
